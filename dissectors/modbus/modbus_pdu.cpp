@@ -1,0 +1,609 @@
+// Modbus PDU length rules and dissection (Modbus Application Protocol V1.1b3 §6-7;
+// PROTOCOLS.md §2).
+#include "dissectors/modbus/modbus_pdu.hpp"
+
+#include <fmt/format.h>
+
+#include <optional>
+
+#include "core/cursor.hpp"
+#include "dissectors/modbus/modbus_fields.hpp"
+
+namespace drivetap::modbus {
+namespace {
+
+using Kind = LengthPrediction::Kind;
+
+LengthPrediction known(std::size_t n) {
+  return {Kind::known, n};
+}
+LengthPrediction need_more() {
+  return {Kind::need_more, 0};
+}
+LengthPrediction unknown() {
+  return {Kind::unknown, 0};
+}
+
+// PDU length = fixed + the count byte found at pdu[count_at].
+LengthPrediction counted(std::span<const std::uint8_t> pdu, std::size_t count_at,
+                         std::size_t fixed) {
+  if (pdu.size() <= count_at) return need_more();
+  return known(fixed + pdu[count_at]);
+}
+
+// Read Device Identification response: walk the object list to find where it ends.
+//   FC 2B, MEI 0E, code, conformity, more, next id, count, {id, len, value[len]} x count
+LengthPrediction device_id_response_length(std::span<const std::uint8_t> pdu) {
+  if (pdu.size() < 7) return need_more();
+  std::size_t pos = 7;
+  const unsigned objects = pdu[6];
+  for (unsigned i = 0; i < objects; ++i) {
+    if (pdu.size() < pos + 2) return need_more();
+    pos += 2 + pdu[pos + 1];  // strictly advances by >= 2
+  }
+  return known(pos);
+}
+
+}  // namespace
+
+bool is_public_function(std::uint8_t fc) {
+  const std::uint8_t base = fc & 0x7F;
+  return !kFunction.name_of(base).empty();
+}
+
+LengthPrediction predict_pdu_length(std::span<const std::uint8_t> pdu, Direction direction) {
+  if (pdu.empty()) return need_more();
+  const std::uint8_t fc = pdu[0];
+  if (direction == Direction::response && (fc & 0x80)) return known(2);
+  if (fc & 0x80) return unknown();
+  if (direction == Direction::request) {
+    switch (fc) {
+      case 0x01:
+      case 0x02:
+      case 0x03:
+      case 0x04:
+      case 0x05:
+      case 0x06:
+        return known(5);
+      case 0x07:
+      case 0x0B:
+      case 0x0C:
+      case 0x11:
+        return known(1);
+      case 0x08:
+        return known(5);  // sub-function + one data word (sub 00 may carry more)
+      case 0x0F:
+      case 0x10:
+        return counted(pdu, 5, 6);
+      case 0x14:
+      case 0x15:
+        return counted(pdu, 1, 2);
+      case 0x16:
+        return known(7);
+      case 0x17:
+        return counted(pdu, 9, 10);
+      case 0x18:
+        return known(3);
+      case 0x2B:
+        if (pdu.size() < 2) return need_more();
+        return pdu[1] == 0x0E ? known(4) : unknown();
+      default:
+        return unknown();
+    }
+  }
+  if (direction == Direction::response) {
+    switch (fc) {
+      case 0x01:
+      case 0x02:
+      case 0x03:
+      case 0x04:
+      case 0x0C:
+      case 0x11:
+      case 0x14:
+      case 0x15:
+      case 0x17:
+        return counted(pdu, 1, 2);
+      case 0x05:
+      case 0x06:
+      case 0x08:
+      case 0x0B:
+      case 0x0F:
+      case 0x10:
+        return known(5);
+      case 0x07:
+        return known(2);
+      case 0x16:
+        return known(7);
+      case 0x18:
+        if (pdu.size() < 3) return need_more();
+        return known(3 + static_cast<std::size_t>((pdu[1] << 8) | pdu[2]));
+      case 0x2B:
+        if (pdu.size() < 2) return need_more();
+        return pdu[1] == 0x0E ? device_id_response_length(pdu) : unknown();
+      default:
+        return unknown();
+    }
+  }
+  return unknown();
+}
+
+bool pdu_fits(std::span<const std::uint8_t> pdu, Direction direction) {
+  const LengthPrediction p = predict_pdu_length(pdu, direction);
+  return p.kind == Kind::known && p.length == pdu.size();
+}
+
+namespace {
+
+// Reads PDU fields through a bounds-checked cursor and records them with frame offsets.
+class PduReader {
+ public:
+  PduReader(std::span<const std::uint8_t> frame, std::size_t pdu_offset, std::size_t pdu_length,
+            FieldTreeBuilder& tree, PduDecode& out)
+      : cursor_(frame.subspan(pdu_offset, pdu_length)), base_(pdu_offset), tree_(tree), out_(out) {}
+
+  std::optional<std::uint8_t> u8(const FieldDesc& desc) {
+    const std::size_t at = cursor_.offset();
+    auto v = cursor_.u8();
+    if (!v) return truncated(desc);
+    tree_.add(desc, base_ + at, 1, *v);
+    return v;
+  }
+  std::optional<std::uint16_t> u16(const FieldDesc& desc) {
+    const std::size_t at = cursor_.offset();
+    auto v = cursor_.be16();
+    if (!v) return truncated16(desc);
+    tree_.add(desc, base_ + at, 2, *v);
+    return v;
+  }
+  // `n` raw bytes as one field; on shortage takes what is there and reports it.
+  std::span<const std::uint8_t> bytes(const FieldDesc& desc, std::size_t n) {
+    const std::size_t at = cursor_.offset();
+    if (cursor_.remaining() < n) {
+      out_.problems.push_back(
+          fmt::format("{}: {} bytes announced, {} present", desc.name, n, cursor_.remaining()));
+      n = cursor_.remaining();
+    }
+    auto s = cursor_.take(n).value_or(std::span<const std::uint8_t>{});
+    tree_.add(desc, base_ + at, n);
+    return s;
+  }
+  FieldTreeBuilder& tree() { return tree_; }
+  Cursor& cursor() { return cursor_; }
+  std::size_t frame_offset() const { return base_ + cursor_.offset(); }
+  void problem(std::string text) { out_.problems.push_back(std::move(text)); }
+
+  // Bytes left after the layout of the function code: a protocol break worth naming.
+  void expect_end() {
+    if (!cursor_.empty()) {
+      const std::size_t at = cursor_.offset();
+      const std::size_t extra = cursor_.remaining();
+      cursor_.rest();
+      tree_.add(kData, base_ + at, extra);
+      problem(fmt::format("{} unexpected bytes after the PDU", extra));
+    }
+  }
+
+ private:
+  std::nullopt_t truncated(const FieldDesc& desc) {
+    out_.problems.push_back(fmt::format("frame ends before {}", desc.name));
+    return std::nullopt;
+  }
+  std::nullopt_t truncated16(const FieldDesc& desc) { return truncated(desc); }
+
+  Cursor cursor_;
+  std::size_t base_;
+  FieldTreeBuilder& tree_;
+  PduDecode& out_;
+};
+
+std::string function_name(std::uint8_t fc) {
+  const std::string_view name = kFunction.name_of(fc & 0x7F);
+  if (!name.empty()) return std::string(name);
+  return fmt::format("Function 0x{:02X}", fc & 0x7F);
+}
+
+std::string range_text(std::uint16_t start, unsigned count) {
+  if (count <= 1) return fmt::format("0x{:04X}", start);
+  return fmt::format("0x{:04X}..0x{:04X} ({})", start, (start + count - 1) & 0xFFFF, count);
+}
+
+// "3, 5000, 5000, 380" (at most `limit` values, then "...").
+std::string register_list(std::span<const std::uint16_t> values, std::size_t limit = 8) {
+  std::string out;
+  for (std::size_t i = 0; i < values.size() && i < limit; ++i)
+    out += fmt::format("{}{}", i ? ", " : "", values[i]);
+  if (values.size() > limit) out += fmt::format(", ... ({} values)", values.size());
+  return out;
+}
+
+// Bits as the protocol packs them: first coil = bit 0 of the first byte.
+std::string bit_list(std::span<const std::uint8_t> bytes, std::size_t count) {
+  std::string out;
+  for (std::size_t i = 0; i < count && i / 8 < bytes.size(); ++i) {
+    if (i && i % 8 == 0) out += ' ';
+    out += ((bytes[i / 8] >> (i % 8)) & 1) ? '1' : '0';
+  }
+  return out;
+}
+
+std::string hex_list(std::span<const std::uint8_t> bytes, std::size_t limit = 16) {
+  std::string out;
+  for (std::size_t i = 0; i < bytes.size() && i < limit; ++i)
+    out += fmt::format("{}{:02X}", i ? " " : "", bytes[i]);
+  if (bytes.size() > limit) out += " ...";
+  return out;
+}
+
+std::vector<std::uint16_t> read_registers(PduReader& r, std::size_t count) {
+  std::vector<std::uint16_t> values;
+  for (std::size_t i = 0; i < count; ++i) {
+    auto v = r.u16(kRegisterValue);
+    if (!v) break;
+    values.push_back(*v);
+  }
+  return values;
+}
+
+void check_quantity(PduReader& r, unsigned quantity, unsigned max, const char* what) {
+  if (quantity < 1 || quantity > max)
+    r.problem(fmt::format("quantity of {} {} outside 1..{}", what, quantity, max));
+}
+
+void dissect_read_request(PduReader& r, std::uint8_t fc, PduDecode& d) {
+  auto start = r.u16(kStartAddress);
+  auto qty = r.u16(kQuantity);
+  r.expect_end();
+  if (!start || !qty) return;
+  const bool bits = fc == 0x01 || fc == 0x02;
+  check_quantity(r, *qty, bits ? 2000 : 125, bits ? "bits" : "registers");
+  d.info = fmt::format("{} {}", function_name(fc), range_text(*start, *qty));
+}
+
+void dissect_read_response(PduReader& r, std::uint8_t fc, PduDecode& d) {
+  auto count = r.u8(kByteCount);
+  if (!count) return;
+  const bool bits = fc == 0x01 || fc == 0x02;
+  if (bits) {
+    const std::size_t at = r.frame_offset();
+    auto data = r.bytes(kData, *count);
+    r.tree().add_text(kBitValues, at, data.size(), bit_list(data, data.size() * 8));
+    r.expect_end();
+    d.info = fmt::format("{} reply: {} byte{} {}", function_name(fc), data.size(),
+                         data.size() == 1 ? "" : "s", hex_list(data));
+    return;
+  }
+  if (*count % 2 != 0) r.problem(fmt::format("byte count {} is odd for 16-bit registers", *count));
+  const std::size_t present = r.cursor().remaining();
+  if (present != *count)
+    r.problem(fmt::format("byte count says {} bytes, {} present", *count, present));
+  auto values = read_registers(r, present / 2);
+  r.expect_end();
+  d.info = fmt::format("{} reply: {} register{} = {}", function_name(fc), values.size(),
+                       values.size() == 1 ? "" : "s", register_list(values));
+}
+
+void dissect_write_single_coil(PduReader& r, Direction dir, PduDecode& d) {
+  auto addr = r.u16(kOutputAddress);
+  auto value = r.u16(kCoilValue);
+  r.expect_end();
+  if (!addr || !value) return;
+  if (*value != 0x0000 && *value != 0xFF00)
+    r.problem(fmt::format("coil value 0x{:04X} is neither 0x0000 (OFF) nor 0xFF00 (ON)", *value));
+  const std::string_view state = kCoilValue.name_of(*value);
+  d.info = fmt::format("{}{} 0x{:04X} = {}", function_name(0x05),
+                       dir == Direction::response ? " reply" : "", *addr,
+                       state.empty() ? fmt::format("0x{:04X}", *value) : std::string(state));
+}
+
+void dissect_write_single_register(PduReader& r, Direction dir, PduDecode& d) {
+  auto addr = r.u16(kRegisterAddress);
+  auto value = r.u16(kWriteValue);
+  r.expect_end();
+  if (!addr || !value) return;
+  d.info = fmt::format("{}{} 0x{:04X} = {} (0x{:04X})", function_name(0x06),
+                       dir == Direction::response ? " reply" : "", *addr, *value, *value);
+}
+
+void dissect_write_multiple_request(PduReader& r, std::uint8_t fc, PduDecode& d) {
+  auto start = r.u16(kStartAddress);
+  auto qty = r.u16(kQuantity);
+  auto count = r.u8(kByteCount);
+  if (!start || !qty || !count) {
+    r.expect_end();
+    return;
+  }
+  const bool coils = fc == 0x0F;
+  check_quantity(r, *qty, coils ? 1968 : 123, coils ? "coils" : "registers");
+  const unsigned expected = coils ? (*qty + 7u) / 8u : *qty * 2u;
+  if (*count != expected)
+    r.problem(fmt::format("byte count {} does not match quantity {} (expected {})", *count, *qty,
+                          expected));
+  if (coils) {
+    const std::size_t at = r.frame_offset();
+    auto data = r.bytes(kData, *count);
+    r.tree().add_text(kBitValues, at, data.size(), bit_list(data, *qty));
+    d.info = fmt::format("{} {} = {}", function_name(fc), range_text(*start, *qty),
+                         bit_list(data, *qty));
+  } else {
+    const std::size_t present = r.cursor().remaining();
+    if (present < *count)
+      r.problem(fmt::format("byte count says {} bytes, {} present", *count, present));
+    auto values = read_registers(r, std::min<std::size_t>(*count, present) / 2);
+    d.info = fmt::format("{} {} = {}", function_name(fc), range_text(*start, *qty),
+                         register_list(values));
+  }
+  r.expect_end();
+}
+
+void dissect_write_multiple_response(PduReader& r, std::uint8_t fc, PduDecode& d) {
+  auto start = r.u16(kStartAddress);
+  auto qty = r.u16(kQuantity);
+  r.expect_end();
+  if (!start || !qty) return;
+  d.info = fmt::format("{} reply: {} written", function_name(fc), range_text(*start, *qty));
+}
+
+void dissect_diagnostics(PduReader& r, Direction dir, PduDecode& d) {
+  auto sub = r.u16(kSubFunction);
+  if (!sub) return;
+  const std::size_t at = r.frame_offset();
+  auto data = r.bytes(kDiagData, r.cursor().remaining());
+  (void)at;
+  const std::string_view sub_name = kSubFunction.name_of(*sub);
+  d.info =
+      fmt::format("Diagnostics{}: {} ({:02X}), data {}", dir == Direction::response ? " reply" : "",
+                  sub_name.empty() ? "reserved sub-function" : sub_name, *sub,
+                  data.empty() ? std::string("none") : hex_list(data));
+}
+
+void dissect_file_record(PduReader& r, std::uint8_t fc, Direction dir, PduDecode& d) {
+  auto count = r.u8(kByteCount);
+  if (!count) return;
+  const std::size_t end = r.cursor().offset() + *count;
+  if (r.cursor().remaining() != *count)
+    r.problem(fmt::format("byte count says {} bytes, {} present", *count, r.cursor().remaining()));
+  unsigned groups = 0;
+  // Each pass consumes at least one byte or stops.
+  while (r.cursor().offset() < end && !r.cursor().empty()) {
+    const std::size_t group_at = r.frame_offset();
+    r.tree().open(kFileSubRequest, group_at, 0);
+    ++groups;
+    if (fc == 0x14 && dir == Direction::response) {
+      auto len = r.u8(kFileRecordLength);
+      auto ref = r.u8(kFileRefType);
+      if (!len || !ref || *len == 0) {
+        r.tree().close();
+        break;
+      }
+      r.bytes(kFileData, *len - 1u);
+    } else {
+      auto ref = r.u8(kFileRefType);
+      auto file = r.u16(kFileNumber);
+      auto record = r.u16(kFileRecord);
+      auto len = r.u16(kFileRecordLength);
+      if (!ref || !file || !record || !len) {
+        r.tree().close();
+        break;
+      }
+      if (*ref != 6) r.problem(fmt::format("reference type {} (must be 6)", *ref));
+      if (fc == 0x15) r.bytes(kFileData, *len * 2u);
+    }
+    r.tree().close();
+  }
+  r.expect_end();
+  d.info = fmt::format("{}{}: {} sub-request{}", function_name(fc),
+                       dir == Direction::response ? " reply" : "", groups, groups == 1 ? "" : "s");
+}
+
+void dissect_device_id(PduReader& r, Direction dir, PduDecode& d) {
+  auto mei = r.u8(kMeiType);
+  if (!mei) return;
+  if (*mei != 0x0E) {
+    auto data = r.bytes(kData, r.cursor().remaining());
+    d.info = fmt::format("Encapsulated Interface Transport MEI 0x{:02X}: {}", *mei, hex_list(data));
+    return;
+  }
+  auto code = r.u8(kMeiDeviceIdCode);
+  if (dir == Direction::request) {
+    auto object = r.u8(kMeiObjectId);
+    r.expect_end();
+    if (code && object)
+      d.info = fmt::format("Read Device Identification ({}), from object {}",
+                           kMeiDeviceIdCode.name_of(*code).empty()
+                               ? std::string("code ?")
+                               : std::string(kMeiDeviceIdCode.name_of(*code)),
+                           *object);
+    return;
+  }
+  r.u8(kMeiConformity);
+  r.u8(kMeiMoreFollows);
+  r.u8(kMeiNextObject);
+  auto objects = r.u8(kMeiObjectCount);
+  std::string values;
+  for (unsigned i = 0; objects && i < *objects && !r.cursor().empty(); ++i) {
+    r.tree().open(kMeiObject, r.frame_offset(), 0);
+    auto id = r.u8(kMeiObjectId);
+    auto len = r.u8(kByteCount);
+    if (!id || !len) {
+      r.tree().close();
+      break;
+    }
+    const std::size_t at = r.frame_offset();
+    auto raw = r.bytes(kData, *len);
+    std::string text;
+    for (std::uint8_t c : raw) text += (c >= 0x20 && c < 0x7F) ? static_cast<char>(c) : '.';
+    r.tree().add_text(kMeiObjectValue, at, raw.size(), text);
+    values +=
+        fmt::format("{}{}=\"{}\"", values.empty() ? "" : ", ",
+                    kMeiObjectId.name_of(*id).empty() ? fmt::format("obj{}", *id)
+                                                      : std::string(kMeiObjectId.name_of(*id)),
+                    text);
+    r.tree().close();
+  }
+  r.expect_end();
+  d.info = fmt::format("Read Device Identification reply: {}", values);
+}
+
+}  // namespace
+
+PduDecode dissect_pdu(std::span<const std::uint8_t> frame, std::size_t pdu_offset,
+                      std::size_t pdu_length, Direction dir, FieldTreeBuilder& tree) {
+  PduDecode d;
+  PduReader r(frame, pdu_offset, pdu_length, tree, d);
+  auto fc_opt = r.u8(kFunction);
+  if (!fc_opt) return d;
+  const std::uint8_t fc = *fc_opt;
+
+  if (fc & 0x80) {
+    // The exception bit marks a reply reporting an error for function fc & 0x7F.
+    tree.add(kExceptionFunction, pdu_offset, 1, fc & 0x7F);
+    auto code = r.u8(kExceptionCode);
+    r.expect_end();
+    d.exception_code = code ? *code : -1;
+    const std::string_view name = kExceptionCode.name_of(d.exception_code);
+    d.info = fmt::format("{} exception {}: {}", function_name(fc), code ? *code : 0,
+                         name.empty() ? std::string("non-standard code") : std::string(name));
+    return d;
+  }
+  const bool req = dir != Direction::response;
+  switch (fc) {
+    case 0x01:
+    case 0x02:
+    case 0x03:
+    case 0x04:
+      req ? dissect_read_request(r, fc, d) : dissect_read_response(r, fc, d);
+      break;
+    case 0x05:
+      dissect_write_single_coil(r, dir, d);
+      break;
+    case 0x06:
+      dissect_write_single_register(r, dir, d);
+      break;
+    case 0x07:
+      if (!req) {
+        auto status = r.u8(kExceptionStatus);
+        if (status) d.info = fmt::format("Read Exception Status reply: 0x{:02X}", *status);
+      } else {
+        d.info = "Read Exception Status";
+      }
+      r.expect_end();
+      break;
+    case 0x08:
+      dissect_diagnostics(r, dir, d);
+      break;
+    case 0x0B:
+      if (!req) {
+        auto status = r.u16(kCommStatus);
+        auto count = r.u16(kEventCount);
+        if (status && count)
+          d.info = fmt::format("Get Comm Event Counter reply: status 0x{:04X}, {} events", *status,
+                               *count);
+      } else {
+        d.info = "Get Comm Event Counter";
+      }
+      r.expect_end();
+      break;
+    case 0x0C:
+      if (!req) {
+        auto count = r.u8(kByteCount);
+        auto status = r.u16(kCommStatus);
+        auto events = r.u16(kEventCount);
+        auto messages = r.u16(kMessageCount);
+        if (count && status && events && messages) {
+          if (*count < 6) r.problem(fmt::format("byte count {} below the minimum 6", *count));
+          auto log = r.bytes(kEvents, *count >= 6 ? *count - 6u : 0u);
+          d.info = fmt::format("Get Comm Event Log reply: {} events, {} messages, log {}", *events,
+                               *messages, hex_list(log));
+        }
+      } else {
+        d.info = "Get Comm Event Log";
+      }
+      r.expect_end();
+      break;
+    case 0x0F:
+    case 0x10:
+      req ? dissect_write_multiple_request(r, fc, d) : dissect_write_multiple_response(r, fc, d);
+      break;
+    case 0x11:
+      if (!req) {
+        auto count = r.u8(kByteCount);
+        if (count) {
+          auto id = r.bytes(kServerId, *count);
+          d.info = fmt::format("Report Server ID reply: {}", hex_list(id));
+        }
+      } else {
+        d.info = "Report Server ID";
+      }
+      r.expect_end();
+      break;
+    case 0x14:
+    case 0x15:
+      dissect_file_record(r, fc, dir, d);
+      break;
+    case 0x16: {
+      auto addr = r.u16(kRegisterAddress);
+      auto and_mask = r.u16(kAndMask);
+      auto or_mask = r.u16(kOrMask);
+      r.expect_end();
+      if (addr && and_mask && or_mask)
+        d.info = fmt::format("Mask Write Register{} 0x{:04X} AND 0x{:04X} OR 0x{:04X}",
+                             req ? "" : " reply", *addr, *and_mask, *or_mask);
+      break;
+    }
+    case 0x17:
+      if (req) {
+        auto rs = r.u16(kReadStart);
+        auto rq = r.u16(kReadQuantity);
+        auto ws = r.u16(kWriteStart);
+        auto wq = r.u16(kWriteQuantity);
+        auto count = r.u8(kByteCount);
+        if (rs && rq && ws && wq && count) {
+          check_quantity(r, *rq, 125, "registers to read");
+          check_quantity(r, *wq, 121, "registers to write");
+          if (*count != *wq * 2u)
+            r.problem(fmt::format("byte count {} does not match write quantity {}", *count, *wq));
+          auto values =
+              read_registers(r, std::min<std::size_t>(*count, r.cursor().remaining()) / 2);
+          d.info = fmt::format("Read/Write Multiple Registers: read {}, write {} = {}",
+                               range_text(*rs, *rq), range_text(*ws, *wq), register_list(values));
+        }
+        r.expect_end();
+      } else {
+        dissect_read_response(r, fc, d);
+      }
+      break;
+    case 0x18:
+      if (req) {
+        auto ptr = r.u16(kFifoPointer);
+        if (ptr) d.info = fmt::format("Read FIFO Queue 0x{:04X}", *ptr);
+        r.expect_end();
+      } else {
+        auto bytes = r.u16(kFifoByteCount);
+        auto count = r.u16(kFifoCount);
+        if (bytes && count) {
+          if (*bytes != 2u + *count * 2u)
+            r.problem(
+                fmt::format("FIFO byte count {} does not match FIFO count {}", *bytes, *count));
+          auto values = read_registers(r, r.cursor().remaining() / 2);
+          d.info = fmt::format("Read FIFO Queue reply: {} values = {}", values.size(),
+                               register_list(values));
+        }
+        r.expect_end();
+      }
+      break;
+    case 0x2B:
+      dissect_device_id(r, dir, d);
+      break;
+    default: {
+      auto data = r.bytes(kData, r.cursor().remaining());
+      d.info =
+          fmt::format("Function 0x{:02X} (not a public code): {} data byte{}{}{}", fc, data.size(),
+                      data.size() == 1 ? "" : "s", data.empty() ? "" : " ", hex_list(data));
+      break;
+    }
+  }
+  if (d.info.empty()) d.info = function_name(fc) + (req ? "" : " reply") + " (truncated)";
+  return d;
+}
+
+}  // namespace drivetap::modbus

@@ -1,0 +1,49 @@
+// The Modbus PDU layer shared by RTU and ASCII framing: function code + data
+// (Modbus Application Protocol V1.1b3 §6-7; PROTOCOLS.md §2).
+//
+//   PDU = FC(1) DATA(n)          exception: FC|0x80 (1) CODE(1)
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "core/field.hpp"
+#include "core/message.hpp"
+
+namespace drivetap::modbus {
+
+// How long the PDU starting at pdu[0] (the function code) must be, for one direction.
+struct LengthPrediction {
+  enum class Kind : std::uint8_t {
+    known,      // `length` is the PDU length (function code included)
+    need_more,  // the length depends on bytes not yet available
+    unknown,    // function code without a fixed layout in this direction
+  };
+  Kind kind = Kind::unknown;
+  std::size_t length = 0;
+};
+
+LengthPrediction predict_pdu_length(std::span<const std::uint8_t> pdu, Direction direction);
+
+// True when `pdu` has exactly the length its function code implies in that direction.
+bool pdu_fits(std::span<const std::uint8_t> pdu, Direction direction);
+
+// True for the function codes of the public Modbus specification (01..18, 2B), with or without
+// the exception bit.
+bool is_public_function(std::uint8_t fc);
+
+struct PduDecode {
+  std::string info;                   // one-line decode
+  std::vector<std::string> problems;  // protocol-rule breaks: each becomes a `malformed` anomaly
+  int exception_code = -1;
+};
+
+// Decodes the PDU occupying frame[pdu_offset, pdu_offset + pdu_length) into field nodes whose
+// spans are frame offsets.
+PduDecode dissect_pdu(std::span<const std::uint8_t> frame, std::size_t pdu_offset,
+                      std::size_t pdu_length, Direction direction, FieldTreeBuilder& tree);
+
+}  // namespace drivetap::modbus

@@ -1,0 +1,111 @@
+// Modbus RTU dissector (PROTOCOLS.md §2; errata handling per §6: swapped vs bad CRC).
+#include "dissectors/modbus/rtu_dissector.hpp"
+
+#include <fmt/format.h>
+
+#include "dissectors/modbus/modbus_fields.hpp"
+#include "dissectors/modbus/modbus_pdu.hpp"
+
+namespace drivetap::modbus {
+namespace {
+
+std::string wire_hex(std::uint32_t packed) {
+  return fmt::format("{:02X} {:02X}", (packed >> 8) & 0xFF, packed & 0xFF);
+}
+
+double in_characters(TimeNs t, TimeNs character_time) {
+  return character_time > 0 ? static_cast<double>(t) / static_cast<double>(character_time) : 0.0;
+}
+
+void add_uart_anomalies(Message& m) {
+  for (std::size_t i = 0; i < m.frame.events.size(); ++i) {
+    const ByteEvent& e = m.frame.events[i];
+    if (e.flags == 0) continue;
+    auto add = [&](AnomalyKind kind, const char* what) {
+      m.anomalies.push_back(
+          {kind, e.time, e.channel, 0, fmt::format("{} on byte {} (0x{:02X})", what, i, e.byte)});
+    };
+    if (e.flags & kUartFramingError) add(AnomalyKind::uart_framing, "framing error");
+    if (e.flags & kUartParityError) add(AnomalyKind::uart_parity, "parity error");
+    if (e.flags & kUartBreak) add(AnomalyKind::uart_break, "break");
+    if (e.flags & kUartOverrun) add(AnomalyKind::uart_overrun, "overrun (bytes lost before)");
+  }
+}
+
+}  // namespace
+
+DirectionFit rtu_direction_fit(std::span<const std::uint8_t> frame) {
+  DirectionFit fit;
+  if (frame.size() < 4) return fit;
+  const auto pdu = frame.subspan(1, frame.size() - 3);
+  fit.request = pdu_fits(pdu, Direction::request);
+  fit.response = pdu_fits(pdu, Direction::response);
+  return fit;
+}
+
+Message dissect_rtu(Frame frame, Direction direction, const FramingTiming& timing) {
+  Message m;
+  m.frame = std::move(frame);
+  m.bytes = m.frame.bytes();
+  m.protocol = Protocol::modbus_rtu;
+  m.direction = direction;
+  const std::span<const std::uint8_t> bytes(m.bytes);
+  const TimeNs t0 = m.frame.start();
+  const ChannelId ch = m.frame.channel;
+  FieldTreeBuilder tree(m.fields);
+
+  if (!bytes.empty()) {
+    tree.add(kAddr, 0, 1, bytes[0]);
+    m.address = bytes[0];
+  }
+  if (bytes.size() >= 2) {
+    m.function = bytes[1];
+    m.is_exception = (bytes[1] & 0x80) != 0;
+  }
+  if (bytes.size() >= 4) {
+    const std::size_t pdu_len = bytes.size() - 3;
+    PduDecode pdu = dissect_pdu(bytes, 1, pdu_len, direction, tree);
+    m.info = std::move(pdu.info);
+    m.exception_code = pdu.exception_code;
+    for (std::string& problem : pdu.problems)
+      m.anomalies.push_back({AnomalyKind::malformed, t0, ch, 0, std::move(problem)});
+    m.checksum = check_rtu_crc(bytes);
+    tree.add(kCrc, bytes.size() - 2, 2, m.checksum.stated_wire);
+  } else {
+    m.info = fmt::format("{}-byte fragment, too short for Modbus RTU", bytes.size());
+    m.anomalies.push_back({AnomalyKind::malformed, t0, ch, 0,
+                           fmt::format("{} bytes: shorter than the minimum 4", bytes.size())});
+  }
+
+  if (m.checksum.verdict == ChecksumVerdict::bad) {
+    m.anomalies.insert(m.anomalies.begin(),
+                       {AnomalyKind::crc_bad, t0, ch, 0,
+                        fmt::format("CRC on wire {}, computed {}", wire_hex(m.checksum.stated_wire),
+                                    wire_hex(m.checksum.computed_wire))});
+  } else if (m.checksum.verdict == ChecksumVerdict::swapped) {
+    m.anomalies.insert(
+        m.anomalies.begin(),
+        {AnomalyKind::crc_swapped, t0, ch, 0,
+         fmt::format("CRC sent high byte first: on wire {}, expected {}",
+                     wire_hex(m.checksum.stated_wire), wire_hex(m.checksum.computed_wire))});
+  }
+  if (m.frame.max_intra_gap > timing.t15) {
+    const std::size_t at = m.frame.max_intra_gap_at;
+    m.anomalies.push_back(
+        {AnomalyKind::intra_frame_gap, m.frame.events[at].time, ch, 0,
+         fmt::format("silence of {:.1f} characters before byte {} (limit t1.5 = {:.1f})",
+                     in_characters(m.frame.max_intra_gap, timing.character_time), at,
+                     in_characters(timing.t15, timing.character_time))});
+  }
+  if (m.frame.gap_before > 0 && m.frame.gap_before < timing.t35) {
+    m.anomalies.push_back(
+        {AnomalyKind::short_interframe_gap, t0, ch, 0,
+         fmt::format("silence before frame {:.1f} characters (minimum t3.5 = {:.1f})",
+                     in_characters(m.frame.gap_before, timing.character_time),
+                     in_characters(timing.t35, timing.character_time))});
+  }
+  add_uart_anomalies(m);
+  return m;
+}
+
+}  // namespace drivetap::modbus

@@ -1,0 +1,108 @@
+// Names of anomaly kinds and protocol/direction ids (output contract of the JSON sink).
+#include "core/anomaly.hpp"
+
+#include "core/message.hpp"
+
+namespace drivetap {
+
+const char* anomaly_id(AnomalyKind k) {
+  switch (k) {
+    case AnomalyKind::crc_bad:
+      return "crc_bad";
+    case AnomalyKind::crc_swapped:
+      return "crc_swapped";
+    case AnomalyKind::intra_frame_gap:
+      return "intra_frame_gap";
+    case AnomalyKind::short_interframe_gap:
+      return "short_interframe_gap";
+    case AnomalyKind::noise:
+      return "noise";
+    case AnomalyKind::malformed:
+      return "malformed";
+    case AnomalyKind::unanswered_request:
+      return "unanswered_request";
+    case AnomalyKind::unsolicited_response:
+      return "unsolicited_response";
+    case AnomalyKind::uart_framing:
+      return "uart_framing";
+    case AnomalyKind::uart_parity:
+      return "uart_parity";
+    case AnomalyKind::uart_break:
+      return "uart_break";
+    case AnomalyKind::uart_overrun:
+      return "uart_overrun";
+    case AnomalyKind::time_reversed:
+      return "time_reversed";
+    case AnomalyKind::kCount:
+      break;
+  }
+  return "unknown";
+}
+
+const char* anomaly_label(AnomalyKind k) {
+  switch (k) {
+    case AnomalyKind::crc_bad:
+      return "bad checksum";
+    case AnomalyKind::crc_swapped:
+      return "byte-swapped CRC";
+    case AnomalyKind::intra_frame_gap:
+      return "gap inside frame";
+    case AnomalyKind::short_interframe_gap:
+      return "silence before frame < t3.5";
+    case AnomalyKind::noise:
+      return "noise bytes";
+    case AnomalyKind::malformed:
+      return "malformed frame";
+    case AnomalyKind::unanswered_request:
+      return "unanswered request";
+    case AnomalyKind::unsolicited_response:
+      return "unsolicited response";
+    case AnomalyKind::uart_framing:
+      return "UART framing error";
+    case AnomalyKind::uart_parity:
+      return "UART parity error";
+    case AnomalyKind::uart_break:
+      return "UART break";
+    case AnomalyKind::uart_overrun:
+      return "UART overrun";
+    case AnomalyKind::time_reversed:
+      return "timestamp went backwards";
+    case AnomalyKind::kCount:
+      break;
+  }
+  return "unknown";
+}
+
+const char* protocol_id(Protocol p) {
+  switch (p) {
+    case Protocol::modbus_rtu:
+      return "modbus-rtu";
+    case Protocol::unknown:
+      break;
+  }
+  return "unknown";
+}
+
+const char* protocol_label(Protocol p) {
+  switch (p) {
+    case Protocol::modbus_rtu:
+      return "Modbus RTU";
+    case Protocol::unknown:
+      break;
+  }
+  return "unknown";
+}
+
+const char* direction_id(Direction d) {
+  switch (d) {
+    case Direction::request:
+      return "request";
+    case Direction::response:
+      return "response";
+    case Direction::unknown:
+      break;
+  }
+  return "unknown";
+}
+
+}  // namespace drivetap

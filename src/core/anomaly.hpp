@@ -1,0 +1,45 @@
+// Anomalies: typed, counted findings about the bus — never exceptions (PROTOCOLS.md §1, §6).
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <string>
+
+#include "core/byte_event.hpp"
+#include "core/time.hpp"
+
+namespace drivetap {
+
+enum class AnomalyKind : std::uint8_t {
+  crc_bad,               // checksum does not match
+  crc_swapped,           // valid CRC sent high byte first
+  intra_frame_gap,       // silence > t1.5 between two bytes of one frame
+  short_interframe_gap,  // visible silence before a frame shorter than t3.5
+  noise,                 // bytes that fit no frame
+  malformed,             // length or field content that breaks the protocol's rules
+  unanswered_request,    // no reply within the timeout (or before the next request)
+  unsolicited_response,  // a reply with no matching request
+  uart_framing,          // UART framing error on a byte
+  uart_parity,           // UART parity error on a byte
+  uart_break,            // line held low for longer than a character
+  uart_overrun,          // receiver overrun: bytes were lost before this one
+  time_reversed,         // a byte's timestamp is earlier than the previous byte's
+  kCount
+};
+
+inline constexpr std::size_t kAnomalyKindCount = static_cast<std::size_t>(AnomalyKind::kCount);
+
+const char* anomaly_id(AnomalyKind k);     // stable snake_case id, as in JSON `kind`
+const char* anomaly_label(AnomalyKind k);  // short human text
+
+struct Anomaly {
+  AnomalyKind kind = AnomalyKind::malformed;
+  TimeNs time = 0;
+  ChannelId channel = 0;
+  std::uint64_t frame_number = 0;  // frame it belongs to, 0 when none
+  std::string detail;
+};
+
+using AnomalyCounts = std::array<std::uint64_t, kAnomalyKindCount>;
+
+}  // namespace drivetap

@@ -1,0 +1,91 @@
+// ByteEvent: one received character, the input contract of every framer (PROTOCOLS.md §1).
+//
+// Sources (byte logs, pcapng, logic-analyser UART decoders, serial ports) all reduce to a time-
+// ordered stream of ByteEvents. `time` is the start bit of the character; a character ends one
+// character time later (SerialConfig::character_time()).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "core/time.hpp"
+
+namespace drivetap {
+
+// UART error marks carried per byte (as PARMRK or a logic-analyser decoder reports them).
+enum UartFlag : std::uint8_t {
+  kUartParityError = 1u << 0,
+  kUartFramingError = 1u << 1,
+  kUartBreak = 1u << 2,
+  kUartOverrun = 1u << 3,
+};
+
+using ChannelId = std::uint16_t;
+
+struct ByteEvent {
+  TimeNs time = 0;         // start bit of this character, ns
+  std::uint8_t byte = 0;   // data bits as received
+  std::uint8_t flags = 0;  // UartFlag bits
+  ChannelId channel = 0;   // index into the ChannelTable
+};
+
+// What a channel name tells about direction on the wire.
+enum class ChannelRole : std::uint8_t {
+  bus,     // half-duplex tap: both directions interleaved; direction comes from content and order
+  master,  // only master -> slave traffic (requests)
+  slave,   // only slave -> master traffic (responses)
+};
+
+// Channels are named by the source ("bus", "m", "s", "/dev/ttyUSB0", "port1.m"). Channels that
+// belong to one Modbus link share a link id, so requests on "m" pair with responses on "s":
+//   "bus", "m", "s"                    -> link ""        (the default link)
+//   "<name>.m", "<name>.s", "<name>"   -> link "<name>"
+// "m"/"s" (or a ".m"/".s" suffix) give the role master/slave; anything else is a bus.
+struct Channel {
+  std::string name;
+  std::string link;
+  ChannelRole role = ChannelRole::bus;
+};
+
+class ChannelTable {
+ public:
+  // Returns the id of `name`, adding the channel on first use.
+  ChannelId intern(std::string_view name);
+  [[nodiscard]] const Channel& at(ChannelId id) const { return channels_.at(id); }
+  [[nodiscard]] std::size_t size() const { return channels_.size(); }
+  // Index of the link a channel belongs to (dense, 0..link_count()-1).
+  [[nodiscard]] std::size_t link_index(ChannelId id) const { return link_of_.at(id); }
+  [[nodiscard]] std::size_t link_count() const { return links_.size(); }
+
+ private:
+  std::vector<Channel> channels_;
+  std::vector<std::size_t> link_of_;
+  std::vector<std::string> links_;
+};
+
+inline ChannelId ChannelTable::intern(std::string_view name) {
+  for (std::size_t i = 0; i < channels_.size(); ++i)
+    if (channels_[i].name == name) return static_cast<ChannelId>(i);
+  Channel ch;
+  ch.name = std::string(name);
+  std::string_view link = name;
+  if (name == "m" || name == "s" || name == "bus") {
+    link = "";
+  } else if (name.size() > 2 && (name.ends_with(".m") || name.ends_with(".s"))) {
+    link = name.substr(0, name.size() - 2);
+  }
+  if (name == "m" || name.ends_with(".m")) ch.role = ChannelRole::master;
+  if (name == "s" || name.ends_with(".s")) ch.role = ChannelRole::slave;
+  ch.link = std::string(link);
+  std::size_t link_index = links_.size();
+  for (std::size_t i = 0; i < links_.size(); ++i)
+    if (links_[i] == ch.link) link_index = i;
+  if (link_index == links_.size()) links_.push_back(ch.link);
+  channels_.push_back(std::move(ch));
+  link_of_.push_back(link_index);
+  return static_cast<ChannelId>(channels_.size() - 1);
+}
+
+}  // namespace drivetap

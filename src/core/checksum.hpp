@@ -1,0 +1,36 @@
+// Checksums of the drive protocols: CRC-16/MODBUS (PROTOCOLS.md §2) and the verdict type.
+#pragma once
+
+#include <cstdint>
+#include <span>
+
+namespace drivetap {
+
+// CRC-16/MODBUS: reflected polynomial 0xA001, init 0xFFFF, no final xor. On the wire the low
+// byte is sent first. Check value: 01 03 00 00 00 01 -> 0x0A84 (wire bytes 84 0A).
+std::uint16_t crc16_modbus(std::span<const std::uint8_t> data, std::uint16_t crc = 0xFFFF);
+// One step of the same CRC, for incremental scans.
+std::uint16_t crc16_modbus_update(std::uint16_t crc, std::uint8_t byte);
+
+enum class ChecksumVerdict : std::uint8_t {
+  none,  // the protocol or frame carries no checksum
+  good,
+  bad,      // stated != computed
+  swapped,  // stated is the computed value with its bytes in the wrong order (high byte first)
+};
+
+struct ChecksumResult {
+  ChecksumVerdict verdict = ChecksumVerdict::none;
+  // Values in wire byte order packed big-endian (wire bytes "3A 44" -> 0x3A44), so that both
+  // print exactly as an engineer compares them with the bytes on the line.
+  std::uint32_t stated_wire = 0;
+  std::uint32_t computed_wire = 0;
+  std::uint8_t width = 0;  // bytes
+};
+
+// Compares the two CRC bytes at the end of a Modbus RTU frame with the CRC of what precedes them.
+ChecksumResult check_rtu_crc(std::span<const std::uint8_t> frame);
+
+const char* to_string(ChecksumVerdict v);
+
+}  // namespace drivetap

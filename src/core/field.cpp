@@ -1,0 +1,43 @@
+// Formatting of generic field values for the text and JSON sinks.
+#include "core/field.hpp"
+
+#include <fmt/format.h>
+
+namespace drivetap {
+
+std::string format_field_value(const FieldNode& node, std::span<const std::uint8_t> frame) {
+  const FieldDesc& d = *node.desc;
+  std::string out;
+  switch (d.type) {
+    case FieldType::group:
+      out = node.text;
+      return out;
+    case FieldType::uint:
+      out = fmt::format("{}", node.value);
+      break;
+    case FieldType::hex:
+      out = fmt::format("0x{:0{}X} ({})", node.value, d.hex_digits, node.value);
+      break;
+    case FieldType::boolean:
+      out = node.value ? "1" : "0";
+      break;
+    case FieldType::enumerated: {
+      const std::string_view name = d.name_of(static_cast<std::uint32_t>(node.value));
+      out = name.empty() ? fmt::format("{} (0x{:02X})", node.value, node.value)
+                         : fmt::format("{} ({})", node.value, name);
+      break;
+    }
+    case FieldType::bytes: {
+      for (std::size_t i = node.offset; i < node.offset + node.length && i < frame.size(); ++i)
+        out += fmt::format("{}{:02X}", out.empty() ? "" : " ", frame[i]);
+      if (node.length == 0) out = "(none)";
+      break;
+    }
+    case FieldType::text:
+      return node.text;
+  }
+  if (!node.text.empty()) out += fmt::format(" [{}]", node.text);
+  return out;
+}
+
+}  // namespace drivetap

@@ -1,0 +1,99 @@
+// Field descriptors and the generic field tree that every sink walks.
+//
+// A FieldDesc is a constexpr description of one protocol field with a stable dotted id
+// ("modbus.fc", "fc.pke.ak"); ids are part of drivetap's output contract (JSON keys, -V lines,
+// tests). A FieldNode is one occurrence of a field in a decoded frame, with its byte span.
+// All descriptors are listed in one explicit table (dissectors/field_table.cpp), so a test can
+// check that ids are unique and well formed.
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace drivetap {
+
+enum class FieldType : std::uint8_t {
+  group,       // no value of its own: a heading for the nodes below it
+  uint,        // unsigned number, shown in decimal
+  hex,         // unsigned number, shown as 0x.. (width digits) with decimal in brackets
+  boolean,     // 0/1 flag
+  enumerated,  // number with a name from `names`
+  bytes,       // raw bytes of the span, shown as hex
+  text,        // computed text held in the node
+};
+
+struct ValueName {
+  std::uint32_t value;
+  std::string_view name;
+};
+
+struct FieldDesc {
+  std::string_view id;    // stable dotted id
+  std::string_view name;  // human label
+  FieldType type = FieldType::uint;
+  std::uint8_t hex_digits = 2;
+  std::span<const ValueName> names{};
+
+  // Name of `value` in `names`, or empty.
+  [[nodiscard]] constexpr std::string_view name_of(std::uint32_t value) const {
+    for (const ValueName& vn : names)
+      if (vn.value == value) return vn.name;
+    return {};
+  }
+};
+
+struct FieldNode {
+  const FieldDesc* desc = nullptr;
+  std::uint16_t depth = 0;   // 0 = top level; children follow their parent in pre-order
+  std::uint32_t offset = 0;  // byte span in the frame
+  std::uint32_t length = 0;
+  std::int64_t value = 0;  // numeric value (uint/hex/boolean/enumerated)
+  std::string text;        // text fields; also an optional note for any field
+};
+
+// Builds a pre-order field tree. Dissectors add nodes; open()/close() nest them.
+class FieldTreeBuilder {
+ public:
+  explicit FieldTreeBuilder(std::vector<FieldNode>& out) : out_(out) {}
+
+  FieldNode& add(const FieldDesc& desc, std::size_t offset, std::size_t length,
+                 std::int64_t value = 0) {
+    FieldNode n;
+    n.desc = &desc;
+    n.depth = depth_;
+    n.offset = static_cast<std::uint32_t>(offset);
+    n.length = static_cast<std::uint32_t>(length);
+    n.value = value;
+    out_.push_back(std::move(n));
+    return out_.back();
+  }
+  FieldNode& add_text(const FieldDesc& desc, std::size_t offset, std::size_t length,
+                      std::string text) {
+    FieldNode& n = add(desc, offset, length);
+    n.text = std::move(text);
+    return n;
+  }
+  // Adds a group node and nests what follows under it until close().
+  void open(const FieldDesc& desc, std::size_t offset, std::size_t length, std::int64_t value = 0) {
+    add(desc, offset, length, value);
+    ++depth_;
+  }
+  void close() {
+    if (depth_ > 0) --depth_;
+  }
+
+ private:
+  std::vector<FieldNode>& out_;
+  std::uint16_t depth_ = 0;
+};
+
+// The value of a node as an engineer reads it: "3 (Read Holding Registers)", "0x0010 (16)".
+std::string format_field_value(const FieldNode& node, std::span<const std::uint8_t> frame);
+
+// Every descriptor of every dissector (dissectors/field_table.cpp).
+std::span<const FieldDesc* const> all_field_descriptors();
+
+}  // namespace drivetap

@@ -1,0 +1,43 @@
+// Message: a frame decoded by a dissector — protocol, direction, field tree with byte spans and
+// the checksum verdict. Dissectors fill it; they never print.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "core/anomaly.hpp"
+#include "core/checksum.hpp"
+#include "core/field.hpp"
+#include "core/frame.hpp"
+
+namespace drivetap {
+
+enum class Protocol : std::uint8_t { unknown, modbus_rtu };
+enum class Direction : std::uint8_t { unknown, request, response };
+
+const char* protocol_id(Protocol p);     // "modbus-rtu": JSON ids, stable
+const char* protocol_label(Protocol p);  // "Modbus RTU": column text
+const char* direction_id(Direction d);   // "request" / "response" / "unknown"
+
+struct Message {
+  Frame frame;
+  std::vector<std::uint8_t> bytes;  // frame.events' bytes, for dissectors and sinks
+  Protocol protocol = Protocol::unknown;
+  Direction direction = Direction::unknown;
+  int address = -1;   // station address, -1 when none
+  int function = -1;  // function code as on the wire (with the exception bit), -1 when none
+  bool is_exception = false;
+  int exception_code = -1;
+  ChecksumResult checksum;
+  std::vector<FieldNode> fields;
+  // The decode in one line, like Wireshark's Info column: "Read Holding Registers 0x0000 x4".
+  std::string info;
+  // Findings about this frame (checksum, gaps, malformed content, UART errors), in byte order.
+  std::vector<Anomaly> anomalies;
+  // Filled by the pairing stage on responses: request end -> response start, ns; -1 if unpaired.
+  TimeNs latency = -1;
+  std::uint64_t request_number = 0;  // frame number of the paired request
+};
+
+}  // namespace drivetap

@@ -1,0 +1,38 @@
+// Transaction: a request paired with its response on a half-duplex link (PROTOCOLS.md §1, §2).
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "core/byte_event.hpp"
+#include "core/message.hpp"
+#include "core/time.hpp"
+
+namespace drivetap {
+
+enum class Outcome : std::uint8_t {
+  ok,           // normal response
+  exception,    // exception response (function code | 0x80)
+  timeout,      // no response within the timeout, or the master moved on
+  broadcast,    // address 0: no response expected
+  unsolicited,  // a response with no request waiting for it
+};
+
+const char* outcome_id(Outcome o);
+
+struct Transaction {
+  Outcome outcome = Outcome::ok;
+  Protocol protocol = Protocol::unknown;
+  ChannelId channel = 0;  // of the request (of the response for unsolicited)
+  int address = -1;
+  int function = -1;                 // of the request (without the exception bit)
+  std::uint64_t request_number = 0;  // frame numbers, 0 when absent
+  std::uint64_t response_number = 0;
+  TimeNs request_time = -1;   // start of request, -1 when absent
+  TimeNs response_time = -1;  // start of response, -1 when absent
+  TimeNs latency = -1;        // end of request -> start of response, -1 when not paired
+  int exception_code = -1;
+  std::string detail;  // why a timeout was declared, etc.
+};
+
+}  // namespace drivetap

@@ -1,0 +1,56 @@
+// Pairing stage: Messages -> Transactions on a half-duplex link (PROTOCOLS.md §1, §2, §7).
+//
+// Contract: messages of one link arrive in bus order. A request waits for a response with the
+// same address and function (exception bit ignored). It ends as `timeout` when the timeout passes,
+// or when the master sends another request first (a single-master bus has one request in
+// flight). Address 0 is a broadcast: no reply expected. A response with no request waiting is
+// `unsolicited`. Latency = end of request's last character -> start of the response.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <deque>
+#include <vector>
+
+#include "core/message.hpp"
+#include "core/transaction.hpp"
+
+namespace drivetap {
+
+struct PairerOptions {
+  TimeNs timeout = 1 * kNsPerSecond;
+  TimeNs character_time = 0;     // to compute where a request ends
+  std::size_t max_pending = 64;  // bound on requests in flight per link (hostile input)
+};
+
+class Pairer {
+ public:
+  explicit Pairer(PairerOptions options) : options_(options) {}
+
+  // Is a request from `address`/`function` on `link` still waiting for its reply at time `at`?
+  [[nodiscard]] bool awaiting_reply(std::size_t link, int address, int function, TimeNs at) const;
+  // Closes requests whose timeout ran out before `now`.
+  void expire(TimeNs now, std::vector<Transaction>& out);
+  // Pairs a decoded message. On a paired response sets message.latency and request_number.
+  void add(std::size_t link, Message& message, std::vector<Transaction>& out);
+  // End of input: every open request is unanswered.
+  void finish(std::vector<Transaction>& out);
+
+ private:
+  struct Pending {
+    std::size_t link;
+    int address;
+    int function;
+    std::uint64_t number;
+    ChannelId channel;
+    TimeNs start;
+    TimeNs end;
+    Protocol protocol;
+  };
+  void close_unanswered(const Pending& p, std::string detail, std::vector<Transaction>& out);
+
+  PairerOptions options_;
+  std::deque<Pending> pending_;
+};
+
+}  // namespace drivetap

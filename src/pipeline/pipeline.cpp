@@ -1,0 +1,180 @@
+// Pipeline wiring of the stages (PROTOCOLS.md §1-§2, §7).
+#include "pipeline/pipeline.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <limits>
+
+#include "dissectors/modbus/modbus_pdu.hpp"
+#include "dissectors/modbus/rtu_dissector.hpp"
+
+namespace drivetap {
+
+struct Pipeline::ChannelState {
+  ChannelState(ChannelId id, const modbus::RtuFramerOptions& o) : framer(id, o) {}
+  modbus::RtuFramer framer;
+  TimeNs last_end = std::numeric_limits<TimeNs>::min();
+};
+
+Pipeline::Pipeline(PipelineOptions options, const ChannelTable& channels, Sink& sink)
+    : options_(options),
+      channels_(channels),
+      sink_(sink),
+      pairer_(PairerOptions{options.reply_timeout, options.timing.character_time, 64}),
+      earliest_deadline_(std::numeric_limits<TimeNs>::max()) {}
+
+Pipeline::~Pipeline() = default;
+
+Pipeline::ChannelState& Pipeline::state_for(ChannelId id) {
+  while (states_.size() <= id) {
+    modbus::RtuFramerOptions o;
+    o.timing = options_.timing;
+    o.max_hold = options_.max_hold;
+    states_.push_back(std::make_unique<ChannelState>(static_cast<ChannelId>(states_.size()), o));
+  }
+  return *states_[id];
+}
+
+void Pipeline::advance_all(TimeNs now) {
+  if (now < earliest_deadline_) return;
+  earliest_deadline_ = std::numeric_limits<TimeNs>::max();
+  for (auto& s : states_) {
+    s->framer.advance(now, ready_);
+    earliest_deadline_ = std::min(earliest_deadline_, s->framer.next_deadline());
+  }
+  handle_frames();
+}
+
+void Pipeline::push(const ByteEvent& in) {
+  ByteEvent e = in;
+  ChannelState& st = state_for(e.channel);
+  // Bytes on one wire cannot overlap: a byte stamped inside its predecessor starts after it.
+  if (e.time < st.last_end) e.time = st.last_end;
+  st.last_end = e.time + options_.timing.character_time;
+  advance_all(e.time);
+  st.framer.push(e, ready_);
+  earliest_deadline_ = std::min(earliest_deadline_, st.framer.next_deadline());
+  if (!ready_.empty()) handle_frames();
+}
+
+void Pipeline::report(const Anomaly& anomaly) {
+  emit_anomaly(anomaly);
+}
+
+void Pipeline::emit_anomaly(const Anomaly& a) {
+  stats_.count_anomaly(a);
+  sink_.on_anomaly(a);
+}
+
+void Pipeline::handle_frames() {
+  if (ready_.empty()) return;
+  // Frames closed together (several channels) go out in order of their first byte.
+  std::stable_sort(ready_.begin(), ready_.end(),
+                   [](const Frame& a, const Frame& b) { return a.start() < b.start(); });
+  std::vector<Frame> batch;
+  batch.swap(ready_);
+  for (Frame& f : batch) handle_frame(f);
+}
+
+Direction Pipeline::decide_direction(const Frame& frame, std::span<const std::uint8_t> bytes,
+                                     std::size_t link) const {
+  switch (channels_.at(frame.channel).role) {
+    case ChannelRole::master:
+      return Direction::request;
+    case ChannelRole::slave:
+      return Direction::response;
+    case ChannelRole::bus:
+      break;
+  }
+  if (bytes.size() < 2) return Direction::unknown;
+  const int address = bytes[0];
+  const int function = bytes[1];
+  if (function & 0x80) return Direction::response;
+  const modbus::DirectionFit fit = modbus::rtu_direction_fit(bytes);
+  if (fit.request != fit.response) return fit.request ? Direction::request : Direction::response;
+  // Both layouts fit (FC 05/06/08 echoes, 0F/10 acknowledgements of the same size) or neither
+  // does: order decides — a reply is what a pending request of the same function awaits.
+  if (pairer_.awaiting_reply(link, address, function, frame.start())) return Direction::response;
+  if (fit.request) return Direction::request;
+  const auto check = check_rtu_crc(bytes);
+  if (check.verdict == ChecksumVerdict::bad && !modbus::is_public_function(bytes[1]))
+    return Direction::unknown;
+  return Direction::request;
+}
+
+void Pipeline::handle_frame(Frame& frame) {
+  frame.number = ++frame_counter_;
+  const std::size_t link = channels_.link_index(frame.channel);
+  if (frame.kind == FrameKind::noise) {
+    pairer_.expire(frame.start(), transactions_);
+    emit_transactions(transactions_);
+    stats_.count_noise(frame);
+    sink_.on_noise(frame);
+    std::string hex;
+    for (std::size_t i = 0; i < frame.events.size() && i < 16; ++i)
+      hex += fmt::format("{}{:02X}", i ? " " : "", frame.events[i].byte);
+    if (frame.events.size() > 16) hex += " ...";
+    emit_anomaly({AnomalyKind::noise, frame.start(), frame.channel, frame.number,
+                  fmt::format("{} byte{} outside any frame: {}", frame.size(),
+                              frame.size() == 1 ? "" : "s", hex)});
+    for (std::size_t i = 0; i < frame.events.size(); ++i) {
+      const ByteEvent& e = frame.events[i];
+      if (e.flags == 0) continue;
+      if (e.flags & kUartFramingError)
+        emit_anomaly({AnomalyKind::uart_framing, e.time, e.channel, frame.number,
+                      fmt::format("framing error on noise byte 0x{:02X}", e.byte)});
+      if (e.flags & kUartParityError)
+        emit_anomaly({AnomalyKind::uart_parity, e.time, e.channel, frame.number,
+                      fmt::format("parity error on noise byte 0x{:02X}", e.byte)});
+      if (e.flags & kUartBreak)
+        emit_anomaly({AnomalyKind::uart_break, e.time, e.channel, frame.number, "break"});
+      if (e.flags & kUartOverrun)
+        emit_anomaly({AnomalyKind::uart_overrun, e.time, e.channel, frame.number,
+                      "overrun (bytes lost before)"});
+    }
+    return;
+  }
+  pairer_.expire(frame.start(), transactions_);
+  emit_transactions(transactions_);
+
+  const std::vector<std::uint8_t> bytes = frame.bytes();
+  const Direction dir = decide_direction(frame, bytes, link);
+  Message m = modbus::dissect_rtu(std::move(frame), dir, options_.timing);
+  pairer_.add(link, m, transactions_);
+  for (Anomaly& a : m.anomalies) a.frame_number = m.frame.number;
+  stats_.count_frame(m);
+  sink_.on_frame(m);
+  for (const Anomaly& a : m.anomalies) emit_anomaly(a);
+  emit_transactions(transactions_);
+}
+
+void Pipeline::emit_transactions(std::vector<Transaction>& transactions) {
+  for (const Transaction& t : transactions) {
+    stats_.count_transaction(t);
+    sink_.on_transaction(t);
+    if (t.outcome == Outcome::timeout) {
+      emit_anomaly({AnomalyKind::unanswered_request, t.request_time, t.channel, t.request_number,
+                    fmt::format("request #{} to address {} function {:02X}: {}", t.request_number,
+                                t.address, t.function, t.detail)});
+    } else if (t.outcome == Outcome::unsolicited) {
+      emit_anomaly({AnomalyKind::unsolicited_response, t.response_time, t.channel,
+                    t.response_number,
+                    fmt::format("reply #{} from address {} function {:02X}: {}", t.response_number,
+                                t.address, t.function, t.detail)});
+    }
+  }
+  transactions.clear();
+}
+
+void Pipeline::finish() {
+  if (finished_) return;
+  finished_ = true;
+  for (auto& s : states_) s->framer.finish(ready_);
+  handle_frames();
+  pairer_.finish(transactions_);
+  emit_transactions(transactions_);
+  sink_.on_summary(stats_);
+}
+
+}  // namespace drivetap

@@ -1,0 +1,63 @@
+// Pipeline: ByteEvent -> Frame -> Message -> Transaction, wired to a Sink (PROTOCOLS.md §1-§2).
+//
+// One framer per channel; the pairing stage per link (ChannelTable). The pipeline also owns the
+// per-channel time discipline: bytes on one wire cannot overlap, so a byte stamped before the
+// previous byte ended (a USB adapter stamping a whole read at once) is moved to right after it.
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include "core/byte_event.hpp"
+#include "core/serial_config.hpp"
+#include "dissectors/modbus/rtu_framer.hpp"
+#include "pipeline/pairer.hpp"
+#include "pipeline/stats.hpp"
+#include "sinks/sink.hpp"
+
+namespace drivetap {
+
+struct PipelineOptions {
+  SerialConfig serial;
+  FramingTiming timing;  // usually FramingTiming::from(serial), possibly overridden
+  TimeNs max_hold = 100 * kNsPerMs;
+  TimeNs reply_timeout = 1 * kNsPerSecond;
+};
+
+class Pipeline {
+ public:
+  Pipeline(PipelineOptions options, const ChannelTable& channels, Sink& sink);
+  ~Pipeline();
+
+  void push(const ByteEvent& event);
+  // A finding from the source itself (e.g. a timestamp going backwards in a file).
+  void report(const Anomaly& anomaly);
+  // Closes everything pending and emits the summary. Idempotent.
+  void finish();
+  [[nodiscard]] const Stats& stats() const { return stats_; }
+
+ private:
+  struct ChannelState;
+  ChannelState& state_for(ChannelId id);
+  void advance_all(TimeNs now);
+  void handle_frames();
+  void handle_frame(Frame& frame);
+  Direction decide_direction(const Frame& frame, std::span<const std::uint8_t> bytes,
+                             std::size_t link) const;
+  void emit_transactions(std::vector<Transaction>& transactions);
+  void emit_anomaly(const Anomaly& a);
+
+  PipelineOptions options_;
+  const ChannelTable& channels_;
+  Sink& sink_;
+  Pairer pairer_;
+  Stats stats_;
+  std::vector<std::unique_ptr<ChannelState>> states_;
+  std::vector<Frame> ready_;
+  std::vector<Transaction> transactions_;
+  TimeNs earliest_deadline_;
+  std::uint64_t frame_counter_ = 0;
+  bool finished_ = false;
+};
+
+}  // namespace drivetap

@@ -1,0 +1,37 @@
+// Stats: the closing summary — frames, checksum verdicts, transactions, latency, anomaly counts.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <limits>
+
+#include "core/anomaly.hpp"
+#include "core/message.hpp"
+#include "core/transaction.hpp"
+
+namespace drivetap {
+
+struct Stats {
+  std::uint64_t bytes = 0;
+  std::uint64_t frames = 0;
+  std::uint64_t noise_records = 0;
+  std::uint64_t noise_bytes = 0;
+  std::array<std::uint64_t, 4> checksum{};  // by ChecksumVerdict
+  std::array<std::uint64_t, 5> outcomes{};  // by Outcome
+  std::uint64_t transactions = 0;
+  std::uint64_t latency_count = 0;
+  TimeNs latency_sum = 0;
+  TimeNs latency_min = std::numeric_limits<TimeNs>::max();
+  TimeNs latency_max = 0;
+  AnomalyCounts anomalies{};
+  std::uint64_t anomaly_total = 0;
+  TimeNs first_time = std::numeric_limits<TimeNs>::max();
+  TimeNs last_time = std::numeric_limits<TimeNs>::min();
+
+  void count_frame(const Message& m);
+  void count_noise(const Frame& f);
+  void count_transaction(const Transaction& t);
+  void count_anomaly(const Anomaly& a);
+};
+
+}  // namespace drivetap

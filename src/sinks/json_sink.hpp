@@ -1,0 +1,36 @@
+// JSON-lines sink: one object per record; keys are the output contract in README "JSON lines".
+#pragma once
+
+#include <cstdio>
+#include <string>
+
+#include "core/byte_event.hpp"
+#include "core/serial_config.hpp"
+#include "sinks/sink.hpp"
+
+namespace drivetap {
+
+class JsonSink final : public Sink {
+ public:
+  JsonSink(std::FILE* out, const ChannelTable& channels, TimeNs character_time,
+           bool show_latency = true);
+  void on_frame(const Message& message) override;
+  void on_noise(const Frame& noise) override;
+  void on_anomaly(const Anomaly& anomaly) override;
+  void on_transaction(const Transaction& transaction) override;
+  void on_summary(const Stats& stats) override;
+  bool flush() override;
+
+ private:
+  void write(std::string& line);
+  std::FILE* out_;
+  const ChannelTable& channels_;
+  TimeNs character_time_;
+  bool show_latency_;
+  bool write_failed_ = false;
+};
+
+// JSON string literal with escapes.
+std::string json_quote(std::string_view s);
+
+}  // namespace drivetap

@@ -1,0 +1,59 @@
+// Sink: where the pipeline's records go (text, JSON, later pcapng). Sinks walk the generic field
+// tree; they know no protocol. Records arrive in bus order: for each frame, the timeouts it
+// revealed, then the frame (or noise), then its anomalies, then the transaction it completed.
+#pragma once
+
+#include <vector>
+
+#include "core/anomaly.hpp"
+#include "core/byte_event.hpp"
+#include "core/frame.hpp"
+#include "core/message.hpp"
+#include "core/transaction.hpp"
+#include "pipeline/stats.hpp"
+
+namespace drivetap {
+
+class Sink {
+ public:
+  virtual ~Sink() = default;
+  virtual void on_frame(const Message& message) = 0;
+  virtual void on_noise(const Frame& noise) = 0;
+  // Anomalies of a frame arrive right after it (frame_number set); others stand alone.
+  virtual void on_anomaly(const Anomaly& anomaly) = 0;
+  virtual void on_transaction(const Transaction& transaction) = 0;
+  virtual void on_summary(const Stats& stats) = 0;
+  // Pushes buffered output to its file; returns false when the write failed.
+  virtual bool flush() = 0;
+};
+
+// Sends every record to several sinks.
+class TeeSink final : public Sink {
+ public:
+  void add(Sink* s) { sinks_.push_back(s); }
+  void on_frame(const Message& m) override {
+    for (Sink* s : sinks_) s->on_frame(m);
+  }
+  void on_noise(const Frame& f) override {
+    for (Sink* s : sinks_) s->on_noise(f);
+  }
+  void on_anomaly(const Anomaly& a) override {
+    for (Sink* s : sinks_) s->on_anomaly(a);
+  }
+  void on_transaction(const Transaction& t) override {
+    for (Sink* s : sinks_) s->on_transaction(t);
+  }
+  void on_summary(const Stats& st) override {
+    for (Sink* s : sinks_) s->on_summary(st);
+  }
+  bool flush() override {
+    bool ok = true;
+    for (Sink* s : sinks_) ok = s->flush() && ok;
+    return ok;
+  }
+
+ private:
+  std::vector<Sink*> sinks_;
+};
+
+}  // namespace drivetap

@@ -1,0 +1,159 @@
+// Text sink: annotated lines for a field engineer (format documented in README "Text output").
+#include "sinks/text_sink.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+
+#include "sinks/format.hpp"
+
+namespace drivetap {
+
+namespace {
+
+const char* direction_tag(Direction d) {
+  switch (d) {
+    case Direction::request:
+      return "req";
+    case Direction::response:
+      return "rsp";
+    case Direction::unknown:
+      break;
+  }
+  return "???";
+}
+
+std::string checksum_text(const ChecksumResult& c) {
+  auto wire = [](std::uint32_t v) {
+    return fmt::format("{:02X} {:02X}", (v >> 8) & 0xFF, v & 0xFF);
+  };
+  switch (c.verdict) {
+    case ChecksumVerdict::good:
+      return "crc ok";
+    case ChecksumVerdict::bad:
+      return fmt::format("CRC BAD (wire {}, computed {})", wire(c.stated_wire),
+                         wire(c.computed_wire));
+    case ChecksumVerdict::swapped:
+      return fmt::format("CRC SWAPPED (wire {}, expected {}: sent high byte first)",
+                         wire(c.stated_wire), wire(c.computed_wire));
+    case ChecksumVerdict::none:
+      break;
+  }
+  return "no checksum";
+}
+
+}  // namespace
+
+std::string frame_summary(const Message& m, bool with_latency) {
+  const std::string station = m.address == 0  ? std::string("broadcast")
+                              : m.address < 0 ? std::string("addr ?")
+                                              : fmt::format("addr {}", m.address);
+  std::string s = fmt::format("{}  {}  {}  {}", protocol_label(m.protocol), station, m.info,
+                              checksum_text(m.checksum));
+  if (with_latency && m.latency >= 0)
+    s += fmt::format("  reply to #{} in {} ms", m.request_number, format_ms(m.latency));
+  return s;
+}
+
+TextSink::TextSink(std::FILE* out, const ChannelTable& channels, TextSinkOptions options)
+    : out_(out), channels_(channels), options_(options) {}
+
+void TextSink::write(const std::string& line) {
+  if (std::fwrite(line.data(), 1, line.size(), out_) != line.size() ||
+      std::fputc('\n', out_) == EOF)
+    write_failed_ = true;
+}
+
+std::string TextSink::prefix(std::uint64_t number, TimeNs time, ChannelId channel) const {
+  std::string s = number ? fmt::format("{:>5} ", number) : std::string("    - ");
+  if (options_.show_time) s += fmt::format("{:>14} ", format_seconds(time, 6));
+  const std::string& name = channels_.at(channel).name;
+  s += fmt::format("{:<{}} ", name, std::max<std::size_t>(3, name.size()));
+  return s;
+}
+
+void TextSink::on_frame(const Message& m) {
+  last_frame_number_ = m.frame.number;
+  write(prefix(m.frame.number, m.frame.start(), m.frame.channel) +
+        fmt::format("{}  {}", direction_tag(m.direction), frame_summary(m, options_.show_time)));
+  if (!options_.verbose) return;
+  write(fmt::format("{:>8}bytes: {}", "", hex_bytes(m.bytes)));
+  for (const FieldNode& node : m.fields) {
+    const std::string span =
+        node.length <= 1 ? fmt::format("[{}]", node.offset)
+                         : fmt::format("[{}-{}]", node.offset, node.offset + node.length - 1);
+    write(fmt::format("{:>8}{:<9} {:{}}{:<26} {}: {}", "", span, "", node.depth * 2u, node.desc->id,
+                      node.desc->name, format_field_value(node, m.bytes)));
+  }
+}
+
+void TextSink::on_noise(const Frame& f) {
+  last_frame_number_ = f.number;
+  std::vector<std::uint8_t> bytes = f.bytes();
+  write(prefix(f.number, f.start(), f.channel) +
+        fmt::format("---  noise: {} byte{} {}", bytes.size(), bytes.size() == 1 ? "" : "s",
+                    hex_bytes(bytes)));
+}
+
+void TextSink::on_anomaly(const Anomaly& a) {
+  // Checksum verdicts are already on the frame line; noise is its own line.
+  if (a.kind == AnomalyKind::crc_bad || a.kind == AnomalyKind::crc_swapped ||
+      a.kind == AnomalyKind::noise)
+    return;
+  if (a.frame_number != 0 && a.frame_number == last_frame_number_ &&
+      a.kind != AnomalyKind::unanswered_request && a.kind != AnomalyKind::unsolicited_response) {
+    write(fmt::format("{:>8}! {}: {}", "", anomaly_label(a.kind), a.detail));
+    return;
+  }
+  write(prefix(0, a.time, a.channel) + fmt::format("!!!  {}: {}", anomaly_label(a.kind), a.detail));
+}
+
+void TextSink::on_transaction(const Transaction&) {
+  // Paired replies carry their latency on the frame line; timeouts and unsolicited replies
+  // arrive as anomalies. Nothing else to print per transaction.
+}
+
+void TextSink::on_summary(const Stats& s) {
+  if (!options_.summary) return;
+  write("");
+  write("--- summary ---");
+  if (s.frames + s.noise_records > 0 && options_.show_time) {
+    write(fmt::format("capture:      {} .. {} s, {} bytes", format_seconds(s.first_time, 6),
+                      format_seconds(s.last_time, 6), s.bytes));
+  } else {
+    write(fmt::format("capture:      {} bytes", s.bytes));
+  }
+  const auto& c = s.checksum;
+  write(fmt::format(
+      "frames:       {} (crc ok {}, bad {}, swapped {}); noise: {} record{}, {} byte{}", s.frames,
+      c[static_cast<int>(ChecksumVerdict::good)], c[static_cast<int>(ChecksumVerdict::bad)],
+      c[static_cast<int>(ChecksumVerdict::swapped)], s.noise_records,
+      s.noise_records == 1 ? "" : "s", s.noise_bytes, s.noise_bytes == 1 ? "" : "s"));
+  const auto& o = s.outcomes;
+  std::string tx = fmt::format(
+      "transactions: {} (ok {}, exception {}, timeout {}, broadcast {}, unsolicited {})",
+      s.transactions, o[static_cast<int>(Outcome::ok)], o[static_cast<int>(Outcome::exception)],
+      o[static_cast<int>(Outcome::timeout)], o[static_cast<int>(Outcome::broadcast)],
+      o[static_cast<int>(Outcome::unsolicited)]);
+  if (s.latency_count > 0 && options_.show_time)
+    tx += fmt::format("; reply latency min {} / avg {} / max {} ms", format_ms(s.latency_min),
+                      format_ms(s.latency_sum / static_cast<TimeNs>(s.latency_count)),
+                      format_ms(s.latency_max));
+  write(tx);
+  std::string an = fmt::format("anomalies:    {}", s.anomaly_total);
+  bool first = true;
+  for (std::size_t k = 0; k < kAnomalyKindCount; ++k) {
+    if (s.anomalies[k] == 0) continue;
+    an += fmt::format("{}{} {}", first ? " (" : ", ", anomaly_id(static_cast<AnomalyKind>(k)),
+                      s.anomalies[k]);
+    first = false;
+  }
+  if (!first) an += ")";
+  write(an);
+}
+
+bool TextSink::flush() {
+  return std::fflush(out_) == 0 && !write_failed_ && !std::ferror(out_);
+}
+
+}  // namespace drivetap

@@ -1,0 +1,46 @@
+// Text sink: one annotated line per frame, -V field trees, and the closing summary.
+#pragma once
+
+#include <cstdio>
+#include <string>
+
+#include "core/byte_event.hpp"
+#include "core/serial_config.hpp"
+#include "sinks/sink.hpp"
+
+namespace drivetap {
+
+struct TextSinkOptions {
+  bool verbose = false;   // -V: field tree with byte offsets under each frame
+  bool show_time = true;  // false for `decode`, whose times are synthetic
+  bool summary = true;
+  TimeNs character_time = 0;
+};
+
+class TextSink final : public Sink {
+ public:
+  TextSink(std::FILE* out, const ChannelTable& channels, TextSinkOptions options);
+  void on_frame(const Message& message) override;
+  void on_noise(const Frame& noise) override;
+  void on_anomaly(const Anomaly& anomaly) override;
+  void on_transaction(const Transaction& transaction) override;
+  void on_summary(const Stats& stats) override;
+  bool flush() override;
+
+ private:
+  void write(const std::string& line);
+  std::string prefix(std::uint64_t number, TimeNs time, ChannelId channel) const;
+
+  std::FILE* out_;
+  const ChannelTable& channels_;
+  TextSinkOptions options_;
+  std::size_t channel_width_ = 3;
+  std::uint64_t last_frame_number_ = 0;
+  bool write_failed_ = false;
+};
+
+// The decode of a frame in one line, without number/time/channel: shared with the JSON
+// `summary` key so both sinks say the same thing.
+std::string frame_summary(const Message& message, bool with_latency = true);
+
+}  // namespace drivetap

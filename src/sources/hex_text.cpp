@@ -1,0 +1,72 @@
+// Hex text input for `drivetap decode`.
+#include "sources/hex_text.hpp"
+
+#include <fmt/format.h>
+
+namespace drivetap {
+
+std::optional<std::vector<std::vector<std::uint8_t>>> parse_hex_frames(std::string_view text,
+                                                                       std::string* error) {
+  std::vector<std::vector<std::uint8_t>> frames;
+  std::vector<std::uint8_t> current;
+  int high = -1;  // pending high nibble
+  std::size_t high_pos = 0;
+  auto end_frame = [&](std::size_t pos) {
+    if (high >= 0) {
+      *error = fmt::format("odd number of hex digits: '{}' at position {} has no partner",
+                           text[high_pos], high_pos + 1);
+      return false;
+    }
+    (void)pos;
+    if (!current.empty()) frames.push_back(std::move(current));
+    current.clear();
+    return true;
+  };
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    const char c = text[i];
+    if (c == '|' || c == ',' || c == ';' || c == '\n') {
+      if (!end_frame(i)) return std::nullopt;
+      continue;
+    }
+    if (c == ' ' || c == '\t' || c == '\r' || c == '-') continue;
+    if (c == '0' && i + 1 < text.size() && (text[i + 1] == 'x' || text[i + 1] == 'X') && high < 0) {
+      ++i;
+      continue;
+    }
+    int v = -1;
+    if (c >= '0' && c <= '9') v = c - '0';
+    if (c >= 'a' && c <= 'f') v = c - 'a' + 10;
+    if (c >= 'A' && c <= 'F') v = c - 'A' + 10;
+    if (v < 0) {
+      *error = fmt::format("'{}' at position {} is not a hex digit", c, i + 1);
+      return std::nullopt;
+    }
+    if (high < 0) {
+      high = v;
+      high_pos = i;
+    } else {
+      current.push_back(static_cast<std::uint8_t>((high << 4) | v));
+      high = -1;
+    }
+  }
+  if (!end_frame(text.size())) return std::nullopt;
+  if (frames.empty()) {
+    *error = "no hex bytes given";
+    return std::nullopt;
+  }
+  return frames;
+}
+
+void synthesize_events(const std::vector<std::vector<std::uint8_t>>& frames, ChannelId channel,
+                       TimeNs character_time, TimeNs gap, TimeNs* clock,
+                       std::vector<ByteEvent>& out) {
+  for (const auto& frame : frames) {
+    for (const std::uint8_t b : frame) {
+      out.push_back({*clock, b, 0, channel});
+      *clock += character_time;
+    }
+    *clock += gap;
+  }
+}
+
+}  // namespace drivetap

@@ -1,0 +1,30 @@
+// Hex text input for `drivetap decode`: frames pasted from a manual or a log.
+//
+//   "02 03 00 00 00 04 44 3A"            one frame (spaces optional, 0x prefixes allowed)
+//   "01 03 ... | 01 03 ..."              several frames: '|', ',', ';' or a newline between them
+//   "0103000000018 40A0103020001..."     several frames run together: split by content
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "core/byte_event.hpp"
+#include "core/serial_config.hpp"
+
+namespace drivetap {
+
+// Splits `text` into frames of bytes. On error returns nullopt and sets *error to a one-line
+// reason naming the character position.
+std::optional<std::vector<std::vector<std::uint8_t>>> parse_hex_frames(std::string_view text,
+                                                                       std::string* error);
+
+// Lays frames out on a synthetic time line: back-to-back characters, `gap` of silence between
+// frames (the first starts at time 0). Appends to `out`.
+void synthesize_events(const std::vector<std::vector<std::uint8_t>>& frames, ChannelId channel,
+                       TimeNs character_time, TimeNs gap, TimeNs* clock,
+                       std::vector<ByteEvent>& out);
+
+}  // namespace drivetap
