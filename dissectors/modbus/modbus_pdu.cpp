@@ -179,12 +179,14 @@ class PduReader {
       const std::size_t extra = cursor_.remaining();
       cursor_.rest();
       tree_.add(kData, base_ + at, extra);
-      problem(fmt::format("{} unexpected bytes after the PDU", extra));
+      // After a truncated field the leftover is its partial bytes, already reported.
+      if (!truncated_) problem(fmt::format("{} unexpected bytes after the PDU", extra));
     }
   }
 
  private:
   std::nullopt_t truncated(const FieldDesc& desc) {
+    truncated_ = true;
     out_.problems.push_back(fmt::format("frame ends before {}", desc.name));
     return std::nullopt;
   }
@@ -194,6 +196,7 @@ class PduReader {
   std::size_t base_;
   FieldTreeBuilder& tree_;
   PduDecode& out_;
+  bool truncated_ = false;
 };
 
 std::string function_name(std::uint8_t fc) {
@@ -420,6 +423,7 @@ void dissect_device_id(PduReader& r, Direction dir, PduDecode& d) {
   r.u8(kMeiNextObject);
   auto objects = r.u8(kMeiObjectCount);
   std::string values;
+  unsigned present = 0;
   for (unsigned i = 0; objects && i < *objects && !r.cursor().empty(); ++i) {
     r.tree().open(kMeiObject, r.frame_offset(), 0);
     auto id = r.u8(kMeiObjectId);
@@ -433,6 +437,7 @@ void dissect_device_id(PduReader& r, Direction dir, PduDecode& d) {
     std::string text;
     for (std::uint8_t c : raw) text += (c >= 0x20 && c < 0x7F) ? static_cast<char>(c) : '.';
     r.tree().add_text(kMeiObjectValue, at, raw.size(), text);
+    ++present;
     values +=
         fmt::format("{}{}=\"{}\"", values.empty() ? "" : ", ",
                     kMeiObjectId.name_of(*id).empty() ? fmt::format("obj{}", *id)
@@ -440,6 +445,8 @@ void dissect_device_id(PduReader& r, Direction dir, PduDecode& d) {
                     text);
     r.tree().close();
   }
+  if (objects && present < *objects)
+    r.problem(fmt::format("{} objects announced, {} present", *objects, present));
   r.expect_end();
   d.info = fmt::format("Read Device Identification reply: {}", values);
 }
@@ -461,8 +468,13 @@ PduDecode dissect_pdu(std::span<const std::uint8_t> frame, std::size_t pdu_offse
     r.expect_end();
     d.exception_code = code ? *code : -1;
     const std::string_view name = kExceptionCode.name_of(d.exception_code);
-    d.info = fmt::format("{} exception {}: {}", function_name(fc), code ? *code : 0,
-                         name.empty() ? std::string("non-standard code") : std::string(name));
+    if (!code) {
+      d.info = fmt::format("{} exception (code missing)", function_name(fc));
+      return d;
+    }
+    d.info =
+        fmt::format("{} exception 0x{:02X}: {}", function_name(fc), *code,
+                    name.empty() ? std::string("non-standard (vendor) code") : std::string(name));
     return d;
   }
   const bool req = dir != Direction::response;

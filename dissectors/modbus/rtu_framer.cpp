@@ -98,6 +98,11 @@ std::size_t RtuFramer::next_hard_boundary(std::size_t p) const {
   return it == hard_.end() ? pending_.size() : *it;
 }
 
+TimeNs RtuFramer::silence_before(std::size_t index) const {
+  if (index == 0 || index >= pending_.size()) return 0;
+  return pending_[index].time - (pending_[index - 1].time + options_.timing.character_time);
+}
+
 bool RtuFramer::is_hard_boundary(std::size_t index) const {
   return std::binary_search(hard_.begin(), hard_.end(), index);
 }
@@ -197,16 +202,20 @@ void RtuFramer::process(Mode mode, TimeNs now, std::vector<Frame>& out) {
         continue;
       }
     }
-    // 4. Predicted length with a bad CRC, confirmed by a silence or a good frame right after.
+    // 4. Predicted length with a bad CRC, confirmed by a silence (> t1.5 counts: a gap that long
+    //    inside a frame is itself a fault) or a good frame right after.
     std::size_t confirmed = 0;
     for (std::size_t len : lengths) {
       if (len == 0 || p + len > chunk_end) continue;
-      if ((p + len == chunk_end && chunk_closed) || good_frame_at(p + len, n) != 0) {
+      if ((p + len == chunk_end && chunk_closed) || silence_before(p + len) > options_.timing.t15 ||
+          good_frame_at(p + len, n) != 0) {
         confirmed = len;
         break;
       }
     }
-    if (confirmed != 0 && looks_like_frame_start(p)) {
+    // A good frame starting inside the would-be bad one is stronger evidence (noise before it).
+    if (confirmed != 0 && looks_like_frame_start(p) &&
+        first_good_start(p + 1, p + confirmed) == p + confirmed) {
       emit(p, confirmed, FrameKind::telegram, close_at(p + confirmed), out);
       p += confirmed;
       continue;

@@ -15,8 +15,8 @@
 //      its function code.
 //   3. An incomplete frame at the end of the bytes seen so far is held for the next bytes
 //      (up to max_hold) instead of being closed at a silence.
-//   4. A predicted length with a bad CRC, when the frame ends exactly at a silence or right
-//      where a good frame begins.
+//   4. A predicted length with a bad CRC, when the frame ends exactly at a silence (> t1.5) or
+//      right where a good frame begins.
 //   5. Bytes before the next good frame inside a timing chunk are noise.
 //   6. A timing chunk with no good frame in it is one bad-CRC frame (>= 4 bytes, mostly free of
 //      UART errors) or noise.
@@ -68,6 +68,7 @@ class RtuFramer {
   std::size_t first_good_start(std::size_t from, std::size_t to) const;
   std::size_t next_hard_boundary(std::size_t p) const;
   bool is_hard_boundary(std::size_t index) const;
+  TimeNs silence_before(std::size_t index) const;  // silence before pending_[index], ns
   bool looks_like_frame_start(std::size_t p) const;
   void predicted_lengths(std::size_t p, std::size_t n, std::size_t out[2], bool* needs_more) const;
   void emit(std::size_t p, std::size_t len, FrameKind kind, FrameClose close,

@@ -76,17 +76,27 @@ class FieldTreeBuilder {
     n.text = std::move(text);
     return n;
   }
-  // Adds a group node and nests what follows under it until close().
+  // Adds a group node and nests what follows under it until close(), which stretches the
+  // group's span over its children.
   void open(const FieldDesc& desc, std::size_t offset, std::size_t length, std::int64_t value = 0) {
     add(desc, offset, length, value);
+    open_.push_back(out_.size() - 1);
     ++depth_;
   }
   void close() {
-    if (depth_ > 0) --depth_;
+    if (open_.empty()) return;
+    FieldNode& group = out_[open_.back()];
+    for (std::size_t i = open_.back() + 1; i < out_.size(); ++i) {
+      const std::uint32_t end = out_[i].offset + out_[i].length;
+      if (end > group.offset + group.length) group.length = end - group.offset;
+    }
+    open_.pop_back();
+    --depth_;
   }
 
  private:
   std::vector<FieldNode>& out_;
+  std::vector<std::size_t> open_;  // indices of open group nodes
   std::uint16_t depth_ = 0;
 };
 

@@ -35,7 +35,8 @@ struct Message {
   std::string info;
   // Findings about this frame (checksum, gaps, malformed content, UART errors), in byte order.
   std::vector<Anomaly> anomalies;
-  // Filled by the pairing stage on responses: request end -> response start, ns; -1 if unpaired.
+  // Filled by the pairing stage on responses: request end -> response start, ns; -1 when
+  // unpaired or not measurable (no silence visible before the reply).
   TimeNs latency = -1;
   std::uint64_t request_number = 0;  // frame number of the paired request
 };

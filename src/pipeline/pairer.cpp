@@ -119,7 +119,10 @@ void Pairer::add(std::size_t link, Message& m, std::vector<Transaction>& out) {
     t.channel = request.channel;
     t.request_number = request.number;
     t.request_time = request.start;
-    t.latency = start - request.end;
+    // With no silence visible before the reply (bytes stamped per adapter read), the latency is
+    // not measurable: report the pairing without a number rather than a false 0 ms.
+    t.latency = (m.frame.gap_before == 0 || start < request.end) ? -1 : start - request.end;
+    if (t.latency < 0) t.detail = "latency hidden: no silence visible before the reply";
     m.latency = t.latency;
     m.request_number = request.number;
     out.push_back(std::move(t));

@@ -136,9 +136,10 @@ void JsonSink::on_frame(const Message& m) {
                         wire_hex(m.checksum.stated_wire, m.checksum.width),
                         wire_hex(m.checksum.computed_wire, m.checksum.width));
   if (m.is_exception) line += fmt::format(",\"exception\":{}", m.exception_code);
-  if (m.latency >= 0 && show_latency_)
-    line +=
-        fmt::format(",\"latency_ms\":{},\"request_n\":{}", format_ms(m.latency), m.request_number);
+  if (m.request_number != 0)
+    line += fmt::format(",\"latency_ms\":{},\"request_n\":{}",
+                        m.latency >= 0 && show_latency_ ? format_ms(m.latency) : "null",
+                        m.request_number);
   if (m.frame.gap_before >= 0 && show_latency_)
     line += fmt::format(",\"gap_before_ms\":{}", format_ms(m.frame.gap_before));
   line += fmt::format(",\"close\":\"{}\",\"fields\":{},\"summary\":{}}}", close_id(m.frame.close),

@@ -50,8 +50,14 @@ std::string frame_summary(const Message& m, bool with_latency) {
                                               : fmt::format("addr {}", m.address);
   std::string s = fmt::format("{}  {}  {}  {}", protocol_label(m.protocol), station, m.info,
                               checksum_text(m.checksum));
-  if (with_latency && m.latency >= 0)
-    s += fmt::format("  reply to #{} in {} ms", m.request_number, format_ms(m.latency));
+  if (m.request_number != 0) {
+    if (!with_latency)
+      s += fmt::format("  reply to #{}", m.request_number);
+    else if (m.latency >= 0)
+      s += fmt::format("  reply to #{} in {} ms", m.request_number, format_ms(m.latency));
+    else
+      s += fmt::format("  reply to #{} (latency hidden: no silence before it)", m.request_number);
+  }
   return s;
 }
 

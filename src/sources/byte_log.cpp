@@ -32,6 +32,9 @@ ByteLogReader::~ByteLogReader() {
 }
 
 bool ByteLogReader::fail(std::size_t column, const std::string& reason) {
+  // Bytes already parsed from the failing line are not delivered: the line is rejected whole.
+  queue_.clear();
+  queue_pos_ = 0;
   error_ = fmt::format("{}:{}:{}: {}", name_, line_number_, column + 1, reason);
   return false;
 }
@@ -105,8 +108,10 @@ bool ByteLogReader::parse_data_line() {
   TimeNs seconds = 0;
   std::size_t digits = 0;
   while (i < line.size() && line[i] >= '0' && line[i] <= '9') {
-    if (seconds > (INT64_MAX / kNsPerSecond) / 10) return fail(time_col, "time too large");
+    // Bound so that seconds * 1e9 + 999999999 still fits in TimeNs.
+    constexpr TimeNs kMaxSeconds = (INT64_MAX - (kNsPerSecond - 1)) / kNsPerSecond;
     seconds = seconds * 10 + (line[i] - '0');
+    if (seconds > kMaxSeconds) return fail(time_col, "time too large");
     ++i;
     ++digits;
   }
@@ -183,7 +188,8 @@ bool ByteLogReader::parse_data_line() {
     for (std::size_t k = 0; k < hex.size(); k += 2) {
       const int hi = hex_value(hex[k]);
       const int lo = hex_value(hex[k + 1]);
-      if (hi < 0 || lo < 0) return fail(token_col + k, fmt::format("bad hex digit in '{}'", token));
+      if (hi < 0 || lo < 0)
+        return fail(token_col + k + (hi < 0 ? 0 : 1), fmt::format("bad hex digit in '{}'", token));
       ByteEvent e;
       e.time = t;
       e.byte = static_cast<std::uint8_t>((hi << 4) | lo);

@@ -1,0 +1,13 @@
+#!/usr/bin/env bash
+# Installs drivetap's build and test dependencies from Debian (bookworm), as root.
+set -euo pipefail
+packages=(build-essential cmake ninja-build libfmt-dev libcli11-dev libgtest-dev libgmock-dev)
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ "${#missing[@]}" -gt 0 ]; then
+  export DEBIAN_FRONTEND=noninteractive
+  apt-get update -qq
+  apt-get install -y -qq --no-install-recommends "${missing[@]}"
+fi

@@ -1,0 +1,9 @@
+#!/usr/bin/env bash
+# The README's first command: installs dependencies, builds drivetap and decodes a bundled capture
+# (the ERMAN E-9 manual's worked examples, with their checksum errata).
+set -euo pipefail
+cd "$(dirname "${BASH_SOURCE[0]}")/.."
+bash scripts/install-deps.sh
+cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo >/dev/null
+cmake --build build -j "$(nproc 2>/dev/null || echo 2)" >/dev/null
+./build/drivetap read captures/seed-erman-e9/input.log

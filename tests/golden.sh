@@ -1,0 +1,54 @@
+#!/usr/bin/env bash
+# Golden test: `drivetap read` of captures/<name>/input.* must print exactly expected.txt (text)
+# and expected.json (JSON lines). Extra options for a capture go in captures/<name>/args.
+#
+#   tests/golden.sh [--update-golden] [--drivetap BIN] CAPTURE_DIR...
+#   tests/golden.sh --update-golden --drivetap build/drivetap captures/*     # rewrite all
+set -euo pipefail
+
+update=0
+drivetap=""
+dirs=()
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --update-golden) update=1 ;;
+    --drivetap) drivetap="$2"; shift ;;
+    *) dirs+=("$1") ;;
+  esac
+  shift
+done
+here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
+[ -n "$drivetap" ] || drivetap="$here/../build/drivetap"
+drivetap="$(cd "$(dirname "$drivetap")" && pwd)/$(basename "$drivetap")"
+[ "${#dirs[@]}" -gt 0 ] || { echo "usage: golden.sh [--update-golden] [--drivetap BIN] DIR..." >&2; exit 2; }
+
+failed=0
+for dir in "${dirs[@]}"; do
+  [ -d "$dir" ] || continue
+  input=$(cd "$dir" && ls input.* 2>/dev/null | head -n 1)
+  if [ -z "$input" ]; then continue; fi
+  args=()
+  if [ -f "$dir/args" ]; then read -r -a args < "$dir/args"; fi
+  tmp=$(mktemp -d)
+  (cd "$dir" && "$drivetap" read "${args[@]}" "$input" > "$tmp/text" 2> "$tmp/text.err") || {
+    echo "FAIL $dir: drivetap read exited $?"; cat "$tmp/text.err"; failed=1; rm -rf "$tmp"; continue; }
+  (cd "$dir" && "$drivetap" read -T json "${args[@]}" "$input" > "$tmp/json" 2> "$tmp/json.err") || {
+    echo "FAIL $dir: drivetap read -T json exited $?"; cat "$tmp/json.err"; failed=1; rm -rf "$tmp"; continue; }
+  if [ "$update" = 1 ]; then
+    cp "$tmp/text" "$dir/expected.txt"
+    cp "$tmp/json" "$dir/expected.json"
+    echo "updated $dir"
+  else
+    for kind in txt json; do
+      got="$tmp/text"; [ "$kind" = json ] && got="$tmp/json"
+      if ! diff -u "$dir/expected.$kind" "$got" > "$tmp/diff"; then
+        echo "FAIL $dir: output differs from expected.$kind"
+        head -n 60 "$tmp/diff"
+        failed=1
+      fi
+    done
+    [ "$failed" = 0 ] && echo "ok $dir"
+  fi
+  rm -rf "$tmp"
+done
+exit "$failed"

@@ -1,0 +1,166 @@
+// Unit tests: the pipeline stage wiring — direction, pairing outcomes, anomalies, time discipline.
+#include <gtest/gtest.h>
+
+#include "core/checksum.hpp"
+#include "test_support.hpp"
+
+using namespace drivetap;
+using namespace drivetap::testing;
+
+namespace {
+
+std::vector<std::uint8_t> with_crc(std::vector<std::uint8_t> b) {
+  const std::uint16_t c = crc16_modbus(b);
+  b.push_back(static_cast<std::uint8_t>(c & 0xFF));
+  b.push_back(static_cast<std::uint8_t>(c >> 8));
+  return b;
+}
+
+struct Bus {
+  ChannelTable channels;
+  RecordingSink sink;
+  PipelineOptions options;
+  std::unique_ptr<Pipeline> pipeline;
+  TimeNs clock = 0;
+  TimeNs ct;
+
+  explicit Bus(const char* serial = "9600 8N1") {
+    std::string err;
+    options.serial = *SerialConfig::parse(serial, &err);
+    options.timing = FramingTiming::from(options.serial);
+    ct = options.timing.character_time;
+    channels.intern("bus");
+    channels.intern("m");
+    channels.intern("s");
+    pipeline = std::make_unique<Pipeline>(options, channels, sink);
+  }
+  // Sends a frame at the current clock on `channel`, then waits `then` of silence.
+  void send(const std::vector<std::uint8_t>& bytes, TimeNs then = 20 * kNsPerMs,
+            ChannelId channel = 0, std::uint8_t flags_on_first = 0) {
+    for (std::size_t i = 0; i < bytes.size(); ++i) {
+      pipeline->push({clock, bytes[i], i == 0 ? flags_on_first : std::uint8_t{0}, channel});
+      clock += ct;
+    }
+    clock += then;
+  }
+  void finish() { pipeline->finish(); }
+};
+
+const auto kReadReq = with_crc({0x02, 0x03, 0x00, 0x00, 0x00, 0x01});
+const auto kReadRsp = with_crc({0x02, 0x03, 0x02, 0x00, 0x2A});
+const auto kWrite = with_crc({0x02, 0x06, 0x00, 0x10, 0x00, 0x01});
+const auto kException = with_crc({0x02, 0x83, 0x02});
+
+}  // namespace
+
+TEST(Pipeline, PairsReadWithLatency) {
+  Bus b;
+  b.send(kReadReq, 5 * kNsPerMs);
+  b.send(kReadRsp);
+  b.finish();
+  ASSERT_EQ(b.sink.frames.size(), 2u);
+  EXPECT_EQ(b.sink.frames[0].direction, Direction::request);
+  EXPECT_EQ(b.sink.frames[1].direction, Direction::response);
+  ASSERT_EQ(b.sink.transactions.size(), 1u);
+  EXPECT_EQ(b.sink.transactions[0].outcome, Outcome::ok);
+  EXPECT_EQ(b.sink.transactions[0].latency, 5 * kNsPerMs);
+  EXPECT_EQ(b.sink.frames[1].latency, 5 * kNsPerMs);
+  EXPECT_EQ(b.sink.frames[1].request_number, 1u);
+  EXPECT_EQ(b.sink.summaries, 1);
+}
+
+TEST(Pipeline, EchoReplyOfWriteIsTakenAsResponseByOrder) {
+  Bus b;
+  b.send(kWrite, 5 * kNsPerMs);
+  b.send(kWrite, 200 * kNsPerMs);
+  b.send(kWrite, 5 * kNsPerMs);  // next request, then its echo
+  b.send(kWrite);
+  b.finish();
+  ASSERT_EQ(b.sink.frames.size(), 4u);
+  EXPECT_EQ(b.sink.frames[0].direction, Direction::request);
+  EXPECT_EQ(b.sink.frames[1].direction, Direction::response);
+  EXPECT_EQ(b.sink.frames[2].direction, Direction::request);
+  EXPECT_EQ(b.sink.frames[3].direction, Direction::response);
+  EXPECT_EQ(b.sink.count(Outcome::ok), 2u);
+}
+
+TEST(Pipeline, ExceptionTimeoutBroadcastUnsolicited) {
+  Bus b;
+  b.send(kReadReq, 5 * kNsPerMs);
+  b.send(kException);                                      // exception reply
+  b.send(kReadReq, 1500 * kNsPerMs);                       // never answered (timeout 1 s)
+  b.send(with_crc({0x00, 0x06, 0x00, 0x10, 0x00, 0x01}));  // broadcast write
+  b.send(kReadRsp);                                        // nobody asked
+  b.finish();
+  EXPECT_EQ(b.sink.count(Outcome::exception), 1u);
+  EXPECT_EQ(b.sink.count(Outcome::timeout), 1u);
+  EXPECT_EQ(b.sink.count(Outcome::broadcast), 1u);
+  EXPECT_EQ(b.sink.count(Outcome::unsolicited), 1u);
+  EXPECT_EQ(b.sink.count(AnomalyKind::unanswered_request), 1u);
+  EXPECT_EQ(b.sink.count(AnomalyKind::unsolicited_response), 1u);
+  EXPECT_EQ(b.sink.frames[1].exception_code, 2);
+  EXPECT_EQ(b.sink.summary.transactions, 4u);
+}
+
+TEST(Pipeline, MasterAndSlaveChannelsPairAcrossChannels) {
+  Bus b;
+  b.send(kWrite, 3 * kNsPerMs, /*channel m*/ 1);
+  b.send(kWrite, 20 * kNsPerMs, /*channel s*/ 2);
+  b.finish();
+  ASSERT_EQ(b.sink.frames.size(), 2u);
+  EXPECT_EQ(b.sink.frames[0].direction, Direction::request);
+  EXPECT_EQ(b.sink.frames[1].direction, Direction::response);
+  EXPECT_EQ(b.sink.count(Outcome::ok), 1u);
+}
+
+TEST(Pipeline, ShortSilenceBeforeReplyIsATimingFinding) {
+  Bus b;
+  b.send(kReadReq, 2 * b.ct);  // 2 characters < t3.5
+  b.send(kReadRsp);
+  b.finish();
+  ASSERT_EQ(b.sink.frames.size(), 2u);
+  EXPECT_EQ(b.sink.count(AnomalyKind::short_interframe_gap), 1u);
+  EXPECT_EQ(b.sink.count(Outcome::ok), 1u);
+}
+
+TEST(Pipeline, UartFlagsBecomeAnomaliesOfTheFrame) {
+  Bus b;
+  b.send(kReadReq, 20 * kNsPerMs, 0, kUartParityError);
+  b.finish();
+  EXPECT_EQ(b.sink.count(AnomalyKind::uart_parity), 1u);
+  ASSERT_EQ(b.sink.frames.size(), 1u);
+  EXPECT_EQ(b.sink.anomalies[0].frame_number, 1u);
+}
+
+TEST(Pipeline, OverlappingTimestampsAreMovedAfterThePreviousByte) {
+  Bus b;
+  // Whole request and reply stamped with one time: the second byte onwards would overlap.
+  for (std::uint8_t v : kReadReq) b.pipeline->push({1000, v, 0, 0});
+  for (std::uint8_t v : kReadRsp) b.pipeline->push({1000, v, 0, 0});
+  b.finish();
+  ASSERT_EQ(b.sink.frames.size(), 2u);
+  EXPECT_EQ(b.sink.frames[1].frame.start(), 1000 + 8 * b.ct);
+  EXPECT_EQ(b.sink.frames[1].latency, -1) << "no silence visible: latency is not measurable";
+  EXPECT_EQ(b.sink.count(Outcome::ok), 1u);
+}
+
+TEST(Pipeline, SummaryCountsVerdictsAndNoise) {
+  Bus b;
+  auto bad = kReadReq;
+  bad[7] ^= 0xFF;
+  auto swapped = kReadReq;
+  std::swap(swapped[6], swapped[7]);
+  b.send(bad);
+  b.send(swapped);
+  b.send({0xFF});
+  b.finish();
+  const Stats& s = b.sink.summary;
+  EXPECT_EQ(s.frames, 2u);
+  EXPECT_EQ(s.checksum[static_cast<int>(ChecksumVerdict::bad)], 1u);
+  EXPECT_EQ(s.checksum[static_cast<int>(ChecksumVerdict::swapped)], 1u);
+  EXPECT_EQ(s.noise_records, 1u);
+  EXPECT_EQ(s.noise_bytes, 1u);
+  EXPECT_EQ(s.bytes, 17u);
+  EXPECT_EQ(s.anomalies[static_cast<int>(AnomalyKind::crc_bad)], 1u);
+  EXPECT_EQ(s.anomalies[static_cast<int>(AnomalyKind::crc_swapped)], 1u);
+}

@@ -1,0 +1,88 @@
+// Golden check against other people's ground truth: sigrok's frame lists of real Modbus RTU
+// captures (../shared/captures-external/sigrok/modbus_rtu, copied into captures/sigrok-*).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <fstream>
+#include <sstream>
+
+#include "test_support.hpp"
+
+using namespace drivetap;
+using namespace drivetap::testing;
+
+namespace {
+
+struct TruthFrame {
+  TimeNs start;
+  std::string hex;
+};
+
+// Reads a *.frames.csv (columns: label,idx,start_sample,...,hex) at `rate` samples/s.
+std::vector<TruthFrame> read_truth(const std::string& path, std::int64_t rate) {
+  std::ifstream in(path);
+  EXPECT_TRUE(in) << path;
+  std::string line;
+  std::getline(in, line);  // header
+  std::vector<TruthFrame> out;
+  while (std::getline(in, line)) {
+    if (line.empty()) continue;
+    std::vector<std::string> cols;
+    std::stringstream ss(line);
+    std::string col;
+    while (std::getline(ss, col, ',')) cols.push_back(col);
+    if (line.back() == ',') cols.emplace_back();
+    EXPECT_EQ(cols.size(), 11u) << line;
+    if (cols.size() != 11u) continue;
+    std::string hex = cols[10];
+    std::transform(hex.begin(), hex.end(), hex.begin(), ::toupper);
+    out.push_back({std::stoll(cols[2]) * kNsPerSecond / rate, hex});
+  }
+  return out;
+}
+
+void expect_frame_for_frame(const std::string& capture, std::vector<TruthFrame> truth) {
+  std::sort(truth.begin(), truth.end(),
+            [](const TruthFrame& a, const TruthFrame& b) { return a.start < b.start; });
+  RecordingSink sink;
+  ChannelTable channels;
+  std::string error;
+  ASSERT_TRUE(run_byte_log(std::string(DRIVETAP_SOURCE_DIR) + "/captures/" + capture + "/input.log",
+                           sink, channels, &error))
+      << error;
+  EXPECT_TRUE(sink.noise.empty());
+  ASSERT_EQ(sink.frames.size(), truth.size());
+  for (std::size_t i = 0; i < truth.size(); ++i) {
+    EXPECT_EQ(hex_of(sink.frames[i].bytes), truth[i].hex) << "frame " << i + 1;
+    EXPECT_EQ(sink.frames[i].frame.start(), truth[i].start) << "frame " << i + 1;
+    EXPECT_EQ(sink.frames[i].checksum.verdict, ChecksumVerdict::good) << "frame " << i + 1;
+  }
+  // Every request answered: half as many transactions as frames, all ok.
+  EXPECT_EQ(sink.count(Outcome::ok), truth.size() / 2);
+  EXPECT_EQ(sink.transactions.size(), truth.size() / 2);
+  EXPECT_TRUE(sink.anomalies.empty());
+}
+
+std::string dir(const std::string& capture) {
+  return std::string(DRIVETAP_SOURCE_DIR) + "/captures/" + capture + "/";
+}
+
+}  // namespace
+
+TEST(SigrokGroundTruth, FlowmeterGraphTool) {
+  expect_frame_for_frame("sigrok-flowmeter-graph-tool",
+                         read_truth(dir("sigrok-flowmeter-graph-tool") + "frames.csv", 4'000'000));
+}
+
+TEST(SigrokGroundTruth, FlowmeterTarget15LiterPerMin) {
+  expect_frame_for_frame(
+      "sigrok-flowmeter-target-15liter-per-min",
+      read_truth(dir("sigrok-flowmeter-target-15liter-per-min") + "frames.csv", 4'000'000));
+}
+
+TEST(SigrokGroundTruth, BrainchildTwoChannels) {
+  auto truth = read_truth(dir("sigrok-brainchild-io-16do") + "frames_tx.csv", 1'000'000);
+  auto rx = read_truth(dir("sigrok-brainchild-io-16do") + "frames_rx.csv", 1'000'000);
+  truth.insert(truth.end(), rx.begin(), rx.end());
+  expect_frame_for_frame("sigrok-brainchild-io-16do", truth);
+}

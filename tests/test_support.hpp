@@ -1,0 +1,79 @@
+// Test helpers: a sink that records everything, and a runner for byte logs and event vectors.
+#pragma once
+
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "pipeline/pipeline.hpp"
+#include "sources/byte_log.hpp"
+
+namespace drivetap::testing {
+
+struct RecordingSink final : Sink {
+  std::vector<Message> frames;
+  std::vector<Frame> noise;
+  std::vector<Anomaly> anomalies;
+  std::vector<Transaction> transactions;
+  Stats summary;
+  int summaries = 0;
+  void on_frame(const Message& m) override { frames.push_back(m); }
+  void on_noise(const Frame& f) override { noise.push_back(f); }
+  void on_anomaly(const Anomaly& a) override { anomalies.push_back(a); }
+  void on_transaction(const Transaction& t) override { transactions.push_back(t); }
+  void on_summary(const Stats& s) override {
+    summary = s;
+    ++summaries;
+  }
+  bool flush() override { return true; }
+
+  [[nodiscard]] std::size_t count(AnomalyKind k) const {
+    std::size_t n = 0;
+    for (const Anomaly& a : anomalies) n += a.kind == k;
+    return n;
+  }
+  [[nodiscard]] std::size_t count(Outcome o) const {
+    std::size_t n = 0;
+    for (const Transaction& t : transactions) n += t.outcome == o;
+    return n;
+  }
+};
+
+inline std::string hex_of(const std::vector<std::uint8_t>& bytes) {
+  std::string s;
+  char buf[3];
+  for (std::uint8_t b : bytes) {
+    std::snprintf(buf, sizeof buf, "%02X", b);
+    s += buf;
+  }
+  return s;
+}
+
+// Runs a byte log file through the whole pipeline.
+inline bool run_byte_log(const std::string& path, RecordingSink& sink, ChannelTable& channels,
+                         std::string* error) {
+  std::FILE* f = std::fopen(path.c_str(), "rb");
+  if (!f) {
+    *error = "cannot open " + path;
+    return false;
+  }
+  ByteLogReader reader(f, path, channels);
+  if (!reader.read_header()) {
+    *error = reader.error();
+    std::fclose(f);
+    return false;
+  }
+  PipelineOptions p;
+  p.serial = reader.header_serial().value_or(SerialConfig{});
+  p.timing = FramingTiming::from(p.serial);
+  reader.set_character_time(p.timing.character_time);
+  Pipeline pipeline(p, channels, sink);
+  ByteEvent e;
+  while (reader.next(e)) pipeline.push(e);
+  pipeline.finish();
+  std::fclose(f);
+  *error = reader.error();
+  return error->empty();
+}
+
+}  // namespace drivetap::testing
