@@ -17,21 +17,6 @@ double in_characters(TimeNs t, TimeNs character_time) {
   return character_time > 0 ? static_cast<double>(t) / static_cast<double>(character_time) : 0.0;
 }
 
-void add_uart_anomalies(Message& m) {
-  for (std::size_t i = 0; i < m.frame.events.size(); ++i) {
-    const ByteEvent& e = m.frame.events[i];
-    if (e.flags == 0) continue;
-    auto add = [&](AnomalyKind kind, const char* what) {
-      m.anomalies.push_back(
-          {kind, e.time, e.channel, 0, fmt::format("{} on byte {} (0x{:02X})", what, i, e.byte)});
-    };
-    if (e.flags & kUartFramingError) add(AnomalyKind::uart_framing, "framing error");
-    if (e.flags & kUartParityError) add(AnomalyKind::uart_parity, "parity error");
-    if (e.flags & kUartBreak) add(AnomalyKind::uart_break, "break");
-    if (e.flags & kUartOverrun) add(AnomalyKind::uart_overrun, "overrun (bytes lost before)");
-  }
-}
-
 }  // namespace
 
 DirectionFit rtu_direction_fit(std::span<const std::uint8_t> frame) {
@@ -104,7 +89,7 @@ Message dissect_rtu(Frame frame, Direction direction, const FramingTiming& timin
                      in_characters(m.frame.gap_before, timing.character_time),
                      in_characters(timing.t35, timing.character_time))});
   }
-  add_uart_anomalies(m);
+  append_uart_anomalies(m.frame.events, 0, m.anomalies);
   return m;
 }
 

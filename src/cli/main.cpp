@@ -2,6 +2,8 @@
 #include <fmt/format.h>
 #include <CLI/CLI.hpp>
 
+#include <sys/stat.h>
+
 #include <csignal>
 #include <cstdio>
 #include <cstring>
@@ -156,6 +158,9 @@ int run_decode(const CommonOptions& o, const std::vector<std::string>& args) {
 }
 
 int run_read(const CommonOptions& o, const std::string& path) {
+  struct stat st {};
+  if (path != "-" && ::stat(path.c_str(), &st) == 0 && S_ISDIR(st.st_mode))
+    die(fmt::format("{}: is a directory, not a capture file", path), 1);
   std::FILE* in = path == "-" ? stdin : std::fopen(path.c_str(), "rb");
   if (!in) die(fmt::format("{}: cannot open: {}", path, std::strerror(errno)), 1);
   const std::string name = path == "-" ? "<stdin>" : path;

@@ -1,6 +1,8 @@
 // Names of anomaly kinds and protocol/direction ids (output contract of the JSON sink).
 #include "core/anomaly.hpp"
 
+#include <fmt/format.h>
+
 #include "core/message.hpp"
 
 namespace drivetap {
@@ -71,6 +73,22 @@ const char* anomaly_label(AnomalyKind k) {
       break;
   }
   return "unknown";
+}
+
+void append_uart_anomalies(std::span<const ByteEvent> events, std::uint64_t frame_number,
+                           std::vector<Anomaly>& out) {
+  for (std::size_t i = 0; i < events.size(); ++i) {
+    const ByteEvent& e = events[i];
+    if (e.flags == 0) continue;
+    auto add = [&](AnomalyKind kind, const char* what) {
+      out.push_back({kind, e.time, e.channel, frame_number,
+                     fmt::format("{} on byte {} (0x{:02X})", what, i, e.byte)});
+    };
+    if (e.flags & kUartFramingError) add(AnomalyKind::uart_framing, "framing error");
+    if (e.flags & kUartParityError) add(AnomalyKind::uart_parity, "parity error");
+    if (e.flags & kUartBreak) add(AnomalyKind::uart_break, "break");
+    if (e.flags & kUartOverrun) add(AnomalyKind::uart_overrun, "overrun (bytes lost before)");
+  }
 }
 
 const char* protocol_id(Protocol p) {

@@ -3,7 +3,9 @@
 
 #include <array>
 #include <cstdint>
+#include <span>
 #include <string>
+#include <vector>
 
 #include "core/byte_event.hpp"
 #include "core/time.hpp"
@@ -41,5 +43,9 @@ struct Anomaly {
 };
 
 using AnomalyCounts = std::array<std::uint64_t, kAnomalyKindCount>;
+
+// One anomaly per UART mark on `events` (framing, parity, break, overrun), naming the byte.
+void append_uart_anomalies(std::span<const ByteEvent> events, std::uint64_t frame_number,
+                           std::vector<Anomaly>& out);
 
 }  // namespace drivetap

@@ -118,21 +118,9 @@ void Pipeline::handle_frame(Frame& frame) {
     emit_anomaly({AnomalyKind::noise, frame.start(), frame.channel, frame.number,
                   fmt::format("{} byte{} outside any frame: {}", frame.size(),
                               frame.size() == 1 ? "" : "s", hex)});
-    for (std::size_t i = 0; i < frame.events.size(); ++i) {
-      const ByteEvent& e = frame.events[i];
-      if (e.flags == 0) continue;
-      if (e.flags & kUartFramingError)
-        emit_anomaly({AnomalyKind::uart_framing, e.time, e.channel, frame.number,
-                      fmt::format("framing error on noise byte 0x{:02X}", e.byte)});
-      if (e.flags & kUartParityError)
-        emit_anomaly({AnomalyKind::uart_parity, e.time, e.channel, frame.number,
-                      fmt::format("parity error on noise byte 0x{:02X}", e.byte)});
-      if (e.flags & kUartBreak)
-        emit_anomaly({AnomalyKind::uart_break, e.time, e.channel, frame.number, "break"});
-      if (e.flags & kUartOverrun)
-        emit_anomaly({AnomalyKind::uart_overrun, e.time, e.channel, frame.number,
-                      "overrun (bytes lost before)"});
-    }
+    std::vector<Anomaly> uart;
+    append_uart_anomalies(frame.events, frame.number, uart);
+    for (const Anomaly& a : uart) emit_anomaly(a);
     return;
   }
   pairer_.expire(frame.start(), transactions_);
