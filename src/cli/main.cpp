@@ -2,8 +2,6 @@
 #include <fmt/format.h>
 #include <CLI/CLI.hpp>
 
-#include <sys/stat.h>
-
 #include <csignal>
 #include <cstdio>
 #include <cstring>
@@ -14,10 +12,13 @@
 
 #include "core/serial_config.hpp"
 #include "pipeline/pipeline.hpp"
+#include "sinks/capture_sink.hpp"
 #include "sinks/json_sink.hpp"
 #include "sinks/text_sink.hpp"
 #include "sources/byte_log.hpp"
+#include "sources/capture_reader.hpp"
 #include "sources/hex_text.hpp"
+#include "sources/input_file.hpp"
 
 namespace {
 
@@ -34,28 +35,35 @@ struct CommonOptions {
   std::string serial;
   std::string t15;
   std::string t35;
-  std::string timeout = "1s";
-  std::string max_hold = "100ms";
+  std::string timeout;
+  std::string max_hold;
   bool no_summary = false;
   std::string output;
+  std::string write;
+  bool classic_pcap = false;
+  std::string dlt = "upper-pdu";
 };
 
 void add_common_options(CLI::App* cmd, CommonOptions& o) {
   cmd->add_option("-T,--format", o.format, "Output format: text or json (JSON lines)")
       ->check(CLI::IsMember({"text", "json"}));
   cmd->add_flag("-V,--verbose", o.verbose, "Text: show each frame's field tree with byte offsets");
-  cmd->add_option(
-      "-s,--serial", o.serial,
-      "Line settings, e.g. \"19200 8E1\" (default: the capture's header, else 9600 8N1)");
+  cmd->add_option("-s,--serial", o.serial,
+                  "Line settings, e.g. \"19200 8E1\" (default: the capture's, else 9600 8N1)");
   cmd->add_option("--t15", o.t15, "Inter-character limit t1.5: 1.5c, 750us, 1ms (default: Modbus)");
   cmd->add_option("--t35", o.t35, "Inter-frame silence t3.5: 3.5c, 1750us, 2ms (default: Modbus)");
-  cmd->add_option("--timeout", o.timeout, "Reply timeout before a request counts as unanswered")
-      ->capture_default_str();
+  cmd->add_option("--timeout", o.timeout,
+                  "Reply timeout before a request counts as unanswered (default 1s)");
   cmd->add_option("--max-hold", o.max_hold,
-                  "Longest wait for the rest of a frame split by a silence (adapter latency)")
-      ->capture_default_str();
+                  "Longest wait for the rest of a frame split by a silence (default 100ms)");
   cmd->add_flag("--no-summary", o.no_summary, "Do not print the closing summary");
   cmd->add_option("-o,--output", o.output, "Write the text/JSON output to FILE instead of stdout");
+  cmd->add_option("-w,--write", o.write,
+                  "Write every frame as a packet to a pcapng FILE ('-' for stdout)");
+  cmd->add_flag("--pcap", o.classic_pcap, "With -w: classic pcap instead of pcapng");
+  cmd->add_option("--dlt", o.dlt,
+                  "With -w: link type upper-pdu (252, Wireshark decodes it as is) or user0 (147)")
+      ->check(CLI::IsMember({"upper-pdu", "user0"}));
 }
 
 [[noreturn]] void die(const std::string& message, int code = 2) {
@@ -64,12 +72,11 @@ void add_common_options(CLI::App* cmd, CommonOptions& o) {
   std::exit(code);
 }
 
-// Resolves line settings and timing from the options (and a capture header, if any).
-PipelineOptions make_pipeline_options(const CommonOptions& o,
-                                      const std::optional<SerialConfig>& header) {
+// Line settings and timing: the capture's own settings first, the command line over them.
+PipelineOptions make_pipeline_options(const CommonOptions& o, const RunSettings& capture) {
   PipelineOptions p;
   std::string err;
-  SerialConfig serial = header.value_or(SerialConfig{});
+  SerialConfig serial = capture.serial.value_or(SerialConfig{});
   if (!o.serial.empty()) {
     auto parsed = SerialConfig::parse(o.serial, &err, serial);
     if (!parsed) die(fmt::format("--serial: {}", err));
@@ -77,6 +84,13 @@ PipelineOptions make_pipeline_options(const CommonOptions& o,
   }
   p.serial = serial;
   p.timing = FramingTiming::from(serial);
+  // Timing stored by a drivetap capture applies only when its line settings are in force.
+  if (o.serial.empty()) {
+    if (capture.t15) p.timing.t15 = *capture.t15;
+    if (capture.t35) p.timing.t35 = *capture.t35;
+  }
+  if (capture.reply_timeout) p.reply_timeout = *capture.reply_timeout;
+  if (capture.max_hold) p.max_hold = *capture.max_hold;
   auto interval = [&](const std::string& text, const char* option) {
     auto v = parse_interval(text, p.timing.character_time, &err);
     if (!v) die(fmt::format("{}: {}", option, err));
@@ -84,44 +98,76 @@ PipelineOptions make_pipeline_options(const CommonOptions& o,
   };
   if (!o.t15.empty()) p.timing.t15 = interval(o.t15, "--t15");
   if (!o.t35.empty()) p.timing.t35 = interval(o.t35, "--t35");
-  p.reply_timeout = interval(o.timeout, "--timeout");
-  p.max_hold = interval(o.max_hold, "--max-hold");
+  if (!o.timeout.empty()) p.reply_timeout = interval(o.timeout, "--timeout");
+  if (!o.max_hold.empty()) p.max_hold = interval(o.max_hold, "--max-hold");
   if (p.timing.t35 <= 0) die("--t35: must be greater than zero");
   return p;
 }
 
-// Owns the output file and the sink chosen by -T.
-struct Output {
-  std::FILE* file = stdout;
-  std::unique_ptr<Sink> sink;
-
-  Output(const CommonOptions& o, const ChannelTable& channels, TimeNs character_time, bool timed) {
+// Owns the output files and the sinks chosen by -T, -o and -w.
+class Outputs {
+ public:
+  Outputs(const CommonOptions& o, const ChannelTable& channels, const PipelineOptions& p,
+          bool timed)
+      : options_(o) {
+    const bool capture_to_stdout = o.write == "-";
+    if (capture_to_stdout && (o.output.empty() || o.output == "-") && o.format == "json")
+      die("-w - and JSON output cannot share stdout: add -o FILE for the JSON");
     if (!o.output.empty() && o.output != "-") {
-      file = std::fopen(o.output.c_str(), "w");
-      if (!file) die(fmt::format("-o {}: cannot create: {}", o.output, std::strerror(errno)));
+      text_file_ = std::fopen(o.output.c_str(), "w");
+      if (!text_file_) die(fmt::format("-o {}: cannot create: {}", o.output, std::strerror(errno)));
+    } else {
+      // With the capture on stdout, the text goes to stderr as a summary only (like tcpdump).
+      text_file_ = capture_to_stdout ? stderr : stdout;
+    }
+    if (!o.write.empty()) {
+      capture_file_ = capture_to_stdout ? stdout : std::fopen(o.write.c_str(), "wb");
+      if (!capture_file_)
+        die(fmt::format("-w {}: cannot create: {}", o.write, std::strerror(errno)));
+      CaptureSinkOptions c;
+      c.format = o.classic_pcap ? CaptureFormat::pcap : CaptureFormat::pcapng;
+      c.link_type = o.dlt == "user0" ? CaptureLinkType::user0 : CaptureLinkType::upper_pdu;
+      c.serial = p.serial;
+      c.settings = encode_settings(p.timing.t15, p.timing.t35, p.reply_timeout, p.max_hold);
+      capture_ = std::make_unique<CaptureSink>(capture_file_, channels, c);
+      tee_.add(capture_.get());
     }
     if (o.format == "json") {
-      sink = std::make_unique<JsonSink>(file, channels, character_time, timed);
+      text_ = std::make_unique<JsonSink>(text_file_, channels, p.timing.character_time, timed);
     } else {
       TextSinkOptions t;
       t.verbose = o.verbose;
       t.show_time = timed;
       t.summary = !o.no_summary;
-      t.character_time = character_time;
-      sink = std::make_unique<TextSink>(file, channels, t);
+      t.frames = !(capture_to_stdout && text_file_ == stderr);
+      t.character_time = p.timing.character_time;
+      text_ = std::make_unique<TextSink>(text_file_, channels, t);
     }
+    tee_.add(text_.get());
   }
-  // Flushes and closes; reports a failed write (disk full, closed pipe) as an error.
-  int close(const CommonOptions& o) {
-    const bool ok = sink->flush();
-    if (file != stdout) {
-      if (std::fclose(file) != 0 || !ok)
-        die(fmt::format("-o {}: write failed: {}", o.output, std::strerror(errno)), 1);
-    } else if (!ok) {
-      die(fmt::format("writing output failed: {}", std::strerror(errno)), 1);
-    }
-    return 0;
+  Sink& sink() { return tee_; }
+
+  // Flushes and closes every output; a failed write (disk full, closed pipe) is an error.
+  void close() {
+    const bool text_ok = text_->flush();
+    const bool capture_ok = !capture_ || capture_->flush();
+    capture_.reset();
+    if (capture_file_ && capture_file_ != stdout && std::fclose(capture_file_) != 0)
+      die(fmt::format("-w {}: write failed: {}", options_.write, std::strerror(errno)), 1);
+    if (!capture_ok)
+      die(fmt::format("-w {}: write failed: {}", options_.write, std::strerror(errno)), 1);
+    if (text_file_ != stdout && text_file_ != stderr && std::fclose(text_file_) != 0)
+      die(fmt::format("-o {}: write failed: {}", options_.output, std::strerror(errno)), 1);
+    if (!text_ok) die(fmt::format("writing output failed: {}", std::strerror(errno)), 1);
   }
+
+ private:
+  const CommonOptions& options_;
+  std::FILE* text_file_ = stdout;
+  std::FILE* capture_file_ = nullptr;
+  std::unique_ptr<Sink> text_;
+  std::unique_ptr<CaptureSink> capture_;
+  TeeSink tee_;
 };
 
 int run_decode(const CommonOptions& o, const std::vector<std::string>& args) {
@@ -133,7 +179,7 @@ int run_decode(const CommonOptions& o, const std::vector<std::string>& args) {
   }
   ChannelTable channels;
   const ChannelId bus = channels.intern("bus");
-  PipelineOptions p = make_pipeline_options(o, std::nullopt);
+  PipelineOptions p = make_pipeline_options(o, RunSettings{});
   std::vector<ByteEvent> events;
   TimeNs clock = 0;
   // Frames given separately are laid out with a clean silence between them; bytes run together
@@ -150,58 +196,66 @@ int run_decode(const CommonOptions& o, const std::vector<std::string>& args) {
   }
   if (events.empty())
     die("decode: no hex bytes given (e.g. drivetap decode \"01 03 00 00 00 01 84 0A\")");
-  Output out(o, channels, p.timing.character_time, /*timed=*/false);
-  Pipeline pipeline(p, channels, *out.sink);
+  Outputs out(o, channels, p, /*timed=*/false);
+  Pipeline pipeline(p, channels, out.sink());
   for (const ByteEvent& e : events) pipeline.push(e);
   pipeline.finish();
-  return out.close(o);
+  out.close();
+  return 0;
 }
 
 int run_read(const CommonOptions& o, const std::string& path) {
-  struct stat st {};
-  if (path != "-" && ::stat(path.c_str(), &st) == 0 && S_ISDIR(st.st_mode))
-    die(fmt::format("{}: is a directory, not a capture file", path), 1);
-  std::FILE* in = path == "-" ? stdin : std::fopen(path.c_str(), "rb");
-  if (!in) die(fmt::format("{}: cannot open: {}", path, std::strerror(errno)), 1);
-  const std::string name = path == "-" ? "<stdin>" : path;
-  // Recognise the format by content: a byte log starts with a comment, a digit or blank space.
-  const int first = std::fgetc(in);
-  if (first == EOF && std::ferror(in))
-    die(fmt::format("{}: read error: {}", name, std::strerror(errno)), 1);
-  if (first != EOF) {
-    std::ungetc(first, in);
-    const char c = static_cast<char>(first);
-    if (!(c == '#' || (c >= '0' && c <= '9') || c == ' ' || c == '\t' || c == '\n' || c == '\r'))
+  InputFile in;
+  std::string err;
+  if (!open_input(path, &in, &err)) die(err, 1);
+  ChannelTable channels;
+  std::unique_ptr<ByteSource> source;
+  switch (in.format) {
+    case InputFormat::byte_log:
+      source = std::make_unique<ByteLogReader>(in.file, in.name, channels);
+      break;
+    case InputFormat::pcapng:
+      source = std::make_unique<CaptureReader>(in.file, in.name, true, channels);
+      break;
+    case InputFormat::pcap:
+      source = std::make_unique<CaptureReader>(in.file, in.name, false, channels);
+      in.file = nullptr;  // libpcap owns and closes it
+      break;
+    case InputFormat::empty:
+      die(fmt::format("{}: empty file", in.name), 1);
+    case InputFormat::unknown:
       die(fmt::format("{}: offset 0: not a recognised capture format (first byte 0x{:02X}); "
-                      "expected a drivetap byte log",
-                      name, static_cast<unsigned char>(c)),
+                      "expected pcapng, pcap or a drivetap byte log",
+                      in.name, in.head[0]),
           1);
   }
-  ChannelTable channels;
-  ByteLogReader reader(in, name, channels);
-  if (!reader.read_header()) die(reader.error(), 1);
-  PipelineOptions p = make_pipeline_options(o, reader.header_serial());
-  reader.set_character_time(p.timing.character_time);
-  Output out(o, channels, p.timing.character_time, /*timed=*/true);
-  Pipeline pipeline(p, channels, *out.sink);
+  if (!source->read_header()) die(source->error(), 1);
+  PipelineOptions p = make_pipeline_options(o, source->settings());
+  source->set_character_time(p.timing.character_time);
+  Outputs out(o, channels, p, /*timed=*/true);
+  Pipeline pipeline(p, channels, out.sink());
 
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
   ByteEvent e;
   bool interrupted = false;
-  while (reader.next(e)) {
-    for (const Anomaly& a : reader.take_findings()) pipeline.report(a);
+  while (source->next(e)) {
+    for (const Anomaly& a : source->take_findings()) pipeline.report(a);
     pipeline.push(e);
     if (g_stop) {
       interrupted = true;
       break;
     }
   }
-  // Whatever happened, what was read so far is decoded, summarised and flushed.
+  // Whatever happened, what was read so far is decoded, summarised, written and flushed.
   pipeline.finish();
-  out.close(o);
-  if (in != stdin) std::fclose(in);
-  if (!reader.error().empty()) die(reader.error(), 1);
+  out.close();
+  for (const std::string& note : source->notes())
+    std::fprintf(stderr, "drivetap: %s\n", note.c_str());
+  const std::string error = source->error();
+  source.reset();
+  close_input(in);
+  if (!error.empty()) die(error, 1);
   if (interrupted) die("interrupted; output flushed", 130);
   return 0;
 }
@@ -222,7 +276,8 @@ int main(int argc, char** argv) {
 
   CommonOptions read_opts;
   std::string path;
-  CLI::App* read = app.add_subcommand("read", "Decode a capture file (byte log); '-' for stdin");
+  CLI::App* read =
+      app.add_subcommand("read", "Decode a capture: pcapng, pcap or byte log; '-' for stdin");
   add_common_options(read, read_opts);
   read->add_option("file", path, "Capture file")->required();
 

@@ -35,6 +35,10 @@ const char* anomaly_id(AnomalyKind k) {
       return "uart_overrun";
     case AnomalyKind::time_reversed:
       return "time_reversed";
+    case AnomalyKind::packet_split_frame:
+      return "packet_split_frame";
+    case AnomalyKind::packet_merged_frames:
+      return "packet_merged_frames";
     case AnomalyKind::kCount:
       break;
   }
@@ -69,6 +73,10 @@ const char* anomaly_label(AnomalyKind k) {
       return "UART overrun";
     case AnomalyKind::time_reversed:
       return "timestamp went backwards";
+    case AnomalyKind::packet_split_frame:
+      return "frame split over packets";
+    case AnomalyKind::packet_merged_frames:
+      return "packet holds several frames";
     case AnomalyKind::kCount:
       break;
   }

@@ -26,6 +26,8 @@ enum class AnomalyKind : std::uint8_t {
   uart_break,            // line held low for longer than a character
   uart_overrun,          // receiver overrun: bytes were lost before this one
   time_reversed,         // a byte's timestamp is earlier than the previous byte's
+  packet_split_frame,    // a capture packet held only part of a frame (source framed badly)
+  packet_merged_frames,  // a capture packet held more than one frame (source framed badly)
   kCount
 };
 

@@ -29,6 +29,9 @@ struct ByteEvent {
   std::uint8_t byte = 0;   // data bits as received
   std::uint8_t flags = 0;  // UartFlag bits
   ChannelId channel = 0;   // index into the ChannelTable
+  // Source unit the byte came from (packet number in a pcap/pcapng file), 0 when the source
+  // has none. Lets the pipeline report packets that held several frames or part of one.
+  std::uint32_t origin = 0;
 };
 
 // What a channel name tells about direction on the wire.
@@ -51,8 +54,10 @@ struct Channel {
 
 class ChannelTable {
  public:
-  // Returns the id of `name`, adding the channel on first use.
+  // Returns the id of `name`, adding the channel on first use (link and role from the name).
   ChannelId intern(std::string_view name);
+  // Same, with the link and role given explicitly (sources that know them, e.g. IP flows).
+  ChannelId intern(std::string_view name, std::string_view link, ChannelRole role);
   [[nodiscard]] const Channel& at(ChannelId id) const { return channels_.at(id); }
   [[nodiscard]] std::size_t size() const { return channels_.size(); }
   // Index of the link a channel belongs to (dense, 0..link_count()-1).
@@ -65,20 +70,11 @@ class ChannelTable {
   std::vector<std::string> links_;
 };
 
-inline ChannelId ChannelTable::intern(std::string_view name) {
+inline ChannelId ChannelTable::intern(std::string_view name, std::string_view link,
+                                      ChannelRole role) {
   for (std::size_t i = 0; i < channels_.size(); ++i)
     if (channels_[i].name == name) return static_cast<ChannelId>(i);
-  Channel ch;
-  ch.name = std::string(name);
-  std::string_view link = name;
-  if (name == "m" || name == "s" || name == "bus") {
-    link = "";
-  } else if (name.size() > 2 && (name.ends_with(".m") || name.ends_with(".s"))) {
-    link = name.substr(0, name.size() - 2);
-  }
-  if (name == "m" || name.ends_with(".m")) ch.role = ChannelRole::master;
-  if (name == "s" || name.ends_with(".s")) ch.role = ChannelRole::slave;
-  ch.link = std::string(link);
+  Channel ch{std::string(name), std::string(link), role};
   std::size_t link_index = links_.size();
   for (std::size_t i = 0; i < links_.size(); ++i)
     if (links_[i] == ch.link) link_index = i;
@@ -86,6 +82,19 @@ inline ChannelId ChannelTable::intern(std::string_view name) {
   channels_.push_back(std::move(ch));
   link_of_.push_back(link_index);
   return static_cast<ChannelId>(channels_.size() - 1);
+}
+
+inline ChannelId ChannelTable::intern(std::string_view name) {
+  std::string_view link = name;
+  if (name == "m" || name == "s" || name == "bus") {
+    link = "";
+  } else if (name.size() > 2 && (name.ends_with(".m") || name.ends_with(".s"))) {
+    link = name.substr(0, name.size() - 2);
+  }
+  ChannelRole role = ChannelRole::bus;
+  if (name == "m" || name.ends_with(".m")) role = ChannelRole::master;
+  if (name == "s" || name.ends_with(".s")) role = ChannelRole::slave;
+  return intern(name, link, role);
 }
 
 }  // namespace drivetap

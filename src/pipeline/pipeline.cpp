@@ -15,6 +15,9 @@ struct Pipeline::ChannelState {
   ChannelState(ChannelId id, const modbus::RtuFramerOptions& o) : framer(id, o) {}
   modbus::RtuFramer framer;
   TimeNs last_end = std::numeric_limits<TimeNs>::min();
+  std::uint32_t last_frame_origin = 0;       // packet the previous frame ended in
+  std::uint32_t reported_merged_origin = 0;  // packet already reported as holding several frames
+  std::uint64_t last_frame_number = 0;
 };
 
 Pipeline::Pipeline(PipelineOptions options, const ChannelTable& channels, Sink& sink)
@@ -103,6 +106,28 @@ Direction Pipeline::decide_direction(const Frame& frame, std::span<const std::ui
   return Direction::request;
 }
 
+void Pipeline::check_packetization(const Frame& frame) {
+  // Only sources with packets (origin != 0) are checked: a good capture tool puts exactly one
+  // frame in each packet; drivetap re-frames anyway and says where the tool did not.
+  const std::uint32_t first = frame.events.front().origin;
+  const std::uint32_t last = frame.events.back().origin;
+  if (first == 0) return;
+  ChannelState& st = state_for(frame.channel);
+  const char* what = frame.kind == FrameKind::noise ? "noise record" : "frame";
+  if (first != last) {
+    emit_anomaly({AnomalyKind::packet_split_frame, frame.start(), frame.channel, frame.number,
+                  fmt::format("{} #{} spans packets {}..{}", what, frame.number, first, last)});
+  }
+  if (first == st.last_frame_origin && st.reported_merged_origin != first) {
+    emit_anomaly({AnomalyKind::packet_merged_frames, frame.start(), frame.channel, frame.number,
+                  fmt::format("packet {} holds more than one frame (#{} and #{})", first,
+                              st.last_frame_number, frame.number)});
+    st.reported_merged_origin = first;
+  }
+  st.last_frame_origin = last;
+  st.last_frame_number = frame.number;
+}
+
 void Pipeline::handle_frame(Frame& frame) {
   frame.number = ++frame_counter_;
   const std::size_t link = channels_.link_index(frame.channel);
@@ -121,6 +146,7 @@ void Pipeline::handle_frame(Frame& frame) {
     std::vector<Anomaly> uart;
     append_uart_anomalies(frame.events, frame.number, uart);
     for (const Anomaly& a : uart) emit_anomaly(a);
+    check_packetization(frame);
     return;
   }
   pairer_.expire(frame.start(), transactions_);
@@ -134,6 +160,7 @@ void Pipeline::handle_frame(Frame& frame) {
   stats_.count_frame(m);
   sink_.on_frame(m);
   for (const Anomaly& a : m.anomalies) emit_anomaly(a);
+  check_packetization(m.frame);
   emit_transactions(transactions_);
 }
 

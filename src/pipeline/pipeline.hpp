@@ -42,6 +42,7 @@ class Pipeline {
   void advance_all(TimeNs now);
   void handle_frames();
   void handle_frame(Frame& frame);
+  void check_packetization(const Frame& frame);
   Direction decide_direction(const Frame& frame, std::span<const std::uint8_t> bytes,
                              std::size_t link) const;
   void emit_transactions(std::vector<Transaction>& transactions);

@@ -80,6 +80,7 @@ std::string TextSink::prefix(std::uint64_t number, TimeNs time, ChannelId channe
 
 void TextSink::on_frame(const Message& m) {
   last_frame_number_ = m.frame.number;
+  if (!options_.frames) return;
   write(prefix(m.frame.number, m.frame.start(), m.frame.channel) +
         fmt::format("{}  {}", direction_tag(m.direction), frame_summary(m, options_.show_time)));
   if (!options_.verbose) return;
@@ -95,6 +96,7 @@ void TextSink::on_frame(const Message& m) {
 
 void TextSink::on_noise(const Frame& f) {
   last_frame_number_ = f.number;
+  if (!options_.frames) return;
   std::vector<std::uint8_t> bytes = f.bytes();
   write(prefix(f.number, f.start(), f.channel) +
         fmt::format("---  noise: {} byte{} {}", bytes.size(), bytes.size() == 1 ? "" : "s",
@@ -102,6 +104,7 @@ void TextSink::on_noise(const Frame& f) {
 }
 
 void TextSink::on_anomaly(const Anomaly& a) {
+  if (!options_.frames) return;
   // Checksum verdicts are already on the frame line; noise is its own line.
   if (a.kind == AnomalyKind::crc_bad || a.kind == AnomalyKind::crc_swapped ||
       a.kind == AnomalyKind::noise)

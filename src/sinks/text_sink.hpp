@@ -14,6 +14,7 @@ struct TextSinkOptions {
   bool verbose = false;   // -V: field tree with byte offsets under each frame
   bool show_time = true;  // false for `decode`, whose times are synthetic
   bool summary = true;
+  bool frames = true;  // false: only the closing summary (e.g. with -w -)
   TimeNs character_time = 0;
 };
 

@@ -18,10 +18,11 @@
 #include "core/anomaly.hpp"
 #include "core/byte_event.hpp"
 #include "core/serial_config.hpp"
+#include "sources/source.hpp"
 
 namespace drivetap {
 
-class ByteLogReader {
+class ByteLogReader final : public ByteSource {
  public:
   // `in` stays owned by the caller. `name` is used in error messages.
   ByteLogReader(std::FILE* in, std::string name, ChannelTable& channels);
@@ -30,16 +31,17 @@ class ByteLogReader {
   ByteLogReader& operator=(const ByteLogReader&) = delete;
 
   // Reads the comment and header lines before the first data line. Returns false on error.
-  bool read_header();
+  bool read_header() override;
   [[nodiscard]] const std::optional<SerialConfig>& header_serial() const { return header_serial_; }
+  [[nodiscard]] RunSettings settings() const override { return {header_serial_, {}, {}, {}, {}}; }
   // The character time that spaces the bytes of one line (from the effective line settings).
-  void set_character_time(TimeNs t) { character_time_ = t; }
+  void set_character_time(TimeNs t) override { character_time_ = t; }
 
   // Next byte; false at end of input or on error (then error() is non-empty).
-  bool next(ByteEvent& out);
-  [[nodiscard]] const std::string& error() const { return error_; }
+  bool next(ByteEvent& out) override;
+  [[nodiscard]] const std::string& error() const override { return error_; }
   // Findings about the file itself (timestamps going backwards), to hand to the pipeline.
-  std::vector<Anomaly> take_findings();
+  std::vector<Anomaly> take_findings() override;
 
   // True when `head` (the first bytes of a file) looks like a byte log.
   static bool sniff(std::string_view head);

@@ -1,0 +1,392 @@
+// pcapng block reader and writer (pcapng spec; layout in pcapng.hpp; README design notes).
+#include "formats/pcapng.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cstring>
+
+namespace drivetap::pcapng {
+namespace {
+
+void le16(std::vector<std::uint8_t>& o, std::uint16_t v) {
+  o.push_back(static_cast<std::uint8_t>(v));
+  o.push_back(static_cast<std::uint8_t>(v >> 8));
+}
+void le32(std::vector<std::uint8_t>& o, std::uint32_t v) {
+  for (int i = 0; i < 4; ++i) o.push_back(static_cast<std::uint8_t>(v >> (8 * i)));
+}
+void pad4(std::vector<std::uint8_t>& o) {
+  while (o.size() % 4) o.push_back(0);
+}
+void option(std::vector<std::uint8_t>& o, std::uint16_t code, std::span<const std::uint8_t> value) {
+  le16(o, code);
+  le16(o, static_cast<std::uint16_t>(value.size()));
+  o.insert(o.end(), value.begin(), value.end());
+  pad4(o);
+}
+void option(std::vector<std::uint8_t>& o, std::uint16_t code, std::string_view s) {
+  if (s.empty()) return;
+  s = s.substr(0, 0xFFF0);
+  option(o, code, std::span(reinterpret_cast<const std::uint8_t*>(s.data()), s.size()));
+}
+void custom_option(std::vector<std::uint8_t>& o, std::uint16_t code,
+                   std::span<const std::uint8_t> payload) {
+  std::vector<std::uint8_t> v;
+  le32(v, kDrivetapPen);
+  v.insert(v.end(), payload.begin(), payload.end());
+  if (v.size() > 0xFFF0) return;  // cannot be represented; never happens for <= 256-byte frames
+  option(o, code, v);
+}
+
+}  // namespace
+
+void put_varint(std::vector<std::uint8_t>& out, std::uint64_t v) {
+  while (v >= 0x80) {
+    out.push_back(static_cast<std::uint8_t>(v | 0x80));
+    v >>= 7;
+  }
+  out.push_back(static_cast<std::uint8_t>(v));
+}
+
+std::optional<std::uint64_t> get_varint(std::span<const std::uint8_t> data, std::size_t* pos) {
+  std::uint64_t v = 0;
+  for (int shift = 0; shift < 64; shift += 7) {
+    if (*pos >= data.size()) return std::nullopt;
+    const std::uint8_t b = data[(*pos)++];
+    v |= static_cast<std::uint64_t>(b & 0x7F) << shift;
+    if (!(b & 0x80)) return v;
+  }
+  return std::nullopt;
+}
+
+// ---- writer ----
+
+void Writer::block(std::uint32_t type, const std::vector<std::uint8_t>& body) {
+  std::vector<std::uint8_t> b;
+  const auto total = static_cast<std::uint32_t>(12 + body.size());
+  le32(b, type);
+  le32(b, total);
+  b.insert(b.end(), body.begin(), body.end());
+  le32(b, total);
+  if (std::fwrite(b.data(), 1, b.size(), out_) != b.size()) ok_ = false;
+}
+
+void Writer::section_header(std::string_view application) {
+  std::vector<std::uint8_t> body;
+  le32(body, kByteOrderMagic);
+  le16(body, 1);
+  le16(body, 0);
+  le32(body, 0xFFFFFFFF);  // section length unknown (streamed)
+  le32(body, 0xFFFFFFFF);
+  option(body, kOptShbUserApplication, application);
+  le32(body, 0);  // opt_endofopt
+  block(kSectionHeader, body);
+}
+
+void Writer::interface(std::uint16_t link_type, std::string_view name, std::string_view description,
+                       std::string_view drivetap_settings) {
+  std::vector<std::uint8_t> body;
+  le16(body, link_type);
+  le16(body, 0);
+  le32(body, 0);  // snaplen: no limit
+  option(body, kOptIfName, name);
+  option(body, kOptIfDescription, description);
+  const std::uint8_t nanoseconds = 9;
+  option(body, kOptIfTsResolution, std::span(&nanoseconds, 1));
+  if (!drivetap_settings.empty())
+    custom_option(body, kOptCustomString,
+                  std::span(reinterpret_cast<const std::uint8_t*>(drivetap_settings.data()),
+                            drivetap_settings.size()));
+  le32(body, 0);
+  block(kInterfaceDescription, body);
+}
+
+void Writer::packet(const Packet& p) {
+  std::vector<std::uint8_t> body;
+  le32(body, p.interface);
+  const auto ts = static_cast<std::uint64_t>(p.timestamp);
+  le32(body, static_cast<std::uint32_t>(ts >> 32));
+  le32(body, static_cast<std::uint32_t>(ts));
+  le32(body, static_cast<std::uint32_t>(p.data.size()));
+  le32(body, static_cast<std::uint32_t>(p.data.size()));
+  body.insert(body.end(), p.data.begin(), p.data.end());
+  pad4(body);
+  option(body, kOptComment, p.comment);
+  if (p.flags != 0) {
+    std::vector<std::uint8_t> f;
+    le32(f, p.flags);
+    option(body, kOptEpbFlags, f);
+  }
+  if (!p.drivetap_option.empty()) custom_option(body, kOptCustomBinary, p.drivetap_option);
+  le32(body, 0);
+  block(kEnhancedPacket, body);
+}
+
+// ---- reader ----
+
+bool Reader::fail(std::uint64_t at, const std::string& what) {
+  error_ = fmt::format("{}: offset {}: {}", name_, at, what);
+  return false;
+}
+
+bool Reader::read_exact(void* dst, std::size_t n) {
+  const std::size_t got = std::fread(dst, 1, n, in_);
+  offset_ += got;
+  return got == n;
+}
+
+std::uint16_t Reader::u16(const std::uint8_t* p) const {
+  return big_endian_ ? static_cast<std::uint16_t>((p[0] << 8) | p[1])
+                     : static_cast<std::uint16_t>(p[0] | (p[1] << 8));
+}
+std::uint32_t Reader::u32(const std::uint8_t* p) const {
+  return big_endian_ ? (std::uint32_t{p[0]} << 24) | (std::uint32_t{p[1]} << 16) |
+                           (std::uint32_t{p[2]} << 8) | p[3]
+                     : (std::uint32_t{p[3]} << 24) | (std::uint32_t{p[2]} << 16) |
+                           (std::uint32_t{p[1]} << 8) | p[0];
+}
+std::uint64_t Reader::u64(const std::uint8_t* p) const {
+  return big_endian_ ? (std::uint64_t{u32(p)} << 32) | u32(p + 4)
+                     : (std::uint64_t{u32(p + 4)} << 32) | u32(p);
+}
+
+std::string Reader::walk_options(
+    const std::vector<std::uint8_t>& body, std::size_t pos,
+    const std::function<void(std::uint16_t, std::span<const std::uint8_t>)>& fn) const {
+  // Each pass consumes the 4-byte option header plus the padded value, or returns.
+  while (pos + 4 <= body.size()) {
+    const std::uint16_t code = u16(&body[pos]);
+    const std::uint16_t len = u16(&body[pos + 2]);
+    pos += 4;
+    if (code == kOptEnd) return {};
+    if (pos + len > body.size())
+      return fmt::format("option {} claims {} bytes, {} left in the block", code, len,
+                         body.size() - pos);
+    fn(code, std::span<const std::uint8_t>(body.data() + pos, len));
+    const std::size_t padded = (std::size_t{len} + 3) & ~std::size_t{3};
+    pos += std::min(padded, body.size() - pos);
+  }
+  return {};
+}
+
+std::optional<std::span<const std::uint8_t>> Reader::drivetap_payload(
+    std::span<const std::uint8_t> value) const {
+  if (value.size() < 4 || u32(value.data()) != kDrivetapPen) return std::nullopt;
+  return value.subspan(4);
+}
+
+bool Reader::parse_section(const std::vector<std::uint8_t>& body, std::uint64_t at) {
+  // body: magic(4) major(2) minor(2) section length(8) options
+  if (body.size() < 16) return fail(at, "section header block too short");
+  const std::uint32_t magic_le = std::uint32_t{body[0]} | (std::uint32_t{body[1]} << 8) |
+                                 (std::uint32_t{body[2]} << 16) | (std::uint32_t{body[3]} << 24);
+  if (magic_le == kByteOrderMagic) {
+    big_endian_ = false;
+  } else if (magic_le == 0x4D3C2B1A) {
+    big_endian_ = true;
+  } else {
+    return fail(at + 8, fmt::format("bad byte-order magic 0x{:08X}", magic_le));
+  }
+  if (u16(&body[4]) != 1)
+    return fail(at + 12,
+                fmt::format("unsupported pcapng version {}.{}", u16(&body[4]), u16(&body[6])));
+  interfaces_.clear();
+  in_section_ = true;
+  by_drivetap_ = false;
+  const std::string err = walk_options(body, 16, [&](std::uint16_t code, auto value) {
+    if (code == kOptShbUserApplication) {
+      const std::string app(value.begin(), value.end());
+      by_drivetap_ = app.rfind("drivetap", 0) == 0;
+    }
+  });
+  if (!err.empty()) return fail(at, "section header: " + err);
+  return true;
+}
+
+bool Reader::parse_interface(const std::vector<std::uint8_t>& body, std::uint64_t at) {
+  if (body.size() < 8) return fail(at, "interface description block too short");
+  Interface itf;
+  itf.link_type = u16(&body[0]);
+  std::string bad_resolution;
+  const std::string err = walk_options(body, 8, [&](std::uint16_t code, auto value) {
+    switch (code) {
+      case kOptIfName:
+        itf.name.assign(value.begin(), value.end());
+        break;
+      case kOptIfDescription:
+        itf.description.assign(value.begin(), value.end());
+        break;
+      case kOptIfTsResolution: {
+        if (value.empty()) break;
+        const std::uint8_t r = value[0];
+        const unsigned exponent = r & 0x7F;
+        if (r & 0x80) {
+          if (exponent > 62) {
+            bad_resolution = fmt::format("2^-{}", exponent);
+            break;
+          }
+          itf.ts_num = 1'000'000'000;
+          itf.ts_den = std::uint64_t{1} << exponent;
+        } else {
+          if (exponent > 18) {
+            bad_resolution = fmt::format("10^-{}", exponent);
+            break;
+          }
+          std::uint64_t p = 1;
+          for (unsigned i = 0; i < exponent; ++i) p *= 10;
+          itf.ts_num = exponent <= 9 ? 1'000'000'000 / p : 1;
+          itf.ts_den = exponent <= 9 ? 1 : p / 1'000'000'000;
+        }
+        break;
+      }
+      case kOptIfTsOffset:
+        if (value.size() >= 8) itf.ts_offset_s = static_cast<std::int64_t>(u64(value.data()));
+        break;
+      case kOptCustomString:
+        if (auto payload = drivetap_payload(value))
+          itf.drivetap_settings.assign(payload->begin(), payload->end());
+        break;
+      default:
+        break;
+    }
+  });
+  if (!err.empty()) return fail(at, "interface description: " + err);
+  if (!bad_resolution.empty())
+    return fail(at, "unsupported timestamp resolution " + bad_resolution);
+  interfaces_.push_back(std::move(itf));
+  return true;
+}
+
+namespace {
+// value * num / den without overflow for the ranges pcapng allows (128-bit intermediate).
+TimeNs scale_time(std::uint64_t value, const Interface& itf, bool* overflow) {
+  const unsigned __int128 ns = static_cast<unsigned __int128>(value) * itf.ts_num / itf.ts_den;
+  const __int128 total =
+      static_cast<__int128>(ns) + static_cast<__int128>(itf.ts_offset_s) * 1'000'000'000;
+  if (total > INT64_MAX || total < INT64_MIN) {
+    *overflow = true;
+    return 0;
+  }
+  return static_cast<TimeNs>(total);
+}
+}  // namespace
+
+bool Reader::parse_enhanced(const std::vector<std::uint8_t>& body, std::uint64_t at,
+                            PacketRecord& out) {
+  // body: interface(4) ts high(4) ts low(4) captured(4) original(4) data options
+  if (body.size() < 20) return fail(at, "enhanced packet block too short");
+  out = PacketRecord{};
+  out.offset = at;
+  out.interface = u32(&body[0]);
+  if (out.interface >= interfaces_.size())
+    return fail(at + 8, fmt::format("packet names interface {}, but only {} described",
+                                    out.interface, interfaces_.size()));
+  const std::uint64_t ts = (std::uint64_t{u32(&body[4])} << 32) | u32(&body[8]);
+  const std::uint32_t captured = u32(&body[12]);
+  if (captured > body.size() - 20)
+    return fail(at + 20, fmt::format("captured length {} exceeds the block ({} bytes left)",
+                                     captured, body.size() - 20));
+  bool overflow = false;
+  out.timestamp = scale_time(ts, interfaces_[out.interface], &overflow);
+  if (overflow) return fail(at + 12, "timestamp out of range");
+  out.has_timestamp = true;
+  out.data.assign(body.begin() + 20, body.begin() + 20 + captured);
+  const std::size_t options_at = 20 + ((std::size_t{captured} + 3) & ~std::size_t{3});
+  if (options_at >= body.size()) return true;
+  const std::string err = walk_options(body, options_at, [&](std::uint16_t code, auto value) {
+    switch (code) {
+      case kOptComment:
+        out.comment.assign(value.begin(), value.end());
+        break;
+      case kOptEpbFlags:
+        if (value.size() >= 4) out.flags = u32(value.data());
+        break;
+      case kOptCustomBinary:
+        if (auto payload = drivetap_payload(value))
+          out.drivetap_option.assign(payload->begin(), payload->end());
+        break;
+      default:
+        break;
+    }
+  });
+  if (!err.empty()) return fail(at, "enhanced packet: " + err);
+  return true;
+}
+
+bool Reader::parse_simple(const std::vector<std::uint8_t>& body, std::uint64_t at,
+                          PacketRecord& out) {
+  if (body.size() < 4) return fail(at, "simple packet block too short");
+  if (interfaces_.empty()) return fail(at, "simple packet before any interface description");
+  out = PacketRecord{};
+  out.offset = at;
+  const std::uint32_t original = u32(&body[0]);
+  const std::size_t n = std::min<std::size_t>(original, body.size() - 4);
+  out.data.assign(body.begin() + 4, body.begin() + 4 + static_cast<std::ptrdiff_t>(n));
+  return true;
+}
+
+bool Reader::next(PacketRecord& out) {
+  // Each pass consumes one whole block, or returns.
+  while (error_.empty()) {
+    const std::uint64_t at = offset_;
+    std::uint8_t header[8];
+    const std::size_t got = std::fread(header, 1, 8, in_);
+    offset_ += got;
+    if (got == 0) {
+      if (std::ferror(in_)) return fail(at, std::string("read error: ") + std::strerror(errno));
+      if (!in_section_) return fail(at, "empty file: no pcapng section header");
+      return false;
+    }
+    if (got < 8) return fail(at, fmt::format("truncated block header ({} of 8 bytes)", got));
+    std::uint32_t type = u32(header);
+    if (type == kSectionHeader) {
+      // The byte order of a section is only known from its magic: peek at it.
+      std::uint8_t magic[4];
+      if (!read_exact(magic, 4)) return fail(at + 8, "truncated section header");
+      big_endian_ = magic[0] == 0x1A;
+      body_.assign(magic, magic + 4);
+    } else if (!in_section_) {
+      return fail(at, fmt::format("not a pcapng file: first block type 0x{:08X}", type));
+    } else {
+      body_.clear();
+    }
+    const std::uint32_t total = u32(header + 4);
+    if (total < 12 || total % 4 != 0)
+      return fail(at + 4, fmt::format("block length {} is not a multiple of 4 >= 12", total));
+    if (total > kMaxBlockLength)
+      return fail(at + 4,
+                  fmt::format("block length {} exceeds the {}-byte limit", total, kMaxBlockLength));
+    const std::size_t body_len = total - 12;
+    const std::size_t already = body_.size();
+    if (already > body_len) return fail(at + 4, "section header block too short");
+    body_.resize(body_len);
+    if (!read_exact(body_.data() + already, body_len - already))
+      return fail(at, fmt::format("truncated block: {} bytes announced, file ends at offset {}",
+                                  total, offset_));
+    std::uint8_t trailer[4];
+    if (!read_exact(trailer, 4))
+      return fail(at, fmt::format("truncated block: {} bytes announced, file ends at offset {}",
+                                  total, offset_));
+    if (u32(trailer) != total)
+      return fail(offset_ - 4, fmt::format("trailing block length {} differs from leading {}",
+                                           u32(trailer), total));
+    switch (type) {
+      case kSectionHeader:
+        if (!parse_section(body_, at)) return false;
+        break;
+      case kInterfaceDescription:
+        if (!parse_interface(body_, at)) return false;
+        break;
+      case kEnhancedPacket:
+        return parse_enhanced(body_, at, out);
+      case kSimplePacket:
+        return parse_simple(body_, at, out);
+      default:
+        break;  // other blocks carry nothing drivetap uses
+    }
+  }
+  return false;
+}
+
+}  // namespace drivetap::pcapng

@@ -1,0 +1,152 @@
+// pcapng reader and writer, hand-written (pcapng spec, draft-ietf-opsawg-pcapng; see README
+// design notes). Only the blocks drivetap needs are interpreted: SHB, IDB, EPB, SPB; others are
+// skipped by their length.
+//
+//   block:  +------------+--------------+---------------- ... ----+--------------+
+//           | type (4)   | total len (4)| body (padded to 4)       | total len (4)|
+//           +------------+--------------+---------------- ... ----+--------------+
+//   option: | code (2) | length (2) | value (padded to 4) |   ...   | 0 | 0 |
+//
+// drivetap's own data rides in custom options (code 2988 string / 2989 binary) under Private
+// Enterprise Number 32473 (RFC 5612's documentation number), written in the section's byte
+// order as the spec requires:
+//   IDB, 2988: "drivetap t15=<ns> t35=<ns> timeout=<ns> max_hold=<ns>"  (settings of the run)
+//   EPB, 2989: "DT" version(1)=1 kind(1: 0 telegram, 1 noise) count(varint)
+//              then per byte: time delta (zigzag varint, ns from the previous byte's start;
+//              the first from the packet timestamp), UART flags (1 byte), and source packet
+//              delta (zigzag varint from the previous byte's; the first from 0): the packet of
+//              the original capture the byte came from, 0 when it had none
+#pragma once
+
+#include <cstdint>
+#include <cstdio>
+#include <functional>
+#include <optional>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "core/time.hpp"
+
+namespace drivetap::pcapng {
+
+inline constexpr std::uint32_t kSectionHeader = 0x0A0D0D0A;
+inline constexpr std::uint32_t kInterfaceDescription = 1;
+inline constexpr std::uint32_t kSimplePacket = 3;
+inline constexpr std::uint32_t kEnhancedPacket = 6;
+inline constexpr std::uint32_t kByteOrderMagic = 0x1A2B3C4D;
+
+inline constexpr std::uint16_t kOptEnd = 0;
+inline constexpr std::uint16_t kOptComment = 1;
+inline constexpr std::uint16_t kOptShbUserApplication = 4;
+inline constexpr std::uint16_t kOptIfName = 2;
+inline constexpr std::uint16_t kOptIfDescription = 3;
+inline constexpr std::uint16_t kOptIfTsResolution = 9;
+inline constexpr std::uint16_t kOptIfTsOffset = 14;
+inline constexpr std::uint16_t kOptEpbFlags = 2;
+inline constexpr std::uint16_t kOptCustomString = 2988;
+inline constexpr std::uint16_t kOptCustomBinary = 2989;
+inline constexpr std::uint32_t kDrivetapPen = 32473;
+
+// EPB flags: bits 0-1 direction (1 inbound, 2 outbound); bit 24 CRC error.
+inline constexpr std::uint32_t kFlagInbound = 1;
+inline constexpr std::uint32_t kFlagOutbound = 2;
+inline constexpr std::uint32_t kFlagCrcError = 1u << 24;
+
+// Largest block accepted when reading: bounds memory on hostile files.
+inline constexpr std::uint32_t kMaxBlockLength = 16u << 20;
+
+class Writer {
+ public:
+  explicit Writer(std::FILE* out) : out_(out) {}
+  void section_header(std::string_view application);
+  void interface(std::uint16_t link_type, std::string_view name, std::string_view description,
+                 std::string_view drivetap_settings);
+  struct Packet {
+    std::uint32_t interface = 0;
+    TimeNs timestamp = 0;
+    std::span<const std::uint8_t> data;
+    std::uint32_t flags = 0;
+    std::string_view comment;
+    std::span<const std::uint8_t> drivetap_option;  // EPB custom option payload (after the PEN)
+  };
+  void packet(const Packet& p);
+  [[nodiscard]] bool ok() const { return ok_; }
+
+ private:
+  void block(std::uint32_t type, const std::vector<std::uint8_t>& body);
+  std::FILE* out_;
+  bool ok_ = true;
+};
+
+struct Interface {
+  std::uint16_t link_type = 0;
+  std::string name;
+  std::string description;
+  std::string drivetap_settings;  // from our custom IDB option, empty otherwise
+  // Timestamp units: value * num / den nanoseconds (if_tsresol), plus offset seconds.
+  std::uint64_t ts_num = 1000;
+  std::uint64_t ts_den = 1;
+  std::int64_t ts_offset_s = 0;
+};
+
+struct PacketRecord {
+  std::uint32_t interface = 0;
+  TimeNs timestamp = 0;
+  bool has_timestamp = false;  // false for simple packet blocks
+  std::vector<std::uint8_t> data;
+  std::optional<std::uint32_t> flags;
+  std::string comment;
+  std::vector<std::uint8_t> drivetap_option;  // our EPB custom option payload, after the PEN
+  std::uint64_t offset = 0;                   // file offset of the block
+};
+
+class Reader {
+ public:
+  Reader(std::FILE* in, std::string name) : in_(in), name_(std::move(name)) {}
+  // Next packet block; false at a clean end of file or on error (error() non-empty).
+  bool next(PacketRecord& out);
+  [[nodiscard]] const std::string& error() const { return error_; }
+  [[nodiscard]] const std::vector<Interface>& interfaces() const { return interfaces_; }
+  [[nodiscard]] bool written_by_drivetap() const { return by_drivetap_; }
+  [[nodiscard]] std::uint64_t offset() const { return offset_; }
+
+ private:
+  bool fail(std::uint64_t at, const std::string& what);
+  bool read_exact(void* dst, std::size_t n);
+  std::uint16_t u16(const std::uint8_t* p) const;
+  std::uint32_t u32(const std::uint8_t* p) const;
+  std::uint64_t u64(const std::uint8_t* p) const;
+  std::string walk_options(
+      const std::vector<std::uint8_t>& body, std::size_t pos,
+      const std::function<void(std::uint16_t, std::span<const std::uint8_t>)>& fn) const;
+  std::optional<std::span<const std::uint8_t>> drivetap_payload(
+      std::span<const std::uint8_t> value) const;
+  bool parse_section(const std::vector<std::uint8_t>& body, std::uint64_t at);
+  bool parse_interface(const std::vector<std::uint8_t>& body, std::uint64_t at);
+  bool parse_enhanced(const std::vector<std::uint8_t>& body, std::uint64_t at, PacketRecord& out);
+  bool parse_simple(const std::vector<std::uint8_t>& body, std::uint64_t at, PacketRecord& out);
+
+  std::FILE* in_;
+  std::string name_;
+  std::string error_;
+  std::uint64_t offset_ = 0;
+  bool big_endian_ = false;
+  bool in_section_ = false;
+  bool by_drivetap_ = false;
+  std::vector<Interface> interfaces_;
+  std::vector<std::uint8_t> body_;
+};
+
+// Varint helpers for the drivetap EPB option.
+void put_varint(std::vector<std::uint8_t>& out, std::uint64_t v);
+std::optional<std::uint64_t> get_varint(std::span<const std::uint8_t> data, std::size_t* pos);
+inline std::uint64_t zigzag(std::int64_t v) {
+  return (static_cast<std::uint64_t>(v) << 1) ^ static_cast<std::uint64_t>(v >> 63);
+}
+inline std::int64_t unzigzag(std::uint64_t v) {
+  return static_cast<std::int64_t>(v >> 1) ^ -static_cast<std::int64_t>(v & 1);
+}
+
+}  // namespace drivetap::pcapng

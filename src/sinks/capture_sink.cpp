@@ -1,0 +1,169 @@
+// Capture sink: pcapng (our writer) or classic pcap (libpcap) output (README "pcapng output").
+#include "sinks/capture_sink.hpp"
+
+#include <fmt/format.h>
+#include <pcap/pcap.h>
+
+#include "formats/link_layer.hpp"
+#include "formats/upper_pdu.hpp"
+#include "sinks/text_sink.hpp"
+
+namespace drivetap {
+
+struct CaptureSink::Pending {
+  std::uint64_t number = 0;
+  ChannelId channel = 0;
+  FrameKind kind = FrameKind::telegram;
+  std::vector<ByteEvent> events;
+  std::vector<std::uint8_t> bytes;
+  Direction direction = Direction::unknown;
+  bool crc_error = false;
+  bool broadcast = false;
+  std::string protocol_column;
+  std::string comment;
+};
+
+CaptureSink::CaptureSink(std::FILE* out, const ChannelTable& channels, CaptureSinkOptions options)
+    : out_(out), channels_(channels), options_(std::move(options)), ng_(out) {
+  if (options_.format == CaptureFormat::pcapng) {
+    ng_.section_header("drivetap 0.1.0");
+    return;
+  }
+  const int dlt = options_.link_type == CaptureLinkType::user0 ? DLT_USER0 : kLinkTypeUpperPdu;
+  pcap_ = pcap_open_dead_with_tstamp_precision(dlt, 65535, PCAP_TSTAMP_PRECISION_NANO);
+  if (pcap_) dumper_ = pcap_dump_fopen(pcap_, out_);
+  if (!dumper_) failed_ = true;
+}
+
+CaptureSink::~CaptureSink() {
+  if (dumper_) pcap_dump_flush(dumper_);  // the FILE stays the caller's: no pcap_dump_close
+  if (pcap_) pcap_close(pcap_);
+}
+
+std::uint32_t CaptureSink::interface_for(ChannelId channel) {
+  if (interface_of_channel_.size() <= channel) interface_of_channel_.resize(channel + 1u, -1);
+  if (interface_of_channel_[channel] < 0) {
+    const std::uint16_t link = options_.link_type == CaptureLinkType::user0
+                                   ? static_cast<std::uint16_t>(kLinkTypeUser0)
+                                   : static_cast<std::uint16_t>(kLinkTypeUpperPdu);
+    ng_.interface(link, channels_.at(channel).name, options_.serial.to_string(), options_.settings);
+    interface_of_channel_[channel] = interfaces_++;
+  }
+  return static_cast<std::uint32_t>(interface_of_channel_[channel]);
+}
+
+void CaptureSink::on_frame(const Message& m) {
+  write_pending();
+  pending_ = std::make_unique<Pending>();
+  Pending& p = *pending_;
+  p.number = m.frame.number;
+  p.channel = m.frame.channel;
+  p.kind = FrameKind::telegram;
+  p.events = m.frame.events;
+  p.bytes = m.bytes;
+  p.direction = m.direction;
+  p.crc_error =
+      m.checksum.verdict == ChecksumVerdict::bad || m.checksum.verdict == ChecksumVerdict::swapped;
+  p.broadcast = m.address == 0;
+  p.protocol_column = p.broadcast ? std::string(protocol_label(m.protocol)) + " broadcast"
+                                  : std::string(protocol_label(m.protocol));
+  p.comment = frame_summary(m, true);
+}
+
+void CaptureSink::on_noise(const Frame& f) {
+  write_pending();
+  pending_ = std::make_unique<Pending>();
+  Pending& p = *pending_;
+  p.number = f.number;
+  p.channel = f.channel;
+  p.kind = FrameKind::noise;
+  p.events = f.events;
+  p.bytes = f.bytes();
+  p.protocol_column = "noise";
+  p.comment = fmt::format("noise: {} byte{} outside any frame", p.bytes.size(),
+                          p.bytes.size() == 1 ? "" : "s");
+}
+
+void CaptureSink::on_anomaly(const Anomaly& a) {
+  if (!pending_ || a.frame_number != pending_->number) return;
+  if (a.kind == AnomalyKind::crc_bad || a.kind == AnomalyKind::crc_swapped ||
+      a.kind == AnomalyKind::noise)
+    return;  // already in the comment's decode
+  pending_->comment += fmt::format("; {}: {}", anomaly_label(a.kind), a.detail);
+}
+
+void CaptureSink::write_pending() {
+  if (!pending_ || failed_) {
+    pending_.reset();
+    return;
+  }
+  const Pending& p = *pending_;
+  std::vector<std::uint8_t> data;
+  if (options_.link_type == CaptureLinkType::upper_pdu) {
+    upper_pdu::Tags tags;
+    if (p.kind == FrameKind::telegram) {
+      tags.dissector = "mbrtu";
+      // Wireshark's Modbus RTU dissector tells queries from responses by port: destination 0
+      // (its default RTU "port" range) marks a query, source 0 a response.
+      if (p.direction == Direction::request) {
+        tags.source_port = 1;
+        tags.destination_port = 0;
+      } else if (p.direction == Direction::response) {
+        tags.source_port = 0;
+        tags.destination_port = 1;
+      }
+    } else {
+      tags.dissector = "data";
+      tags.info_column = p.comment;
+    }
+    tags.protocol_column = p.protocol_column;
+    if (p.direction == Direction::request) tags.direction = upper_pdu::kDirectionSent;
+    if (p.direction == Direction::response) tags.direction = upper_pdu::kDirectionReceived;
+    upper_pdu::append_tags(tags, data);
+  }
+  data.insert(data.end(), p.bytes.begin(), p.bytes.end());
+  const TimeNs timestamp = p.events.empty() ? 0 : p.events.front().time;
+
+  if (options_.format == CaptureFormat::pcap) {
+    struct pcap_pkthdr h {};
+    h.ts.tv_sec = static_cast<time_t>(timestamp / kNsPerSecond);
+    h.ts.tv_usec = static_cast<suseconds_t>(timestamp % kNsPerSecond);  // ns precision
+    h.caplen = h.len = static_cast<bpf_u_int32>(data.size());
+    pcap_dump(reinterpret_cast<u_char*>(dumper_), &h, data.data());
+  } else {
+    std::vector<std::uint8_t> option = {'D', 'T', 1,
+                                        static_cast<std::uint8_t>(p.kind == FrameKind::noise)};
+    pcapng::put_varint(option, p.events.size());
+    TimeNs previous = timestamp;
+    std::int64_t previous_origin = 0;
+    for (const ByteEvent& e : p.events) {
+      pcapng::put_varint(option, pcapng::zigzag(e.time - previous));
+      option.push_back(e.flags);
+      pcapng::put_varint(option,
+                         pcapng::zigzag(static_cast<std::int64_t>(e.origin) - previous_origin));
+      previous = e.time;
+      previous_origin = e.origin;
+    }
+    pcapng::Writer::Packet pkt;
+    pkt.interface = interface_for(p.channel);
+    pkt.timestamp = timestamp;
+    pkt.data = data;
+    if (p.direction == Direction::request) pkt.flags |= pcapng::kFlagOutbound;
+    if (p.direction == Direction::response) pkt.flags |= pcapng::kFlagInbound;
+    if (p.crc_error) pkt.flags |= pcapng::kFlagCrcError;
+    pkt.comment = p.comment;
+    pkt.drivetap_option = option;
+    ng_.packet(pkt);
+    if (!ng_.ok()) failed_ = true;
+  }
+  ++packets_;
+  pending_.reset();
+}
+
+bool CaptureSink::flush() {
+  write_pending();
+  if (dumper_ && pcap_dump_flush(dumper_) != 0) failed_ = true;
+  return std::fflush(out_) == 0 && !failed_ && !std::ferror(out_);
+}
+
+}  // namespace drivetap

@@ -1,0 +1,69 @@
+// Capture sink: every frame and noise record as one packet of a pcapng (default) or classic pcap
+// file that Wireshark opens (README "pcapng output").
+//
+// Link type 252 (Wireshark upper PDU): each packet starts with exported-PDU tags naming the
+// dissector ("mbrtu" for Modbus RTU, "data" for noise), the protocol column text and the
+// direction (P2P sent = master -> slave), then the frame bytes. `--dlt user0` writes the bare
+// bytes with link type 147 instead (Wireshark then needs a user DLT entry, see README).
+// pcapng only: one interface per channel (name, line settings as description), EPB direction
+// flags (outbound = master -> slave), the CRC-error flag bit, drivetap's annotation as the packet
+// comment, and per-byte times and UART marks in a custom option, so that reading the file back
+// reproduces the run exactly.
+#pragma once
+
+#include <cstdio>
+#include <memory>
+#include <vector>
+
+#include "core/byte_event.hpp"
+#include "core/serial_config.hpp"
+#include "formats/pcapng.hpp"
+#include "sinks/sink.hpp"
+
+// libpcap handles (pcap/pcap.h stays out of our headers).
+struct pcap;
+struct pcap_dumper;
+
+namespace drivetap {
+
+enum class CaptureFormat { pcapng, pcap };
+enum class CaptureLinkType { upper_pdu, user0 };
+
+struct CaptureSinkOptions {
+  CaptureFormat format = CaptureFormat::pcapng;
+  CaptureLinkType link_type = CaptureLinkType::upper_pdu;
+  SerialConfig serial;
+  std::string settings;  // encode_settings(...) of the run, stored per interface
+};
+
+class CaptureSink final : public Sink {
+ public:
+  CaptureSink(std::FILE* out, const ChannelTable& channels, CaptureSinkOptions options);
+  ~CaptureSink() override;
+  void on_frame(const Message& message) override;
+  void on_noise(const Frame& noise) override;
+  void on_anomaly(const Anomaly& anomaly) override;
+  void on_transaction(const Transaction&) override {}
+  void on_summary(const Stats&) override {}
+  bool flush() override;
+  [[nodiscard]] std::uint64_t packets() const { return packets_; }
+
+ private:
+  struct Pending;
+  void write_pending();
+  std::uint32_t interface_for(ChannelId channel);
+
+  std::FILE* out_;
+  const ChannelTable& channels_;
+  CaptureSinkOptions options_;
+  pcapng::Writer ng_;
+  ::pcap* pcap_ = nullptr;
+  ::pcap_dumper* dumper_ = nullptr;
+  std::vector<std::int64_t> interface_of_channel_;  // -1: no IDB yet
+  std::uint32_t interfaces_ = 0;
+  std::uint64_t packets_ = 0;
+  std::unique_ptr<Pending> pending_;  // a frame waits for its anomalies (they go in the comment)
+  bool failed_ = false;
+};
+
+}  // namespace drivetap

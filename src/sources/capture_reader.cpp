@@ -1,0 +1,244 @@
+// Capture reader: pcapng (ours) and classic pcap (libpcap) into byte events (README "pcap").
+#include "sources/capture_reader.hpp"
+
+#include <fmt/format.h>
+#include <pcap/pcap.h>
+
+#include <cstring>
+#include <sstream>
+
+#include "formats/link_layer.hpp"
+
+namespace drivetap {
+
+std::string encode_settings(TimeNs t15, TimeNs t35, TimeNs timeout, TimeNs max_hold) {
+  return fmt::format("drivetap t15={} t35={} timeout={} max_hold={}", t15, t35, timeout, max_hold);
+}
+
+RunSettings decode_settings(const std::string& description, const std::string& settings) {
+  RunSettings r;
+  std::string err;
+  if (auto serial = SerialConfig::parse(description, &err)) r.serial = serial;
+  std::istringstream in(settings);
+  std::string word;
+  in >> word;
+  if (word != "drivetap") return r;
+  while (in >> word) {
+    const auto eq = word.find('=');
+    if (eq == std::string::npos) continue;
+    const std::string key = word.substr(0, eq);
+    TimeNs value = 0;
+    try {
+      value = std::stoll(word.substr(eq + 1));
+    } catch (...) {
+      continue;  // a value we cannot read is ignored: the command line still decides
+    }
+    if (value < 0) continue;
+    if (key == "t15") r.t15 = value;
+    if (key == "t35") r.t35 = value;
+    if (key == "timeout") r.reply_timeout = value;
+    if (key == "max_hold") r.max_hold = value;
+  }
+  return r;
+}
+
+CaptureReader::CaptureReader(std::FILE* in, std::string name, bool pcapng, ChannelTable& channels)
+    : name_(std::move(name)), pcapng_(pcapng), channels_(channels) {
+  if (pcapng_) {
+    ng_ = std::make_unique<pcapng::Reader>(in, name_);
+    return;
+  }
+  char errbuf[PCAP_ERRBUF_SIZE] = {0};
+  pcap_ = pcap_fopen_offline_with_tstamp_precision(in, PCAP_TSTAMP_PRECISION_NANO, errbuf);
+  if (!pcap_) {
+    error_ = fmt::format("{}: offset 0: {}", name_, errbuf);
+    std::fclose(in);
+    return;
+  }
+  pcap_link_type_ = static_cast<std::uint32_t>(pcap_datalink(pcap_));
+}
+
+CaptureReader::~CaptureReader() {
+  if (pcap_) pcap_close(pcap_);
+}
+
+void CaptureReader::skip(const std::string& why, std::uint64_t where) {
+  Skipped& s = skipped_[why];
+  if (s.count++ == 0) s.first = where;
+}
+
+std::vector<std::string> CaptureReader::notes() const {
+  std::vector<std::string> out;
+  for (const auto& [why, s] : skipped_)
+    out.push_back(fmt::format("{}: skipped {} packet{} ({}), first: packet {}", name_, s.count,
+                              s.count == 1 ? "" : "s", why, s.first));
+  return out;
+}
+
+ChannelId CaptureReader::channel_for(const std::string& base, const SerialPayload& payload) {
+  if (!payload.flow.empty())
+    return channels_.intern(payload.flow, payload.flow_link, ChannelRole::bus);
+  if (payload.outbound)
+    return channels_.intern(base + (*payload.outbound ? ".tx" : ".rx"), base, ChannelRole::bus);
+  return channels_.intern(base);
+}
+
+void CaptureReader::lay_out(std::span<const std::uint8_t> bytes, TimeNs timestamp,
+                            ChannelId channel, const std::vector<std::uint8_t>& option) {
+  queue_.clear();
+  queue_pos_ = 0;
+  const std::uint32_t origin = held_.origin;
+  // drivetap's own option: exact per-byte times and UART marks.
+  if (option.size() >= 4 && option[0] == 'D' && option[1] == 'T' && option[2] == 1) {
+    std::size_t pos = 4;
+    auto count = pcapng::get_varint(option, &pos);
+    if (count && *count == bytes.size()) {
+      TimeNs t = timestamp;
+      std::int64_t source_packet = 0;
+      bool good = true;
+      for (std::size_t i = 0; i < bytes.size() && good; ++i) {
+        auto delta = pcapng::get_varint(option, &pos);
+        if (!delta || pos >= option.size()) {
+          good = false;
+          break;
+        }
+        const std::uint8_t flags = option[pos++];
+        auto origin_delta = pcapng::get_varint(option, &pos);
+        if (!origin_delta) {
+          good = false;
+          break;
+        }
+        t += pcapng::unzigzag(*delta);
+        source_packet += pcapng::unzigzag(*origin_delta);
+        if (source_packet < 0 || source_packet > UINT32_MAX) {
+          good = false;
+          break;
+        }
+        // The byte keeps the packet number of the capture it was first read from.
+        queue_.push_back({t, bytes[i], flags, channel, static_cast<std::uint32_t>(source_packet)});
+      }
+      if (good) return;
+      queue_.clear();
+    }
+  }
+  // Other tools: the packet was stamped when its last byte had arrived.
+  const TimeNs n = static_cast<TimeNs>(bytes.size());
+  for (std::size_t i = 0; i < bytes.size(); ++i) {
+    const TimeNs start = timestamp - (n - static_cast<TimeNs>(i)) * character_time_;
+    queue_.push_back({start, bytes[i], 0, channel, origin});
+  }
+}
+
+bool CaptureReader::load_pcapng_packet() {
+  pcapng::PacketRecord rec;
+  // Each pass consumes one packet block, or returns.
+  while (ng_->next(rec)) {
+    ++packets_;
+    const pcapng::Interface& itf = ng_->interfaces().at(rec.interface);
+    if (packets_ == 1 || settings_.serial == std::nullopt) {
+      if (ng_->written_by_drivetap())
+        settings_ = decode_settings(itf.description, itf.drivetap_settings);
+    }
+    if (!link_type_supported(itf.link_type)) {
+      skip(fmt::format("link type {} carries no serial bytes drivetap reads", itf.link_type),
+           packets_);
+      continue;
+    }
+    std::string why;
+    bool fatal = false;
+    auto payload = extract_serial_payload(itf.link_type, rec.data, &why, &fatal);
+    if (!payload) {
+      skip(fatal ? fmt::format("malformed: {}", why) : why, packets_);
+      continue;
+    }
+    const bool ours = ng_->written_by_drivetap() && !rec.drivetap_option.empty();
+    std::string base = itf.name;
+    if (base.empty())
+      base = ng_->interfaces().size() == 1 ? "bus" : fmt::format("if{}", rec.interface);
+    if (!ours && rec.flags && (*rec.flags & 3) != 0 && !payload->outbound && payload->flow.empty())
+      payload->outbound = (*rec.flags & 3) == pcapng::kFlagOutbound;
+    if (ours) payload->outbound.reset();  // our channel names already say everything
+    const ChannelId ch = channel_for(base, *payload);
+    hold(payload->bytes, rec.timestamp, ch,
+         ours ? std::move(rec.drivetap_option) : std::vector<std::uint8_t>{});
+    return true;
+  }
+  if (!ng_->error().empty()) error_ = ng_->error();
+  return false;
+}
+
+bool CaptureReader::load_pcap_packet() {
+  struct pcap_pkthdr* header = nullptr;
+  const u_char* data = nullptr;
+  // Each pass consumes one packet, or returns.
+  while (true) {
+    const long before = pcap_file(pcap_) ? std::ftell(pcap_file(pcap_)) : -1;
+    const int rc = pcap_next_ex(pcap_, &header, &data);
+    if (rc == PCAP_ERROR_BREAK) return false;  // end of file
+    if (rc != 1) {
+      error_ = before >= 0
+                   ? fmt::format("{}: offset {}: packet {}: {}", name_, before, packets_ + 1,
+                                 pcap_geterr(pcap_))
+                   : fmt::format("{}: packet {}: {}", name_, packets_ + 1, pcap_geterr(pcap_));
+      return false;
+    }
+    ++packets_;
+    if (!link_type_supported(pcap_link_type_)) {
+      error_ = fmt::format(
+          "{}: link type {} is not one drivetap reads (147-162, 250, 252, or "
+          "Modbus RTU over UDP/TCP)",
+          name_, pcap_link_type_);
+      return false;
+    }
+    std::string why;
+    bool fatal = false;
+    auto payload = extract_serial_payload(
+        pcap_link_type_, std::span<const std::uint8_t>(data, header->caplen), &why, &fatal);
+    if (!payload) {
+      skip(fatal ? fmt::format("malformed: {}", why) : why, packets_);
+      continue;
+    }
+    const TimeNs ts = static_cast<TimeNs>(header->ts.tv_sec) * kNsPerSecond +
+                      static_cast<TimeNs>(header->ts.tv_usec);  // ns precision requested
+    if (payload->bytes.empty()) continue;
+    hold(payload->bytes, ts, channel_for("bus", *payload), {});
+    return true;
+  }
+}
+
+bool CaptureReader::read_packet() {
+  if (!error_.empty()) return false;
+  return pcapng_ ? load_pcapng_packet() : load_pcap_packet();
+}
+
+void CaptureReader::hold(std::span<const std::uint8_t> bytes, TimeNs timestamp, ChannelId channel,
+                         std::vector<std::uint8_t> option) {
+  held_.bytes.assign(bytes.begin(), bytes.end());
+  held_.timestamp = timestamp;
+  held_.channel = channel;
+  held_.option = std::move(option);
+  held_.origin = static_cast<std::uint32_t>(packets_);
+}
+
+bool CaptureReader::read_header() {
+  if (!error_.empty()) return false;
+  pending_packet_ = read_packet();
+  return error_.empty();
+}
+
+bool CaptureReader::next(ByteEvent& out) {
+  // Each pass lays out one packet (its bytes are placed only now, once the character time that
+  // spaces them is known), or returns.
+  while (queue_pos_ >= queue_.size()) {
+    if (pending_packet_) {
+      pending_packet_ = false;
+    } else if (!read_packet()) {
+      return false;
+    }
+    lay_out(held_.bytes, held_.timestamp, held_.channel, held_.option);
+  }
+  out = queue_[queue_pos_++];
+  return true;
+}
+
+}  // namespace drivetap

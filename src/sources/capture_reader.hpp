@@ -1,0 +1,91 @@
+// Capture reader: pcapng (our reader) and classic pcap (libpcap) -> ByteEvents.
+//
+// Files drivetap wrote carry each byte's exact time and UART marks (pcapng.hpp, custom EPB
+// option) and the run's settings: reading them back reproduces that run. Packets of other tools
+// are unpacked by link type (link_layer.hpp) and their bytes laid out back to back, ending at
+// the packet's timestamp (a capture tool stamps a packet when its last byte has arrived). All
+// bytes are then re-framed by drivetap's framer, because other tools often cut frames badly;
+// each byte keeps its packet number (ByteEvent::origin) so such packets can be reported.
+#pragma once
+
+#include <cstdio>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/byte_event.hpp"
+#include "core/serial_config.hpp"
+#include "formats/link_layer.hpp"
+#include "formats/pcapng.hpp"
+#include "sources/source.hpp"
+
+// libpcap handles (pcap/pcap.h stays out of our headers).
+struct pcap;
+struct pcap_dumper;
+
+namespace drivetap {
+
+// Encodes/decodes the IDB settings string "drivetap t15=<ns> t35=<ns> timeout=<ns> max_hold=<ns>".
+std::string encode_settings(TimeNs t15, TimeNs t35, TimeNs timeout, TimeNs max_hold);
+RunSettings decode_settings(const std::string& description, const std::string& settings);
+
+class CaptureReader final : public ByteSource {
+ public:
+  // Takes ownership of `in` for classic pcap (libpcap closes it); pcapng leaves it to the caller.
+  CaptureReader(std::FILE* in, std::string name, bool pcapng, ChannelTable& channels);
+  ~CaptureReader();
+  CaptureReader(const CaptureReader&) = delete;
+  CaptureReader& operator=(const CaptureReader&) = delete;
+
+  // Reads up to the first packet, so that the settings are known. False on error.
+  bool read_header() override;
+  [[nodiscard]] RunSettings settings() const override { return settings_; }
+  void set_character_time(TimeNs t) override { character_time_ = t; }
+
+  bool next(ByteEvent& out) override;
+  [[nodiscard]] const std::string& error() const override { return error_; }
+  // One line per kind of packet that carried no serial bytes, with a count and where first seen.
+  [[nodiscard]] std::vector<std::string> notes() const override;
+  [[nodiscard]] std::uint64_t packets() const { return packets_; }
+
+ private:
+  bool read_packet();  // next packet into queue_; false at end or error
+  bool load_pcapng_packet();
+  bool load_pcap_packet();
+  void lay_out(std::span<const std::uint8_t> bytes, TimeNs timestamp, ChannelId channel,
+               const std::vector<std::uint8_t>& drivetap_option);
+  void hold(std::span<const std::uint8_t> bytes, TimeNs timestamp, ChannelId channel,
+            std::vector<std::uint8_t> option);
+  void skip(const std::string& why, std::uint64_t where);
+  ChannelId channel_for(const std::string& base, const SerialPayload& payload);
+
+  std::string name_;
+  bool pcapng_;
+  ChannelTable& channels_;
+  std::unique_ptr<pcapng::Reader> ng_;
+  ::pcap* pcap_ = nullptr;
+  std::uint32_t pcap_link_type_ = 0;
+  RunSettings settings_;
+  TimeNs character_time_ = 0;
+  struct Held {  // the packet read but not yet laid out as byte events
+    std::vector<std::uint8_t> bytes;
+    TimeNs timestamp = 0;
+    ChannelId channel = 0;
+    std::vector<std::uint8_t> option;
+    std::uint32_t origin = 0;
+  } held_;
+  std::vector<ByteEvent> queue_;
+  std::size_t queue_pos_ = 0;
+  bool pending_packet_ = false;  // read_header() loaded the first packet already
+  std::uint64_t packets_ = 0;
+  std::string error_;
+  struct Skipped {
+    std::uint64_t count = 0;
+    std::uint64_t first = 0;
+  };
+  std::map<std::string, Skipped> skipped_;
+};
+
+}  // namespace drivetap

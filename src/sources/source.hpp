@@ -1,0 +1,38 @@
+// ByteSource: what every capture source offers the pipeline — settings found in the capture,
+// then a time-ordered stream of ByteEvents (per channel), with its own findings and notes.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/anomaly.hpp"
+#include "core/byte_event.hpp"
+#include "core/serial_config.hpp"
+
+namespace drivetap {
+
+// What a capture says about the run that made it (byte-log header, drivetap pcapng interfaces).
+struct RunSettings {
+  std::optional<SerialConfig> serial;
+  std::optional<TimeNs> t15, t35, reply_timeout, max_hold;
+};
+
+class ByteSource {
+ public:
+  virtual ~ByteSource() = default;
+  // Reads what precedes the first byte (headers, interface descriptions). False on error.
+  virtual bool read_header() = 0;
+  [[nodiscard]] virtual RunSettings settings() const = 0;
+  // The character time that spaces bytes whose individual times the capture does not give.
+  virtual void set_character_time(TimeNs t) = 0;
+  // Next byte; false at the end or on error (then error() is non-empty).
+  virtual bool next(ByteEvent& out) = 0;
+  [[nodiscard]] virtual const std::string& error() const = 0;
+  // Findings about the capture itself (e.g. timestamps going backwards), for the pipeline.
+  virtual std::vector<Anomaly> take_findings() { return {}; }
+  // Lines for stderr at the end (e.g. packets skipped because they carried no serial bytes).
+  [[nodiscard]] virtual std::vector<std::string> notes() const { return {}; }
+};
+
+}  // namespace drivetap
