@@ -1,0 +1,104 @@
+// Shared by the libFuzzer targets: a sink that discards every record (checking only the
+// pipeline's contracts on the way), and the `drivetap read` loop over any ByteSource.
+#pragma once
+
+#include <cstdio>
+#include <cstdlib>
+#include <span>
+#include <vector>
+
+#include "pipeline/pipeline.hpp"
+#include "sources/source.hpp"
+
+namespace drivetap::fuzz {
+
+[[noreturn]] inline void contract_broken(const char* what) {
+  std::fprintf(stderr, "drivetap fuzz: contract broken: %s\n", what);
+  std::abort();
+}
+
+// Every field of a decoded frame must lie inside the frame's bytes.
+inline void check_field_spans(const Message& m) {
+  for (const FieldNode& n : m.fields) {
+    if (n.desc == nullptr) contract_broken("field node without descriptor");
+    if (std::size_t{n.offset} + n.length > m.bytes.size())
+      contract_broken("field span beyond the frame's bytes");
+  }
+}
+
+// Discards everything (memory stays bounded), but checks what the stage headers promise: the
+// framer covers every byte exactly once (frame.hpp, rtu_framer.hpp), field spans lie inside
+// their frame, and finish() emits exactly one summary.
+struct DiscardSink final : Sink {
+  std::uint64_t framed_bytes = 0;
+  int summaries = 0;
+  void on_frame(const Message& m) override {
+    if (m.frame.events.empty()) contract_broken("empty frame");
+    if (m.bytes.size() != m.frame.events.size()) contract_broken("message bytes != frame events");
+    framed_bytes += m.frame.events.size();
+    check_field_spans(m);
+  }
+  void on_noise(const Frame& f) override {
+    if (f.events.empty()) contract_broken("empty noise record");
+    framed_bytes += f.events.size();
+  }
+  void on_anomaly(const Anomaly&) override {}
+  void on_transaction(const Transaction&) override {}
+  void on_summary(const Stats&) override { ++summaries; }
+  bool flush() override { return true; }
+};
+
+// Pipeline options as `drivetap read` derives them from a capture with no command-line options
+// (src/cli/main.cpp, make_pipeline_options). False where the CLI refuses to run.
+inline bool options_from_capture(const RunSettings& capture, PipelineOptions* p) {
+  p->serial = capture.serial.value_or(SerialConfig{});
+  p->timing = FramingTiming::from(p->serial);
+  if (capture.t15) p->timing.t15 = *capture.t15;
+  if (capture.t35) p->timing.t35 = *capture.t35;
+  if (capture.reply_timeout) p->reply_timeout = *capture.reply_timeout;
+  if (capture.max_hold) p->max_hold = *capture.max_hold;
+  return p->timing.t35 > 0;  // the CLI exits with "--t35: must be greater than zero"
+}
+
+// Pushes events through a pipeline and checks the byte accounting at the end.
+class CheckedRun {
+ public:
+  CheckedRun(const PipelineOptions& options, const ChannelTable& channels)
+      : pipeline_(options, channels, sink_) {}
+  void push(const ByteEvent& e) {
+    ++pushed_;
+    pipeline_.push(e);
+  }
+  void report(const Anomaly& a) { pipeline_.report(a); }
+  void finish() {
+    pipeline_.finish();
+    pipeline_.finish();  // idempotent by contract
+    if (sink_.summaries != 1) contract_broken("finish() did not emit exactly one summary");
+    if (sink_.framed_bytes != pushed_)
+      contract_broken("frames and noise do not cover every pushed byte exactly once");
+  }
+
+ private:
+  DiscardSink sink_;
+  Pipeline pipeline_;
+  std::uint64_t pushed_ = 0;
+};
+
+// The loop of `drivetap read` (src/cli/main.cpp, run_read) over one source.
+inline void run_source(ByteSource& source, ChannelTable& channels) {
+  if (!source.read_header()) return;
+  PipelineOptions p;
+  if (!options_from_capture(source.settings(), &p)) return;
+  source.set_character_time(p.timing.character_time);
+  CheckedRun run(p, channels);
+  ByteEvent e;
+  while (source.next(e)) {
+    for (const Anomaly& a : source.take_findings()) run.report(a);
+    run.push(e);
+  }
+  run.finish();
+  (void)source.notes();
+  (void)source.error();
+}
+
+}  // namespace drivetap::fuzz
