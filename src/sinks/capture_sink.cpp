@@ -125,9 +125,10 @@ void CaptureSink::write_pending() {
   const TimeNs timestamp = p.events.empty() ? 0 : p.events.front().time;
 
   if (options_.format == CaptureFormat::pcap) {
+    const TimeNs end = p.events.empty() ? 0 : p.events.back().time + options_.character_time;
     struct pcap_pkthdr h {};
-    h.ts.tv_sec = static_cast<time_t>(timestamp / kNsPerSecond);
-    h.ts.tv_usec = static_cast<suseconds_t>(timestamp % kNsPerSecond);  // ns precision
+    h.ts.tv_sec = static_cast<time_t>(end / kNsPerSecond);
+    h.ts.tv_usec = static_cast<suseconds_t>(end % kNsPerSecond);  // ns precision
     h.caplen = h.len = static_cast<bpf_u_int32>(data.size());
     pcap_dump(reinterpret_cast<u_char*>(dumper_), &h, data.data());
   } else {

@@ -8,7 +8,9 @@
 // pcapng only: one interface per channel (name, line settings as description), EPB direction
 // flags (outbound = master -> slave), the CRC-error flag bit, drivetap's annotation as the packet
 // comment, and per-byte times and UART marks in a custom option, so that reading the file back
-// reproduces the run exactly.
+// reproduces the run exactly. Classic pcap has no room for per-byte times: its packets are
+// stamped when their last byte ended, as capture tools stamp them, so reading one back lays the
+// bytes out where they were.
 #pragma once
 
 #include <cstdio>
@@ -33,7 +35,8 @@ struct CaptureSinkOptions {
   CaptureFormat format = CaptureFormat::pcapng;
   CaptureLinkType link_type = CaptureLinkType::upper_pdu;
   SerialConfig serial;
-  std::string settings;  // encode_settings(...) of the run, stored per interface
+  TimeNs character_time = 0;  // classic pcap stamps a packet at the end of its last byte
+  std::string settings;       // encode_settings(...) of the run, stored per interface
 };
 
 class CaptureSink final : public Sink {

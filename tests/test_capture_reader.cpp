@@ -1,0 +1,161 @@
+// Unit tests: reading captures of other tools — re-framing badly cut packets, RTU over UDP.
+#include <gtest/gtest.h>
+#include <pcap/pcap.h>
+
+#include "core/checksum.hpp"
+#include "sources/capture_reader.hpp"
+#include "test_support.hpp"
+
+using namespace drivetap;
+using namespace drivetap::testing;
+
+namespace {
+
+struct Decoded {
+  RecordingSink sink;
+  ChannelTable channels;
+  std::string error;
+  std::vector<std::string> notes;
+};
+
+void decode_capture(const std::string& path, bool pcapng, Decoded& d) {
+  std::FILE* f = std::fopen(path.c_str(), "rb");
+  ASSERT_TRUE(f) << path;
+  CaptureReader reader(f, path, pcapng, d.channels);
+  ASSERT_TRUE(reader.read_header()) << reader.error();
+  PipelineOptions p;
+  p.serial = reader.settings().serial.value_or(SerialConfig{});
+  p.timing = FramingTiming::from(p.serial);
+  reader.set_character_time(p.timing.character_time);
+  Pipeline pipeline(p, d.channels, d.sink);
+  ByteEvent e;
+  while (reader.next(e)) pipeline.push(e);
+  pipeline.finish();
+  d.error = reader.error();
+  d.notes = reader.notes();
+  if (pcapng) std::fclose(f);
+}
+
+std::vector<std::uint8_t> with_crc(std::vector<std::uint8_t> b) {
+  const std::uint16_t c = crc16_modbus(b);
+  b.push_back(static_cast<std::uint8_t>(c & 0xFF));
+  b.push_back(static_cast<std::uint8_t>(c >> 8));
+  return b;
+}
+
+}  // namespace
+
+TEST(CaptureReader, Dlt147SplitAndMergedPacketsAreReframed) {
+  Decoded d;
+  decode_capture(std::string(DRIVETAP_SOURCE_DIR) + "/captures/dlt147-split-and-merged/input.pcap",
+                 false, d);
+  ASSERT_EQ(d.error, "");
+  ASSERT_EQ(d.sink.frames.size(), 6u);
+  EXPECT_EQ(hex_of(d.sink.frames[0].bytes), "010300000002C40B");  // from packets 1 and 2
+  EXPECT_EQ(hex_of(d.sink.frames[2].bytes), "020400100001303C");  // packet 4, first frame
+  EXPECT_EQ(hex_of(d.sink.frames[3].bytes), "0204021234F047");    // packet 4, second frame
+  for (const Message& m : d.sink.frames) EXPECT_EQ(m.checksum.verdict, ChecksumVerdict::good);
+  EXPECT_EQ(d.sink.count(Outcome::ok), 3u);
+  ASSERT_EQ(d.sink.count(AnomalyKind::packet_split_frame), 1u);
+  ASSERT_EQ(d.sink.count(AnomalyKind::packet_merged_frames), 1u);
+  for (const Anomaly& a : d.sink.anomalies) {
+    if (a.kind == AnomalyKind::packet_split_frame) {
+      EXPECT_EQ(a.frame_number, 1u);
+      EXPECT_NE(a.detail.find("packets 1..2"), std::string::npos) << a.detail;
+    }
+    if (a.kind == AnomalyKind::packet_merged_frames) {
+      EXPECT_EQ(a.frame_number, 4u);
+      EXPECT_NE(a.detail.find("packet 4"), std::string::npos) << a.detail;
+    }
+  }
+}
+
+TEST(CaptureReader, ModbusRtuOverUdpPairsAcrossBothDirections) {
+  const std::string path = ::testing::TempDir() + "rtu_over_udp.pcap";
+  pcap_t* dead =
+      pcap_open_dead_with_tstamp_precision(DLT_EN10MB, 65535, PCAP_TSTAMP_PRECISION_NANO);
+  pcap_dumper_t* dump = pcap_dump_open(dead, path.c_str());
+  ASSERT_TRUE(dump);
+  auto packet = [&](bool from_client, const std::vector<std::uint8_t>& rtu, std::int64_t ns) {
+    std::vector<std::uint8_t> p(12, 0);
+    p.insert(p.end(), {0x08, 0x00});
+    const std::uint16_t total = static_cast<std::uint16_t>(20 + 8 + rtu.size());
+    std::vector<std::uint8_t> ip = {0x45,
+                                    0,
+                                    static_cast<std::uint8_t>(total >> 8),
+                                    static_cast<std::uint8_t>(total),
+                                    0,
+                                    0,
+                                    0x40,
+                                    0,
+                                    64,
+                                    17,
+                                    0,
+                                    0};
+    const std::vector<std::uint8_t> a = {192, 168, 0, 10}, b = {192, 168, 0, 20};
+    ip.insert(ip.end(), (from_client ? a : b).begin(), (from_client ? a : b).end());
+    ip.insert(ip.end(), (from_client ? b : a).begin(), (from_client ? b : a).end());
+    const std::uint16_t cport = 40000, sport = 4001;
+    const std::uint16_t src = from_client ? cport : sport, dst = from_client ? sport : cport;
+    std::vector<std::uint8_t> udp = {static_cast<std::uint8_t>(src >> 8),
+                                     static_cast<std::uint8_t>(src),
+                                     static_cast<std::uint8_t>(dst >> 8),
+                                     static_cast<std::uint8_t>(dst),
+                                     0,
+                                     static_cast<std::uint8_t>(8 + rtu.size()),
+                                     0,
+                                     0};
+    p.insert(p.end(), ip.begin(), ip.end());
+    p.insert(p.end(), udp.begin(), udp.end());
+    p.insert(p.end(), rtu.begin(), rtu.end());
+    pcap_pkthdr h{};
+    h.ts.tv_sec = static_cast<time_t>(ns / 1'000'000'000);
+    h.ts.tv_usec = static_cast<suseconds_t>(ns % 1'000'000'000);
+    h.caplen = h.len = static_cast<bpf_u_int32>(p.size());
+    pcap_dump(reinterpret_cast<u_char*>(dump), &h, p.data());
+  };
+  const auto req = with_crc({0x05, 0x03, 0x00, 0x10, 0x00, 0x01});
+  const auto rsp = with_crc({0x05, 0x03, 0x02, 0x00, 0x64});
+  packet(true, req, 1'000'000'000);
+  packet(false, rsp, 1'030'000'000);
+  packet(true, req, 2'000'000'000);
+  packet(false, rsp, 2'030'000'000);
+  pcap_dump_close(dump);
+  pcap_close(dead);
+
+  Decoded d;
+  decode_capture(path, false, d);
+  ASSERT_EQ(d.error, "");
+  ASSERT_EQ(d.sink.frames.size(), 4u);
+  EXPECT_EQ(d.channels.at(d.sink.frames[0].frame.channel).name,
+            "udp 192.168.0.10:40000>192.168.0.20:4001");
+  EXPECT_EQ(d.channels.at(d.sink.frames[1].frame.channel).name,
+            "udp 192.168.0.20:4001>192.168.0.10:40000");
+  EXPECT_EQ(d.sink.frames[1].direction, Direction::response);
+  EXPECT_EQ(d.sink.count(Outcome::ok), 2u) << "replies on the other flow pair with the requests";
+  EXPECT_TRUE(d.notes.empty());
+}
+
+TEST(CaptureReader, PacketsWithoutSerialBytesAreCountedNotFatal) {
+  const std::string path = ::testing::TempDir() + "arp.pcap";
+  pcap_t* dead = pcap_open_dead(DLT_EN10MB, 65535);
+  pcap_dumper_t* dump = pcap_dump_open(dead, path.c_str());
+  std::vector<std::uint8_t> arp(42, 0);
+  arp[12] = 0x08;
+  arp[13] = 0x06;
+  for (int i = 0; i < 3; ++i) {
+    pcap_pkthdr h{};
+    h.caplen = h.len = static_cast<bpf_u_int32>(arp.size());
+    pcap_dump(reinterpret_cast<u_char*>(dump), &h, arp.data());
+  }
+  pcap_dump_close(dump);
+  pcap_close(dead);
+  Decoded d;
+  decode_capture(path, false, d);
+  EXPECT_EQ(d.error, "");
+  EXPECT_TRUE(d.sink.frames.empty());
+  ASSERT_EQ(d.notes.size(), 1u);
+  EXPECT_NE(d.notes[0].find("skipped 3 packets (ethertype 0x0806 is not IP), first: packet 1"),
+            std::string::npos)
+      << d.notes[0];
+}
