@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # Golden test: `drivetap read` of captures/<name>/input.* must print exactly expected.txt (text)
 # and expected.json (JSON lines). Extra options for a capture go in captures/<name>/args.
+# A capture that must fail (a damaged file) has expected.exit (the exit status) and
+# expected.stderr (the one-line error); what was decoded before the damage is still compared.
 #
 #   tests/golden.sh [--update-golden] [--drivetap BIN] CAPTURE_DIR...
 #   tests/golden.sh --update-golden --drivetap build/drivetap captures/*     # rewrite all
@@ -30,15 +32,32 @@ for dir in "${dirs[@]}"; do
   args=()
   if [ -f "$dir/args" ]; then read -r -a args < "$dir/args"; fi
   tmp=$(mktemp -d)
-  (cd "$dir" && "$drivetap" read "${args[@]}" "$input" > "$tmp/text" 2> "$tmp/text.err") || {
-    echo "FAIL $dir: drivetap read exited $?"; cat "$tmp/text.err"; failed=1; rm -rf "$tmp"; continue; }
-  (cd "$dir" && "$drivetap" read -T json "${args[@]}" "$input" > "$tmp/json" 2> "$tmp/json.err") || {
-    echo "FAIL $dir: drivetap read -T json exited $?"; cat "$tmp/json.err"; failed=1; rm -rf "$tmp"; continue; }
+  want_exit=0
+  [ -f "$dir/expected.exit" ] && want_exit=$(cat "$dir/expected.exit")
+  text_exit=0
+  json_exit=0
+  (cd "$dir" && "$drivetap" read "${args[@]}" "$input" > "$tmp/text" 2> "$tmp/text.err") || text_exit=$?
+  (cd "$dir" && "$drivetap" read -T json "${args[@]}" "$input" > "$tmp/json" 2> "$tmp/json.err") || json_exit=$?
   if [ "$update" = 1 ]; then
     cp "$tmp/text" "$dir/expected.txt"
     cp "$tmp/json" "$dir/expected.json"
-    echo "updated $dir"
+    if [ "$text_exit" != 0 ]; then
+      echo "$text_exit" > "$dir/expected.exit"
+      cp "$tmp/text.err" "$dir/expected.stderr"
+    else
+      rm -f "$dir/expected.exit" "$dir/expected.stderr"
+    fi
+    echo "updated $dir (exit $text_exit)"
   else
+    if [ "$text_exit" != "$want_exit" ] || [ "$json_exit" != "$want_exit" ]; then
+      echo "FAIL $dir: drivetap read exited $text_exit (JSON: $json_exit), expected $want_exit"
+      cat "$tmp/text.err"
+      failed=1
+    fi
+    if [ -f "$dir/expected.stderr" ] && ! diff -u "$dir/expected.stderr" "$tmp/text.err"; then
+      echo "FAIL $dir: error message differs from expected.stderr"
+      failed=1
+    fi
     for kind in txt json; do
       got="$tmp/text"; [ "$kind" = json ] && got="$tmp/json"
       if ! diff -u "$dir/expected.$kind" "$got" > "$tmp/diff"; then

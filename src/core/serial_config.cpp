@@ -124,6 +124,10 @@ std::optional<TimeNs> parse_interval(std::string_view text, TimeNs character_tim
     *error = fmt::format("bad unit '{}' in interval '{}' (use c, us, ms or s)", unit, text);
     return std::nullopt;
   }
+  if (ns > static_cast<double>(kMaxInterval)) {
+    *error = fmt::format("interval '{}' is longer than the 1 h limit", text);
+    return std::nullopt;
+  }
   return static_cast<TimeNs>(std::llround(ns));
 }
 

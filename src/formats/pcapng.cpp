@@ -264,7 +264,7 @@ TimeNs scale_time(std::uint64_t value, const Interface& itf, bool* overflow) {
   const unsigned __int128 ns = static_cast<unsigned __int128>(value) * itf.ts_num / itf.ts_den;
   const __int128 total =
       static_cast<__int128>(ns) + static_cast<__int128>(itf.ts_offset_s) * 1'000'000'000;
-  if (total > INT64_MAX || total < INT64_MIN) {
+  if (total >= kTimeLimit || total <= -kTimeLimit) {
     *overflow = true;
     return 0;
   }

@@ -35,7 +35,6 @@ class TextSink final : public Sink {
   std::FILE* out_;
   const ChannelTable& channels_;
   TextSinkOptions options_;
-  std::size_t channel_width_ = 3;
   std::uint64_t last_frame_number_ = 0;
   bool write_failed_ = false;
 };

@@ -108,10 +108,10 @@ bool ByteLogReader::parse_data_line() {
   TimeNs seconds = 0;
   std::size_t digits = 0;
   while (i < line.size() && line[i] >= '0' && line[i] <= '9') {
-    // Bound so that seconds * 1e9 + 999999999 still fits in TimeNs.
-    constexpr TimeNs kMaxSeconds = (INT64_MAX - (kNsPerSecond - 1)) / kNsPerSecond;
+    constexpr TimeNs kMaxSeconds = kTimeLimit / kNsPerSecond - 1;
     seconds = seconds * 10 + (line[i] - '0');
-    if (seconds > kMaxSeconds) return fail(time_col, "time too large");
+    if (seconds > kMaxSeconds)
+      return fail(time_col, fmt::format("time too large (limit {} s)", kMaxSeconds));
     ++i;
     ++digits;
   }
@@ -190,6 +190,8 @@ bool ByteLogReader::parse_data_line() {
       const int lo = hex_value(hex[k + 1]);
       if (hi < 0 || lo < 0)
         return fail(token_col + k + (hi < 0 ? 0 : 1), fmt::format("bad hex digit in '{}'", token));
+      if (!time_in_range(t))
+        return fail(token_col, fmt::format("byte time beyond {} s", kTimeLimit / kNsPerSecond));
       ByteEvent e;
       e.time = t;
       e.byte = static_cast<std::uint8_t>((hi << 4) | lo);

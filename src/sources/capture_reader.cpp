@@ -33,7 +33,7 @@ RunSettings decode_settings(const std::string& description, const std::string& s
     } catch (...) {
       continue;  // a value we cannot read is ignored: the command line still decides
     }
-    if (value < 0) continue;
+    if (value <= 0 || value > kMaxInterval) continue;  // not a usable interval: ignored
     if (key == "t15") r.t15 = value;
     if (key == "t35") r.t35 = value;
     if (key == "timeout") r.reply_timeout = value;
@@ -108,7 +108,13 @@ void CaptureReader::lay_out(std::span<const std::uint8_t> bytes, TimeNs timestam
           good = false;
           break;
         }
-        t += pcapng::unzigzag(*delta);
+        const std::int64_t step = pcapng::unzigzag(*delta);
+        // |t| and |step| below 2^62: the sum cannot overflow; out of range = a bad option.
+        if (step >= kTimeLimit || step <= -kTimeLimit || !time_in_range(t + step)) {
+          good = false;
+          break;
+        }
+        t += step;
         source_packet += pcapng::unzigzag(*origin_delta);
         if (source_packet < 0 || source_packet > UINT32_MAX) {
           good = false;
@@ -121,8 +127,13 @@ void CaptureReader::lay_out(std::span<const std::uint8_t> bytes, TimeNs timestam
       queue_.clear();
     }
   }
-  // Other tools: the packet was stamped when its last byte had arrived.
+  // Other tools: the packet was stamped when its last byte had arrived. Times and the character
+  // time are bounded (kTimeLimit, kMaxInterval) and a packet holds < 2^24 bytes: no overflow.
   const TimeNs n = static_cast<TimeNs>(bytes.size());
+  if (!time_in_range(timestamp - n * character_time_)) {
+    skip("timestamp out of range", origin);
+    return;
+  }
   for (std::size_t i = 0; i < bytes.size(); ++i) {
     const TimeNs start = timestamp - (n - static_cast<TimeNs>(i)) * character_time_;
     queue_.push_back({start, bytes[i], 0, channel, origin});
@@ -198,6 +209,7 @@ bool CaptureReader::load_pcap_packet() {
       skip(fatal ? fmt::format("malformed: {}", why) : why, packets_);
       continue;
     }
+    // libpcap gives 32-bit seconds and nanoseconds: always inside kTimeLimit.
     const TimeNs ts = static_cast<TimeNs>(header->ts.tv_sec) * kNsPerSecond +
                       static_cast<TimeNs>(header->ts.tv_usec);  // ns precision requested
     if (payload->bytes.empty()) continue;

@@ -1,0 +1,95 @@
+// Fuzzes RtuFramer, the Modbus RTU dissector and the pairer: data is a stream of (time delta,
+// byte, flags) records turned into ByteEvents and pushed through the Pipeline.
+//
+//   header (3 bytes, missing bytes read as 0):
+//     [0] bits 0-2 baud (1200..115200), bit 3-4 parity N/E/O, bit 5 7 data bits, bit 6 2 stop
+//     [1] bits 0-1 --max-hold, bits 2-3 --timeout, bits 4-5 --t15, bits 6-7 --t35
+//     [2] start time: 0, 1000 s, -1 s (a pcap packet stamped near 0 lays bytes out before it)
+//   record (4 bytes): delta lo, delta hi, byte, flags
+//     delta: bits 0-13 amount, bits 14-15 unit: ns, us, ms, or us backwards (time_reversed lines,
+//     several channels); the time is the start of this byte, relative to the previous byte's start
+//     flags: bits 0-3 UART marks, bits 4-5 channel: bus, m, s, link2 (a second bus)
+//     delta 0xC000 (0 us backwards) is a burst instead: the byte 4100 times with one timestamp
+//     (a USB read; the pipeline lays the copies back to back), enough to reach the framer's
+//     4096-byte segmentation without silence from a small input. At most 8192 events per input.
+#include <array>
+#include <cstdint>
+#include <span>
+
+#include "fuzz/fuzz_common.hpp"
+
+namespace {
+
+using namespace drivetap;
+
+constexpr std::array<std::uint32_t, 8> kBauds = {1200,  2400,  4800,  9600,
+                                                 19200, 38400, 57600, 115200};
+
+PipelineOptions options_from(std::uint8_t line, std::uint8_t timing) {
+  PipelineOptions p;
+  p.serial.baud = kBauds[line & 7];
+  const unsigned parity = (line >> 3) & 3;
+  p.serial.parity = parity == 1 ? Parity::even : parity == 2 ? Parity::odd : Parity::none;
+  p.serial.data_bits = (line & 0x20) ? 7 : 8;
+  p.serial.stop_bits = (line & 0x40) ? 2 : 1;
+  p.timing = FramingTiming::from(p.serial);
+  // Values reachable with --max-hold, --timeout, --t15 and --t35 (--t35 must be > 0).
+  constexpr std::array<TimeNs, 4> kHold = {100 * kNsPerMs, 0, 5 * kNsPerMs, 2 * kNsPerSecond};
+  constexpr std::array<TimeNs, 4> kTimeout = {1 * kNsPerSecond, 0, 10 * kNsPerMs,
+                                              60 * kNsPerSecond};
+  p.max_hold = kHold[timing & 3];
+  p.reply_timeout = kTimeout[(timing >> 2) & 3];
+  const TimeNs c = p.timing.character_time;
+  const std::array<TimeNs, 4> t15 = {p.timing.t15, 0, 10 * c, 1};
+  const std::array<TimeNs, 4> t35 = {p.timing.t35, 1, 20 * c, c / 2 + 1};
+  p.timing.t15 = t15[(timing >> 4) & 3];
+  p.timing.t35 = t35[(timing >> 6) & 3];
+  return p;
+}
+
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  const std::span<const std::uint8_t> in(data, size);
+  auto header = [&](std::size_t i) -> std::uint8_t { return i < in.size() ? in[i] : 0; };
+  const PipelineOptions options = options_from(header(0), header(1));
+  constexpr std::array<TimeNs, 3> kStart = {0, 1000 * kNsPerSecond, -kNsPerSecond};
+  TimeNs t = kStart[header(2) % 3];
+
+  ChannelTable channels;
+  const std::array<ChannelId, 4> ids = {channels.intern("bus"), channels.intern("m"),
+                                        channels.intern("s"), channels.intern("link2")};
+  fuzz::CheckedRun run(options, channels);
+  std::size_t budget = 1 << 13;  // events per input: keeps one run short
+  for (std::size_t i = 3; i + 4 <= in.size(); i += 4) {
+    const unsigned delta = in[i] | (unsigned{in[i + 1]} << 8);
+    const TimeNs amount = delta & 0x3FFF;
+    unsigned copies = 1;
+    if (delta == 0xC000) {
+      copies = 4100;
+    } else {
+      switch (delta >> 14) {
+        case 0:
+          t += amount;
+          break;
+        case 1:
+          t += amount * kNsPerUs;
+          break;
+        case 2:
+          t += amount * kNsPerMs;
+          break;
+        default:
+          t -= amount * kNsPerUs;
+          break;
+      }
+    }
+    ByteEvent e;
+    e.time = t;
+    e.byte = in[i + 2];
+    e.flags = in[i + 3] & 0x0F;
+    e.channel = ids[(in[i + 3] >> 4) & 3];
+    for (; copies > 0 && budget > 0; --copies, --budget) run.push(e);
+  }
+  run.finish();
+  return 0;
+}

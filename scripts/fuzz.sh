@@ -1,0 +1,248 @@
+#!/usr/bin/env bash
+# Builds the libFuzzer targets of fuzz/ with clang (ASan + UBSan) in build-fuzz/ and runs each
+# for a while, from a seed corpus made of captures/ (README "Captures and tests").
+#
+#   bash scripts/fuzz.sh [SECONDS_PER_TARGET] [TARGET...]     (default 30 s, every target)
+#   bash scripts/fuzz.sh 120 pcapng byte_log
+#
+# Targets: byte_log pcapng pcap rtu_framer modbus_pdu upper_pdu_link (the "fuzz_" prefix is
+# optional). Per target: working corpus build-fuzz/corpus/<target> (kept between runs), seeds
+# build-fuzz/seeds/<target> (remade each run), crash artifacts build-fuzz/artifacts/<target>/,
+# libFuzzer's log build-fuzz/logs/<target>.log. Reproducers saved under
+# captures/regressions/<bug>/input.<ext> (.log -> byte_log, .pcapng, .pcap, and .<target> for
+# the others, e.g. input.rtu_framer) run first: one that still fails is reported and counts as
+# a failure, one that passes joins the seeds. Reproduce a crash with
+#   build-fuzz/fuzz/fuzz_<target> ARTIFACT
+# Environment: FUZZ_TIMEOUT (seconds one input may take before it counts as a hang, default 20).
+# Exit status 1 when any target found a crash, hang, leak or out-of-memory, or a regression
+# reproducer still fails.
+set -euo pipefail
+cd "$(dirname "${BASH_SOURCE[0]}")/.."
+root=$(pwd)
+
+seconds=${1:-30}
+[ $# -gt 0 ] && shift
+if ! [[ "$seconds" =~ ^[0-9]+$ ]] || [ "$seconds" -eq 0 ]; then
+  echo "usage: bash scripts/fuzz.sh [SECONDS_PER_TARGET] [TARGET...]" >&2
+  exit 2
+fi
+all_targets=(byte_log pcapng pcap rtu_framer modbus_pdu upper_pdu_link)
+targets=()
+for t in "$@"; do
+  t=${t#fuzz_}
+  if [[ " ${all_targets[*]} " != *" $t "* ]]; then
+    echo "fuzz.sh: unknown target '$t' (one of: ${all_targets[*]})" >&2
+    exit 2
+  fi
+  targets+=("$t")
+done
+[ ${#targets[@]} -gt 0 ] || targets=("${all_targets[@]}")
+timeout=${FUZZ_TIMEOUT:-20}
+
+build=$root/build-fuzz
+jobs=$(nproc 2>/dev/null || echo 2)
+mkdir -p "$build"
+cmake -S . -B "$build" -G Ninja -DCMAKE_CXX_COMPILER=clang++ -DDRIVETAP_FUZZ=ON \
+  -DDRIVETAP_BUILD_TESTS=OFF -DCMAKE_BUILD_TYPE=RelWithDebInfo > "$build/configure.log" 2>&1 || {
+  cat "$build/configure.log" >&2
+  exit 1
+}
+cmake --build "$build" -j "$jobs" --target fuzz
+
+# ---- seeds ----
+
+hex_to_file() {  # hex_to_file FILE HEX...   (spaces allowed)
+  local out=$1
+  shift
+  printf '%s' "$*" | tr -d ' \n' | xxd -r -p > "$out"
+}
+
+# A byte log as fuzz_rtu_framer records (layout in fuzz/fuzz_rtu_framer.cpp): its line
+# settings in the header, each byte's time as a delta from the previous byte's start.
+byte_log_to_records() {
+  awk '
+    function bits() { return 1 + data + (parity == "N" ? 0 : 1) + stop }
+    function hex16(v) { return sprintf("%02x%02x", v % 256, int(v / 256)) }
+    function delta(us,   a) {
+      if (us < 0) { a = int(-us + 0.5); if (a == 0) return hex16(16384); if (a > 16383) a = 16383; return hex16(49152 + a) }
+      if (us < 16384) return hex16(16384 + int(us + 0.5))
+      a = int(us / 1000 + 0.5); if (a > 16383) a = 16383
+      return hex16(32768 + a)
+    }
+    BEGIN { baud = 9600; data = 8; parity = "N"; stop = 1; out = ""; started = 0; prev = 0 }
+    /^[ \t]*#! *serial/ {
+      for (i = 3; i <= NF; i++) {
+        if ($i ~ /^[0-9]+$/) baud = $i
+        else if ($i ~ /^[78][NnEeOo][12]$/) {
+          data = substr($i, 1, 1); parity = toupper(substr($i, 2, 1)); stop = substr($i, 3, 1)
+        }
+      }
+      next
+    }
+    /^[ \t]*#/ || NF < 3 { next }
+    {
+      ch = ($2 == "bus") ? 0 : ($2 == "m") ? 1 : ($2 == "s") ? 2 : 3
+      t = $1 * 1e6                     # microseconds
+      char_us = bits() * 1e6 / baud
+      for (i = 3; i <= NF; i++) {
+        if ($i ~ /^#/) break
+        tok = $i; marks = ""
+        if (index(tok, "!")) { marks = substr(tok, index(tok, "!") + 1); tok = substr(tok, 1, index(tok, "!") - 1) }
+        flags = (marks ~ /p/ ? 1 : 0) + (marks ~ /f/ ? 2 : 0) + (marks ~ /b/ ? 4 : 0) + (marks ~ /o/ ? 8 : 0)
+        for (k = 1; k + 1 <= length(tok); k += 2) {
+          d = started ? t - prev : 0
+          out = out delta(d) substr(tok, k, 2) sprintf("%02x", flags + 16 * ch)
+          prev = t; started = 1; t += char_us
+        }
+      }
+    }
+    END {
+      split("1200 2400 4800 9600 19200 38400 57600 115200", bauds, " ")
+      b = 3
+      for (i = 1; i <= 8; i++) if (bauds[i] == baud) b = i - 1
+      p = (parity == "E") ? 1 : (parity == "O") ? 2 : 0
+      line = b + 8 * p + (data == 7 ? 32 : 0) + (stop == 2 ? 64 : 0)
+      printf "%02x0000%s", line, out
+    }' "$1"
+}
+
+make_seeds() {
+  local seeds=$build/seeds
+  rm -rf "$seeds"
+  for t in "${all_targets[@]}"; do mkdir -p "$seeds/$t"; done
+  local f name
+  for f in captures/*/input.*; do
+    name=$(basename "$(dirname "$f")")
+    case "$f" in
+      *.log)
+        cp "$f" "$seeds/byte_log/$name.log"
+        byte_log_to_records "$f" | xxd -r -p > "$seeds/rtu_framer/$name"
+        # Each telegram of the capture (one per line in these logs) as a modbus_pdu seed.
+        grep -v '^[[:space:]]*#' "$f" | awk 'NF >= 3 { $1 = ""; $2 = ""; print }' |
+          sed 's/#.*//; s/![a-z]*//g' | sort -u | awk 'NR <= 40' | {
+          local n=0 line
+          while read -r line; do
+            [ -n "$line" ] || continue
+            n=$((n + 1))
+            hex_to_file "$seeds/modbus_pdu/$name-$n" "$line" 2> /dev/null || true
+          done
+        } || true
+        ;;
+      *.pcapng) cp "$f" "$seeds/pcapng/$name.pcapng" ;;
+      *.pcap) cp "$f" "$seeds/pcap/$name.pcap" ;;
+    esac
+  done
+  # Files drivetap writes itself: its pcapng (exported PDU and user0 link types, with the
+  # per-byte option) and classic pcap.
+  local drivetap=$root/build/drivetap
+  if [ -x "$drivetap" ]; then
+    local c
+    for c in seed-erman-e9 gap-inside-frame; do
+      "$drivetap" read "captures/$c/input.log" -w "$seeds/pcapng/$c-upper-pdu.pcapng" \
+        -o /dev/null > /dev/null 2>&1 || echo "fuzz.sh: note: $drivetap -w failed for $c" >&2
+      "$drivetap" read "captures/$c/input.log" -w "$seeds/pcapng/$c-user0.pcapng" --dlt user0 \
+        -o /dev/null > /dev/null 2>&1 || true
+      "$drivetap" read "captures/$c/input.log" -w "$seeds/pcap/$c.pcap" --pcap \
+        -o /dev/null > /dev/null 2>&1 || true
+    done
+    find "$seeds/pcapng" "$seeds/pcap" -type f -empty -delete
+  else
+    echo "fuzz.sh: no build/drivetap: no pcapng seeds written by drivetap" >&2
+  fi
+  # Packets of each link layer, around one Modbus request (02 03 00 00 00 04 44 3A).
+  local frame="02 03 00 00 00 04 44 3A"
+  hex_to_file "$seeds/upper_pdu_link/upper-pdu" \
+    "000C 0008 6d62727475000000  0023 0004 00000000  0000 0000 $frame"
+  hex_to_file "$seeds/upper_pdu_link/ethernet-ipv4-udp" \
+    "020000000001 020000000002 0800" \
+    "4500 0024 0000 4000 4011 0000 0a000001 0a000002" "0fa1 01f6 0010 0000 $frame"
+  hex_to_file "$seeds/upper_pdu_link/rtac" "65000000 00000000 01 00 0000 $frame"
+  hex_to_file "$seeds/upper_pdu_link/sll2-ipv6-tcp" \
+    "86dd 0000 00000000 0001 00 06 0000000000000000" \
+    "6000 0000 001c 06 40 20010db8000000000000000000000001 20010db8000000000000000000000002" \
+    "0fa1 01f6 00000000 00000000 5018 ffff 0000 0000 $frame"
+  # 9600 8N1; a burst of 4100 zero bytes with one timestamp (delta C000), then a request.
+  hex_to_file "$seeds/rtu_framer/burst" "030000 00c00000" \
+    "0040 0200  1244 0300  1244 0000  1244 0000  1244 0000  1244 0400  1244 4400  1244 3a00"
+  hex_to_file "$seeds/modbus_pdu/exception" "01 83 02 C0 F1"
+  hex_to_file "$seeds/modbus_pdu/device-id" "01 2B 0E 01 00 70 77"
+}
+
+# The regression reproducers of one target (captures/regressions/<bug>/input.<ext>).
+regressions_of() {
+  local r ext
+  for r in captures/regressions/*/input.*; do
+    [ -f "$r" ] || continue
+    ext=${r##*.}
+    [ "$ext" = log ] && ext=byte_log
+    [ "$ext" = "$1" ] && echo "$r"
+  done
+  return 0
+}
+
+make_seeds
+
+# ---- runs ----
+
+export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=1:symbolize=1}
+export UBSAN_OPTIONS=${UBSAN_OPTIONS:-halt_on_error=1:print_stacktrace=1}
+mkdir -p "$build/logs"
+results=()
+failed=0
+for t in "${targets[@]}"; do
+  bin=$build/fuzz/fuzz_$t
+  corpus=$build/corpus/$t
+  artifacts=$build/artifacts/$t
+  log=$build/logs/$t.log
+  mkdir -p "$corpus" "$artifacts"
+  # Reproducers of known bugs first: one that still fails is reported (and kept out of the
+  # seeds, so that fuzzing goes on); one that passes joins the seeds.
+  while read -r r; do
+    [ -n "$r" ] || continue
+    if "$bin" -timeout="$timeout" -rss_limit_mb=2048 "$r" > "$build/logs/regression.log" 2>&1; then
+      cp "$r" "$build/seeds/$t/regression-$(basename "$(dirname "$r")")"
+    else
+      where=$(grep -m 1 -E 'runtime error|ERROR: (AddressSanitizer|LeakSanitizer|libFuzzer)' \
+        "$build/logs/regression.log" | sed "s|$root/||" || true)
+      line=$(printf '%-15s regression %s STILL FAILS: %s' "$t" "$r" "${where:-see fuzz_$t $r}")
+      echo "$line"
+      results+=("$line")
+      failed=1
+    fi
+  done <<< "$(regressions_of "$t")"
+  echo "== fuzz_$t: $seconds s (log: ${log#"$root"/})"
+  start=$(date +%s)
+  rc=0
+  "$bin" -max_total_time="$seconds" -rss_limit_mb=2048 -timeout="$timeout" \
+    -print_final_stats=1 -artifact_prefix="$artifacts/" "$corpus" "$build/seeds/$t" \
+    > "$log" 2>&1 || rc=$?
+  elapsed=$(($(date +%s) - start))
+  runs=$(sed -n 's/^stat::number_of_executed_units: *\([0-9]*\).*/\1/p' "$log" | tail -n 1)
+  [ -n "$runs" ] || runs=$(sed -n 's/^Done \([0-9]*\) runs.*/\1/p' "$log" | tail -n 1)
+  [ -n "$runs" ] || runs=$(sed -n 's/^#\([0-9]*\)[[:space:]].*/\1/p' "$log" | tail -n 1)
+  last=$(grep -E 'cov: [0-9]+ ft: [0-9]+' "$log" | tail -n 1 || true)
+  cov=$(sed -n 's/.*cov: \([0-9]*\).*/\1/p' <<< "$last")
+  ft=$(sed -n 's/.*ft: \([0-9]*\).*/\1/p' <<< "$last")
+  files=$(find "$corpus" -type f | wc -l)
+  kib=$(find "$corpus" -type f -printf '%s\n' | awk '{ n += $1 } END { printf "%.0f", n / 1024 }')
+  artifact=$(sed -n 's/.*Test unit written to \(.*\)$/\1/p' "$log" | grep -v '/slow-unit-' |
+    tail -n 1 || true)
+  if [ -n "$artifact" ]; then
+    result="CRASH $artifact"
+    failed=1
+  elif [ "$rc" -ne 0 ]; then
+    result="CRASH (exit status $rc, no artifact: see ${log#"$root"/})"
+    failed=1
+  else
+    result=ok
+  fi
+  line=$(printf '%-15s %5ss %10s runs  cov %-5s ft %-6s corpus %5s files %6s KiB  %s' \
+    "$t" "$elapsed" "${runs:-?}" "${cov:-?}" "${ft:-?}" "$files" "$kib" "$result")
+  echo "$line"
+  results+=("$line")
+done
+
+echo
+echo "== summary (${seconds} s per target)"
+printf '%s\n' "${results[@]}"
+exit "$failed"
