@@ -7,6 +7,7 @@
 #include <span>
 #include <vector>
 
+#include "pipeline/options.hpp"
 #include "pipeline/pipeline.hpp"
 #include "sources/source.hpp"
 
@@ -48,18 +49,6 @@ struct DiscardSink final : Sink {
   bool flush() override { return true; }
 };
 
-// Pipeline options as `drivetap read` derives them from a capture with no command-line options
-// (src/cli/main.cpp, make_pipeline_options). False where the CLI refuses to run.
-inline bool options_from_capture(const RunSettings& capture, PipelineOptions* p) {
-  p->serial = capture.serial.value_or(SerialConfig{});
-  p->timing = FramingTiming::from(p->serial);
-  if (capture.t15) p->timing.t15 = *capture.t15;
-  if (capture.t35) p->timing.t35 = *capture.t35;
-  if (capture.reply_timeout) p->reply_timeout = *capture.reply_timeout;
-  if (capture.max_hold) p->max_hold = *capture.max_hold;
-  return p->timing.t35 > 0;  // the CLI exits with "--t35: must be greater than zero"
-}
-
 // Pushes events through a pipeline and checks the byte accounting at the end.
 class CheckedRun {
  public:
@@ -87,8 +76,10 @@ class CheckedRun {
 // The loop of `drivetap read` (src/cli/main.cpp, run_read) over one source.
 inline void run_source(ByteSource& source, ChannelTable& channels) {
   if (!source.read_header()) return;
-  PipelineOptions p;
-  if (!options_from_capture(source.settings(), &p)) return;
+  std::string error;
+  const auto options = resolve_pipeline_options(source.settings(), {}, &error);
+  if (!options) return;  // the CLI refuses to run such a capture too
+  const PipelineOptions& p = *options;
   source.set_character_time(p.timing.character_time);
   CheckedRun run(p, channels);
   ByteEvent e;

@@ -36,13 +36,6 @@ void decode_capture(const std::string& path, bool pcapng, Decoded& d) {
   if (pcapng) std::fclose(f);
 }
 
-std::vector<std::uint8_t> with_crc(std::vector<std::uint8_t> b) {
-  const std::uint16_t c = crc16_modbus(b);
-  b.push_back(static_cast<std::uint8_t>(c & 0xFF));
-  b.push_back(static_cast<std::uint8_t>(c >> 8));
-  return b;
-}
-
 }  // namespace
 
 TEST(CaptureReader, Dlt147SplitAndMergedPacketsAreReframed) {

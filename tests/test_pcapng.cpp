@@ -83,8 +83,7 @@ TEST(Pcapng, WriterOutputReadsBackWithEveryField) {
   EXPECT_EQ(r.packets[0].data, (std::vector<std::uint8_t>{1, 3, 0, 0, 0, 1, 0x84, 0x0A}));
   EXPECT_EQ(r.packets[0].flags, pcapng::kFlagOutbound | pcapng::kFlagCrcError);
   EXPECT_EQ(r.packets[0].comment, "a comment");
-  EXPECT_EQ(r.packets[0].drivetap_option,
-            (std::vector<std::uint8_t>{'D', 'T', 1, 0, 1, 0, 0, 0}));
+  EXPECT_EQ(r.packets[0].drivetap_option, (std::vector<std::uint8_t>{'D', 'T', 1, 0, 1, 0, 0, 0}));
 }
 
 TEST(Pcapng, TruncatedFileKeepsWhatCameBeforeAndNamesTheOffset) {
@@ -101,8 +100,8 @@ TEST(Pcapng, AbsurdBlockLengthIsRejectedWithoutAllocating) {
   // First EPB header follows SHB and IDB: find it by type 6.
   std::size_t at = 0;
   while (at + 8 <= file.size()) {
-    const std::uint32_t type = file[at] | (file[at + 1] << 8) | (file[at + 2] << 16) |
-                               (std::uint32_t{file[at + 3]} << 24);
+    const std::uint32_t type =
+        file[at] | (file[at + 1] << 8) | (file[at + 2] << 16) | (std::uint32_t{file[at + 3]} << 24);
     const std::uint32_t len = file[at + 4] | (file[at + 5] << 8) | (file[at + 6] << 16) |
                               (std::uint32_t{file[at + 7]} << 24);
     if (type == 6) break;
@@ -122,7 +121,8 @@ TEST(Pcapng, WrongMagicAndGarbage) {
   std::vector<std::uint8_t> file = sample_file();
   file[8] = 0x55;  // byte-order magic
   EXPECT_NE(read_file(file).error.find("bad byte-order magic"), std::string::npos);
-  const ReadResult garbage = read_file({'h', 'e', 'l', 'l', 'o', ' ', 'w', 'o', 'r', 'l', 'd', '!'});
+  const ReadResult garbage =
+      read_file({'h', 'e', 'l', 'l', 'o', ' ', 'w', 'o', 'r', 'l', 'd', '!'});
   EXPECT_NE(garbage.error.find("not a pcapng file"), std::string::npos) << garbage.error;
   EXPECT_NE(read_file({}).error.find("empty file"), std::string::npos);
 }
@@ -147,8 +147,8 @@ TEST(Pcapng, MicrosecondDefaultResolutionAndOtherWriters) {
   auto file = write_file([](pcapng::Writer& w) { w.section_header("someone else"); });
   const std::uint8_t idb[] = {1, 0, 0, 0, 20, 0, 0, 0, 147, 0, 0, 0, 0, 0, 0, 0, 20, 0, 0, 0};
   file.insert(file.end(), idb, idb + sizeof idb);
-  const std::uint8_t epb[] = {6, 0, 0, 0, 36, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0xE8, 3, 0, 0,
-                              2, 0, 0, 0, 2, 0, 0, 0, 0xAB, 0xCD, 0, 0, 36, 0, 0, 0};
+  const std::uint8_t epb[] = {6, 0, 0, 0, 36, 0, 0, 0, 0, 0, 0,    0,    0, 0, 0,  0, 0xE8, 3,
+                              0, 0, 2, 0, 0,  0, 2, 0, 0, 0, 0xAB, 0xCD, 0, 0, 36, 0, 0,    0};
   file.insert(file.end(), epb, epb + sizeof epb);
   const ReadResult r = read_file(file);
   ASSERT_EQ(r.error, "");
@@ -217,8 +217,8 @@ TEST(LinkLayer, User0RtacUpperPduAndUdp) {
   // Ethernet / IPv4 / UDP 10.0.0.1:4001 -> 10.0.0.2:502 carrying 3 RTU bytes.
   std::vector<std::uint8_t> eth(12, 0);
   eth.insert(eth.end(), {0x08, 0x00});
-  const std::vector<std::uint8_t> ip = {0x45, 0, 0, 31, 0, 0, 0x40, 0, 64, 17, 0, 0,
-                                        10, 0, 0, 1, 10, 0, 0, 2};
+  const std::vector<std::uint8_t> ip = {0x45, 0, 0,  31, 0, 0, 0x40, 0, 64, 17,
+                                        0,    0, 10, 0,  0, 1, 10,   0, 0,  2};
   const std::vector<std::uint8_t> udp = {0x0F, 0xA1, 0x01, 0xF6, 0, 11, 0, 0, 0x01, 0x03, 0x02};
   eth.insert(eth.end(), ip.begin(), ip.end());
   eth.insert(eth.end(), udp.begin(), udp.end());
@@ -236,8 +236,8 @@ TEST(LinkLayer, User0RtacUpperPduAndUdp) {
 }
 
 TEST(LinkLayer, ModbusTcpIsNotMistakenForRtu) {
-  std::vector<std::uint8_t> pkt = {0x45, 0, 0, 52, 0, 0, 0x40, 0, 64, 6, 0, 0, 10, 0, 0, 1,
-                                   10, 0, 0, 2};
+  std::vector<std::uint8_t> pkt = {0x45, 0, 0,  52, 0, 0, 0x40, 0, 64, 6,
+                                   0,    0, 10, 0,  0, 1, 10,   0, 0,  2};
   std::vector<std::uint8_t> tcp(20, 0);
   tcp[0] = 0xC0;
   tcp[1] = 0x00;

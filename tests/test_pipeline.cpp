@@ -9,13 +9,6 @@ using namespace drivetap::testing;
 
 namespace {
 
-std::vector<std::uint8_t> with_crc(std::vector<std::uint8_t> b) {
-  const std::uint16_t c = crc16_modbus(b);
-  b.push_back(static_cast<std::uint8_t>(c & 0xFF));
-  b.push_back(static_cast<std::uint8_t>(c >> 8));
-  return b;
-}
-
 struct Bus {
   ChannelTable channels;
   RecordingSink sink;

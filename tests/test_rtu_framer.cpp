@@ -5,21 +5,16 @@
 
 #include "core/checksum.hpp"
 #include "dissectors/modbus/rtu_framer.hpp"
+#include "test_support.hpp"
 
 using namespace drivetap;
 using namespace drivetap::modbus;
+using drivetap::testing::with_crc;
 
 namespace {
 
 const SerialConfig k9600 = {9600, 8, Parity::none, 1};
 const TimeNs kChar = k9600.character_time();
-
-std::vector<std::uint8_t> with_crc(std::vector<std::uint8_t> b) {
-  const std::uint16_t c = crc16_modbus(b);
-  b.push_back(static_cast<std::uint8_t>(c & 0xFF));
-  b.push_back(static_cast<std::uint8_t>(c >> 8));
-  return b;
-}
 
 const std::vector<std::uint8_t> kRequest = with_crc({0x01, 0x03, 0x00, 0x00, 0x00, 0x02});
 const std::vector<std::uint8_t> kReply = with_crc({0x01, 0x03, 0x04, 0x00, 0x0A, 0x01, 0xF4});

@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "core/checksum.hpp"
 #include "pipeline/pipeline.hpp"
 #include "sources/byte_log.hpp"
 
@@ -38,6 +39,14 @@ struct RecordingSink final : Sink {
     return n;
   }
 };
+
+// Appends the Modbus CRC (low byte first) to a frame's bytes.
+inline std::vector<std::uint8_t> with_crc(std::vector<std::uint8_t> b) {
+  const std::uint16_t c = crc16_modbus(b);
+  b.push_back(static_cast<std::uint8_t>(c & 0xFF));
+  b.push_back(static_cast<std::uint8_t>(c >> 8));
+  return b;
+}
 
 inline std::string hex_of(const std::vector<std::uint8_t>& bytes) {
   std::string s;

@@ -139,9 +139,9 @@ TEST(TsharkUser0, DecodesWithTheDocumentedUserDltEntry) {
   const std::string path = ::testing::TempDir() + "user0.pcapng";
   const auto frames = write_capture("seed-erman-erg", path, CaptureLinkType::user0);
   // The README's user DLT line: User 0 (DLT=147) -> payload protocol mbrtu.
-  const auto rows = run_tshark(
-      "-o 'uat:user_dlts:\"User 0 (DLT=147)\",\"mbrtu\",\"0\",\"\",\"0\",\"\"' -r " + path +
-      " -T fields -e _ws.col.Protocol -e mbrtu.unit_id");
+  const auto rows =
+      run_tshark("-o 'uat:user_dlts:\"User 0 (DLT=147)\",\"mbrtu\",\"0\",\"\",\"0\",\"\"' -r " +
+                 path + " -T fields -e _ws.col.Protocol -e mbrtu.unit_id");
   ASSERT_EQ(rows.size(), frames.size());
   for (std::size_t i = 0; i < rows.size(); ++i) {
     EXPECT_EQ(rows[i][0], "Modbus RTU") << "frame " << i + 1;

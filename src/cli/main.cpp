@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "core/serial_config.hpp"
+#include "pipeline/options.hpp"
 #include "pipeline/pipeline.hpp"
 #include "sinks/capture_sink.hpp"
 #include "sinks/json_sink.hpp"
@@ -74,34 +75,10 @@ void add_common_options(CLI::App* cmd, CommonOptions& o) {
 
 // Line settings and timing: the capture's own settings first, the command line over them.
 PipelineOptions make_pipeline_options(const CommonOptions& o, const RunSettings& capture) {
-  PipelineOptions p;
   std::string err;
-  SerialConfig serial = capture.serial.value_or(SerialConfig{});
-  if (!o.serial.empty()) {
-    auto parsed = SerialConfig::parse(o.serial, &err, serial);
-    if (!parsed) die(fmt::format("--serial: {}", err));
-    serial = *parsed;
-  }
-  p.serial = serial;
-  p.timing = FramingTiming::from(serial);
-  // Timing stored by a drivetap capture applies only when its line settings are in force.
-  if (o.serial.empty()) {
-    if (capture.t15) p.timing.t15 = *capture.t15;
-    if (capture.t35) p.timing.t35 = *capture.t35;
-  }
-  if (capture.reply_timeout) p.reply_timeout = *capture.reply_timeout;
-  if (capture.max_hold) p.max_hold = *capture.max_hold;
-  auto interval = [&](const std::string& text, const char* option) {
-    auto v = parse_interval(text, p.timing.character_time, &err);
-    if (!v) die(fmt::format("{}: {}", option, err));
-    return *v;
-  };
-  if (!o.t15.empty()) p.timing.t15 = interval(o.t15, "--t15");
-  if (!o.t35.empty()) p.timing.t35 = interval(o.t35, "--t35");
-  if (!o.timeout.empty()) p.reply_timeout = interval(o.timeout, "--timeout");
-  if (!o.max_hold.empty()) p.max_hold = interval(o.max_hold, "--max-hold");
-  if (p.timing.t35 <= 0) die("--t35: must be greater than zero");
-  return p;
+  auto p = resolve_pipeline_options(capture, {o.serial, o.t15, o.t35, o.timeout, o.max_hold}, &err);
+  if (!p) die(err);
+  return *p;
 }
 
 // Owns the output files and the sinks chosen by -T, -o and -w.

@@ -1,6 +1,8 @@
 // CRC-16/MODBUS, table driven (PROTOCOLS.md §2).
 #include "core/checksum.hpp"
 
+#include <fmt/format.h>
+
 #include <array>
 
 namespace drivetap {
@@ -48,6 +50,13 @@ ChecksumResult check_rtu_crc(std::span<const std::uint8_t> frame) {
     r.verdict = ChecksumVerdict::bad;
   }
   return r;
+}
+
+std::string wire_hex(std::uint32_t packed, std::uint8_t width, const char* separator) {
+  std::string out;
+  for (int i = width - 1; i >= 0; --i)
+    out += fmt::format("{}{:02X}", i == width - 1 ? "" : separator, (packed >> (8 * i)) & 0xFF);
+  return out;
 }
 
 const char* to_string(ChecksumVerdict v) {

@@ -3,6 +3,7 @@
 
 #include <cstdint>
 #include <span>
+#include <string>
 
 namespace drivetap {
 
@@ -32,5 +33,8 @@ struct ChecksumResult {
 ChecksumResult check_rtu_crc(std::span<const std::uint8_t> frame);
 
 const char* to_string(ChecksumVerdict v);
+
+// A checksum value in wire order as hex bytes: (0x3A44, 2, " ") -> "3A 44"; "3A44" with "".
+std::string wire_hex(std::uint32_t packed, std::uint8_t width, const char* separator = " ");
 
 }  // namespace drivetap

@@ -46,10 +46,6 @@ std::string seconds(TimeNs t) {
   return format_seconds(t, 9);
 }
 
-std::string wire_hex(std::uint32_t v, int width) {
-  return width == 2 ? fmt::format("{:02X}{:02X}", (v >> 8) & 0xFF, v & 0xFF) : std::string();
-}
-
 // Field nodes keyed by dotted id, in first-seen order; repeated ids become arrays.
 std::string fields_object(const Message& m) {
   std::vector<std::pair<std::string_view, std::vector<std::string>>> entries;
@@ -133,8 +129,8 @@ void JsonSink::on_frame(const Message& m) {
       to_string(m.checksum.verdict));
   if (m.checksum.verdict != ChecksumVerdict::none)
     line += fmt::format(",\"checksum_stated\":\"{}\",\"checksum_computed\":\"{}\"",
-                        wire_hex(m.checksum.stated_wire, m.checksum.width),
-                        wire_hex(m.checksum.computed_wire, m.checksum.width));
+                        wire_hex(m.checksum.stated_wire, m.checksum.width, ""),
+                        wire_hex(m.checksum.computed_wire, m.checksum.width, ""));
   if (m.is_exception) line += fmt::format(",\"exception\":{}", m.exception_code);
   if (m.request_number != 0)
     line += fmt::format(",\"latency_ms\":{},\"request_n\":{}",

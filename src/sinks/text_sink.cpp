@@ -24,9 +24,7 @@ const char* direction_tag(Direction d) {
 }
 
 std::string checksum_text(const ChecksumResult& c) {
-  auto wire = [](std::uint32_t v) {
-    return fmt::format("{:02X} {:02X}", (v >> 8) & 0xFF, v & 0xFF);
-  };
+  auto wire = [&](std::uint32_t v) { return wire_hex(v, c.width); };
   switch (c.verdict) {
     case ChecksumVerdict::good:
       return "crc ok";
