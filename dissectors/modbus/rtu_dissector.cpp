@@ -5,13 +5,10 @@
 
 #include "dissectors/modbus/modbus_fields.hpp"
 #include "dissectors/modbus/modbus_pdu.hpp"
+#include "dissectors/modbus/rtu_framer.hpp"
 
 namespace drivetap::modbus {
 namespace {
-
-std::string wire_hex(std::uint32_t packed) {
-  return fmt::format("{:02X} {:02X}", (packed >> 8) & 0xFF, packed & 0xFF);
-}
 
 double in_characters(TimeNs t, TimeNs character_time) {
   return character_time > 0 ? static_cast<double>(t) / static_cast<double>(character_time) : 0.0;
@@ -63,16 +60,16 @@ Message dissect_rtu(Frame frame, Direction direction, const FramingTiming& timin
   }
 
   if (m.checksum.verdict == ChecksumVerdict::bad) {
-    m.anomalies.insert(m.anomalies.begin(),
-                       {AnomalyKind::crc_bad, t0, ch, 0,
-                        fmt::format("CRC on wire {}, computed {}", wire_hex(m.checksum.stated_wire),
-                                    wire_hex(m.checksum.computed_wire))});
+    m.anomalies.insert(m.anomalies.begin(), {AnomalyKind::crc_bad, t0, ch, 0,
+                                             fmt::format("CRC on wire {}, computed {}",
+                                                         wire_hex(m.checksum.stated_wire, 2),
+                                                         wire_hex(m.checksum.computed_wire, 2))});
   } else if (m.checksum.verdict == ChecksumVerdict::swapped) {
     m.anomalies.insert(
         m.anomalies.begin(),
         {AnomalyKind::crc_swapped, t0, ch, 0,
          fmt::format("CRC sent high byte first: on wire {}, expected {}",
-                     wire_hex(m.checksum.stated_wire), wire_hex(m.checksum.computed_wire))});
+                     wire_hex(m.checksum.stated_wire, 2), wire_hex(m.checksum.computed_wire, 2))});
   }
   if (m.frame.max_intra_gap > timing.t15) {
     const std::size_t at = m.frame.max_intra_gap_at;
@@ -91,6 +88,23 @@ Message dissect_rtu(Frame frame, Direction direction, const FramingTiming& timin
   }
   append_uart_anomalies(m.frame.events, 0, m.anomalies);
   return m;
+}
+
+std::unique_ptr<Framer> RtuDecoder::make_framer(ChannelId channel, const FramerSettings& s) const {
+  RtuFramerOptions o;
+  o.timing = s.timing;
+  o.max_hold = s.max_hold;
+  return std::make_unique<RtuFramer>(channel, o);
+}
+
+bool RtuDecoder::always_response(std::span<const std::uint8_t> frame) const {
+  return frame.size() >= 2 && (frame[1] & 0x80) != 0;  // exception reply
+}
+
+bool RtuDecoder::recognisable(std::span<const std::uint8_t> frame) const {
+  // A frame with a bad CRC and a function code outside the public set is most likely garbage.
+  return frame.size() >= 2 &&
+         (check_rtu_crc(frame).verdict != ChecksumVerdict::bad || is_public_function(frame[1]));
 }
 
 }  // namespace drivetap::modbus

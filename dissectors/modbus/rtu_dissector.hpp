@@ -11,20 +11,36 @@
 
 #include "core/frame.hpp"
 #include "core/message.hpp"
+#include "core/protocol.hpp"
 #include "core/serial_config.hpp"
 
 namespace drivetap::modbus {
 
 // Which directions the frame's length agrees with (from its function code and count fields).
-struct DirectionFit {
-  bool request = false;
-  bool response = false;
-};
 DirectionFit rtu_direction_fit(std::span<const std::uint8_t> frame);
 
 // Decodes `frame` as a Modbus RTU telegram travelling in `direction`. Checksum, malformed
 // content, gaps > t1.5 inside the frame, a short silence before it and UART-flagged bytes all
 // become anomalies of the message.
 Message dissect_rtu(Frame frame, Direction direction, const FramingTiming& timing);
+
+// Modbus RTU as a ProtocolDecoder for the pipeline.
+class RtuDecoder final : public ProtocolDecoder {
+ public:
+  [[nodiscard]] Protocol protocol() const override { return Protocol::modbus_rtu; }
+  [[nodiscard]] std::unique_ptr<Framer> make_framer(ChannelId channel,
+                                                    const FramerSettings& s) const override;
+  [[nodiscard]] DirectionFit direction_fit(std::span<const std::uint8_t> frame) const override {
+    return rtu_direction_fit(frame);
+  }
+  [[nodiscard]] bool always_response(std::span<const std::uint8_t> frame) const override;
+  [[nodiscard]] bool recognisable(std::span<const std::uint8_t> frame) const override;
+  [[nodiscard]] PairingKeys pairing_keys(std::span<const std::uint8_t> frame) const override {
+    return {frame.empty() ? -1 : frame[0], frame.size() < 2 ? -1 : frame[1]};
+  }
+  Message dissect(Frame frame, Direction direction, const FramingTiming& timing) const override {
+    return dissect_rtu(std::move(frame), direction, timing);
+  }
+};
 
 }  // namespace drivetap::modbus

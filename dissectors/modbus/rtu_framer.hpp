@@ -30,6 +30,7 @@
 
 #include "core/byte_event.hpp"
 #include "core/frame.hpp"
+#include "core/framer.hpp"
 #include "core/serial_config.hpp"
 
 namespace drivetap::modbus {
@@ -45,18 +46,18 @@ struct RtuFramerOptions {
 inline constexpr std::size_t kRtuMaxFrame = 256;
 inline constexpr std::size_t kRtuMinFrame = 4;
 
-class RtuFramer {
+class RtuFramer final : public Framer {
  public:
   RtuFramer(ChannelId channel, RtuFramerOptions options);
 
   // Adds one byte; frames that it completes are appended to `out`.
-  void push(const ByteEvent& event, std::vector<Frame>& out);
+  void push(const ByteEvent& event, std::vector<Frame>& out) override;
   // Time has reached `now` on the bus; closes what silence or the hold limit has completed.
-  void advance(TimeNs now, std::vector<Frame>& out);
+  void advance(TimeNs now, std::vector<Frame>& out) override;
   // End of input: everything pending becomes frames or noise.
-  void finish(std::vector<Frame>& out);
+  void finish(std::vector<Frame>& out) override;
   // Earliest time at which advance() can produce something; max() when nothing is pending.
-  [[nodiscard]] TimeNs next_deadline() const;
+  [[nodiscard]] TimeNs next_deadline() const override;
 
  private:
   enum class Mode { silence, pressure, flush, end_of_input };

@@ -6,14 +6,13 @@
 #include <algorithm>
 #include <limits>
 
-#include "dissectors/modbus/modbus_pdu.hpp"
-#include "dissectors/modbus/rtu_dissector.hpp"
-
 namespace drivetap {
 
 struct Pipeline::ChannelState {
-  ChannelState(ChannelId id, const modbus::RtuFramerOptions& o) : framer(id, o) {}
-  modbus::RtuFramer framer;
+  ChannelState(ChannelId id, const ProtocolDecoder& d, const FramerSettings& s)
+      : decoder(&d), framer(d.make_framer(id, s)) {}
+  const ProtocolDecoder* decoder;
+  std::unique_ptr<Framer> framer;
   TimeNs last_end = std::numeric_limits<TimeNs>::min();
   std::uint32_t last_frame_origin = 0;       // packet the previous frame ended in
   std::uint32_t reported_merged_origin = 0;  // packet already reported as holding several frames
@@ -31,10 +30,9 @@ Pipeline::~Pipeline() = default;
 
 Pipeline::ChannelState& Pipeline::state_for(ChannelId id) {
   while (states_.size() <= id) {
-    modbus::RtuFramerOptions o;
-    o.timing = options_.timing;
-    o.max_hold = options_.max_hold;
-    states_.push_back(std::make_unique<ChannelState>(static_cast<ChannelId>(states_.size()), o));
+    const FramerSettings s{options_.timing, options_.max_hold};
+    states_.push_back(std::make_unique<ChannelState>(static_cast<ChannelId>(states_.size()),
+                                                     *decoder_for(options_.protocol), s));
   }
   return *states_[id];
 }
@@ -43,8 +41,8 @@ void Pipeline::advance_all(TimeNs now) {
   if (now < earliest_deadline_) return;
   earliest_deadline_ = std::numeric_limits<TimeNs>::max();
   for (auto& s : states_) {
-    s->framer.advance(now, ready_);
-    earliest_deadline_ = std::min(earliest_deadline_, s->framer.next_deadline());
+    s->framer->advance(now, ready_);
+    earliest_deadline_ = std::min(earliest_deadline_, s->framer->next_deadline());
   }
   handle_frames();
 }
@@ -56,8 +54,8 @@ void Pipeline::push(const ByteEvent& in) {
   if (e.time < st.last_end) e.time = st.last_end;
   st.last_end = e.time + options_.timing.character_time;
   advance_all(e.time);
-  st.framer.push(e, ready_);
-  earliest_deadline_ = std::min(earliest_deadline_, st.framer.next_deadline());
+  st.framer->push(e, ready_);
+  earliest_deadline_ = std::min(earliest_deadline_, st.framer->next_deadline());
   if (!ready_.empty()) handle_frames();
 }
 
@@ -80,7 +78,8 @@ void Pipeline::handle_frames() {
   for (Frame& f : batch) handle_frame(f);
 }
 
-Direction Pipeline::decide_direction(const Frame& frame, std::span<const std::uint8_t> bytes,
+Direction Pipeline::decide_direction(const ProtocolDecoder& decoder, const Frame& frame,
+                                     std::span<const std::uint8_t> bytes, int address, int function,
                                      std::size_t link) const {
   switch (channels_.at(frame.channel).role) {
     case ChannelRole::master:
@@ -91,18 +90,14 @@ Direction Pipeline::decide_direction(const Frame& frame, std::span<const std::ui
       break;
   }
   if (bytes.size() < 2) return Direction::unknown;
-  const int address = bytes[0];
-  const int function = bytes[1];
-  if (function & 0x80) return Direction::response;
-  const modbus::DirectionFit fit = modbus::rtu_direction_fit(bytes);
+  if (decoder.always_response(bytes)) return Direction::response;
+  const DirectionFit fit = decoder.direction_fit(bytes);
   if (fit.request != fit.response) return fit.request ? Direction::request : Direction::response;
-  // Both layouts fit (FC 05/06/08 echoes, 0F/10 acknowledgements of the same size) or neither
-  // does: order decides — a reply is what a pending request of the same function awaits.
+  // Both layouts fit (echo replies, acknowledgements of the same size) or neither does: order
+  // decides — a reply is what a pending request of the same station and function awaits.
   if (pairer_.awaiting_reply(link, address, function, frame.start())) return Direction::response;
   if (fit.request) return Direction::request;
-  const auto check = check_rtu_crc(bytes);
-  if (check.verdict == ChecksumVerdict::bad && !modbus::is_public_function(bytes[1]))
-    return Direction::unknown;
+  if (!decoder.recognisable(bytes)) return Direction::unknown;
   return Direction::request;
 }
 
@@ -152,9 +147,11 @@ void Pipeline::handle_frame(Frame& frame) {
   pairer_.expire(frame.start(), transactions_);
   emit_transactions(transactions_);
 
+  const ProtocolDecoder& decoder = *state_for(frame.channel).decoder;
   const std::vector<std::uint8_t> bytes = frame.bytes();
-  const Direction dir = decide_direction(frame, bytes, link);
-  Message m = modbus::dissect_rtu(std::move(frame), dir, options_.timing);
+  const ProtocolDecoder::PairingKeys keys = decoder.pairing_keys(bytes);
+  const Direction dir = decide_direction(decoder, frame, bytes, keys.address, keys.function, link);
+  Message m = decoder.dissect(std::move(frame), dir, options_.timing);
   pairer_.add(link, m, transactions_);
   for (Anomaly& a : m.anomalies) a.frame_number = m.frame.number;
   stats_.count_frame(m);
@@ -185,7 +182,7 @@ void Pipeline::emit_transactions(std::vector<Transaction>& transactions) {
 void Pipeline::finish() {
   if (finished_) return;
   finished_ = true;
-  for (auto& s : states_) s->framer.finish(ready_);
+  for (auto& s : states_) s->framer->finish(ready_);
   handle_frames();
   pairer_.finish(transactions_);
   emit_transactions(transactions_);

@@ -9,8 +9,8 @@
 #include <vector>
 
 #include "core/byte_event.hpp"
+#include "core/protocol.hpp"
 #include "core/serial_config.hpp"
-#include "dissectors/modbus/rtu_framer.hpp"
 #include "pipeline/pairer.hpp"
 #include "pipeline/stats.hpp"
 #include "sinks/sink.hpp"
@@ -22,6 +22,7 @@ struct PipelineOptions {
   FramingTiming timing;  // usually FramingTiming::from(serial), possibly overridden
   TimeNs max_hold = 100 * kNsPerMs;
   TimeNs reply_timeout = 1 * kNsPerSecond;
+  Protocol protocol = Protocol::modbus_rtu;  // --protocol; detection is issue 4 work
 };
 
 class Pipeline {
@@ -43,7 +44,8 @@ class Pipeline {
   void handle_frames();
   void handle_frame(Frame& frame);
   void check_packetization(const Frame& frame);
-  Direction decide_direction(const Frame& frame, std::span<const std::uint8_t> bytes,
+  Direction decide_direction(const ProtocolDecoder& decoder, const Frame& frame,
+                             std::span<const std::uint8_t> bytes, int address, int function,
                              std::size_t link) const;
   void emit_transactions(std::vector<Transaction>& transactions);
   void emit_anomaly(const Anomaly& a);

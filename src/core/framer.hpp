@@ -1,0 +1,29 @@
+// Framer: the ByteEvent -> Frame stage contract shared by every protocol's framer.
+//
+// A framer sees the bytes of one channel in time order and emits Frames (telegrams and noise)
+// that cover every byte exactly once, in order. It may hold bytes while a frame is incomplete;
+// advance() tells it that time has passed with no byte, finish() that the input ended.
+#pragma once
+
+#include <vector>
+
+#include "core/byte_event.hpp"
+#include "core/frame.hpp"
+#include "core/time.hpp"
+
+namespace drivetap {
+
+class Framer {
+ public:
+  virtual ~Framer() = default;
+  // Adds one byte; frames it completes are appended to `out`.
+  virtual void push(const ByteEvent& event, std::vector<Frame>& out) = 0;
+  // Time has reached `now`; closes what silence or a hold limit has completed.
+  virtual void advance(TimeNs now, std::vector<Frame>& out) = 0;
+  // End of input: everything pending becomes frames or noise.
+  virtual void finish(std::vector<Frame>& out) = 0;
+  // Earliest time at which advance() can produce something; max() when nothing is pending.
+  [[nodiscard]] virtual TimeNs next_deadline() const = 0;
+};
+
+}  // namespace drivetap

@@ -1,0 +1,56 @@
+// ProtocolDecoder: what the pipeline needs of each protocol — a framer, the directions a frame's
+// layout allows, and the dissector (Frame -> Message). One implementation per protocol under
+// dissectors/<protocol>/, listed in one explicit table (dissectors/protocols.cpp).
+#pragma once
+
+#include <memory>
+#include <span>
+#include <string_view>
+#include <vector>
+
+#include "core/framer.hpp"
+#include "core/message.hpp"
+#include "core/serial_config.hpp"
+
+namespace drivetap {
+
+struct DirectionFit {
+  bool request = false;
+  bool response = false;
+};
+
+struct FramerSettings {
+  FramingTiming timing;
+  TimeNs max_hold = 100 * kNsPerMs;
+};
+
+class ProtocolDecoder {
+ public:
+  virtual ~ProtocolDecoder() = default;
+  [[nodiscard]] virtual Protocol protocol() const = 0;
+  [[nodiscard]] virtual std::unique_ptr<Framer> make_framer(ChannelId channel,
+                                                            const FramerSettings& s) const = 0;
+  // Which directions the frame's layout agrees with (length fields, function codes).
+  [[nodiscard]] virtual DirectionFit direction_fit(std::span<const std::uint8_t> frame) const = 0;
+  // True when the frame can only be a reply (e.g. a Modbus exception).
+  [[nodiscard]] virtual bool always_response(std::span<const std::uint8_t> frame) const = 0;
+  // False when the frame looks like garbage rather than a telegram of this protocol: with no
+  // layout fitting either direction, such a frame gets direction `unknown` and is not paired.
+  [[nodiscard]] virtual bool recognisable(std::span<const std::uint8_t> frame) const = 0;
+  // Station address and function code of a frame, the keys that pair a reply with its request
+  // (-1 where the frame or the protocol has none). Must agree with dissect()'s Message fields.
+  struct PairingKeys {
+    int address = -1;
+    int function = -1;
+  };
+  [[nodiscard]] virtual PairingKeys pairing_keys(std::span<const std::uint8_t> frame) const = 0;
+  // Decodes the frame; Message::address/function are the pairing keys (function -1: none).
+  virtual Message dissect(Frame frame, Direction direction, const FramingTiming& timing) const = 0;
+};
+
+// The decoder of `protocol`, from the explicit table; nullptr for Protocol::unknown.
+const ProtocolDecoder* decoder_for(Protocol protocol);
+// "rtu", "ascii", "fc", "eds" (the --protocol names) -> Protocol; unknown for other text.
+Protocol protocol_from_option(std::string_view name);
+
+}  // namespace drivetap
