@@ -27,7 +27,7 @@ drivetap="$(cd "$(dirname "$drivetap")" && pwd)/$(basename "$drivetap")"
 failed=0
 for dir in "${dirs[@]}"; do
   [ -d "$dir" ] || continue
-  input=$(cd "$dir" && ls input.* 2>/dev/null | head -n 1)
+  input=$(cd "$dir" && ls input.* 2>/dev/null | head -n 1 || true)
   if [ -z "$input" ]; then continue; fi
   args=()
   if [ -f "$dir/args" ]; then read -r -a args < "$dir/args"; fi

@@ -154,6 +154,6 @@ TEST(Pipeline, SummaryCountsVerdictsAndNoise) {
   EXPECT_EQ(s.noise_records, 1u);
   EXPECT_EQ(s.noise_bytes, 1u);
   EXPECT_EQ(s.bytes, 17u);
-  EXPECT_EQ(s.anomalies[static_cast<int>(AnomalyKind::crc_bad)], 1u);
-  EXPECT_EQ(s.anomalies[static_cast<int>(AnomalyKind::crc_swapped)], 1u);
+  EXPECT_EQ(s.anomalies[static_cast<int>(AnomalyKind::checksum_bad)], 1u);
+  EXPECT_EQ(s.anomalies[static_cast<int>(AnomalyKind::checksum_swapped)], 1u);
 }

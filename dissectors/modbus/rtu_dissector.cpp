@@ -60,14 +60,14 @@ Message dissect_rtu(Frame frame, Direction direction, const FramingTiming& timin
   }
 
   if (m.checksum.verdict == ChecksumVerdict::bad) {
-    m.anomalies.insert(m.anomalies.begin(), {AnomalyKind::crc_bad, t0, ch, 0,
+    m.anomalies.insert(m.anomalies.begin(), {AnomalyKind::checksum_bad, t0, ch, 0,
                                              fmt::format("CRC on wire {}, computed {}",
                                                          wire_hex(m.checksum.stated_wire, 2),
                                                          wire_hex(m.checksum.computed_wire, 2))});
   } else if (m.checksum.verdict == ChecksumVerdict::swapped) {
     m.anomalies.insert(
         m.anomalies.begin(),
-        {AnomalyKind::crc_swapped, t0, ch, 0,
+        {AnomalyKind::checksum_swapped, t0, ch, 0,
          fmt::format("CRC sent high byte first: on wire {}, expected {}",
                      wire_hex(m.checksum.stated_wire, 2), wire_hex(m.checksum.computed_wire, 2))});
   }

@@ -120,19 +120,7 @@ void RtuFramer::emit(std::size_t p, std::size_t len, FrameKind kind, FrameClose 
   f.close = close;
   f.events.assign(pending_.begin() + static_cast<std::ptrdiff_t>(p),
                   pending_.begin() + static_cast<std::ptrdiff_t>(p + len));
-  const TimeNs char_time = options_.timing.character_time;
-  if (have_emitted_) f.gap_before = std::max<TimeNs>(0, f.events.front().time - emitted_end_);
-  TimeNs prev_end = f.events.front().time + char_time;
-  for (std::size_t i = 1; i < f.events.size(); ++i) {
-    const TimeNs gap = f.events[i].time - prev_end;
-    if (gap > f.max_intra_gap) {
-      f.max_intra_gap = gap;
-      f.max_intra_gap_at = static_cast<std::uint32_t>(i);
-    }
-    prev_end = std::max(prev_end, f.events[i].time + char_time);
-  }
-  emitted_end_ = have_emitted_ ? std::max(emitted_end_, prev_end) : prev_end;
-  have_emitted_ = true;
+  stamp_frame_timing(f, options_.timing.character_time, &emitted_end_, &have_emitted_);
   out.push_back(std::move(f));
 }
 

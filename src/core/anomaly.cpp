@@ -9,10 +9,10 @@ namespace drivetap {
 
 const char* anomaly_id(AnomalyKind k) {
   switch (k) {
-    case AnomalyKind::crc_bad:
-      return "crc_bad";
-    case AnomalyKind::crc_swapped:
-      return "crc_swapped";
+    case AnomalyKind::checksum_bad:
+      return "checksum_bad";
+    case AnomalyKind::checksum_swapped:
+      return "checksum_swapped";
     case AnomalyKind::intra_frame_gap:
       return "intra_frame_gap";
     case AnomalyKind::short_interframe_gap:
@@ -47,9 +47,9 @@ const char* anomaly_id(AnomalyKind k) {
 
 const char* anomaly_label(AnomalyKind k) {
   switch (k) {
-    case AnomalyKind::crc_bad:
+    case AnomalyKind::checksum_bad:
       return "bad checksum";
-    case AnomalyKind::crc_swapped:
+    case AnomalyKind::checksum_swapped:
       return "byte-swapped CRC";
     case AnomalyKind::intra_frame_gap:
       return "gap inside frame";

@@ -13,8 +13,8 @@
 namespace drivetap {
 
 enum class AnomalyKind : std::uint8_t {
-  crc_bad,               // checksum does not match
-  crc_swapped,           // valid CRC sent high byte first
+  checksum_bad,          // checksum does not match
+  checksum_swapped,      // valid CRC sent high byte first
   intra_frame_gap,       // silence > t1.5 between two bytes of one frame
   short_interframe_gap,  // visible silence before a frame shorter than t3.5
   noise,                 // bytes that fit no frame

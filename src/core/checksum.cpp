@@ -33,6 +33,12 @@ std::uint16_t crc16_modbus(std::span<const std::uint8_t> data, std::uint16_t crc
   return crc;
 }
 
+std::uint8_t lrc8(std::span<const std::uint8_t> data) {
+  std::uint8_t sum = 0;
+  for (const std::uint8_t b : data) sum = static_cast<std::uint8_t>(sum + b);
+  return static_cast<std::uint8_t>(-sum);
+}
+
 ChecksumResult check_rtu_crc(std::span<const std::uint8_t> frame) {
   ChecksumResult r;
   if (frame.size() < 3) return r;

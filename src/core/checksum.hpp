@@ -26,8 +26,12 @@ struct ChecksumResult {
   // print exactly as an engineer compares them with the bytes on the line.
   std::uint32_t stated_wire = 0;
   std::uint32_t computed_wire = 0;
-  std::uint8_t width = 0;  // bytes
+  std::uint8_t width = 0;    // bytes
+  const char* name = "CRC";  // CRC, LRC, BCC, SUM: how the protocol calls it
 };
+
+// Modbus ASCII LRC (PROTOCOLS.md §3): two's complement of the 8-bit sum of the binary bytes.
+std::uint8_t lrc8(std::span<const std::uint8_t> data);
 
 // Compares the two CRC bytes at the end of a Modbus RTU frame with the CRC of what precedes them.
 ChecksumResult check_rtu_crc(std::span<const std::uint8_t> frame);

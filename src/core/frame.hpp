@@ -2,6 +2,7 @@
 // run of noise bytes that fit no telegram (never dropped silently).
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -42,5 +43,25 @@ struct Frame {
     return out;
   }
 };
+
+// Fills a frame's timing from its events: silence before it (from `*previous_end`, the end of
+// the previous record on its channel, when `*have_previous`) and the largest silence inside it.
+// Updates *previous_end / *have_previous for the next record. Shared by every framer.
+inline void stamp_frame_timing(Frame& f, TimeNs character_time, TimeNs* previous_end,
+                               bool* have_previous) {
+  if (f.events.empty()) return;
+  if (*have_previous) f.gap_before = std::max<TimeNs>(0, f.events.front().time - *previous_end);
+  TimeNs end = f.events.front().time + character_time;
+  for (std::size_t i = 1; i < f.events.size(); ++i) {
+    const TimeNs gap = f.events[i].time - end;
+    if (gap > f.max_intra_gap) {
+      f.max_intra_gap = gap;
+      f.max_intra_gap_at = static_cast<std::uint32_t>(i);
+    }
+    end = std::max(end, f.events[i].time + character_time);
+  }
+  *previous_end = *have_previous ? std::max(*previous_end, end) : end;
+  *have_previous = true;
+}
 
 }  // namespace drivetap

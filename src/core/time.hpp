@@ -17,6 +17,8 @@ inline constexpr TimeNs kNsPerSecond = 1'000'000'000;
 inline constexpr TimeNs kTimeLimit = TimeNs{1} << 62;
 inline constexpr TimeNs kMaxInterval = 3600 * kNsPerSecond;
 
-inline constexpr bool time_in_range(TimeNs t) { return t > -kTimeLimit && t < kTimeLimit; }
+inline constexpr bool time_in_range(TimeNs t) {
+  return t > -kTimeLimit && t < kTimeLimit;
+}
 
 }  // namespace drivetap

@@ -86,7 +86,7 @@ void CaptureSink::on_noise(const Frame& f) {
 
 void CaptureSink::on_anomaly(const Anomaly& a) {
   if (!pending_ || a.frame_number != pending_->number) return;
-  if (a.kind == AnomalyKind::crc_bad || a.kind == AnomalyKind::crc_swapped ||
+  if (a.kind == AnomalyKind::checksum_bad || a.kind == AnomalyKind::checksum_swapped ||
       a.kind == AnomalyKind::noise)
     return;  // already in the comment's decode
   pending_->comment += fmt::format("; {}: {}", anomaly_label(a.kind), a.detail);

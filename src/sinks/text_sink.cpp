@@ -4,6 +4,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cctype>
 
 #include "sinks/format.hpp"
 
@@ -25,14 +26,16 @@ const char* direction_tag(Direction d) {
 
 std::string checksum_text(const ChecksumResult& c) {
   auto wire = [&](std::uint32_t v) { return wire_hex(v, c.width); };
+  std::string lower = c.name;
+  for (char& ch : lower) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
   switch (c.verdict) {
     case ChecksumVerdict::good:
-      return "crc ok";
+      return lower + " ok";
     case ChecksumVerdict::bad:
-      return fmt::format("CRC BAD (wire {}, computed {})", wire(c.stated_wire),
+      return fmt::format("{} BAD (wire {}, computed {})", c.name, wire(c.stated_wire),
                          wire(c.computed_wire));
     case ChecksumVerdict::swapped:
-      return fmt::format("CRC SWAPPED (wire {}, expected {}: sent high byte first)",
+      return fmt::format("{} SWAPPED (wire {}, expected {}: sent high byte first)", c.name,
                          wire(c.stated_wire), wire(c.computed_wire));
     case ChecksumVerdict::none:
       break;
@@ -104,7 +107,7 @@ void TextSink::on_noise(const Frame& f) {
 void TextSink::on_anomaly(const Anomaly& a) {
   if (!options_.frames) return;
   // Checksum verdicts are already on the frame line; noise is its own line.
-  if (a.kind == AnomalyKind::crc_bad || a.kind == AnomalyKind::crc_swapped ||
+  if (a.kind == AnomalyKind::checksum_bad || a.kind == AnomalyKind::checksum_swapped ||
       a.kind == AnomalyKind::noise)
     return;
   if (a.frame_number != 0 && a.frame_number == last_frame_number_ &&

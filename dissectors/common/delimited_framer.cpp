@@ -1,0 +1,52 @@
+// Start/end-character framer for the ASCII protocols (layout in delimited_framer.hpp).
+#include "dissectors/common/delimited_framer.hpp"
+
+#include <limits>
+
+namespace drivetap {
+
+void DelimitedFramer::close(FrameKind kind, FrameClose why, std::vector<Frame>& out) {
+  if (pending_.empty()) return;
+  Frame f;
+  f.kind = kind;
+  f.channel = channel_;
+  f.close = why;
+  f.events.swap(pending_);
+  stamp_frame_timing(f, options_.character_time, &emitted_end_, &have_emitted_);
+  out.push_back(std::move(f));
+  pending_.clear();
+  in_frame_ = false;
+}
+
+void DelimitedFramer::push(const ByteEvent& e, std::vector<Frame>& out) {
+  if (!pending_.empty() && e.time - last_end_ > options_.inter_character_timeout)
+    close(in_frame_ ? FrameKind::telegram : FrameKind::noise, FrameClose::silence, out);
+  if (e.byte == options_.start) {
+    // Resynchronise: whatever came before the start character is closed first.
+    close(in_frame_ ? FrameKind::telegram : FrameKind::noise, FrameClose::content, out);
+    in_frame_ = true;
+  }
+  pending_.push_back(e);
+  last_end_ = e.time + options_.character_time;
+  if (in_frame_ && e.byte == options_.end) {
+    close(FrameKind::telegram, FrameClose::content, out);
+  } else if (pending_.size() >= options_.max_length) {
+    close(in_frame_ ? FrameKind::telegram : FrameKind::noise, FrameClose::content, out);
+  }
+}
+
+TimeNs DelimitedFramer::next_deadline() const {
+  if (pending_.empty()) return std::numeric_limits<TimeNs>::max();
+  return last_end_ + options_.inter_character_timeout + 1;
+}
+
+void DelimitedFramer::advance(TimeNs now, std::vector<Frame>& out) {
+  if (!pending_.empty() && now - last_end_ > options_.inter_character_timeout)
+    close(in_frame_ ? FrameKind::telegram : FrameKind::noise, FrameClose::silence, out);
+}
+
+void DelimitedFramer::finish(std::vector<Frame>& out) {
+  close(in_frame_ ? FrameKind::telegram : FrameKind::noise, FrameClose::end_of_input, out);
+}
+
+}  // namespace drivetap

@@ -1,0 +1,47 @@
+// Framer for ASCII protocols delimited by a start and an end character: Modbus ASCII
+// (':' ... CR LF, PROTOCOLS.md §3) and the Easydrive protocol ('~' ... CR, §5).
+//
+//   noise ... | start | body ... | end |  noise ... | start | body ...
+//
+// A start character always begins a new frame (resynchronisation): an unfinished frame before it
+// is closed as cut. A frame also closes when it reaches the maximum length or when a silence
+// longer than the inter-character timeout interrupts it. Bytes outside frames are noise records.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "core/framer.hpp"
+
+namespace drivetap {
+
+struct DelimitedFramerOptions {
+  std::uint8_t start = ':';
+  std::uint8_t end = '\n';
+  std::size_t max_length = 513;
+  TimeNs inter_character_timeout = 1 * kNsPerSecond;  // Modbus ASCII's default
+  TimeNs character_time = 0;
+};
+
+class DelimitedFramer final : public Framer {
+ public:
+  DelimitedFramer(ChannelId channel, DelimitedFramerOptions options)
+      : channel_(channel), options_(options) {}
+  void push(const ByteEvent& event, std::vector<Frame>& out) override;
+  void advance(TimeNs now, std::vector<Frame>& out) override;
+  void finish(std::vector<Frame>& out) override;
+  [[nodiscard]] TimeNs next_deadline() const override;
+
+ private:
+  void close(FrameKind kind, FrameClose why, std::vector<Frame>& out);
+
+  ChannelId channel_;
+  DelimitedFramerOptions options_;
+  std::vector<ByteEvent> pending_;
+  bool in_frame_ = false;
+  TimeNs last_end_ = 0;
+  TimeNs emitted_end_ = 0;
+  bool have_emitted_ = false;
+};
+
+}  // namespace drivetap
