@@ -1,14 +1,18 @@
 // The one explicit table of protocol decoders (no static self-registration).
 #include "core/protocol.hpp"
+#include "dissectors/modbus/ascii_dissector.hpp"
 #include "dissectors/modbus/rtu_dissector.hpp"
 
 namespace drivetap {
 
 const ProtocolDecoder* decoder_for(Protocol protocol) {
   static const modbus::RtuDecoder rtu;
+  static const modbus::AsciiDecoder ascii;
   switch (protocol) {
     case Protocol::modbus_rtu:
       return &rtu;
+    case Protocol::modbus_ascii:
+      return &ascii;
     case Protocol::unknown:
       break;
   }
@@ -17,6 +21,7 @@ const ProtocolDecoder* decoder_for(Protocol protocol) {
 
 Protocol protocol_from_option(std::string_view name) {
   if (name == "rtu" || name == "modbus-rtu") return Protocol::modbus_rtu;
+  if (name == "ascii" || name == "modbus-ascii") return Protocol::modbus_ascii;
   return Protocol::unknown;
 }
 

@@ -88,6 +88,7 @@ inline constexpr std::array kCoilValues = {
 // RTU framing
 inline constexpr FieldDesc kAddr{"modbus.addr", "Station address", FieldType::uint};
 inline constexpr FieldDesc kCrc{"modbus.crc", "CRC-16", FieldType::bytes};
+inline constexpr FieldDesc kLrc{"modbus.lrc", "LRC", FieldType::hex, 2};
 // PDU
 inline constexpr FieldDesc kFunction{"modbus.fc", "Function code", FieldType::enumerated, 2,
                                      kFunctionNames};
@@ -162,6 +163,7 @@ inline constexpr FieldDesc kMeiObjectValue{"modbus.mei.object_value", "Object va
 
 inline constexpr const FieldDesc* kAllFields[] = {
     &kAddr,
+    &kLrc,
     &kCrc,
     &kFunction,
     &kExceptionFunction,

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "core/protocol.hpp"
 #include "core/serial_config.hpp"
 #include "pipeline/options.hpp"
 #include "pipeline/pipeline.hpp"
@@ -43,6 +44,7 @@ struct CommonOptions {
   std::string write;
   bool classic_pcap = false;
   std::string dlt = "upper-pdu";
+  std::string protocol;  // empty: rtu for captures; decode infers it from the text
 };
 
 void add_common_options(CLI::App* cmd, CommonOptions& o) {
@@ -57,6 +59,9 @@ void add_common_options(CLI::App* cmd, CommonOptions& o) {
                   "Reply timeout before a request counts as unanswered (default 1s)");
   cmd->add_option("--max-hold", o.max_hold,
                   "Longest wait for the rest of a frame split by a silence (default 100ms)");
+  cmd->add_option("-P,--protocol", o.protocol,
+                  "Protocol on the bus: rtu (Modbus RTU, default) or ascii (Modbus ASCII)")
+      ->check(CLI::IsMember({"rtu", "ascii"}));
   cmd->add_flag("--no-summary", o.no_summary, "Do not print the closing summary");
   cmd->add_option("-o,--output", o.output, "Write the text/JSON output to FILE instead of stdout");
   cmd->add_option("-w,--write", o.write,
@@ -78,6 +83,7 @@ PipelineOptions make_pipeline_options(const CommonOptions& o, const RunSettings&
   std::string err;
   auto p = resolve_pipeline_options(capture, {o.serial, o.t15, o.t35, o.timeout, o.max_hold}, &err);
   if (!p) die(err);
+  if (!o.protocol.empty()) p->protocol = protocol_from_option(o.protocol);
   return *p;
 }
 
@@ -158,6 +164,19 @@ int run_decode(const CommonOptions& o, const std::vector<std::string>& args) {
   ChannelTable channels;
   const ChannelId bus = channels.intern("bus");
   PipelineOptions p = make_pipeline_options(o, RunSettings{});
+  // Frames written as text (":0103...") are Modbus ASCII; hex bytes are Modbus RTU.
+  auto is_text_frame = [](const std::string& t) {
+    const std::size_t first = t.find_first_not_of(" \t");
+    return first != std::string::npos && t[first] == ':';
+  };
+  bool any_text = false;
+  bool any_hex = false;
+  for (const std::string& t : texts) {
+    if (t.find_first_not_of(" \t\r") == std::string::npos) continue;
+    (is_text_frame(t) ? any_text : any_hex) = true;
+  }
+  if (any_text && any_hex) die("decode: give either hex bytes (RTU) or ':' text frames (ASCII)");
+  if (o.protocol.empty() && any_text) p.protocol = Protocol::modbus_ascii;
   std::vector<ByteEvent> events;
   TimeNs clock = 0;
   // Frames given separately are laid out with a clean silence between them; bytes run together
@@ -165,11 +184,15 @@ int run_decode(const CommonOptions& o, const std::vector<std::string>& args) {
   const TimeNs gap = std::max<TimeNs>(p.timing.t35 * 4, 20 * kNsPerMs);
   for (std::size_t i = 0; i < texts.size(); ++i) {
     std::string err;
-    auto frames = parse_hex_frames(texts[i], &err);
-    if (!frames) {
-      if (texts[i].find_first_not_of(" \t\r") == std::string::npos) continue;
-      die(fmt::format("argument {} (\"{}\"): {}", i + 1, texts[i], err));
+    if (texts[i].find_first_not_of(" \t\r") == std::string::npos) continue;
+    std::optional<std::vector<std::vector<std::uint8_t>>> frames;
+    if (is_text_frame(texts[i])) {
+      const std::string t = texts[i].substr(texts[i].find(':'));
+      if (auto f = parse_text_frame(t, "\r\n", &err)) frames.emplace(1, std::move(*f));
+    } else {
+      frames = parse_hex_frames(texts[i], &err);
     }
+    if (!frames) die(fmt::format("argument {} (\"{}\"): {}", i + 1, texts[i], err));
     synthesize_events(*frames, bus, p.timing.character_time, gap, &clock, events);
   }
   if (events.empty())

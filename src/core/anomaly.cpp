@@ -103,6 +103,8 @@ const char* protocol_id(Protocol p) {
   switch (p) {
     case Protocol::modbus_rtu:
       return "modbus-rtu";
+    case Protocol::modbus_ascii:
+      return "modbus-ascii";
     case Protocol::unknown:
       break;
   }
@@ -113,6 +115,8 @@ const char* protocol_label(Protocol p) {
   switch (p) {
     case Protocol::modbus_rtu:
       return "Modbus RTU";
+    case Protocol::modbus_ascii:
+      return "Modbus ASCII";
     case Protocol::unknown:
       break;
   }

@@ -3,9 +3,24 @@
 
 #include <fmt/format.h>
 
+#include <cctype>
+
 namespace drivetap {
 
-std::string format_field_value(const FieldNode& node, std::span<const std::uint8_t> frame) {
+std::string field_bytes_hex(const FieldNode& node, std::span<const std::uint8_t> frame,
+                            bool text_encoded) {
+  std::string out;
+  for (std::size_t i = node.offset; i < node.offset + node.length && i < frame.size(); ++i) {
+    if (text_encoded)
+      out += static_cast<char>(std::toupper(frame[i]));
+    else
+      out += fmt::format("{:02X}", frame[i]);
+  }
+  return out;
+}
+
+std::string format_field_value(const FieldNode& node, std::span<const std::uint8_t> frame,
+                               bool text_encoded) {
   const FieldDesc& d = *node.desc;
   std::string out;
   switch (d.type) {
@@ -28,8 +43,9 @@ std::string format_field_value(const FieldNode& node, std::span<const std::uint8
       break;
     }
     case FieldType::bytes: {
-      for (std::size_t i = node.offset; i < node.offset + node.length && i < frame.size(); ++i)
-        out += fmt::format("{}{:02X}", out.empty() ? "" : " ", frame[i]);
+      const std::string hex = field_bytes_hex(node, frame, text_encoded);
+      for (std::size_t i = 0; i < hex.size(); i += 2)
+        out += fmt::format("{}{}", i ? " " : "", hex.substr(i, 2));
       if (node.length == 0) out = "(none)";
       break;
     }

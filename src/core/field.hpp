@@ -101,7 +101,13 @@ class FieldTreeBuilder {
 };
 
 // The value of a node as an engineer reads it: "3 (Read Holding Registers)", "0x0010 (16)".
-std::string format_field_value(const FieldNode& node, std::span<const std::uint8_t> frame);
+// `text_encoded`: the frame spells bytes as hex characters (Modbus ASCII), so a bytes field shows
+// the characters of its span rather than their codes.
+std::string format_field_value(const FieldNode& node, std::span<const std::uint8_t> frame,
+                               bool text_encoded = false);
+// A bytes field's value as compact upper-case hex ("A537"), for JSON.
+std::string field_bytes_hex(const FieldNode& node, std::span<const std::uint8_t> frame,
+                            bool text_encoded);
 
 // Every descriptor of every dissector (dissectors/field_table.cpp).
 std::span<const FieldDesc* const> all_field_descriptors();

@@ -13,7 +13,7 @@
 
 namespace drivetap {
 
-enum class Protocol : std::uint8_t { unknown, modbus_rtu };
+enum class Protocol : std::uint8_t { unknown, modbus_rtu, modbus_ascii };
 enum class Direction : std::uint8_t { unknown, request, response };
 
 const char* protocol_id(Protocol p);     // "modbus-rtu": JSON ids, stable
@@ -30,6 +30,8 @@ struct Message {
   bool is_exception = false;
   int exception_code = -1;
   ChecksumResult checksum;
+  // The frame spells its bytes as hex text (Modbus ASCII): `bytes` fields show their characters.
+  bool text_encoded = false;
   std::vector<FieldNode> fields;
   // The decode in one line, like Wireshark's Info column: "Read Holding Registers 0x0000 x4".
   std::string info;

@@ -21,6 +21,7 @@ struct CaptureSink::Pending {
   bool broadcast = false;
   std::string protocol_column;
   std::string comment;
+  bool wireshark_dissects = false;  // Wireshark has a dissector for it (Modbus RTU: "mbrtu")
 };
 
 CaptureSink::CaptureSink(std::FILE* out, const ChannelTable& channels, CaptureSinkOptions options)
@@ -68,6 +69,7 @@ void CaptureSink::on_frame(const Message& m) {
   p.protocol_column = p.broadcast ? std::string(protocol_label(m.protocol)) + " broadcast"
                                   : std::string(protocol_label(m.protocol));
   p.comment = frame_summary(m, true);
+  p.wireshark_dissects = m.protocol == Protocol::modbus_rtu;
 }
 
 void CaptureSink::on_noise(const Frame& f) {
@@ -101,7 +103,7 @@ void CaptureSink::write_pending() {
   std::vector<std::uint8_t> data;
   if (options_.link_type == CaptureLinkType::upper_pdu) {
     upper_pdu::Tags tags;
-    if (p.kind == FrameKind::telegram) {
+    if (p.kind == FrameKind::telegram && p.wireshark_dissects) {
       tags.dissector = "mbrtu";
       // Wireshark's Modbus RTU dissector tells queries from responses by port: destination 0
       // (its default RTU "port" range) marks a query, source 0 a response.
@@ -113,6 +115,7 @@ void CaptureSink::write_pending() {
         tags.destination_port = 1;
       }
     } else {
+      // Noise, and protocols Wireshark has no dissector for: labelled, decoded in the column.
       tags.dissector = "data";
       tags.info_column = p.comment;
     }

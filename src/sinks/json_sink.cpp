@@ -54,13 +54,9 @@ std::string fields_object(const Message& m) {
     switch (node.desc->type) {
       case FieldType::group:
         continue;
-      case FieldType::bytes: {
-        std::string hex;
-        for (std::size_t i = node.offset; i < node.offset + node.length && i < m.bytes.size(); ++i)
-          hex += fmt::format("{:02X}", m.bytes[i]);
-        value = json_quote(hex);
+      case FieldType::bytes:
+        value = json_quote(field_bytes_hex(node, m.bytes, m.text_encoded));
         break;
-      }
       case FieldType::text:
         value = json_quote(node.text);
         break;

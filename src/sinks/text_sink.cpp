@@ -85,13 +85,28 @@ void TextSink::on_frame(const Message& m) {
   write(prefix(m.frame.number, m.frame.start(), m.frame.channel) +
         fmt::format("{}  {}", direction_tag(m.direction), frame_summary(m, options_.show_time)));
   if (!options_.verbose) return;
-  write(fmt::format("{:>8}bytes: {}", "", hex_bytes(m.bytes)));
+  if (m.text_encoded) {
+    std::string text;
+    for (const std::uint8_t b : m.bytes) {
+      if (b == '\r')
+        text += "\\r";
+      else if (b == '\n')
+        text += "\\n";
+      else if (b >= 0x20 && b < 0x7F)
+        text += static_cast<char>(b);
+      else
+        text += fmt::format("\\x{:02X}", b);
+    }
+    write(fmt::format("{:>8}text: \"{}\"", "", text));
+  } else {
+    write(fmt::format("{:>8}bytes: {}", "", hex_bytes(m.bytes)));
+  }
   for (const FieldNode& node : m.fields) {
     const std::string span =
         node.length <= 1 ? fmt::format("[{}]", node.offset)
                          : fmt::format("[{}-{}]", node.offset, node.offset + node.length - 1);
     write(fmt::format("{:>8}{:<9} {:{}}{:<26} {}: {}", "", span, "", node.depth * 2u, node.desc->id,
-                      node.desc->name, format_field_value(node, m.bytes)));
+                      node.desc->name, format_field_value(node, m.bytes, m.text_encoded)));
   }
 }
 
@@ -135,10 +150,11 @@ void TextSink::on_summary(const Stats& s) {
   }
   const auto& c = s.checksum;
   write(fmt::format(
-      "frames:       {} (crc ok {}, bad {}, swapped {}); noise: {} record{}, {} byte{}", s.frames,
-      c[static_cast<int>(ChecksumVerdict::good)], c[static_cast<int>(ChecksumVerdict::bad)],
-      c[static_cast<int>(ChecksumVerdict::swapped)], s.noise_records,
-      s.noise_records == 1 ? "" : "s", s.noise_bytes, s.noise_bytes == 1 ? "" : "s"));
+      "frames:       {} (checksum ok {}, bad {}, swapped {}); noise: {} record{}, {} byte{}",
+      s.frames, c[static_cast<int>(ChecksumVerdict::good)],
+      c[static_cast<int>(ChecksumVerdict::bad)], c[static_cast<int>(ChecksumVerdict::swapped)],
+      s.noise_records, s.noise_records == 1 ? "" : "s", s.noise_bytes,
+      s.noise_bytes == 1 ? "" : "s"));
   const auto& o = s.outcomes;
   std::string tx = fmt::format(
       "transactions: {} (ok {}, exception {}, timeout {}, broadcast {}, unsolicited {})",

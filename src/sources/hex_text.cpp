@@ -57,6 +57,61 @@ std::optional<std::vector<std::vector<std::uint8_t>>> parse_hex_frames(std::stri
   return frames;
 }
 
+std::optional<std::vector<std::uint8_t>> parse_text_frame(std::string_view text,
+                                                          std::string_view terminator,
+                                                          std::string* error) {
+  std::vector<std::uint8_t> out;
+  // Each pass consumes one character or one escape sequence.
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    const char c = text[i];
+    if (c != '\\') {
+      out.push_back(static_cast<std::uint8_t>(c));
+      continue;
+    }
+    if (i + 1 >= text.size()) {
+      *error = fmt::format("lone '\\' at position {}", i + 1);
+      return std::nullopt;
+    }
+    const char e = text[++i];
+    switch (e) {
+      case 'r':
+        out.push_back('\r');
+        break;
+      case 'n':
+        out.push_back('\n');
+        break;
+      case 't':
+        out.push_back('\t');
+        break;
+      case '\\':
+        out.push_back('\\');
+        break;
+      case 'x': {
+        auto digit = [](char d) {
+          return d >= '0' && d <= '9'   ? d - '0'
+                 : d >= 'a' && d <= 'f' ? d - 'a' + 10
+                 : d >= 'A' && d <= 'F' ? d - 'A' + 10
+                                        : -1;
+        };
+        if (i + 2 >= text.size() || digit(text[i + 1]) < 0 || digit(text[i + 2]) < 0) {
+          *error = fmt::format("bad escape at position {}: \\x needs two hex digits", i);
+          return std::nullopt;
+        }
+        out.push_back(static_cast<std::uint8_t>(digit(text[i + 1]) * 16 + digit(text[i + 2])));
+        i += 2;
+        break;
+      }
+      default:
+        *error = fmt::format("unknown escape '\\{}' at position {}", e, i);
+        return std::nullopt;
+    }
+  }
+  const std::string_view have(reinterpret_cast<const char*>(out.data()), out.size());
+  if (!have.ends_with(terminator.substr(terminator.size() - 1)))
+    out.insert(out.end(), terminator.begin(), terminator.end());
+  return out;
+}
+
 void synthesize_events(const std::vector<std::vector<std::uint8_t>>& frames, ChannelId channel,
                        TimeNs character_time, TimeNs gap, TimeNs* clock,
                        std::vector<ByteEvent>& out) {

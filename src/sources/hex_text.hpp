@@ -21,6 +21,13 @@ namespace drivetap {
 std::optional<std::vector<std::vector<std::uint8_t>>> parse_hex_frames(std::string_view text,
                                                                        std::string* error);
 
+// An ASCII-protocol frame given as text (":010325230001B3\r\n"): escapes \r \n \t \\ and
+// \xHH become their bytes; a missing terminator (`terminator`, e.g. "\r\n") is appended, as
+// manuals print frames without it. Returns nullopt with *error for a bad escape.
+std::optional<std::vector<std::uint8_t>> parse_text_frame(std::string_view text,
+                                                          std::string_view terminator,
+                                                          std::string* error);
+
 // Lays frames out on a synthetic time line: back-to-back characters, `gap` of silence between
 // frames (the first starts at time 0). Appends to `out`.
 void synthesize_events(const std::vector<std::vector<std::uint8_t>>& frames, ChannelId channel,

@@ -1,0 +1,156 @@
+// Modbus ASCII dissector (PROTOCOLS.md §3): hex text -> binary -> shared Modbus PDU layer.
+#include "dissectors/modbus/ascii_dissector.hpp"
+
+#include <fmt/format.h>
+
+#include "core/checksum.hpp"
+#include "dissectors/common/delimited_framer.hpp"
+#include "dissectors/modbus/modbus_fields.hpp"
+#include "dissectors/modbus/modbus_pdu.hpp"
+
+namespace drivetap::modbus {
+namespace {
+
+int hex_digit(std::uint8_t c, bool* lower) {
+  if (c >= '0' && c <= '9') return c - '0';
+  if (c >= 'A' && c <= 'F') return c - 'A' + 10;
+  if (c >= 'a' && c <= 'f') {
+    *lower = true;
+    return c - 'a' + 10;
+  }
+  return -1;
+}
+
+}  // namespace
+
+AsciiHex decode_ascii_hex(std::span<const std::uint8_t> frame) {
+  AsciiHex out;
+  std::size_t end = frame.size();
+  if (end >= 2 && frame[end - 2] == '\r' && frame[end - 1] == '\n') {
+    out.terminated = true;
+    end -= 2;
+  } else if (end >= 1 && (frame[end - 1] == '\n' || frame[end - 1] == '\r')) {
+    out.problems.push_back("ends with a lone CR or LF instead of CR LF");
+    end -= 1;
+  } else {
+    out.problems.push_back("no CR LF at the end: frame cut");
+  }
+  if (frame.empty() || frame[0] != ':') {
+    out.problems.push_back("does not start with ':'");
+    return out;
+  }
+  // Each pass consumes two characters.
+  for (std::size_t i = 1; i + 1 < end + 1 && i < end; i += 2) {
+    if (i + 1 >= end) {
+      out.problems.push_back(fmt::format("odd number of hex characters (stray '{}' at {})",
+                                         static_cast<char>(frame[i]), i));
+      break;
+    }
+    const int hi = hex_digit(frame[i], &out.lower_case);
+    const int lo = hex_digit(frame[i + 1], &out.lower_case);
+    if (hi < 0 || lo < 0) {
+      const std::size_t at = hi < 0 ? i : i + 1;
+      out.problems.push_back(
+          fmt::format("character 0x{:02X} at {} is not a hex digit", frame[at], at));
+      break;
+    }
+    out.binary.push_back(static_cast<std::uint8_t>((hi << 4) | lo));
+  }
+  if (out.lower_case)
+    out.problems.push_back("lower-case hex digits (the protocol uses upper case)");
+  return out;
+}
+
+Message dissect_ascii(Frame frame, Direction direction, const FramingTiming& timing) {
+  (void)timing;  // ASCII allows up to 1 s between characters: no t1.5 rule
+  Message m;
+  m.frame = std::move(frame);
+  m.bytes = m.frame.bytes();
+  m.protocol = Protocol::modbus_ascii;
+  m.direction = direction;
+  m.text_encoded = true;
+  const TimeNs t0 = m.frame.start();
+  const ChannelId ch = m.frame.channel;
+  const AsciiHex hex = decode_ascii_hex(m.bytes);
+  const std::vector<std::uint8_t>& bin = hex.binary;
+  FieldTreeBuilder tree(m.fields);
+  for (const std::string& p : hex.problems)
+    m.anomalies.push_back({AnomalyKind::malformed, t0, ch, 0, p});
+  if (bin.size() < 3) {
+    m.info = fmt::format("{}-character fragment, too short for Modbus ASCII", m.bytes.size());
+    if (!bin.empty()) m.address = bin[0];
+    return m;
+  }
+  m.address = bin[0];
+  m.function = bin[1];
+  m.is_exception = (bin[1] & 0x80) != 0;
+  // Decode the binary PDU, then map every field onto its hex characters (2 per byte, after ':').
+  std::vector<FieldNode> binary_fields;
+  FieldTreeBuilder binary_tree(binary_fields);
+  binary_tree.add(kAddr, 0, 1, bin[0]);
+  PduDecode pdu = dissect_pdu(bin, 1, bin.size() - 2, direction, binary_tree);
+  binary_tree.add(kLrc, bin.size() - 1, 1, bin.back());
+  for (FieldNode& n : binary_fields) {
+    n.offset = 1 + 2 * n.offset;
+    n.length = 2 * n.length;
+    m.fields.push_back(std::move(n));
+  }
+  (void)tree;
+  m.info = std::move(pdu.info);
+  m.exception_code = pdu.exception_code;
+  for (std::string& problem : pdu.problems)
+    m.anomalies.push_back({AnomalyKind::malformed, t0, ch, 0, std::move(problem)});
+
+  const std::uint8_t computed = lrc8(std::span(bin).first(bin.size() - 1));
+  m.checksum.name = "LRC";
+  m.checksum.width = 1;
+  m.checksum.stated_wire = bin.back();
+  m.checksum.computed_wire = computed;
+  m.checksum.verdict = bin.back() == computed ? ChecksumVerdict::good : ChecksumVerdict::bad;
+  if (m.checksum.verdict == ChecksumVerdict::bad)
+    m.anomalies.insert(m.anomalies.begin(),
+                       {AnomalyKind::checksum_bad, t0, ch, 0,
+                        fmt::format("LRC on wire {:02X}, computed {:02X}", bin.back(), computed)});
+  append_uart_anomalies(m.frame.events, 0, m.anomalies);
+  return m;
+}
+
+std::unique_ptr<Framer> AsciiDecoder::make_framer(ChannelId channel,
+                                                  const FramerSettings& s) const {
+  DelimitedFramerOptions o;
+  o.start = ':';
+  o.end = '\n';
+  o.max_length = 513;
+  o.inter_character_timeout = std::max<TimeNs>(1 * kNsPerSecond, s.timing.t35);
+  o.character_time = s.timing.character_time;
+  return std::make_unique<DelimitedFramer>(channel, o);
+}
+
+DirectionFit AsciiDecoder::direction_fit(std::span<const std::uint8_t> frame) const {
+  const AsciiHex hex = decode_ascii_hex(frame);
+  DirectionFit fit;
+  if (hex.binary.size() < 3) return fit;
+  const auto pdu = std::span(hex.binary).subspan(1, hex.binary.size() - 2);
+  fit.request = pdu_fits(pdu, Direction::request);
+  fit.response = pdu_fits(pdu, Direction::response);
+  return fit;
+}
+
+bool AsciiDecoder::always_response(std::span<const std::uint8_t> frame) const {
+  const AsciiHex hex = decode_ascii_hex(frame);
+  return hex.binary.size() >= 2 && (hex.binary[1] & 0x80) != 0;
+}
+
+bool AsciiDecoder::recognisable(std::span<const std::uint8_t> frame) const {
+  const AsciiHex hex = decode_ascii_hex(frame);
+  if (hex.binary.size() < 3) return false;
+  return lrc8(std::span(hex.binary).first(hex.binary.size() - 1)) == hex.binary.back() ||
+         is_public_function(hex.binary[1]);
+}
+
+ProtocolDecoder::PairingKeys AsciiDecoder::pairing_keys(std::span<const std::uint8_t> frame) const {
+  const AsciiHex hex = decode_ascii_hex(frame);
+  return {hex.binary.empty() ? -1 : hex.binary[0], hex.binary.size() < 2 ? -1 : hex.binary[1]};
+}
+
+}  // namespace drivetap::modbus

@@ -1,0 +1,44 @@
+// Modbus ASCII dissector and decoder (PROTOCOLS.md §3; 004 "ASCII mode"). The PDU layer is the
+// one RTU uses (modbus_pdu.hpp): the two differ only in framing and checksum.
+//
+//   +-----+---------+-------+-------------+---------+----+----+
+//   | ':' | ADDR(2) | FC(2) | DATA (2n)   | LRC(2)  | CR | LF |     two hex characters a byte
+//   +-----+---------+-------+-------------+---------+----+----+
+//   LRC = two's complement of the 8-bit sum of ADDR..DATA.  Example: :010325230001B3\r\n
+#pragma once
+
+#include <span>
+#include <string>
+#include <vector>
+
+#include "core/message.hpp"
+#include "core/protocol.hpp"
+
+namespace drivetap::modbus {
+
+// The binary bytes a Modbus ASCII frame spells (ADDR..LRC), and what was wrong with its text.
+struct AsciiHex {
+  std::vector<std::uint8_t> binary;
+  std::vector<std::string> problems;
+  bool lower_case = false;
+  bool terminated = false;  // ended with CR LF
+};
+AsciiHex decode_ascii_hex(std::span<const std::uint8_t> frame);
+
+Message dissect_ascii(Frame frame, Direction direction, const FramingTiming& timing);
+
+class AsciiDecoder final : public ProtocolDecoder {
+ public:
+  [[nodiscard]] Protocol protocol() const override { return Protocol::modbus_ascii; }
+  [[nodiscard]] std::unique_ptr<Framer> make_framer(ChannelId channel,
+                                                    const FramerSettings& s) const override;
+  [[nodiscard]] DirectionFit direction_fit(std::span<const std::uint8_t> frame) const override;
+  [[nodiscard]] bool always_response(std::span<const std::uint8_t> frame) const override;
+  [[nodiscard]] bool recognisable(std::span<const std::uint8_t> frame) const override;
+  [[nodiscard]] PairingKeys pairing_keys(std::span<const std::uint8_t> frame) const override;
+  Message dissect(Frame frame, Direction direction, const FramingTiming& timing) const override {
+    return dissect_ascii(std::move(frame), direction, timing);
+  }
+};
+
+}  // namespace drivetap::modbus
