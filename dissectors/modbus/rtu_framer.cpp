@@ -1,244 +1,58 @@
-// Modbus RTU hybrid framer: silence + length prediction + CRC (PROTOCOLS.md §1-§2).
+// Modbus RTU framing rules (PROTOCOLS.md §2): lengths per function code and direction, CRC.
 #include "dissectors/modbus/rtu_framer.hpp"
-
-#include <algorithm>
-#include <span>
 
 #include "core/checksum.hpp"
 #include "dissectors/modbus/modbus_pdu.hpp"
 
 namespace drivetap::modbus {
 
-RtuFramer::RtuFramer(ChannelId channel, RtuFramerOptions options)
-    : channel_(channel), options_(options) {}
-
-void RtuFramer::push(const ByteEvent& event, std::vector<Frame>& out) {
-  if (!pending_.empty() || have_emitted_) {
-    const TimeNs gap = event.time - last_end_;
-    if (gap > options_.timing.t35) {
-      if (!processed_since_last_byte_) process(Mode::silence, event.time, out);
-      if (!pending_.empty()) hard_.push_back(pending_.size());
-    }
-  }
-  pending_.push_back(event);
-  pending_bytes_.push_back(event.byte);
-  last_end_ = std::max(last_end_, event.time + options_.timing.character_time);
-  processed_since_last_byte_ = false;
-  if (pending_.size() >= options_.pressure_bytes) process(Mode::pressure, event.time, out);
+const RtuRules& RtuFramer::rules() {
+  static const RtuRules instance;
+  return instance;
 }
 
-TimeNs RtuFramer::next_deadline() const {
-  if (pending_.empty()) return std::numeric_limits<TimeNs>::max();
-  if (!processed_since_last_byte_) return last_end_ + options_.timing.t35 + 1;
-  return pending_.front().time + options_.max_hold + 1;
-}
-
-void RtuFramer::advance(TimeNs now, std::vector<Frame>& out) {
-  if (pending_.empty()) return;
-  if (!processed_since_last_byte_) {
-    if (now - last_end_ > options_.timing.t35) {
-      process(Mode::silence, now, out);
-      processed_since_last_byte_ = true;
-    }
-    return;
-  }
-  if (now - pending_.front().time > options_.max_hold) process(Mode::flush, now, out);
-}
-
-void RtuFramer::finish(std::vector<Frame>& out) {
-  if (!pending_.empty()) process(Mode::end_of_input, last_end_, out);
-}
-
-bool RtuFramer::crc_matches(std::size_t p, std::size_t len) const {
-  if (len < kRtuMinFrame || p + len > pending_bytes_.size()) return false;
-  const auto r = check_rtu_crc(std::span(pending_bytes_).subspan(p, len));
-  return r.verdict == ChecksumVerdict::good || r.verdict == ChecksumVerdict::swapped;
-}
-
-void RtuFramer::predicted_lengths(std::size_t p, std::size_t n, std::size_t out[2],
-                                  bool* needs_more) const {
+void RtuRules::predicted_lengths(std::span<const std::uint8_t> from, std::size_t out[2],
+                                 bool* needs_more) const {
   out[0] = out[1] = 0;
   *needs_more = false;
-  if (p + 1 >= n) {
+  if (from.size() < 2) {
     *needs_more = true;
     return;
   }
-  const auto pdu = std::span(pending_bytes_).subspan(p + 1, n - p - 1);
   int i = 0;
   for (Direction dir : {Direction::request, Direction::response}) {
-    const LengthPrediction pred = predict_pdu_length(pdu, dir);
+    const LengthPrediction pred = predict_pdu_length(from.subspan(1), dir);
     if (pred.kind == LengthPrediction::Kind::known) {
-      const std::size_t len = pred.length + 3;  // address + PDU + CRC
-      if (len <= kRtuMaxFrame && (i == 0 || len != out[0])) out[i++] = len;
-      if (p + len > n && len <= kRtuMaxFrame) *needs_more = true;
+      out[i++] = pred.length + 3;  // address + PDU + CRC
     } else if (pred.kind == LengthPrediction::Kind::need_more) {
       *needs_more = true;
     }
   }
 }
 
-std::size_t RtuFramer::good_frame_at(std::size_t p, std::size_t limit) const {
-  std::size_t lengths[2];
-  bool needs_more = false;
-  predicted_lengths(p, limit, lengths, &needs_more);
-  for (std::size_t len : lengths)
-    if (len != 0 && p + len <= limit && crc_matches(p, len)) return len;
+bool RtuRules::checksum_matches(std::span<const std::uint8_t> frame) const {
+  const auto r = check_rtu_crc(frame);
+  return r.verdict == ChecksumVerdict::good || r.verdict == ChecksumVerdict::swapped;
+}
+
+bool RtuRules::looks_like_frame_start(std::span<const std::uint8_t> from) const {
+  if (from.empty()) return false;
+  if (from.size() < 2) return from[0] <= 247;
+  return from[0] <= 247 && is_public_function(from[1]);
+}
+
+std::size_t RtuRules::scan_unknown_layout(std::span<const std::uint8_t> from,
+                                          const std::function<bool(std::size_t)>& accept) const {
+  std::uint16_t crc = 0xFFFF;
+  // Each pass extends the candidate by one byte; the CRC is carried along.
+  for (std::size_t end = 0; end + 2 <= from.size() && end + 2 <= kRtuMaxFrame; ++end) {
+    const std::size_t len = end + 2;
+    if (len >= kRtuMinFrame &&
+        static_cast<std::uint16_t>(from[end] | (from[end + 1] << 8)) == crc && accept(len))
+      return len;
+    crc = crc16_modbus_update(crc, from[end]);
+  }
   return 0;
-}
-
-std::size_t RtuFramer::first_good_start(std::size_t from, std::size_t to) const {
-  const std::size_t n = pending_bytes_.size();
-  for (std::size_t q = from; q < to; ++q)
-    if (good_frame_at(q, n) != 0) return q;
-  return to;
-}
-
-std::size_t RtuFramer::next_hard_boundary(std::size_t p) const {
-  auto it = std::upper_bound(hard_.begin(), hard_.end(), p);
-  return it == hard_.end() ? pending_.size() : *it;
-}
-
-TimeNs RtuFramer::silence_before(std::size_t index) const {
-  if (index == 0 || index >= pending_.size()) return 0;
-  return pending_[index].time - (pending_[index - 1].time + options_.timing.character_time);
-}
-
-bool RtuFramer::is_hard_boundary(std::size_t index) const {
-  return std::binary_search(hard_.begin(), hard_.end(), index);
-}
-
-bool RtuFramer::looks_like_frame_start(std::size_t p) const {
-  if (p + 1 >= pending_bytes_.size()) return pending_bytes_[p] <= 247;
-  return pending_bytes_[p] <= 247 && is_public_function(pending_bytes_[p + 1]);
-}
-
-void RtuFramer::emit(std::size_t p, std::size_t len, FrameKind kind, FrameClose close,
-                     std::vector<Frame>& out) {
-  Frame f;
-  f.kind = kind;
-  f.channel = channel_;
-  f.close = close;
-  f.events.assign(pending_.begin() + static_cast<std::ptrdiff_t>(p),
-                  pending_.begin() + static_cast<std::ptrdiff_t>(p + len));
-  stamp_frame_timing(f, options_.timing.character_time, &emitted_end_, &have_emitted_);
-  out.push_back(std::move(f));
-}
-
-void RtuFramer::process(Mode mode, TimeNs now, std::vector<Frame>& out) {
-  const std::size_t n = pending_.size();
-  const bool end_is_boundary = mode != Mode::pressure;
-  const bool may_hold = mode == Mode::silence || mode == Mode::pressure;
-  const FrameClose end_close =
-      mode == Mode::end_of_input ? FrameClose::end_of_input : FrameClose::silence;
-  auto close_at = [&](std::size_t end) {
-    if (end == n) return end_close;
-    return is_hard_boundary(end) ? FrameClose::silence : FrameClose::content;
-  };
-  auto mostly_uart_errors = [&](std::size_t p, std::size_t end) {
-    std::size_t flagged = 0;
-    for (std::size_t i = p; i < end; ++i) flagged += pending_[i].flags != 0;
-    return flagged * 2 > end - p;
-  };
-
-  std::size_t p = 0;
-  // Every iteration either advances p by at least one byte or leaves the loop.
-  while (p < n) {
-    const std::size_t chunk_end = next_hard_boundary(p);
-    const bool chunk_closed = chunk_end < n || end_is_boundary;
-
-    // 1. Predicted length with a good CRC (may span silences: split deliveries).
-    if (const std::size_t len = good_frame_at(p, n); len != 0) {
-      emit(p, len, FrameKind::telegram, close_at(p + len), out);
-      p += len;
-      continue;
-    }
-    // 2. The whole timing chunk has a good CRC (variable or unknown layout).
-    if (chunk_closed && crc_matches(p, chunk_end - p)) {
-      emit(p, chunk_end - p, FrameKind::telegram, close_at(chunk_end), out);
-      p = chunk_end;
-      continue;
-    }
-    std::size_t lengths[2];
-    bool needs_more = false;
-    predicted_lengths(p, n, lengths, &needs_more);
-    const bool length_fits_chunk = (lengths[0] != 0 && p + lengths[0] == chunk_end) ||
-                                   (lengths[1] != 0 && p + lengths[1] == chunk_end);
-    // 3. An incomplete frame at the end: wait for the rest (split by adapter latency).
-    if (may_hold && needs_more && chunk_end == n && !length_fits_chunk && n - p < kRtuMaxFrame &&
-        looks_like_frame_start(p) && now - pending_[p].time <= options_.max_hold &&
-        first_good_start(p + 1, n) == n) {
-      break;
-    }
-    // 3b. Unknown layout inside a burst: the first CRC match that a good frame follows.
-    if (lengths[0] == 0 && lengths[1] == 0 && !needs_more && looks_like_frame_start(p)) {
-      std::uint16_t crc = 0xFFFF;
-      std::size_t found = 0;
-      for (std::size_t end = p; end + 2 <= chunk_end && end - p + 2 <= kRtuMaxFrame; ++end) {
-        const std::size_t len = end - p + 2;
-        if (len >= kRtuMinFrame &&
-            static_cast<std::uint16_t>(pending_bytes_[end] | (pending_bytes_[end + 1] << 8)) ==
-                crc &&
-            (p + len == chunk_end || good_frame_at(p + len, n) != 0)) {
-          found = len;
-          break;
-        }
-        crc = crc16_modbus_update(crc, pending_bytes_[end]);
-      }
-      if (found != 0 && (p + found < chunk_end || chunk_closed)) {
-        emit(p, found, FrameKind::telegram, close_at(p + found), out);
-        p += found;
-        continue;
-      }
-    }
-    // 4. Predicted length with a bad CRC, confirmed by a silence (> t1.5 counts: a gap that long
-    //    inside a frame is itself a fault) or a good frame right after.
-    std::size_t confirmed = 0;
-    for (std::size_t len : lengths) {
-      if (len == 0 || p + len > chunk_end) continue;
-      if ((p + len == chunk_end && chunk_closed) || silence_before(p + len) > options_.timing.t15 ||
-          good_frame_at(p + len, n) != 0) {
-        confirmed = len;
-        break;
-      }
-    }
-    // A good frame starting inside the would-be bad one is stronger evidence (noise before it).
-    if (confirmed != 0 && looks_like_frame_start(p) &&
-        first_good_start(p + 1, p + confirmed) == p + confirmed) {
-      emit(p, confirmed, FrameKind::telegram, close_at(p + confirmed), out);
-      p += confirmed;
-      continue;
-    }
-    // 5. Bytes before the next good frame inside this chunk are noise.
-    if (const std::size_t q = first_good_start(p + 1, chunk_end); q < chunk_end) {
-      emit(p, q - p, FrameKind::noise, FrameClose::content, out);
-      p = q;
-      continue;
-    }
-    // 6. Nothing good in the chunk.
-    if (!chunk_closed) {
-      // Under pressure without silence: give up on all but one frame's worth of bytes.
-      if (n - p > kRtuMaxFrame) {
-        emit(p, n - kRtuMaxFrame - p, FrameKind::noise, FrameClose::content, out);
-        p = n - kRtuMaxFrame;
-      }
-      break;
-    }
-    const bool telegram = chunk_end - p >= kRtuMinFrame && !mostly_uart_errors(p, chunk_end);
-    emit(p, chunk_end - p, telegram ? FrameKind::telegram : FrameKind::noise, close_at(chunk_end),
-         out);
-    p = chunk_end;
-  }
-
-  // Drop what was emitted; shift the boundary marks.
-  if (p > 0) {
-    pending_.erase(pending_.begin(), pending_.begin() + static_cast<std::ptrdiff_t>(p));
-    pending_bytes_.erase(pending_bytes_.begin(),
-                         pending_bytes_.begin() + static_cast<std::ptrdiff_t>(p));
-    std::vector<std::size_t> kept;
-    for (std::size_t h : hard_)
-      if (h > p) kept.push_back(h - p);
-    hard_ = std::move(kept);
-  }
 }
 
 }  // namespace drivetap::modbus

@@ -1,89 +1,47 @@
-// Modbus RTU framer, hybrid: silence proposes boundaries, content confirms them
-// (PROTOCOLS.md §1-§2; Modbus over Serial Line V1.02 §2.5.1.1).
+// Modbus RTU framing rules for the hybrid framer (PROTOCOLS.md §2; Modbus over Serial Line
+// V1.02 §2.5.1.1):
 //
 //   frame = ADDR(1) FC(1) DATA(n) CRC(2, low byte first)      4..256 bytes
 //
-// Contract: ByteEvents of one channel, in time order -> Frames (telegrams and noise) covering
-// every byte exactly once, in order.
-//
-// How boundaries are decided, in order of preference at each position:
-//   1. A frame whose length, predicted from its function code (either direction), ends in a good
-//      (or byte-swapped) CRC. Such a frame may span silences (a USB adapter delivering one frame
-//      in two bursts) and may be followed by the next frame with no silence at all (bursts,
-//      or one timestamp for a whole read).
-//   2. A run of bytes between two silences > t3.5 ("timing chunk") whose CRC is good, whatever
-//      its function code.
-//   3. An incomplete frame at the end of the bytes seen so far is held for the next bytes
-//      (up to max_hold) instead of being closed at a silence.
-//   4. A predicted length with a bad CRC, when the frame ends exactly at a silence (> t1.5) or
-//      right where a good frame begins.
-//   5. Bytes before the next good frame inside a timing chunk are noise.
-//   6. A timing chunk with no good frame in it is one bad-CRC frame (>= 4 bytes, mostly free of
-//      UART errors) or noise.
-// Memory is bounded: without silence the buffer is segmented every `pressure_bytes`, keeping at
-// most one frame's worth of undecided bytes.
+// Lengths come from the function code and count fields, for a request and for a reply; the CRC
+// (also byte-swapped) confirms them; a frame with an unknown function code is found by scanning
+// for the first valid CRC.
 #pragma once
 
-#include <cstdint>
-#include <limits>
-#include <vector>
-
-#include "core/byte_event.hpp"
-#include "core/frame.hpp"
-#include "core/framer.hpp"
-#include "core/serial_config.hpp"
+#include "dissectors/common/hybrid_framer.hpp"
 
 namespace drivetap::modbus {
-
-struct RtuFramerOptions {
-  FramingTiming timing;
-  // Longest time an incomplete frame waits for the rest of its bytes after a silence.
-  TimeNs max_hold = 100 * kNsPerMs;
-  // Segment without waiting for silence once this many bytes are pending.
-  std::size_t pressure_bytes = 4096;
-};
 
 inline constexpr std::size_t kRtuMaxFrame = 256;
 inline constexpr std::size_t kRtuMinFrame = 4;
 
+class RtuRules final : public HybridFrameRules {
+ public:
+  [[nodiscard]] std::size_t min_frame() const override { return kRtuMinFrame; }
+  [[nodiscard]] std::size_t max_frame() const override { return kRtuMaxFrame; }
+  void predicted_lengths(std::span<const std::uint8_t> from, std::size_t out[2],
+                         bool* needs_more) const override;
+  [[nodiscard]] bool checksum_matches(std::span<const std::uint8_t> frame) const override;
+  [[nodiscard]] bool looks_like_frame_start(std::span<const std::uint8_t> from) const override;
+  [[nodiscard]] std::size_t scan_unknown_layout(
+      std::span<const std::uint8_t> from,
+      const std::function<bool(std::size_t)>& accept) const override;
+};
+
+using RtuFramerOptions = HybridFramerOptions;
+
+// The hybrid framer with Modbus RTU's rules.
 class RtuFramer final : public Framer {
  public:
-  RtuFramer(ChannelId channel, RtuFramerOptions options);
-
-  // Adds one byte; frames that it completes are appended to `out`.
-  void push(const ByteEvent& event, std::vector<Frame>& out) override;
-  // Time has reached `now` on the bus; closes what silence or the hold limit has completed.
-  void advance(TimeNs now, std::vector<Frame>& out) override;
-  // End of input: everything pending becomes frames or noise.
-  void finish(std::vector<Frame>& out) override;
-  // Earliest time at which advance() can produce something; max() when nothing is pending.
-  [[nodiscard]] TimeNs next_deadline() const override;
+  RtuFramer(ChannelId channel, RtuFramerOptions options) : framer_(channel, options, rules()) {}
+  void push(const ByteEvent& e, std::vector<Frame>& out) override { framer_.push(e, out); }
+  void advance(TimeNs now, std::vector<Frame>& out) override { framer_.advance(now, out); }
+  void finish(std::vector<Frame>& out) override { framer_.finish(out); }
+  [[nodiscard]] TimeNs next_deadline() const override { return framer_.next_deadline(); }
+  static const RtuRules& rules();
 
  private:
-  enum class Mode { silence, pressure, flush, end_of_input };
-  void process(Mode mode, TimeNs now, std::vector<Frame>& out);
-
-  // Segmentation helpers over pending_bytes_[0, n).
-  bool crc_matches(std::size_t p, std::size_t len) const;
-  std::size_t good_frame_at(std::size_t p, std::size_t limit) const;  // 0 when none
-  std::size_t first_good_start(std::size_t from, std::size_t to) const;
-  std::size_t next_hard_boundary(std::size_t p) const;
-  bool is_hard_boundary(std::size_t index) const;
-  TimeNs silence_before(std::size_t index) const;  // silence before pending_[index], ns
-  bool looks_like_frame_start(std::size_t p) const;
-  void predicted_lengths(std::size_t p, std::size_t n, std::size_t out[2], bool* needs_more) const;
-  void emit(std::size_t p, std::size_t len, FrameKind kind, FrameClose close,
-            std::vector<Frame>& out);
-
-  ChannelId channel_;
-  RtuFramerOptions options_;
-  std::vector<ByteEvent> pending_;
-  std::vector<std::uint8_t> pending_bytes_;
-  std::vector<std::size_t> hard_;  // indices in pending_ preceded by silence > t3.5
-  TimeNs last_end_ = std::numeric_limits<TimeNs>::min();  // end of the latest byte pushed
-  TimeNs emitted_end_ = -1;  // end of the last byte of the last emitted frame; -1 none yet
-  bool have_emitted_ = false;
-  bool processed_since_last_byte_ = false;
+  HybridFramer framer_;
 };
 
 }  // namespace drivetap::modbus

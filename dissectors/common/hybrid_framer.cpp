@@ -1,0 +1,223 @@
+// Hybrid framer: silence proposes boundaries, length rules and checksums confirm them
+// (PROTOCOLS.md §1; algorithm in hybrid_framer.hpp).
+#include "dissectors/common/hybrid_framer.hpp"
+
+#include <algorithm>
+#include <span>
+
+namespace drivetap {
+
+HybridFramer::HybridFramer(ChannelId channel, HybridFramerOptions options,
+                           const HybridFrameRules& rules)
+    : channel_(channel), options_(options), rules_(rules) {}
+
+void HybridFramer::push(const ByteEvent& event, std::vector<Frame>& out) {
+  if (!pending_.empty() || have_emitted_) {
+    const TimeNs gap = event.time - last_end_;
+    if (gap > options_.timing.t35) {
+      if (!processed_since_last_byte_) process(Mode::silence, event.time, out);
+      if (!pending_.empty()) hard_.push_back(pending_.size());
+    }
+  }
+  pending_.push_back(event);
+  pending_bytes_.push_back(event.byte);
+  last_end_ = std::max(last_end_, event.time + options_.timing.character_time);
+  processed_since_last_byte_ = false;
+  if (pending_.size() >= options_.pressure_bytes) process(Mode::pressure, event.time, out);
+}
+
+TimeNs HybridFramer::next_deadline() const {
+  if (pending_.empty()) return std::numeric_limits<TimeNs>::max();
+  if (!processed_since_last_byte_) return last_end_ + options_.timing.t35 + 1;
+  return pending_.front().time + options_.max_hold + 1;
+}
+
+void HybridFramer::advance(TimeNs now, std::vector<Frame>& out) {
+  if (pending_.empty()) return;
+  if (!processed_since_last_byte_) {
+    if (now - last_end_ > options_.timing.t35) {
+      process(Mode::silence, now, out);
+      processed_since_last_byte_ = true;
+    }
+    return;
+  }
+  if (now - pending_.front().time > options_.max_hold) process(Mode::flush, now, out);
+}
+
+void HybridFramer::finish(std::vector<Frame>& out) {
+  if (!pending_.empty()) process(Mode::end_of_input, last_end_, out);
+}
+
+bool HybridFramer::checksum_matches(std::size_t p, std::size_t len) const {
+  if (len < rules_.min_frame() || p + len > pending_bytes_.size()) return false;
+  return rules_.checksum_matches(std::span(pending_bytes_).subspan(p, len));
+}
+
+void HybridFramer::predicted_lengths(std::size_t p, std::size_t n, std::size_t out[2],
+                                     bool* needs_more) const {
+  out[0] = out[1] = 0;
+  *needs_more = false;
+  std::size_t candidates[2] = {0, 0};
+  rules_.predicted_lengths(std::span(pending_bytes_).subspan(p, n - p), candidates, needs_more);
+  int i = 0;
+  for (std::size_t len : candidates) {
+    if (len == 0 || len > rules_.max_frame()) continue;
+    if (i == 0 || len != out[0]) out[i++] = len;
+    if (p + len > n) *needs_more = true;
+  }
+}
+
+std::size_t HybridFramer::good_frame_at(std::size_t p, std::size_t limit) const {
+  std::size_t lengths[2];
+  bool needs_more = false;
+  predicted_lengths(p, limit, lengths, &needs_more);
+  for (std::size_t len : lengths)
+    if (len != 0 && p + len <= limit && checksum_matches(p, len)) return len;
+  return 0;
+}
+
+std::size_t HybridFramer::first_good_start(std::size_t from, std::size_t to) const {
+  const std::size_t n = pending_bytes_.size();
+  for (std::size_t q = from; q < to; ++q)
+    if (good_frame_at(q, n) != 0) return q;
+  return to;
+}
+
+std::size_t HybridFramer::next_hard_boundary(std::size_t p) const {
+  auto it = std::upper_bound(hard_.begin(), hard_.end(), p);
+  return it == hard_.end() ? pending_.size() : *it;
+}
+
+TimeNs HybridFramer::silence_before(std::size_t index) const {
+  if (index == 0 || index >= pending_.size()) return 0;
+  return pending_[index].time - (pending_[index - 1].time + options_.timing.character_time);
+}
+
+bool HybridFramer::is_hard_boundary(std::size_t index) const {
+  return std::binary_search(hard_.begin(), hard_.end(), index);
+}
+
+bool HybridFramer::looks_like_frame_start(std::size_t p) const {
+  return rules_.looks_like_frame_start(std::span(pending_bytes_).subspan(p));
+}
+
+void HybridFramer::emit(std::size_t p, std::size_t len, FrameKind kind, FrameClose close,
+                        std::vector<Frame>& out) {
+  Frame f;
+  f.kind = kind;
+  f.channel = channel_;
+  f.close = close;
+  f.events.assign(pending_.begin() + static_cast<std::ptrdiff_t>(p),
+                  pending_.begin() + static_cast<std::ptrdiff_t>(p + len));
+  stamp_frame_timing(f, options_.timing.character_time, &emitted_end_, &have_emitted_);
+  out.push_back(std::move(f));
+}
+
+void HybridFramer::process(Mode mode, TimeNs now, std::vector<Frame>& out) {
+  const std::size_t n = pending_.size();
+  const bool end_is_boundary = mode != Mode::pressure;
+  const bool may_hold = mode == Mode::silence || mode == Mode::pressure;
+  const FrameClose end_close =
+      mode == Mode::end_of_input ? FrameClose::end_of_input : FrameClose::silence;
+  auto close_at = [&](std::size_t end) {
+    if (end == n) return end_close;
+    return is_hard_boundary(end) ? FrameClose::silence : FrameClose::content;
+  };
+  auto mostly_uart_errors = [&](std::size_t p, std::size_t end) {
+    std::size_t flagged = 0;
+    for (std::size_t i = p; i < end; ++i) flagged += pending_[i].flags != 0;
+    return flagged * 2 > end - p;
+  };
+
+  std::size_t p = 0;
+  // Every iteration either advances p by at least one byte or leaves the loop.
+  while (p < n) {
+    const std::size_t chunk_end = next_hard_boundary(p);
+    const bool chunk_closed = chunk_end < n || end_is_boundary;
+
+    // 1. Predicted length with a good CRC (may span silences: split deliveries).
+    if (const std::size_t len = good_frame_at(p, n); len != 0) {
+      emit(p, len, FrameKind::telegram, close_at(p + len), out);
+      p += len;
+      continue;
+    }
+    // 2. The whole timing chunk has a good CRC (variable or unknown layout).
+    if (chunk_closed && checksum_matches(p, chunk_end - p)) {
+      emit(p, chunk_end - p, FrameKind::telegram, close_at(chunk_end), out);
+      p = chunk_end;
+      continue;
+    }
+    std::size_t lengths[2];
+    bool needs_more = false;
+    predicted_lengths(p, n, lengths, &needs_more);
+    const bool length_fits_chunk = (lengths[0] != 0 && p + lengths[0] == chunk_end) ||
+                                   (lengths[1] != 0 && p + lengths[1] == chunk_end);
+    // 3. An incomplete frame at the end: wait for the rest (split by adapter latency).
+    if (may_hold && needs_more && chunk_end == n && !length_fits_chunk &&
+        n - p < rules_.max_frame() && looks_like_frame_start(p) &&
+        now - pending_[p].time <= options_.max_hold && first_good_start(p + 1, n) == n) {
+      break;
+    }
+    // 3b. Unknown layout inside a burst: the first checksum match that a good frame follows.
+    if (lengths[0] == 0 && lengths[1] == 0 && !needs_more && looks_like_frame_start(p)) {
+      const std::size_t found = rules_.scan_unknown_layout(
+          std::span(pending_bytes_).subspan(p, chunk_end - p),
+          [&](std::size_t len) { return p + len == chunk_end || good_frame_at(p + len, n) != 0; });
+      if (found != 0 && (p + found < chunk_end || chunk_closed)) {
+        emit(p, found, FrameKind::telegram, close_at(p + found), out);
+        p += found;
+        continue;
+      }
+    }
+    // 4. Predicted length with a bad CRC, confirmed by a silence (> t1.5 counts: a gap that long
+    //    inside a frame is itself a fault) or a good frame right after.
+    std::size_t confirmed = 0;
+    for (std::size_t len : lengths) {
+      if (len == 0 || p + len > chunk_end) continue;
+      if ((p + len == chunk_end && chunk_closed) || silence_before(p + len) > options_.timing.t15 ||
+          good_frame_at(p + len, n) != 0) {
+        confirmed = len;
+        break;
+      }
+    }
+    // A good frame starting inside the would-be bad one is stronger evidence (noise before it).
+    if (confirmed != 0 && looks_like_frame_start(p) &&
+        first_good_start(p + 1, p + confirmed) == p + confirmed) {
+      emit(p, confirmed, FrameKind::telegram, close_at(p + confirmed), out);
+      p += confirmed;
+      continue;
+    }
+    // 5. Bytes before the next good frame inside this chunk are noise.
+    if (const std::size_t q = first_good_start(p + 1, chunk_end); q < chunk_end) {
+      emit(p, q - p, FrameKind::noise, FrameClose::content, out);
+      p = q;
+      continue;
+    }
+    // 6. Nothing good in the chunk.
+    if (!chunk_closed) {
+      // Under pressure without silence: give up on all but one frame's worth of bytes.
+      if (n - p > rules_.max_frame()) {
+        emit(p, n - rules_.max_frame() - p, FrameKind::noise, FrameClose::content, out);
+        p = n - rules_.max_frame();
+      }
+      break;
+    }
+    const bool telegram = chunk_end - p >= rules_.min_frame() && !mostly_uart_errors(p, chunk_end);
+    emit(p, chunk_end - p, telegram ? FrameKind::telegram : FrameKind::noise, close_at(chunk_end),
+         out);
+    p = chunk_end;
+  }
+
+  // Drop what was emitted; shift the boundary marks.
+  if (p > 0) {
+    pending_.erase(pending_.begin(), pending_.begin() + static_cast<std::ptrdiff_t>(p));
+    pending_bytes_.erase(pending_bytes_.begin(),
+                         pending_bytes_.begin() + static_cast<std::ptrdiff_t>(p));
+    std::vector<std::size_t> kept;
+    for (std::size_t h : hard_)
+      if (h > p) kept.push_back(h - p);
+    hard_ = std::move(kept);
+  }
+}
+
+}  // namespace drivetap

@@ -1,0 +1,113 @@
+// Hybrid framer: silence proposes boundaries, content confirms them (PROTOCOLS.md §1).
+// Used for the binary protocols with a length rule and a checksum: Modbus RTU (rules in
+// dissectors/modbus/rtu_framer.hpp) and the Danfoss FC protocol (dissectors/danfoss_fc/).
+//
+// Contract: ByteEvents of one channel, in time order -> Frames (telegrams and noise) covering
+// every byte exactly once, in order.
+//
+// How boundaries are decided, in order of preference at each position:
+//   1. A frame whose length, predicted from its function code (either direction), ends in a good
+//      (or byte-swapped) CRC. Such a frame may span silences (a USB adapter delivering one frame
+//      in two bursts) and may be followed by the next frame with no silence at all (bursts,
+//      or one timestamp for a whole read).
+//   2. A run of bytes between two silences > t3.5 ("timing chunk") whose CRC is good, whatever
+//      its function code.
+//   3. An incomplete frame at the end of the bytes seen so far is held for the next bytes
+//      (up to max_hold) instead of being closed at a silence.
+//   4. A predicted length with a bad CRC, when the frame ends exactly at a silence (> t1.5) or
+//      right where a good frame begins.
+//   5. Bytes before the next good frame inside a timing chunk are noise.
+//   6. A timing chunk with no good frame in it is one bad-CRC frame (>= 4 bytes, mostly free of
+//      UART errors) or noise.
+// Memory is bounded: without silence the buffer is segmented every `pressure_bytes`, keeping at
+// most one frame's worth of undecided bytes.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <limits>
+#include <span>
+#include <vector>
+
+#include "core/byte_event.hpp"
+#include "core/frame.hpp"
+#include "core/framer.hpp"
+#include "core/serial_config.hpp"
+
+namespace drivetap {
+
+struct HybridFramerOptions {
+  FramingTiming timing;
+  // Longest time an incomplete frame waits for the rest of its bytes after a silence.
+  TimeNs max_hold = 100 * kNsPerMs;
+  // Segment without waiting for silence once this many bytes are pending.
+  std::size_t pressure_bytes = 4096;
+};
+
+// What a protocol tells the hybrid framer. All spans start at a candidate frame start and reach
+// to the end of the bytes seen so far.
+class HybridFrameRules {
+ public:
+  virtual ~HybridFrameRules() = default;
+  [[nodiscard]] virtual std::size_t min_frame() const = 0;
+  [[nodiscard]] virtual std::size_t max_frame() const = 0;
+  // Up to two candidate total lengths (0 = none), e.g. request and reply layouts; *needs_more
+  // when the length depends on bytes not seen yet.
+  virtual void predicted_lengths(std::span<const std::uint8_t> from, std::size_t out[2],
+                                 bool* needs_more) const = 0;
+  // The frame's checksum holds (for Modbus RTU: also when its bytes are swapped).
+  [[nodiscard]] virtual bool checksum_matches(std::span<const std::uint8_t> frame) const = 0;
+  [[nodiscard]] virtual bool looks_like_frame_start(std::span<const std::uint8_t> from) const = 0;
+  // For frames whose length rule is unknown: the shortest length with a valid checksum that
+  // `accept` confirms, or 0. Protocols whose every frame has a length rule return 0.
+  [[nodiscard]] virtual std::size_t scan_unknown_layout(
+      std::span<const std::uint8_t> from, const std::function<bool(std::size_t)>& accept) const {
+    (void)from;
+    (void)accept;
+    return 0;
+  }
+};
+
+class HybridFramer final : public Framer {
+ public:
+  // `rules` must outlive the framer (decoders keep them as static objects).
+  HybridFramer(ChannelId channel, HybridFramerOptions options, const HybridFrameRules& rules);
+
+  // Adds one byte; frames that it completes are appended to `out`.
+  void push(const ByteEvent& event, std::vector<Frame>& out) override;
+  // Time has reached `now` on the bus; closes what silence or the hold limit has completed.
+  void advance(TimeNs now, std::vector<Frame>& out) override;
+  // End of input: everything pending becomes frames or noise.
+  void finish(std::vector<Frame>& out) override;
+  // Earliest time at which advance() can produce something; max() when nothing is pending.
+  [[nodiscard]] TimeNs next_deadline() const override;
+
+ private:
+  enum class Mode { silence, pressure, flush, end_of_input };
+  void process(Mode mode, TimeNs now, std::vector<Frame>& out);
+
+  // Segmentation helpers over pending_bytes_[0, n).
+  bool checksum_matches(std::size_t p, std::size_t len) const;
+  std::size_t good_frame_at(std::size_t p, std::size_t limit) const;  // 0 when none
+  std::size_t first_good_start(std::size_t from, std::size_t to) const;
+  std::size_t next_hard_boundary(std::size_t p) const;
+  bool is_hard_boundary(std::size_t index) const;
+  TimeNs silence_before(std::size_t index) const;  // silence before pending_[index], ns
+  bool looks_like_frame_start(std::size_t p) const;
+  void predicted_lengths(std::size_t p, std::size_t n, std::size_t out[2], bool* needs_more) const;
+  void emit(std::size_t p, std::size_t len, FrameKind kind, FrameClose close,
+            std::vector<Frame>& out);
+
+  ChannelId channel_;
+  HybridFramerOptions options_;
+  const HybridFrameRules& rules_;
+  std::vector<ByteEvent> pending_;
+  std::vector<std::uint8_t> pending_bytes_;
+  std::vector<std::size_t> hard_;  // indices in pending_ preceded by silence > t3.5
+  TimeNs last_end_ = std::numeric_limits<TimeNs>::min();  // end of the latest byte pushed
+  TimeNs emitted_end_ = -1;  // end of the last byte of the last emitted frame; -1 none yet
+  bool have_emitted_ = false;
+  bool processed_since_last_byte_ = false;
+};
+
+}  // namespace drivetap
