@@ -112,7 +112,8 @@ class Outputs {
       c.link_type = o.dlt == "user0" ? CaptureLinkType::user0 : CaptureLinkType::upper_pdu;
       c.serial = p.serial;
       c.character_time = p.timing.character_time;
-      c.settings = encode_settings(p.timing.t15, p.timing.t35, p.reply_timeout, p.max_hold);
+      c.settings =
+          encode_settings(p.timing.t15, p.timing.t35, p.reply_timeout, p.max_hold, p.protocol);
       capture_ = std::make_unique<CaptureSink>(capture_file_, channels, c);
       tee_.add(capture_.get());
     }

@@ -28,6 +28,7 @@ std::optional<PipelineOptions> resolve_pipeline_options(const RunSettings& captu
   }
   if (capture.reply_timeout) p.reply_timeout = *capture.reply_timeout;
   if (capture.max_hold) p.max_hold = *capture.max_hold;
+  if (capture.protocol) p.protocol = *capture.protocol;
   struct Override {
     const std::string& text;
     const char* option;

@@ -33,7 +33,11 @@ class ByteLogReader final : public ByteSource {
   // Reads the comment and header lines before the first data line. Returns false on error.
   bool read_header() override;
   [[nodiscard]] const std::optional<SerialConfig>& header_serial() const { return header_serial_; }
-  [[nodiscard]] RunSettings settings() const override { return {header_serial_, {}, {}, {}, {}}; }
+  [[nodiscard]] RunSettings settings() const override {
+    RunSettings r;
+    r.serial = header_serial_;
+    return r;
+  }
   // The character time that spaces the bytes of one line (from the effective line settings).
   void set_character_time(TimeNs t) override { character_time_ = t; }
 

@@ -7,12 +7,15 @@
 #include <cstring>
 #include <sstream>
 
+#include "core/protocol.hpp"
 #include "formats/link_layer.hpp"
 
 namespace drivetap {
 
-std::string encode_settings(TimeNs t15, TimeNs t35, TimeNs timeout, TimeNs max_hold) {
-  return fmt::format("drivetap t15={} t35={} timeout={} max_hold={}", t15, t35, timeout, max_hold);
+std::string encode_settings(TimeNs t15, TimeNs t35, TimeNs timeout, TimeNs max_hold,
+                            Protocol protocol) {
+  return fmt::format("drivetap t15={} t35={} timeout={} max_hold={} protocol={}", t15, t35, timeout,
+                     max_hold, protocol_id(protocol));
 }
 
 RunSettings decode_settings(const std::string& description, const std::string& settings) {
@@ -27,6 +30,11 @@ RunSettings decode_settings(const std::string& description, const std::string& s
     const auto eq = word.find('=');
     if (eq == std::string::npos) continue;
     const std::string key = word.substr(0, eq);
+    if (key == "protocol") {
+      const Protocol p = protocol_from_option(word.substr(eq + 1));
+      if (p != Protocol::unknown) r.protocol = p;
+      continue;
+    }
     TimeNs value = 0;
     try {
       value = std::stoll(word.substr(eq + 1));

@@ -27,8 +27,10 @@ struct pcap_dumper;
 
 namespace drivetap {
 
-// Encodes/decodes the IDB settings string "drivetap t15=<ns> t35=<ns> timeout=<ns> max_hold=<ns>".
-std::string encode_settings(TimeNs t15, TimeNs t35, TimeNs timeout, TimeNs max_hold);
+// Encodes/decodes the IDB settings string
+// "drivetap t15=<ns> t35=<ns> timeout=<ns> max_hold=<ns> protocol=<id>".
+std::string encode_settings(TimeNs t15, TimeNs t35, TimeNs timeout, TimeNs max_hold,
+                            Protocol protocol);
 RunSettings decode_settings(const std::string& description, const std::string& settings);
 
 class CaptureReader final : public ByteSource {

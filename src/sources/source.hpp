@@ -8,6 +8,7 @@
 
 #include "core/anomaly.hpp"
 #include "core/byte_event.hpp"
+#include "core/message.hpp"
 #include "core/serial_config.hpp"
 
 namespace drivetap {
@@ -16,6 +17,7 @@ namespace drivetap {
 struct RunSettings {
   std::optional<SerialConfig> serial;
   std::optional<TimeNs> t15, t35, reply_timeout, max_hold;
+  std::optional<Protocol> protocol;
 };
 
 class ByteSource {
