@@ -1,5 +1,6 @@
 // The one explicit table of protocol decoders (no static self-registration).
 #include "core/protocol.hpp"
+#include "dissectors/danfoss_fc/fc_dissector.hpp"
 #include "dissectors/modbus/ascii_dissector.hpp"
 #include "dissectors/modbus/rtu_dissector.hpp"
 
@@ -8,11 +9,14 @@ namespace drivetap {
 const ProtocolDecoder* decoder_for(Protocol protocol) {
   static const modbus::RtuDecoder rtu;
   static const modbus::AsciiDecoder ascii;
+  static const danfoss_fc::FcDecoder fc;
   switch (protocol) {
     case Protocol::modbus_rtu:
       return &rtu;
     case Protocol::modbus_ascii:
       return &ascii;
+    case Protocol::danfoss_fc:
+      return &fc;
     case Protocol::unknown:
       break;
   }
@@ -22,6 +26,7 @@ const ProtocolDecoder* decoder_for(Protocol protocol) {
 Protocol protocol_from_option(std::string_view name) {
   if (name == "rtu" || name == "modbus-rtu") return Protocol::modbus_rtu;
   if (name == "ascii" || name == "modbus-ascii") return Protocol::modbus_ascii;
+  if (name == "fc" || name == "danfoss-fc") return Protocol::danfoss_fc;
   return Protocol::unknown;
 }
 

@@ -105,6 +105,8 @@ const char* protocol_id(Protocol p) {
       return "modbus-rtu";
     case Protocol::modbus_ascii:
       return "modbus-ascii";
+    case Protocol::danfoss_fc:
+      return "danfoss-fc";
     case Protocol::unknown:
       break;
   }
@@ -117,6 +119,8 @@ const char* protocol_label(Protocol p) {
       return "Modbus RTU";
     case Protocol::modbus_ascii:
       return "Modbus ASCII";
+    case Protocol::danfoss_fc:
+      return "Danfoss FC";
     case Protocol::unknown:
       break;
   }

@@ -21,9 +21,14 @@ const char* outcome_id(Outcome o) {
   return "ok";
 }
 
+namespace {
+// The function a reply answers: Modbus marks exceptions with bit 7; -1 = protocol without one.
+int function_key(int function) { return function < 0 ? -1 : (function & 0x7F); }
+}  // namespace
+
 bool Pairer::awaiting_reply(std::size_t link, int address, int function, TimeNs at) const {
   for (const Pending& p : pending_)
-    if (p.link == link && p.address == address && p.function == (function & 0x7F) &&
+    if (p.link == link && p.address == address && p.function == function_key(function) &&
         at - p.end <= options_.timeout)
       return true;
   return false;
@@ -81,7 +86,7 @@ void Pairer::add(std::size_t link, Message& m, std::vector<Transaction>& out) {
       pending_.pop_front();
     }
     const TimeNs end = m.frame.events.back().time + options_.character_time;
-    pending_.push_back({link, m.address, m.function & 0x7F, m.frame.number, m.frame.channel, start,
+    pending_.push_back({link, m.address, function_key(m.function), m.frame.number, m.frame.channel, start,
                         end, m.protocol});
     return;
   }
@@ -90,14 +95,14 @@ void Pairer::add(std::size_t link, Message& m, std::vector<Transaction>& out) {
   Transaction t;
   t.protocol = m.protocol;
   t.address = m.address;
-  t.function = m.function & 0x7F;
+  t.function = function_key(m.function);
   t.response_number = m.frame.number;
   t.response_time = start;
   t.exception_code = m.exception_code;
   std::size_t match = pending_.size();
   for (std::size_t i = 0; i < pending_.size(); ++i) {
     const Pending& p = pending_[i];
-    if (p.link == link && p.address == m.address && p.function == (m.function & 0x7F)) {
+    if (p.link == link && p.address == m.address && p.function == function_key(m.function)) {
       match = i;
       break;
     }

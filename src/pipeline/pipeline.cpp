@@ -167,13 +167,15 @@ void Pipeline::emit_transactions(std::vector<Transaction>& transactions) {
     sink_.on_transaction(t);
     if (t.outcome == Outcome::timeout) {
       emit_anomaly({AnomalyKind::unanswered_request, t.request_time, t.channel, t.request_number,
-                    fmt::format("request #{} to address {} function {:02X}: {}", t.request_number,
-                                t.address, t.function, t.detail)});
+                    fmt::format("request #{} to address {}{}: {}", t.request_number, t.address,
+                                t.function < 0 ? "" : fmt::format(" function {:02X}", t.function),
+                                t.detail)});
     } else if (t.outcome == Outcome::unsolicited) {
       emit_anomaly({AnomalyKind::unsolicited_response, t.response_time, t.channel,
                     t.response_number,
-                    fmt::format("reply #{} from address {} function {:02X}: {}", t.response_number,
-                                t.address, t.function, t.detail)});
+                    fmt::format("reply #{} from address {}{}: {}", t.response_number, t.address,
+                                t.function < 0 ? "" : fmt::format(" function {:02X}", t.function),
+                                t.detail)});
     }
   }
   transactions.clear();

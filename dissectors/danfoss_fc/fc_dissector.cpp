@@ -1,0 +1,306 @@
+// Danfoss FC protocol dissector (PROTOCOLS.md §4; 002 §7.2-7.5 telegram, §7.11 CTW/STW bits).
+#include "dissectors/danfoss_fc/fc_dissector.hpp"
+
+#include <fmt/format.h>
+
+#include "core/cursor.hpp"
+#include "dissectors/danfoss_fc/fc_fields.hpp"
+
+namespace drivetap::danfoss_fc {
+
+Address decode_adr(std::uint8_t adr) {
+  Address a;
+  if (adr & 0x80) {
+    a.number = adr & 0x7F;
+    a.broadcast = adr == 0x80;
+  } else {
+    a.number = adr & 0x1F;
+    a.broadcast = (adr & 0x20) != 0;
+  }
+  return a;
+}
+
+std::uint8_t bcc(std::span<const std::uint8_t> bytes) {
+  std::uint8_t x = 0;
+  for (const std::uint8_t b : bytes) x ^= b;
+  return x;
+}
+
+std::string parameter_name(unsigned pnu) {
+  return fmt::format("{}-{:02}", pnu / 100, pnu % 100);
+}
+
+namespace {
+
+std::string join(const std::vector<std::string>& parts) {
+  std::string out;
+  for (const std::string& p : parts) out += (out.empty() ? "" : ", ") + p;
+  return out;
+}
+
+// FC profile control word (002 §7.11.1): every bit that is set, by name, and the cleared bits
+// that command something (coast, quick stop, DC brake, freeze) in capitals.
+std::string ctw_meaning(std::uint16_t w) {
+  std::vector<std::string> s;
+  auto bit = [&](int n) { return ((w >> n) & 1) != 0; };
+  if ((w & 0x3) != 0) s.push_back(fmt::format("preset reference {}", w & 0x3));
+  s.push_back(bit(2) ? "ramp" : "DC BRAKE");
+  s.push_back(bit(3) ? "no coast" : "COAST");
+  s.push_back(bit(4) ? "no quick stop" : "QUICK STOP");
+  s.push_back(bit(5) ? "ramp enabled" : "FREEZE OUTPUT");
+  s.push_back(bit(6) ? "start" : "stop");
+  if (bit(7)) s.push_back("reset");
+  if (bit(8)) s.push_back("jog");
+  if (bit(9)) s.push_back("ramp 2");
+  s.push_back(bit(10) ? "data valid" : "data not valid");
+  if (bit(11)) s.push_back("relay 01 on");
+  if (bit(12)) s.push_back("relay 02 on");
+  if (((w >> 13) & 0x3) != 0) s.push_back(fmt::format("set-up {}", ((w >> 13) & 0x3) + 1));
+  if (bit(15)) s.push_back("reverse");
+  return join(s);
+}
+
+// FC profile status word (002 §7.11.2): the bits that are set (and coasting when bit 2 is 0).
+std::string stw_meaning(std::uint16_t w) {
+  static constexpr const char* kNames[16] = {"control ready",
+                                             "drive ready",
+                                             "enabled",
+                                             "TRIP",
+                                             "error (no trip)",
+                                             nullptr,
+                                             "TRIP LOCK",
+                                             "WARNING",
+                                             "speed = reference",
+                                             "bus control",
+                                             "frequency within limits",
+                                             "running",
+                                             "stopped/autostart (overheat)",
+                                             "VOLTAGE EXCEEDED",
+                                             "TORQUE EXCEEDED",
+                                             "THERMAL TIMER EXCEEDED"};
+  std::vector<std::string> s;
+  for (int n = 0; n < 16; ++n)
+    if (((w >> n) & 1) && kNames[n]) s.push_back(kNames[n]);
+  if (!(w & 0x4)) s.push_back("coasting");
+  return s.empty() ? "none" : join(s);
+}
+
+std::string percent(std::uint16_t raw) {
+  const auto v = static_cast<std::int16_t>(raw);
+  return fmt::format("{:.2f} %", static_cast<double>(v) * 100.0 / 16384.0);
+}
+
+bool is_request_only_ak(unsigned ak) {
+  return ak == 0x3 || ak == 0xD || ak == 0xE;
+}
+bool is_response_only_ak(unsigned ak) {
+  return ak == 0x7;
+}
+bool is_request_ak(unsigned ak) {
+  return ak <= 3 || ak == 0xD || ak == 0xE || ak == 0xF;
+}
+bool is_response_ak(unsigned ak) {
+  return ak <= 2 || ak == 0x7 || ak == 0xF;
+}
+
+}  // namespace
+
+Message dissect_fc(Frame frame, Direction direction, const FramingTiming& timing) {
+  (void)timing;
+  Message m;
+  m.frame = std::move(frame);
+  m.bytes = m.frame.bytes();
+  m.protocol = Protocol::danfoss_fc;
+  m.direction = direction;
+  const TimeNs t0 = m.frame.start();
+  const ChannelId ch = m.frame.channel;
+  const std::span<const std::uint8_t> bytes(m.bytes);
+  FieldTreeBuilder tree(m.fields);
+  auto problem = [&](std::string text) {
+    m.anomalies.push_back({AnomalyKind::malformed, t0, ch, 0, std::move(text)});
+  };
+  Cursor c(bytes);
+  auto stx = c.u8();
+  auto lge = c.u8();
+  auto adr = c.u8();
+  if (!stx || !lge || !adr || bytes.size() < 4) {
+    m.info = fmt::format("{}-byte fragment, too short for an FC telegram", bytes.size());
+    problem(m.info);
+    return m;
+  }
+  tree.add(kStx, 0, 1, *stx);
+  if (*stx != kStxByte) problem(fmt::format("starts with 0x{:02X}, not STX 0x02", *stx));
+  tree.add(kLge, 1, 1, *lge);
+  if (std::size_t{*lge} + 2 != bytes.size())
+    problem(fmt::format("LGE {} announces {} bytes, the telegram has {}", *lge, *lge + 2,
+                        bytes.size()));
+  const Address a = decode_adr(*adr);
+  tree.open(kAdr, 2, 1, *adr);
+  tree.add(kAddress, 2, 1, a.number);
+  tree.add(kBroadcast, 2, 1, a.broadcast ? 1 : 0);
+  tree.close();
+  m.address = a.broadcast ? 0 : a.number;
+
+  // Data between ADR and BCC.
+  const std::size_t data_len = bytes.size() - 4;
+  std::vector<std::string> info;
+  const bool to_drive = direction != Direction::response;
+  if (data_len >= 8) {
+    auto pke = c.be16();
+    auto ind = c.be16();
+    const unsigned ak = *pke >> 12;
+    const unsigned pnu = *pke & 0x0FFF;
+    tree.open(kPke, 3, 2, *pke);
+    tree.add(to_drive ? kAkRequest : kAkResponse, 3, 1, ak);
+    tree.add(kPnu, 3, 2, pnu);
+    tree.add_text(kParameter, 3, 2, parameter_name(pnu));
+    tree.close();
+    tree.add(kInd, 5, 2, *ind);
+    const std::size_t value_len = data_len - 8;  // PWE (4) or text (n), then PCD1 PCD2
+    const std::string param = parameter_name(pnu);
+    if (ak == 0xF) {
+      auto text_bytes = c.take(value_len).value_or(std::span<const std::uint8_t>{});
+      std::string text;
+      for (std::uint8_t ch8 : text_bytes)
+        text += (ch8 >= 0x20 && ch8 < 0x7F) ? static_cast<char>(ch8) : '.';
+      tree.add_text(kText, 7, text_bytes.size(), text);
+      const unsigned mode = *ind >> 8;
+      info.push_back(
+          fmt::format("{} text {} \"{}\"", mode == 0x05 ? "write" : "read", param, text));
+    } else {
+      if (value_len != 4)
+        problem(fmt::format("parameter value of {} bytes (4 expected)", value_len));
+      auto hi = c.be16();
+      auto lo = c.be16();
+      const std::uint32_t pwe = (std::uint32_t{hi.value_or(0)} << 16) | lo.value_or(0);
+      const bool dword = to_drive ? (ak == 0x3 || ak == 0xD) : ak == 0x2;
+      const std::uint32_t value = dword ? pwe : lo.value_or(0);
+      tree.add(kPwe, 7, 4, value);
+      const std::string index = (*ind & 0xFF) ? fmt::format("[{}]", *ind & 0xFF) : "";
+      if (to_drive) {
+        if (ak == 0x1)
+          info.push_back(fmt::format("read {}{}", param, index));
+        else if (ak == 0x2 || ak == 0x3 || ak == 0xD || ak == 0xE)
+          info.push_back(fmt::format("write {}{} = {} ({}, {})", param, index, value,
+                                     ak >= 0xD ? "RAM+EEPROM" : "RAM",
+                                     dword ? "double word" : "word"));
+        else if (ak != 0x0)
+          info.push_back(fmt::format("AK 0x{:X} on {}", ak, param));
+      } else {
+        if (ak == 0x7) {
+          const unsigned error = lo.value_or(0);
+          tree.add(kErrorNumber, 9, 2, error);
+          const std::string_view meaning = kErrorNumber.name_of(error);
+          info.push_back(fmt::format("{}{}: cannot execute, error {} ({})", param, index, error,
+                                     meaning.empty() ? "unknown error number" : meaning));
+        } else if (ak == 0x1 || ak == 0x2) {
+          info.push_back(fmt::format("{}{} = {}", param, index, value));
+        } else if (ak != 0x0) {
+          info.push_back(fmt::format("AK 0x{:X} on {}", ak, param));
+        }
+      }
+      if (!(to_drive ? is_request_ak(ak) : is_response_ak(ak)))
+        problem(
+            fmt::format("AK 0x{:X} is not a {} command", ak, to_drive ? "request" : "response"));
+    }
+  } else if (data_len != 4) {
+    problem(fmt::format("{} data bytes: neither process data (4) nor a parameter block (12)",
+                        data_len));
+  }
+  // Process data: the last 4 data bytes.
+  if (data_len >= 4 && c.remaining() >= 5) {
+    const std::size_t at = c.offset();
+    const std::uint16_t pcd1 = c.be16().value_or(0);
+    const std::uint16_t pcd2 = c.be16().value_or(0);
+    if (direction == Direction::response) {
+      tree.add(kStw, at, 2, pcd1).text = stw_meaning(pcd1);
+      tree.add_text(kMav, at + 2, 2, percent(pcd2));
+      info.push_back(
+          fmt::format("STW 0x{:04X} [{}], MAV {}", pcd1, stw_meaning(pcd1), percent(pcd2)));
+    } else if (direction == Direction::request) {
+      tree.add(kCtw, at, 2, pcd1).text = ctw_meaning(pcd1);
+      tree.add_text(kReference, at + 2, 2, percent(pcd2));
+      info.push_back(
+          fmt::format("CTW 0x{:04X} [{}], REF {}", pcd1, ctw_meaning(pcd1), percent(pcd2)));
+    } else {
+      tree.add(kPcd, at, 2, pcd1);
+      tree.add(kPcd, at + 2, 2, pcd2);
+      info.push_back(fmt::format("PCD1 0x{:04X}, PCD2 0x{:04X}", pcd1, pcd2));
+    }
+  }
+  m.info = (a.broadcast ? std::string("broadcast: ") : std::string()) + join(info);
+  if (m.info.empty()) m.info = "empty telegram";
+  // BCC.
+  const std::uint8_t stated = bytes.back();
+  const std::uint8_t computed = bcc(bytes.first(bytes.size() - 1));
+  tree.add(kBcc, bytes.size() - 1, 1, stated);
+  m.checksum.name = "BCC";
+  m.checksum.width = 1;
+  m.checksum.stated_wire = stated;
+  m.checksum.computed_wire = computed;
+  m.checksum.verdict = stated == computed ? ChecksumVerdict::good : ChecksumVerdict::bad;
+  if (m.checksum.verdict == ChecksumVerdict::bad)
+    m.anomalies.insert(m.anomalies.begin(),
+                       {AnomalyKind::checksum_bad, t0, ch, 0,
+                        fmt::format("BCC on wire {:02X}, computed {:02X}", stated, computed)});
+  append_uart_anomalies(m.frame.events, 0, m.anomalies);
+  return m;
+}
+
+void FcRules::predicted_lengths(std::span<const std::uint8_t> from, std::size_t out[2],
+                                bool* needs_more) const {
+  out[0] = out[1] = 0;
+  *needs_more = false;
+  if (from.empty() || from[0] != kStxByte) return;
+  if (from.size() < 2) {
+    *needs_more = true;
+    return;
+  }
+  if (from[1] >= 2) out[0] = std::size_t{from[1]} + 2;
+}
+
+bool FcRules::checksum_matches(std::span<const std::uint8_t> frame) const {
+  return frame.size() >= 4 && bcc(frame.first(frame.size() - 1)) == frame.back();
+}
+
+bool FcRules::looks_like_frame_start(std::span<const std::uint8_t> from) const {
+  if (from.empty() || from[0] != kStxByte) return false;
+  if (from.size() < 2) return true;
+  return from[1] == 6 || from[1] >= 10;  // process data, or parameter/text block
+}
+
+std::unique_ptr<Framer> FcDecoder::make_framer(ChannelId channel, const FramerSettings& s) const {
+  static const FcRules rules;
+  HybridFramerOptions o;
+  o.timing = s.timing;
+  o.max_hold = s.max_hold;
+  return std::make_unique<HybridFramer>(channel, o, rules);
+}
+
+DirectionFit FcDecoder::direction_fit(std::span<const std::uint8_t> frame) const {
+  DirectionFit fit;
+  if (frame.size() == 8) {
+    fit.request = fit.response = true;  // process data only: order decides
+  } else if (frame.size() >= 12) {
+    const unsigned ak = frame[3] >> 4;
+    fit.request = is_request_ak(ak) && !is_response_only_ak(ak);
+    fit.response = is_response_ak(ak) && !is_request_only_ak(ak);
+  }
+  return fit;
+}
+
+bool FcDecoder::always_response(std::span<const std::uint8_t> frame) const {
+  return frame.size() >= 12 && is_response_only_ak(frame[3] >> 4);
+}
+
+bool FcDecoder::recognisable(std::span<const std::uint8_t> frame) const {
+  return frame.size() >= 4 && frame[0] == kStxByte;
+}
+
+ProtocolDecoder::PairingKeys FcDecoder::pairing_keys(std::span<const std::uint8_t> frame) const {
+  if (frame.size() < 3) return {};
+  const Address a = decode_adr(frame[2]);
+  return {a.broadcast ? 0 : a.number, -1};
+}
+
+}  // namespace drivetap::danfoss_fc

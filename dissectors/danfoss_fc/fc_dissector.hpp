@@ -1,0 +1,58 @@
+// Danfoss FC protocol dissector and decoder (PROTOCOLS.md §4; 002 §7.2-7.5, §7.11).
+//
+//   +-----+-----+-----+------------------------------------------+-----+
+//   | STX | LGE | ADR | DATA (LGE - 2 bytes)                     | BCC |
+//   +-----+-----+-----+------------------------------------------+-----+
+//    0x02   length after LGE      BCC = XOR of STX .. last data byte
+//   DATA: LGE 6   PCD1 PCD2                        (process data only)
+//         LGE 14  PKE IND PWEhigh PWElow PCD1 PCD2 (parameter block)
+//         10+n    PKE IND text[n] PCD1 PCD2        (text block)
+//   PCD1/PCD2: master -> drive control word CTW and reference REF; drive -> master status word
+//   STW and main actual value MAV. REF/MAV: signed, 0x4000 = 100 %. All words high byte first.
+#pragma once
+
+#include "core/message.hpp"
+#include "core/protocol.hpp"
+#include "dissectors/common/hybrid_framer.hpp"
+
+namespace drivetap::danfoss_fc {
+
+inline constexpr std::uint8_t kStxByte = 0x02;
+
+// Drive address and broadcast flag from ADR (bit 7 selects the 1..126 format).
+struct Address {
+  int number = -1;
+  bool broadcast = false;
+};
+Address decode_adr(std::uint8_t adr);
+std::uint8_t bcc(std::span<const std::uint8_t> bytes);
+// "4-14" for PNU 414.
+std::string parameter_name(unsigned pnu);
+
+Message dissect_fc(Frame frame, Direction direction, const FramingTiming& timing);
+
+class FcRules final : public HybridFrameRules {
+ public:
+  [[nodiscard]] std::size_t min_frame() const override { return 4; }
+  [[nodiscard]] std::size_t max_frame() const override { return 257; }
+  void predicted_lengths(std::span<const std::uint8_t> from, std::size_t out[2],
+                         bool* needs_more) const override;
+  [[nodiscard]] bool checksum_matches(std::span<const std::uint8_t> frame) const override;
+  [[nodiscard]] bool looks_like_frame_start(std::span<const std::uint8_t> from) const override;
+};
+
+class FcDecoder final : public ProtocolDecoder {
+ public:
+  [[nodiscard]] Protocol protocol() const override { return Protocol::danfoss_fc; }
+  [[nodiscard]] std::unique_ptr<Framer> make_framer(ChannelId channel,
+                                                    const FramerSettings& s) const override;
+  [[nodiscard]] DirectionFit direction_fit(std::span<const std::uint8_t> frame) const override;
+  [[nodiscard]] bool always_response(std::span<const std::uint8_t> frame) const override;
+  [[nodiscard]] bool recognisable(std::span<const std::uint8_t> frame) const override;
+  [[nodiscard]] PairingKeys pairing_keys(std::span<const std::uint8_t> frame) const override;
+  Message dissect(Frame frame, Direction direction, const FramingTiming& timing) const override {
+    return dissect_fc(std::move(frame), direction, timing);
+  }
+};
+
+}  // namespace drivetap::danfoss_fc
