@@ -90,3 +90,26 @@ TEST(SeedErrata, ContentDefectsBeyondChecksumsAreNamed) {
   // 01 89 01 86 50 answers an FC 08 request with FC 0x89: not a reply to it.
   EXPECT_EQ(sink.count(Outcome::unsolicited), 1u);
 }
+
+TEST(SeedErrata, E5AsciiExamples) {
+  RecordingSink sink;
+  ChannelTable channels;
+  std::string error;
+  ASSERT_TRUE(
+      run_byte_log(std::string(DRIVETAP_SOURCE_DIR) + "/captures/seed-e5-8200-ascii/input.log",
+                   sink, channels, &error, Protocol::modbus_ascii))
+      << error;
+  ASSERT_EQ(sink.frames.size(), 18u);
+  for (std::size_t i = 0; i < sink.frames.size(); ++i) {
+    const ChecksumResult& c = sink.frames[i].checksum;
+    EXPECT_EQ(sink.frames[i].protocol, Protocol::modbus_ascii);
+    if (i == 8) {  // :01882075 — the manual's LRC has its digits swapped
+      EXPECT_EQ(c.verdict, ChecksumVerdict::bad);
+      EXPECT_EQ(c.stated_wire, 0x75u);
+      EXPECT_EQ(c.computed_wire, 0x57u);
+    } else {
+      EXPECT_EQ(c.verdict, ChecksumVerdict::good) << "frame " << i + 1;
+    }
+  }
+  EXPECT_EQ(sink.count(AnomalyKind::malformed), 2u);  // the FC 03 count '2501', twice
+}

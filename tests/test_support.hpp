@@ -60,7 +60,7 @@ inline std::string hex_of(const std::vector<std::uint8_t>& bytes) {
 
 // Runs a byte log file through the whole pipeline.
 inline bool run_byte_log(const std::string& path, RecordingSink& sink, ChannelTable& channels,
-                         std::string* error) {
+                         std::string* error, Protocol protocol = Protocol::modbus_rtu) {
   std::FILE* f = std::fopen(path.c_str(), "rb");
   if (!f) {
     *error = "cannot open " + path;
@@ -76,6 +76,7 @@ inline bool run_byte_log(const std::string& path, RecordingSink& sink, ChannelTa
   p.serial = reader.header_serial().value_or(SerialConfig{});
   p.timing = FramingTiming::from(p.serial);
   reader.set_character_time(p.timing.character_time);
+  p.protocol = protocol;
   Pipeline pipeline(p, channels, sink);
   ByteEvent e;
   while (reader.next(e)) pipeline.push(e);
