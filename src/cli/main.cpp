@@ -60,9 +60,9 @@ void add_common_options(CLI::App* cmd, CommonOptions& o) {
   cmd->add_option("--max-hold", o.max_hold,
                   "Longest wait for the rest of a frame split by a silence (default 100ms)");
   cmd->add_option("-P,--protocol", o.protocol,
-                  "Protocol on the bus: rtu (Modbus RTU, default), ascii (Modbus ASCII) or fc "
-                  "(Danfoss FC protocol)")
-      ->check(CLI::IsMember({"rtu", "ascii", "fc"}));
+                  "Protocol on the bus: auto (default: detected per channel from the first "
+                  "frames), rtu (Modbus RTU), ascii (Modbus ASCII), fc (Danfoss FC protocol)")
+      ->check(CLI::IsMember({"auto", "rtu", "ascii", "fc"}));
   cmd->add_flag("--no-summary", o.no_summary, "Do not print the closing summary");
   cmd->add_option("-o,--output", o.output, "Write the text/JSON output to FILE instead of stdout");
   cmd->add_option("-w,--write", o.write,

@@ -23,7 +23,9 @@ const char* outcome_id(Outcome o) {
 
 namespace {
 // The function a reply answers: Modbus marks exceptions with bit 7; -1 = protocol without one.
-int function_key(int function) { return function < 0 ? -1 : (function & 0x7F); }
+int function_key(int function) {
+  return function < 0 ? -1 : (function & 0x7F);
+}
 }  // namespace
 
 bool Pairer::awaiting_reply(std::size_t link, int address, int function, TimeNs at) const {
@@ -86,8 +88,8 @@ void Pairer::add(std::size_t link, Message& m, std::vector<Transaction>& out) {
       pending_.pop_front();
     }
     const TimeNs end = m.frame.events.back().time + options_.character_time;
-    pending_.push_back({link, m.address, function_key(m.function), m.frame.number, m.frame.channel, start,
-                        end, m.protocol});
+    pending_.push_back({link, m.address, function_key(m.function), m.frame.number, m.frame.channel,
+                        start, end, m.protocol});
     return;
   }
   if (m.direction != Direction::response) return;

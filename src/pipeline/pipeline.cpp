@@ -9,10 +9,15 @@
 namespace drivetap {
 
 struct Pipeline::ChannelState {
-  ChannelState(ChannelId id, const ProtocolDecoder& d, const FramerSettings& s)
-      : decoder(&d), framer(d.make_framer(id, s)) {}
-  const ProtocolDecoder* decoder;
+  // With a fixed protocol the framer exists from the start; in "auto" mode the channel first
+  // holds its bytes until detect() has chosen the protocol.
+  const ProtocolDecoder* decoder = nullptr;
   std::unique_ptr<Framer> framer;
+  bool auto_protocol = false;
+  std::vector<ByteEvent> held;   // bytes waiting for detection (bounded by kDetectBytes)
+  std::size_t evaluated_at = 0;  // held.size() at the last evaluation
+  int failures = 0;              // consecutive bad telegrams / noise since the last good one
+  bool redetect = false;
   TimeNs last_end = std::numeric_limits<TimeNs>::min();
   std::uint32_t last_frame_origin = 0;       // packet the previous frame ended in
   std::uint32_t reported_merged_origin = 0;  // packet already reported as holding several frames
@@ -30,9 +35,16 @@ Pipeline::~Pipeline() = default;
 
 Pipeline::ChannelState& Pipeline::state_for(ChannelId id) {
   while (states_.size() <= id) {
-    const FramerSettings s{options_.timing, options_.max_hold};
-    states_.push_back(std::make_unique<ChannelState>(static_cast<ChannelId>(states_.size()),
-                                                     *decoder_for(options_.protocol), s));
+    auto st = std::make_unique<ChannelState>();
+    const ProtocolDecoder* fixed = decoder_for(options_.protocol);
+    if (fixed) {
+      st->decoder = fixed;
+      st->framer = fixed->make_framer(static_cast<ChannelId>(states_.size()),
+                                      {options_.timing, options_.max_hold});
+    } else {
+      st->auto_protocol = true;
+    }
+    states_.push_back(std::move(st));
   }
   return *states_[id];
 }
@@ -41,6 +53,7 @@ void Pipeline::advance_all(TimeNs now) {
   if (now < earliest_deadline_) return;
   earliest_deadline_ = std::numeric_limits<TimeNs>::max();
   for (auto& s : states_) {
+    if (!s->framer) continue;  // still detecting
     s->framer->advance(now, ready_);
     earliest_deadline_ = std::min(earliest_deadline_, s->framer->next_deadline());
   }
@@ -53,10 +66,109 @@ void Pipeline::push(const ByteEvent& in) {
   // Bytes on one wire cannot overlap: a byte stamped inside its predecessor starts after it.
   if (e.time < st.last_end) e.time = st.last_end;
   st.last_end = e.time + options_.timing.character_time;
+  latest_time_ = std::max(latest_time_, e.time);
   advance_all(e.time);
+  if (st.redetect) start_detection(st, e.channel);
+  if (!st.framer) {
+    st.held.push_back(e);
+    detect(st, e.channel, false);
+    if (!ready_.empty()) handle_frames();
+    return;
+  }
   st.framer->push(e, ready_);
   earliest_deadline_ = std::min(earliest_deadline_, st.framer->next_deadline());
   if (!ready_.empty()) handle_frames();
+}
+
+namespace {
+
+constexpr std::size_t kDetectBytes = 2048;  // most bytes held before deciding anyway
+constexpr std::size_t kDetectEvery = 128;   // re-evaluate after this many more bytes
+constexpr int kDetectGoodFrames = 3;        // never decide on one lucky checksum
+constexpr int kRedetectFailures = 8;        // bad telegrams/noise in a row: the bus changed?
+constexpr Protocol kCandidates[] = {Protocol::modbus_rtu, Protocol::modbus_ascii,
+                                    Protocol::danfoss_fc};
+
+struct Score {
+  const ProtocolDecoder* decoder = nullptr;
+  int good = 0;
+  int telegrams = 0;
+};
+
+Score score(const ProtocolDecoder& d, ChannelId channel, const std::vector<ByteEvent>& held,
+            const PipelineOptions& options) {
+  Score s{&d, 0, 0};
+  auto framer = d.make_framer(channel, {options.timing, options.max_hold});
+  std::vector<Frame> out;
+  for (const ByteEvent& e : held) framer->push(e, out);
+  framer->finish(out);
+  for (Frame& f : out) {
+    if (f.kind != FrameKind::telegram) continue;
+    ++s.telegrams;
+    const Message m = d.dissect(std::move(f), Direction::unknown, options.timing);
+    if (m.checksum.verdict == ChecksumVerdict::good) ++s.good;
+  }
+  return s;
+}
+
+}  // namespace
+
+void Pipeline::start_detection(ChannelState& st, ChannelId channel) {
+  // The bus seems to have changed: close what the current framer holds, then listen afresh.
+  st.redetect = false;
+  if (st.framer) st.framer->finish(ready_);
+  handle_frames();
+  st.framer.reset();
+  st.decoder = nullptr;
+  st.failures = 0;
+  st.evaluated_at = 0;
+  (void)channel;
+}
+
+void Pipeline::detect(ChannelState& st, ChannelId channel, bool final) {
+  if (st.held.empty()) return;
+  if (!final && st.held.size() < kDetectBytes && st.held.size() - st.evaluated_at < kDetectEvery)
+    return;
+  st.evaluated_at = st.held.size();
+  Score best, second;
+  std::string evidence;
+  for (Protocol p : kCandidates) {
+    const Score s = score(*decoder_for(p), channel, st.held, options_);
+    evidence += fmt::format("{}{} {}/{}", evidence.empty() ? "" : ", ", protocol_label(p), s.good,
+                            s.telegrams);
+    if (!best.decoder || s.good > best.good) {
+      second = best;
+      best = s;
+    } else if (!second.decoder || s.good > second.good) {
+      second = s;
+    }
+  }
+  const bool clear = best.good >= kDetectGoodFrames && best.good > 2 * second.good;
+  if (!clear && !final && st.held.size() < kDetectBytes) return;
+  // Decide: the clear winner, else the best guess (Modbus RTU when nothing checks out).
+  const ProtocolDecoder* chosen = best.good > 0 ? best.decoder : decoder_for(Protocol::modbus_rtu);
+  const char* confidence = clear && best.good * 5 >= best.telegrams * 4 ? "high"
+                           : best.good > 0                              ? "medium"
+                                                                        : "low";
+  BusEvent ev;
+  ev.time = st.held.front().time;
+  ev.channel = channel;
+  ev.kind = "protocol_detected";
+  ev.protocol = chosen->protocol();
+  ev.confidence = confidence;
+  ev.detail = fmt::format(
+      "protocol {} (confidence {}; telegrams with a good checksum in the first "
+      "{} bytes: {})",
+      protocol_label(chosen->protocol()), confidence, st.held.size(), evidence);
+  sink_.on_event(ev);
+  st.decoder = chosen;
+  st.framer = chosen->make_framer(channel, {options_.timing, options_.max_hold});
+  std::vector<ByteEvent> held;
+  held.swap(st.held);
+  for (const ByteEvent& e : held) st.framer->push(e, ready_);
+  // Time has moved on while the bytes were held: let silence close what it closed meanwhile.
+  st.framer->advance(latest_time_, ready_);
+  earliest_deadline_ = std::min(earliest_deadline_, st.framer->next_deadline());
 }
 
 void Pipeline::report(const Anomaly& anomaly) {
@@ -138,6 +250,8 @@ void Pipeline::handle_frame(Frame& frame) {
     emit_anomaly({AnomalyKind::noise, frame.start(), frame.channel, frame.number,
                   fmt::format("{} byte{} outside any frame: {}", frame.size(),
                               frame.size() == 1 ? "" : "s", hex)});
+    ChannelState& noisy = state_for(frame.channel);
+    if (noisy.auto_protocol && ++noisy.failures >= kRedetectFailures) noisy.redetect = true;
     std::vector<Anomaly> uart;
     append_uart_anomalies(frame.events, frame.number, uart);
     for (const Anomaly& a : uart) emit_anomaly(a);
@@ -152,6 +266,14 @@ void Pipeline::handle_frame(Frame& frame) {
   const ProtocolDecoder::PairingKeys keys = decoder.pairing_keys(bytes);
   const Direction dir = decide_direction(decoder, frame, bytes, keys.address, keys.function, link);
   Message m = decoder.dissect(std::move(frame), dir, options_.timing);
+  ChannelState& channel_state = state_for(m.frame.channel);
+  if (channel_state.auto_protocol) {
+    if (m.checksum.verdict == ChecksumVerdict::good) {
+      channel_state.failures = 0;
+    } else if (++channel_state.failures >= kRedetectFailures) {
+      channel_state.redetect = true;
+    }
+  }
   pairer_.add(link, m, transactions_);
   for (Anomaly& a : m.anomalies) a.frame_number = m.frame.number;
   stats_.count_frame(m);
@@ -184,7 +306,11 @@ void Pipeline::emit_transactions(std::vector<Transaction>& transactions) {
 void Pipeline::finish() {
   if (finished_) return;
   finished_ = true;
-  for (auto& s : states_) s->framer->finish(ready_);
+  for (std::size_t i = 0; i < states_.size(); ++i) {
+    ChannelState& st = *states_[i];
+    if (!st.framer) detect(st, static_cast<ChannelId>(i), true);
+    if (st.framer) st.framer->finish(ready_);
+  }
   handle_frames();
   pairer_.finish(transactions_);
   emit_transactions(transactions_);

@@ -5,6 +5,7 @@
 // previous byte ended (a USB adapter stamping a whole read at once) is moved to right after it.
 #pragma once
 
+#include <limits>
 #include <memory>
 #include <vector>
 
@@ -22,7 +23,8 @@ struct PipelineOptions {
   FramingTiming timing;  // usually FramingTiming::from(serial), possibly overridden
   TimeNs max_hold = 100 * kNsPerMs;
   TimeNs reply_timeout = 1 * kNsPerSecond;
-  Protocol protocol = Protocol::modbus_rtu;  // --protocol; detection is issue 4 work
+  // --protocol: a fixed protocol, or Protocol::unknown to detect it per channel ("auto").
+  Protocol protocol = Protocol::unknown;
 };
 
 class Pipeline {
@@ -44,6 +46,8 @@ class Pipeline {
   void handle_frames();
   void handle_frame(Frame& frame);
   void check_packetization(const Frame& frame);
+  void detect(ChannelState& st, ChannelId channel, bool final);
+  void start_detection(ChannelState& st, ChannelId channel);
   Direction decide_direction(const ProtocolDecoder& decoder, const Frame& frame,
                              std::span<const std::uint8_t> bytes, int address, int function,
                              std::size_t link) const;
@@ -60,6 +64,7 @@ class Pipeline {
   std::vector<Transaction> transactions_;
   TimeNs earliest_deadline_;
   std::uint64_t frame_counter_ = 0;
+  TimeNs latest_time_ = std::numeric_limits<TimeNs>::min();  // latest byte time on any channel
   bool finished_ = false;
 };
 

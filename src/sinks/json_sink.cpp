@@ -158,6 +158,15 @@ void JsonSink::on_anomaly(const Anomaly& a) {
   write(line);
 }
 
+void JsonSink::on_event(const BusEvent& e) {
+  std::string line = fmt::format(
+      "{{\"type\":\"event\",\"t\":{},\"channel\":{},\"kind\":\"{}\",\"protocol\":\"{}\","
+      "\"confidence\":\"{}\",\"detail\":{}}}",
+      seconds(e.time), json_quote(channels_.at(e.channel).name), e.kind, protocol_id(e.protocol),
+      e.confidence, json_quote(e.detail));
+  write(line);
+}
+
 void JsonSink::on_transaction(const Transaction& t) {
   auto opt_time = [](TimeNs v) { return v < 0 ? std::string("null") : seconds(v); };
   auto opt_num = [](std::uint64_t v) {

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "core/anomaly.hpp"
+#include "core/bus_event.hpp"
 #include "core/byte_event.hpp"
 #include "core/frame.hpp"
 #include "core/message.hpp"
@@ -23,6 +24,8 @@ class Sink {
   virtual void on_anomaly(const Anomaly& anomaly) = 0;
   virtual void on_transaction(const Transaction& transaction) = 0;
   virtual void on_summary(const Stats& stats) = 0;
+  // Conclusions about the bus (protocol detected on a channel). Sinks without a use ignore them.
+  virtual void on_event(const BusEvent& event) { (void)event; }
   // Pushes buffered output to its file; returns false when the write failed.
   virtual bool flush() = 0;
 };
@@ -42,6 +45,9 @@ class TeeSink final : public Sink {
   }
   void on_transaction(const Transaction& t) override {
     for (Sink* s : sinks_) s->on_transaction(t);
+  }
+  void on_event(const BusEvent& e) override {
+    for (Sink* s : sinks_) s->on_event(e);
   }
   void on_summary(const Stats& st) override {
     for (Sink* s : sinks_) s->on_summary(st);

@@ -133,6 +133,11 @@ void TextSink::on_anomaly(const Anomaly& a) {
   write(prefix(0, a.time, a.channel) + fmt::format("!!!  {}: {}", anomaly_label(a.kind), a.detail));
 }
 
+void TextSink::on_event(const BusEvent& e) {
+  if (!options_.frames) return;
+  write(prefix(0, e.time, e.channel) + fmt::format("***  {}", e.detail));
+}
+
 void TextSink::on_transaction(const Transaction&) {
   // Paired replies carry their latency on the frame line; timeouts and unsolicited replies
   // arrive as anomalies. Nothing else to print per transaction.

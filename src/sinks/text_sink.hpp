@@ -26,6 +26,7 @@ class TextSink final : public Sink {
   void on_anomaly(const Anomaly& anomaly) override;
   void on_transaction(const Transaction& transaction) override;
   void on_summary(const Stats& stats) override;
+  void on_event(const BusEvent& event) override;
   bool flush() override;
 
  private:
