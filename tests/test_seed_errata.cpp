@@ -2,6 +2,8 @@
 // computed CRCs of each erratum, checked independently of the golden files.
 #include <gtest/gtest.h>
 
+#include <map>
+
 #include "test_support.hpp"
 
 using namespace drivetap;
@@ -112,4 +114,37 @@ TEST(SeedErrata, E5AsciiExamples) {
     }
   }
   EXPECT_EQ(sink.count(AnomalyKind::malformed), 2u);  // the FC 03 count '2501', twice
+}
+
+TEST(SeedErrata, EasydriveExamples) {
+  RecordingSink sink;
+  ChannelTable channels;
+  std::string error;
+  ASSERT_TRUE(run_byte_log(std::string(DRIVETAP_SOURCE_DIR) + "/captures/seed-easydrive/input.log",
+                           sink, channels, &error, Protocol::easydrive))
+      << error;
+  ASSERT_EQ(sink.frames.size(), 40u);
+  // 0-based frame indices of PROTOCOLS.md §6's Easydrive errata, with the stated SUM.
+  const std::map<std::size_t, std::uint32_t> off_by_one = {{11, 0x01A3}, {12, 0x01A6}, {13, 0x01A7},
+                                                           {14, 0x01A8}, {15, 0x01A9}, {16, 0x01AA},
+                                                           {30, 0x01A8}};
+  const std::map<std::size_t, std::uint32_t> cr_in_sum = {{37, 0x028B}, {38, 0x028C}};
+  for (std::size_t i = 0; i < sink.frames.size(); ++i) {
+    const ChecksumResult& c = sink.frames[i].checksum;
+    if (i == 35 || i == 36) {  // ~010EB, ~010EA: truncated in the manual
+      EXPECT_EQ(c.verdict, ChecksumVerdict::none) << "frame " << i + 1;
+    } else if (off_by_one.count(i)) {
+      EXPECT_EQ(c.verdict, ChecksumVerdict::bad) << "frame " << i + 1;
+      EXPECT_EQ(c.stated_wire, off_by_one.at(i));
+      EXPECT_EQ(std::max(c.stated_wire, c.computed_wire) - std::min(c.stated_wire, c.computed_wire),
+                1u);
+    } else if (cr_in_sum.count(i)) {
+      EXPECT_EQ(c.verdict, ChecksumVerdict::bad) << "frame " << i + 1;
+      EXPECT_EQ(c.stated_wire, cr_in_sum.at(i));
+      EXPECT_EQ(c.stated_wire - c.computed_wire, 0x0Du);
+    } else {
+      EXPECT_EQ(c.verdict, ChecksumVerdict::good) << "frame " << i + 1;
+    }
+  }
+  EXPECT_EQ(sink.frames[18].info, "run control, set running frequency, 40.00 Hz");
 }

@@ -7,6 +7,7 @@ namespace drivetap {
 
 void DelimitedFramer::close(FrameKind kind, FrameClose why, std::vector<Frame>& out) {
   if (pending_.empty()) return;
+  if (kind == FrameKind::telegram && pending_.size() < options_.min_length) kind = FrameKind::noise;
   Frame f;
   f.kind = kind;
   f.channel = channel_;

@@ -19,6 +19,7 @@ struct DelimitedFramerOptions {
   std::uint8_t start = ':';
   std::uint8_t end = '\n';
   std::size_t max_length = 513;
+  std::size_t min_length = 2;  // a cut "frame" shorter than this (a lone start character) is noise
   TimeNs inter_character_timeout = 1 * kNsPerSecond;  // Modbus ASCII's default
   TimeNs character_time = 0;
 };

@@ -61,8 +61,9 @@ void add_common_options(CLI::App* cmd, CommonOptions& o) {
                   "Longest wait for the rest of a frame split by a silence (default 100ms)");
   cmd->add_option("-P,--protocol", o.protocol,
                   "Protocol on the bus: auto (default: detected per channel from the first "
-                  "frames), rtu (Modbus RTU), ascii (Modbus ASCII), fc (Danfoss FC protocol)")
-      ->check(CLI::IsMember({"auto", "rtu", "ascii", "fc"}));
+                  "frames), rtu (Modbus RTU), ascii (Modbus ASCII), fc (Danfoss FC protocol), "
+                  "eds (Easydrive '~' protocol)")
+      ->check(CLI::IsMember({"auto", "rtu", "ascii", "fc", "eds"}));
   cmd->add_flag("--no-summary", o.no_summary, "Do not print the closing summary");
   cmd->add_option("-o,--output", o.output, "Write the text/JSON output to FILE instead of stdout");
   cmd->add_option("-w,--write", o.write,
@@ -166,10 +167,14 @@ int run_decode(const CommonOptions& o, const std::vector<std::string>& args) {
   ChannelTable channels;
   const ChannelId bus = channels.intern("bus");
   PipelineOptions p = make_pipeline_options(o, RunSettings{});
-  // Frames written as text (":0103...") are Modbus ASCII; hex bytes are Modbus RTU.
-  auto is_text_frame = [](const std::string& t) {
+  // Frames written as text are Modbus ASCII (":0103...") or Easydrive ("~010A..."); hex bytes
+  // are left to detection (Modbus RTU, Danfoss FC).
+  auto text_start = [](const std::string& t) {
     const std::size_t first = t.find_first_not_of(" \t");
-    return first != std::string::npos && t[first] == ':';
+    return first == std::string::npos ? '\0' : t[first];
+  };
+  auto is_text_frame = [&](const std::string& t) {
+    return text_start(t) == ':' || text_start(t) == '~';
   };
   bool any_text = false;
   bool any_hex = false;
@@ -177,8 +182,8 @@ int run_decode(const CommonOptions& o, const std::vector<std::string>& args) {
     if (t.find_first_not_of(" \t\r") == std::string::npos) continue;
     (is_text_frame(t) ? any_text : any_hex) = true;
   }
-  if (any_text && any_hex) die("decode: give either hex bytes (RTU) or ':' text frames (ASCII)");
-  if (o.protocol.empty() && any_text) p.protocol = Protocol::modbus_ascii;
+  if (any_text && any_hex)
+    die("decode: give either hex bytes or text frames (':' or '~'), not both");
   std::vector<ByteEvent> events;
   TimeNs clock = 0;
   // Frames given separately are laid out with a clean silence between them; bytes run together
@@ -189,8 +194,10 @@ int run_decode(const CommonOptions& o, const std::vector<std::string>& args) {
     if (texts[i].find_first_not_of(" \t\r") == std::string::npos) continue;
     std::optional<std::vector<std::vector<std::uint8_t>>> frames;
     if (is_text_frame(texts[i])) {
-      const std::string t = texts[i].substr(texts[i].find(':'));
-      if (auto f = parse_text_frame(t, "\r\n", &err)) frames.emplace(1, std::move(*f));
+      const char start = text_start(texts[i]);
+      const std::string t = texts[i].substr(texts[i].find(start));
+      if (auto f = parse_text_frame(t, start == ':' ? "\r\n" : "\r", &err))
+        frames.emplace(1, std::move(*f));
     } else {
       frames = parse_hex_frames(texts[i], &err);
     }

@@ -107,6 +107,8 @@ const char* protocol_id(Protocol p) {
       return "modbus-ascii";
     case Protocol::danfoss_fc:
       return "danfoss-fc";
+    case Protocol::easydrive:
+      return "easydrive";
     case Protocol::unknown:
       break;
   }
@@ -121,6 +123,8 @@ const char* protocol_label(Protocol p) {
       return "Modbus ASCII";
     case Protocol::danfoss_fc:
       return "Danfoss FC";
+    case Protocol::easydrive:
+      return "Easydrive";
     case Protocol::unknown:
       break;
   }

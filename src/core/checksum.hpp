@@ -28,6 +28,7 @@ struct ChecksumResult {
   std::uint32_t computed_wire = 0;
   std::uint8_t width = 0;    // bytes
   const char* name = "CRC";  // CRC, LRC, BCC, SUM: how the protocol calls it
+  bool text = false;         // sent as hex characters (Easydrive SUM): shown as one number
 };
 
 // Modbus ASCII LRC (PROTOCOLS.md §3): two's complement of the 8-bit sum of the binary bytes.

@@ -13,7 +13,7 @@
 
 namespace drivetap {
 
-enum class Protocol : std::uint8_t { unknown, modbus_rtu, modbus_ascii, danfoss_fc };
+enum class Protocol : std::uint8_t { unknown, modbus_rtu, modbus_ascii, danfoss_fc, easydrive };
 enum class Direction : std::uint8_t { unknown, request, response };
 
 const char* protocol_id(Protocol p);     // "modbus-rtu": JSON ids, stable

@@ -87,7 +87,7 @@ constexpr std::size_t kDetectEvery = 128;   // re-evaluate after this many more 
 constexpr int kDetectGoodFrames = 3;        // never decide on one lucky checksum
 constexpr int kRedetectFailures = 8;        // bad telegrams/noise in a row: the bus changed?
 constexpr Protocol kCandidates[] = {Protocol::modbus_rtu, Protocol::modbus_ascii,
-                                    Protocol::danfoss_fc};
+                                    Protocol::danfoss_fc, Protocol::easydrive};
 
 struct Score {
   const ProtocolDecoder* decoder = nullptr;

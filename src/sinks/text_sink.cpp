@@ -25,7 +25,7 @@ const char* direction_tag(Direction d) {
 }
 
 std::string checksum_text(const ChecksumResult& c) {
-  auto wire = [&](std::uint32_t v) { return wire_hex(v, c.width); };
+  auto wire = [&](std::uint32_t v) { return wire_hex(v, c.width, c.text ? "" : " "); };
   std::string lower = c.name;
   for (char& ch : lower) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
   switch (c.verdict) {

@@ -1,0 +1,206 @@
+// Easydrive ASCII protocol dissector (PROTOCOLS.md §5; errata §6; 001 ch. 11).
+#include "dissectors/easydrive/eds_dissector.hpp"
+
+#include <fmt/format.h>
+
+#include "dissectors/common/delimited_framer.hpp"
+#include "dissectors/easydrive/eds_fields.hpp"
+
+namespace drivetap::easydrive {
+namespace {
+
+int hex_value(std::uint8_t c) {
+  if (c >= '0' && c <= '9') return c - '0';
+  if (c >= 'A' && c <= 'F') return c - 'A' + 10;
+  return -1;
+}
+
+// Value of `n` upper-case hex characters at `at`, or -1.
+long hex_field(std::span<const std::uint8_t> f, std::size_t at, std::size_t n) {
+  if (at + n > f.size()) return -1;
+  long v = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const int d = hex_value(f[at + i]);
+    if (d < 0) return -1;
+    v = v * 16 + d;
+  }
+  return v;
+}
+
+bool is_request_command(long c) {
+  return c >= 0x0A && c <= 0x0F;
+}
+bool is_response_code(long c) {
+  return c == 0x00 || (c >= 0x10 && c <= 0x14) || c == 0x20 || c == 0x30;
+}
+
+// The body between '~' and CR, whatever its terminator state.
+std::span<const std::uint8_t> body_of(std::span<const std::uint8_t> f) {
+  std::size_t end = f.size();
+  if (end > 0 && f[end - 1] == '\r') --end;
+  return f.subspan(1, end > 1 ? end - 1 : 0);
+}
+
+std::string frequency(long v) {
+  return fmt::format("{}.{:02} Hz", v / 100, v % 100);
+}
+
+}  // namespace
+
+std::uint16_t ascii_sum(std::span<const std::uint8_t> text) {
+  std::uint16_t s = 0;
+  for (const std::uint8_t c : text) s = static_cast<std::uint16_t>(s + c);
+  return s;
+}
+
+Message dissect_eds(Frame frame, Direction direction, const FramingTiming& timing) {
+  (void)timing;
+  Message m;
+  m.frame = std::move(frame);
+  m.bytes = m.frame.bytes();
+  m.protocol = Protocol::easydrive;
+  m.direction = direction;
+  m.text_encoded = true;
+  const TimeNs t0 = m.frame.start();
+  const ChannelId ch = m.frame.channel;
+  const std::span<const std::uint8_t> f(m.bytes);
+  FieldTreeBuilder tree(m.fields);
+  auto problem = [&](std::string text) {
+    m.anomalies.push_back({AnomalyKind::malformed, t0, ch, 0, std::move(text)});
+  };
+  if (f.empty() || f[0] != '~') {
+    problem("does not start with '~'");
+    m.info = "not an Easydrive frame";
+    return m;
+  }
+  tree.add_text(kStart, 0, 1, "~");
+  if (f.back() != '\r') problem("no CR at the end: frame cut");
+  // Only '~', 0-9, A-F and CR are valid (lower case is an error too).
+  for (std::size_t i = 1; i < f.size(); ++i) {
+    const std::uint8_t c = f[i];
+    if (hex_value(c) < 0 && !(c == '\r' && i + 1 == f.size())) {
+      problem(fmt::format("invalid character 0x{:02X} ('{}') at {}", c,
+                          c >= 0x20 && c < 0x7F ? static_cast<char>(c) : '?', i));
+      break;
+    }
+  }
+  const std::size_t len = f.size() - (f.back() == '\r' ? 1 : 0);  // without CR
+  if (len != 13 && len != 17) {
+    problem(fmt::format("{} characters before CR: a frame has 13 or 17", len));
+  }
+  const long addr = hex_field(f, 1, 2);
+  const long cmd = hex_field(f, 3, 2);
+  const long aux = hex_field(f, 5, 2);
+  const long idx = hex_field(f, 7, 2);
+  const bool has_data = len == 17;
+  const long data = has_data ? hex_field(f, 9, 4) : -1;
+  if (addr >= 0) {
+    tree.add(kAddr, 1, 2, addr);
+    m.address = static_cast<int>(addr);
+  }
+  const bool response = direction == Direction::response ||
+                        (direction == Direction::unknown && is_response_code(cmd));
+  std::vector<std::string> info;
+  if (cmd >= 0) {
+    tree.add(response ? kResponse : kCommand, 3, 2, cmd);
+    const std::string_view name =
+        (response ? kResponse : kCommand).name_of(static_cast<std::uint32_t>(cmd));
+    info.push_back(name.empty() ? fmt::format("{} 0x{:02X}", response ? "response" : "command", cmd)
+                                : std::string(name));
+  }
+  long index = -1;
+  if (aux >= 0 && idx >= 0) {
+    index = response ? idx : (aux << 8) | idx;
+    if (response) tree.add(kFault, 5, 2, aux);
+    tree.add(kIndex, response ? 7 : 5, response ? 2 : 4, index);
+  }
+  // What the index and data mean depends on the command (requests; replies echo the index).
+  std::string index_name;
+  if (index >= 0) {
+    if (cmd == 0x0B) {
+      for (const ValueName& v : kRunningValues)
+        if (v.value == static_cast<std::uint32_t>(index)) index_name = std::string(v.name);
+    } else if (cmd == 0x0C) {
+      for (const ValueName& v : kRunActions)
+        if (v.value == static_cast<std::uint32_t>(index)) index_name = std::string(v.name);
+    } else if (cmd == 0x0D || cmd == 0x0E) {
+      index_name = fmt::format("F{}.{:02}",
+                               index >> 8 == 0x0D   ? std::string("D")
+                               : index >> 8 == 0x0F ? std::string("F")
+                                                    : std::to_string(index >> 8),
+                               index & 0xFF);
+    }
+  }
+  if (!index_name.empty()) {
+    tree.add_text(kIndexName, response ? 7 : 5, response ? 2 : 4, index_name);
+    info.push_back(index_name);
+  } else if (index >= 0 && cmd != 0x0A && cmd != 0x0F) {
+    info.push_back(fmt::format("index 0x{:04X}", index));
+  }
+  if (has_data && data >= 0) {
+    tree.add(kData, 9, 4, data);
+    std::string value;
+    const bool freq = (cmd == 0x0C && (index == 1 || index == 2 || index == 5 || index == 6)) ||
+                      (cmd == 0x0B && (index == 0 || index == 1));
+    value = freq ? frequency(data) : fmt::format("{}", data);
+    tree.add_text(kValue, 9, 4, value);
+    info.push_back(cmd == 0x0E ? fmt::format("= {}", value) : value);
+  }
+  if (response && aux > 0) info.push_back(fmt::format("drive fault code {}", aux));
+  m.info = info.empty() ? "Easydrive frame" : fmt::format("{}", fmt::join(info, ", "));
+  // SUM: the 4 characters before CR.
+  if (len >= 13) {
+    const long stated = hex_field(f, len - 4, 4);
+    const std::uint16_t computed = ascii_sum(f.subspan(1, len - 5));
+    tree.add(kSum, len - 4, 4, stated < 0 ? 0 : stated);
+    m.checksum.name = "SUM";
+    m.checksum.width = 2;
+    m.checksum.text = true;
+    m.checksum.stated_wire = static_cast<std::uint32_t>(stated < 0 ? 0 : stated);
+    m.checksum.computed_wire = computed;
+    m.checksum.verdict = stated == computed ? ChecksumVerdict::good : ChecksumVerdict::bad;
+    if (m.checksum.verdict == ChecksumVerdict::bad) {
+      std::string why;
+      if (stated >= 0 && (stated - computed == 1 || computed - stated == 1)) why = " (off by one)";
+      if (stated >= 0 && stated == computed + '\r') why = " (CR counted in the sum)";
+      m.anomalies.insert(m.anomalies.begin(),
+                         {AnomalyKind::checksum_bad, t0, ch, 0,
+                          fmt::format("SUM on wire {:04X}, computed {:04X}{}",
+                                      stated < 0 ? 0 : stated, computed, why)});
+    }
+  } else {
+    m.info = fmt::format("{}-character fragment, too short for an Easydrive frame", f.size());
+  }
+  append_uart_anomalies(m.frame.events, 0, m.anomalies);
+  return m;
+}
+
+std::unique_ptr<Framer> EdsDecoder::make_framer(ChannelId channel, const FramerSettings& s) const {
+  DelimitedFramerOptions o;
+  o.start = '~';
+  o.end = '\r';
+  o.max_length = 32;
+  o.inter_character_timeout = std::max<TimeNs>(1 * kNsPerSecond, s.timing.t35);
+  o.character_time = s.timing.character_time;
+  return std::make_unique<DelimitedFramer>(channel, o);
+}
+
+DirectionFit EdsDecoder::direction_fit(std::span<const std::uint8_t> frame) const {
+  const long cmd = hex_field(frame, 3, 2);
+  return {is_request_command(cmd), is_response_code(cmd)};
+}
+
+bool EdsDecoder::always_response(std::span<const std::uint8_t> frame) const {
+  return is_response_code(hex_field(frame, 3, 2));
+}
+
+bool EdsDecoder::recognisable(std::span<const std::uint8_t> frame) const {
+  return !frame.empty() && frame[0] == '~' && body_of(frame).size() >= 12;
+}
+
+ProtocolDecoder::PairingKeys EdsDecoder::pairing_keys(std::span<const std::uint8_t> frame) const {
+  const long addr = hex_field(frame, 1, 2);
+  return {addr < 0 ? -1 : static_cast<int>(addr), -1};
+}
+
+}  // namespace drivetap::easydrive

@@ -1,0 +1,36 @@
+// Easydrive EDS1000/EDS800 ASCII protocol dissector and decoder (PROTOCOLS.md §5; 001 ch. 11).
+//
+//   +-----+---------+--------+--------+--------+-----------+--------+----+
+//   | '~' | ADDR(2) | CMD(2) | AUX(2) | IDX(2) | [DATA(4)] | SUM(4) | CR |     14 or 18 bytes
+//   +-----+---------+--------+--------+--------+-----------+--------+----+
+//   SUM = 16-bit sum of the ASCII codes from ADDR through DATA, 4 upper-case hex digits.
+//   Master: CMD 0A status query, 0B read running value, 0C run control, 0D read function code,
+//   0E write function code, 0F software version (the manual names them 10..15). Slave: CMD is a
+//   response code, AUX its current fault code; the index (AUX IDX of the request) is echoed.
+#pragma once
+
+#include "core/message.hpp"
+#include "core/protocol.hpp"
+
+namespace drivetap::easydrive {
+
+// Sum of the ASCII codes of `text` (the SUM field's rule), modulo 2^16.
+std::uint16_t ascii_sum(std::span<const std::uint8_t> text);
+
+Message dissect_eds(Frame frame, Direction direction, const FramingTiming& timing);
+
+class EdsDecoder final : public ProtocolDecoder {
+ public:
+  [[nodiscard]] Protocol protocol() const override { return Protocol::easydrive; }
+  [[nodiscard]] std::unique_ptr<Framer> make_framer(ChannelId channel,
+                                                    const FramerSettings& s) const override;
+  [[nodiscard]] DirectionFit direction_fit(std::span<const std::uint8_t> frame) const override;
+  [[nodiscard]] bool always_response(std::span<const std::uint8_t> frame) const override;
+  [[nodiscard]] bool recognisable(std::span<const std::uint8_t> frame) const override;
+  [[nodiscard]] PairingKeys pairing_keys(std::span<const std::uint8_t> frame) const override;
+  Message dissect(Frame frame, Direction direction, const FramingTiming& timing) const override {
+    return dissect_eds(std::move(frame), direction, timing);
+  }
+};
+
+}  // namespace drivetap::easydrive
