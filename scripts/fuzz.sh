@@ -5,7 +5,8 @@
 #   bash scripts/fuzz.sh [SECONDS_PER_TARGET] [TARGET...]     (default 30 s, every target)
 #   bash scripts/fuzz.sh 120 pcapng byte_log
 #
-# Targets: byte_log pcapng pcap rtu_framer modbus_pdu upper_pdu_link (the "fuzz_" prefix is
+# Targets: byte_log pcapng pcap rtu_framer modbus_pdu upper_pdu_link modbus_ascii danfoss_fc
+# easydrive (the "fuzz_" prefix is
 # optional). Per target: working corpus build-fuzz/corpus/<target> (kept between runs), seeds
 # build-fuzz/seeds/<target> (remade each run), crash artifacts build-fuzz/artifacts/<target>/,
 # libFuzzer's log build-fuzz/logs/<target>.log. Reproducers saved under
@@ -26,7 +27,7 @@ if ! [[ "$seconds" =~ ^[0-9]+$ ]] || [ "$seconds" -eq 0 ]; then
   echo "usage: bash scripts/fuzz.sh [SECONDS_PER_TARGET] [TARGET...]" >&2
   exit 2
 fi
-all_targets=(byte_log pcapng pcap rtu_framer modbus_pdu upper_pdu_link)
+all_targets=(byte_log pcapng pcap rtu_framer modbus_pdu upper_pdu_link modbus_ascii danfoss_fc easydrive)
 targets=()
 for t in "$@"; do
   t=${t#fuzz_}
@@ -131,6 +132,10 @@ make_seeds() {
       *.pcapng) cp "$f" "$seeds/pcapng/$name.pcapng" ;;
       *.pcap) cp "$f" "$seeds/pcap/$name.pcap" ;;
     esac
+  done
+  # Every telegram of the captures seeds the protocol-decoder targets too.
+  for t in modbus_ascii danfoss_fc easydrive; do
+    cp "$seeds/modbus_pdu/"* "$seeds/$t/" 2> /dev/null || true
   done
   # Files drivetap writes itself: its pcapng (exported PDU and user0 link types, with the
   # per-byte option) and classic pcap.
