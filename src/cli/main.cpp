@@ -184,6 +184,12 @@ int run_decode(const CommonOptions& o, const std::vector<std::string>& args) {
   }
   if (any_text && any_hex)
     die("decode: give either hex bytes or text frames (':' or '~'), not both");
+  // Text frames say their protocol by their first character; hex bytes are left to detection.
+  if (o.protocol.empty() && any_text) {
+    for (const std::string& t : texts)
+      if (is_text_frame(t))
+        p.protocol = text_start(t) == ':' ? Protocol::modbus_ascii : Protocol::easydrive;
+  }
   std::vector<ByteEvent> events;
   TimeNs clock = 0;
   // Frames given separately are laid out with a clean silence between them; bytes run together

@@ -62,6 +62,8 @@ void Pipeline::advance_all(TimeNs now) {
 
 void Pipeline::push(const ByteEvent& in) {
   ByteEvent e = in;
+  // With 7 data bits the 8th bit a source may deliver is not data (Modbus ASCII allows 7E1).
+  if (options_.serial.data_bits == 7) e.byte &= 0x7F;
   ChannelState& st = state_for(e.channel);
   // Bytes on one wire cannot overlap: a byte stamped inside its predecessor starts after it.
   if (e.time < st.last_end) e.time = st.last_end;
