@@ -52,7 +52,7 @@ std::vector<std::vector<std::string>> run_tshark(const std::string& args) {
 
 // Decodes a capture in-process, writing pcapng to `path`; returns the decoded frames.
 std::vector<Message> write_capture(const std::string& capture, const std::string& path,
-                                   CaptureLinkType link) {
+                                   CaptureLinkType link, Protocol protocol = Protocol::unknown) {
   ChannelTable channels;
   RecordingSink record;
   std::FILE* in = std::fopen(
@@ -64,6 +64,7 @@ std::vector<Message> write_capture(const std::string& capture, const std::string
   p.serial = reader.header_serial().value_or(SerialConfig{});
   p.timing = FramingTiming::from(p.serial);
   reader.set_character_time(p.timing.character_time);
+  p.protocol = protocol;
   std::FILE* out = std::fopen(path.c_str(), "wb");
   {
     CaptureSinkOptions c;
@@ -146,5 +147,27 @@ TEST(TsharkUser0, DecodesWithTheDocumentedUserDltEntry) {
   for (std::size_t i = 0; i < rows.size(); ++i) {
     EXPECT_EQ(rows[i][0], "Modbus RTU") << "frame " << i + 1;
     EXPECT_EQ(rows[i].at(1), std::to_string(frames[i].address)) << "frame " << i + 1;
+  }
+}
+
+TEST(TsharkOtherProtocols, LabelledWithDirectionAndDrivetapsDecodeAsComment) {
+  if (!have_tshark()) GTEST_SKIP() << "tshark not installed";
+  for (const char* capture : {"seed-e5-8200-ascii", "seed-danfoss-fc", "seed-easydrive"}) {
+    const std::string path = ::testing::TempDir() + capture + ".pcapng";
+    const std::vector<Message> frames = write_capture(capture, path, CaptureLinkType::upper_pdu);
+    const auto rows = run_tshark("-r " + path +
+                                 " -T fields -e _ws.col.Protocol -e frame.p2p_dir -e frame.comment"
+                                 " -e _ws.malformed");
+    ASSERT_EQ(rows.size(), frames.size()) << capture;
+    for (std::size_t i = 0; i < frames.size(); ++i) {
+      const Message& m = frames[i];
+      ASSERT_GE(rows[i].size(), 4u);
+      EXPECT_EQ(rows[i][0], protocol_label(m.protocol)) << capture << " frame " << i + 1;
+      if (m.direction != Direction::unknown) {
+        EXPECT_EQ(rows[i][1], m.direction == Direction::request ? "0" : "1") << capture;
+      }
+      EXPECT_EQ(rows[i][2].rfind(frame_summary(m, true), 0), 0u) << rows[i][2];
+      EXPECT_EQ(rows[i][3], "") << capture << " frame " << i + 1;
+    }
   }
 }
