@@ -50,7 +50,9 @@ class FcDecoder final : public ProtocolDecoder {
   [[nodiscard]] bool always_response(std::span<const std::uint8_t> frame) const override;
   [[nodiscard]] bool recognisable(std::span<const std::uint8_t> frame) const override;
   [[nodiscard]] PairingKeys pairing_keys(std::span<const std::uint8_t> frame) const override;
-  Message dissect(Frame frame, Direction direction, const FramingTiming& timing) const override {
+  Message dissect(Frame frame, Direction direction, const FramingTiming& timing,
+                  std::span<const std::uint8_t> request = {}) const override {
+    (void)request;  // replies of this protocol stand on their own
     return dissect_fc(std::move(frame), direction, timing);
   }
 };

@@ -45,6 +45,25 @@ std::string frequency(long v) {
   return fmt::format("{}.{:02} Hz", v / 100, v % 100);
 }
 
+// Status word bits (001 table 11-5; PROTOCOLS.md §5).
+std::string status_word(long w) {
+  static constexpr const char* kBits[11] = {"run",
+                                            "undervoltage",
+                                            "reverse",
+                                            "swing frequency",
+                                            "normal run",
+                                            "jog",
+                                            "PLC",
+                                            "multi-step",
+                                            "PID closed loop",
+                                            "set count reached",
+                                            "specified count reached"};
+  std::string out;
+  for (int b = 0; b < 11; ++b)
+    if ((w >> b) & 1) out += fmt::format("{}{}", out.empty() ? "" : ", ", kBits[b]);
+  return out.empty() ? "stopped" : out;
+}
+
 }  // namespace
 
 std::uint16_t ascii_sum(std::span<const std::uint8_t> text) {
@@ -53,7 +72,8 @@ std::uint16_t ascii_sum(std::span<const std::uint8_t> text) {
   return s;
 }
 
-Message dissect_eds(Frame frame, Direction direction, const FramingTiming& timing) {
+Message dissect_eds(Frame frame, Direction direction, const FramingTiming& timing,
+                    std::span<const std::uint8_t> request) {
   (void)timing;
   Message m;
   m.frame = std::move(frame);
@@ -100,6 +120,8 @@ Message dissect_eds(Frame frame, Direction direction, const FramingTiming& timin
   }
   const bool response = direction == Direction::response ||
                         (direction == Direction::unknown && is_response_code(cmd));
+  // What the index and data mean comes from the command: a request's own, a reply's request's.
+  const long context_cmd = response ? hex_field(request, 3, 2) : cmd;
   std::vector<std::string> info;
   if (cmd >= 0) {
     tree.add(response ? kResponse : kCommand, 3, 2, cmd);
@@ -117,13 +139,13 @@ Message dissect_eds(Frame frame, Direction direction, const FramingTiming& timin
   // What the index and data mean depends on the command (requests; replies echo the index).
   std::string index_name;
   if (index >= 0) {
-    if (cmd == 0x0B) {
+    if (context_cmd == 0x0B) {
       for (const ValueName& v : kRunningValues)
         if (v.value == static_cast<std::uint32_t>(index)) index_name = std::string(v.name);
-    } else if (cmd == 0x0C) {
+    } else if (context_cmd == 0x0C) {
       for (const ValueName& v : kRunActions)
         if (v.value == static_cast<std::uint32_t>(index)) index_name = std::string(v.name);
-    } else if (cmd == 0x0D || cmd == 0x0E) {
+    } else if (context_cmd == 0x0D || context_cmd == 0x0E) {
       index_name = fmt::format("F{}.{:02}",
                                index >> 8 == 0x0D   ? std::string("D")
                                : index >> 8 == 0x0F ? std::string("F")
@@ -134,17 +156,21 @@ Message dissect_eds(Frame frame, Direction direction, const FramingTiming& timin
   if (!index_name.empty()) {
     tree.add_text(kIndexName, response ? 7 : 5, response ? 2 : 4, index_name);
     info.push_back(index_name);
-  } else if (index >= 0 && cmd != 0x0A && cmd != 0x0F) {
+  } else if (index >= 0 && context_cmd != 0x0A && context_cmd != 0x0F && context_cmd >= 0) {
     info.push_back(fmt::format("index 0x{:04X}", index));
   }
   if (has_data && data >= 0) {
     tree.add(kData, 9, 4, data);
     std::string value;
-    const bool freq = (cmd == 0x0C && (index == 1 || index == 2 || index == 5 || index == 6)) ||
-                      (cmd == 0x0B && (index == 0 || index == 1));
-    value = freq ? frequency(data) : fmt::format("{}", data);
+    const bool freq =
+        (context_cmd == 0x0C && (index == 1 || index == 2 || index == 5 || index == 6)) ||
+        (context_cmd == 0x0B && (index == 0 || index == 1));
+    const bool status = context_cmd == 0x0B && index == 0x0F;
+    value = freq     ? frequency(data)
+            : status ? fmt::format("0x{:04X} [{}]", data, status_word(data))
+                     : fmt::format("{}", data);
     tree.add_text(kValue, 9, 4, value);
-    info.push_back(cmd == 0x0E ? fmt::format("= {}", value) : value);
+    info.push_back(context_cmd == 0x0E ? fmt::format("= {}", value) : value);
   }
   if (response && aux > 0) info.push_back(fmt::format("drive fault code {}", aux));
   m.info = info.empty() ? "Easydrive frame" : fmt::format("{}", fmt::join(info, ", "));

@@ -17,7 +17,10 @@ namespace drivetap::easydrive {
 // Sum of the ASCII codes of `text` (the SUM field's rule), modulo 2^16.
 std::uint16_t ascii_sum(std::span<const std::uint8_t> text);
 
-Message dissect_eds(Frame frame, Direction direction, const FramingTiming& timing);
+// `request`: for a reply, the request it answers — its command and index say what the reply's
+// data is (a frequency, the status word).
+Message dissect_eds(Frame frame, Direction direction, const FramingTiming& timing,
+                    std::span<const std::uint8_t> request = {});
 
 class EdsDecoder final : public ProtocolDecoder {
  public:
@@ -28,8 +31,9 @@ class EdsDecoder final : public ProtocolDecoder {
   [[nodiscard]] bool always_response(std::span<const std::uint8_t> frame) const override;
   [[nodiscard]] bool recognisable(std::span<const std::uint8_t> frame) const override;
   [[nodiscard]] PairingKeys pairing_keys(std::span<const std::uint8_t> frame) const override;
-  Message dissect(Frame frame, Direction direction, const FramingTiming& timing) const override {
-    return dissect_eds(std::move(frame), direction, timing);
+  Message dissect(Frame frame, Direction direction, const FramingTiming& timing,
+                  std::span<const std::uint8_t> request = {}) const override {
+    return dissect_eds(std::move(frame), direction, timing, request);
   }
 };
 

@@ -38,7 +38,9 @@ class RtuDecoder final : public ProtocolDecoder {
   [[nodiscard]] PairingKeys pairing_keys(std::span<const std::uint8_t> frame) const override {
     return {frame.empty() ? -1 : frame[0], frame.size() < 2 ? -1 : frame[1]};
   }
-  Message dissect(Frame frame, Direction direction, const FramingTiming& timing) const override {
+  Message dissect(Frame frame, Direction direction, const FramingTiming& timing,
+                  std::span<const std::uint8_t> request = {}) const override {
+    (void)request;  // replies of this protocol stand on their own
     return dissect_rtu(std::move(frame), direction, timing);
   }
 };

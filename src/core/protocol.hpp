@@ -45,7 +45,10 @@ class ProtocolDecoder {
   };
   [[nodiscard]] virtual PairingKeys pairing_keys(std::span<const std::uint8_t> frame) const = 0;
   // Decodes the frame; Message::address/function are the pairing keys (function -1: none).
-  virtual Message dissect(Frame frame, Direction direction, const FramingTiming& timing) const = 0;
+  // `request`: for a reply, the bytes of the request it answers (empty when unknown), for
+  // protocols whose replies mean nothing without it.
+  virtual Message dissect(Frame frame, Direction direction, const FramingTiming& timing,
+                          std::span<const std::uint8_t> request = {}) const = 0;
 };
 
 // The decoder of `protocol`, from the explicit table; nullptr for Protocol::unknown.

@@ -36,6 +36,15 @@ bool Pairer::awaiting_reply(std::size_t link, int address, int function, TimeNs 
   return false;
 }
 
+std::span<const std::uint8_t> Pairer::awaited_request(std::size_t link, int address, int function,
+                                                      TimeNs at) const {
+  for (const Pending& p : pending_)
+    if (p.link == link && p.address == address && p.function == function_key(function) &&
+        at - p.end <= options_.timeout)
+      return p.bytes;
+  return {};
+}
+
 void Pairer::close_unanswered(const Pending& p, std::string detail, std::vector<Transaction>& out) {
   Transaction t;
   t.outcome = Outcome::timeout;
@@ -89,7 +98,7 @@ void Pairer::add(std::size_t link, Message& m, std::vector<Transaction>& out) {
     }
     const TimeNs end = m.frame.events.back().time + options_.character_time;
     pending_.push_back({link, m.address, function_key(m.function), m.frame.number, m.frame.channel,
-                        start, end, m.protocol});
+                        start, end, m.protocol, m.bytes});
     return;
   }
   if (m.direction != Direction::response) return;

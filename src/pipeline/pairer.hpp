@@ -10,6 +10,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <deque>
+#include <span>
 #include <vector>
 
 #include "core/message.hpp"
@@ -29,6 +30,9 @@ class Pairer {
 
   // Is a request from `address`/`function` on `link` still waiting for its reply at time `at`?
   [[nodiscard]] bool awaiting_reply(std::size_t link, int address, int function, TimeNs at) const;
+  // The bytes of the request a reply from `address`/`function` would answer; empty when none.
+  [[nodiscard]] std::span<const std::uint8_t> awaited_request(std::size_t link, int address,
+                                                              int function, TimeNs at) const;
   // Closes requests whose timeout ran out before `now`.
   void expire(TimeNs now, std::vector<Transaction>& out);
   // Pairs a decoded message. On a paired response sets message.latency and request_number.
@@ -46,6 +50,7 @@ class Pairer {
     TimeNs start;
     TimeNs end;
     Protocol protocol;
+    std::vector<std::uint8_t> bytes;  // the request itself: replies are read in its light
   };
   void close_unanswered(const Pending& p, std::string detail, std::vector<Transaction>& out);
 

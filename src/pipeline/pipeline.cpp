@@ -267,7 +267,13 @@ void Pipeline::handle_frame(Frame& frame) {
   const std::vector<std::uint8_t> bytes = frame.bytes();
   const ProtocolDecoder::PairingKeys keys = decoder.pairing_keys(bytes);
   const Direction dir = decide_direction(decoder, frame, bytes, keys.address, keys.function, link);
-  Message m = decoder.dissect(std::move(frame), dir, options_.timing);
+  // A reply is dissected in the light of the request it answers (copied: pairing follows).
+  std::vector<std::uint8_t> request;
+  if (dir == Direction::response) {
+    const auto r = pairer_.awaited_request(link, keys.address, keys.function, frame.start());
+    request.assign(r.begin(), r.end());
+  }
+  Message m = decoder.dissect(std::move(frame), dir, options_.timing, request);
   ChannelState& channel_state = state_for(m.frame.channel);
   if (channel_state.auto_protocol) {
     if (m.checksum.verdict == ChecksumVerdict::good) {
