@@ -1,9 +1,22 @@
 // Start/end-character framer for the ASCII protocols (layout in delimited_framer.hpp).
 #include "dissectors/common/delimited_framer.hpp"
 
+#include <algorithm>
 #include <limits>
 
 namespace drivetap {
+
+std::unique_ptr<Framer> make_delimited_framer(ChannelId channel, const FramerSettings& settings,
+                                              std::uint8_t start, std::uint8_t end,
+                                              std::size_t max_length) {
+  DelimitedFramerOptions o;
+  o.start = start;
+  o.end = end;
+  o.max_length = max_length;
+  o.inter_character_timeout = std::max<TimeNs>(1 * kNsPerSecond, settings.timing.t35);
+  o.character_time = settings.timing.character_time;
+  return std::make_unique<DelimitedFramer>(channel, o);
+}
 
 void DelimitedFramer::close(FrameKind kind, FrameClose why, std::vector<Frame>& out) {
   if (pending_.empty()) return;

@@ -11,7 +11,10 @@
 #include <cstdint>
 #include <vector>
 
+#include <memory>
+
 #include "core/framer.hpp"
+#include "core/protocol.hpp"
 
 namespace drivetap {
 
@@ -23,6 +26,12 @@ struct DelimitedFramerOptions {
   TimeNs inter_character_timeout = 1 * kNsPerSecond;  // Modbus ASCII's default
   TimeNs character_time = 0;
 };
+
+// A delimited framer for an ASCII protocol: the Modbus ASCII inter-character timeout (1 s, or t3.5
+// when longer) and the line's character time.
+std::unique_ptr<Framer> make_delimited_framer(ChannelId channel, const FramerSettings& settings,
+                                              std::uint8_t start, std::uint8_t end,
+                                              std::size_t max_length);
 
 class DelimitedFramer final : public Framer {
  public:

@@ -202,13 +202,7 @@ Message dissect_eds(Frame frame, Direction direction, const FramingTiming& timin
 }
 
 std::unique_ptr<Framer> EdsDecoder::make_framer(ChannelId channel, const FramerSettings& s) const {
-  DelimitedFramerOptions o;
-  o.start = '~';
-  o.end = '\r';
-  o.max_length = 32;
-  o.inter_character_timeout = std::max<TimeNs>(1 * kNsPerSecond, s.timing.t35);
-  o.character_time = s.timing.character_time;
-  return std::make_unique<DelimitedFramer>(channel, o);
+  return make_delimited_framer(channel, s, '~', '\r', 32);
 }
 
 DirectionFit EdsDecoder::direction_fit(std::span<const std::uint8_t> frame) const {

@@ -117,13 +117,7 @@ Message dissect_ascii(Frame frame, Direction direction, const FramingTiming& tim
 
 std::unique_ptr<Framer> AsciiDecoder::make_framer(ChannelId channel,
                                                   const FramerSettings& s) const {
-  DelimitedFramerOptions o;
-  o.start = ':';
-  o.end = '\n';
-  o.max_length = 513;
-  o.inter_character_timeout = std::max<TimeNs>(1 * kNsPerSecond, s.timing.t35);
-  o.character_time = s.timing.character_time;
-  return std::make_unique<DelimitedFramer>(channel, o);
+  return make_delimited_framer(channel, s, ':', '\n', 513);
 }
 
 DirectionFit AsciiDecoder::direction_fit(std::span<const std::uint8_t> frame) const {
