@@ -14,6 +14,7 @@
 #include "core/serial_config.hpp"
 #include "pipeline/options.hpp"
 #include "pipeline/pipeline.hpp"
+#include "profiles/profile.hpp"
 #include "sinks/capture_sink.hpp"
 #include "sinks/json_sink.hpp"
 #include "sinks/text_sink.hpp"
@@ -276,6 +277,27 @@ int run_read(const CommonOptions& o, const std::string& path) {
   return 0;
 }
 
+// Lists the built-in drive profiles and checks the given profile files (errors: file:line: key).
+int run_profiles(const std::vector<std::string>& files) {
+  auto show = [](const DriveProfile& p, std::string_view where) {
+    std::printf("%-8s %-44s %3zu registers  %s\n", p.id.c_str(), p.name.c_str(), p.registers.size(),
+                std::string(where).c_str());
+  };
+  for (const BuiltinProfileText& b : builtin_profile_texts()) {
+    ProfileError e;
+    auto p = parse_profile(b.text, b.file, &e);
+    if (!p) die(fmt::format("built-in profile {}", e.text()), 1);
+    show(*p, fmt::format("(built in: {})", b.file));
+  }
+  for (const std::string& f : files) {
+    ProfileError e;
+    auto p = load_profile_file(f, &e);
+    if (!p) die(e.text(), 1);
+    show(*p, f);
+  }
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -297,6 +319,11 @@ int main(int argc, char** argv) {
   add_common_options(read, read_opts);
   read->add_option("file", path, "Capture file")->required();
 
+  std::vector<std::string> profile_files;
+  CLI::App* profiles = app.add_subcommand(
+      "profiles", "List the built-in drive profiles and check profile files (TOML)");
+  profiles->add_option("file", profile_files, "Profile files to check");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -304,5 +331,6 @@ int main(int argc, char** argv) {
   }
   if (*decode) return run_decode(decode_opts, hex_args);
   if (*read) return run_read(read_opts, path);
+  if (*profiles) return run_profiles(profile_files);
   return 2;
 }
