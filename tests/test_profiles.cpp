@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include "profiles/profile.hpp"
+#include "test_support.hpp"
 
 using namespace drivetap;
 
@@ -60,4 +61,48 @@ TEST(Profiles, ErrorsNameFileLineAndKey) {
       error_of("[drive]\nid = \"x\"\nname = \"X\"\n[[register]]\naddress = 1\nname = \"a\"\n"
                "[register.bits]\n3 = [\"off\"]\n"),
       "user.toml:8: key 'register[1].bits.3': expected [\"meaning when 0\", \"meaning when 1\"]");
+}
+
+namespace {
+
+DriveProfile builtin(std::string_view file) {
+  for (const BuiltinProfileText& p : builtin_profile_texts()) {
+    ProfileError e;
+    if (p.file == file) return *parse_profile(p.text, p.file, &e);
+  }
+  ADD_FAILURE() << file << " not built in";
+  return {};
+}
+
+}  // namespace
+
+TEST(DriveAnnotation, E9ReadReplyWriteAndVendorError) {
+  const DriveProfile e9 = builtin("e9.toml");
+  ChannelTable channels;
+  channels.intern("bus");
+  drivetap::testing::RecordingSink sink;
+  PipelineOptions p;
+  p.protocol = Protocol::modbus_rtu;
+  p.timing = FramingTiming::from(p.serial);
+  p.drives[2] = &e9;
+  Pipeline pipeline(p, channels, sink);
+  TimeNs t = 0;
+  using drivetap::testing::with_crc;
+  for (const auto& f : {with_crc({0x02, 0x03, 0x00, 0x01, 0x00, 0x02}),
+                        with_crc({0x02, 0x03, 0x04, 0x13, 0x88, 0x13, 0x7D}),
+                        with_crc({0x02, 0x06, 0x00, 0x11, 0x0F, 0xA0}),
+                        with_crc({0x02, 0x10, 0x00, 0x10, 0x00, 0x01, 0x02, 0x00, 0x03}),
+                        with_crc({0x02, 0x90, 0x04})}) {
+    for (std::uint8_t b : f) pipeline.push({t += p.timing.character_time, b, 0, 0, 0});
+    t += 20 * kNsPerMs;
+  }
+  pipeline.finish();
+  ASSERT_EQ(sink.frames.size(), 5u);
+  EXPECT_EQ(sink.frames[1].drive_info,
+            "drive 2 (ERMAN E-9P/9G): frequency setpoint 50.00 Hz; output frequency 49.89 Hz");
+  EXPECT_EQ(sink.frames[2].drive_info, "drive 2 (ERMAN E-9P/9G): set frequency setpoint 40.00 Hz");
+  EXPECT_NE(sink.frames[3].drive_info.find("control word 0x0003 [run, reverse"), std::string::npos)
+      << sink.frames[3].drive_info;
+  EXPECT_NE(sink.frames[4].drive_info.find("error 4:"), std::string::npos)
+      << sink.frames[4].drive_info;
 }

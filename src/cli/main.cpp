@@ -5,6 +5,7 @@
 #include <csignal>
 #include <cstdio>
 #include <cstring>
+#include <deque>
 #include <iostream>
 #include <memory>
 #include <string>
@@ -45,8 +46,13 @@ struct CommonOptions {
   std::string write;
   bool classic_pcap = false;
   std::string dlt = "upper-pdu";
-  std::string protocol;  // empty: rtu for captures; decode infers it from the text
+  std::string protocol;               // empty: rtu for captures; decode infers it from the text
+  std::vector<std::string> drives;    // "2=e9"
+  std::vector<std::string> profiles;  // user profile files
 };
+
+// Profiles loaded for this run (built in and --profile files); bound drives point into it.
+std::deque<DriveProfile> g_profiles;
 
 void add_common_options(CLI::App* cmd, CommonOptions& o) {
   cmd->add_option("-T,--format", o.format, "Output format: text or json (JSON lines)")
@@ -65,6 +71,10 @@ void add_common_options(CLI::App* cmd, CommonOptions& o) {
                   "frames), rtu (Modbus RTU), ascii (Modbus ASCII), fc (Danfoss FC protocol), "
                   "eds (Easydrive '~' protocol)")
       ->check(CLI::IsMember({"auto", "rtu", "ascii", "fc", "eds"}));
+  cmd->add_option("--drive", o.drives,
+                  "Bind a station address to a drive profile, e.g. 2=e9 (see `drivetap profiles`)");
+  cmd->add_option("--profile", o.profiles,
+                  "Load a drive profile file (TOML) besides the built-in ones");
   cmd->add_flag("--no-summary", o.no_summary, "Do not print the closing summary");
   cmd->add_option("-o,--output", o.output, "Write the text/JSON output to FILE instead of stdout");
   cmd->add_option("-w,--write", o.write,
@@ -87,6 +97,41 @@ PipelineOptions make_pipeline_options(const CommonOptions& o, const RunSettings&
   auto p = resolve_pipeline_options(capture, {o.serial, o.t15, o.t35, o.timeout, o.max_hold}, &err);
   if (!p) die(err);
   if (!o.protocol.empty()) p->protocol = protocol_from_option(o.protocol);
+  if (!o.drives.empty() || !o.profiles.empty()) {
+    for (const BuiltinProfileText& b : builtin_profile_texts()) {
+      ProfileError e;
+      if (auto profile = parse_profile(b.text, b.file, &e))
+        g_profiles.push_back(std::move(*profile));
+    }
+    for (const std::string& f : o.profiles) {
+      ProfileError e;
+      auto profile = load_profile_file(f, &e);
+      if (!profile) die(fmt::format("--profile: {}", e.text()), 1);
+      g_profiles.push_back(std::move(*profile));
+    }
+    for (const std::string& binding : o.drives) {
+      const std::size_t eq = binding.find('=');
+      int address = -1;
+      if (eq != std::string::npos) {
+        try {
+          address = std::stoi(binding.substr(0, eq));
+        } catch (...) {
+          address = -1;
+        }
+      }
+      if (address < 0 || address > 255)
+        die(fmt::format("--drive {}: expected ADDRESS=PROFILE, e.g. 2=e9", binding));
+      const std::string id = binding.substr(eq + 1);
+      const DriveProfile* found = nullptr;
+      std::string known;
+      for (const DriveProfile& profile : g_profiles) {
+        if (profile.id == id) found = &profile;
+        known += (known.empty() ? "" : ", ") + profile.id;
+      }
+      if (!found) die(fmt::format("--drive {}: no profile '{}' (known: {})", binding, id, known));
+      p->drives[address] = found;
+    }
+  }
   return *p;
 }
 

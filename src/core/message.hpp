@@ -35,6 +35,8 @@ struct Message {
   std::vector<FieldNode> fields;
   // The decode in one line, like Wireshark's Info column: "Read Holding Registers 0x0000 x4".
   std::string info;
+  // What the frame means to its drive, from the bound drive profile; empty when none is bound.
+  std::string drive_info;
   // Findings about this frame (checksum, gaps, malformed content, UART errors), in byte order.
   std::vector<Anomaly> anomalies;
   // Filled by the pairing stage on responses: request end -> response start, ns; -1 when

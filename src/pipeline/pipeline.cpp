@@ -1,6 +1,8 @@
 // Pipeline wiring of the stages (PROTOCOLS.md §1-§2, §7).
 #include "pipeline/pipeline.hpp"
 
+#include "profiles/annotate.hpp"
+
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -274,6 +276,8 @@ void Pipeline::handle_frame(Frame& frame) {
     request.assign(r.begin(), r.end());
   }
   Message m = decoder.dissect(std::move(frame), dir, options_.timing, request);
+  if (const auto drive = options_.drives.find(m.address); drive != options_.drives.end())
+    m.drive_info = annotate_for_drive(*drive->second, m, request);
   ChannelState& channel_state = state_for(m.frame.channel);
   if (channel_state.auto_protocol) {
     if (m.checksum.verdict == ChecksumVerdict::good) {

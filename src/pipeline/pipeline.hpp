@@ -6,6 +6,7 @@
 #pragma once
 
 #include <limits>
+#include <map>
 #include <memory>
 #include <vector>
 
@@ -14,6 +15,7 @@
 #include "core/serial_config.hpp"
 #include "pipeline/pairer.hpp"
 #include "pipeline/stats.hpp"
+#include "profiles/profile.hpp"
 #include "sinks/sink.hpp"
 
 namespace drivetap {
@@ -25,6 +27,8 @@ struct PipelineOptions {
   TimeNs reply_timeout = 1 * kNsPerSecond;
   // --protocol: a fixed protocol, or Protocol::unknown to detect it per channel ("auto").
   Protocol protocol = Protocol::unknown;
+  // Drive profiles bound to station addresses (--drive 2=e9); the profiles outlive the pipeline.
+  std::map<int, const DriveProfile*> drives;
 };
 
 class Pipeline {

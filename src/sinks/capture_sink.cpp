@@ -69,6 +69,7 @@ void CaptureSink::on_frame(const Message& m) {
   p.protocol_column = p.broadcast ? std::string(protocol_label(m.protocol)) + " broadcast"
                                   : std::string(protocol_label(m.protocol));
   p.comment = frame_summary(m, true);
+  if (!m.drive_info.empty()) p.comment += "; " + m.drive_info;
   p.wireshark_dissects = m.protocol == Protocol::modbus_rtu;
 }
 

@@ -128,6 +128,7 @@ void JsonSink::on_frame(const Message& m) {
                         wire_hex(m.checksum.stated_wire, m.checksum.width, ""),
                         wire_hex(m.checksum.computed_wire, m.checksum.width, ""));
   if (m.is_exception) line += fmt::format(",\"exception\":{}", m.exception_code);
+  if (!m.drive_info.empty()) line += fmt::format(",\"drive\":{}", json_quote(m.drive_info));
   if (m.request_number != 0)
     line += fmt::format(",\"latency_ms\":{},\"request_n\":{}",
                         m.latency >= 0 && show_latency_ ? format_ms(m.latency) : "null",

@@ -84,6 +84,7 @@ void TextSink::on_frame(const Message& m) {
   if (!options_.frames) return;
   write(prefix(m.frame.number, m.frame.start(), m.frame.channel) +
         fmt::format("{}  {}", direction_tag(m.direction), frame_summary(m, options_.show_time)));
+  if (!m.drive_info.empty()) write(fmt::format("{:>8}= {}", "", m.drive_info));
   if (!options_.verbose) return;
   if (m.text_encoded) {
     std::string text;
