@@ -103,6 +103,6 @@ TEST(DriveAnnotation, E9ReadReplyWriteAndVendorError) {
   EXPECT_EQ(sink.frames[2].drive_info, "drive 2 (ERMAN E-9P/9G): set frequency setpoint 40.00 Hz");
   EXPECT_NE(sink.frames[3].drive_info.find("control word 0x0003 [run, reverse"), std::string::npos)
       << sink.frames[3].drive_info;
-  EXPECT_NE(sink.frames[4].drive_info.find("error 4:"), std::string::npos)
+  EXPECT_NE(sink.frames[4].drive_info.find("error 0x04:"), std::string::npos)
       << sink.frames[4].drive_info;
 }

@@ -87,7 +87,7 @@ std::string annotate_for_drive(const DriveProfile& p, const Message& m,
   std::string what;
   if (fc & 0x80) {
     const auto it = p.exceptions.find(b[2]);
-    if (it != p.exceptions.end()) what = fmt::format("error {}: {}", b[2], it->second);
+    if (it != p.exceptions.end()) what = fmt::format("error 0x{:02X}: {}", b[2], it->second);
   } else if (m.direction == Direction::request) {
     if ((fc == 0x03 || fc == 0x04) && end >= 6) {
       const RegisterKind kind = fc == 0x03 ? RegisterKind::holding : RegisterKind::input;
