@@ -106,3 +106,51 @@ TEST(DriveAnnotation, E9ReadReplyWriteAndVendorError) {
   EXPECT_NE(sink.frames[4].drive_info.find("error 0x04:"), std::string::npos)
       << sink.frames[4].drive_info;
 }
+
+TEST(DriveTimingRules, E9SilenceAndReplyToRequestE5Guard) {
+  const DriveProfile e9 = builtin("e9.toml");
+  const DriveProfile e5 = builtin("e5-8200.toml");
+  ChannelTable channels;
+  channels.intern("bus");
+  drivetap::testing::RecordingSink sink;
+  PipelineOptions p;
+  p.protocol = Protocol::modbus_rtu;
+  p.timing = FramingTiming::from(p.serial);
+  p.drives[2] = &e9;
+  p.drives[1] = &e5;
+  Pipeline pipeline(p, channels, sink);
+  const TimeNs ct = p.timing.character_time;
+  TimeNs t = 0;
+  auto send = [&](const std::vector<std::uint8_t>& f, TimeNs silence_after) {
+    for (std::uint8_t b : f) pipeline.push({t, b, 0, 0, 0}), t += ct;
+    t += silence_after;
+  };
+  using drivetap::testing::with_crc;
+  const auto e9_read = with_crc({0x02, 0x03, 0x00, 0x01, 0x00, 0x01});
+  const auto e9_reply = with_crc({0x02, 0x03, 0x02, 0x13, 0x88});
+  send(e9_read, 15 * kNsPerMs);    // reply 15 ms later: fine
+  send(e9_reply, 250 * kNsPerMs);  // next request 250 ms after the reply: fine
+  send(e9_read, 15 * kNsPerMs);
+  send(e9_reply, 50 * kNsPerMs);  // next request 50 ms after the reply: breaks the 200 ms rule
+  send(e9_read, 15 * kNsPerMs);
+  send(e9_reply, 12 * ct);  // then only 12 characters of silence (< 24) and 12.5 ms
+  send(e9_read, 15 * kNsPerMs);
+  send(e9_reply, 300 * kNsPerMs);
+  const auto e5_read = with_crc({0x01, 0x03, 0x25, 0x23, 0x00, 0x01});
+  send(e5_read, 4 * kNsPerMs);  // E5 replies after 4 ms: below its 10 ms guard
+  send(with_crc({0x01, 0x03, 0x02, 0x07, 0xD0}), 300 * kNsPerMs);
+  pipeline.finish();
+  std::vector<std::string> rules;
+  for (const Anomaly& a : sink.anomalies)
+    if (a.kind == AnomalyKind::timing_rule) rules.push_back(a.detail);
+  ASSERT_EQ(rules.size(), 4u);
+  EXPECT_EQ(rules[0].find("request 50.0 ms after the drive's last reply; the drive needs 200 ms"),
+            0u)
+      << rules[0];
+  EXPECT_EQ(rules[1].find("12.0 characters of silence before the request; the drive needs 24"), 0u)
+      << rules[1];
+  EXPECT_NE(rules[2].find("the drive needs 200 ms"), std::string::npos) << rules[2];
+  EXPECT_EQ(rules[3].find("reply 4.0 ms after the request; the drive keeps at least 10 ms"), 0u)
+      << rules[3];
+  EXPECT_NE(rules[3].find("004_b52caedc7a1dba3d.txt"), std::string::npos);
+}

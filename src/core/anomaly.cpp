@@ -39,6 +39,8 @@ const char* anomaly_id(AnomalyKind k) {
       return "packet_split_frame";
     case AnomalyKind::packet_merged_frames:
       return "packet_merged_frames";
+    case AnomalyKind::timing_rule:
+      return "timing_rule";
     case AnomalyKind::kCount:
       break;
   }
@@ -77,6 +79,8 @@ const char* anomaly_label(AnomalyKind k) {
       return "frame split over packets";
     case AnomalyKind::packet_merged_frames:
       return "packet holds several frames";
+    case AnomalyKind::timing_rule:
+      return "drive timing rule broken";
     case AnomalyKind::kCount:
       break;
   }

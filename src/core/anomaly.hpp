@@ -28,6 +28,7 @@ enum class AnomalyKind : std::uint8_t {
   time_reversed,         // a byte's timestamp is earlier than the previous byte's
   packet_split_frame,    // a capture packet held only part of a frame (source framed badly)
   packet_merged_frames,  // a capture packet held more than one frame (source framed badly)
+  timing_rule,           // a drive's timing rule (from its profile) was broken
   kCount
 };
 

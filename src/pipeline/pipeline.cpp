@@ -217,6 +217,40 @@ Direction Pipeline::decide_direction(const ProtocolDecoder& decoder, const Frame
   return Direction::request;
 }
 
+void Pipeline::check_drive_timing(Message& m) {
+  const auto drive = options_.drives.find(m.address);
+  if (drive == options_.drives.end() || m.frame.events.empty()) return;
+  const DriveProfile& p = *drive->second;
+  const TimeNs char_time = options_.timing.character_time;
+  const std::string where = p.timing_section.empty() ? p.name : p.name + ", " + p.timing_section;
+  auto finding = [&](std::string text) {
+    m.anomalies.push_back({AnomalyKind::timing_rule, m.frame.start(), m.frame.channel, 0,
+                           fmt::format("{} ({})", text, where)});
+  };
+  auto ms = [](TimeNs t) { return static_cast<double>(t) / static_cast<double>(kNsPerMs); };
+  if (m.direction == Direction::request) {
+    if (p.min_silence_chars && m.frame.gap_before >= 0 && char_time > 0 &&
+        static_cast<double>(m.frame.gap_before) <
+            *p.min_silence_chars * static_cast<double>(char_time))
+      finding(fmt::format("{:.1f} characters of silence before the request; the drive needs {:g}",
+                          static_cast<double>(m.frame.gap_before) / static_cast<double>(char_time),
+                          *p.min_silence_chars));
+    const auto last = last_reply_end_.find(m.address);
+    if (p.min_reply_to_request_ms && last != last_reply_end_.end() &&
+        ms(m.frame.start() - last->second) < *p.min_reply_to_request_ms)
+      finding(fmt::format("request {:.1f} ms after the drive's last reply; the drive needs {:g} ms",
+                          ms(m.frame.start() - last->second), *p.min_reply_to_request_ms));
+  } else if (m.direction == Direction::response) {
+    if (m.latency >= 0 && p.min_reply_delay_ms && ms(m.latency) < *p.min_reply_delay_ms)
+      finding(fmt::format("reply {:.1f} ms after the request; the drive keeps at least {:g} ms",
+                          ms(m.latency), *p.min_reply_delay_ms));
+    if (m.latency >= 0 && p.max_reply_delay_ms && ms(m.latency) > *p.max_reply_delay_ms)
+      finding(fmt::format("reply {:.1f} ms after the request; the drive answers within {:g} ms",
+                          ms(m.latency), *p.max_reply_delay_ms));
+    last_reply_end_[m.address] = m.frame.events.back().time + char_time;
+  }
+}
+
 void Pipeline::check_packetization(const Frame& frame) {
   // Only sources with packets (origin != 0) are checked: a good capture tool puts exactly one
   // frame in each packet; drivetap re-frames anyway and says where the tool did not.
@@ -287,6 +321,7 @@ void Pipeline::handle_frame(Frame& frame) {
     }
   }
   pairer_.add(link, m, transactions_);
+  check_drive_timing(m);
   for (Anomaly& a : m.anomalies) a.frame_number = m.frame.number;
   stats_.count_frame(m);
   sink_.on_frame(m);

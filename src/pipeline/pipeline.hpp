@@ -50,6 +50,7 @@ class Pipeline {
   void handle_frames();
   void handle_frame(Frame& frame);
   void check_packetization(const Frame& frame);
+  void check_drive_timing(Message& m);
   void detect(ChannelState& st, ChannelId channel, bool final);
   void start_detection(ChannelState& st, ChannelId channel);
   Direction decide_direction(const ProtocolDecoder& decoder, const Frame& frame,
@@ -68,7 +69,9 @@ class Pipeline {
   std::vector<Transaction> transactions_;
   TimeNs earliest_deadline_;
   std::uint64_t frame_counter_ = 0;
-  TimeNs latest_time_ = std::numeric_limits<TimeNs>::min();  // latest byte time on any channel
+  TimeNs latest_time_ = std::numeric_limits<TimeNs>::min();
+  std::map<int, TimeNs> last_reply_end_;  // per station address, for profile timing rules  //
+                                          // latest byte time on any channel
   bool finished_ = false;
 };
 

@@ -232,8 +232,9 @@ DriveProfile parse_tables(const toml::table& root) {
     if (!n->is_table()) throw Bad{line_of(*n), "timing", "expected a table"};
     const toml::table& t = *n->as_table();
     only_keys(t, "timing",
-              {"min_silence_chars", "min_reply_to_request_ms", "max_reply_delay_ms",
+              {"section", "min_silence_chars", "min_reply_to_request_ms", "max_reply_delay_ms",
                "min_reply_delay_ms"});
+    p.timing_section = string_at(t, "section", "timing.section", false);
     p.min_silence_chars = number_at(t, "min_silence_chars", "timing.min_silence_chars");
     p.min_reply_to_request_ms =
         number_at(t, "min_reply_to_request_ms", "timing.min_reply_to_request_ms");

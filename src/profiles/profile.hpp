@@ -52,6 +52,7 @@ struct DriveProfile {
   std::optional<double> min_reply_to_request_ms;
   std::optional<double> max_reply_delay_ms;
   std::optional<double> min_reply_delay_ms;
+  std::string timing_section;  // where the manual states the timing rules
   std::vector<RegisterDef> registers;
   std::map<std::string, std::map<std::uint32_t, std::string>> enums;
   std::map<std::uint32_t, std::string> exceptions;
