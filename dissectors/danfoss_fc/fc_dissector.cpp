@@ -239,10 +239,7 @@ Message dissect_fc(Frame frame, Direction direction, const FramingTiming& timing
   m.checksum.stated_wire = stated;
   m.checksum.computed_wire = computed;
   m.checksum.verdict = stated == computed ? ChecksumVerdict::good : ChecksumVerdict::bad;
-  if (m.checksum.verdict == ChecksumVerdict::bad)
-    m.anomalies.insert(m.anomalies.begin(),
-                       {AnomalyKind::checksum_bad, t0, ch, 0,
-                        fmt::format("BCC on wire {:02X}, computed {:02X}", stated, computed)});
+  add_checksum_anomaly(m);
   append_uart_anomalies(m.frame.events, 0, m.anomalies);
   return m;
 }

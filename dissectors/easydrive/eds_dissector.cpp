@@ -185,15 +185,10 @@ Message dissect_eds(Frame frame, Direction direction, const FramingTiming& timin
     m.checksum.stated_wire = static_cast<std::uint32_t>(stated < 0 ? 0 : stated);
     m.checksum.computed_wire = computed;
     m.checksum.verdict = stated == computed ? ChecksumVerdict::good : ChecksumVerdict::bad;
-    if (m.checksum.verdict == ChecksumVerdict::bad) {
-      std::string why;
-      if (stated >= 0 && (stated - computed == 1 || computed - stated == 1)) why = " (off by one)";
-      if (stated >= 0 && stated == computed + '\r') why = " (CR counted in the sum)";
-      m.anomalies.insert(m.anomalies.begin(),
-                         {AnomalyKind::checksum_bad, t0, ch, 0,
-                          fmt::format("SUM on wire {:04X}, computed {:04X}{}",
-                                      stated < 0 ? 0 : stated, computed, why)});
-    }
+    std::string why;
+    if (stated >= 0 && (stated - computed == 1 || computed - stated == 1)) why = " (off by one)";
+    if (stated >= 0 && stated == computed + '\r') why = " (CR counted in the sum)";
+    add_checksum_anomaly(m, why);
   } else {
     m.info = fmt::format("{}-character fragment, too short for an Easydrive frame", f.size());
   }

@@ -73,7 +73,6 @@ Message dissect_ascii(Frame frame, Direction direction, const FramingTiming& tim
   const ChannelId ch = m.frame.channel;
   const AsciiHex hex = decode_ascii_hex(m.bytes);
   const std::vector<std::uint8_t>& bin = hex.binary;
-  FieldTreeBuilder tree(m.fields);
   for (const std::string& p : hex.problems)
     m.anomalies.push_back({AnomalyKind::malformed, t0, ch, 0, p});
   if (bin.size() < 3) {
@@ -95,7 +94,6 @@ Message dissect_ascii(Frame frame, Direction direction, const FramingTiming& tim
     n.length = 2 * n.length;
     m.fields.push_back(std::move(n));
   }
-  (void)tree;
   m.info = std::move(pdu.info);
   m.exception_code = pdu.exception_code;
   for (std::string& problem : pdu.problems)
@@ -107,10 +105,7 @@ Message dissect_ascii(Frame frame, Direction direction, const FramingTiming& tim
   m.checksum.stated_wire = bin.back();
   m.checksum.computed_wire = computed;
   m.checksum.verdict = bin.back() == computed ? ChecksumVerdict::good : ChecksumVerdict::bad;
-  if (m.checksum.verdict == ChecksumVerdict::bad)
-    m.anomalies.insert(m.anomalies.begin(),
-                       {AnomalyKind::checksum_bad, t0, ch, 0,
-                        fmt::format("LRC on wire {:02X}, computed {:02X}", bin.back(), computed)});
+  add_checksum_anomaly(m);
   append_uart_anomalies(m.frame.events, 0, m.anomalies);
   return m;
 }

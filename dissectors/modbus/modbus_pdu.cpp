@@ -151,7 +151,7 @@ class PduReader {
   std::optional<std::uint16_t> u16(const FieldDesc& desc) {
     const std::size_t at = cursor_.offset();
     auto v = cursor_.be16();
-    if (!v) return truncated16(desc);
+    if (!v) return truncated(desc);
     tree_.add(desc, base_ + at, 2, *v);
     return v;
   }
@@ -190,7 +190,6 @@ class PduReader {
     out_.problems.push_back(fmt::format("frame ends before {}", desc.name));
     return std::nullopt;
   }
-  std::nullopt_t truncated16(const FieldDesc& desc) { return truncated(desc); }
 
   Cursor cursor_;
   std::size_t base_;
@@ -349,9 +348,7 @@ void dissect_write_multiple_response(PduReader& r, std::uint8_t fc, PduDecode& d
 void dissect_diagnostics(PduReader& r, Direction dir, PduDecode& d) {
   auto sub = r.u16(kSubFunction);
   if (!sub) return;
-  const std::size_t at = r.frame_offset();
   auto data = r.bytes(kDiagData, r.cursor().remaining());
-  (void)at;
   const std::string_view sub_name = kSubFunction.name_of(*sub);
   d.info =
       fmt::format("Diagnostics{}: {} ({:02X}), data {}", dir == Direction::response ? " reply" : "",

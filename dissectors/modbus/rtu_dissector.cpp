@@ -59,18 +59,7 @@ Message dissect_rtu(Frame frame, Direction direction, const FramingTiming& timin
                            fmt::format("{} bytes: shorter than the minimum 4", bytes.size())});
   }
 
-  if (m.checksum.verdict == ChecksumVerdict::bad) {
-    m.anomalies.insert(m.anomalies.begin(), {AnomalyKind::checksum_bad, t0, ch, 0,
-                                             fmt::format("CRC on wire {}, computed {}",
-                                                         wire_hex(m.checksum.stated_wire, 2),
-                                                         wire_hex(m.checksum.computed_wire, 2))});
-  } else if (m.checksum.verdict == ChecksumVerdict::swapped) {
-    m.anomalies.insert(
-        m.anomalies.begin(),
-        {AnomalyKind::checksum_swapped, t0, ch, 0,
-         fmt::format("CRC sent high byte first: on wire {}, expected {}",
-                     wire_hex(m.checksum.stated_wire, 2), wire_hex(m.checksum.computed_wire, 2))});
-  }
+  add_checksum_anomaly(m);
   if (m.frame.max_intra_gap > timing.t15) {
     const std::size_t at = m.frame.max_intra_gap_at;
     m.anomalies.push_back(

@@ -173,7 +173,6 @@ class Outputs {
       t.show_time = timed;
       t.summary = !o.no_summary;
       t.frames = !(capture_to_stdout && text_file_ == stderr);
-      t.character_time = p.timing.character_time;
       text_ = std::make_unique<TextSink>(text_file_, channels, t);
     }
     tee_.add(text_.get());

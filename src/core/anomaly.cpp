@@ -103,6 +103,24 @@ void append_uart_anomalies(std::span<const ByteEvent> events, std::uint64_t fram
   }
 }
 
+void add_checksum_anomaly(Message& m, std::string_view hint) {
+  const ChecksumResult& c = m.checksum;
+  const char* separator = c.text ? "" : " ";
+  const std::string stated = wire_hex(c.stated_wire, c.width, separator);
+  const std::string computed = wire_hex(c.computed_wire, c.width, separator);
+  Anomaly a{AnomalyKind::checksum_bad, m.frame.start(), m.frame.channel, 0, {}};
+  if (c.verdict == ChecksumVerdict::bad) {
+    a.detail = fmt::format("{} on wire {}, computed {}{}", c.name, stated, computed, hint);
+  } else if (c.verdict == ChecksumVerdict::swapped) {
+    a.kind = AnomalyKind::checksum_swapped;
+    a.detail = fmt::format("{} sent high byte first: on wire {}, expected {}{}", c.name, stated,
+                           computed, hint);
+  } else {
+    return;
+  }
+  m.anomalies.insert(m.anomalies.begin(), std::move(a));
+}
+
 const char* protocol_id(Protocol p) {
   switch (p) {
     case Protocol::modbus_rtu:

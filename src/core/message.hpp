@@ -45,4 +45,8 @@ struct Message {
   std::uint64_t request_number = 0;  // frame number of the paired request
 };
 
+// Puts the finding for a bad or byte-swapped checksum first among the message's anomalies:
+// "CRC on wire DA 27, computed DA 26" (+ `hint`); nothing for a good or absent checksum.
+void add_checksum_anomaly(Message& m, std::string_view hint = {});
+
 }  // namespace drivetap

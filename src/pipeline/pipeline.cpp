@@ -72,7 +72,7 @@ void Pipeline::push(const ByteEvent& in) {
   st.last_end = e.time + options_.timing.character_time;
   latest_time_ = std::max(latest_time_, e.time);
   advance_all(e.time);
-  if (st.redetect) start_detection(st, e.channel);
+  if (st.redetect) start_detection(st);
   if (!st.framer) {
     st.held.push_back(e);
     detect(st, e.channel, false);
@@ -117,7 +117,7 @@ Score score(const ProtocolDecoder& d, ChannelId channel, const std::vector<ByteE
 
 }  // namespace
 
-void Pipeline::start_detection(ChannelState& st, ChannelId channel) {
+void Pipeline::start_detection(ChannelState& st) {
   // The bus seems to have changed: close what the current framer holds, then listen afresh.
   st.redetect = false;
   if (st.framer) st.framer->finish(ready_);
@@ -126,7 +126,6 @@ void Pipeline::start_detection(ChannelState& st, ChannelId channel) {
   st.decoder = nullptr;
   st.failures = 0;
   st.evaluated_at = 0;
-  (void)channel;
 }
 
 void Pipeline::detect(ChannelState& st, ChannelId channel, bool final) {

@@ -52,7 +52,7 @@ class Pipeline {
   void check_packetization(const Frame& frame);
   void check_drive_timing(Message& m);
   void detect(ChannelState& st, ChannelId channel, bool final);
-  void start_detection(ChannelState& st, ChannelId channel);
+  void start_detection(ChannelState& st);
   Direction decide_direction(const ProtocolDecoder& decoder, const Frame& frame,
                              std::span<const std::uint8_t> bytes, int address, int function,
                              std::size_t link) const;

@@ -15,7 +15,6 @@ struct TextSinkOptions {
   bool show_time = true;  // false for `decode`, whose times are synthetic
   bool summary = true;
   bool frames = true;  // false: only the closing summary (e.g. with -w -)
-  TimeNs character_time = 0;
 };
 
 class TextSink final : public Sink {

@@ -11,13 +11,12 @@ std::optional<std::vector<std::vector<std::uint8_t>>> parse_hex_frames(std::stri
   std::vector<std::uint8_t> current;
   int high = -1;  // pending high nibble
   std::size_t high_pos = 0;
-  auto end_frame = [&](std::size_t pos) {
+  auto end_frame = [&] {
     if (high >= 0) {
       *error = fmt::format("odd number of hex digits: '{}' at position {} has no partner",
                            text[high_pos], high_pos + 1);
       return false;
     }
-    (void)pos;
     if (!current.empty()) frames.push_back(std::move(current));
     current.clear();
     return true;
@@ -25,7 +24,7 @@ std::optional<std::vector<std::vector<std::uint8_t>>> parse_hex_frames(std::stri
   for (std::size_t i = 0; i < text.size(); ++i) {
     const char c = text[i];
     if (c == '|' || c == ',' || c == ';' || c == '\n') {
-      if (!end_frame(i)) return std::nullopt;
+      if (!end_frame()) return std::nullopt;
       continue;
     }
     if (c == ' ' || c == '\t' || c == '\r' || c == '-') continue;
@@ -49,7 +48,7 @@ std::optional<std::vector<std::vector<std::uint8_t>>> parse_hex_frames(std::stri
       high = -1;
     }
   }
-  if (!end_frame(text.size())) return std::nullopt;
+  if (!end_frame()) return std::nullopt;
   if (frames.empty()) {
     *error = "no hex bytes given";
     return std::nullopt;
