@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# Golden test: `drivetap read` of captures/<name>/input.* must print exactly expected.txt (text)
-# and expected.json (JSON lines). Extra options for a capture go in captures/<name>/args.
+# Golden test: `drivetap read` of captures/<name>/input.* must print exactly expected.txt (text),
+# expected.json (JSON lines) and expected.events.txt (`--events`: the drive-state timeline). Extra options for a capture go in captures/<name>/args.
 # A capture that must fail (a damaged file) has expected.exit (the exit status) and
 # expected.stderr (the one-line error); what was decoded before the damage is still compared.
 #
@@ -38,9 +38,11 @@ for dir in "${dirs[@]}"; do
   json_exit=0
   (cd "$dir" && "$drivetap" read "${args[@]}" "$input" > "$tmp/text" 2> "$tmp/text.err") || text_exit=$?
   (cd "$dir" && "$drivetap" read -T json "${args[@]}" "$input" > "$tmp/json" 2> "$tmp/json.err") || json_exit=$?
+  (cd "$dir" && "$drivetap" read --events "${args[@]}" "$input" > "$tmp/events" 2> /dev/null) || true
   if [ "$update" = 1 ]; then
     cp "$tmp/text" "$dir/expected.txt"
     cp "$tmp/json" "$dir/expected.json"
+    cp "$tmp/events" "$dir/expected.events.txt"
     if [ "$text_exit" != 0 ]; then
       echo "$text_exit" > "$dir/expected.exit"
       cp "$tmp/text.err" "$dir/expected.stderr"
@@ -58,8 +60,8 @@ for dir in "${dirs[@]}"; do
       echo "FAIL $dir: error message differs from expected.stderr"
       failed=1
     fi
-    for kind in txt json; do
-      got="$tmp/text"; [ "$kind" = json ] && got="$tmp/json"
+    for kind in txt json events.txt; do
+      got="$tmp/text"; [ "$kind" = json ] && got="$tmp/json"; [ "$kind" = events.txt ] && got="$tmp/events"
       if ! diff -u "$dir/expected.$kind" "$got" > "$tmp/diff"; then
         echo "FAIL $dir: output differs from expected.$kind"
         head -n 60 "$tmp/diff"

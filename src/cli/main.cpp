@@ -2,10 +2,12 @@
 #include <fmt/format.h>
 #include <CLI/CLI.hpp>
 
+#include <algorithm>
 #include <csignal>
 #include <cstdio>
 #include <cstring>
 #include <deque>
+#include <filesystem>
 #include <iostream>
 #include <memory>
 #include <string>
@@ -47,8 +49,10 @@ struct CommonOptions {
   bool classic_pcap = false;
   std::string dlt = "upper-pdu";
   std::string protocol;               // empty: rtu for captures; decode infers it from the text
-  std::vector<std::string> drives;    // "2=e9"
+  std::vector<std::string> drives;    // "2=e9", "auto", "none"
   std::vector<std::string> profiles;  // user profile files
+  std::vector<std::string> profile_dirs;
+  bool events_only = false;
 };
 
 // Profiles loaded for this run (built in and --profile files); bound drives point into it.
@@ -71,10 +75,15 @@ void add_common_options(CLI::App* cmd, CommonOptions& o) {
                   "frames), rtu (Modbus RTU), ascii (Modbus ASCII), fc (Danfoss FC protocol), "
                   "eds (Easydrive '~' protocol)")
       ->check(CLI::IsMember({"auto", "rtu", "ascii", "fc", "eds"}));
-  cmd->add_option("--drive", o.drives,
-                  "Bind a station address to a drive profile, e.g. 2=e9 (see `drivetap profiles`)");
+  cmd->add_option(
+      "--drive", o.drives,
+      "Bind a station address to a drive profile, e.g. 2=e9 (see `drivetap profiles`); "
+      "auto (default): guess each station's family from its traffic; none: no guessing");
   cmd->add_option("--profile", o.profiles,
-                  "Load a drive profile file (TOML) besides the built-in ones");
+                  "Load a drive profile file (TOML) besides the built-in ones; same id replaces");
+  cmd->add_option("--profile-dir", o.profile_dirs, "Load every *.toml drive profile in DIR");
+  cmd->add_flag("--events", o.events_only,
+                "Print only the events: drive-state timeline, drive bindings, protocol detection");
   cmd->add_flag("--no-summary", o.no_summary, "Do not print the closing summary");
   cmd->add_option("-o,--output", o.output, "Write the text/JSON output to FILE instead of stdout");
   cmd->add_option("-w,--write", o.write,
@@ -91,47 +100,81 @@ void add_common_options(CLI::App* cmd, CommonOptions& o) {
   std::exit(code);
 }
 
+// The built-in profiles, then --profile-dir and --profile files (a user profile with a built-in
+// id replaces it). A bad file ends the run with its file:line: key error.
+void load_profiles(const CommonOptions& o) {
+  auto add = [](DriveProfile profile) {
+    for (DriveProfile& known : g_profiles)
+      if (known.id == profile.id) {
+        known = std::move(profile);
+        return;
+      }
+    g_profiles.push_back(std::move(profile));
+  };
+  for (const BuiltinProfileText& b : builtin_profile_texts()) {
+    ProfileError e;
+    auto profile = parse_profile(b.text, b.file, &e);
+    if (!profile) die(fmt::format("built-in profile {}", e.text()), 1);
+    add(std::move(*profile));
+  }
+  std::vector<std::string> files;
+  for (const std::string& dir : o.profile_dirs) {
+    std::error_code ec;
+    std::vector<std::string> found;
+    for (std::filesystem::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec))
+      if (it->path().extension() == ".toml") found.push_back(it->path().string());
+    if (ec) die(fmt::format("--profile-dir {}: {}", dir, ec.message()), 1);
+    std::sort(found.begin(), found.end());
+    files.insert(files.end(), found.begin(), found.end());
+  }
+  files.insert(files.end(), o.profiles.begin(), o.profiles.end());
+  for (const std::string& f : files) {
+    ProfileError e;
+    auto profile = load_profile_file(f, &e);
+    if (!profile) die(fmt::format("profile {}", e.text()), 1);
+    add(std::move(*profile));
+  }
+}
+
 // Line settings and timing: the capture's own settings first, the command line over them.
 PipelineOptions make_pipeline_options(const CommonOptions& o, const RunSettings& capture) {
   std::string err;
   auto p = resolve_pipeline_options(capture, {o.serial, o.t15, o.t35, o.timeout, o.max_hold}, &err);
   if (!p) die(err);
   if (!o.protocol.empty()) p->protocol = protocol_from_option(o.protocol);
-  if (!o.drives.empty() || !o.profiles.empty()) {
-    for (const BuiltinProfileText& b : builtin_profile_texts()) {
-      ProfileError e;
-      if (auto profile = parse_profile(b.text, b.file, &e))
-        g_profiles.push_back(std::move(*profile));
+  load_profiles(o);
+  bool guess = true;
+  for (const std::string& binding : o.drives) {
+    if (binding == "auto") continue;
+    if (binding == "none") {
+      guess = false;
+      continue;
     }
-    for (const std::string& f : o.profiles) {
-      ProfileError e;
-      auto profile = load_profile_file(f, &e);
-      if (!profile) die(fmt::format("--profile: {}", e.text()), 1);
-      g_profiles.push_back(std::move(*profile));
-    }
-    for (const std::string& binding : o.drives) {
-      const std::size_t eq = binding.find('=');
-      int address = -1;
-      if (eq != std::string::npos) {
-        try {
-          address = std::stoi(binding.substr(0, eq));
-        } catch (...) {
-          address = -1;
-        }
+    const std::size_t eq = binding.find('=');
+    int address = -1;
+    if (eq != std::string::npos) {
+      try {
+        std::size_t used = 0;
+        address = std::stoi(binding.substr(0, eq), &used);
+        if (used != eq) address = -1;
+      } catch (...) {
+        address = -1;
       }
-      if (address < 0 || address > 255)
-        die(fmt::format("--drive {}: expected ADDRESS=PROFILE, e.g. 2=e9", binding));
-      const std::string id = binding.substr(eq + 1);
-      const DriveProfile* found = nullptr;
-      std::string known;
-      for (const DriveProfile& profile : g_profiles) {
-        if (profile.id == id) found = &profile;
-        known += (known.empty() ? "" : ", ") + profile.id;
-      }
-      if (!found) die(fmt::format("--drive {}: no profile '{}' (known: {})", binding, id, known));
-      p->drives[address] = found;
     }
+    if (address < 0 || address > 255)
+      die(fmt::format("--drive {}: expected ADDRESS=PROFILE (e.g. 2=e9), auto or none", binding));
+    const std::string id = binding.substr(eq + 1);
+    const DriveProfile* found = nullptr;
+    std::string known;
+    for (const DriveProfile& profile : g_profiles) {
+      if (profile.id == id) found = &profile;
+      known += (known.empty() ? "" : ", ") + profile.id;
+    }
+    if (!found) die(fmt::format("--drive {}: no profile '{}' (known: {})", binding, id, known));
+    p->drives[address] = found;
   }
+  if (guess)
+    for (const DriveProfile& profile : g_profiles) p->auto_candidates.push_back(&profile);
   return *p;
 }
 
@@ -175,7 +218,12 @@ class Outputs {
       t.frames = !(capture_to_stdout && text_file_ == stderr);
       text_ = std::make_unique<TextSink>(text_file_, channels, t);
     }
-    tee_.add(text_.get());
+    if (o.events_only) {
+      events_only_ = std::make_unique<EventsOnlySink>(*text_);
+      tee_.add(events_only_.get());
+    } else {
+      tee_.add(text_.get());
+    }
   }
   Sink& sink() { return tee_; }
 
@@ -198,6 +246,7 @@ class Outputs {
   std::FILE* text_file_ = stdout;
   std::FILE* capture_file_ = nullptr;
   std::unique_ptr<Sink> text_;
+  std::unique_ptr<Sink> events_only_;
   std::unique_ptr<CaptureSink> capture_;
   TeeSink tee_;
 };

@@ -1,7 +1,9 @@
-// BusEvent: something drivetap concluded about the bus itself rather than about one frame —
-// today the protocol a channel speaks (detection), later drive-level events (issue 5).
+// BusEvent: something drivetap concluded about the bus or a drive rather than about one frame —
+// the protocol a channel speaks, the profile a station was bound to, and the drive-state timeline
+// (start commanded, fault appeared, setpoint changed; dissectors/profiles/README.md).
 #pragma once
 
+#include <cstdint>
 #include <string>
 
 #include "core/byte_event.hpp"
@@ -13,10 +15,17 @@ namespace drivetap {
 struct BusEvent {
   TimeNs time = 0;
   ChannelId channel = 0;
-  std::string kind;  // stable id: "protocol_detected"
+  // Stable ids: "protocol_detected", "drive_bound", and the drive-state kinds "command",
+  // "running", "direction", "setpoint", "fault", "warning".
+  std::string kind;
   Protocol protocol = Protocol::unknown;
-  std::string confidence;  // "high", "medium", "low"
-  std::string detail;      // human text with the evidence
+  std::string confidence;  // "high", "medium", "low" (detection and binding)
+  std::string detail;      // human text with the evidence: the line a field engineer reads
+  // Drive events: the station, its profile, the frame that showed it, and the state change.
+  int address = -1;
+  std::string profile;      // profile id ("e9"), "generic" when no family fits
+  std::uint64_t frame = 0;  // frame number the event was read from; 0 when none
+  std::string from, to;     // previous and new value ("" when unknown / not applicable)
 };
 
 }  // namespace drivetap

@@ -31,7 +31,8 @@ Pipeline::Pipeline(PipelineOptions options, const ChannelTable& channels, Sink& 
       channels_(channels),
       sink_(sink),
       pairer_(PairerOptions{options.reply_timeout, options.timing.character_time, 64}),
-      earliest_deadline_(std::numeric_limits<TimeNs>::max()) {}
+      earliest_deadline_(std::numeric_limits<TimeNs>::max()),
+      binder_(options.auto_candidates) {}
 
 Pipeline::~Pipeline() = default;
 
@@ -216,10 +217,8 @@ Direction Pipeline::decide_direction(const ProtocolDecoder& decoder, const Frame
   return Direction::request;
 }
 
-void Pipeline::check_drive_timing(Message& m) {
-  const auto drive = options_.drives.find(m.address);
-  if (drive == options_.drives.end() || m.frame.events.empty()) return;
-  const DriveProfile& p = *drive->second;
+void Pipeline::check_drive_timing(Message& m, const DriveProfile& p) {
+  if (m.frame.events.empty()) return;
   const TimeNs char_time = options_.timing.character_time;
   const std::string where = p.timing_section.empty() ? p.name : p.name + ", " + p.timing_section;
   auto finding = [&](std::string text) {
@@ -309,8 +308,20 @@ void Pipeline::handle_frame(Frame& frame) {
     request.assign(r.begin(), r.end());
   }
   Message m = decoder.dissect(std::move(frame), dir, options_.timing, request);
-  if (const auto drive = options_.drives.find(m.address); drive != options_.drives.end())
-    m.drive_info = annotate_for_drive(*drive->second, m, request);
+  // Drive level: the station's profile (bound on the command line or guessed from its traffic),
+  // what the frame means to it, and the state changes it shows.
+  const DriveProfile* profile = nullptr;
+  if (const auto drive = options_.drives.find(m.address); drive != options_.drives.end()) {
+    profile = drive->second;
+  } else {
+    if (auto bound = binder_.learn(link, m, request)) sink_.on_event(*bound);
+    profile = binder_.bound(link, m.address);
+  }
+  DriveReading reading;
+  if (profile) {
+    reading = read_for_drive(*profile, m, request);
+    m.drive_info = reading.text;
+  }
   ChannelState& channel_state = state_for(m.frame.channel);
   if (channel_state.auto_protocol) {
     if (m.checksum.verdict == ChecksumVerdict::good) {
@@ -320,13 +331,41 @@ void Pipeline::handle_frame(Frame& frame) {
     }
   }
   pairer_.add(link, m, transactions_);
-  check_drive_timing(m);
+  if (profile) check_drive_timing(m, *profile);
   for (Anomaly& a : m.anomalies) a.frame_number = m.frame.number;
   stats_.count_frame(m);
   sink_.on_frame(m);
   for (const Anomaly& a : m.anomalies) emit_anomaly(a);
   check_packetization(m.frame);
+  // A corrupted frame says nothing reliable about the drive's state.
+  if (profile && m.checksum.verdict == ChecksumVerdict::good)
+    for (const BusEvent& e : timeline_.observe(link, m, *profile, reading.observed))
+      sink_.on_event(e);
   emit_transactions(transactions_);
+}
+
+void Pipeline::summarise_drives() {
+  std::map<DriveTimeline::Key, DriveSummary> drives;
+  for (const auto& [key, station] : binder_.stations()) {
+    DriveSummary& d = drives[key];
+    d.link = key.first;
+    d.address = key.second;
+    d.profile = station.bound >= 0 ? binder_.candidate(station.bound).id : "generic";
+    d.profile_name = station.bound >= 0 ? binder_.candidate(station.bound).name : "generic Modbus";
+    d.binding = binder_.evidence(station);
+  }
+  for (const auto& [key, state] : timeline_.drives()) {
+    DriveSummary& d = drives[key];
+    d.link = key.first;
+    d.address = key.second;
+    if (options_.drives.count(key.second)) d.binding = "bound with --drive";
+    d.profile = state.profile_id;
+    d.profile_name = state.profile_name;
+    d.state = state.summary();
+    d.events = state.events;
+  }
+  stats_.drives.clear();
+  for (auto& [key, d] : drives) stats_.drives.push_back(std::move(d));
 }
 
 void Pipeline::emit_transactions(std::vector<Transaction>& transactions) {
@@ -360,6 +399,7 @@ void Pipeline::finish() {
   handle_frames();
   pairer_.finish(transactions_);
   emit_transactions(transactions_);
+  summarise_drives();
   sink_.on_summary(stats_);
 }
 

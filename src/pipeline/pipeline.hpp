@@ -15,7 +15,9 @@
 #include "core/serial_config.hpp"
 #include "pipeline/pairer.hpp"
 #include "pipeline/stats.hpp"
+#include "profiles/binder.hpp"
 #include "profiles/profile.hpp"
+#include "profiles/timeline.hpp"
 #include "sinks/sink.hpp"
 
 namespace drivetap {
@@ -29,6 +31,8 @@ struct PipelineOptions {
   Protocol protocol = Protocol::unknown;
   // Drive profiles bound to station addresses (--drive 2=e9); the profiles outlive the pipeline.
   std::map<int, const DriveProfile*> drives;
+  // --drive auto (the default): the profiles other stations are bound to by their traffic.
+  std::vector<const DriveProfile*> auto_candidates;
 };
 
 class Pipeline {
@@ -50,7 +54,8 @@ class Pipeline {
   void handle_frames();
   void handle_frame(Frame& frame);
   void check_packetization(const Frame& frame);
-  void check_drive_timing(Message& m);
+  void check_drive_timing(Message& m, const DriveProfile& profile);
+  void summarise_drives();
   void detect(ChannelState& st, ChannelId channel, bool final);
   void start_detection(ChannelState& st);
   Direction decide_direction(const ProtocolDecoder& decoder, const Frame& frame,
@@ -70,8 +75,9 @@ class Pipeline {
   TimeNs earliest_deadline_;
   std::uint64_t frame_counter_ = 0;
   TimeNs latest_time_ = std::numeric_limits<TimeNs>::min();
-  std::map<int, TimeNs> last_reply_end_;  // per station address, for profile timing rules  //
-                                          // latest byte time on any channel
+  std::map<int, TimeNs> last_reply_end_;  // per station address, for profile timing rules
+  DriveBinder binder_;
+  DriveTimeline timeline_;
   bool finished_ = false;
 };
 

@@ -4,12 +4,25 @@
 #include <array>
 #include <cstdint>
 #include <limits>
+#include <string>
+#include <vector>
 
 #include "core/anomaly.hpp"
 #include "core/message.hpp"
 #include "core/transaction.hpp"
 
 namespace drivetap {
+
+// One station at the end of the run: the profile it was bound to and its last known state.
+struct DriveSummary {
+  std::size_t link = 0;
+  int address = 0;
+  std::string profile;       // profile id, "generic" when no family fits
+  std::string profile_name;  // "ERMAN E-9P/9G"
+  std::string binding;       // how: "bound with --drive", or the auto evidence
+  std::string state;         // DriveState::summary(); empty when nothing was read
+  std::uint64_t events = 0;
+};
 
 struct Stats {
   std::uint64_t bytes = 0;
@@ -27,6 +40,7 @@ struct Stats {
   std::uint64_t anomaly_total = 0;
   TimeNs first_time = std::numeric_limits<TimeNs>::max();
   TimeNs last_time = std::numeric_limits<TimeNs>::min();
+  std::vector<DriveSummary> drives;
 
   void count_frame(const Message& m);
   void count_noise(const Frame& f);

@@ -1,4 +1,5 @@
-// Drive-level annotation of Modbus frames from a drive profile (dissectors/profiles/README.md).
+// Drive-level reading of Modbus, Danfoss FC and Easydrive frames from a drive profile
+// (dissectors/profiles/README.md; frame layouts PROTOCOLS.md §2-§5).
 #include "profiles/annotate.hpp"
 
 #include <fmt/format.h>
@@ -17,47 +18,413 @@ std::vector<std::uint8_t> modbus_binary(Protocol protocol, std::span<const std::
   return {bytes.begin(), bytes.end()};
 }
 
-std::uint16_t be16(const std::vector<std::uint8_t>& b, std::size_t at) {
+std::uint16_t be16(std::span<const std::uint8_t> b, std::size_t at) {
   return static_cast<std::uint16_t>((b[at] << 8) | b[at + 1]);
 }
 
+// Decimals a scaled value is shown with: those of a decimal scale (0.01 -> 2), else 2 (a
+// binary scale such as Danfoss's 100/16384 % would print noise digits).
 int decimals_of(double scale) {
   int d = 0;
   for (double s = scale; d < 6 && std::fabs(s - std::round(s)) > 1e-9; s *= 10) ++d;
-  return d;
+  return d >= 6 ? 2 : d;
 }
 
-std::string register_name(const DriveProfile& p, RegisterKind kind, std::uint16_t address) {
-  if (const RegisterDef* r = p.find(kind, address)) return r->name;
+double scaled(const RegisterDef& r, std::uint32_t raw, bool double_word) {
+  double v = raw;
+  if (r.is_signed)
+    v = double_word ? static_cast<double>(static_cast<std::int32_t>(raw))
+                    : static_cast<double>(static_cast<std::int16_t>(raw & 0xFFFF));
+  return v * r.scale;
+}
+
+bool any_bit(const std::vector<int>& bits, std::uint32_t raw) {
+  for (int b : bits)
+    if ((raw >> b) & 1) return true;
+  return false;
+}
+
+// Applies one value to the observation by the register's role. `written`: the master wrote it
+// (a command), else the drive reported it.
+void observe(const DriveProfile& p, const RegisterDef& r, std::uint32_t raw, bool double_word,
+             bool written, DriveObservation& o) {
+  const StateBits& s = r.state;
+  const std::string& role = r.role;
+  auto quantity = [&] {
+    return Quantity{scaled(r, raw, double_word), describe_value(p, r, raw, double_word)};
+  };
+  if (written) {
+    if (role == "control") {
+      if (!s.run.empty()) o.run_command = any_bit(s.run, raw);
+      if (!s.reverse.empty()) o.reverse_command = any_bit(s.reverse, raw);
+      if (!s.forward.empty()) o.reverse_command = !any_bit(s.forward, raw);
+      if (any_bit(s.reset, raw)) o.reset_command = true;
+    } else if (role == "setpoint") {
+      o.setpoint_command = quantity();
+    } else if (role == "start" && raw) {
+      o.run_command = true;
+    } else if (role == "stop" && raw) {
+      o.run_command = false;
+    } else if (role == "reset" && raw) {
+      o.reset_command = true;
+    }
+    return;
+  }
+  if (role == "status") {
+    if (!s.running.empty()) o.running = any_bit(s.running, raw);
+    if (!s.reverse.empty()) o.reverse = any_bit(s.reverse, raw);
+    if (!s.forward.empty()) o.reverse = !any_bit(s.forward, raw);
+    if (!s.fault.empty()) o.fault_active = any_bit(s.fault, raw);
+    if (!s.warning.empty()) o.warning = any_bit(s.warning, raw);
+  } else if (role == "setpoint") {
+    o.setpoint = quantity();
+  } else if (role == "output_frequency") {
+    o.output_frequency = quantity();
+  } else if (role == "current") {
+    o.current = quantity();
+  } else if (role == "voltage") {
+    o.voltage = quantity();
+  } else if (role == "fault") {
+    o.fault_code = raw;
+    o.fault_text = describe_value(p, r, raw, double_word);
+  }
+}
+
+// Reads consecutive 16-bit values starting at `start` in the register space of `kind` (holding
+// registers also reach parameters through the addressing rule); collects "name value" parts.
+void read_registers(const DriveProfile& p, RegisterKind kind, std::uint32_t start,
+                    std::span<const std::uint16_t> values, bool written,
+                    std::vector<std::string>& parts, DriveObservation& o) {
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    const std::uint32_t address = start + static_cast<std::uint32_t>(i);
+    const RegisterDef* r =
+        kind == RegisterKind::holding ? p.find_holding(address) : p.find(kind, address);
+    if (!r) continue;  // registers the manual does not name are left to the frame line
+    std::uint32_t raw = values[i];
+    const bool double_word = r->words == 2 && i + 1 < values.size();
+    if (double_word) raw = raw << 16 | values[++i];
+    parts.push_back(
+        fmt::format("{} {}", display_name(*r), describe_value(p, *r, raw, double_word)));
+    observe(p, *r, raw, double_word, written, o);
+  }
+}
+
+void read_coils(const DriveProfile& p, std::uint32_t start, std::size_t count,
+                std::span<const std::uint8_t> packed, bool written, std::vector<std::string>& parts,
+                DriveObservation& o) {
+  for (std::size_t i = 0; i < count && i / 8 < packed.size(); ++i) {
+    const RegisterDef* r = p.find(RegisterKind::coil, start + static_cast<std::uint32_t>(i));
+    if (!r) continue;
+    const bool on = (packed[i / 8] >> (i % 8)) & 1;
+    parts.push_back(fmt::format("{} {}", r->name, on ? "ON" : "OFF"));
+    observe(p, *r, on, false, written, o);
+  }
+}
+
+// "frequency setpoint", "16-13 frequency", "parameter 4-14", "register 0x0123".
+std::string name_at(const DriveProfile& p, RegisterKind kind, std::uint32_t address) {
+  std::string label;
+  const RegisterDef* r =
+      kind == RegisterKind::holding ? p.find_holding(address, &label) : p.find(kind, address);
+  if (r) return display_name(*r);
+  if (!label.empty()) return "parameter " + label;
   return fmt::format("register 0x{:04X}", address);
 }
 
-std::string registers_text(const DriveProfile& p, RegisterKind kind, std::uint16_t start,
-                           std::span<const std::uint16_t> values) {
-  std::vector<std::string> parts;
-  for (std::size_t i = 0; i < values.size(); ++i) {
-    const auto address = static_cast<std::uint16_t>(start + i);
-    const RegisterDef* r = p.find(kind, address);
-    if (!r) continue;  // registers the manual does not name are left to the frame line
-    parts.push_back(fmt::format("{} {}", r->name, describe_value(p, *r, values[i])));
-  }
+std::string join(const std::vector<std::string>& parts) {
   return fmt::format("{}", fmt::join(parts, "; "));
 }
 
-std::string coils_text(const DriveProfile& p, std::uint16_t start, std::size_t count,
-                       std::span<const std::uint8_t> packed) {
+std::string read_modbus(const DriveProfile& p, const Message& m,
+                        std::span<const std::uint8_t> request, DriveObservation& o) {
+  const std::vector<std::uint8_t> b = modbus_binary(m.protocol, m.bytes);
+  if (b.size() < 4) return {};
+  const std::uint8_t fc = b[1];
+  const std::size_t end = b.size() - (m.protocol == Protocol::modbus_rtu ? 2 : 1);  // before check
   std::vector<std::string> parts;
-  for (std::size_t i = 0; i < count && i / 8 < packed.size(); ++i) {
-    const RegisterDef* r = p.find(RegisterKind::coil, static_cast<std::uint16_t>(start + i));
-    if (!r) continue;
-    parts.push_back(fmt::format("{} {}", r->name, ((packed[i / 8] >> (i % 8)) & 1) ? "ON" : "OFF"));
+  if (fc & 0x80) {
+    const auto it = p.exceptions.find(b[2]);
+    if (it != p.exceptions.end()) return fmt::format("error 0x{:02X}: {}", b[2], it->second);
+    return {};
   }
-  return fmt::format("{}", fmt::join(parts, "; "));
+  if (m.direction == Direction::request) {
+    if ((fc == 0x03 || fc == 0x04) && end >= 6) {
+      const RegisterKind kind = fc == 0x03 ? RegisterKind::holding : RegisterKind::input;
+      const std::uint16_t start = be16(b, 2), count = be16(b, 4);
+      if (count <= 1) return fmt::format("read {}", name_at(p, kind, start));
+      return fmt::format("read {} .. {}", name_at(p, kind, start),
+                         name_at(p, kind, static_cast<std::uint32_t>(start) + count - 1));
+    }
+    if (fc == 0x06 && end >= 6) {
+      const std::uint16_t values[] = {be16(b, 4)};
+      read_registers(p, RegisterKind::holding, be16(b, 2), values, true, parts, o);
+    } else if (fc == 0x10 && end >= 7) {
+      std::vector<std::uint16_t> values;
+      for (std::size_t i = 7; i + 1 < end; i += 2) values.push_back(be16(b, i));
+      read_registers(p, RegisterKind::holding, be16(b, 2), values, true, parts, o);
+    } else if (fc == 0x05 && end >= 6) {
+      const std::uint8_t on = b[4] == 0xFF ? 1 : 0;
+      read_coils(p, be16(b, 2), 1, std::span(&on, 1), true, parts, o);
+    } else if (fc == 0x0F && end >= 7) {
+      read_coils(p, be16(b, 2), be16(b, 4), std::span(b).subspan(7, end - 7), true, parts, o);
+    }
+    return parts.empty() ? std::string() : "set " + join(parts);
+  }
+  if (m.direction != Direction::response || request.empty()) return {};
+  const std::vector<std::uint8_t> q = modbus_binary(m.protocol, request);
+  if (q.size() < 6 || q[1] != fc) return {};
+  if ((fc == 0x03 || fc == 0x04) && end >= 3) {
+    std::vector<std::uint16_t> values;
+    for (std::size_t i = 3; i + 1 < end; i += 2) values.push_back(be16(b, i));
+    read_registers(p, fc == 0x03 ? RegisterKind::holding : RegisterKind::input, be16(q, 2), values,
+                   false, parts, o);
+  } else if ((fc == 0x01 || fc == 0x02) && end >= 3) {
+    read_coils(p, be16(q, 2), be16(q, 4), std::span(b).subspan(3, end - 3), false, parts, o);
+  }
+  return join(parts);
+}
+
+// Danfoss FC protocol (PROTOCOLS.md §4):
+//   STX LGE ADR [PKE IND PWEhigh PWElow] PCD1 PCD2 BCC        (LGE 6: PCD only; 14: with PKE)
+//   PKE = AK(4 bits) PNU(12 bits); PCD1/PCD2 = CTW/REF to the drive, STW/MAV from it.
+std::string read_fc(const DriveProfile& p, const Message& m, DriveObservation& o) {
+  const std::span<const std::uint8_t> b = m.bytes;
+  if (b.size() < 4 || b[0] != 0x02) return {};
+  const std::size_t lge = b[1];
+  if (b.size() != lge + 2 || (lge != 6 && lge != 14)) return {};
+  const bool to_drive = m.direction == Direction::request;
+  if (m.direction == Direction::unknown) return {};
+  std::vector<std::string> parts;
+  if (lge == 14) {
+    const std::uint16_t pke = be16(b, 3);
+    const unsigned ak = pke >> 12;
+    const std::uint32_t pnu = pke & 0x0FFF;
+    const std::uint32_t pwe = static_cast<std::uint32_t>(be16(b, 7)) << 16 | be16(b, 9);
+    const RegisterDef* r = p.find(RegisterKind::parameter, pnu);
+    const std::string name = r ? display_name(*r) : "parameter " + p.parameter_label(pnu);
+    auto value = [&](bool double_word) {
+      const std::uint32_t raw = double_word ? pwe : (pwe & 0xFFFF);
+      if (!r) return fmt::format("{}", raw);
+      return describe_value(p, *r, raw, double_word);
+    };
+    if (to_drive) {
+      switch (ak) {
+        case 0x1:
+          parts.push_back("read " + name);
+          break;
+        case 0x2:
+        case 0xE:
+        case 0x3:
+        case 0xD: {
+          const bool dw = ak == 0x3 || ak == 0xD;
+          parts.push_back(
+              fmt::format("set {} = {}{}", name, value(dw), ak >= 0xD ? " (RAM and EEPROM)" : ""));
+          if (r) observe(p, *r, dw ? pwe : (pwe & 0xFFFF), dw, true, o);
+          break;
+        }
+        case 0xF:
+          parts.push_back("text of " + name);
+          break;
+        default:
+          break;
+      }
+    } else {
+      switch (ak) {
+        case 0x1:
+        case 0x2: {
+          const bool dw = ak == 0x2;
+          parts.push_back(fmt::format("{} {}", name, value(dw)));
+          if (r) observe(p, *r, dw ? pwe : (pwe & 0xFFFF), dw, false, o);
+          break;
+        }
+        case 0x7: {
+          const std::uint32_t error = pwe & 0xFFFF;
+          const auto it = p.parameter_errors.find(error);
+          parts.push_back(
+              fmt::format("cannot execute on {}: error {}{}", name, error,
+                          it == p.parameter_errors.end() ? "" : " (" + it->second + ")"));
+          break;
+        }
+        case 0xF:
+          parts.push_back("text of " + name);
+          break;
+        default:
+          break;
+      }
+    }
+  }
+  const std::vector<std::uint32_t>& pcd = to_drive ? p.pcd_to_drive : p.pcd_from_drive;
+  const std::size_t at = lge == 14 ? 11 : 3;
+  for (std::size_t i = 0; i < pcd.size() && i < 2; ++i) {
+    const RegisterDef* r = p.find(RegisterKind::holding, pcd[i]);
+    if (!r) continue;
+    const std::uint16_t raw = be16(b, at + 2 * i);
+    parts.push_back(fmt::format("{} {}", r->name, describe_value(p, *r, raw)));
+    observe(p, *r, raw, false, to_drive, o);
+  }
+  return join(parts);
+}
+
+// Easydrive (PROTOCOLS.md §5), ASCII hex between '~' and CR:
+//   request  ~ AA CC IIII [DDDD] SSSS CR     (CC command 0A..0F, IIII index)
+//   reply    ~ AA RR FF II [DDDD] SSSS CR    (RR response code, FF current fault, II index low)
+long hex_at(std::span<const std::uint8_t> f, std::size_t at, std::size_t n) {
+  if (at + n > f.size()) return -1;
+  long v = 0;
+  for (std::size_t i = at; i < at + n; ++i) {
+    const std::uint8_t c = f[i];
+    const int d = c >= '0' && c <= '9' ? c - '0' : c >= 'A' && c <= 'F' ? c - 'A' + 10 : -1;
+    if (d < 0) return -1;
+    v = v * 16 + d;
+  }
+  return v;
+}
+
+std::string read_easydrive(const DriveProfile& p, const Message& m,
+                           std::span<const std::uint8_t> request, DriveObservation& o) {
+  const std::span<const std::uint8_t> f = m.bytes;
+  if (f.size() != 14 && f.size() != 18) return {};
+  const bool has_data = f.size() == 18;
+  const long data = has_data ? hex_at(f, 9, 4) : -1;
+  std::vector<std::string> parts;
+  const RegisterDef* setpoint = nullptr;
+  for (const RegisterDef& r : p.registers)
+    if (r.kind == RegisterKind::running && r.role == "setpoint") setpoint = &r;
+  if (m.direction == Direction::request) {
+    const long cmd = hex_at(f, 3, 2), index = hex_at(f, 5, 4);
+    if (cmd < 0 || index < 0) return {};
+    const auto u_index = static_cast<std::uint32_t>(index);
+    const RegisterDef* par = p.find(RegisterKind::parameter, u_index);
+    const std::string par_name =
+        par ? display_name(*par) : "function code " + p.parameter_label(u_index);
+    auto frequency = [&]() -> std::optional<Quantity> {
+      if (data < 0 || !setpoint) return std::nullopt;
+      return Quantity{scaled(*setpoint, static_cast<std::uint32_t>(data), false),
+                      describe_value(p, *setpoint, static_cast<std::uint32_t>(data))};
+    };
+    switch (cmd) {
+      case 0x0A:
+        parts.push_back("status query");
+        break;
+      case 0x0B:
+        if (const RegisterDef* r = p.find(RegisterKind::running, u_index))
+          parts.push_back("read " + r->name);
+        break;
+      case 0x0C: {
+        // Run control (001, command "12"): the index says what to do.
+        const auto f_value = frequency();
+        auto set_frequency = [&] {
+          if (!f_value) return;
+          o.setpoint_command = f_value;
+          parts.push_back("setpoint " + f_value->text);
+        };
+        switch (index) {
+          case 0x1:
+            set_frequency();
+            break;
+          case 0x2:
+            o.run_command = true;
+            parts.push_back("run");
+            set_frequency();
+            break;
+          case 0x3:
+            o.run_command = true;
+            o.reverse_command = false;
+            parts.push_back("run forward");
+            break;
+          case 0x4:
+            o.run_command = true;
+            o.reverse_command = true;
+            parts.push_back("run reverse");
+            break;
+          case 0x5:
+            o.run_command = true;
+            o.reverse_command = false;
+            parts.push_back("run forward");
+            set_frequency();
+            break;
+          case 0x6:
+            o.run_command = true;
+            o.reverse_command = true;
+            parts.push_back("run reverse");
+            set_frequency();
+            break;
+          case 0x7:
+            o.run_command = false;
+            parts.push_back("stop");
+            break;
+          case 0xC:
+            o.reset_command = true;
+            parts.push_back("fault reset");
+            break;
+          case 0xE:
+            o.run_command = false;
+            parts.push_back("emergency stop");
+            break;
+          default:
+            break;
+        }
+        break;
+      }
+      case 0x0D:
+        parts.push_back("read " + par_name);
+        break;
+      case 0x0E:
+        if (data >= 0 && par) {
+          parts.push_back(fmt::format("set {} = {}", par_name,
+                                      describe_value(p, *par, static_cast<std::uint32_t>(data))));
+          observe(p, *par, static_cast<std::uint32_t>(data), false, true, o);
+        } else if (data >= 0) {
+          parts.push_back(fmt::format("set {} = {}", par_name, data));
+        }
+        break;
+      default:
+        break;
+    }
+    return join(parts);
+  }
+  if (m.direction != Direction::response) return {};
+  const long code = hex_at(f, 3, 2), fault = hex_at(f, 5, 2);
+  const long cmd = hex_at(request, 3, 2), index = hex_at(request, 5, 4);
+  if (code == 0x20 || code == 0x30) return {};  // rejected: the frame line names the reason
+  if (cmd == 0x0B && index >= 0 && data >= 0) {
+    if (const RegisterDef* r = p.find(RegisterKind::running, static_cast<std::uint32_t>(index))) {
+      parts.push_back(
+          fmt::format("{} {}", r->name, describe_value(p, *r, static_cast<std::uint32_t>(data))));
+      observe(p, *r, static_cast<std::uint32_t>(data), false, false, o);
+    }
+  } else if (cmd == 0x0D && index >= 0 && data >= 0) {
+    if (const RegisterDef* r = p.find(RegisterKind::parameter, static_cast<std::uint32_t>(index))) {
+      parts.push_back(fmt::format("{} {}", display_name(*r),
+                                  describe_value(p, *r, static_cast<std::uint32_t>(data))));
+      observe(p, *r, static_cast<std::uint32_t>(data), false, false, o);
+    }
+  } else if (cmd == 0x0A && code >= 0x10 && code <= 0x14) {
+    parts.push_back(code == 0x10 ? "not ready" : "ready");
+  }
+  // Every accepted reply carries the drive's current fault code (001, AUX of the reply).
+  if (fault >= 0) {
+    o.fault_code = static_cast<std::uint32_t>(fault);
+    const auto names = p.enums.find("fault");
+    std::string name;
+    if (names != p.enums.end()) {
+      const auto it = names->second.find(static_cast<std::uint32_t>(fault));
+      if (it != names->second.end()) name = it->second;
+    }
+    o.fault_text = name.empty() ? fmt::format("{}", fault) : fmt::format("{} ({})", fault, name);
+    if (fault > 0) parts.push_back("fault " + o.fault_text);
+  }
+  return join(parts);
 }
 
 }  // namespace
 
-std::string describe_value(const DriveProfile& p, const RegisterDef& r, std::uint16_t raw) {
+std::string display_name(const RegisterDef& r) {
+  return r.kind == RegisterKind::parameter ? r.number + " " + r.name : r.name;
+}
+
+std::string describe_value(const DriveProfile& p, const RegisterDef& r, std::uint32_t raw,
+                           bool double_word) {
   if (!r.enum_name.empty()) {
     const auto& names = p.enums.at(r.enum_name);
     const auto it = names.find(raw);
@@ -70,63 +437,32 @@ std::string describe_value(const DriveProfile& p, const RegisterDef& r, std::uin
       const std::string& s = ((raw >> b.bit) & 1) ? b.when_set : b.when_clear;
       if (!s.empty()) states.push_back(s);
     }
-    return fmt::format("0x{:04X} [{}]", raw, fmt::join(states, ", "));
+    return fmt::format("0x{:0{}X} [{}]", raw, double_word ? 8 : 4, fmt::join(states, ", "));
   }
-  const double v =
-      (r.is_signed ? static_cast<double>(static_cast<std::int16_t>(raw)) : raw) * r.scale;
+  const double v = scaled(r, raw, double_word);
   return fmt::format("{:.{}f}{}{}", v, decimals_of(r.scale), r.unit.empty() ? "" : " ", r.unit);
 }
 
-std::string annotate_for_drive(const DriveProfile& p, const Message& m,
-                               std::span<const std::uint8_t> request) {
-  if (m.protocol != Protocol::modbus_rtu && m.protocol != Protocol::modbus_ascii) return {};
-  const std::vector<std::uint8_t> b = modbus_binary(m.protocol, m.bytes);
-  if (b.size() < 4) return {};
-  const std::uint8_t fc = b[1];
-  const std::size_t end = b.size() - (m.protocol == Protocol::modbus_rtu ? 2 : 1);  // before check
+DriveReading read_for_drive(const DriveProfile& p, const Message& m,
+                            std::span<const std::uint8_t> request) {
+  DriveReading out;
   std::string what;
-  if (fc & 0x80) {
-    const auto it = p.exceptions.find(b[2]);
-    if (it != p.exceptions.end()) what = fmt::format("error 0x{:02X}: {}", b[2], it->second);
-  } else if (m.direction == Direction::request) {
-    if ((fc == 0x03 || fc == 0x04) && end >= 6) {
-      const RegisterKind kind = fc == 0x03 ? RegisterKind::holding : RegisterKind::input;
-      const std::uint16_t start = be16(b, 2), count = be16(b, 4);
-      what =
-          count == 1
-              ? fmt::format("read {}", register_name(p, kind, start))
-              : fmt::format("read {} .. {}", register_name(p, kind, start),
-                            register_name(p, kind, static_cast<std::uint16_t>(start + count - 1)));
-    } else if (fc == 0x06 && end >= 6) {
-      const std::uint16_t value = be16(b, 4);
-      const std::uint16_t values[] = {value};
-      what = registers_text(p, RegisterKind::holding, be16(b, 2), values);
-      if (!what.empty()) what = "set " + what;
-    } else if (fc == 0x10 && end >= 7) {
-      std::vector<std::uint16_t> values;
-      for (std::size_t i = 7; i + 1 < end; i += 2) values.push_back(be16(b, i));
-      what = registers_text(p, RegisterKind::holding, be16(b, 2), values);
-      if (!what.empty()) what = "set " + what;
-    } else if (fc == 0x05 && end >= 6) {
-      const std::uint8_t on = b[4] == 0xFF ? 1 : 0;
-      what = coils_text(p, be16(b, 2), 1, std::span(&on, 1));
-    } else if (fc == 0x0F && end >= 7) {
-      what = coils_text(p, be16(b, 2), be16(b, 4), std::span(b).subspan(7, end - 7));
-    }
-  } else if (m.direction == Direction::response && !request.empty()) {
-    const std::vector<std::uint8_t> q = modbus_binary(m.protocol, request);
-    if (q.size() < 6 || q[1] != fc) return {};
-    if ((fc == 0x03 || fc == 0x04) && end >= 3) {
-      std::vector<std::uint16_t> values;
-      for (std::size_t i = 3; i + 1 < end; i += 2) values.push_back(be16(b, i));
-      what = registers_text(p, fc == 0x03 ? RegisterKind::holding : RegisterKind::input, be16(q, 2),
-                            values);
-    } else if ((fc == 0x01 || fc == 0x02) && end >= 3) {
-      what = coils_text(p, be16(q, 2), be16(q, 4), std::span(b).subspan(3, end - 3));
-    }
+  switch (m.protocol) {
+    case Protocol::modbus_rtu:
+    case Protocol::modbus_ascii:
+      what = read_modbus(p, m, request, out.observed);
+      break;
+    case Protocol::danfoss_fc:
+      what = read_fc(p, m, out.observed);
+      break;
+    case Protocol::easydrive:
+      what = read_easydrive(p, m, request, out.observed);
+      break;
+    case Protocol::unknown:
+      break;
   }
-  if (what.empty()) return {};
-  return fmt::format("drive {} ({}): {}", m.address, p.name, what);
+  if (!what.empty()) out.text = fmt::format("drive {} ({}): {}", m.address, p.name, what);
+  return out;
 }
 
 }  // namespace drivetap

@@ -1,8 +1,13 @@
-// Drive-level meaning of a decoded frame from the drive's profile: "drive 2 (E-9): setpoint
-// 50.00 Hz; output frequency 49.87 Hz". Today: Modbus RTU and ASCII frames (registers read and
-// written, coils, vendor exception codes); a reply is read with the request it answers.
+// Drive-level meaning of a decoded frame from the drive's profile (dissectors/profiles/README.md):
+// the annotation line ("drive 2 (E-9): setpoint 50.00 Hz; output frequency 49.87 Hz") and what
+// the frame says about the drive's state, for the timeline. Modbus RTU/ASCII (registers, coils,
+// parameters under the profile's addressing rule, vendor exception codes), the Danfoss FC
+// protocol (PCD words, parameter block, PROTOCOLS.md §4) and Easydrive (PROTOCOLS.md §5). A reply
+// is read with the request it answers.
 #pragma once
 
+#include <cstdint>
+#include <optional>
 #include <span>
 #include <string>
 
@@ -11,13 +16,38 @@
 
 namespace drivetap {
 
-// Empty when the profile says nothing about the frame. `request`: for a reply, the bytes of its
-// request (as on the wire), empty when unknown.
-std::string annotate_for_drive(const DriveProfile& profile, const Message& message,
-                               std::span<const std::uint8_t> request);
+struct Quantity {
+  double value = 0;
+  std::string text;  // "50.00 Hz"
+};
 
-// One register value as the profile describes it: "50.00 Hz", "running, forward", "4
-// (overcurrent)".
-std::string describe_value(const DriveProfile& profile, const RegisterDef& reg, std::uint16_t raw);
+// What one frame showed about its drive. Status fields come from the drive's replies; command
+// fields from what the master wrote.
+struct DriveObservation {
+  std::optional<bool> running, reverse, fault_active, warning;
+  std::optional<Quantity> setpoint, output_frequency, current, voltage;
+  std::optional<std::uint32_t> fault_code;  // 0 = no fault
+  std::string fault_text;                   // "4 (overcurrent)"
+  std::optional<bool> run_command, reverse_command;
+  bool reset_command = false;
+  std::optional<Quantity> setpoint_command;
+};
+
+struct DriveReading {
+  std::string text;  // "drive 2 (ERMAN E-9P/9G): ..." or empty when the profile says nothing
+  DriveObservation observed;
+};
+
+// `request`: for a reply, the bytes of its request (as on the wire), empty when unknown.
+DriveReading read_for_drive(const DriveProfile& profile, const Message& message,
+                            std::span<const std::uint8_t> request);
+
+// One value as the profile describes it: "50.00 Hz", "0x0003 [running, forward]", "4
+// (overcurrent)". `raw` holds 16 bits, or 32 for a two-word register or a double-word PWE.
+std::string describe_value(const DriveProfile& profile, const RegisterDef& reg, std::uint32_t raw,
+                           bool double_word = false);
+
+// "16-13 frequency" for a parameter, the register's name otherwise.
+std::string display_name(const RegisterDef& reg);
 
 }  // namespace drivetap

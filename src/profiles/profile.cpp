@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 
 #include <toml++/toml.h>
+#include <algorithm>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -18,10 +19,91 @@ std::string ProfileError::text() const {
   return fmt::format("{}:{}: key '{}': {}", file, line, key, message);
 }
 
-const RegisterDef* DriveProfile::find(RegisterKind kind, std::uint16_t address) const {
+const RegisterDef* DriveProfile::find(RegisterKind kind, std::uint32_t address) const {
   for (const RegisterDef& r : registers)
     if (r.kind == kind && r.address == address) return &r;
   return nullptr;
+}
+
+std::optional<std::uint32_t> DriveProfile::parameter_of_register(std::uint32_t address) const {
+  switch (parameter_rule) {
+    case ParameterRule::ggpp:
+      return address;
+    case ParameterRule::danfoss:
+      // Danfoss 002 §7.8.8/§7.9: register number = 10 x PNU, addressed from 0 on the wire.
+      if ((address + 1) % 10 == 0) return (address + 1) / 10;
+      return std::nullopt;
+    case ParameterRule::none:
+    case ParameterRule::easydrive:  // Easydrive parameters travel in its own protocol only
+      break;
+  }
+  return std::nullopt;
+}
+
+const RegisterDef* DriveProfile::find_holding(std::uint32_t address, std::string* label) const {
+  if (label) label->clear();
+  if (const RegisterDef* r = find(RegisterKind::holding, address)) return r;
+  const auto number = parameter_of_register(address);
+  if (!number) return nullptr;
+  if (const RegisterDef* r = find(RegisterKind::parameter, *number)) return r;
+  if (label) *label = parameter_label(*number);
+  return nullptr;
+}
+
+std::string DriveProfile::parameter_label(std::uint32_t number) const {
+  switch (parameter_rule) {
+    case ParameterRule::ggpp:
+      return fmt::format("{:02}-{:02}", number >> 8, number & 0xFF);
+    case ParameterRule::danfoss:
+      return fmt::format("{}-{:02}", number / 100, number % 100);
+    case ParameterRule::easydrive:
+      return fmt::format("F{:X}.{:02}", number >> 8, number & 0xFF);
+    case ParameterRule::none:
+      break;
+  }
+  return fmt::format("{}", number);
+}
+
+std::optional<std::uint32_t> parse_parameter_number(ParameterRule rule, std::string_view text) {
+  // Splits "<group><sep><number>" with decimal number; the group is decimal, or one hex digit
+  // after 'F' for Easydrive.
+  auto decimal = [](std::string_view d) -> std::optional<std::uint32_t> {
+    if (d.empty() || d.size() > 3) return std::nullopt;
+    std::uint32_t v = 0;
+    for (char c : d) {
+      if (c < '0' || c > '9') return std::nullopt;
+      v = v * 10 + static_cast<std::uint32_t>(c - '0');
+    }
+    return v;
+  };
+  const char sep = rule == ParameterRule::easydrive ? '.' : '-';
+  const std::size_t at = text.find(sep);
+  if (at == std::string_view::npos) return std::nullopt;
+  std::string_view group = text.substr(0, at);
+  const auto number = decimal(text.substr(at + 1));
+  if (!number) return std::nullopt;
+  switch (rule) {
+    case ParameterRule::danfoss: {
+      const auto g = decimal(group);
+      if (!g || *number > 99 || *g > 65) return std::nullopt;
+      return *g * 100 + *number;
+    }
+    case ParameterRule::ggpp: {
+      const auto g = decimal(group);
+      if (!g || *g > 255 || *number > 255) return std::nullopt;
+      return *g << 8 | *number;
+    }
+    case ParameterRule::easydrive: {
+      if (group.size() != 2 || group[0] != 'F' || *number > 255) return std::nullopt;
+      const char h = group[1];
+      const int g = h >= '0' && h <= '9' ? h - '0' : h >= 'A' && h <= 'F' ? h - 'A' + 10 : -1;
+      if (g < 0) return std::nullopt;
+      return static_cast<std::uint32_t>(g) << 8 | *number;
+    }
+    case ParameterRule::none:
+      break;
+  }
+  return std::nullopt;
 }
 
 namespace {
@@ -114,26 +196,64 @@ std::map<std::uint32_t, std::string> value_names(const toml::table& t, const std
   return out;
 }
 
-RegisterDef parse_register(const toml::table& t, const std::string& path) {
-  only_keys(
-      t, path,
-      {"address", "name", "kind", "access", "unit", "scale", "signed", "enum", "role", "bits"});
+std::vector<int> state_bits(const toml::node& v, const std::string& path) {
+  std::vector<int> bits;
+  auto one = [&](const toml::node& n) {
+    if (!n.is_integer() || n.as_integer()->get() < 0 || n.as_integer()->get() > 31)
+      throw Bad{line_of(n), path, "expected a bit number 0..31 or a list of them"};
+    bits.push_back(static_cast<int>(n.as_integer()->get()));
+  };
+  if (const toml::array* a = v.as_array()) {
+    if (a->empty()) throw Bad{line_of(v), path, "expected a bit number 0..31 or a list of them"};
+    for (const toml::node& e : *a) one(e);
+  } else {
+    one(v);
+  }
+  return bits;
+}
+
+// A [[register]] (parameter == nullopt) or a [[parameter]] under the profile's addressing rule.
+RegisterDef parse_register(const toml::table& t, const std::string& path,
+                           std::optional<ParameterRule> parameter) {
+  std::set<std::string_view> keys = {"name", "access", "unit", "scale", "signed",
+                                     "enum", "role",   "bits", "words", "state"};
+  keys.insert(parameter ? "number" : "address");
+  if (!parameter) keys.insert("kind");
+  only_keys(t, path, keys);
   RegisterDef r;
-  const auto address = int_at(t, "address", path + ".address", 0, 0xFFFF);
-  if (!address) throw Bad{line_of(t), path + ".address", "missing"};
-  r.address = static_cast<std::uint16_t>(*address);
+  if (parameter) {
+    r.kind = RegisterKind::parameter;
+    r.number = string_at(t, "number", path + ".number", true);
+    if (*parameter == ParameterRule::none)
+      throw Bad{line_of(*t.get("number")), path + ".number",
+                "parameters need a [parameters] rule (ggpp, danfoss or easydrive)"};
+    const auto wire = parse_parameter_number(*parameter, r.number);
+    static constexpr const char* kExamples[] = {"", "08-03", "4-14", "F0.05"};
+    if (!wire)
+      throw Bad{line_of(*t.get("number")), path + ".number",
+                fmt::format("expected a parameter number like \"{}\" under this rule",
+                            kExamples[static_cast<int>(*parameter)])};
+    r.address = *wire;
+  } else {
+    const auto address = int_at(t, "address", path + ".address", 0, 0xFFFF);
+    if (!address) throw Bad{line_of(t), path + ".address", "missing"};
+    r.address = static_cast<std::uint32_t>(*address);
+    const std::string kind = string_at(t, "kind", path + ".kind", false);
+    if (kind.empty() || kind == "holding")
+      r.kind = RegisterKind::holding;
+    else if (kind == "input")
+      r.kind = RegisterKind::input;
+    else if (kind == "coil")
+      r.kind = RegisterKind::coil;
+    else if (kind == "discrete")
+      r.kind = RegisterKind::discrete;
+    else if (kind == "running")
+      r.kind = RegisterKind::running;
+    else
+      throw Bad{line_of(*t.get("kind")), path + ".kind",
+                "must be holding, input, coil, discrete or running"};
+  }
   r.name = string_at(t, "name", path + ".name", true);
-  const std::string kind = string_at(t, "kind", path + ".kind", false);
-  if (kind.empty() || kind == "holding")
-    r.kind = RegisterKind::holding;
-  else if (kind == "input")
-    r.kind = RegisterKind::input;
-  else if (kind == "coil")
-    r.kind = RegisterKind::coil;
-  else if (kind == "discrete")
-    r.kind = RegisterKind::discrete;
-  else
-    throw Bad{line_of(*t.get("kind")), path + ".kind", "must be holding, input, coil or discrete"};
   const std::string access = string_at(t, "access", path + ".access", false);
   if (access.empty() || access == "rw")
     r.access = RegisterAccess::read_write;
@@ -155,10 +275,33 @@ RegisterDef parse_register(const toml::table& t, const std::string& path) {
   r.enum_name = string_at(t, "enum", path + ".enum", false);
   r.role = string_at(t, "role", path + ".role", false);
   static const std::set<std::string_view> kRoles = {
-      "", "control", "status", "setpoint", "output_frequency", "current", "voltage", "fault"};
+      "",      "control", "status", "setpoint", "output_frequency", "current", "voltage",
+      "fault", "start",   "stop",   "reset"};
   if (!kRoles.count(r.role))
     throw Bad{line_of(*t.get("role")), path + ".role",
-              "must be control, status, setpoint, output_frequency, current, voltage or fault"};
+              "must be control, status, setpoint, output_frequency, current, voltage, fault, "
+              "start, stop or reset"};
+  if (auto w = int_at(t, "words", path + ".words", 1, 2)) r.words = static_cast<int>(*w);
+  if (const toml::node* st = t.get("state")) {
+    if (!st->is_table()) throw Bad{line_of(*st), path + ".state", "expected a table"};
+    for (const auto& [k, v] : *st->as_table()) {
+      const std::string key(k.str());
+      const std::string p = path + ".state." + key;
+      std::vector<int>* slot = key == "run"       ? &r.state.run
+                               : key == "reset"   ? &r.state.reset
+                               : key == "running" ? &r.state.running
+                               : key == "forward" ? &r.state.forward
+                               : key == "reverse" ? &r.state.reverse
+                               : key == "fault"   ? &r.state.fault
+                               : key == "warning" ? &r.state.warning
+                               : key == "ready"   ? &r.state.ready
+                                                  : nullptr;
+      if (!slot)
+        throw Bad{line_of(v), p,
+                  "unknown state (run, reset, running, forward, reverse, fault, warning, ready)"};
+      *slot = state_bits(v, p);
+    }
+  }
   if (const toml::node* b = t.get("bits")) {
     if (!b->is_table()) throw Bad{line_of(*b), path + ".bits", "expected a table"};
     for (const auto& [k, v] : *b->as_table()) {
@@ -171,12 +314,17 @@ RegisterDef parse_register(const toml::table& t, const std::string& path) {
       r.bits.push_back({static_cast<int>(bit), std::string((*a)[0].as_string()->get()),
                         std::string((*a)[1].as_string()->get())});
     }
+    // TOML tables keep their keys as text ("10" before "2"); meanings are shown by bit number.
+    std::sort(r.bits.begin(), r.bits.end(),
+              [](const RegisterBit& x, const RegisterBit& y) { return x.bit < y.bit; });
   }
   return r;
 }
 
 DriveProfile parse_tables(const toml::table& root) {
-  only_keys(root, "", {"drive", "limits", "timing", "register", "enums", "exceptions"});
+  only_keys(root, "",
+            {"drive", "limits", "timing", "parameters", "process_data", "register", "parameter",
+             "enums", "exceptions", "parameter_errors"});
   DriveProfile p;
   const toml::table& drive = table_at(root, "drive", "drive");
   only_keys(drive, "drive", {"id", "name", "source", "protocols", "serial", "addresses"});
@@ -241,15 +389,38 @@ DriveProfile parse_tables(const toml::table& root) {
     p.max_reply_delay_ms = number_at(t, "max_reply_delay_ms", "timing.max_reply_delay_ms");
     p.min_reply_delay_ms = number_at(t, "min_reply_delay_ms", "timing.min_reply_delay_ms");
   }
-  if (const toml::node* n = root.get("register")) {
-    const toml::array* a = n->as_array();
-    if (!a) throw Bad{line_of(*n), "register", "expected [[register]] tables"};
-    for (std::size_t i = 0; i < a->size(); ++i) {
-      const toml::node& e = (*a)[i];
-      const std::string path = fmt::format("register[{}]", i + 1);
-      if (!e.is_table()) throw Bad{line_of(e), path, "expected a table"};
-      p.registers.push_back(parse_register(*e.as_table(), path));
-    }
+  if (const toml::node* n = root.get("parameters")) {
+    if (!n->is_table()) throw Bad{line_of(*n), "parameters", "expected a table"};
+    const toml::table& t = *n->as_table();
+    only_keys(t, "parameters", {"rule"});
+    const std::string rule = string_at(t, "rule", "parameters.rule", true);
+    if (rule == "ggpp")
+      p.parameter_rule = ParameterRule::ggpp;
+    else if (rule == "danfoss")
+      p.parameter_rule = ParameterRule::danfoss;
+    else if (rule == "easydrive")
+      p.parameter_rule = ParameterRule::easydrive;
+    else
+      throw Bad{line_of(*t.get("rule")), "parameters.rule", "must be ggpp, danfoss or easydrive"};
+  }
+  if (const toml::node* n = root.get("process_data")) {
+    if (!n->is_table()) throw Bad{line_of(*n), "process_data", "expected a table"};
+    const toml::table& t = *n->as_table();
+    only_keys(t, "process_data", {"to_drive", "from_drive"});
+    auto addresses = [&](std::string_view key, std::vector<std::uint32_t>& out) {
+      const std::string path = "process_data." + std::string(key);
+      const toml::node* list = t.get(key);
+      if (!list) throw Bad{line_of(t), path, "missing"};
+      const toml::array* a = list->as_array();
+      if (!a || a->size() != 2) throw Bad{line_of(*list), path, "expected [PCD1, PCD2] addresses"};
+      for (const toml::node& e : *a) {
+        if (!e.is_integer() || e.as_integer()->get() < 0 || e.as_integer()->get() > 0xFFFF)
+          throw Bad{line_of(e), path, "each must be a register address 0..65535"};
+        out.push_back(static_cast<std::uint32_t>(e.as_integer()->get()));
+      }
+    };
+    addresses("to_drive", p.pcd_to_drive);
+    addresses("from_drive", p.pcd_from_drive);
   }
   if (const toml::node* n = root.get("enums")) {
     if (!n->is_table()) throw Bad{line_of(*n), "enums", "expected a table"};
@@ -259,16 +430,41 @@ DriveProfile parse_tables(const toml::table& root) {
       p.enums[std::string(k.str())] = value_names(*v.as_table(), path);
     }
   }
+  for (const char* list : {"register", "parameter"}) {
+    const toml::node* n = root.get(list);
+    if (!n) continue;
+    const toml::array* a = n->as_array();
+    if (!a) throw Bad{line_of(*n), list, fmt::format("expected [[{}]] tables", list)};
+    const bool is_parameter = std::string_view(list) == "parameter";
+    for (std::size_t i = 0; i < a->size(); ++i) {
+      const toml::node& e = (*a)[i];
+      const std::string path = fmt::format("{}[{}]", list, i + 1);
+      if (!e.is_table()) throw Bad{line_of(e), path, "expected a table"};
+      p.registers.push_back(parse_register(
+          *e.as_table(), path,
+          is_parameter ? std::optional<ParameterRule>(p.parameter_rule) : std::nullopt));
+      const std::string& enum_name = p.registers.back().enum_name;
+      if (!enum_name.empty() && !p.enums.count(enum_name))
+        throw Bad{line_of(*e.as_table()->get("enum")), path + ".enum",
+                  fmt::format("no [enums.{}] table", enum_name)};
+    }
+  }
   if (const toml::node* n = root.get("exceptions")) {
     if (!n->is_table()) throw Bad{line_of(*n), "exceptions", "expected a table"};
     p.exceptions = value_names(*n->as_table(), "exceptions");
   }
-  for (std::size_t i = 0; i < p.registers.size(); ++i) {
-    const RegisterDef& r = p.registers[i];
-    if (!r.enum_name.empty() && !p.enums.count(r.enum_name))
-      throw Bad{0, fmt::format("register[{}].enum", i + 1),
-                fmt::format("no [enums.{}] table", r.enum_name)};
+  if (const toml::node* n = root.get("parameter_errors")) {
+    if (!n->is_table()) throw Bad{line_of(*n), "parameter_errors", "expected a table"};
+    p.parameter_errors = value_names(*n->as_table(), "parameter_errors");
   }
+  for (std::uint32_t address : p.pcd_to_drive)
+    if (!p.find(RegisterKind::holding, address))
+      throw Bad{line_of(*root.get("process_data")), "process_data.to_drive",
+                fmt::format("no [[register]] with address {}", address)};
+  for (std::uint32_t address : p.pcd_from_drive)
+    if (!p.find(RegisterKind::holding, address))
+      throw Bad{line_of(*root.get("process_data")), "process_data.from_drive",
+                fmt::format("no [[register]] with address {}", address)};
   return p;
 }
 

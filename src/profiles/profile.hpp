@@ -15,7 +15,17 @@
 
 namespace drivetap {
 
-enum class RegisterKind : std::uint8_t { holding, input, coil, discrete };
+// running: an Easydrive running value (command 0B, index 0..15); parameter: a drive parameter
+// keyed by its wire number under the profile's ParameterRule (Danfoss PNU, GGPP, Easydrive index).
+enum class RegisterKind : std::uint8_t { holding, input, coil, discrete, running, parameter };
+
+// How the manual's parameter numbers reach the wire (dissectors/profiles/README.md, [parameters]).
+enum class ParameterRule : std::uint8_t {
+  none,
+  ggpp,       // E5-8200 "GG-PP": register address GG << 8 | PP
+  danfoss,    // Danfoss "G-NN": PNU G*100+NN (FC protocol); Modbus register address PNU*10 - 1
+  easydrive,  // Easydrive "Fg.nn": index g << 8 | nn (F0..F9 = 0..9, FA..FF = 0x0A..0x0F)
+};
 enum class RegisterAccess : std::uint8_t { read, write, read_write };
 
 struct RegisterBit {
@@ -24,8 +34,15 @@ struct RegisterBit {
   std::string when_set;
 };
 
+// Which bits of a control or status word carry drive state (the timeline reads these). A state is
+// on when any of its bits is set.
+struct StateBits {
+  std::vector<int> run, reset, running, forward, reverse, fault, warning, ready;
+};
+
 struct RegisterDef {
-  std::uint16_t address = 0;
+  std::uint32_t address = 0;  // register address, running-value index, or parameter wire number
+  std::string number;         // parameters: as the manual prints it ("4-14", "F0.05")
   std::string name;
   RegisterKind kind = RegisterKind::holding;
   RegisterAccess access = RegisterAccess::read_write;
@@ -34,7 +51,9 @@ struct RegisterDef {
   bool is_signed = false;
   std::string enum_name;
   std::string role;
+  int words = 1;  // 2: a 32-bit value over two registers, high word first
   std::vector<RegisterBit> bits;
+  StateBits state;
 };
 
 struct DriveProfile {
@@ -53,12 +72,28 @@ struct DriveProfile {
   std::optional<double> max_reply_delay_ms;
   std::optional<double> min_reply_delay_ms;
   std::string timing_section;  // where the manual states the timing rules
-  std::vector<RegisterDef> registers;
+  ParameterRule parameter_rule = ParameterRule::none;
+  // Danfoss FC protocol: the registers PCD1, PCD2 stand for, per direction (CTW/REF, STW/MAV).
+  std::vector<std::uint32_t> pcd_to_drive, pcd_from_drive;
+  std::vector<RegisterDef> registers;  // registers, coils, running values and parameters
   std::map<std::string, std::map<std::uint32_t, std::string>> enums;
   std::map<std::uint32_t, std::string> exceptions;
+  std::map<std::uint32_t, std::string> parameter_errors;  // Danfoss FC protocol AK 7 numbers
 
-  [[nodiscard]] const RegisterDef* find(RegisterKind kind, std::uint16_t address) const;
+  [[nodiscard]] const RegisterDef* find(RegisterKind kind, std::uint32_t address) const;
+  // What a Modbus holding register address means: a register of the map, else the parameter the
+  // addressing rule puts there. `parameter_label` gets the manual's number for an address the
+  // rule maps but the profile does not name; empty when the address is no parameter.
+  [[nodiscard]] const RegisterDef* find_holding(std::uint32_t address,
+                                                std::string* parameter_label = nullptr) const;
+  // The parameter's wire number of a Modbus holding register address, if the rule maps one.
+  [[nodiscard]] std::optional<std::uint32_t> parameter_of_register(std::uint32_t address) const;
+  // The manual's spelling of a parameter wire number ("4-14", "08-03", "F0.05").
+  [[nodiscard]] std::string parameter_label(std::uint32_t number) const;
 };
+
+// The manual's parameter number ("4-14") as its wire number under `rule`; nullopt if malformed.
+std::optional<std::uint32_t> parse_parameter_number(ParameterRule rule, std::string_view text);
 
 // Where a profile went wrong: "file:line: key 'register[3].scale': expected a number".
 struct ProfileError {

@@ -161,10 +161,14 @@ void JsonSink::on_anomaly(const Anomaly& a) {
 
 void JsonSink::on_event(const BusEvent& e) {
   std::string line = fmt::format(
-      "{{\"type\":\"event\",\"t\":{},\"channel\":{},\"kind\":\"{}\",\"protocol\":\"{}\","
-      "\"confidence\":\"{}\",\"detail\":{}}}",
-      seconds(e.time), json_quote(channels_.at(e.channel).name), e.kind, protocol_id(e.protocol),
-      e.confidence, json_quote(e.detail));
+      "{{\"type\":\"event\",\"t\":{},\"channel\":{},\"kind\":\"{}\",\"protocol\":\"{}\"",
+      seconds(e.time), json_quote(channels_.at(e.channel).name), e.kind, protocol_id(e.protocol));
+  if (!e.confidence.empty()) line += fmt::format(",\"confidence\":\"{}\"", e.confidence);
+  if (e.address >= 0)
+    line +=
+        fmt::format(",\"address\":{},\"profile\":{},\"frame\":{},\"from\":{},\"to\":{}", e.address,
+                    json_quote(e.profile), e.frame, json_quote(e.from), json_quote(e.to));
+  line += fmt::format(",\"detail\":{}}}", json_quote(e.detail));
   write(line);
 }
 
@@ -206,6 +210,17 @@ void JsonSink::on_summary(const Stats& s) {
       "\"unsolicited\":{}}},\"latency_ms\":{},\"anomalies_total\":{},\"anomalies\":{{{}}}}}",
       s.bytes, s.frames, s.noise_records, s.noise_bytes, c[1], c[2], c[3], c[0], s.transactions,
       o[0], o[1], o[2], o[3], o[4], latency, s.anomaly_total, anomalies);
+  line.pop_back();  // the closing brace: drives follow
+  line += ",\"drives\":[";
+  for (std::size_t i = 0; i < s.drives.size(); ++i) {
+    const DriveSummary& d = s.drives[i];
+    line += fmt::format(
+        "{}{{\"link\":{},\"address\":{},\"profile\":{},\"profile_name\":{},\"binding\":{},"
+        "\"state\":{},\"events\":{}}}",
+        i ? "," : "", d.link, d.address, json_quote(d.profile), json_quote(d.profile_name),
+        json_quote(d.binding), json_quote(d.state), d.events);
+  }
+  line += "]}";
   write(line);
 }
 

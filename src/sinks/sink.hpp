@@ -62,4 +62,21 @@ class TeeSink final : public Sink {
   std::vector<Sink*> sinks_;
 };
 
+// Passes on only the events — the drive-state timeline with the bindings and protocol detection
+// that explain it (`drivetap read --events`).
+class EventsOnlySink final : public Sink {
+ public:
+  explicit EventsOnlySink(Sink& inner) : inner_(inner) {}
+  void on_frame(const Message&) override {}
+  void on_noise(const Frame&) override {}
+  void on_anomaly(const Anomaly&) override {}
+  void on_transaction(const Transaction&) override {}
+  void on_summary(const Stats&) override {}
+  void on_event(const BusEvent& e) override { inner_.on_event(e); }
+  bool flush() override { return inner_.flush(); }
+
+ private:
+  Sink& inner_;
+};
+
 }  // namespace drivetap

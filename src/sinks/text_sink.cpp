@@ -182,6 +182,14 @@ void TextSink::on_summary(const Stats& s) {
   }
   if (!first) an += ")";
   write(an);
+  for (const DriveSummary& d : s.drives) {
+    write(fmt::format("drive {:<7} {}{}{}", d.address, d.profile_name,
+                      d.binding.empty() ? "" : " (" + d.binding + ")",
+                      d.link ? fmt::format(" on link {}", d.link) : std::string()));
+    if (!d.state.empty())
+      write(fmt::format("{:14}last state: {}; {} event{}", "", d.state, d.events,
+                        d.events == 1 ? "" : "s"));
+  }
 }
 
 bool TextSink::flush() {

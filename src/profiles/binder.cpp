@@ -1,0 +1,233 @@
+// Drive binding by guess (src/profiles/binder.hpp): per-station evidence for each family profile.
+#include "profiles/binder.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+
+#include "dissectors/modbus/ascii_dissector.hpp"
+
+namespace drivetap {
+namespace {
+
+// Evidence weights. A register the family's manual names: +1; an address only its parameter
+// addressing rule explains: +0.5; an address the family does not have: -1; a function code or
+// a request size the family refuses: -2; a vendor exception code the family lists: +1, one it
+// does not: -1. A telegram of a protocol only some families speak: +2 for each of them.
+constexpr double kNamed = 1, kRuleOnly = 0.5, kUnknown = -1, kRefused = -2;
+constexpr double kOwnProtocol = 2;
+// A station is bound when its best profile reaches kBindScore and leads the runner-up by
+// kBindMargin; rebinding needs a lead of kRebindMargin over the bound profile.
+constexpr double kBindScore = 2, kBindMargin = 2, kRebindMargin = 3;
+constexpr std::size_t kMaxAddressesPerRequest = 32;  // evidence from one request is bounded
+
+bool speaks(const DriveProfile& p, Protocol protocol) {
+  return std::find(p.protocols.begin(), p.protocols.end(), protocol) != p.protocols.end();
+}
+
+bool covers(const DriveProfile& p, RegisterKind kind, std::uint32_t address) {
+  if (p.find(kind, address)) return true;
+  // The low word of a two-word register.
+  const RegisterDef* prev = address ? p.find(kind, address - 1) : nullptr;
+  return prev && prev->words == 2;
+}
+
+double register_evidence(const DriveProfile& p, RegisterKind kind, std::uint32_t start,
+                         std::uint32_t count) {
+  double score = 0;
+  for (std::uint32_t i = 0; i < count && i < kMaxAddressesPerRequest; ++i) {
+    const std::uint32_t address = start + i;
+    if (covers(p, kind, address)) {
+      score += kNamed;
+    } else if (kind == RegisterKind::holding) {
+      if (const auto number = p.parameter_of_register(address)) {
+        const RegisterDef* prev = *number ? p.find(RegisterKind::parameter, *number - 1) : nullptr;
+        score += p.find(RegisterKind::parameter, *number) ? kNamed : kRuleOnly;
+        (void)prev;
+      } else if (const auto below = p.parameter_of_register(address - 1); below && i > 0) {
+        // The second register of a 32-bit parameter read from its first.
+        score += kRuleOnly;
+      } else {
+        score += kUnknown;
+      }
+    } else {
+      score += kUnknown;
+    }
+  }
+  return score;
+}
+
+double modbus_evidence(const DriveProfile& p, const Message& m,
+                       std::span<const std::uint8_t> request) {
+  const std::vector<std::uint8_t> b =
+      m.protocol == Protocol::modbus_ascii
+          ? modbus::decode_ascii_hex(m.bytes).binary
+          : std::vector<std::uint8_t>(m.bytes.begin(), m.bytes.end());
+  if (b.size() < 4) return 0;
+  const int fc = b[1] & 0x7F;
+  double score = 0;
+  if (m.direction == Direction::response) {
+    if ((b[1] & 0x80) && b.size() >= 3) {
+      if (p.exceptions.count(b[2]))
+        score += kNamed;
+      else if (b[2] > 4)
+        score += kUnknown;  // non-standard code the family does not list
+    }
+    (void)request;
+    return score;
+  }
+  if (m.direction != Direction::request) return 0;
+  if (!p.functions.empty() &&
+      std::find(p.functions.begin(), p.functions.end(), fc) == p.functions.end())
+    score += kRefused;
+  if (b.size() < 6) return score;
+  const std::uint32_t start = static_cast<std::uint32_t>(b[2] << 8 | b[3]);
+  const std::uint32_t count = static_cast<std::uint32_t>(b[4] << 8 | b[5]);
+  switch (fc) {
+    case 0x03:
+    case 0x04:
+      score += register_evidence(p, fc == 0x03 ? RegisterKind::holding : RegisterKind::input, start,
+                                 count);
+      if (p.max_read_registers && count > static_cast<std::uint32_t>(*p.max_read_registers))
+        score += kRefused;
+      break;
+    case 0x06:
+      score += register_evidence(p, RegisterKind::holding, start, 1);
+      break;
+    case 0x10:
+      score += register_evidence(p, RegisterKind::holding, start, count);
+      if (p.max_write_registers && count > static_cast<std::uint32_t>(*p.max_write_registers))
+        score += kRefused;
+      break;
+    case 0x01:
+    case 0x0F:
+      score += register_evidence(p, RegisterKind::coil, start, count);
+      break;
+    case 0x05:
+      score += register_evidence(p, RegisterKind::coil, start, 1);
+      break;
+    case 0x02:
+      score += register_evidence(p, RegisterKind::discrete, start, count);
+      break;
+    default:
+      break;
+  }
+  return score;
+}
+
+double evidence_for(const DriveProfile& p, const Message& m, std::span<const std::uint8_t> request,
+                    bool protocol_is_distinctive) {
+  switch (m.protocol) {
+    case Protocol::modbus_rtu:
+    case Protocol::modbus_ascii:
+      return modbus_evidence(p, m, request) + (protocol_is_distinctive ? kOwnProtocol : 0);
+    case Protocol::danfoss_fc:
+    case Protocol::easydrive:
+      return m.direction == Direction::request && protocol_is_distinctive ? kOwnProtocol : 0;
+    case Protocol::unknown:
+      break;
+  }
+  return 0;
+}
+
+}  // namespace
+
+DriveBinder::DriveBinder(std::vector<const DriveProfile*> candidates)
+    : candidates_(std::move(candidates)) {}
+
+const DriveProfile* DriveBinder::bound(std::size_t link, int address) const {
+  const auto it = stations_.find({link, address});
+  if (it == stations_.end() || it->second.bound < 0) return nullptr;
+  return candidates_[static_cast<std::size_t>(it->second.bound)];
+}
+
+std::pair<int, std::optional<double>> DriveBinder::best_of(const Station& st) const {
+  int best = -1;
+  std::optional<double> second;
+  for (std::size_t i = 0; i < candidates_.size(); ++i) {
+    if (st.excluded[i]) continue;
+    const double s = st.score[i];
+    if (best < 0 || s > st.score[static_cast<std::size_t>(best)]) {
+      if (best >= 0) second = st.score[static_cast<std::size_t>(best)];
+      best = static_cast<int>(i);
+    } else if (!second || s > *second) {
+      second = s;
+    }
+  }
+  return {best, second};
+}
+
+std::string DriveBinder::evidence(const Station& st) const {
+  if (st.bound < 0) return "no family profile fits its traffic; generic Modbus";
+  const auto [best, second] = best_of(st);
+  const double own = st.score[static_cast<std::size_t>(st.bound)];
+  std::string runner = "no other family speaks its protocol at its address";
+  if (second) {
+    for (std::size_t i = 0; i < candidates_.size(); ++i)
+      if (static_cast<int>(i) != st.bound && !st.excluded[i] && st.score[i] == *second) {
+        runner = fmt::format("next best {} {:+g}", candidates_[i]->name, *second);
+        break;
+      }
+  }
+  (void)best;
+  return fmt::format("auto, confidence {}: evidence {:+g} over {} frame{}, {}", st.confidence, own,
+                     st.frames, st.frames == 1 ? "" : "s", runner);
+}
+
+std::optional<BusEvent> DriveBinder::learn(std::size_t link, const Message& m,
+                                           std::span<const std::uint8_t> request) {
+  if (m.address <= 0 || candidates_.empty()) return std::nullopt;  // broadcasts bind nothing
+  if (m.checksum.verdict != ChecksumVerdict::good) return std::nullopt;
+  Station& st = stations_[{link, m.address}];
+  if (st.score.empty()) {
+    st.score.assign(candidates_.size(), 0);
+    st.excluded.assign(candidates_.size(), false);
+  }
+  ++st.frames;
+  std::size_t speakers = 0;
+  for (const DriveProfile* p : candidates_) speakers += speaks(*p, m.protocol) ? 1 : 0;
+  const bool distinctive = speakers > 0 && speakers < candidates_.size();
+  for (std::size_t i = 0; i < candidates_.size(); ++i) {
+    const DriveProfile& p = *candidates_[i];
+    if (!speaks(p, m.protocol) || m.address < p.address_min || m.address > p.address_max) {
+      st.excluded[i] = true;
+      continue;
+    }
+    st.score[i] += evidence_for(p, m, request, distinctive);
+  }
+  const auto [best, second] = best_of(st);
+  if (best < 0) return std::nullopt;
+  const double lead = st.score[static_cast<std::size_t>(best)] - second.value_or(0);
+  const double top = st.score[static_cast<std::size_t>(best)];
+  bool changed = false;
+  if (st.bound < 0) {
+    changed = top >= kBindScore && lead >= kBindMargin;
+  } else if (best != st.bound) {
+    changed = top - st.score[static_cast<std::size_t>(st.bound)] >= kRebindMargin;
+  }
+  if (st.bound >= 0 && st.excluded[static_cast<std::size_t>(st.bound)]) changed = true;
+  if (changed) st.bound = top >= kBindScore ? best : -1;
+  if (st.bound >= 0) {
+    const double own = st.score[static_cast<std::size_t>(st.bound)];
+    const double margin = own - (best == st.bound ? second.value_or(0) : top);
+    st.confidence = own >= 8 && margin >= 6 ? "high" : margin >= 3 ? "medium" : "low";
+  }
+  if (!changed) return std::nullopt;
+  BusEvent e;
+  e.time = m.frame.start();
+  e.channel = m.frame.channel;
+  e.kind = "drive_bound";
+  e.protocol = m.protocol;
+  e.address = m.address;
+  e.frame = m.frame.number;
+  e.confidence = st.bound >= 0 ? st.confidence : "low";
+  e.profile = st.bound >= 0 ? candidates_[static_cast<std::size_t>(st.bound)]->id : "generic";
+  e.to = e.profile;
+  e.detail = st.bound >= 0
+                 ? fmt::format("drive {} bound to {} ({})", m.address,
+                               candidates_[static_cast<std::size_t>(st.bound)]->name, evidence(st))
+                 : fmt::format("drive {}: {}", m.address, evidence(st));
+  return e;
+}
+
+}  // namespace drivetap

@@ -1,0 +1,54 @@
+// Drive binding by guess (`--drive auto`, the default): which family profile a station's traffic
+// fits — protocol, station address range, function codes, register and parameter addresses it
+// reads and writes, vendor exception codes. Contract: learns only from frames with a good
+// checksum; a station is bound once one profile leads every other by a clear margin, and rebound
+// only when another overtakes it by more; a station no profile fits stays on "generic Modbus"
+// (no drive-level annotation). Each binding change is a `drive_bound` BusEvent with the evidence.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <span>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "core/bus_event.hpp"
+#include "core/message.hpp"
+#include "profiles/profile.hpp"
+
+namespace drivetap {
+
+class DriveBinder {
+ public:
+  explicit DriveBinder(std::vector<const DriveProfile*> candidates);
+
+  // Weighs what `message` (and, for a reply, its `request`) says about its station; returns the
+  // event when the station's binding changed.
+  std::optional<BusEvent> learn(std::size_t link, const Message& message,
+                                std::span<const std::uint8_t> request);
+
+  struct Station {
+    std::vector<double> score;   // per candidate: fitting minus contradicting observations
+    std::vector<bool> excluded;  // protocol or address range rule the candidate out
+    int bound = -1;              // candidate index, -1 = generic
+    std::string confidence;      // of the current binding: "high", "medium", "low"
+    std::uint64_t frames = 0;
+  };
+  using Key = std::pair<std::size_t, int>;  // link, station address
+  [[nodiscard]] const DriveProfile* bound(std::size_t link, int address) const;
+  [[nodiscard]] const std::map<Key, Station>& stations() const { return stations_; }
+  [[nodiscard]] const DriveProfile& candidate(int index) const { return *candidates_[index]; }
+  // "auto, confidence high: evidence +12, next best ERMAN ER-G +3" for a station.
+  [[nodiscard]] std::string evidence(const Station& station) const;
+
+ private:
+  // Ranks the candidates of a station: best index and the runner-up's score.
+  std::pair<int, std::optional<double>> best_of(const Station& station) const;
+
+  std::vector<const DriveProfile*> candidates_;
+  std::map<Key, Station> stations_;
+};
+
+}  // namespace drivetap

@@ -1,0 +1,129 @@
+// Drive-state timeline (src/profiles/timeline.hpp): state changes become events.
+#include "profiles/timeline.hpp"
+
+#include <fmt/format.h>
+
+namespace drivetap {
+
+std::string DriveState::summary() const {
+  std::vector<std::string> parts;
+  if (running) parts.push_back(*running ? "running" : "stopped");
+  if (reverse) parts.push_back(*reverse ? "reverse" : "forward");
+  if (setpoint) parts.push_back("setpoint " + setpoint->text);
+  if (output_frequency) parts.push_back("output frequency " + output_frequency->text);
+  if (current) parts.push_back("current " + current->text);
+  if (voltage) parts.push_back("voltage " + voltage->text);
+  if (fault_code)
+    parts.push_back(*fault_code ? "fault " + fault_text : "no fault");
+  else if (fault_active)
+    parts.push_back(*fault_active ? "fault" : "no fault");
+  if (warning && *warning) parts.push_back("warning");
+  if (parts.empty()) return "state not seen";
+  return fmt::format("{}", fmt::join(parts, ", "));
+}
+
+std::vector<BusEvent> DriveTimeline::observe(std::size_t link, const Message& m,
+                                             const DriveProfile& profile,
+                                             const DriveObservation& o) {
+  std::vector<BusEvent> events;
+  DriveState& s = drives_[{link, m.address}];
+  if (s.profile_id != profile.id) {
+    s.profile_id = profile.id;
+    s.profile_name = profile.name;
+  }
+  auto emit = [&](std::string kind, std::string what, std::string from, std::string to) {
+    BusEvent e;
+    e.time = m.frame.start();
+    e.channel = m.frame.channel;
+    e.kind = std::move(kind);
+    e.protocol = m.protocol;
+    e.address = m.address;
+    e.profile = profile.id;
+    e.frame = m.frame.number;
+    e.detail = fmt::format("drive {} ({}): {}", m.address, profile.name, what);
+    e.from = std::move(from);
+    e.to = std::move(to);
+    ++s.events;
+    events.push_back(std::move(e));
+  };
+
+  // What the master commanded.
+  if (o.run_command && o.run_command != s.run_command) {
+    const char* to = *o.run_command ? "start" : "stop";
+    emit("command", fmt::format("{} commanded", to),
+         s.run_command ? (*s.run_command ? "start" : "stop") : "", to);
+    s.run_command = o.run_command;
+  }
+  if (o.reverse_command && o.reverse_command != s.reverse_command) {
+    // Forward is every drive's default: the first command says something only when it reverses.
+    if (s.reverse_command || *o.reverse_command) {
+      const char* to = *o.reverse_command ? "reverse" : "forward";
+      emit("command", fmt::format("{} commanded", to),
+           s.reverse_command ? (*s.reverse_command ? "reverse" : "forward") : "", to);
+    }
+    s.reverse_command = o.reverse_command;
+  }
+  const bool is_command = o.run_command || o.reverse_command || o.setpoint_command;
+  if (o.reset_command && !s.reset_level) emit("command", "fault reset commanded", "", "reset");
+  if (o.reset_command || is_command) s.reset_level = o.reset_command;
+  if (o.setpoint_command && (!s.setpoint || s.setpoint->text != o.setpoint_command->text)) {
+    emit("setpoint",
+         s.setpoint ? fmt::format("setpoint {} -> {} commanded", s.setpoint->text,
+                                  o.setpoint_command->text)
+                    : fmt::format("setpoint {} commanded", o.setpoint_command->text),
+         s.setpoint ? s.setpoint->text : "", o.setpoint_command->text);
+    s.setpoint = o.setpoint_command;
+  }
+
+  // What the drive reported.
+  if (o.running && o.running != s.running) {
+    const char* to = *o.running ? "running" : "stopped";
+    emit("running", to, s.running ? (*s.running ? "running" : "stopped") : "", to);
+    s.running = o.running;
+  }
+  if (o.reverse && o.reverse != s.reverse) {
+    if (s.reverse)
+      emit("direction",
+           fmt::format("direction {} -> {}", *s.reverse ? "reverse" : "forward",
+                       *o.reverse ? "reverse" : "forward"),
+           *s.reverse ? "reverse" : "forward", *o.reverse ? "reverse" : "forward");
+    s.reverse = o.reverse;
+  }
+  if (o.setpoint && (!s.setpoint || s.setpoint->text != o.setpoint->text)) {
+    emit("setpoint",
+         s.setpoint ? fmt::format("setpoint {} -> {}", s.setpoint->text, o.setpoint->text)
+                    : fmt::format("setpoint {}", o.setpoint->text),
+         s.setpoint ? s.setpoint->text : "", o.setpoint->text);
+    s.setpoint = o.setpoint;
+  }
+  if (o.fault_code && o.fault_code != s.fault_code) {
+    const std::uint32_t was = s.fault_code.value_or(0);
+    if (*o.fault_code != 0 && was == 0)
+      emit("fault", fmt::format("fault {} appeared", o.fault_text), "", o.fault_text);
+    else if (*o.fault_code == 0 && was != 0)
+      emit("fault", fmt::format("fault {} cleared", s.fault_text), s.fault_text, "");
+    else if (*o.fault_code != 0)
+      emit("fault", fmt::format("fault {} -> {}", s.fault_text, o.fault_text), s.fault_text,
+           o.fault_text);
+    s.fault_code = o.fault_code;
+    s.fault_text = o.fault_text;
+  }
+  if (o.fault_active && o.fault_active != s.fault_active) {
+    if (*o.fault_active || s.fault_active)
+      emit("fault", *o.fault_active ? "status word shows a fault" : "status word fault cleared",
+           *o.fault_active ? "" : "fault", *o.fault_active ? "fault" : "");
+    s.fault_active = o.fault_active;
+  }
+  if (o.warning && o.warning != s.warning) {
+    if (*o.warning || s.warning)
+      emit("warning", *o.warning ? "warning on" : "warning off", *o.warning ? "" : "warning",
+           *o.warning ? "warning" : "");
+    s.warning = o.warning;
+  }
+  if (o.output_frequency) s.output_frequency = o.output_frequency;
+  if (o.current) s.current = o.current;
+  if (o.voltage) s.voltage = o.voltage;
+  return events;
+}
+
+}  // namespace drivetap
