@@ -73,13 +73,33 @@ class CheckedRun {
   std::uint64_t pushed_ = 0;
 };
 
+// The built-in drive profiles, as `drivetap read` binds them by default (--drive auto): the
+// binder, the drive-level reading and the timeline run on every fuzz input too.
+inline const std::vector<const DriveProfile*>& builtin_candidates() {
+  static const std::vector<DriveProfile> profiles = [] {
+    std::vector<DriveProfile> out;
+    for (const BuiltinProfileText& b : builtin_profile_texts()) {
+      ProfileError e;
+      if (auto p = parse_profile(b.text, b.file, &e)) out.push_back(std::move(*p));
+    }
+    return out;
+  }();
+  static const std::vector<const DriveProfile*> pointers = [] {
+    std::vector<const DriveProfile*> out;
+    for (const DriveProfile& p : profiles) out.push_back(&p);
+    return out;
+  }();
+  return pointers;
+}
+
 // The loop of `drivetap read` (src/cli/main.cpp, run_read) over one source.
 inline void run_source(ByteSource& source, ChannelTable& channels) {
   if (!source.read_header()) return;
   std::string error;
   const auto options = resolve_pipeline_options(source.settings(), {}, &error);
   if (!options) return;  // the CLI refuses to run such a capture too
-  const PipelineOptions& p = *options;
+  PipelineOptions p = *options;
+  p.auto_candidates = builtin_candidates();
   source.set_character_time(p.timing.character_time);
   CheckedRun run(p, channels);
   ByteEvent e;

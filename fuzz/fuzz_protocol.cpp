@@ -43,6 +43,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   PipelineOptions options;
   options.protocol = kProtocol;
   options.timing = timing;
+  options.auto_candidates = fuzz::builtin_candidates();
   fuzz::CheckedRun run(options, channels);
   TimeNs t = 0;
   for (std::size_t i = 0; i < size; ++i) {

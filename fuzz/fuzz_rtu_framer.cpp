@@ -44,6 +44,7 @@ PipelineOptions options_from(std::uint8_t line, std::uint8_t timing) {
   const std::array<TimeNs, 4> t35 = {p.timing.t35, 1, 20 * c, c / 2 + 1};
   p.timing.t15 = t15[(timing >> 4) & 3];
   p.timing.t35 = t35[(timing >> 6) & 3];
+  p.auto_candidates = fuzz::builtin_candidates();
   return p;
 }
 

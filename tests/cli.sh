@@ -1,0 +1,63 @@
+#!/usr/bin/env bash
+# Command-line checks of drive profiles: a bad user profile is refused with file:line: key, a
+# --profile-dir profile replaces the built-in one of the same id, --drive none turns guessing off.
+#   tests/cli.sh DRIVETAP_BIN
+set -uo pipefail
+drivetap="$1"
+here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
+root="$here/.."
+failed=0
+fail() { echo "FAIL: $*"; failed=1; }
+
+# 1. A profile with an error: exit 1, one line naming file, line and key; also via --profile-dir
+#    and `drivetap profiles FILE`.
+bad="$here/profiles/bad/bad-scale.toml"
+for args in "read --profile $bad" "read --profile-dir $here/profiles/bad"; do
+  err=$("$drivetap" $args "$root/captures/session-e9/input.log" 2>&1 >/dev/null); rc=$?
+  [ "$rc" = 1 ] || fail "$args: exit $rc, expected 1"
+  [ "$err" = "drivetap: profile $bad:11: key 'register[1].scale': expected a number" ] ||
+    fail "$args: stderr was: $err"
+done
+err=$("$drivetap" profiles "$bad" 2>&1 >/dev/null); rc=$?
+[ "$rc" = 1 ] && [ "$err" = "drivetap: $bad:11: key 'register[1].scale': expected a number" ] ||
+  fail "profiles FILE: exit $rc, stderr: $err"
+
+# 2. --profile-dir: the site's e9 replaces the built-in one, and auto binding uses it.
+out=$("$drivetap" read --profile-dir "$here/profiles/good" "$root/captures/session-e9/input.log")
+grep -q "drive 2 bound to E-9 at pump station 3" <<<"$out" || fail "--profile-dir: not bound to the site profile"
+grep -q "site setpoint 40.00 Hz" <<<"$out" || fail "--profile-dir: site register name not used"
+
+# 3. --drive none: no binding, no drive lines; --drive 2=e9 binds without guessing.
+out=$("$drivetap" read --drive none "$root/captures/session-e9/input.log")
+grep -q "bound to\|^ *= drive" <<<"$out" && fail "--drive none still annotated"
+out=$("$drivetap" read --drive 2=e9 "$root/captures/session-e9/input.log")
+grep -q "bound to" <<<"$out" && fail "--drive 2=e9 still guessed"
+grep -q "(bound with --drive)" <<<"$out" || fail "--drive 2=e9: summary does not say how it was bound"
+
+# 4. Unknown profile id and malformed bindings are one-line errors naming the option.
+err=$("$drivetap" read --drive 2=nope "$root/captures/session-e9/input.log" 2>&1 >/dev/null); rc=$?
+[ "$rc" = 2 ] && [[ "$err" == "drivetap: --drive 2=nope: no profile 'nope' (known: "* ]] ||
+  fail "--drive 2=nope: exit $rc, stderr: $err"
+err=$("$drivetap" read --drive x=e9 "$root/captures/session-e9/input.log" 2>&1 >/dev/null); rc=$?
+[ "$rc" = 2 ] && [[ "$err" == "drivetap: --drive x=e9: expected ADDRESS=PROFILE"* ]] ||
+  fail "--drive x=e9: exit $rc, stderr: $err"
+err=$("$drivetap" read --profile-dir /nonexistent "$root/captures/session-e9/input.log" 2>&1 >/dev/null); rc=$?
+[ "$rc" = 1 ] && [[ "$err" == "drivetap: --profile-dir /nonexistent: "* ]] ||
+  fail "--profile-dir /nonexistent: exit $rc, stderr: $err"
+
+# 5. --events prints only events (no frame lines, no summary).
+out=$("$drivetap" read --events "$root/captures/session-e9/input.log")
+grep -q " req \| rsp \|summary" <<<"$out" && fail "--events printed frames or the summary"
+grep -q "fault 4 (output overcurrent) appeared" <<<"$out" || fail "--events: fault event missing"
+
+# 6. Every golden polling session binds, with no option, to its family and to no other.
+for pair in session-e9:"ERMAN E-9P/9G" session-erg:"ERMAN ER-G" session-e5-8200:"E5-8200" \
+            session-e5-8200-ascii:"E5-8200" session-vlt-aqua-fc:"Danfoss VLT AQUA" \
+            session-vlt-aqua-modbus:"Danfoss VLT AQUA" session-eds1000:"Easydrive EDS1000"; do
+  dir=${pair%%:*}; family=${pair#*:}
+  bindings=$("$drivetap" read --events "$root/captures/$dir/input.log" | grep -o "bound to [^(]*" | sort -u)
+  [ "$bindings" = "bound to $family " ] || fail "$dir: bindings were '$bindings', expected '$family'"
+done
+
+[ "$failed" = 0 ] && echo "ok cli"
+exit "$failed"
