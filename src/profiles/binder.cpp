@@ -13,7 +13,8 @@ namespace {
 // Evidence weights. A register the family's manual names: +1; an address only its parameter
 // addressing rule explains: +0.5; an address the family does not have: -1; a function code or
 // a request size the family refuses: -2; a vendor exception code the family lists: +1, one it
-// does not: -1. A telegram of a protocol only some families speak: +2 for each of them.
+// does not: -1. A request in the Danfoss FC or Easydrive protocol: +2 for each family speaking
+// it (plain Modbus earns nothing by itself: every device speaks it).
 constexpr double kNamed = 1, kRuleOnly = 0.5, kUnknown = -1, kRefused = -2;
 constexpr double kOwnProtocol = 2;
 // A station is bound when its best profile reaches kBindScore and leads the runner-up by
@@ -115,15 +116,29 @@ double modbus_evidence(const DriveProfile& p, const Message& m,
   return score;
 }
 
-double evidence_for(const DriveProfile& p, const Message& m, std::span<const std::uint8_t> request,
-                    bool protocol_is_distinctive) {
+// Evidence from an FC-protocol or Easydrive frame: the protocol itself belongs to one family
+// (Danfoss, Easydrive), the parameters and running values it names confirm the profile.
+double own_protocol_evidence(const DriveProfile& p, const Message& m) {
+  if (m.direction != Direction::request) return 0;
+  double score = kOwnProtocol;
+  const std::span<const std::uint8_t> b = m.bytes;
+  if (m.protocol == Protocol::danfoss_fc && b.size() == 16 && b[1] == 14) {
+    const std::uint32_t pnu = static_cast<std::uint32_t>((b[3] & 0x0F) << 8 | b[4]);
+    if ((b[3] >> 4) != 0) score += p.find(RegisterKind::parameter, pnu) ? kNamed : 0;
+  }
+  return score;
+}
+
+double evidence_for(const DriveProfile& p, const Message& m,
+                    std::span<const std::uint8_t> request) {
   switch (m.protocol) {
     case Protocol::modbus_rtu:
     case Protocol::modbus_ascii:
-      return modbus_evidence(p, m, request) + (protocol_is_distinctive ? kOwnProtocol : 0);
+      // Every Modbus device speaks Modbus: only what it reads and writes tells the family.
+      return modbus_evidence(p, m, request);
     case Protocol::danfoss_fc:
     case Protocol::easydrive:
-      return m.direction == Direction::request && protocol_is_distinctive ? kOwnProtocol : 0;
+      return own_protocol_evidence(p, m);
     case Protocol::unknown:
       break;
   }
@@ -158,18 +173,27 @@ std::pair<int, std::optional<double>> DriveBinder::best_of(const Station& st) co
 }
 
 std::string DriveBinder::evidence(const Station& st) const {
-  if (st.bound < 0) return "no family profile fits its traffic; generic Modbus";
   const auto [best, second] = best_of(st);
+  auto name_with = [&](double score, int skip) -> std::string {
+    for (std::size_t i = 0; i < candidates_.size(); ++i)
+      if (static_cast<int>(i) != skip && !st.excluded[i] && st.score[i] == score)
+        return fmt::format("{} {:+g}", candidates_[i]->name, score);
+    return {};
+  };
+  if (st.bound < 0) {
+    if (best < 0) return "no family profile speaks its protocol at its address";
+    const double top = st.score[static_cast<std::size_t>(best)];
+    if (top <= 0)
+      return fmt::format("no family profile fits its traffic (best {})", name_with(top, -1));
+    return fmt::format("too little evidence to choose ({}{})", name_with(top, -1),
+                       second ? ", " + name_with(*second, best) : std::string());
+  }
   const double own = st.score[static_cast<std::size_t>(st.bound)];
   std::string runner = "no other family speaks its protocol at its address";
-  if (second) {
-    for (std::size_t i = 0; i < candidates_.size(); ++i)
-      if (static_cast<int>(i) != st.bound && !st.excluded[i] && st.score[i] == *second) {
-        runner = fmt::format("next best {} {:+g}", candidates_[i]->name, *second);
-        break;
-      }
-  }
-  (void)best;
+  if (second)
+    runner =
+        "next best " +
+        name_with(best == st.bound ? *second : st.score[static_cast<std::size_t>(best)], st.bound);
   return fmt::format("auto, confidence {}: evidence {:+g} over {} frame{}, {}", st.confidence, own,
                      st.frames, st.frames == 1 ? "" : "s", runner);
 }
@@ -184,16 +208,13 @@ std::optional<BusEvent> DriveBinder::learn(std::size_t link, const Message& m,
     st.excluded.assign(candidates_.size(), false);
   }
   ++st.frames;
-  std::size_t speakers = 0;
-  for (const DriveProfile* p : candidates_) speakers += speaks(*p, m.protocol) ? 1 : 0;
-  const bool distinctive = speakers > 0 && speakers < candidates_.size();
   for (std::size_t i = 0; i < candidates_.size(); ++i) {
     const DriveProfile& p = *candidates_[i];
     if (!speaks(p, m.protocol) || m.address < p.address_min || m.address > p.address_max) {
       st.excluded[i] = true;
       continue;
     }
-    st.score[i] += evidence_for(p, m, request, distinctive);
+    st.score[i] += evidence_for(p, m, request);
   }
   const auto [best, second] = best_of(st);
   if (best < 0) return std::nullopt;
@@ -210,7 +231,9 @@ std::optional<BusEvent> DriveBinder::learn(std::size_t link, const Message& m,
   if (st.bound >= 0) {
     const double own = st.score[static_cast<std::size_t>(st.bound)];
     const double margin = own - (best == st.bound ? second.value_or(0) : top);
-    st.confidence = own >= 8 && margin >= 6 ? "high" : margin >= 3 ? "medium" : "low";
+    st.confidence = own >= 8 && margin >= 6            ? "high"
+                    : own >= kBindScore && margin >= 3 ? "medium"
+                                                       : "low";
   }
   if (!changed) return std::nullopt;
   BusEvent e;
