@@ -227,6 +227,7 @@ std::optional<BusEvent> DriveBinder::learn(std::size_t link, const Message& m,
     changed = top - st.score[static_cast<std::size_t>(st.bound)] >= kRebindMargin;
   }
   if (st.bound >= 0 && st.excluded[static_cast<std::size_t>(st.bound)]) changed = true;
+  const int was = st.bound;
   if (changed) st.bound = top >= kBindScore ? best : -1;
   if (st.bound >= 0) {
     const double own = st.score[static_cast<std::size_t>(st.bound)];
@@ -246,6 +247,7 @@ std::optional<BusEvent> DriveBinder::learn(std::size_t link, const Message& m,
   e.confidence = st.bound >= 0 ? st.confidence : "low";
   e.profile = st.bound >= 0 ? candidates_[static_cast<std::size_t>(st.bound)]->id : "generic";
   e.to = e.profile;
+  if (was >= 0) e.from = candidates_[static_cast<std::size_t>(was)]->id;
   e.detail = st.bound >= 0
                  ? fmt::format("drive {} bound to {} ({})", m.address,
                                candidates_[static_cast<std::size_t>(st.bound)]->name, evidence(st))

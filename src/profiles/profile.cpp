@@ -28,7 +28,9 @@ const RegisterDef* DriveProfile::find(RegisterKind kind, std::uint32_t address) 
 std::optional<std::uint32_t> DriveProfile::parameter_of_register(std::uint32_t address) const {
   switch (parameter_rule) {
     case ParameterRule::ggpp:
-      return address;
+      // Groups and numbers are two decimal digits in the manual ("10-11" -> 0x0A0B).
+      if ((address >> 8) <= 99 && (address & 0xFF) <= 99) return address;
+      return std::nullopt;
     case ParameterRule::danfoss:
       // Danfoss 002 §7.8.8/§7.9: register number = 10 x PNU, addressed from 0 on the wire.
       if ((address + 1) % 10 == 0) return (address + 1) / 10;

@@ -1,0 +1,1131 @@
+// Unit tests: the drive level — parameter numbering rules, profile schema errors, drive readings
+// of Modbus RTU/ASCII, Danfoss FC and Easydrive frames with the built-in profiles, the
+// drive-state timeline and drive binding by guess. Values are the manuals' (PROTOCOLS.md §2-§5).
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "core/protocol.hpp"
+#include "profiles/annotate.hpp"
+#include "profiles/binder.hpp"
+#include "profiles/profile.hpp"
+#include "profiles/timeline.hpp"
+#include "test_support.hpp"
+
+using namespace drivetap;
+using drivetap::testing::with_crc;
+
+namespace {
+
+DriveProfile builtin_profile(std::string_view file) {
+  for (const BuiltinProfileText& p : builtin_profile_texts()) {
+    if (p.file != file) continue;
+    ProfileError e;
+    auto profile = parse_profile(p.text, p.file, &e);
+    if (!profile) {
+      ADD_FAILURE() << e.text();
+      return {};
+    }
+    return *profile;
+  }
+  ADD_FAILURE() << file << " not built in";
+  return {};
+}
+
+// All built-in profiles, loaded once for the whole test binary.
+const std::vector<DriveProfile>& all_builtins() {
+  static const std::vector<DriveProfile> profiles = [] {
+    std::vector<DriveProfile> out;
+    for (const BuiltinProfileText& p : builtin_profile_texts())
+      out.push_back(builtin_profile(p.file));
+    return out;
+  }();
+  return profiles;
+}
+
+std::vector<const DriveProfile*> builtin_candidates() {
+  std::vector<const DriveProfile*> out;
+  for (const DriveProfile& p : all_builtins()) out.push_back(&p);
+  return out;
+}
+
+// A frame of `bytes`, one character time apart, starting at `start`.
+Frame frame_of(const std::vector<std::uint8_t>& bytes, std::uint64_t number, TimeNs start) {
+  const TimeNs ct = FramingTiming::from(SerialConfig{}).character_time;
+  Frame f;
+  TimeNs t = start;
+  for (std::uint8_t b : bytes) {
+    f.events.push_back({t, b, 0, 0, 0});
+    t += ct;
+  }
+  f.number = number;
+  return f;
+}
+
+// Runs `bytes` through the protocol's own dissector, as the pipeline does.
+Message decode(Protocol protocol, const std::vector<std::uint8_t>& bytes, Direction direction,
+               std::span<const std::uint8_t> request = {}, std::uint64_t number = 1,
+               TimeNs start = 0) {
+  const ProtocolDecoder* d = decoder_for(protocol);
+  EXPECT_NE(d, nullptr);
+  return d->dissect(frame_of(bytes, number, start), direction, FramingTiming::from(SerialConfig{}),
+                    request);
+}
+
+Message rtu(const std::vector<std::uint8_t>& body, Direction direction,
+            std::span<const std::uint8_t> request = {}, std::uint64_t number = 1) {
+  return decode(Protocol::modbus_rtu, with_crc(body), direction, request, number);
+}
+
+// Danfoss FC telegram: appends BCC (XOR of every byte from STX on).
+std::vector<std::uint8_t> with_bcc(std::vector<std::uint8_t> b) {
+  std::uint8_t x = 0;
+  for (std::uint8_t c : b) x ^= c;
+  b.push_back(x);
+  return b;
+}
+
+// Easydrive frame: '~' body SUM CR, SUM = 16-bit sum of the body's ASCII codes, 4 hex digits.
+std::vector<std::uint8_t> eds_frame(std::string_view body) {
+  unsigned sum = 0;
+  for (char c : body) sum += static_cast<unsigned char>(c);
+  const std::string text = fmt::format("~{}{:04X}\r", body, sum & 0xFFFF);
+  return {text.begin(), text.end()};
+}
+
+// Modbus ASCII frame: ':' hex(ADDR..DATA) LRC CR LF.
+std::vector<std::uint8_t> ascii_frame(const std::vector<std::uint8_t>& binary) {
+  std::string text = ":";
+  for (std::uint8_t b : binary) text += fmt::format("{:02X}", b);
+  text += fmt::format("{:02X}\r\n", lrc8(binary));
+  return {text.begin(), text.end()};
+}
+
+std::string load_error(std::string_view toml) {
+  ProfileError e;
+  EXPECT_FALSE(parse_profile(toml, "user.toml", &e)) << toml;
+  return e.text();
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// Parameter numbering rules (profile.hpp ParameterRule; PROTOCOLS.md §2, §4, §5).
+
+TEST(ParameterRules, ParsesTheManualsNumbersUnderEachRule) {
+  // E5-8200 GGPP (004): 08-03 -> 0x0803, 10-11 -> 0x0A0B.
+  EXPECT_EQ(parse_parameter_number(ParameterRule::ggpp, "08-03"), 0x0803u);
+  EXPECT_EQ(parse_parameter_number(ParameterRule::ggpp, "10-11"), 0x0A0Bu);
+  // Danfoss G-NN -> PNU G*100+NN (002 §7.5.1: 4-14 -> PNU 414).
+  EXPECT_EQ(parse_parameter_number(ParameterRule::danfoss, "4-14"), 414u);
+  EXPECT_EQ(parse_parameter_number(ParameterRule::danfoss, "16-13"), 1613u);
+  EXPECT_EQ(parse_parameter_number(ParameterRule::danfoss, "0-01"), 1u);
+  // Easydrive Fg.nn -> g << 8 | nn (001 tables 11-6/11-7: F0.05 -> 0005, F2.11 -> 020B).
+  EXPECT_EQ(parse_parameter_number(ParameterRule::easydrive, "F0.05"), 0x0005u);
+  EXPECT_EQ(parse_parameter_number(ParameterRule::easydrive, "F2.11"), 0x020Bu);
+  EXPECT_EQ(parse_parameter_number(ParameterRule::easydrive, "F2.15"), 0x020Fu);
+  EXPECT_EQ(parse_parameter_number(ParameterRule::easydrive, "FD.01"), 0x0D01u);
+}
+
+TEST(ParameterRules, RejectsMalformedNumbers) {
+  EXPECT_EQ(parse_parameter_number(ParameterRule::danfoss, "4.14"), std::nullopt);
+  EXPECT_EQ(parse_parameter_number(ParameterRule::danfoss, "4-140"), std::nullopt);
+  EXPECT_EQ(parse_parameter_number(ParameterRule::danfoss, "4-"), std::nullopt);
+  EXPECT_EQ(parse_parameter_number(ParameterRule::danfoss, "-14"), std::nullopt);
+  EXPECT_EQ(parse_parameter_number(ParameterRule::danfoss, "4-1x"), std::nullopt);
+  EXPECT_EQ(parse_parameter_number(ParameterRule::easydrive, "F0-05"), std::nullopt);
+  EXPECT_EQ(parse_parameter_number(ParameterRule::easydrive, "0.05"), std::nullopt);
+  EXPECT_EQ(parse_parameter_number(ParameterRule::easydrive, "Fd.01"), std::nullopt);
+  EXPECT_EQ(parse_parameter_number(ParameterRule::easydrive, "FG.01"), std::nullopt);
+  EXPECT_EQ(parse_parameter_number(ParameterRule::ggpp, "08.03"), std::nullopt);
+  EXPECT_EQ(parse_parameter_number(ParameterRule::ggpp, "256-00"), std::nullopt);
+  EXPECT_EQ(parse_parameter_number(ParameterRule::none, "4-14"), std::nullopt);
+}
+
+TEST(ParameterRules, DanfossRegisterAddressIsTenTimesPnuMinusOne) {
+  DriveProfile p;
+  p.parameter_rule = ParameterRule::danfoss;
+  // 002 §7.9.1/§7.8.8: parameter 4-14 -> register 4140 -> wire address 4139 (0x102B).
+  EXPECT_EQ(p.parameter_of_register(4139), 414u);
+  EXPECT_EQ(p.parameter_of_register(0x102B), 414u);
+  // §7.10.6: parameter 1-05 -> wire 0x0419.
+  EXPECT_EQ(p.parameter_of_register(0x0419), 105u);
+  EXPECT_EQ(p.parameter_of_register(4140), std::nullopt);
+  EXPECT_EQ(p.parameter_of_register(4138), std::nullopt);
+
+  DriveProfile ggpp;
+  ggpp.parameter_rule = ParameterRule::ggpp;
+  EXPECT_EQ(ggpp.parameter_of_register(0x0803), 0x0803u);
+  DriveProfile eds;
+  eds.parameter_rule = ParameterRule::easydrive;  // Easydrive parameters are not on Modbus
+  EXPECT_EQ(eds.parameter_of_register(0x0005), std::nullopt);
+  DriveProfile none;
+  EXPECT_EQ(none.parameter_of_register(4139), std::nullopt);
+}
+
+TEST(ParameterRules, LabelsRoundTrip) {
+  DriveProfile danfoss, ggpp, eds;
+  danfoss.parameter_rule = ParameterRule::danfoss;
+  ggpp.parameter_rule = ParameterRule::ggpp;
+  eds.parameter_rule = ParameterRule::easydrive;
+  EXPECT_EQ(danfoss.parameter_label(414), "4-14");
+  EXPECT_EQ(danfoss.parameter_label(1613), "16-13");
+  EXPECT_EQ(danfoss.parameter_label(1), "0-01");
+  EXPECT_EQ(ggpp.parameter_label(0x0803), "08-03");
+  EXPECT_EQ(ggpp.parameter_label(0x0A0B), "10-11");
+  EXPECT_EQ(eds.parameter_label(0x0005), "F0.05");
+  EXPECT_EQ(eds.parameter_label(0x020B), "F2.11");
+  EXPECT_EQ(eds.parameter_label(0x0D01), "FD.01");
+  for (const char* text : {"4-14", "16-13", "0-01", "65-53"})
+    EXPECT_EQ(danfoss.parameter_label(*parse_parameter_number(ParameterRule::danfoss, text)), text);
+  for (const char* text : {"08-03", "10-11", "00-00"})
+    EXPECT_EQ(ggpp.parameter_label(*parse_parameter_number(ParameterRule::ggpp, text)), text);
+  for (const char* text : {"F0.05", "F2.11", "FD.01", "FF.99"})
+    EXPECT_EQ(eds.parameter_label(*parse_parameter_number(ParameterRule::easydrive, text)), text);
+}
+
+TEST(ParameterRules, FindHoldingOnVltAqua) {
+  const DriveProfile vlt = builtin_profile("vlt-aqua.toml");
+  ASSERT_EQ(vlt.parameter_rule, ParameterRule::danfoss);
+  std::string label = "stale";
+  const RegisterDef* r = vlt.find_holding(4139, &label);
+  ASSERT_NE(r, nullptr);
+  EXPECT_EQ(r->kind, RegisterKind::parameter);
+  EXPECT_EQ(r->number, "4-14");
+  EXPECT_EQ(r->address, 414u);
+  EXPECT_DOUBLE_EQ(r->scale, 0.1);
+  EXPECT_EQ(r->unit, "Hz");
+  EXPECT_EQ(label, "");
+  EXPECT_EQ(display_name(*r), "4-14 motor speed high limit [Hz]");
+
+  // 16-12 is rule-mapped (register 16120 -> wire 16119) but the profile does not name it.
+  EXPECT_EQ(vlt.find_holding(1612 * 10 - 1, &label), nullptr);
+  EXPECT_EQ(label, "16-12");
+  // An address the rule does not map: no register, no label.
+  EXPECT_EQ(vlt.find_holding(1612 * 10, &label), nullptr);
+  EXPECT_EQ(label, "");
+  // A named holding register wins over the rule (CTW at register 50000, wire 49999).
+  const RegisterDef* ctw = vlt.find_holding(49999, &label);
+  ASSERT_NE(ctw, nullptr);
+  EXPECT_EQ(ctw->name, "control word (CTW)");
+  EXPECT_EQ(ctw->kind, RegisterKind::holding);
+  EXPECT_EQ(label, "");
+}
+
+// ---------------------------------------------------------------------------------------------
+// Profile schema: the loader's errors name file, line and key.
+
+TEST(ProfileSchema, ParameterRuleErrors) {
+  EXPECT_EQ(load_error("[drive]\nid = \"x\"\nname = \"X\"\n[parameters]\nrule = \"x\"\n"),
+            "user.toml:5: key 'parameters.rule': must be ggpp, danfoss or easydrive");
+  EXPECT_EQ(load_error("[drive]\nid = \"x\"\nname = \"X\"\n[parameters]\nrule = \"danfoss\"\n"
+                       "[[parameter]]\nnumber = \"4.14\"\nname = \"a\"\n"),
+            "user.toml:7: key 'parameter[1].number': expected a parameter number like \"4-14\" "
+            "under this rule");
+  EXPECT_EQ(load_error("[drive]\nid = \"x\"\nname = \"X\"\n[parameters]\nrule = \"ggpp\"\n"
+                       "[[parameter]]\nnumber = \"8-3-1\"\nname = \"a\"\n"),
+            "user.toml:7: key 'parameter[1].number': expected a parameter number like \"08-03\" "
+            "under this rule");
+  EXPECT_EQ(load_error("[drive]\nid = \"x\"\nname = \"X\"\n[parameters]\nrule = \"easydrive\"\n"
+                       "[[parameter]]\nname = \"a\"\nnumber = \"F0-05\"\n"),
+            "user.toml:8: key 'parameter[1].number': expected a parameter number like \"F0.05\" "
+            "under this rule");
+  EXPECT_EQ(load_error("[drive]\nid = \"x\"\nname = \"X\"\n[[parameter]]\nnumber = \"4-14\"\n"
+                       "name = \"a\"\n"),
+            "user.toml:5: key 'parameter[1].number': parameters need a [parameters] rule (ggpp, "
+            "danfoss or easydrive)");
+  // A [[parameter]] has a number, not an address.
+  EXPECT_EQ(load_error("[drive]\nid = \"x\"\nname = \"X\"\n[parameters]\nrule = \"danfoss\"\n"
+                       "[[parameter]]\nnumber = \"4-14\"\nname = \"a\"\naddress = 4139\n"),
+            "user.toml:9: key 'parameter[1].address': unknown key");
+}
+
+TEST(ProfileSchema, ProcessDataErrors) {
+  EXPECT_EQ(load_error("[drive]\nid = \"x\"\nname = \"X\"\n[[register]]\naddress = 1\n"
+                       "name = \"a\"\n[process_data]\nto_drive = [1]\nfrom_drive = [1, 1]\n"),
+            "user.toml:8: key 'process_data.to_drive': expected [PCD1, PCD2] addresses");
+  EXPECT_EQ(
+      load_error("[drive]\nid = \"x\"\nname = \"X\"\n[[register]]\naddress = 1\n"
+                 "name = \"a\"\n[process_data]\nto_drive = [1, 70000]\nfrom_drive = [1, 1]\n"),
+      "user.toml:8: key 'process_data.to_drive': each must be a register address 0..65535");
+  EXPECT_EQ(load_error("[drive]\nid = \"x\"\nname = \"X\"\n[[register]]\naddress = 1\n"
+                       "name = \"a\"\n[process_data]\nto_drive = [1, 1]\n"),
+            "user.toml:7: key 'process_data.from_drive': missing");
+  // An address with no [[register]] (written inline on line 1: the table and its keys share it).
+  const std::string tail =
+      "[drive]\nid = \"x\"\nname = \"X\"\n[[register]]\naddress = 1\n"
+      "name = \"a\"\n[[register]]\naddress = 2\nname = \"b\"\nkind = \"coil\"\n";
+  EXPECT_EQ(load_error("process_data = { to_drive = [1, 3], from_drive = [1, 1] }\n" + tail),
+            "user.toml:1: key 'process_data.to_drive': no [[register]] with address 3");
+  EXPECT_EQ(load_error("process_data = { to_drive = [1, 1], from_drive = [3, 1] }\n" + tail),
+            "user.toml:1: key 'process_data.from_drive': no [[register]] with address 3");
+  // A coil at the address does not count: PCD words are holding registers.
+  EXPECT_EQ(load_error("process_data = { to_drive = [1, 2], from_drive = [1, 1] }\n" + tail),
+            "user.toml:1: key 'process_data.to_drive': no [[register]] with address 2");
+  // The same profile with both addresses registered loads.
+  ProfileError e;
+  EXPECT_TRUE(parse_profile("process_data = { to_drive = [1, 1], from_drive = [1, 1] }\n" + tail,
+                            "user.toml", &e))
+      << e.text();
+}
+
+TEST(ProfileSchema, RegisterStateWordsAndEnumErrors) {
+  const std::string head =
+      "[drive]\nid = \"x\"\nname = \"X\"\n[[register]]\naddress = 1\n"
+      "name = \"a\"\n";  // lines 1..6
+  EXPECT_EQ(load_error(head + "[register.state]\nrunning = 40\n"),
+            "user.toml:8: key 'register[1].state.running': expected a bit number 0..31 or a list "
+            "of them");
+  EXPECT_EQ(load_error(head + "[register.state]\nrun = 0\nrunning = [1, 32]\n"),
+            "user.toml:9: key 'register[1].state.running': expected a bit number 0..31 or a list "
+            "of them");
+  EXPECT_EQ(load_error(head + "[register.state]\nrunning = []\n"),
+            "user.toml:8: key 'register[1].state.running': expected a bit number 0..31 or a list "
+            "of them");
+  EXPECT_EQ(load_error(head + "[register.state]\nspinning = 1\n"),
+            "user.toml:8: key 'register[1].state.spinning': unknown state (run, reset, running, "
+            "forward, reverse, fault, warning, ready)");
+  EXPECT_EQ(load_error(head + "words = 3\n"),
+            "user.toml:7: key 'register[1].words': must be in 1..2");
+  EXPECT_EQ(load_error(head + "enum = \"nope\"\nunit = \"Hz\"\n"),
+            "user.toml:7: key 'register[1].enum': no [enums.nope] table");
+  EXPECT_EQ(load_error(head + "role = \"speed\"\n"),
+            "user.toml:7: key 'register[1].role': must be control, status, setpoint, "
+            "output_frequency, current, voltage, fault, start, stop or reset");
+  EXPECT_EQ(load_error(head + "kind = \"running\"\nwords = 0\n"),
+            "user.toml:8: key 'register[1].words': must be in 1..2");
+  EXPECT_EQ(load_error("[drive]\nid = \"x\"\nname = \"X\"\n[[register]]\naddress = 1\n"
+                       "name = \"a\"\n[[register]]\naddress = 2\nname = \"b\"\nenum = \"nope\"\n"),
+            "user.toml:10: key 'register[2].enum': no [enums.nope] table");
+}
+
+TEST(ProfileSchema, NewKeysLoad) {
+  ProfileError e;
+  const auto p = parse_profile(
+      "[drive]\nid = \"x\"\nname = \"X\"\nprotocols = [\"danfoss-fc\"]\n"
+      "[parameters]\nrule = \"danfoss\"\n"
+      "[process_data]\nto_drive = [49999, 50009]\nfrom_drive = [50199, 50209]\n"
+      "[[register]]\naddress = 49999\nname = \"CTW\"\nrole = \"control\"\n"
+      "[register.state]\nrun = 6\nreset = 7\nreverse = 15\n"
+      "[[register]]\naddress = 50009\nname = \"REF\"\nrole = \"setpoint\"\nsigned = true\n"
+      "[[register]]\naddress = 50199\nname = \"STW\"\nrole = \"status\"\n"
+      "[register.state]\nrunning = 11\nfault = [3, 6]\n"
+      "[[register]]\naddress = 50209\nname = \"MAV\"\nwords = 1\n"
+      "[[parameter]]\nnumber = \"1-05\"\nname = \"current\"\nwords = 2\nscale = 0.01\n"
+      "[parameter_errors]\n2 = \"limit\"\n0x11 = \"mode\"\n",
+      "user.toml", &e);
+  ASSERT_TRUE(p) << e.text();
+  EXPECT_EQ(p->parameter_rule, ParameterRule::danfoss);
+  EXPECT_EQ(p->pcd_to_drive, (std::vector<std::uint32_t>{49999, 50009}));
+  EXPECT_EQ(p->pcd_from_drive, (std::vector<std::uint32_t>{50199, 50209}));
+  const RegisterDef* ctw = p->find(RegisterKind::holding, 49999);
+  ASSERT_NE(ctw, nullptr);
+  EXPECT_EQ(ctw->state.run, std::vector<int>{6});
+  EXPECT_EQ(ctw->state.reset, std::vector<int>{7});
+  EXPECT_EQ(ctw->state.reverse, std::vector<int>{15});
+  const RegisterDef* stw = p->find(RegisterKind::holding, 50199);
+  ASSERT_NE(stw, nullptr);
+  EXPECT_EQ(stw->state.fault, (std::vector<int>{3, 6}));
+  const RegisterDef* par = p->find(RegisterKind::parameter, 105);
+  ASSERT_NE(par, nullptr);
+  EXPECT_EQ(par->number, "1-05");
+  EXPECT_EQ(par->words, 2);
+  EXPECT_EQ(p->parameter_errors.at(17), "mode");
+  EXPECT_EQ(p->parameter_errors.at(2), "limit");
+}
+
+TEST(ProfileSchema, BitsComeOutSortedByBitNumber) {
+  ProfileError e;
+  const auto p = parse_profile(
+      "[drive]\nid = \"x\"\nname = \"X\"\n[[register]]\naddress = 1\nname = \"a\"\n"
+      "[register.bits]\n10 = [\"\", \"ten\"]\n2 = [\"\", \"two\"]\n1 = [\"off\", \"one\"]\n",
+      "user.toml", &e);
+  ASSERT_TRUE(p) << e.text();
+  const RegisterDef* r = p->find(RegisterKind::holding, 1);
+  ASSERT_NE(r, nullptr);
+  ASSERT_EQ(r->bits.size(), 3u);
+  EXPECT_EQ(r->bits[0].bit, 1);
+  EXPECT_EQ(r->bits[1].bit, 2);
+  EXPECT_EQ(r->bits[2].bit, 10);
+  EXPECT_EQ(r->bits[2].when_set, "ten");
+  // Meanings are shown in bit order too.
+  EXPECT_EQ(describe_value(*p, *r, 0x0404), "0x0404 [off, two, ten]");
+  EXPECT_EQ(describe_value(*p, *r, 0x0006), "0x0006 [one, two]");
+}
+
+// ---------------------------------------------------------------------------------------------
+// Drive readings (read_for_drive) with the built-in profiles.
+
+TEST(DriveReading, E9WriteOfControlWordAndSetpoint) {
+  const DriveProfile e9 = builtin_profile("e9.toml");
+  // 000 §5.1: FC 10 at 0x0010, 2 registers: control word 0x0001 (run), setpoint 5000 = 50.00 Hz.
+  const Message m =
+      rtu({0x02, 0x10, 0x00, 0x10, 0x00, 0x02, 0x04, 0x00, 0x01, 0x13, 0x88}, Direction::request);
+  ASSERT_EQ(m.checksum.verdict, ChecksumVerdict::good);
+  const DriveReading r = read_for_drive(e9, m, {});
+  EXPECT_EQ(r.text,
+            "drive 2 (ERMAN E-9P/9G): set control word 0x0001 [run, forward]; frequency setpoint "
+            "50.00 Hz");
+  EXPECT_EQ(r.observed.run_command, true);
+  EXPECT_EQ(r.observed.reverse_command, false);
+  EXPECT_FALSE(r.observed.reset_command);
+  ASSERT_TRUE(r.observed.setpoint_command);
+  EXPECT_DOUBLE_EQ(r.observed.setpoint_command->value, 50.0);
+  EXPECT_EQ(r.observed.setpoint_command->text, "50.00 Hz");
+  // A write is a command: nothing the drive reported.
+  EXPECT_FALSE(r.observed.running);
+  EXPECT_FALSE(r.observed.setpoint);
+}
+
+TEST(DriveReading, E9StatusReplyReadWithItsRequest) {
+  const DriveProfile e9 = builtin_profile("e9.toml");
+  const Message req = rtu({0x02, 0x03, 0x00, 0x00, 0x00, 0x05}, Direction::request);
+  EXPECT_EQ(read_for_drive(e9, req, {}).text,
+            "drive 2 (ERMAN E-9P/9G): read drive status .. output current");
+  // Status 0x000A (forward, fault), setpoint 50.00 Hz, output 49.89 Hz, 380 V, 10.0 A.
+  const Message rsp =
+      rtu({0x02, 0x03, 0x0A, 0x00, 0x0A, 0x13, 0x88, 0x13, 0x7D, 0x01, 0x7C, 0x00, 0x64},
+          Direction::response);
+  const DriveReading r = read_for_drive(e9, rsp, req.bytes);
+  EXPECT_EQ(r.text,
+            "drive 2 (ERMAN E-9P/9G): drive status 0x000A [stopped, forward, normal rotation, "
+            "fault]; frequency setpoint 50.00 Hz; output frequency 49.89 Hz; output voltage 380 V; "
+            "output current 10.0 A");
+  EXPECT_EQ(r.observed.running, false);
+  EXPECT_EQ(r.observed.fault_active, true);
+  EXPECT_EQ(r.observed.reverse, false);  // bit 1 = 1 means forward on the E-9
+  ASSERT_TRUE(r.observed.setpoint);
+  EXPECT_EQ(r.observed.setpoint->text, "50.00 Hz");
+  ASSERT_TRUE(r.observed.output_frequency);
+  EXPECT_DOUBLE_EQ(r.observed.output_frequency->value, 49.89);
+  ASSERT_TRUE(r.observed.voltage);
+  EXPECT_EQ(r.observed.voltage->text, "380 V");
+  ASSERT_TRUE(r.observed.current);
+  EXPECT_EQ(r.observed.current->text, "10.0 A");
+  EXPECT_FALSE(r.observed.run_command);
+  // Without its request a reply says nothing.
+  EXPECT_EQ(read_for_drive(e9, rsp, {}).text, "");
+  // The fault code register names the manual's fault.
+  const Message fault_req = rtu({0x02, 0x03, 0x00, 0x0B, 0x00, 0x01}, Direction::request);
+  const DriveReading f =
+      read_for_drive(e9, rtu({0x02, 0x03, 0x02, 0x00, 0x04}, Direction::response), fault_req.bytes);
+  EXPECT_EQ(f.observed.fault_code, 4u);
+  EXPECT_EQ(f.observed.fault_text, "4 (output overcurrent)");
+}
+
+TEST(DriveReading, DanfossFcProcessData) {
+  const DriveProfile vlt = builtin_profile("vlt-aqua.toml");
+  // CTW 0x047C (start), REF 0x2000 = 50 % (0x4000 = 100 %).
+  const Message req =
+      decode(Protocol::danfoss_fc, with_bcc({0x02, 0x06, 0x01, 0x04, 0x7C, 0x20, 0x00}),
+             Direction::request);
+  ASSERT_EQ(req.checksum.verdict, ChecksumVerdict::good);
+  ASSERT_EQ(req.address, 1);
+  const DriveReading q = read_for_drive(vlt, req, {});
+  EXPECT_EQ(
+      q.text,
+      "drive 1 (Danfoss VLT AQUA): control word (CTW) 0x047C [ramp, no coast, ramp, use ramp, "
+      "start, data valid]; bus reference (REF) 50.00 %");
+  EXPECT_EQ(q.observed.run_command, true);
+  EXPECT_EQ(q.observed.reverse_command, false);
+  EXPECT_FALSE(q.observed.reset_command);
+  ASSERT_TRUE(q.observed.setpoint_command);
+  EXPECT_DOUBLE_EQ(q.observed.setpoint_command->value, 50.0);
+  EXPECT_EQ(q.observed.setpoint_command->text, "50.00 %");
+
+  // STW 0x0E07 (bit 11 running), MAV 0x2000 = 50 %.
+  const Message rsp =
+      decode(Protocol::danfoss_fc, with_bcc({0x02, 0x06, 0x01, 0x0E, 0x07, 0x20, 0x00}),
+             Direction::response, req.bytes);
+  ASSERT_EQ(rsp.checksum.verdict, ChecksumVerdict::good);
+  const DriveReading a = read_for_drive(vlt, rsp, req.bytes);
+  EXPECT_EQ(a.observed.running, true);
+  EXPECT_EQ(a.observed.fault_active, false);
+  EXPECT_EQ(a.observed.warning, false);
+  ASSERT_TRUE(a.observed.output_frequency);
+  EXPECT_DOUBLE_EQ(a.observed.output_frequency->value, 50.0);
+  EXPECT_EQ(a.observed.output_frequency->text, "50.00 %");
+  EXPECT_FALSE(a.observed.run_command);
+
+  // Reverse with a negative reference: 0xE000 = -8192 = -50 %; reset bit 7 set.
+  const DriveReading rev = read_for_drive(
+      vlt,
+      decode(Protocol::danfoss_fc, with_bcc({0x02, 0x06, 0x01, 0x84, 0xFC, 0xE0, 0x00}),
+             Direction::request),
+      {});
+  EXPECT_EQ(rev.observed.run_command, true);
+  EXPECT_EQ(rev.observed.reverse_command, true);
+  EXPECT_TRUE(rev.observed.reset_command);
+  ASSERT_TRUE(rev.observed.setpoint_command);
+  EXPECT_EQ(rev.observed.setpoint_command->text, "-50.00 %");
+
+  // STW with trip (bit 3) and warning (bit 7).
+  const DriveReading trip = read_for_drive(
+      vlt,
+      decode(Protocol::danfoss_fc, with_bcc({0x02, 0x06, 0x01, 0x00, 0x8B, 0x00, 0x00}),
+             Direction::response),
+      req.bytes);
+  EXPECT_EQ(trip.observed.fault_active, true);
+  EXPECT_EQ(trip.observed.warning, true);
+  EXPECT_EQ(trip.observed.running, false);
+}
+
+TEST(DriveReading, DanfossFcParameterBlock) {
+  const DriveProfile vlt = builtin_profile("vlt-aqua.toml");
+  // The helper's BCC matches PROTOCOLS.md §4's verified AK 7 telegram.
+  const std::vector<std::uint8_t> ak7 = {0x02, 0x0E, 0x01, 0x71, 0x9E, 0,    0,    0,
+                                         0,    0,    0x02, 0x06, 0x07, 0x00, 0x00, 0xE1};
+  ASSERT_EQ(with_bcc({ak7.begin(), ak7.end() - 1}), ak7);
+  const Message err = decode(Protocol::danfoss_fc, ak7, Direction::response);
+  ASSERT_EQ(err.checksum.verdict, ChecksumVerdict::good);
+  const DriveReading e = read_for_drive(vlt, err, {});
+  EXPECT_EQ(e.text.find("drive 1 (Danfoss VLT AQUA): cannot execute on 4-14 motor speed high "
+                        "limit [Hz]: error 2 (data value exceeds the parameter's limits); status "
+                        "word (STW) 0x0607 ["),
+            0u)
+      << e.text;
+  EXPECT_EQ(e.observed.running, false);  // STW 0x0607: bit 11 clear
+
+  // Read 4-14: PKE 0x119E (AK 1, PNU 414).
+  const Message read =
+      decode(Protocol::danfoss_fc,
+             with_bcc({0x02, 0x0E, 0x01, 0x11, 0x9E, 0, 0, 0, 0, 0, 0, 0x04, 0x7C, 0x20, 0x00}),
+             Direction::request);
+  const DriveReading r = read_for_drive(vlt, read, {});
+  EXPECT_EQ(r.text.find("drive 1 (Danfoss VLT AQUA): read 4-14 motor speed high limit [Hz]; "
+                        "control word (CTW) 0x047C"),
+            0u)
+      << r.text;
+
+  // Its value, AK 1: 03E8 = 1000 = 100.0 Hz at 0.1 Hz (002 §7.5.1).
+  const DriveReading v = read_for_drive(vlt,
+                                        decode(Protocol::danfoss_fc,
+                                               with_bcc({0x02, 0x0E, 0x01, 0x11, 0x9E, 0, 0, 0, 0,
+                                                         0x03, 0xE8, 0x06, 0x07, 0x00, 0x00}),
+                                               Direction::response),
+                                        read.bytes);
+  EXPECT_EQ(v.text.find("drive 1 (Danfoss VLT AQUA): 4-14 motor speed high limit [Hz] 100.0 Hz; "),
+            0u)
+      << v.text;
+
+  // PROTOCOLS.md §4: write 4-14 = 1000 to RAM+EEPROM, address 1 in the 1..126 format.
+  const Message write =
+      decode(Protocol::danfoss_fc,
+             {0x02, 0x0E, 0x81, 0xE1, 0x9E, 0, 0, 0, 0, 0x03, 0xE8, 0x04, 0x7C, 0x20, 0x00, 0x41},
+             Direction::request);
+  ASSERT_EQ(write.checksum.verdict, ChecksumVerdict::good);
+  const DriveReading w = read_for_drive(vlt, write, {});
+  EXPECT_EQ(w.text.find("drive 1 (Danfoss VLT AQUA): set 4-14 motor speed high limit [Hz] = 100.0 "
+                        "Hz (RAM and EEPROM); control word (CTW) 0x047C"),
+            0u)
+      << w.text;
+
+  // A parameter the profile does not name is labelled by the rule: PNU 1614 = 16-14.
+  const DriveReading un =
+      read_for_drive(vlt,
+                     decode(Protocol::danfoss_fc,
+                            {0x02, 0x0E, 0x01, 0x16, 0x4E, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0x55},
+                            Direction::request),
+                     {});
+  EXPECT_EQ(un.text.find("drive 1 (Danfoss VLT AQUA): read parameter 16-14; "), 0u) << un.text;
+}
+
+TEST(DriveReading, VltAquaModbusMapping) {
+  const DriveProfile vlt = builtin_profile("vlt-aqua.toml");
+  // FC 06 to CTW (register 50000, wire 49999 = 0xC34F): 0x04BC = reset (bit 7), no start (bit 6).
+  const Message m = rtu({0x01, 0x06, 0xC3, 0x4F, 0x04, 0xBC}, Direction::request);
+  const DriveReading r = read_for_drive(vlt, m, {});
+  EXPECT_EQ(r.text,
+            "drive 1 (Danfoss VLT AQUA): set control word (CTW) 0x04BC [ramp, no coast, ramp, use "
+            "ramp, ramp stop, reset, data valid]");
+  EXPECT_TRUE(r.observed.reset_command);
+  EXPECT_EQ(r.observed.run_command, false);
+
+  // 002 §7.10.6: set 1-05 = 738 (7.38 A), FC 10 at 0x0419, two registers 0000 02E2.
+  const DriveReading p = read_for_drive(
+      vlt,
+      rtu({0x01, 0x10, 0x04, 0x19, 0x00, 0x02, 0x04, 0x00, 0x00, 0x02, 0xE2}, Direction::request),
+      {});
+  EXPECT_EQ(p.text,
+            "drive 1 (Danfoss VLT AQUA): set 1-05 parameter 1-05 (a current per the §7.10.6 "
+            "example) 7.38 A");
+
+  // Reading a parameter the profile does not name: labelled by the rule.
+  EXPECT_EQ(
+      read_for_drive(vlt, rtu({0x01, 0x03, 0x3E, 0xF7, 0x00, 0x01}, Direction::request), {}).text,
+      "drive 1 (Danfoss VLT AQUA): read parameter 16-12");
+
+  // STW and MAV read over Modbus (50199 = 0xC417 .. 50209).
+  const Message q = rtu({0x01, 0x03, 0xC4, 0x17, 0x00, 0x01}, Direction::request);
+  const DriveReading s =
+      read_for_drive(vlt, rtu({0x01, 0x03, 0x02, 0x08, 0x48}, Direction::response), q.bytes);
+  EXPECT_EQ(s.observed.running, true);  // 0x0848: bits 3 trip, 6 trip lock, 11 running
+  EXPECT_EQ(s.observed.fault_active, true);
+  EXPECT_EQ(s.observed.warning, false);
+
+  // Vendor exception code 0x42 (§7.8.11, decimal 66).
+  EXPECT_EQ(read_for_drive(vlt, rtu({0x01, 0x86, 0x42}, Direction::response), m.bytes).text,
+            "drive 1 (Danfoss VLT AQUA): error 0x42: illegal data length or value");
+}
+
+TEST(DriveReading, ErgCoilsAndState) {
+  const DriveProfile erg = builtin_profile("erg.toml");
+  const DriveReading reset =
+      read_for_drive(erg, rtu({0x01, 0x05, 0x00, 0x09, 0xFF, 0x00}, Direction::request), {});
+  EXPECT_EQ(reset.text, "drive 1 (ERMAN ER-G): set fault reset command ON");
+  EXPECT_TRUE(reset.observed.reset_command);
+  EXPECT_FALSE(reset.observed.run_command);
+  const DriveReading start =
+      read_for_drive(erg, rtu({0x01, 0x05, 0x00, 0x00, 0xFF, 0x00}, Direction::request), {});
+  EXPECT_EQ(start.observed.run_command, true);
+  const DriveReading stop =
+      read_for_drive(erg, rtu({0x01, 0x05, 0x00, 0x01, 0xFF, 0x00}, Direction::request), {});
+  EXPECT_EQ(stop.observed.run_command, false);
+  // A start coil written OFF commands nothing.
+  const DriveReading off =
+      read_for_drive(erg, rtu({0x01, 0x05, 0x00, 0x00, 0x00, 0x00}, Direction::request), {});
+  EXPECT_FALSE(off.observed.run_command);
+
+  // FC 04 0x0400: state 2 = running, accelerating; output frequency 0x0001 at 0.1 Hz.
+  const Message q = rtu({0x01, 0x04, 0x04, 0x00, 0x00, 0x01}, Direction::request);
+  const DriveReading st =
+      read_for_drive(erg, rtu({0x01, 0x04, 0x02, 0x00, 0x02}, Direction::response), q.bytes);
+  EXPECT_EQ(st.text,
+            "drive 1 (ERMAN ER-G): drive state (bits 0..15, assumed) 2 (running, "
+            "accelerating)");
+  EXPECT_EQ(st.observed.running, true);
+  const Message fq = rtu({0x01, 0x04, 0x00, 0x01, 0x00, 0x01}, Direction::request);
+  const DriveReading f =
+      read_for_drive(erg, rtu({0x01, 0x04, 0x02, 0x01, 0xF4}, Direction::response), fq.bytes);
+  ASSERT_TRUE(f.observed.output_frequency);
+  EXPECT_EQ(f.observed.output_frequency->text, "50.0 Hz");
+}
+
+TEST(DriveReading, E5AsciiReply) {
+  const DriveProfile e5 = builtin_profile("e5-8200.toml");
+  // PROTOCOLS.md §3: ":010325230001B3\r\n" reads 0x2523.
+  const std::vector<std::uint8_t> req_bytes = ascii_frame({0x01, 0x03, 0x25, 0x23, 0x00, 0x01});
+  ASSERT_EQ(std::string(req_bytes.begin(), req_bytes.end()), ":010325230001B3\r\n");
+  const Message req = decode(Protocol::modbus_ascii, req_bytes, Direction::request);
+  EXPECT_EQ(read_for_drive(e5, req, {}).text, "drive 1 (E5-8200): read frequency setpoint");
+  const Message rsp = decode(Protocol::modbus_ascii, ascii_frame({0x01, 0x03, 0x02, 0x17, 0x70}),
+                             Direction::response);
+  ASSERT_EQ(rsp.checksum.verdict, ChecksumVerdict::good);
+  EXPECT_EQ(read_for_drive(e5, rsp, req.bytes).text,
+            "drive 1 (E5-8200): frequency setpoint 60.00 Hz");
+  // Control word with the reset bit (3) and reverse (bit 1), via FC 06 on 0x2501.
+  const DriveReading c =
+      read_for_drive(e5,
+                     decode(Protocol::modbus_ascii,
+                            ascii_frame({0x01, 0x06, 0x25, 0x01, 0x00, 0x0B}), Direction::request),
+                     {});
+  EXPECT_EQ(c.observed.run_command, true);
+  EXPECT_EQ(c.observed.reverse_command, true);
+  EXPECT_TRUE(c.observed.reset_command);
+  // Vendor exception 0x52 (the manual's RTU example 02 83 52).
+  EXPECT_EQ(read_for_drive(e5, rtu({0x02, 0x83, 0x52}, Direction::response), {}).text,
+            "drive 2 (E5-8200): error 0x52: address error");
+}
+
+TEST(DriveReading, E5ParametersFollowTheGgppRule) {
+  // PROTOCOLS.md §2 and README "Annotation": E5-8200 parameters map to register GGPP
+  // (08-03 -> 0x0803), the rule profile.hpp names for the E5-8200.
+  const DriveProfile e5 = builtin_profile("e5-8200.toml");
+  EXPECT_EQ(e5.parameter_rule, ParameterRule::ggpp);
+  EXPECT_EQ(
+      read_for_drive(e5, rtu({0x01, 0x03, 0x08, 0x03, 0x00, 0x01}, Direction::request), {}).text,
+      "drive 1 (E5-8200): read parameter 08-03");
+}
+
+TEST(DriveReading, EasydriveRunAndStatus) {
+  const DriveProfile eds = builtin_profile("eds1000.toml");
+  // Run control (0C), index 0002 = run with frequency, data 0FA0 = 4000 = 40.00 Hz.
+  const Message req = decode(Protocol::easydrive, eds_frame("010C00020FA0"), Direction::request);
+  ASSERT_EQ(req.bytes.size(), 18u);
+  ASSERT_EQ(req.checksum.verdict, ChecksumVerdict::good);
+  ASSERT_EQ(req.address, 1);
+  const DriveReading r = read_for_drive(eds, req, {});
+  EXPECT_EQ(r.text, "drive 1 (Easydrive EDS1000): run; setpoint 40.00 Hz");
+  EXPECT_EQ(r.observed.run_command, true);
+  EXPECT_FALSE(r.observed.reverse_command);
+  ASSERT_TRUE(r.observed.setpoint_command);
+  EXPECT_DOUBLE_EQ(r.observed.setpoint_command->value, 40.0);
+  EXPECT_EQ(r.observed.setpoint_command->text, "40.00 Hz");
+
+  // Read the status word (0B, index 000F); reply: OK, AUX fault 03, index 0F, data 0001 (running).
+  const Message q = decode(Protocol::easydrive, eds_frame("010B000F"), Direction::request);
+  ASSERT_EQ(q.bytes.size(), 14u);
+  EXPECT_EQ(read_for_drive(eds, q, {}).text, "drive 1 (Easydrive EDS1000): read status word");
+  const Message a =
+      decode(Protocol::easydrive, eds_frame("0100030F0001"), Direction::response, q.bytes);
+  ASSERT_EQ(a.checksum.verdict, ChecksumVerdict::good);
+  const DriveReading s = read_for_drive(eds, a, q.bytes);
+  EXPECT_EQ(s.observed.running, true);
+  EXPECT_EQ(s.observed.reverse, false);
+  EXPECT_EQ(s.observed.fault_code, 3u);
+  EXPECT_NE(s.observed.fault_text.find("overcurrent at constant speed"), std::string::npos)
+      << s.observed.fault_text;
+  EXPECT_EQ(s.observed.fault_text, "3 (overcurrent at constant speed)");
+  EXPECT_EQ(s.text,
+            "drive 1 (Easydrive EDS1000): status word 0x0001 [running, voltage normal, forward]; "
+            "fault 3 (overcurrent at constant speed)");
+
+  // The fault code travels in hex: AUX "10" is fault 16.
+  const DriveReading hex = read_for_drive(
+      eds, decode(Protocol::easydrive, eds_frame("0100100F0005"), Direction::response, q.bytes),
+      q.bytes);
+  EXPECT_EQ(hex.observed.fault_code, 16u);
+  EXPECT_EQ(hex.observed.fault_text, "16 (RS485 communication fault)");
+  EXPECT_EQ(hex.observed.reverse, true);  // status bit 2
+
+  // Stop, fault reset, run reverse.
+  EXPECT_EQ(read_for_drive(
+                eds, decode(Protocol::easydrive, eds_frame("010C0007"), Direction::request), {})
+                .observed.run_command,
+            false);
+  EXPECT_TRUE(read_for_drive(
+                  eds, decode(Protocol::easydrive, eds_frame("010C000C"), Direction::request), {})
+                  .observed.reset_command);
+  const DriveReading rev = read_for_drive(
+      eds, decode(Protocol::easydrive, eds_frame("010C0004"), Direction::request), {});
+  EXPECT_EQ(rev.observed.run_command, true);
+  EXPECT_EQ(rev.observed.reverse_command, true);
+
+  // Write F0.08 = 03E8: 100.0 s at 0.1 s.
+  EXPECT_EQ(read_for_drive(
+                eds, decode(Protocol::easydrive, eds_frame("010E000803E8"), Direction::request), {})
+                .text,
+            "drive 1 (Easydrive EDS1000): set F0.08 acceleration time 1 = 100.0 s");
+  // Read of F2.11, which the profile does not name: labelled by the rule.
+  EXPECT_EQ(read_for_drive(
+                eds, decode(Protocol::easydrive, eds_frame("010D020B"), Direction::request), {})
+                .text,
+            "drive 1 (Easydrive EDS1000): read function code F2.11");
+}
+
+// ---------------------------------------------------------------------------------------------
+// Drive-state timeline.
+
+namespace {
+
+struct TimelineRig {
+  DriveProfile profile;
+  DriveTimeline timeline;
+  std::uint64_t frame = 0;
+
+  explicit TimelineRig(std::string_view file) : profile(builtin_profile(file)) {}
+
+  std::vector<BusEvent> feed(const DriveObservation& o, int address = 2) {
+    Message m;
+    m.protocol = Protocol::modbus_rtu;
+    m.address = address;
+    m.frame.number = ++frame;
+    m.frame.channel = 0;
+    m.frame.events.push_back({static_cast<TimeNs>(frame) * kNsPerMs, 0x02, 0, 0, 0});
+    return timeline.observe(0, m, profile, o);
+  }
+};
+
+Quantity hz(double v) {
+  return {v, fmt::format("{:.2f} Hz", v)};
+}
+
+}  // namespace
+
+TEST(DriveTimeline, FirstStatusAndRepeats) {
+  TimelineRig rig("e9.toml");
+  DriveObservation stopped;
+  stopped.running = false;
+  auto ev = rig.feed(stopped);
+  ASSERT_EQ(ev.size(), 1u);
+  EXPECT_EQ(ev[0].kind, "running");
+  EXPECT_EQ(ev[0].detail, "drive 2 (ERMAN E-9P/9G): stopped");
+  EXPECT_EQ(ev[0].from, "");
+  EXPECT_EQ(ev[0].to, "stopped");
+  EXPECT_EQ(ev[0].address, 2);
+  EXPECT_EQ(ev[0].profile, "e9");
+  EXPECT_EQ(ev[0].frame, 1u);
+  EXPECT_EQ(ev[0].time, 1 * kNsPerMs);
+  EXPECT_EQ(ev[0].protocol, Protocol::modbus_rtu);
+
+  EXPECT_TRUE(rig.feed(stopped).empty());
+  EXPECT_TRUE(rig.feed(DriveObservation{}).empty());
+
+  DriveObservation running;
+  running.running = true;
+  ev = rig.feed(running);
+  ASSERT_EQ(ev.size(), 1u);
+  EXPECT_EQ(ev[0].detail, "drive 2 (ERMAN E-9P/9G): running");
+  EXPECT_EQ(ev[0].from, "stopped");
+  EXPECT_EQ(ev[0].to, "running");
+  EXPECT_EQ(ev[0].frame, 4u);
+  EXPECT_TRUE(rig.feed(running).empty());
+
+  // Another station on the same link has its own state.
+  ev = rig.feed(running, 3);
+  ASSERT_EQ(ev.size(), 1u);
+  EXPECT_EQ(ev[0].address, 3);
+  EXPECT_EQ(ev[0].detail, "drive 3 (ERMAN E-9P/9G): running");
+  EXPECT_EQ(ev[0].from, "");
+  EXPECT_EQ(rig.timeline.drives().size(), 2u);
+}
+
+TEST(DriveTimeline, RunCommandsOnce) {
+  TimelineRig rig("e9.toml");
+  DriveObservation start;
+  start.run_command = true;
+  auto ev = rig.feed(start);
+  ASSERT_EQ(ev.size(), 1u);
+  EXPECT_EQ(ev[0].kind, "command");
+  EXPECT_EQ(ev[0].detail, "drive 2 (ERMAN E-9P/9G): start commanded");
+  EXPECT_EQ(ev[0].from, "");
+  EXPECT_EQ(ev[0].to, "start");
+  EXPECT_TRUE(rig.feed(start).empty());
+  DriveObservation stop;
+  stop.run_command = false;
+  ev = rig.feed(stop);
+  ASSERT_EQ(ev.size(), 1u);
+  EXPECT_EQ(ev[0].detail, "drive 2 (ERMAN E-9P/9G): stop commanded");
+  EXPECT_EQ(ev[0].from, "start");
+  EXPECT_EQ(ev[0].to, "stop");
+  EXPECT_EQ(ev[0].frame, 3u);
+}
+
+TEST(DriveTimeline, ResetOnRisingEdgesOnly) {
+  TimelineRig rig("vlt-aqua.toml");
+  DriveObservation idle;  // a command word without run or reset bit
+  idle.run_command = false;
+  ASSERT_EQ(rig.feed(idle).size(), 1u);  // "stop commanded"
+  DriveObservation reset = idle;
+  reset.reset_command = true;
+  auto ev = rig.feed(reset);
+  ASSERT_EQ(ev.size(), 1u);
+  EXPECT_EQ(ev[0].kind, "command");
+  EXPECT_EQ(ev[0].detail, "drive 2 (Danfoss VLT AQUA): fault reset commanded");
+  EXPECT_EQ(ev[0].to, "reset");
+  EXPECT_EQ(ev[0].profile, "vlt-aqua");
+  EXPECT_TRUE(rig.feed(reset).empty());
+  // A reply (no command in it) does not end the reset level.
+  DriveObservation telemetry;
+  telemetry.output_frequency = hz(12.5);
+  EXPECT_TRUE(rig.feed(telemetry).empty());
+  EXPECT_TRUE(rig.feed(reset).empty());
+  // The command word drops the bit, then sets it again: a second event.
+  EXPECT_TRUE(rig.feed(idle).empty());
+  ev = rig.feed(reset);
+  ASSERT_EQ(ev.size(), 1u);
+  EXPECT_EQ(ev[0].detail, "drive 2 (Danfoss VLT AQUA): fault reset commanded");
+  EXPECT_EQ(ev[0].frame, 7u);
+}
+
+TEST(DriveTimeline, FaultAppearsAndClears) {
+  TimelineRig rig("e9.toml");
+  auto fault = [](std::uint32_t code, std::string text) {
+    DriveObservation o;
+    o.fault_code = code;
+    o.fault_text = std::move(text);
+    return o;
+  };
+  EXPECT_TRUE(rig.feed(fault(0, "0 (no fault)")).empty());
+  auto ev = rig.feed(fault(4, "4 (output overcurrent)"));
+  ASSERT_EQ(ev.size(), 1u);
+  EXPECT_EQ(ev[0].kind, "fault");
+  EXPECT_EQ(ev[0].detail, "drive 2 (ERMAN E-9P/9G): fault 4 (output overcurrent) appeared");
+  EXPECT_EQ(ev[0].from, "");
+  EXPECT_EQ(ev[0].to, "4 (output overcurrent)");
+  EXPECT_EQ(ev[0].frame, 2u);
+  EXPECT_TRUE(rig.feed(fault(4, "4 (output overcurrent)")).empty());
+  ev = rig.feed(fault(0, "0 (no fault)"));
+  ASSERT_EQ(ev.size(), 1u);
+  EXPECT_EQ(ev[0].detail, "drive 2 (ERMAN E-9P/9G): fault 4 (output overcurrent) cleared");
+  EXPECT_EQ(ev[0].from, "4 (output overcurrent)");
+  EXPECT_EQ(ev[0].to, "");
+  // One fault replaced by another.
+  rig.feed(fault(4, "4 (output overcurrent)"));
+  ev = rig.feed(fault(8, "8 (drive overheat)"));
+  ASSERT_EQ(ev.size(), 1u);
+  EXPECT_EQ(ev[0].detail,
+            "drive 2 (ERMAN E-9P/9G): fault 4 (output overcurrent) -> 8 (drive "
+            "overheat)");
+  EXPECT_EQ(ev[0].from, "4 (output overcurrent)");
+  EXPECT_EQ(ev[0].to, "8 (drive overheat)");
+}
+
+TEST(DriveTimeline, SetpointCommandThenReadback) {
+  TimelineRig rig("e9.toml");
+  DriveObservation cmd;
+  cmd.setpoint_command = hz(40);
+  auto ev = rig.feed(cmd);
+  ASSERT_EQ(ev.size(), 1u);
+  EXPECT_EQ(ev[0].kind, "setpoint");
+  EXPECT_EQ(ev[0].detail, "drive 2 (ERMAN E-9P/9G): setpoint 40.00 Hz commanded");
+  EXPECT_EQ(ev[0].from, "");
+  EXPECT_EQ(ev[0].to, "40.00 Hz");
+  DriveObservation readback;
+  readback.setpoint = hz(40);
+  EXPECT_TRUE(rig.feed(readback).empty());
+  readback.setpoint = hz(50);
+  ev = rig.feed(readback);
+  ASSERT_EQ(ev.size(), 1u);
+  EXPECT_EQ(ev[0].kind, "setpoint");
+  EXPECT_EQ(ev[0].detail, "drive 2 (ERMAN E-9P/9G): setpoint 40.00 Hz -> 50.00 Hz");
+  EXPECT_EQ(ev[0].from, "40.00 Hz");
+  EXPECT_EQ(ev[0].to, "50.00 Hz");
+  EXPECT_EQ(ev[0].frame, 3u);
+  cmd.setpoint_command = hz(45);
+  ev = rig.feed(cmd);
+  ASSERT_EQ(ev.size(), 1u);
+  EXPECT_EQ(ev[0].detail, "drive 2 (ERMAN E-9P/9G): setpoint 50.00 Hz -> 45.00 Hz commanded");
+}
+
+TEST(DriveTimeline, ReverseAndDirection) {
+  TimelineRig rig("e9.toml");
+  DriveObservation fwd;
+  fwd.reverse_command = false;
+  EXPECT_TRUE(rig.feed(fwd).empty());  // forward is every drive's default
+  DriveObservation rev;
+  rev.reverse_command = true;
+  auto ev = rig.feed(rev);
+  ASSERT_EQ(ev.size(), 1u);
+  EXPECT_EQ(ev[0].kind, "command");
+  EXPECT_EQ(ev[0].detail, "drive 2 (ERMAN E-9P/9G): reverse commanded");
+  EXPECT_EQ(ev[0].from, "forward");
+  EXPECT_EQ(ev[0].to, "reverse");
+  EXPECT_TRUE(rig.feed(rev).empty());
+  ev = rig.feed(fwd);
+  ASSERT_EQ(ev.size(), 1u);
+  EXPECT_EQ(ev[0].detail, "drive 2 (ERMAN E-9P/9G): forward commanded");
+  EXPECT_EQ(ev[0].from, "reverse");
+
+  // Reported direction: the first report is silent, a change is an event.
+  DriveObservation turning;
+  turning.reverse = false;
+  EXPECT_TRUE(rig.feed(turning).empty());
+  turning.reverse = true;
+  ev = rig.feed(turning);
+  ASSERT_EQ(ev.size(), 1u);
+  EXPECT_EQ(ev[0].kind, "direction");
+  EXPECT_EQ(ev[0].detail, "drive 2 (ERMAN E-9P/9G): direction forward -> reverse");
+  EXPECT_EQ(ev[0].from, "forward");
+  EXPECT_EQ(ev[0].to, "reverse");
+}
+
+TEST(DriveTimeline, FromRealFramesAndSummary) {
+  const DriveProfile e9 = builtin_profile("e9.toml");
+  DriveTimeline timeline;
+  const Message req = rtu({0x02, 0x03, 0x00, 0x00, 0x00, 0x05}, Direction::request, {}, 1);
+  const Message rsp =
+      rtu({0x02, 0x03, 0x0A, 0x00, 0x0B, 0x13, 0x88, 0x13, 0x7D, 0x01, 0x7C, 0x00, 0x64},
+          Direction::response, {}, 2);
+  EXPECT_TRUE(timeline.observe(0, req, e9, read_for_drive(e9, req, {}).observed).empty());
+  const auto ev = timeline.observe(0, rsp, e9, read_for_drive(e9, rsp, req.bytes).observed);
+  ASSERT_EQ(ev.size(), 3u);
+  EXPECT_EQ(ev[0].detail, "drive 2 (ERMAN E-9P/9G): running");
+  EXPECT_EQ(ev[1].detail, "drive 2 (ERMAN E-9P/9G): setpoint 50.00 Hz");
+  EXPECT_EQ(ev[2].detail, "drive 2 (ERMAN E-9P/9G): status word shows a fault");
+  for (const BusEvent& e : ev) {
+    EXPECT_EQ(e.frame, 2u);
+    EXPECT_EQ(e.address, 2);
+    EXPECT_EQ(e.profile, "e9");
+  }
+  const DriveState& s = timeline.drives().at({0, 2});
+  EXPECT_EQ(s.summary(),
+            "running, forward, setpoint 50.00 Hz, output frequency 49.89 Hz, current 10.0 A, "
+            "voltage 380 V, fault");
+  EXPECT_EQ(s.events, 3u);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Drive binding by guess, with every built-in profile as a candidate.
+
+namespace {
+
+struct BinderRig {
+  std::vector<const DriveProfile*> candidates = builtin_candidates();
+  DriveBinder binder{candidates};
+  std::vector<BusEvent> events;
+  std::uint64_t number = 0;
+
+  void learn(const Message& m, std::span<const std::uint8_t> request = {}) {
+    if (auto e = binder.learn(0, m, request)) events.push_back(*e);
+  }
+  // A request and its reply.
+  void exchange(Protocol p, const std::vector<std::uint8_t>& req,
+                const std::vector<std::uint8_t>& rsp) {
+    const Message q = decode(p, req, Direction::request, {}, ++number);
+    learn(q);
+    learn(decode(p, rsp, Direction::response, q.bytes, ++number), q.bytes);
+  }
+  [[nodiscard]] std::string bound_id(int address) const {
+    const DriveProfile* p = binder.bound(0, address);
+    return p ? p->id : "generic";
+  }
+};
+
+}  // namespace
+
+TEST(DriveBinder, E9PollingBindsE9) {
+  BinderRig rig;
+  rig.exchange(
+      Protocol::modbus_rtu, with_crc({0x02, 0x03, 0x00, 0x00, 0x00, 0x05}),
+      with_crc({0x02, 0x03, 0x0A, 0x00, 0x0A, 0x13, 0x88, 0x13, 0x7D, 0x01, 0x7C, 0x00, 0x64}));
+  EXPECT_EQ(rig.bound_id(2), "e9");
+  ASSERT_EQ(rig.events.size(), 1u);
+  const BusEvent& e = rig.events[0];
+  EXPECT_EQ(e.kind, "drive_bound");
+  EXPECT_EQ(e.profile, "e9");
+  EXPECT_EQ(e.to, "e9");
+  EXPECT_EQ(e.from, "");
+  EXPECT_EQ(e.address, 2);
+  EXPECT_EQ(e.frame, 1u);
+  EXPECT_EQ(e.protocol, Protocol::modbus_rtu);
+  EXPECT_EQ(e.detail.find("drive 2 bound to ERMAN E-9P/9G (auto, confidence "), 0u) << e.detail;
+  // Polling again strengthens the binding without a new event.
+  for (int i = 0; i < 3; ++i)
+    rig.exchange(
+        Protocol::modbus_rtu, with_crc({0x02, 0x03, 0x00, 0x00, 0x00, 0x05}),
+        with_crc({0x02, 0x03, 0x0A, 0x00, 0x0A, 0x13, 0x88, 0x13, 0x7D, 0x01, 0x7C, 0x00, 0x64}));
+  EXPECT_EQ(rig.events.size(), 1u);
+  EXPECT_EQ(rig.bound_id(2), "e9");
+  EXPECT_EQ(rig.binder.stations().at({0, 2}).frames, 8u);
+}
+
+TEST(DriveBinder, ErgInputReadsBindErg) {
+  BinderRig rig;
+  rig.exchange(
+      Protocol::modbus_rtu, with_crc({0x01, 0x04, 0x00, 0x01, 0x00, 0x06}),
+      with_crc({0x01, 0x04, 0x0C, 0x01, 0xF4, 0, 0, 0x00, 0x64, 0, 0, 0x02, 0x1C, 0x00, 0x28}));
+  rig.exchange(Protocol::modbus_rtu, with_crc({0x01, 0x04, 0x04, 0x00, 0x00, 0x04}),
+               with_crc({0x01, 0x04, 0x08, 0x00, 0x01, 0, 0, 0, 0, 0, 0}));
+  EXPECT_EQ(rig.bound_id(1), "erg");
+  ASSERT_EQ(rig.events.size(), 1u);
+  EXPECT_EQ(rig.events[0].profile, "erg");
+  EXPECT_EQ(rig.events[0].address, 1);
+}
+
+TEST(DriveBinder, E5MonitorReadBindsE5) {
+  BinderRig rig;
+  rig.exchange(Protocol::modbus_rtu, with_crc({0x01, 0x03, 0x25, 0x20, 0x00, 0x08}),
+               with_crc({0x01, 0x03, 0x10, 0x00, 0x03, 0, 0, 0, 0, 0x17, 0x70, 0x17, 0x70, 0x0E,
+                         0xD8, 0x02, 0x1C, 0x00, 0x32}));
+  EXPECT_EQ(rig.bound_id(1), "e5-8200");
+  ASSERT_EQ(rig.events.size(), 1u);
+  EXPECT_EQ(rig.events[0].profile, "e5-8200");
+
+  // Modbus ASCII: only the E5-8200 speaks it; the monitor block read binds it.
+  BinderRig ascii;
+  ascii.exchange(Protocol::modbus_ascii, ascii_frame({0x01, 0x03, 0x25, 0x20, 0x00, 0x08}),
+                 ascii_frame({0x01, 0x03, 0x10, 0x00, 0x03, 0, 0, 0, 0, 0x17, 0x70, 0x17, 0x70,
+                              0x0E, 0xD8, 0x02, 0x1C, 0x00, 0x32}));
+  EXPECT_EQ(ascii.bound_id(1), "e5-8200");
+  EXPECT_EQ(ascii.events.size(), 1u);
+}
+
+TEST(DriveBinder, VltAquaModbusAndFcBindVltAqua) {
+  // Polling STW (register 50200, wire 50199 = 0xC417): one read of one register is too little
+  // evidence (+1); the second poll binds.
+  BinderRig rig;
+  for (int i = 0; i < 2; ++i)
+    rig.exchange(Protocol::modbus_rtu, with_crc({0x01, 0x03, 0xC4, 0x17, 0x00, 0x01}),
+                 with_crc({0x01, 0x03, 0x02, 0x0E, 0x07}));
+  EXPECT_EQ(rig.bound_id(1), "vlt-aqua");
+  ASSERT_EQ(rig.events.size(), 1u);
+  EXPECT_EQ(rig.events[0].profile, "vlt-aqua");
+  EXPECT_EQ(rig.events[0].frame, 3u);
+
+  BinderRig fc;
+  fc.exchange(Protocol::danfoss_fc, with_bcc({0x02, 0x06, 0x01, 0x04, 0x7C, 0x20, 0x00}),
+              with_bcc({0x02, 0x06, 0x01, 0x0E, 0x07, 0x20, 0x00}));
+  EXPECT_EQ(fc.bound_id(1), "vlt-aqua");
+  ASSERT_EQ(fc.events.size(), 1u);
+  EXPECT_EQ(fc.events[0].profile, "vlt-aqua");
+  EXPECT_EQ(fc.events[0].protocol, Protocol::danfoss_fc);
+  EXPECT_EQ(fc.events[0].frame, 1u);
+}
+
+TEST(DriveBinder, EasydriveBindsEds1000) {
+  BinderRig rig;
+  rig.exchange(Protocol::easydrive, eds_frame("010B000F"), eds_frame("0100000F0001"));
+  EXPECT_EQ(rig.bound_id(1), "eds1000");
+  ASSERT_EQ(rig.events.size(), 1u);
+  EXPECT_EQ(rig.events[0].profile, "eds1000");
+  EXPECT_EQ(rig.events[0].protocol, Protocol::easydrive);
+}
+
+TEST(DriveBinder, BadChecksumsTeachNothing) {
+  BinderRig rig;
+  auto bad_crc = with_crc({0x02, 0x03, 0x00, 0x00, 0x00, 0x05});
+  bad_crc.back() ^= 0x01;
+  auto bad_bcc = with_bcc({0x02, 0x06, 0x01, 0x04, 0x7C, 0x20, 0x00});
+  bad_bcc.back() ^= 0x01;
+  auto bad_sum = eds_frame("010B000F");
+  bad_sum[bad_sum.size() - 2] = bad_sum[bad_sum.size() - 2] == '0' ? '1' : '0';
+  for (int i = 0; i < 5; ++i) {
+    const Message a = decode(Protocol::modbus_rtu, bad_crc, Direction::request);
+    const Message b = decode(Protocol::danfoss_fc, bad_bcc, Direction::request);
+    const Message c = decode(Protocol::easydrive, bad_sum, Direction::request);
+    ASSERT_EQ(a.checksum.verdict, ChecksumVerdict::bad);
+    ASSERT_EQ(b.checksum.verdict, ChecksumVerdict::bad);
+    ASSERT_EQ(c.checksum.verdict, ChecksumVerdict::bad);
+    rig.learn(a);
+    rig.learn(b);
+    rig.learn(c);
+  }
+  EXPECT_EQ(rig.binder.bound(0, 2), nullptr);
+  EXPECT_EQ(rig.binder.bound(0, 1), nullptr);
+  EXPECT_TRUE(rig.events.empty());
+  EXPECT_TRUE(rig.binder.stations().empty());
+}
+
+TEST(DriveBinder, DiagnosticsAloneStaysGeneric) {
+  BinderRig rig;
+  for (int i = 0; i < 4; ++i)
+    rig.exchange(Protocol::modbus_rtu, with_crc({0x02, 0x08, 0x00, 0x00, 0x12, 0x34}),
+                 with_crc({0x02, 0x08, 0x00, 0x00, 0x12, 0x34}));
+  EXPECT_EQ(rig.binder.bound(0, 2), nullptr);
+  EXPECT_TRUE(rig.events.empty());
+  const DriveBinder::Station& st = rig.binder.stations().at({0, 2});
+  EXPECT_EQ(st.bound, -1);
+  EXPECT_EQ(st.frames, 8u);
+  EXPECT_EQ(rig.binder.evidence(st).find("no family profile fits its traffic (best "), 0u)
+      << rig.binder.evidence(st);
+}
+
+TEST(DriveBinder, BroadcastIsNeverBound) {
+  BinderRig rig;
+  for (int i = 0; i < 4; ++i) {
+    rig.learn(rtu({0x00, 0x10, 0x00, 0x10, 0x00, 0x02, 0x04, 0x00, 0x01, 0x13, 0x88},
+                  Direction::request));
+    rig.learn(rtu({0x00, 0x03, 0x25, 0x20, 0x00, 0x08}, Direction::request));
+  }
+  EXPECT_EQ(rig.binder.bound(0, 0), nullptr);
+  EXPECT_TRUE(rig.events.empty());
+  EXPECT_TRUE(rig.binder.stations().empty());
+}
+
+TEST(DriveBinder, ClearlyBetterEvidenceRebinds) {
+  BinderRig rig;
+  // An E-9 style read of 0x0000..0x0004 binds the E-9 ...
+  rig.exchange(
+      Protocol::modbus_rtu, with_crc({0x02, 0x03, 0x00, 0x00, 0x00, 0x05}),
+      with_crc({0x02, 0x03, 0x0A, 0x00, 0x0A, 0x13, 0x88, 0x13, 0x7D, 0x01, 0x7C, 0x00, 0x64}));
+  ASSERT_EQ(rig.bound_id(2), "e9");
+  ASSERT_EQ(rig.events.size(), 1u);
+  // ... then the station is polled on the E5-8200 monitor block: rebound, a second event.
+  rig.exchange(Protocol::modbus_rtu, with_crc({0x02, 0x03, 0x25, 0x20, 0x00, 0x08}),
+               with_crc({0x02, 0x03, 0x10, 0x00, 0x03, 0, 0, 0, 0, 0x17, 0x70, 0x17, 0x70, 0x0E,
+                         0xD8, 0x02, 0x1C, 0x00, 0x32}));
+  EXPECT_EQ(rig.bound_id(2), "e5-8200");
+  ASSERT_EQ(rig.events.size(), 2u);
+  const BusEvent& e = rig.events[1];
+  EXPECT_EQ(e.kind, "drive_bound");
+  EXPECT_EQ(e.profile, "e5-8200");
+  EXPECT_EQ(e.to, "e5-8200");
+  EXPECT_EQ(e.from, "e9");  // BusEvent: from = the previous value, known here
+  EXPECT_EQ(e.frame, 3u);
+  EXPECT_EQ(e.detail.find("drive 2 bound to E5-8200 (auto, confidence "), 0u) << e.detail;
+}
