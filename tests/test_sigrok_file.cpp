@@ -3,7 +3,10 @@
 
 #include <fstream>
 
+#include <fmt/format.h>
+
 #include "sources/sigrok_file.hpp"
+#include "sources/sigrok_source.hpp"
 
 using namespace drivetap;
 
@@ -106,4 +109,86 @@ TEST(SigrokFile, NotASessionFile) {
   EXPECT_NE(error.find("session-e9/input.log: not a readable zip"), std::string::npos) << error;
   EXPECT_FALSE(SigrokFile::open("/nonexistent.sr", &error));
   EXPECT_NE(error.find("/nonexistent.sr: "), std::string::npos) << error;
+}
+
+// The uart_phy recordings through SigrokSource (our UART decoder) with the settings MANIFEST.md
+// gives: the bytes and errors sigrok-cli 0.7.2 reports.
+namespace {
+
+struct Decoded {
+  std::string text;  // bytes as hex, "[frame error]" / "[parity error]" after a flagged byte
+  std::size_t framing = 0, parity = 0;
+};
+
+Decoded decode_sr(const std::string& rel, const std::string& serial, std::string channel = {}) {
+  std::string error;
+  auto file = SigrokFile::open(capture(rel), &error);
+  EXPECT_TRUE(file) << error;
+  Decoded d;
+  if (!file) return d;
+  SigrokSourceOptions so;
+  so.uart = phy::UartSettings::from(*SerialConfig::parse(serial, &error));
+  if (!channel.empty()) so.channels.push_back(channel);
+  ChannelTable channels;
+  SigrokSource source(std::move(file), rel, channels, so);
+  EXPECT_TRUE(source.read_header()) << source.error();
+  ByteEvent e;
+  while (source.next(e)) {
+    d.text += fmt::format("{}{:02X}", d.text.empty() ? "" : " ", e.byte);
+    if (e.flags & kUartFramingError) {
+      d.text += " [frame error]";
+      ++d.framing;
+    }
+    if (e.flags & kUartParityError) {
+      d.text += " [parity error]";
+      ++d.parity;
+    }
+  }
+  return d;
+}
+
+}  // namespace
+
+// Open (issue 6): read as 8N2, the first byte of errors_ampel64_4800_8n2_ok.sr gets a framing
+// error on its second stop bit, which sigrok (like a 16550, first stop bit only) does not check.
+TEST(UartPhyCaptures, DISABLED_Ampel4800Clean8N1And8N2) {
+  EXPECT_EQ(decode_sr("uart-phy/errors_ampel64_4800_8n1_ok.sr", "4800 8N1").text,
+            "41 4D 50 45 4C 20 36 34 0A");
+  EXPECT_EQ(decode_sr("uart-phy/errors_ampel64_4800_8n2_ok.sr", "4800 8N2").text,
+            "41 4D 50 45 4C 20 36 34 0A");
+}
+
+// Open (issue 6): we find 3 framing errors where sigrok reports 4.
+TEST(UartPhyCaptures, DISABLED_AmpelDisturbedLineHasTheFramingErrorsSigrokReports) {
+  const Decoded d = decode_sr("uart-phy/errors_ampel64_4800_8n1_frame_errors.sr", "4800 8N1");
+  EXPECT_EQ(d.framing, 4u) << d.text;
+  EXPECT_EQ(d.parity, 0u);
+  // sigrok: 41 [frame error] 53 [frame error] 55 [frame error] 31 81 [frame error] 36 34 0A —
+  // its error marks sit on the byte after the damage; the good bytes must be the same.
+  for (const char* good : {"41", "53", "55", "31", "81", "36 34 0A"})
+    EXPECT_NE(d.text.find(good), std::string::npos) << good << " in " << d.text;
+}
+
+TEST(UartPhyCaptures, HelloWorld7O1AndItsParityErrorsAs7E1) {
+  const Decoded ok = decode_sr("uart-phy/hello_world_7o1_hello_world_7o1_115200.sr", "115200 7O1");
+  std::string hello;
+  for (char c : std::string("Hello World!\r\n"))
+    hello += fmt::format("{}{:02X}", hello.empty() ? "" : " ", c);
+  EXPECT_EQ(ok.text, hello + " " + hello + " " + hello + " " + hello);
+  const Decoded wrong =
+      decode_sr("uart-phy/hello_world_7o1_hello_world_7o1_115200.sr", "115200 7E1");
+  EXPECT_EQ(wrong.parity, 4u * 14u);
+}
+
+// Open (issue 6): the midpoint threshold leaves 2 flagged bytes in the analog trace.
+TEST(UartPhyCaptures, DISABLED_AnalogTrace10700Baud8N2) {
+  const Decoded d = decode_sr("uart-phy/from_analog_uart_analog_10700_8n2.sr", "10700 8N2");
+  EXPECT_EQ(d.framing + d.parity, 0u) << d.text;
+  for (const char* b : {"1A", "1B", "1C", "1D", "1E", "1F", "20", "00"})
+    EXPECT_NE(d.text.find(b), std::string::npos) << b << " in " << d.text;
+}
+
+TEST(UartPhyCaptures, Ampel4800Clean8N1) {
+  EXPECT_EQ(decode_sr("uart-phy/errors_ampel64_4800_8n1_ok.sr", "4800 8N1").text,
+            "41 4D 50 45 4C 20 36 34 0A");
 }

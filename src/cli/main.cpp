@@ -25,6 +25,7 @@
 #include "sources/capture_reader.hpp"
 #include "sources/hex_text.hpp"
 #include "sources/input_file.hpp"
+#include "sources/sigrok_source.hpp"
 
 namespace {
 
@@ -53,6 +54,8 @@ struct CommonOptions {
   std::vector<std::string> profiles;  // user profile files
   std::vector<std::string> profile_dirs;
   bool events_only = false;
+  std::string logic_channels;  // --channels RX,TX
+  bool invert = false;
 };
 
 // Profiles loaded for this run (built in and --profile files); bound drives point into it.
@@ -82,6 +85,11 @@ void add_common_options(CLI::App* cmd, CommonOptions& o) {
   cmd->add_option("--profile", o.profiles,
                   "Load a drive profile file (TOML) besides the built-in ones; same id replaces");
   cmd->add_option("--profile-dir", o.profile_dirs, "Load every *.toml drive profile in DIR");
+  cmd->add_option("--channels", o.logic_channels,
+                  "Logic-analyser captures: the channels to decode as UART, by name or index, "
+                  "e.g. RX,TX (default: every channel whose line moves)");
+  cmd->add_flag("--invert", o.invert,
+                "Logic-analyser captures: the line idles low (A/B swapped, RS-232 side)");
   cmd->add_flag("--events", o.events_only,
                 "Print only the events: drive-state timeline, drive bindings, protocol detection");
   cmd->add_flag("--no-summary", o.no_summary, "Do not print the closing summary");
@@ -331,11 +339,31 @@ int run_read(const CommonOptions& o, const std::string& path) {
       source = std::make_unique<CaptureReader>(in.file, in.name, false, channels);
       in.file = nullptr;  // libpcap owns and closes it
       break;
+    case InputFormat::sigrok: {
+      // A zip is read by name (libzip): a sigrok session cannot come through stdin.
+      if (in.name == "<stdin>") die("<stdin>: a sigrok session file (zip) must be read by name", 1);
+      close_input(in);
+      std::string error;
+      auto file = SigrokFile::open(path, &error);
+      if (!file) die(error, 1);
+      const PipelineOptions line = make_pipeline_options(o, RunSettings{});
+      SigrokSourceOptions so;
+      so.uart = phy::UartSettings::from(line.serial);
+      so.uart.inverted = o.invert;
+      for (std::size_t at = 0; !o.logic_channels.empty() && at != std::string::npos;) {
+        const std::size_t comma = o.logic_channels.find(',', at);
+        so.channels.push_back(
+            o.logic_channels.substr(at, comma == std::string::npos ? comma : comma - at));
+        at = comma == std::string::npos ? comma : comma + 1;
+      }
+      source = std::make_unique<SigrokSource>(std::move(file), path, channels, std::move(so));
+      break;
+    }
     case InputFormat::empty:
       die(fmt::format("{}: empty file", in.name), 1);
     case InputFormat::unknown:
       die(fmt::format("{}: offset 0: not a recognised capture format (first byte 0x{:02X}); "
-                      "expected pcapng, pcap or a drivetap byte log",
+                      "expected pcapng, pcap, a sigrok session or a drivetap byte log",
                       in.name, in.head[0]),
           1);
   }

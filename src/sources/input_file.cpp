@@ -44,6 +44,7 @@ InputFormat recognise(const unsigned char* h, std::size_t n) {
     const std::uint32_t be = (std::uint32_t{h[0]} << 24) | (std::uint32_t{h[1]} << 16) |
                              (std::uint32_t{h[2]} << 8) | h[3];
     if (be == 0x0A0D0D0A) return InputFormat::pcapng;
+    if (be == 0x504B0304) return InputFormat::sigrok;  // a zip: sigrok session file
     if (be == 0xA1B2C3D4 || be == 0xD4C3B2A1 || be == 0xA1B23C4D || be == 0x4D3CB2A1)
       return InputFormat::pcap;
   }
@@ -63,6 +64,8 @@ const char* input_format_name(InputFormat f) {
       return "pcap";
     case InputFormat::pcapng:
       return "pcapng";
+    case InputFormat::sigrok:
+      return "sigrok session";
     case InputFormat::empty:
       return "empty";
     case InputFormat::unknown:
