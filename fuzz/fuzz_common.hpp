@@ -77,12 +77,10 @@ class CheckedRun {
 // binder, the drive-level reading and the timeline run on every fuzz input too.
 inline const std::vector<const DriveProfile*>& builtin_candidates() {
   static const std::vector<DriveProfile> profiles = [] {
-    std::vector<DriveProfile> out;
-    for (const BuiltinProfileText& b : builtin_profile_texts()) {
-      ProfileError e;
-      if (auto p = parse_profile(b.text, b.file, &e)) out.push_back(std::move(*p));
-    }
-    return out;
+    ProfileError e;
+    auto loaded = load_builtin_profiles(&e);
+    if (!loaded) contract_broken("a built-in drive profile does not load");
+    return std::move(*loaded);
   }();
   static const std::vector<const DriveProfile*> pointers = [] {
     std::vector<const DriveProfile*> out;

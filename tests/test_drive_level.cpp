@@ -39,10 +39,10 @@ DriveProfile builtin_profile(std::string_view file) {
 // All built-in profiles, loaded once for the whole test binary.
 const std::vector<DriveProfile>& all_builtins() {
   static const std::vector<DriveProfile> profiles = [] {
-    std::vector<DriveProfile> out;
-    for (const BuiltinProfileText& p : builtin_profile_texts())
-      out.push_back(builtin_profile(p.file));
-    return out;
+    ProfileError e;
+    auto loaded = load_builtin_profiles(&e);
+    if (!loaded) ADD_FAILURE() << e.text();
+    return loaded.value_or(std::vector<DriveProfile>{});
   }();
   return profiles;
 }
@@ -950,15 +950,15 @@ struct BinderRig {
   std::vector<BusEvent> events;
   std::uint64_t number = 0;
 
-  void learn(const Message& m, std::span<const std::uint8_t> request = {}) {
-    if (auto e = binder.learn(0, m, request)) events.push_back(*e);
+  void learn(const Message& m) {
+    if (auto e = binder.learn(0, m)) events.push_back(*e);
   }
   // A request and its reply.
   void exchange(Protocol p, const std::vector<std::uint8_t>& req,
                 const std::vector<std::uint8_t>& rsp) {
     const Message q = decode(p, req, Direction::request, {}, ++number);
     learn(q);
-    learn(decode(p, rsp, Direction::response, q.bytes, ++number), q.bytes);
+    learn(decode(p, rsp, Direction::response, q.bytes, ++number));
   }
   [[nodiscard]] std::string bound_id(int address) const {
     const DriveProfile* p = binder.bound(0, address);

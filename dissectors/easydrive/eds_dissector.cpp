@@ -15,7 +15,8 @@ int hex_value(std::uint8_t c) {
   return -1;
 }
 
-// Value of `n` upper-case hex characters at `at`, or -1.
+}  // namespace
+
 long hex_field(std::span<const std::uint8_t> f, std::size_t at, std::size_t n) {
   if (at + n > f.size()) return -1;
   long v = 0;
@@ -26,6 +27,8 @@ long hex_field(std::span<const std::uint8_t> f, std::size_t at, std::size_t n) {
   }
   return v;
 }
+
+namespace {
 
 bool is_request_command(long c) {
   return c >= 0x0A && c <= 0x0F;

@@ -14,6 +14,9 @@
 
 namespace drivetap::easydrive {
 
+// Value of `n` upper-case hex characters at `at`, or -1 (out of range or not hex).
+long hex_field(std::span<const std::uint8_t> frame, std::size_t at, std::size_t n);
+
 // Sum of the ASCII codes of `text` (the SUM field's rule), modulo 2^16.
 std::uint16_t ascii_sum(std::span<const std::uint8_t> text);
 

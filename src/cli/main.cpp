@@ -119,12 +119,10 @@ void load_profiles(const CommonOptions& o) {
       }
     g_profiles.push_back(std::move(profile));
   };
-  for (const BuiltinProfileText& b : builtin_profile_texts()) {
-    ProfileError e;
-    auto profile = parse_profile(b.text, b.file, &e);
-    if (!profile) die(fmt::format("built-in profile {}", e.text()), 1);
-    add(std::move(*profile));
-  }
+  ProfileError builtin_error;
+  auto builtins = load_builtin_profiles(&builtin_error);
+  if (!builtins) die(fmt::format("built-in profile {}", builtin_error.text()), 1);
+  for (DriveProfile& profile : *builtins) add(std::move(profile));
   std::vector<std::string> files;
   for (const std::string& dir : o.profile_dirs) {
     std::error_code ec;

@@ -314,7 +314,7 @@ void Pipeline::handle_frame(Frame& frame) {
   if (const auto drive = options_.drives.find(m.address); drive != options_.drives.end()) {
     profile = drive->second;
   } else {
-    if (auto bound = binder_.learn(link, m, request)) sink_.on_event(*bound);
+    if (auto bound = binder_.learn(link, m)) sink_.on_event(*bound);
     profile = binder_.bound(link, m.address);
   }
   DriveReading reading;

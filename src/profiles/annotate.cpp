@@ -7,16 +7,11 @@
 #include <cmath>
 #include <vector>
 
+#include "dissectors/easydrive/eds_dissector.hpp"
 #include "dissectors/modbus/ascii_dissector.hpp"
 
 namespace drivetap {
 namespace {
-
-// The binary Modbus frame (ADDR FC DATA ...) of an RTU or ASCII message.
-std::vector<std::uint8_t> modbus_binary(Protocol protocol, std::span<const std::uint8_t> bytes) {
-  if (protocol == Protocol::modbus_ascii) return modbus::decode_ascii_hex(bytes).binary;
-  return {bytes.begin(), bytes.end()};
-}
 
 std::uint16_t be16(std::span<const std::uint8_t> b, std::size_t at) {
   return static_cast<std::uint16_t>((b[at] << 8) | b[at + 1]);
@@ -137,7 +132,8 @@ std::string join(const std::vector<std::string>& parts) {
 
 std::string read_modbus(const DriveProfile& p, const Message& m,
                         std::span<const std::uint8_t> request, DriveObservation& o) {
-  const std::vector<std::uint8_t> b = modbus_binary(m.protocol, m.bytes);
+  std::vector<std::uint8_t> decoded;
+  const std::span<const std::uint8_t> b = modbus_binary(m.protocol, m.bytes, decoded);
   if (b.size() < 4) return {};
   const std::uint8_t fc = b[1];
   const std::size_t end = b.size() - (m.protocol == Protocol::modbus_rtu ? 2 : 1);  // before check
@@ -171,7 +167,8 @@ std::string read_modbus(const DriveProfile& p, const Message& m,
     return parts.empty() ? std::string() : "set " + join(parts);
   }
   if (m.direction != Direction::response || request.empty()) return {};
-  const std::vector<std::uint8_t> q = modbus_binary(m.protocol, request);
+  std::vector<std::uint8_t> request_decoded;
+  const std::span<const std::uint8_t> q = modbus_binary(m.protocol, request, request_decoded);
   if (q.size() < 6 || q[1] != fc) return {};
   if ((fc == 0x03 || fc == 0x04) && end >= 3) {
     std::vector<std::uint16_t> values;
@@ -268,40 +265,43 @@ std::string read_fc(const DriveProfile& p, const Message& m, DriveObservation& o
 // Easydrive (PROTOCOLS.md §5), ASCII hex between '~' and CR:
 //   request  ~ AA CC IIII [DDDD] SSSS CR     (CC command 0A..0F, IIII index)
 //   reply    ~ AA RR FF II [DDDD] SSSS CR    (RR response code, FF current fault, II index low)
-long hex_at(std::span<const std::uint8_t> f, std::size_t at, std::size_t n) {
-  if (at + n > f.size()) return -1;
-  long v = 0;
-  for (std::size_t i = at; i < at + n; ++i) {
-    const std::uint8_t c = f[i];
-    const int d = c >= '0' && c <= '9' ? c - '0' : c >= 'A' && c <= 'F' ? c - 'A' + 10 : -1;
-    if (d < 0) return -1;
-    v = v * 16 + d;
-  }
-  return v;
-}
+// Run control (001, command "12"): what each index commands. `run`/`reverse`: the command it
+// carries, if any; `with_frequency`: its data field is the new setpoint.
+struct RunAction {
+  long index;
+  const char* label;  // "" when the setpoint is all it says
+  std::optional<bool> run, reverse;
+  bool reset, with_frequency;
+};
+constexpr RunAction kRunActions[] = {
+    {0x1, "", std::nullopt, std::nullopt, false, true},
+    {0x2, "run", true, std::nullopt, false, true},
+    {0x3, "run forward", true, false, false, false},
+    {0x4, "run reverse", true, true, false, false},
+    {0x5, "run forward", true, false, false, true},
+    {0x6, "run reverse", true, true, false, true},
+    {0x7, "stop", false, std::nullopt, false, false},
+    {0xC, "fault reset", std::nullopt, std::nullopt, true, false},
+    {0xE, "emergency stop", false, std::nullopt, false, false},
+};
 
 std::string read_easydrive(const DriveProfile& p, const Message& m,
                            std::span<const std::uint8_t> request, DriveObservation& o) {
   const std::span<const std::uint8_t> f = m.bytes;
   if (f.size() != 14 && f.size() != 18) return {};
   const bool has_data = f.size() == 18;
-  const long data = has_data ? hex_at(f, 9, 4) : -1;
+  const long data = has_data ? easydrive::hex_field(f, 9, 4) : -1;
   std::vector<std::string> parts;
   const RegisterDef* setpoint = nullptr;
   for (const RegisterDef& r : p.registers)
     if (r.kind == RegisterKind::running && r.role == "setpoint") setpoint = &r;
   if (m.direction == Direction::request) {
-    const long cmd = hex_at(f, 3, 2), index = hex_at(f, 5, 4);
+    const long cmd = easydrive::hex_field(f, 3, 2), index = easydrive::hex_field(f, 5, 4);
     if (cmd < 0 || index < 0) return {};
     const auto u_index = static_cast<std::uint32_t>(index);
     const RegisterDef* par = p.find(RegisterKind::parameter, u_index);
     const std::string par_name =
         par ? display_name(*par) : "function code " + p.parameter_label(u_index);
-    auto frequency = [&]() -> std::optional<Quantity> {
-      if (data < 0 || !setpoint) return std::nullopt;
-      return Quantity{scaled(*setpoint, static_cast<std::uint32_t>(data), false),
-                      describe_value(p, *setpoint, static_cast<std::uint32_t>(data))};
-    };
     switch (cmd) {
       case 0x0A:
         parts.push_back("status query");
@@ -310,62 +310,21 @@ std::string read_easydrive(const DriveProfile& p, const Message& m,
         if (const RegisterDef* r = p.find(RegisterKind::running, u_index))
           parts.push_back("read " + r->name);
         break;
-      case 0x0C: {
-        // Run control (001, command "12"): the index says what to do.
-        const auto f_value = frequency();
-        auto set_frequency = [&] {
-          if (!f_value) return;
-          o.setpoint_command = f_value;
-          parts.push_back("setpoint " + f_value->text);
-        };
-        switch (index) {
-          case 0x1:
-            set_frequency();
-            break;
-          case 0x2:
-            o.run_command = true;
-            parts.push_back("run");
-            set_frequency();
-            break;
-          case 0x3:
-            o.run_command = true;
-            o.reverse_command = false;
-            parts.push_back("run forward");
-            break;
-          case 0x4:
-            o.run_command = true;
-            o.reverse_command = true;
-            parts.push_back("run reverse");
-            break;
-          case 0x5:
-            o.run_command = true;
-            o.reverse_command = false;
-            parts.push_back("run forward");
-            set_frequency();
-            break;
-          case 0x6:
-            o.run_command = true;
-            o.reverse_command = true;
-            parts.push_back("run reverse");
-            set_frequency();
-            break;
-          case 0x7:
-            o.run_command = false;
-            parts.push_back("stop");
-            break;
-          case 0xC:
-            o.reset_command = true;
-            parts.push_back("fault reset");
-            break;
-          case 0xE:
-            o.run_command = false;
-            parts.push_back("emergency stop");
-            break;
-          default:
-            break;
+      case 0x0C:
+        for (const RunAction& action : kRunActions) {
+          if (action.index != index) continue;
+          if (*action.label) parts.push_back(action.label);
+          if (action.run) o.run_command = action.run;
+          if (action.reverse) o.reverse_command = action.reverse;
+          if (action.reset) o.reset_command = true;
+          if (action.with_frequency && data >= 0 && setpoint) {
+            o.setpoint_command =
+                Quantity{scaled(*setpoint, static_cast<std::uint32_t>(data), false),
+                         describe_value(p, *setpoint, static_cast<std::uint32_t>(data))};
+            parts.push_back("setpoint " + o.setpoint_command->text);
+          }
         }
         break;
-      }
       case 0x0D:
         parts.push_back("read " + par_name);
         break;
@@ -384,8 +343,8 @@ std::string read_easydrive(const DriveProfile& p, const Message& m,
     return join(parts);
   }
   if (m.direction != Direction::response) return {};
-  const long code = hex_at(f, 3, 2), fault = hex_at(f, 5, 2);
-  const long cmd = hex_at(request, 3, 2), index = hex_at(request, 5, 4);
+  const long code = easydrive::hex_field(f, 3, 2), fault = easydrive::hex_field(f, 5, 2);
+  const long cmd = easydrive::hex_field(request, 3, 2), index = easydrive::hex_field(request, 5, 4);
   if (code == 0x20 || code == 0x30) return {};  // rejected: the frame line names the reason
   if (cmd == 0x0B && index >= 0 && data >= 0) {
     if (const RegisterDef* r = p.find(RegisterKind::running, static_cast<std::uint32_t>(index))) {
@@ -418,6 +377,13 @@ std::string read_easydrive(const DriveProfile& p, const Message& m,
 }
 
 }  // namespace
+
+std::span<const std::uint8_t> modbus_binary(Protocol protocol, std::span<const std::uint8_t> bytes,
+                                            std::vector<std::uint8_t>& storage) {
+  if (protocol != Protocol::modbus_ascii) return bytes;
+  storage = modbus::decode_ascii_hex(bytes).binary;
+  return storage;
+}
 
 std::string display_name(const RegisterDef& r) {
   return r.kind == RegisterKind::parameter ? r.number + " " + r.name : r.name;

@@ -10,6 +10,7 @@
 #include <optional>
 #include <span>
 #include <string>
+#include <vector>
 
 #include "core/message.hpp"
 #include "profiles/profile.hpp"
@@ -46,6 +47,11 @@ DriveReading read_for_drive(const DriveProfile& profile, const Message& message,
 // (overcurrent)". `raw` holds 16 bits, or 32 for a two-word register or a double-word PWE.
 std::string describe_value(const DriveProfile& profile, const RegisterDef& reg, std::uint32_t raw,
                            bool double_word = false);
+
+// The binary Modbus frame (ADDR FC DATA ... check) of an RTU or ASCII message: an RTU frame's own
+// bytes, an ASCII frame's hex decoded into `storage`.
+std::span<const std::uint8_t> modbus_binary(Protocol protocol, std::span<const std::uint8_t> bytes,
+                                            std::vector<std::uint8_t>& storage);
 
 // "16-13 frequency" for a parameter, the register's name otherwise.
 std::string display_name(const RegisterDef& reg);

@@ -5,7 +5,7 @@
 
 #include <algorithm>
 
-#include "dissectors/modbus/ascii_dissector.hpp"
+#include "profiles/annotate.hpp"
 
 namespace drivetap {
 namespace {
@@ -58,12 +58,9 @@ double register_evidence(const DriveProfile& p, RegisterKind kind, std::uint32_t
   return score;
 }
 
-double modbus_evidence(const DriveProfile& p, const Message& m,
-                       std::span<const std::uint8_t> request) {
-  const std::vector<std::uint8_t> b =
-      m.protocol == Protocol::modbus_ascii
-          ? modbus::decode_ascii_hex(m.bytes).binary
-          : std::vector<std::uint8_t>(m.bytes.begin(), m.bytes.end());
+double modbus_evidence(const DriveProfile& p, const Message& m) {
+  std::vector<std::uint8_t> decoded;
+  const std::span<const std::uint8_t> b = modbus_binary(m.protocol, m.bytes, decoded);
   if (b.size() < 4) return 0;
   const int fc = b[1] & 0x7F;
   double score = 0;
@@ -74,7 +71,6 @@ double modbus_evidence(const DriveProfile& p, const Message& m,
       else if (b[2] > 4)
         score += kUnknown;  // non-standard code the family does not list
     }
-    (void)request;
     return score;
   }
   if (m.direction != Direction::request) return 0;
@@ -129,13 +125,12 @@ double own_protocol_evidence(const DriveProfile& p, const Message& m) {
   return score;
 }
 
-double evidence_for(const DriveProfile& p, const Message& m,
-                    std::span<const std::uint8_t> request) {
+double evidence_for(const DriveProfile& p, const Message& m) {
   switch (m.protocol) {
     case Protocol::modbus_rtu:
     case Protocol::modbus_ascii:
       // Every Modbus device speaks Modbus: only what it reads and writes tells the family.
-      return modbus_evidence(p, m, request);
+      return modbus_evidence(p, m);
     case Protocol::danfoss_fc:
     case Protocol::easydrive:
       return own_protocol_evidence(p, m);
@@ -198,8 +193,7 @@ std::string DriveBinder::evidence(const Station& st) const {
                      st.frames, st.frames == 1 ? "" : "s", runner);
 }
 
-std::optional<BusEvent> DriveBinder::learn(std::size_t link, const Message& m,
-                                           std::span<const std::uint8_t> request) {
+std::optional<BusEvent> DriveBinder::learn(std::size_t link, const Message& m) {
   if (m.address <= 0 || candidates_.empty()) return std::nullopt;  // broadcasts bind nothing
   if (m.checksum.verdict != ChecksumVerdict::good) return std::nullopt;
   Station& st = stations_[{link, m.address}];
@@ -214,7 +208,7 @@ std::optional<BusEvent> DriveBinder::learn(std::size_t link, const Message& m,
       st.excluded[i] = true;
       continue;
     }
-    st.score[i] += evidence_for(p, m, request);
+    st.score[i] += evidence_for(p, m);
   }
   const auto [best, second] = best_of(st);
   if (best < 0) return std::nullopt;

@@ -24,10 +24,9 @@ class DriveBinder {
  public:
   explicit DriveBinder(std::vector<const DriveProfile*> candidates);
 
-  // Weighs what `message` (and, for a reply, its `request`) says about its station; returns the
-  // event when the station's binding changed.
-  std::optional<BusEvent> learn(std::size_t link, const Message& message,
-                                std::span<const std::uint8_t> request);
+  // Weighs what `message` says about its station; returns the event when the station's binding
+  // changed.
+  std::optional<BusEvent> learn(std::size_t link, const Message& message);
 
   struct Station {
     std::vector<double> score;   // per candidate: fitting minus contradicting observations

@@ -490,6 +490,16 @@ std::optional<DriveProfile> parse_profile(std::string_view toml_text, std::strin
   }
 }
 
+std::optional<std::vector<DriveProfile>> load_builtin_profiles(ProfileError* error) {
+  std::vector<DriveProfile> out;
+  for (const BuiltinProfileText& b : builtin_profile_texts()) {
+    auto profile = parse_profile(b.text, b.file, error);
+    if (!profile) return std::nullopt;
+    out.push_back(std::move(*profile));
+  }
+  return out;
+}
+
 std::optional<DriveProfile> load_profile_file(const std::string& path, ProfileError* error) {
   std::ifstream in(path);
   if (!in) {

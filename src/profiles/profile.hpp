@@ -114,5 +114,7 @@ struct BuiltinProfileText {
 };
 // The profiles compiled into drivetap (generated from dissectors/profiles/*.toml by CMake).
 std::span<const BuiltinProfileText> builtin_profile_texts();
+// All of them parsed; nullopt with *error naming the file when one does not load.
+std::optional<std::vector<DriveProfile>> load_builtin_profiles(ProfileError* error);
 
 }  // namespace drivetap

@@ -47,55 +47,54 @@ std::vector<BusEvent> DriveTimeline::observe(std::size_t link, const Message& m,
     events.push_back(std::move(e));
   };
 
+  // A two-state value's name; "" while it is unknown.
+  auto word = [](const std::optional<bool>& v, const char* on, const char* off) -> std::string {
+    return v ? (*v ? on : off) : "";
+  };
+  // A setpoint that differs from the last one known, whether commanded or read back.
+  auto setpoint_change = [&](const Quantity& to, const char* suffix) {
+    if (s.setpoint && s.setpoint->text == to.text) return;
+    emit("setpoint",
+         s.setpoint ? fmt::format("setpoint {} -> {}{}", s.setpoint->text, to.text, suffix)
+                    : fmt::format("setpoint {}{}", to.text, suffix),
+         s.setpoint ? s.setpoint->text : "", to.text);
+    s.setpoint = to;
+  };
+
   // What the master commanded.
   if (o.run_command && o.run_command != s.run_command) {
-    const char* to = *o.run_command ? "start" : "stop";
-    emit("command", fmt::format("{} commanded", to),
-         s.run_command ? (*s.run_command ? "start" : "stop") : "", to);
+    const std::string to = word(o.run_command, "start", "stop");
+    emit("command", to + " commanded", word(s.run_command, "start", "stop"), to);
     s.run_command = o.run_command;
   }
   if (o.reverse_command && o.reverse_command != s.reverse_command) {
     // Forward is every drive's default: the first command says something only when it reverses.
     if (s.reverse_command || *o.reverse_command) {
-      const char* to = *o.reverse_command ? "reverse" : "forward";
-      emit("command", fmt::format("{} commanded", to),
-           s.reverse_command ? (*s.reverse_command ? "reverse" : "forward") : "", to);
+      const std::string to = word(o.reverse_command, "reverse", "forward");
+      emit("command", to + " commanded", word(s.reverse_command, "reverse", "forward"), to);
     }
     s.reverse_command = o.reverse_command;
   }
   const bool is_command = o.run_command || o.reverse_command || o.setpoint_command;
   if (o.reset_command && !s.reset_level) emit("command", "fault reset commanded", "", "reset");
   if (o.reset_command || is_command) s.reset_level = o.reset_command;
-  if (o.setpoint_command && (!s.setpoint || s.setpoint->text != o.setpoint_command->text)) {
-    emit("setpoint",
-         s.setpoint ? fmt::format("setpoint {} -> {} commanded", s.setpoint->text,
-                                  o.setpoint_command->text)
-                    : fmt::format("setpoint {} commanded", o.setpoint_command->text),
-         s.setpoint ? s.setpoint->text : "", o.setpoint_command->text);
-    s.setpoint = o.setpoint_command;
-  }
+  if (o.setpoint_command) setpoint_change(*o.setpoint_command, " commanded");
 
   // What the drive reported.
   if (o.running && o.running != s.running) {
-    const char* to = *o.running ? "running" : "stopped";
-    emit("running", to, s.running ? (*s.running ? "running" : "stopped") : "", to);
+    const std::string to = word(o.running, "running", "stopped");
+    emit("running", to, word(s.running, "running", "stopped"), to);
     s.running = o.running;
   }
   if (o.reverse && o.reverse != s.reverse) {
-    if (s.reverse)
-      emit("direction",
-           fmt::format("direction {} -> {}", *s.reverse ? "reverse" : "forward",
-                       *o.reverse ? "reverse" : "forward"),
-           *s.reverse ? "reverse" : "forward", *o.reverse ? "reverse" : "forward");
+    if (s.reverse) {
+      const std::string from = word(s.reverse, "reverse", "forward");
+      const std::string to = word(o.reverse, "reverse", "forward");
+      emit("direction", fmt::format("direction {} -> {}", from, to), from, to);
+    }
     s.reverse = o.reverse;
   }
-  if (o.setpoint && (!s.setpoint || s.setpoint->text != o.setpoint->text)) {
-    emit("setpoint",
-         s.setpoint ? fmt::format("setpoint {} -> {}", s.setpoint->text, o.setpoint->text)
-                    : fmt::format("setpoint {}", o.setpoint->text),
-         s.setpoint ? s.setpoint->text : "", o.setpoint->text);
-    s.setpoint = o.setpoint;
-  }
+  if (o.setpoint) setpoint_change(*o.setpoint, "");
   if (o.fault_code && o.fault_code != s.fault_code) {
     const std::uint32_t was = s.fault_code.value_or(0);
     if (*o.fault_code != 0 && was == 0)
