@@ -2,17 +2,12 @@
 """Writes a large, reproducible byte log for memory and throughput runs: a master polling three
 drives at 19200 8E1 (FC 03 reads, FC 06 writes, an exception, a timeout and a noise byte every
 so often). usage: gen_bytelog.py SIZE_MB OUT [--seed N]"""
+import os
 import random
 import sys
 
-
-def crc(b):
-    c = 0xFFFF
-    for x in b:
-        c ^= x
-        for _ in range(8):
-            c = (c >> 1) ^ 0xA001 if c & 1 else c >> 1
-    return bytes(b) + bytes([c & 0xFF, c >> 8])
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "scripts"))
+from wire import with_crc  # noqa: E402
 
 
 def main():
@@ -24,9 +19,9 @@ def main():
     # A fixed repertoire of transactions, formatted once; times advance per line.
     reps = []
     for addr in (1, 2, 3):
-        reps.append((crc([addr, 3, 0, 0, 0, 4]), crc([addr, 3, 8, 0, 3, 0x13, 0x88, 0x13, 0x88, 1, 0x7C])))
-        reps.append((crc([addr, 6, 0, 0x11, 0x13, 0x88]), crc([addr, 6, 0, 0x11, 0x13, 0x88])))
-        reps.append((crc([addr, 3, 0, 0x40, 0, 1]), crc([addr, 0x83, 2])))
+        reps.append((with_crc([addr, 3, 0, 0, 0, 4]), with_crc([addr, 3, 8, 0, 3, 0x13, 0x88, 0x13, 0x88, 1, 0x7C])))
+        reps.append((with_crc([addr, 6, 0, 0x11, 0x13, 0x88]), with_crc([addr, 6, 0, 0x11, 0x13, 0x88])))
+        reps.append((with_crc([addr, 3, 0, 0x40, 0, 1]), with_crc([addr, 0x83, 2])))
     reps = [(" ".join(f"{x:02X}" for x in q), " ".join(f"{x:02X}" for x in r), len(q)) for q, r, in
             [(q, r) for q, r in reps]]
     t = 0

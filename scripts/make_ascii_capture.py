@@ -5,10 +5,11 @@ manual (004, "Режим ASCII" tables) and PROTOCOLS.md §3, as a byte log of t
 all other characters are exactly as printed, errors included. 9600 7E1 (the E5 allows 7 bits)."""
 import os
 
+from wire import lrc
 
-def lrc(hexstr):
-    b = bytes.fromhex(hexstr)
-    return f"{(-sum(b)) & 0xFF:02X}"
+
+def lrc_hex(hexstr):
+    return f"{lrc(bytes.fromhex(hexstr)):02X}"
 
 
 # (comment, direction, text without ':' and CR LF, LRC printed by the manual or None)
@@ -40,7 +41,7 @@ lines = ["# Modbus ASCII worked examples of the E5-8200 manual (004) and PROTOCO
 t = 0
 for comment, kind, body, printed in FRAMES:
     if printed is None:
-        text = body + lrc(body)
+        text = body + lrc_hex(body)
         comment += " (LRC ours)"
     elif body == "0103252300":  # §3 spells the frame in full: 010325230001 + B3
         text = "010325230001B3"

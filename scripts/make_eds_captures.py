@@ -7,6 +7,8 @@ Frames are exactly as printed, errata of PROTOCOLS.md §6 included."""
 import os
 import re
 
+from wire import hexs, ts
+
 SEED = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "shared", "specs",
                     "seeds", "001_ef1056358c8adf04.txt")
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "captures")
@@ -14,14 +16,6 @@ CHAR_NS = round(10 * 1e9 / 9600)
 
 text = open(SEED, encoding="utf-8").read()
 frames = [m[:-1] for m in re.findall(r"~[0-9A-Za-z]*r", text)]
-
-
-def ts(ns):
-    return f"{ns // 1_000_000_000}.{ns % 1_000_000_000:09d}"
-
-
-def hexs(s):
-    return " ".join(f"{ord(c):02X}" for c in s)
 
 
 def write(name, header, lines):

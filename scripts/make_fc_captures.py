@@ -5,28 +5,10 @@
 FC protocol line: 9600 8E1 (8 data bits, even parity, 1 stop: 11 bits a character)."""
 import os
 
+from wire import bcc, fc_telegram, hexs, ts
+
 CHAR_NS = round(11 * 1e9 / 9600)
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "captures")
-
-
-def bcc(b):
-    x = 0
-    for v in b:
-        x ^= v
-    return x
-
-
-def tel(adr, data):
-    body = [0x02, len(data) + 2, adr] + data
-    return body + [bcc(body)]
-
-
-def hexs(b):
-    return " ".join(f"{v:02X}" for v in b)
-
-
-def ts(ns):
-    return f"{ns // 1_000_000_000}.{ns % 1_000_000_000:09d}"
 
 
 def write(name, header, lines):
@@ -61,10 +43,10 @@ write("seed-danfoss-fc", ["# Danfoss FC protocol telegrams verified in PROTOCOLS
 # reads of up to 32 bytes stamped when they arrive, noise bytes sit between telegrams.
 poll = []
 for drive in (1, 2, 3):
-    poll.append(tel(drive, [0x04, 0x7C, 0x20, 0x00]))                       # CTW start, 50 %
-    poll.append(tel(drive, [0x0F, 0x07, 0x20, 0x00]))                       # STW running, MAV 50 %
-poll.append(tel(0x81, [0x11, 0x9E, 0, 0, 0, 0, 0, 0, 0x04, 0x7C, 0x20, 0x00]))   # read 4-14
-poll.append(tel(0x81, [0x11, 0x9E, 0, 0, 0, 0, 0x03, 0xE8, 0x0F, 0x07, 0x20, 0x00]))  # = 1000
+    poll.append(fc_telegram(drive, [0x04, 0x7C, 0x20, 0x00]))                       # CTW start, 50 %
+    poll.append(fc_telegram(drive, [0x0F, 0x07, 0x20, 0x00]))                       # STW running, MAV 50 %
+poll.append(fc_telegram(0x81, [0x11, 0x9E, 0, 0, 0, 0, 0, 0, 0x04, 0x7C, 0x20, 0x00]))   # read 4-14
+poll.append(fc_telegram(0x81, [0x11, 0x9E, 0, 0, 0, 0, 0x03, 0xE8, 0x0F, 0x07, 0x20, 0x00]))  # = 1000
 stream = []
 noise = [[0xFF], [0x00, 0x13], [0x02], [0xAA, 0x55, 0x0E]]
 for i, telegram in enumerate(poll):

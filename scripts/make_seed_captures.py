@@ -10,6 +10,8 @@ Re-run from the repository root: python3 scripts/make_seed_captures.py
 """
 import os
 
+from wire import ts
+
 SEEDS = {
     "seed-erman-e9": {
         "serial": "4800 8N1",
@@ -120,10 +122,6 @@ def char_ns(serial):
     return round(bits * 1e9 / int(baud))
 
 
-def fmt_time(ns):
-    return f"{ns // 1_000_000_000}.{ns % 1_000_000_000:09d}"
-
-
 def main():
     root = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "captures")
     for name, seed in SEEDS.items():
@@ -137,7 +135,7 @@ def main():
         for label, kind, hex_bytes in seed["frames"]:
             n = len(hex_bytes.split())
             lines.append(f"# {label}")
-            lines.append(f"{fmt_time(t)} bus {hex_bytes}")
+            lines.append(f"{ts(t)} bus {hex_bytes}")
             end = t + n * ct
             t = end + (max(REPLY_DELAY_NS, 6 * ct) if kind == "req" else NEXT_REQUEST_NS)
         os.makedirs(os.path.join(root, name), exist_ok=True)

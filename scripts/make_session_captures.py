@@ -9,46 +9,23 @@ Re-run from the repository root: python3 scripts/make_session_captures.py
 """
 import os
 
+from wire import eds_sum, fc_telegram, hexs, lrc, ts, with_crc
+
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "captures")
 MS = 1_000_000
 
 
-def crc16(b):
-    crc = 0xFFFF
-    for v in b:
-        crc ^= v
-        for _ in range(8):
-            crc = (crc >> 1) ^ 0xA001 if crc & 1 else crc >> 1
-    return [crc & 0xFF, crc >> 8]
-
-
 def rtu(*b):
-    b = list(b)
-    return b + crc16(b)
+    return list(with_crc(b))
 
 
 def ascii_frame(*b):
-    b = list(b)
-    lrc = (-sum(b)) & 0xFF
-    return list(b":" + "".join(f"{v:02X}" for v in b + [lrc]).encode() + b"\r\n")
-
-
-def bcc(b):
-    x = 0
-    for v in b:
-        x ^= v
-    return x
-
-
-def fc_tel(adr, data):
-    body = [0x02, len(data) + 2, adr] + data
-    return body + [bcc(body)]
+    return list(b":" + "".join(f"{v:02X}" for v in list(b) + [lrc(b)]).encode() + b"\r\n")
 
 
 def eds(text):
-    """'~' + text + SUM + CR; SUM = 16-bit sum of the ASCII codes of text."""
-    s = sum(text.encode()) & 0xFFFF
-    return list(("~" + text + f"{s:04X}" + "\r").encode())
+    """'~' + text + SUM + CR."""
+    return list(("~" + text + eds_sum(text) + "\r").encode())
 
 
 def w16(v):
@@ -75,8 +52,7 @@ class Session:
         self.lines.append(f"# {text}")
 
     def send(self, frame):
-        self.lines.append(f"{self.t // 1_000_000_000}.{self.t % 1_000_000_000:09d} bus "
-                          + " ".join(f"{v:02X}" for v in frame))
+        self.lines.append(f"{ts(self.t)} bus {hexs(frame)}")
         self.t += len(frame) * self.char_ns
 
     def exchange(self, request, reply, delay_ms, pause_ms):
@@ -226,14 +202,14 @@ def vlt_fc():
     a = 1
 
     def cycle(ctw, ref, stw, mav, delay=8):
-        s.exchange(fc_tel(a, words(ctw, ref)), fc_tel(a, words(stw, mav)), delay, 80)
+        s.exchange(fc_telegram(a, words(ctw, ref)), fc_telegram(a, words(stw, mav)), delay, 80)
 
     s.note("stopped and ready: STW 0x0607, reference 50 % (0x2000)")
     cycle(0x043C, 0x2000, 0x0607, 0)
     cycle(0x043C, 0x2000, 0x0607, 0)
     s.note("read parameter 4-14 (motor speed high limit): 500 = 50.0 Hz")
-    s.exchange(fc_tel(a, [0x11, 0x9E, 0, 0, 0, 0, 0, 0] + words(0x043C, 0x2000)),
-               fc_tel(a, [0x11, 0x9E, 0, 0, 0, 0, 0x01, 0xF4] + words(0x0607, 0)), 8, 80)
+    s.exchange(fc_telegram(a, [0x11, 0x9E, 0, 0, 0, 0, 0, 0] + words(0x043C, 0x2000)),
+               fc_telegram(a, [0x11, 0x9E, 0, 0, 0, 0, 0x01, 0xF4] + words(0x0607, 0)), 8, 80)
     s.note("start: CTW 0x047C; the drive runs up to the reference (STW 0x0E07 running, 0x0F07 on it)")
     cycle(0x047C, 0x2000, 0x0E07, 0x0800)
     cycle(0x047C, 0x2000, 0x0E07, 0x1800)
