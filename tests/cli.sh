@@ -59,5 +59,14 @@ for pair in session-e9:"ERMAN E-9P/9G" session-erg:"ERMAN ER-G" session-e5-8200:
   [ "$bindings" = "bound to $family " ] || fail "$dir: bindings were '$bindings', expected '$family'"
 done
 
+# 7. A sigrok session through the command: frames decoded from the samples; a bad --channels name
+#    is a one-line error naming the option and the channels there are.
+out=$("$drivetap" read "$root/captures/sigrok-flowmeter-graph-tool/flowmeter_graph_tool.sr" 2>/dev/null)
+grep -q "^frames: *18 (checksum ok 18," <<<"$out" || fail ".sr: expected 18 good frames"
+sr="$root/captures/uart-phy/errors_ampel64_4800_8n1_ok.sr"
+err=$("$drivetap" read --channels 0,nope "$sr" 2>&1 >/dev/null); rc=$?
+[ "$rc" = 1 ] && [ "$err" = "drivetap: --channels: $sr: no channel 'nope' (channels: 0, 1, 2, RX, TX, 5, 6, 7)" ] ||
+  fail "--channels nope: exit $rc, stderr: $err"
+
 [ "$failed" = 0 ] && echo "ok cli"
 exit "$failed"

@@ -54,7 +54,7 @@ struct CommonOptions {
   std::vector<std::string> profiles;  // user profile files
   std::vector<std::string> profile_dirs;
   bool events_only = false;
-  std::string logic_channels;  // --channels RX,TX
+  std::vector<std::string> logic_channels;  // --channels RX,TX
   bool invert = false;
 };
 
@@ -87,7 +87,8 @@ void add_common_options(CLI::App* cmd, CommonOptions& o) {
   cmd->add_option("--profile-dir", o.profile_dirs, "Load every *.toml drive profile in DIR");
   cmd->add_option("--channels", o.logic_channels,
                   "Logic-analyser captures: the channels to decode as UART, by name or index, "
-                  "e.g. RX,TX (default: every channel whose line moves)");
+                  "e.g. RX,TX (default: every channel whose line moves)")
+      ->delimiter(',');
   cmd->add_flag("--invert", o.invert,
                 "Logic-analyser captures: the line idles low (A/B swapped, RS-232 side)");
   cmd->add_flag("--events", o.events_only,
@@ -348,12 +349,7 @@ int run_read(const CommonOptions& o, const std::string& path) {
       SigrokSourceOptions so;
       so.uart = phy::UartSettings::from(line.serial);
       so.uart.inverted = o.invert;
-      for (std::size_t at = 0; !o.logic_channels.empty() && at != std::string::npos;) {
-        const std::size_t comma = o.logic_channels.find(',', at);
-        so.channels.push_back(
-            o.logic_channels.substr(at, comma == std::string::npos ? comma : comma - at));
-        at = comma == std::string::npos ? comma : comma + 1;
-      }
+      so.channels = o.logic_channels;
       source = std::make_unique<SigrokSource>(std::move(file), path, channels, std::move(so));
       break;
     }
