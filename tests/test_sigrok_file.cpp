@@ -25,25 +25,28 @@ struct Read {
 Read read_all(SigrokFile& f) {
   Read r;
   r.edges.assign(16, 0);
-  bool have = false;
-  std::uint64_t prev = 0;
+  std::vector<std::size_t> all;
+  for (std::size_t b = 0; b < f.channels().size() && b < 16; ++b) all.push_back(b);
   std::string error;
-  EXPECT_TRUE(f.read(
-      [&](std::span<const std::uint64_t> chunk) {
-        for (std::uint64_t s : chunk) {
-          if (!have) {
-            r.first = s;
-            prev = s;
-            have = true;
-          }
-          const std::uint64_t changed = s ^ prev;
-          for (int b = 0; b < 16; ++b) r.edges[b] += (changed >> b) & 1;
-          prev = s;
-          ++r.samples;
-        }
-      },
-      &error))
-      << error;
+  EXPECT_TRUE(f.select(all, &error)) << error;
+  RunBlock block;
+  std::vector<int> last(all.size(), -1);
+  while (f.next_block(block, &error)) {
+    EXPECT_EQ(block.begin, r.samples);
+    r.samples = block.end;
+    for (std::size_t b = 0; b < all.size(); ++b) {
+      std::uint64_t covered = 0;
+      for (const phy::LevelRun& run : block.runs[b]) {
+        EXPECT_GT(run.length, 0u);
+        covered += run.length;
+        if (last[b] < 0) r.first |= std::uint64_t{run.level} << b;
+        if (last[b] >= 0 && last[b] != static_cast<int>(run.level)) ++r.edges[b];
+        last[b] = run.level;
+      }
+      EXPECT_EQ(covered, block.end - block.begin) << "channel " << b;
+    }
+  }
+  EXPECT_TRUE(error.empty()) << error;
   return r;
 }
 
@@ -61,7 +64,7 @@ TEST(SigrokFile, BrainchildTwoByteSamplesOverThirtyChunks) {
   std::string error;
   auto f = SigrokFile::open(capture("sigrok-brainchild-io-16do/brainchild-io-16do.sr"), &error);
   ASSERT_TRUE(f) << error;
-  EXPECT_EQ(f->sample_rate(), 1e6);
+  EXPECT_EQ(f->sample_rate(), 1000000u);
   ASSERT_EQ(f->channels().size(), 16u);
   EXPECT_EQ(f->channels()[0], "0");
   EXPECT_EQ(f->channels()[1], "1");
@@ -78,7 +81,7 @@ TEST(SigrokFile, NamedChannelsAndOneByteSamples) {
   std::string error;
   auto f = SigrokFile::open(capture("uart-phy/errors_ampel64_4800_8n1_ok.sr"), &error);
   ASSERT_TRUE(f) << error;
-  EXPECT_EQ(f->sample_rate(), 2e6);
+  EXPECT_EQ(f->sample_rate(), 2000000u);
   ASSERT_EQ(f->channels().size(), 8u);
   EXPECT_EQ(f->channels()[3], "RX");
   EXPECT_EQ(f->channels()[4], "TX");
@@ -95,7 +98,7 @@ TEST(SigrokFile, AnalogTraceIsThresholded) {
   auto f = SigrokFile::open(capture("uart-phy/from_analog_uart_analog_10700_8n2.sr"), &error);
   ASSERT_TRUE(f) << error;
   EXPECT_TRUE(f->analog());
-  EXPECT_EQ(f->sample_rate(), 8e6);
+  EXPECT_EQ(f->sample_rate(), 8000000u);
   ASSERT_EQ(f->channels().size(), 1u);
   EXPECT_EQ(f->channels()[0], "CH1");
   const Read r = read_all(*f);

@@ -100,8 +100,9 @@ std::unique_ptr<SigrokFile> SigrokFile::open(const std::string& path, std::strin
     return nullptr;
   }
   auto keys = device_keys(ini);
-  file->sample_rate_ = parse_sample_rate(keys["samplerate"]);
-  if (file->sample_rate_ <= 0) {
+  const double rate = parse_sample_rate(keys["samplerate"]);
+  file->sample_rate_ = static_cast<std::uint64_t>(std::llround(rate));
+  if (!(rate >= 1) || rate > 1e12 || std::abs(rate - std::round(rate)) > 1e-6) {
     *error = fmt::format("{}: metadata: samplerate '{}' is not a rate", path, keys["samplerate"]);
     return nullptr;
   }
@@ -152,70 +153,205 @@ std::unique_ptr<SigrokFile> SigrokFile::open(const std::string& path, std::strin
   return file;
 }
 
-bool SigrokFile::read(const std::function<void(std::span<const std::uint64_t>)>& chunk,
-                      std::string* error) {
-  zip_t* z = zip_->archive;
-  constexpr std::size_t kBlock = 1 << 16;  // bytes read at a time
-  std::vector<std::uint8_t> raw(kBlock + 8);
-  std::vector<std::uint64_t> samples;
-  samples.reserve(kBlock);
+struct SigrokFile::Entry {
+  zip_file_t* file = nullptr;
+  std::string name;
+  ~Entry() {
+    if (file) zip_fclose(file);
+  }
+};
+
+namespace {
+constexpr std::size_t kReadBytes = 1 << 20;  // raw bytes per block
+}  // namespace
+
+bool SigrokFile::open_next_entry(std::string* error) {
+  entry_.reset();
+  if (next_chunk_ >= chunks_.size()) return true;
+  auto entry = std::make_unique<Entry>();
+  entry->name = chunks_[next_chunk_++];
+  entry->file = zip_fopen(zip_->archive, entry->name.c_str(), 0);
+  if (!entry->file) {
+    *error =
+        fmt::format("{}: {}: cannot open: {}", path_, entry->name, zip_strerror(zip_->archive));
+    return false;
+  }
+  entry_ = std::move(entry);
+  entry_offset_ = 0;
+  return true;
+}
+
+// An oscilloscope trace has no logic levels: a first pass finds its range.
+bool SigrokFile::find_analog_range(std::string* error) {
   float lo = std::numeric_limits<float>::max(), hi = std::numeric_limits<float>::lowest();
-  // Analog traces need their range first: one pass for min/max, one to threshold.
-  for (int pass = analog_ ? 0 : 1; pass < 2; ++pass) {
-    const float threshold = (lo + hi) / 2;
-    for (const std::string& name : chunks_) {
-      zip_file_t* f = zip_fopen(z, name.c_str(), 0);
-      if (!f) {
-        *error = fmt::format("{}: {}: cannot open: {}", path_, name, zip_strerror(z));
+  std::vector<std::uint8_t> raw(kReadBytes);
+  for (const std::string& name : chunks_) {
+    Entry e;
+    e.name = name;
+    e.file = zip_fopen(zip_->archive, name.c_str(), 0);
+    if (!e.file) {
+      *error = fmt::format("{}: {}: cannot open: {}", path_, name, zip_strerror(zip_->archive));
+      return false;
+    }
+    std::size_t carried = 0;
+    for (;;) {
+      const zip_int64_t got = zip_fread(e.file, raw.data() + carried, kReadBytes - carried);
+      if (got < 0) {
+        *error = fmt::format("{}: {}: damaged: {}", path_, name, zip_file_strerror(e.file));
         return false;
       }
-      const std::size_t unit = analog_ ? sizeof(float) : static_cast<std::size_t>(unit_size_);
-      std::size_t carried = 0;  // bytes of a sample split across two reads
-      std::uint64_t offset = 0;
-      for (;;) {
-        const zip_int64_t got = zip_fread(f, raw.data() + carried, kBlock);
-        if (got < 0) {
-          *error = fmt::format("{}: {}: offset {}: damaged: {}", path_, name, offset,
-                               zip_file_strerror(f));
-          zip_fclose(f);
-          return false;
+      if (got == 0) break;
+      const std::size_t have = carried + static_cast<std::size_t>(got);
+      const std::size_t whole = have / sizeof(float) * sizeof(float);
+      for (std::size_t at = 0; at < whole; at += sizeof(float)) {
+        float v;
+        std::memcpy(&v, raw.data() + at, sizeof v);
+        if (std::isfinite(v)) {
+          lo = std::min(lo, v);
+          hi = std::max(hi, v);
         }
-        if (got == 0) break;
-        const std::size_t have = carried + static_cast<std::size_t>(got);
-        const std::size_t whole = have / unit * unit;
-        samples.clear();
-        for (std::size_t at = 0; at < whole; at += unit) {
-          if (analog_) {
-            float v;
-            std::memcpy(&v, raw.data() + at, sizeof v);
-            if (pass == 0) {
-              if (std::isfinite(v)) {
-                lo = std::min(lo, v);
-                hi = std::max(hi, v);
-              }
-            } else {
-              samples.push_back(v > threshold ? 1 : 0);
-            }
-          } else {
-            std::uint64_t word = 0;
-            for (std::size_t b = 0; b < unit; ++b)
-              word |= static_cast<std::uint64_t>(raw[at + b]) << (8 * b);
-            samples.push_back(word);
-          }
-        }
-        if (pass == 1 && !samples.empty()) chunk(samples);
-        carried = have - whole;
-        std::memmove(raw.data(), raw.data() + whole, carried);
-        offset += static_cast<std::uint64_t>(got);
       }
-      zip_fclose(f);
-      if (carried != 0) {
-        *error = fmt::format("{}: {}: ends inside a sample ({} stray bytes)", path_, name, carried);
-        return false;
-      }
+      carried = have - whole;
+      std::memmove(raw.data(), raw.data() + whole, carried);
     }
   }
+  if (lo > hi) lo = hi = 0;
+  // A Schmitt trigger 10 % of the range either side of the middle: noise on a slow edge crosses
+  // a single threshold several times and would read as glitches.
+  const float middle = lo + (hi - lo) / 2, margin = (hi - lo) / 10;
+  analog_low_ = middle - margin;
+  analog_high_ = middle + margin;
+  analog_range_known_ = true;
   return true;
+}
+
+bool SigrokFile::select(const std::vector<std::size_t>& channels, std::string* error) {
+  for (std::size_t c : channels)
+    if (c >= channels_.size()) {
+      *error = fmt::format("{}: no channel {} (it has {})", path_, c, channels_.size());
+      return false;
+    }
+  if (analog_ && !analog_range_known_ && !find_analog_range(error)) return false;
+  selected_ = channels;
+  next_chunk_ = 0;
+  carried_ = 0;
+  sample_ = 0;
+  have_level_ = false;
+  last_word_ = 0;
+  run_start_.assign(channels.size(), 0);
+  level_.assign(channels.size(), true);
+  raw_.resize(kReadBytes + 8);
+  return open_next_entry(error);
+}
+
+// Logic samples -> runs. Most of a capture is idle line, so whole words of unchanged one-byte
+// samples are skipped eight at a time; only a sample where a selected bit changes costs more.
+void SigrokFile::scan_logic(const std::uint8_t* bytes, std::size_t samples, RunBlock& block) {
+  const auto unit = static_cast<std::size_t>(unit_size_);
+  std::uint64_t mask = 0;
+  for (std::size_t c : selected_) mask |= std::uint64_t{1} << c;
+  auto word_at = [&](std::size_t i) {
+    std::uint64_t w = 0;
+    for (std::size_t b = 0; b < unit; ++b)
+      w |= static_cast<std::uint64_t>(bytes[i * unit + b]) << (8 * b);
+    return w & mask;
+  };
+  std::size_t i = 0;
+  if (!have_level_ && samples > 0) {
+    last_word_ = word_at(0);
+    for (std::size_t k = 0; k < selected_.size(); ++k) level_[k] = (last_word_ >> selected_[k]) & 1;
+    have_level_ = true;
+  }
+  while (i < samples) {
+    if (unit == 1) {
+      // Skip eight unchanged samples at a time.
+      const std::uint64_t same = (last_word_ & 0xFF) * 0x0101010101010101ULL;
+      const std::uint64_t mask8 = (mask & 0xFF) * 0x0101010101010101ULL;
+      while (i + 8 <= samples) {
+        std::uint64_t eight;
+        std::memcpy(&eight, bytes + i, 8);
+        if (((eight ^ same) & mask8) != 0) break;
+        i += 8;
+      }
+      if (i >= samples) break;
+    }
+    const std::uint64_t w = word_at(i);
+    if (w != last_word_) {
+      const std::uint64_t changed = w ^ last_word_;
+      const std::uint64_t at = sample_ + i;
+      for (std::size_t k = 0; k < selected_.size(); ++k) {
+        if (!((changed >> selected_[k]) & 1)) continue;
+        if (at > run_start_[k]) block.runs[k].push_back({level_[k], at - run_start_[k]});
+        level_[k] = !level_[k];
+        run_start_[k] = at;
+      }
+      last_word_ = w;
+    }
+    ++i;
+  }
+}
+
+void SigrokFile::scan_analog(const std::uint8_t* bytes, std::size_t samples, RunBlock& block) {
+  for (std::size_t i = 0; i < samples; ++i) {
+    float v;
+    std::memcpy(&v, bytes + i * sizeof(float), sizeof v);
+    if (!std::isfinite(v)) continue;  // keeps the level: a missing point is no edge
+    if (!have_level_) {
+      level_[0] = v > (analog_low_ + analog_high_) / 2;
+      have_level_ = true;
+      continue;
+    }
+    const bool level = level_[0] ? !(v < analog_low_) : v > analog_high_;
+    if (level == level_[0]) continue;
+    const std::uint64_t at = sample_ + i;
+    if (at > run_start_[0]) block.runs[0].push_back({level_[0], at - run_start_[0]});
+    level_[0] = level;
+    run_start_[0] = at;
+  }
+}
+
+bool SigrokFile::next_block(RunBlock& block, std::string* error) {
+  block.begin = sample_;
+  block.runs.assign(selected_.size(), {});
+  const std::size_t unit = analog_ ? sizeof(float) : static_cast<std::size_t>(unit_size_);
+  while (entry_) {
+    const zip_int64_t got = zip_fread(entry_->file, raw_.data() + carried_, kReadBytes);
+    if (got < 0) {
+      *error = fmt::format("{}: {}: offset {}: damaged: {}", path_, entry_->name, entry_offset_,
+                           zip_file_strerror(entry_->file));
+      entry_.reset();
+      return false;
+    }
+    if (got == 0) {
+      if (carried_ != 0) {
+        *error = fmt::format("{}: {}: ends inside a sample ({} stray bytes)", path_, entry_->name,
+                             carried_);
+        entry_.reset();
+        return false;
+      }
+      if (!open_next_entry(error)) return false;
+      continue;
+    }
+    entry_offset_ += static_cast<std::uint64_t>(got);
+    const std::size_t have = carried_ + static_cast<std::size_t>(got);
+    const std::size_t samples = have / unit;
+    if (analog_)
+      scan_analog(raw_.data(), samples, block);
+    else
+      scan_logic(raw_.data(), samples, block);
+    sample_ += samples;
+    carried_ = have - samples * unit;
+    std::memmove(raw_.data(), raw_.data() + samples * unit, carried_);
+    if (samples == 0) continue;
+    // Close every channel's run at the block end; the next block continues it.
+    for (std::size_t k = 0; k < selected_.size(); ++k) {
+      if (sample_ > run_start_[k]) block.runs[k].push_back({level_[k], sample_ - run_start_[k]});
+      run_start_[k] = sample_;
+    }
+    block.end = sample_;
+    return true;
+  }
+  return false;
 }
 
 }  // namespace drivetap

@@ -4,47 +4,67 @@
 //
 //   logic sample = unitsize bytes, little-endian; bit i = channel probe(i+1)
 //
-// The reader hands out the samples chunk by chunk; it never holds the whole capture in memory.
-// An analog channel is thresholded halfway between its lowest and highest value.
+// The reader hands out level runs block by block (src/sources/logic_capture.hpp); it never holds
+// the whole capture in memory. An analog channel is turned into levels by a Schmitt trigger
+// around the middle of its range (a first pass finds the range).
 #pragma once
 
 #include <cstdint>
-#include <functional>
 #include <memory>
-#include <span>
 #include <string>
 #include <vector>
 
+#include "sources/logic_capture.hpp"
+
 namespace drivetap {
 
-class SigrokFile {
+class SigrokFile final : public LogicCapture {
  public:
   // nullptr with *error = "FILE: reason" when the file is no sigrok session this reader knows.
   static std::unique_ptr<SigrokFile> open(const std::string& path, std::string* error);
-  ~SigrokFile();
+  ~SigrokFile() override;
   SigrokFile(const SigrokFile&) = delete;
   SigrokFile& operator=(const SigrokFile&) = delete;
 
-  [[nodiscard]] double sample_rate() const { return sample_rate_; }
+  [[nodiscard]] std::uint64_t sample_rate() const override { return sample_rate_; }
   // Channel names in bit order (logic) or the one analog channel.
-  [[nodiscard]] const std::vector<std::string>& channels() const { return channels_; }
+  [[nodiscard]] const std::vector<std::string>& channels() const override { return channels_; }
   [[nodiscard]] bool analog() const { return analog_; }
 
-  // Calls `chunk` with consecutive blocks of samples; each sample is one 64-bit word whose bit i
-  // is channel i (analog: bit 0 = above the threshold). Returns false with *error on a damaged
-  // file ("FILE: logic-1-3: ...").
-  bool read(const std::function<void(std::span<const std::uint64_t>)>& chunk, std::string* error);
+  bool select(const std::vector<std::size_t>& channels, std::string* error) override;
+  bool next_block(RunBlock& block, std::string* error) override;
 
  private:
   SigrokFile() = default;
   struct Zip;
   std::unique_ptr<Zip> zip_;
   std::string path_;
-  double sample_rate_ = 0;
+  struct Entry;
+  bool open_next_entry(std::string* error);
+  bool find_analog_range(std::string* error);
+  void scan_logic(const std::uint8_t* bytes, std::size_t samples, RunBlock& block);
+  void scan_analog(const std::uint8_t* bytes, std::size_t samples, RunBlock& block);
+
+  std::uint64_t sample_rate_ = 0;
   std::vector<std::string> channels_;
   bool analog_ = false;
   int unit_size_ = 1;
   std::vector<std::string> chunks_;  // zip entry names in sample order
+
+  // Reading position.
+  std::vector<std::size_t> selected_;
+  std::unique_ptr<Entry> entry_;  // the open sample chunk
+  std::size_t next_chunk_ = 0;
+  std::vector<std::uint8_t> raw_;
+  std::size_t carried_ = 0;  // bytes of a sample split across two reads
+  std::uint64_t entry_offset_ = 0;
+  std::uint64_t sample_ = 0;  // samples handed out so far
+  bool have_level_ = false;
+  std::uint64_t last_word_ = 0;             // previous sample (selected bits only)
+  std::vector<std::uint64_t> run_start_;    // per selected channel: where its run began
+  std::vector<bool> level_;                 // per selected channel: its current level
+  float analog_low_ = 0, analog_high_ = 0;  // Schmitt trigger thresholds
+  bool analog_range_known_ = false;
 };
 
 // "1 MHz", "500 kHz", "8000000" -> samples per second; 0 when not a rate.

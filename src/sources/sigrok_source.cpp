@@ -16,7 +16,7 @@ SigrokSource::SigrokSource(std::unique_ptr<SigrokFile> file, std::string name,
 
 bool SigrokSource::read_header() {
   const std::vector<std::string>& names = file_->channels();
-  const auto rate = static_cast<std::uint64_t>(file_->sample_rate());
+  const std::uint64_t rate = file_->sample_rate();
   if (const std::string why = options_.uart.validate(rate); !why.empty()) {
     error_ = fmt::format("{}: {} at {} samples/s: {}", name_, "line settings", rate, why);
     return false;
@@ -38,22 +38,20 @@ bool SigrokSource::read_header() {
     }
     bits.push_back(found);
   }
+  RunBlock block;
   if (bits.empty()) {
+    std::vector<std::size_t> all(names.size());
+    for (std::size_t b = 0; b < all.size(); ++b) all[b] = b;
+    if (!file_->select(all, &error_)) return false;
     std::vector<std::uint64_t> edges(names.size(), 0);
-    bool have = false;
-    std::uint64_t prev = 0;
-    if (!file_->read(
-            [&](std::span<const std::uint64_t> chunk) {
-              for (std::uint64_t s : chunk) {
-                const std::uint64_t changed = have ? (s ^ prev) : 0;
-                have = true;
-                prev = s;
-                if (changed)
-                  for (std::size_t b = 0; b < names.size(); ++b) edges[b] += (changed >> b) & 1;
-              }
-            },
-            &error_))
-      return false;
+    std::vector<int> last(names.size(), -1);
+    while (file_->next_block(block, &error_))
+      for (std::size_t b = 0; b < all.size(); ++b)
+        for (const phy::LevelRun& r : block.runs[b]) {
+          if (last[b] >= 0 && last[b] != static_cast<int>(r.level)) ++edges[b];
+          last[b] = r.level;
+        }
+    if (!error_.empty()) return false;
     for (std::size_t b = 0; b < names.size(); ++b)
       if (edges[b] >= 4) bits.push_back(static_cast<int>(b));
     if (bits.empty()) {
@@ -61,46 +59,24 @@ bool SigrokSource::read_header() {
       return false;
     }
   }
-  // One decoder per channel; each chunk is turned into level runs per channel.
+  // One decoder per channel.
   std::vector<phy::UartDecoder> decoders;
   std::vector<ChannelId> ids;
+  std::vector<std::size_t> selected;
   for (int b : bits) {
     decoders.emplace_back(options_.uart, rate);
+    selected.push_back(static_cast<std::size_t>(b));
     // All channels of one analyser watch one link: on a 4-wire link RX and TX are its two
     // directions, and content and order tell requests from replies (as on a shared pair).
     ids.push_back(channels_.intern(names[static_cast<std::size_t>(b)], "", ChannelRole::bus));
   }
   std::vector<std::vector<phy::UartCharacter>> out(bits.size());
-  std::vector<bool> level(bits.size(), true);
-  std::vector<std::uint64_t> run(bits.size(), 0);
-  bool started = false;
-  if (!file_->read(
-          [&](std::span<const std::uint64_t> chunk) {
-            for (std::size_t k = 0; k < bits.size(); ++k) {
-              const int b = bits[k];
-              bool lv = level[k];
-              std::uint64_t length = run[k];
-              std::size_t i = 0;
-              if (!started && !chunk.empty()) lv = (chunk[0] >> b) & 1;
-              for (; i < chunk.size(); ++i) {
-                const bool s = (chunk[i] >> b) & 1;
-                if (s != lv) {
-                  decoders[k].push_run(lv, length, out[k]);
-                  lv = s;
-                  length = 0;
-                }
-                ++length;
-              }
-              level[k] = lv;
-              run[k] = length;
-            }
-            started = true;
-          },
-          &error_))
-    return false;
+  if (!file_->select(selected, &error_)) return false;
+  while (file_->next_block(block, &error_))
+    for (std::size_t k = 0; k < bits.size(); ++k) decoders[k].push_runs(block.runs[k], out[k]);
+  if (!error_.empty()) return false;
   const phy::SampleClock clock{rate, 0};
   for (std::size_t k = 0; k < bits.size(); ++k) {
-    if (run[k]) decoders[k].push_run(level[k], run[k], out[k]);
     decoders[k].finish(out[k]);
     for (const phy::UartCharacter& c : out[k])
       events_.push_back(phy::to_byte_event(c, clock, ids[k]));
