@@ -5,8 +5,8 @@
 
 #include <fmt/format.h>
 
+#include "sources/logic_source.hpp"
 #include "sources/sigrok_file.hpp"
-#include "sources/sigrok_source.hpp"
 
 using namespace drivetap;
 
@@ -114,13 +114,14 @@ TEST(SigrokFile, NotASessionFile) {
   EXPECT_NE(error.find("/nonexistent.sr: "), std::string::npos) << error;
 }
 
-// The uart_phy recordings through SigrokSource (our UART decoder) with the settings MANIFEST.md
+// The uart_phy recordings through LogicSource (our UART decoder) with the settings MANIFEST.md
 // gives: the bytes and errors sigrok-cli 0.7.2 reports.
 namespace {
 
 struct Decoded {
   std::string text;  // bytes as hex, "[frame error]" / "[parity error]" after a flagged byte
   std::size_t framing = 0, parity = 0;
+  std::uint64_t false_starts = 0;
 };
 
 Decoded decode_sr(const std::string& rel, const std::string& serial, std::string channel = {}) {
@@ -129,11 +130,11 @@ Decoded decode_sr(const std::string& rel, const std::string& serial, std::string
   EXPECT_TRUE(file) << error;
   Decoded d;
   if (!file) return d;
-  SigrokSourceOptions so;
+  LogicSourceOptions so;
   so.uart = phy::UartSettings::from(*SerialConfig::parse(serial, &error));
   if (!channel.empty()) so.channels.push_back(channel);
   ChannelTable channels;
-  SigrokSource source(std::move(file), rel, channels, so);
+  LogicSource source(std::move(file), rel, channels, so);
   EXPECT_TRUE(source.read_header()) << source.error();
   ByteEvent e;
   while (source.next(e)) {
@@ -147,6 +148,7 @@ Decoded decode_sr(const std::string& rel, const std::string& serial, std::string
       ++d.parity;
     }
   }
+  for (const phy::UartDecoderStats& st : source.decoder_stats()) d.false_starts += st.false_starts;
   return d;
 }
 
@@ -154,22 +156,25 @@ Decoded decode_sr(const std::string& rel, const std::string& serial, std::string
 
 // Open (issue 6): read as 8N2, the first byte of errors_ampel64_4800_8n2_ok.sr gets a framing
 // error on its second stop bit, which sigrok (like a 16550, first stop bit only) does not check.
-TEST(UartPhyCaptures, DISABLED_Ampel4800Clean8N1And8N2) {
+// The "8N2" recording's first character is followed by the next after 1.15 stop bits; like a
+// 16550 and like sigrok, only the first stop bit decides a framing error.
+TEST(UartPhyCaptures, Ampel4800Clean8N1And8N2) {
   EXPECT_EQ(decode_sr("uart-phy/errors_ampel64_4800_8n1_ok.sr", "4800 8N1").text,
             "41 4D 50 45 4C 20 36 34 0A");
   EXPECT_EQ(decode_sr("uart-phy/errors_ampel64_4800_8n2_ok.sr", "4800 8N2").text,
             "41 4D 50 45 4C 20 36 34 0A");
 }
 
-// Open (issue 6): we find 3 framing errors where sigrok reports 4.
-TEST(UartPhyCaptures, DISABLED_AmpelDisturbedLineHasTheFramingErrorsSigrokReports) {
+// sigrok: 41 [frame error] 53 [frame error] 55 [frame error] 31 81 [frame error] 36 34 0A. Its
+// first "frame error" is no character: a pulse after 0x41 whose start bit is gone at its centre
+// (sigrok's "invalid start bit", counted as a frame error); ours counts it as a false start. The
+// other three sit on 53, 55 and 81, as here.
+TEST(UartPhyCaptures, AmpelDisturbedLineHasTheFramingErrorsSigrokReports) {
   const Decoded d = decode_sr("uart-phy/errors_ampel64_4800_8n1_frame_errors.sr", "4800 8N1");
-  EXPECT_EQ(d.framing, 4u) << d.text;
+  EXPECT_EQ(d.text, "41 53 [frame error] 55 [frame error] 31 81 [frame error] 36 34 0A");
+  EXPECT_EQ(d.framing + d.false_starts, 4u);
+  EXPECT_EQ(d.false_starts, 1u);
   EXPECT_EQ(d.parity, 0u);
-  // sigrok: 41 [frame error] 53 [frame error] 55 [frame error] 31 81 [frame error] 36 34 0A —
-  // its error marks sit on the byte after the damage; the good bytes must be the same.
-  for (const char* good : {"41", "53", "55", "31", "81", "36 34 0A"})
-    EXPECT_NE(d.text.find(good), std::string::npos) << good << " in " << d.text;
 }
 
 TEST(UartPhyCaptures, HelloWorld7O1AndItsParityErrorsAs7E1) {
@@ -183,15 +188,18 @@ TEST(UartPhyCaptures, HelloWorld7O1AndItsParityErrorsAs7E1) {
   EXPECT_EQ(wrong.parity, 4u * 14u);
 }
 
-// Open (issue 6): the midpoint threshold leaves 2 flagged bytes in the analog trace.
-TEST(UartPhyCaptures, DISABLED_AnalogTrace10700Baud8N2) {
+// sigrok-cli's UART decoder over the trace thresholded at mid-range (captures/uart-phy/README.md
+// says how): 1173 bytes and one frame error, where the ATMega's stop bits last 11 us instead of
+// 187. Ours (a Schmitt trigger around mid-range) reads the same bytes and the same error; the
+// last character, cut by the end of the recording, is dropped by both.
+TEST(UartPhyCaptures, AnalogTrace10700Baud8N2AsSigrokReadsIt) {
+  std::ifstream truth_file(capture("uart-phy/from_analog_uart_analog_10700_8n2.sigrok.txt"));
+  std::string truth, token;
+  while (std::getline(truth_file, token))
+    truth += token == "Frame error" ? " [frame error]" : (truth.empty() ? "" : " ") + token;
+  ASSERT_GT(truth.size(), 3000u);
   const Decoded d = decode_sr("uart-phy/from_analog_uart_analog_10700_8n2.sr", "10700 8N2");
-  EXPECT_EQ(d.framing + d.parity, 0u) << d.text;
-  for (const char* b : {"1A", "1B", "1C", "1D", "1E", "1F", "20", "00"})
-    EXPECT_NE(d.text.find(b), std::string::npos) << b << " in " << d.text;
-}
-
-TEST(UartPhyCaptures, Ampel4800Clean8N1) {
-  EXPECT_EQ(decode_sr("uart-phy/errors_ampel64_4800_8n1_ok.sr", "4800 8N1").text,
-            "41 4D 50 45 4C 20 36 34 0A");
+  EXPECT_EQ(d.text, truth);
+  EXPECT_EQ(d.framing, 1u);
+  EXPECT_EQ(d.parity, 0u);
 }

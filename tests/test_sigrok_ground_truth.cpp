@@ -6,7 +6,8 @@
 #include <fstream>
 #include <sstream>
 
-#include "sources/sigrok_source.hpp"
+#include "sources/logic_source.hpp"
+#include "sources/sigrok_file.hpp"
 #include "test_support.hpp"
 
 using namespace drivetap;
@@ -66,20 +67,30 @@ void expect_frame_for_frame(const std::string& capture, std::vector<TruthFrame> 
 
 // The same ground truth from the logic samples themselves: the .sr through drivetap's own UART
 // decoder. Bytes exact, start times within one bit of sigrok's.
+// detect: no settings given; the source must find `serial` (and the polarity) itself.
 void expect_sr_frame_for_frame(const std::string& sr_path, const std::string& serial, bool inverted,
-                               std::vector<TruthFrame> truth) {
+                               std::vector<TruthFrame> truth, bool detect = false) {
   std::sort(truth.begin(), truth.end(),
             [](const TruthFrame& a, const TruthFrame& b) { return a.start < b.start; });
   std::string error;
   auto file = SigrokFile::open(sr_path, &error);
   ASSERT_TRUE(file) << error;
   const SerialConfig line = *SerialConfig::parse(serial, &error);
-  SigrokSourceOptions so;
-  so.uart = phy::UartSettings::from(line);
-  so.uart.inverted = inverted;
+  LogicSourceOptions so;
+  if (!detect) {
+    so.uart = phy::UartSettings::from(line);
+    so.uart->inverted = inverted;
+  }
   ChannelTable channels;
-  SigrokSource source(std::move(file), sr_path, channels, so);
+  LogicSource source(std::move(file), sr_path, channels, so);
   ASSERT_TRUE(source.read_header()) << source.error();
+  if (detect) {
+    EXPECT_EQ(phy::settings_text(source.uart()), serial + (inverted ? ", inverted" : ""));
+    ASSERT_TRUE(source.detection());
+    EXPECT_EQ(source.detection()->format_confidence, phy::Confidence::high)
+        << source.detection()->format_reason;
+    EXPECT_EQ(source.detection()->polarity_confidence, phy::Confidence::high);
+  }
   PipelineOptions p;
   p.serial = line;
   p.timing = FramingTiming::from(line);
@@ -148,4 +159,25 @@ TEST(SigrokGroundTruth, BrainchildTwoChannelsFromSamples) {
   truth.insert(truth.end(), rx.begin(), rx.end());
   expect_sr_frame_for_frame(dir("sigrok-brainchild-io-16do") + "brainchild-io-16do.sr", "19200 8E1",
                             true, truth);
+}
+
+// No option at all: channels, polarity, baud and format found from the samples.
+TEST(SigrokGroundTruth, BrainchildDetectedWithNoOption) {
+  auto truth = read_truth(dir("sigrok-brainchild-io-16do") + "frames_tx.csv", 1'000'000);
+  auto rx = read_truth(dir("sigrok-brainchild-io-16do") + "frames_rx.csv", 1'000'000);
+  truth.insert(truth.end(), rx.begin(), rx.end());
+  expect_sr_frame_for_frame(dir("sigrok-brainchild-io-16do") + "brainchild-io-16do.sr", "19200 8E1",
+                            true, truth, /*detect=*/true);
+}
+
+// Characters inside a frame start 11 bit times apart: 8N2, or 8N1 and a bit of idle line. Both
+// read without error; detection says 8N1 (and that 8N2 fits), whose t3.5 the flowmeter keeps.
+TEST(SigrokGroundTruth, FlowmetersDetectedWithNoOption) {
+  expect_sr_frame_for_frame(
+      dir("sigrok-flowmeter-graph-tool") + "flowmeter_graph_tool.sr", "9600 8N1", false,
+      read_truth(dir("sigrok-flowmeter-graph-tool") + "frames.csv", 4'000'000), true);
+  expect_sr_frame_for_frame(
+      dir("sigrok-flowmeter-target-15liter-per-min") + "flowmeter_target_15liter_per_min.sr",
+      "9600 8N1", false,
+      read_truth(dir("sigrok-flowmeter-target-15liter-per-min") + "frames.csv", 4'000'000), true);
 }

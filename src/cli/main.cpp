@@ -25,7 +25,8 @@
 #include "sources/capture_reader.hpp"
 #include "sources/hex_text.hpp"
 #include "sources/input_file.hpp"
-#include "sources/sigrok_source.hpp"
+#include "sources/logic_source.hpp"
+#include "sources/sigrok_file.hpp"
 
 namespace {
 
@@ -321,6 +322,21 @@ int run_decode(const CommonOptions& o, const std::vector<std::string>& args) {
   return 0;
 }
 
+// -s and --invert for a logic capture: given settings are used as given; without -s the line is
+// detected (and --invert alone is refused: detection finds the polarity itself).
+LogicSourceOptions logic_source_options(const CommonOptions& o) {
+  LogicSourceOptions so;
+  so.channels = o.logic_channels;
+  if (!o.serial.empty()) {
+    const PipelineOptions line = make_pipeline_options(o, RunSettings{});
+    so.uart = phy::UartSettings::from(line.serial);
+    so.uart->inverted = o.invert;
+  } else if (o.invert) {
+    die("--invert: give the line settings too (-s \"19200 8E1\"), or neither: both are detected");
+  }
+  return so;
+}
+
 int run_read(const CommonOptions& o, const std::string& path) {
   InputFile in;
   std::string err;
@@ -345,12 +361,8 @@ int run_read(const CommonOptions& o, const std::string& path) {
       std::string error;
       auto file = SigrokFile::open(path, &error);
       if (!file) die(error, 1);
-      const PipelineOptions line = make_pipeline_options(o, RunSettings{});
-      SigrokSourceOptions so;
-      so.uart = phy::UartSettings::from(line.serial);
-      so.uart.inverted = o.invert;
-      so.channels = o.logic_channels;
-      source = std::make_unique<SigrokSource>(std::move(file), path, channels, std::move(so));
+      source =
+          std::make_unique<LogicSource>(std::move(file), path, channels, logic_source_options(o));
       break;
     }
     case InputFormat::empty:

@@ -117,9 +117,11 @@ UartDecoder::UartDecoder(const UartSettings& settings, std::uint64_t sample_rate
     add_point(after_data + 0.5);
     stop_begins += 1.0;
   }
-  // Every stop bit is sampled, not only the first as a 16550 does: a sniffer wants to know that
-  // the traffic does not fit 8N2 even if a receiver would accept it. A start edge after the
-  // first stop bit's centre still re-synchronises, as on a 16550 (commit_edge).
+  // Every stop bit is sampled, but only the first decides a framing error, as on a 16550 (and in
+  // sigrok's decoder): a transmitter set to 2 stop bits that sometimes sends 1.2 is read without
+  // error by every receiver on the bus. A low later stop bit is counted (short_stop_bits), for
+  // line detection and diagnosis. A start edge after the first stop bit's centre re-synchronises
+  // (commit_edge).
   first_stop_point_ = point_count_;
   add_point(stop_begins + 0.5);
   if (settings.stop_bits == StopBits::one_and_half) add_point(stop_begins + 1.25);
@@ -167,8 +169,8 @@ void UartDecoder::commit_edge(std::uint64_t at, bool mark, std::vector<UartChara
   mark_ = mark;
   if (in_character_ && !mark && next_point_ > first_stop_point_) {
     // A start bit after the first stop bit's centre, inside the second stop bit (or the half
-    // one): the character ends here with a framing error, and the receiver re-synchronises on
-    // this edge, as a UART that checks only the first stop bit would.
+    // one): the character ends here, and the receiver re-synchronises on this edge, as a UART
+    // that checks only the first stop bit does.
     report(at, false, out);
   }
   if (in_character_) {
@@ -227,13 +229,15 @@ void UartDecoder::report(std::uint64_t end_sample, bool is_break, std::vector<Ua
       c.flags |= kUartParityError;
       ++stats_.parity_errors;
     }
-    // A stop bit never sampled (the next start bit or the end of the capture came first) reads
-    // 0: a character cut short is a framing error.
-    const std::uint32_t stop_mask = ((1u << (point_count_ - first_stop_point_)) - 1)
-                                    << first_stop_point_;
-    if ((sampled_levels_ & stop_mask) != stop_mask) {
+    // The first stop bit decides. A later one that read low, or was never sampled because the
+    // next start bit came first, is a short stop: no error, but evidence about the format.
+    if (((sampled_levels_ >> first_stop_point_) & 1) == 0) {
       c.flags |= kUartFramingError;
       ++stats_.framing_errors;
+    } else {
+      const std::uint32_t stop_mask = ((1u << (point_count_ - first_stop_point_)) - 1)
+                                      << first_stop_point_;
+      if ((sampled_levels_ & stop_mask) != stop_mask) ++stats_.short_stop_bits;
     }
   }
   ++stats_.characters;
@@ -250,9 +254,9 @@ void UartDecoder::finish(std::vector<UartCharacter>& out) {
     ++stats_.glitches;
   }
   sample_until(now_, out);
-  // A falling edge whose start bit was never sampled at its centre is not known to be a
-  // character: dropped.
-  if (in_character_ && next_point_ > 0) report(now_, false, out);
+  // A character whose stop bit the capture does not reach was cut by the end of the recording,
+  // not damaged on the line: not reported, counted.
+  if (in_character_ && next_point_ > 0 && next_point_ <= first_stop_point_) ++stats_.cut_by_end;
   in_character_ = false;
   level_known_ = false;
 }

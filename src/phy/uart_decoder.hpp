@@ -88,6 +88,11 @@ struct UartDecoderStats {
   std::uint64_t breaks = 0;
   std::uint64_t glitches = 0;
   std::uint64_t false_starts = 0;
+  // Characters whose first stop bit was good but a later one low or cut short by the next start
+  // bit: traffic that does not fit the 2 (or 1.5) stop bits it is decoded with.
+  std::uint64_t short_stop_bits = 0;
+  // A character the end of the capture cut before its first stop bit: not reported.
+  std::uint64_t cut_by_end = 0;
 };
 
 class UartDecoder {
@@ -101,9 +106,9 @@ class UartDecoder {
   // character), so a live capture sees it without waiting for the next edge.
   void push_run(bool level, std::uint64_t samples, std::vector<UartCharacter>& out);
   void push_runs(std::span<const LevelRun> runs, std::vector<UartCharacter>& out);
-  // End of the capture: a character whose start bit was confirmed but whose stop bit(s) were not
-  // all seen is reported with a framing error, bits never seen reading as 0. The decoder then
-  // starts over (level unknown) at the same sample count.
+  // End of the capture: a character cut before its first stop bit is dropped (counted in
+  // stats().cut_by_end); one cut inside a later stop bit is reported. The decoder then starts
+  // over (level unknown) at the same sample count.
   void finish(std::vector<UartCharacter>& out);
 
   [[nodiscard]] const UartDecoderStats& stats() const { return stats_; }

@@ -1,0 +1,207 @@
+// Logic-analyser captures as a byte source (src/sources/logic_source.hpp).
+#include "sources/logic_source.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+
+namespace drivetap {
+
+LogicSource::LogicSource(std::unique_ptr<LogicCapture> capture, std::string name,
+                         ChannelTable& channels, LogicSourceOptions options)
+    : capture_(std::move(capture)),
+      name_(std::move(name)),
+      channels_(channels),
+      options_(std::move(options)) {}
+
+// The named channels, else every channel whose line moves. Either way the first runs of each are
+// kept for detection; reading stops once every moving channel has enough of them (a channel
+// that starts moving only after that is not found: name it with --channels).
+bool LogicSource::choose_channels() {
+  const std::vector<std::string>& names = capture_->channels();
+  std::vector<std::size_t> reading;
+  for (const std::string& wanted : options_.channels) {
+    std::optional<std::size_t> found;
+    for (std::size_t i = 0; i < names.size(); ++i)
+      if (names[i] == wanted) found = i;
+    if (!found && !wanted.empty() && wanted.size() < 4 &&
+        std::all_of(wanted.begin(), wanted.end(), [](char c) { return c >= '0' && c <= '9'; }) &&
+        std::stoul(wanted) < names.size())
+      found = std::stoul(wanted);
+    if (!found) {
+      error_ = fmt::format("--channels: {}: no channel '{}' (channels: {})", name_, wanted,
+                           fmt::join(names, ", "));
+      return false;
+    }
+    reading.push_back(*found);
+  }
+  const bool named = !reading.empty();
+  if (!named)
+    for (std::size_t i = 0; i < names.size(); ++i) reading.push_back(i);
+  if (!capture_->select(reading, &error_)) return false;
+  std::vector<std::vector<phy::LevelRun>> runs(reading.size());
+  std::vector<std::uint64_t> edges(reading.size(), 0);
+  auto enough = [&] {
+    bool any_full = false;
+    for (std::size_t k = 0; k < reading.size(); ++k) {
+      const bool full = runs[k].size() >= options_.detection_runs;
+      if (edges[k] >= 4 && !full) return false;
+      any_full = any_full || full;
+    }
+    return any_full;
+  };
+  while (!enough() && capture_->next_block(block_, &error_)) {
+    for (std::size_t k = 0; k < reading.size(); ++k)
+      for (const phy::LevelRun& r : block_.runs[k]) {
+        if (runs[k].size() >= options_.detection_runs) break;
+        if (!runs[k].empty() && runs[k].back().level != r.level) ++edges[k];
+        runs[k].push_back(r);
+      }
+  }
+  if (!error_.empty()) return false;
+  for (std::size_t k = 0; k < reading.size(); ++k) {
+    if (!named && edges[k] < 4) continue;
+    chosen_.push_back(reading[k]);
+    chosen_names_.push_back(names[reading[k]]);
+    head_runs_.push_back(std::move(runs[k]));
+  }
+  if (chosen_.empty()) {
+    error_ = fmt::format("{}: no channel carries traffic (no line changes level)", name_);
+    return false;
+  }
+  return true;
+}
+
+bool LogicSource::read_header() {
+  const std::uint64_t rate = capture_->sample_rate();
+  if (options_.uart) {
+    if (const std::string why = options_.uart->validate(rate); !why.empty()) {
+      error_ = fmt::format("{}: line settings at {} samples/s: {}", name_, rate, why);
+      return false;
+    }
+  }
+  if (!choose_channels()) return false;
+  phy::LineDetection found = phy::detect_line(head_runs_, rate);
+  if (options_.uart) {
+    uart_ = *options_.uart;
+    // Given settings are used as given; when they decode badly and others decode clean, say so.
+    const phy::FormatTrial given = phy::trial_decode(head_runs_, rate, uart_);
+    if (found.found && given.error_rate() > 0.05 && found.best().error_rate() < 0.01)
+      extra_notes_.push_back(fmt::format(
+          "{}: {} of {} characters have errors with the given settings ({}); the line looks "
+          "like {} (detected) — see `drivetap diagnose`",
+          name_, given.errors(), given.stats.characters, phy::settings_text(uart_),
+          phy::settings_text(found.settings)));
+  } else {
+    if (!found.found) {
+      error_ = fmt::format(
+          "{}: cannot detect the line settings: {}; give them with -s (and "
+          "--invert if the line idles low)",
+          name_, found.why_not);
+      return false;
+    }
+    uart_ = found.settings;
+  }
+  detection_ = std::move(found);
+  if (!capture_->select(chosen_, &error_)) return false;
+  for (std::size_t k = 0; k < chosen_.size(); ++k) {
+    decoders_.emplace_back(uart_, rate);
+    // All channels of one analyser watch one link: on a 4-wire link RX and TX are its two
+    // directions, and content and order tell requests from replies (as on a shared pair).
+    ids_.push_back(channels_.intern(chosen_names_[k], "", ChannelRole::bus));
+  }
+  clock_ = phy::SampleClock{rate, 0};
+  // A character still to come began at most one character (plus a filtered edge) before the end
+  // of what was pushed; two characters of margin.
+  hold_back_ = static_cast<std::uint64_t>(2 * uart_.frame_bits() * uart_.samples_per_bit(rate)) +
+               decoders_.front().glitch_filter_samples() + 2;
+  return true;
+}
+
+RunSettings LogicSource::settings() const {
+  // The pipeline's timing (t1.5, t3.5, character time) follows the line found or given.
+  RunSettings s;
+  SerialConfig serial;
+  serial.baud = static_cast<std::uint32_t>(uart_.baud + 0.5);
+  serial.data_bits = uart_.data_bits;
+  serial.parity = uart_.parity == phy::UartParity::even  ? Parity::even
+                  : uart_.parity == phy::UartParity::odd ? Parity::odd
+                                                         : Parity::none;
+  serial.stop_bits = uart_.stop_bits == phy::StopBits::two ? 2 : 1;
+  s.serial = serial;
+  return s;
+}
+
+bool LogicSource::fill() {
+  if (at_end_) return false;
+  // Drop what was handed out; keep what is not final yet.
+  pending_.erase(pending_.begin(), pending_.begin() + static_cast<std::ptrdiff_t>(next_pending_));
+  next_pending_ = 0;
+  const bool more = capture_->next_block(block_, &error_);
+  if (!error_.empty()) return false;
+  const std::size_t before = pending_.size();
+  for (std::size_t k = 0; k < decoders_.size(); ++k) {
+    decoded_.clear();
+    if (more)
+      decoders_[k].push_runs(block_.runs[k], decoded_);
+    else
+      decoders_[k].finish(decoded_);
+    for (const phy::UartCharacter& c : decoded_)
+      pending_.push_back(phy::to_byte_event(c, clock_, ids_[k]));
+  }
+  // Each channel's characters are in order, the channels not: sort the new ones, then merge them
+  // with what is held.
+  const auto fresh = pending_.begin() + static_cast<std::ptrdiff_t>(before);
+  auto by_time = [](const ByteEvent& a, const ByteEvent& b) { return a.time < b.time; };
+  std::stable_sort(fresh, pending_.end(), by_time);
+  std::inplace_merge(pending_.begin(), fresh, pending_.end(), by_time);
+  if (more) {
+    releasable_before_ = block_.end > hold_back_ ? block_.end - hold_back_ : 0;
+  } else {
+    at_end_ = true;
+    releasable_before_ = UINT64_MAX;
+  }
+  return true;
+}
+
+bool LogicSource::next(ByteEvent& out) {
+  for (;;) {
+    if (next_pending_ < pending_.size() &&
+        (releasable_before_ == UINT64_MAX ||
+         pending_[next_pending_].time < clock_.to_ns(releasable_before_))) {
+      out = pending_[next_pending_++];
+      return true;
+    }
+    if (!fill()) return false;
+  }
+}
+
+std::vector<phy::UartDecoderStats> LogicSource::decoder_stats() const {
+  std::vector<phy::UartDecoderStats> stats;
+  for (const phy::UartDecoder& d : decoders_) stats.push_back(d.stats());
+  return stats;
+}
+
+std::vector<std::string> LogicSource::notes() const {
+  std::vector<std::string> notes;
+  if (detection_ && !options_.uart) {
+    const phy::LineDetection& d = *detection_;
+    notes.push_back(fmt::format(
+        "{}: line detected: {} (baud {} measured {:.0f}, {}; polarity {}; format {}: {})", name_,
+        phy::settings_text(uart_), d.baud_standard ? "standard," : "non-standard,", d.measured_baud,
+        phy::confidence_name(d.baud_confidence), phy::confidence_name(d.polarity_confidence),
+        phy::confidence_name(d.format_confidence), d.format_reason));
+  }
+  notes.insert(notes.end(), extra_notes_.begin(), extra_notes_.end());
+  for (std::size_t k = 0; k < decoders_.size(); ++k) {
+    const phy::UartDecoderStats& st = decoders_[k].stats();
+    notes.push_back(fmt::format(
+        "{}: channel {}: {} characters ({} parity errors, {} framing errors, {} breaks, {} "
+        "glitches filtered, {} false starts)",
+        name_, chosen_names_[k], st.characters, st.parity_errors, st.framing_errors, st.breaks,
+        st.glitches, st.false_starts));
+  }
+  return notes;
+}
+
+}  // namespace drivetap
