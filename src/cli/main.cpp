@@ -15,6 +15,7 @@
 
 #include "core/protocol.hpp"
 #include "core/serial_config.hpp"
+#include "pipeline/diagnose.hpp"
 #include "pipeline/options.hpp"
 #include "pipeline/pipeline.hpp"
 #include "profiles/profile.hpp"
@@ -337,11 +338,11 @@ LogicSourceOptions logic_source_options(const CommonOptions& o) {
   return so;
 }
 
-int run_read(const CommonOptions& o, const std::string& path) {
-  InputFile in;
+// The source for a capture file of any supported format (the format is read from its first bytes).
+std::unique_ptr<ByteSource> open_source(const CommonOptions& o, const std::string& path,
+                                        InputFile& in, ChannelTable& channels) {
   std::string err;
   if (!open_input(path, &in, &err)) die(err, 1);
-  ChannelTable channels;
   std::unique_ptr<ByteSource> source;
   switch (in.format) {
     case InputFormat::byte_log:
@@ -373,6 +374,13 @@ int run_read(const CommonOptions& o, const std::string& path) {
                       in.name, in.head[0]),
           1);
   }
+  return source;
+}
+
+int run_read(const CommonOptions& o, const std::string& path) {
+  InputFile in;
+  ChannelTable channels;
+  std::unique_ptr<ByteSource> source = open_source(o, path, in, channels);
   if (!source->read_header()) die(source->error(), 1);
   PipelineOptions p = make_pipeline_options(o, source->settings());
   source->set_character_time(p.timing.character_time);
@@ -401,6 +409,30 @@ int run_read(const CommonOptions& o, const std::string& path) {
   close_input(in);
   if (!error.empty()) die(error, 1);
   if (interrupted) die("interrupted; output flushed", 130);
+  return 0;
+}
+
+// `drivetap diagnose FILE`: runs the capture through the pipeline with nothing printed, then gives
+// the line's verdicts (src/pipeline/diagnose.hpp). Any capture: a logic capture gives sample
+// evidence (detection, polarity, glitches), the others the UART flags and byte patterns.
+int run_diagnose(const CommonOptions& o, const std::string& path) {
+  InputFile in;
+  ChannelTable channels;
+  std::unique_ptr<ByteSource> source = open_source(o, path, in, channels);
+  if (!source->read_header()) die(source->error(), 1);
+  PipelineOptions p = make_pipeline_options(o, source->settings());
+  source->set_character_time(p.timing.character_time);
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGTERM, on_signal);
+  const Diagnosis d = diagnose_capture(*source, p, channels, !o.serial.empty(), &g_stop);
+  if (!d.error.empty()) die(d.error, 1);
+  if (d.interrupted) die("interrupted", 130);
+  const std::string report = o.format == "json"
+                                 ? diagnosis_json(path, d.evidence, d.verdicts, d.stats)
+                                 : diagnosis_text(path, d.evidence, d.verdicts, d.stats);
+  std::fputs(report.c_str(), stdout);
+  std::fflush(stdout);
+  close_input(in);
   return 0;
 }
 
@@ -446,6 +478,15 @@ int main(int argc, char** argv) {
   add_common_options(read, read_opts);
   read->add_option("file", path, "Capture file")->required();
 
+  CommonOptions diagnose_opts;
+  std::string diagnose_path;
+  CLI::App* diagnose_cmd = app.add_subcommand(
+      "diagnose",
+      "Diagnose the line: swapped A/B, wrong baud or parity, noise, missing bias, timing");
+  add_common_options(diagnose_cmd, diagnose_opts);
+  diagnose_cmd->add_option("file", diagnose_path, "Capture file (a logic capture gives most)")
+      ->required();
+
   std::vector<std::string> profile_files;
   CLI::App* profiles = app.add_subcommand(
       "profiles", "List the built-in drive profiles and check profile files (TOML)");
@@ -458,6 +499,7 @@ int main(int argc, char** argv) {
   }
   if (*decode) return run_decode(decode_opts, hex_args);
   if (*read) return run_read(read_opts, path);
+  if (*diagnose_cmd) return run_diagnose(diagnose_opts, diagnose_path);
   if (*profiles) return run_profiles(profile_files);
   return 2;
 }

@@ -1,0 +1,354 @@
+// Line diagnosis: evidence -> verdicts (src/pipeline/diagnose.hpp; PROTOCOLS.md §1, §2).
+#include "pipeline/diagnose.hpp"
+
+#include <fmt/format.h>
+
+#include <cmath>
+
+#include "pipeline/pipeline.hpp"
+#include "sinks/json_sink.hpp"
+#include "sources/logic_source.hpp"
+
+namespace drivetap {
+namespace {
+
+double percent(std::uint64_t part, std::uint64_t whole) {
+  return whole ? 100.0 * static_cast<double>(part) / static_cast<double>(whole) : 0.0;
+}
+
+std::string format_only(const phy::UartSettings& s) {
+  phy::UartSettings upright = s;
+  upright.inverted = false;
+  const std::string text = phy::settings_text(upright);
+  return text.substr(text.find(' ') + 1);  // "8E1"
+}
+
+std::string trial_errors(const phy::FormatTrial& t) {
+  return fmt::format(
+      "{} characters, {} framing errors, {} parity errors, {} breaks, {} false start bits",
+      t.stats.characters, t.stats.framing_errors, t.stats.parity_errors, t.stats.breaks,
+      t.stats.false_starts);
+}
+
+// The UART errors on a byte-level capture: which setting is probably wrong.
+void byte_level_settings(const LineEvidence& e, std::vector<Verdict>& out) {
+  if (e.characters < 20) return;
+  const std::uint64_t framing = e.framing_errors + e.breaks;
+  const double parity_share = percent(e.parity_errors, e.characters);
+  const double framing_share = percent(framing, e.characters);
+  if (parity_share >= 20 && framing_share < 5) {
+    out.push_back(
+        {"parity-mismatch", "Parity errors on many bytes: the bus uses another parity",
+         fmt::format("{} of {} bytes ({:.0f} %) have parity errors, only {} framing errors; "
+                     "captured as {}",
+                     e.parity_errors, e.characters, parity_share, framing, e.settings),
+         "capture again with the parity the drives use (E, O or N: their communication "
+         "parameters say which; about half the bytes failing means none vs. even/odd, every "
+         "byte failing means even vs. odd)"});
+  } else if (framing_share >= 20) {
+    out.push_back(
+        {"settings-mismatch", "Framing errors on many bytes: baud rate, format or polarity wrong",
+         fmt::format("{} of {} bytes ({:.0f} %) have framing errors or breaks; captured as {}",
+                     framing, e.characters, framing_share, e.settings),
+         "record the line with a logic analyser and run `drivetap diagnose` on it (it measures "
+         "the baud rate and the polarity), or check the A/B wiring and the drives' baud "
+         "parameter"});
+  }
+}
+
+// Given settings against what the samples show.
+void sampled_settings(const LineEvidence& e, std::vector<Verdict>& out) {
+  const phy::LineDetection& d = *e.detection;
+  if (!d.found) return;
+  const phy::UartSettings& found = d.settings;
+  const std::string works =
+      fmt::format("{} decodes with {} errors in {} characters", phy::settings_text(found),
+                  d.best().errors(), d.best().stats.characters);
+  const bool inverted_line = found.inverted && d.polarity_confidence != phy::Confidence::low;
+  if (inverted_line && (!e.given || !e.given->inverted)) {
+    std::string upright;
+    if (e.upright_trial)
+      upright = fmt::format("; read upright at {} {}: {}", found.baud, format_only(found),
+                            trial_errors(*e.upright_trial));
+    out.push_back(
+        {"inverted-line", "The line is inverted: A and B are swapped",
+         fmt::format("the line rests low ({:.0f} % of the time in {} idle gaps){}; inverted: {}",
+                     d.idle_share * 100, d.idle_gaps, upright, works),
+         "swap the A and B wires of the tap (the drives are not affected if only the tap is "
+         "swapped; if a drive is, it sees framing errors on every frame), or decode with "
+         "--invert"});
+  }
+  if (!e.given || !e.given_trial || e.given_trial->error_rate() <= 0.05) return;
+  const phy::UartSettings& given = *e.given;
+  const std::string given_text = fmt::format(
+      "decoding as given ({}): {}", phy::settings_text(given), trial_errors(*e.given_trial));
+  if (std::abs(given.baud - found.baud) > found.baud * 0.03) {
+    out.push_back(
+        {"baud-mismatch",
+         fmt::format("Baud rate mismatch: the line runs at {:g}, not {:g}", found.baud, given.baud),
+         fmt::format("{}; the pulse widths measure {:.0f} baud and {}", given_text, d.measured_baud,
+                     works),
+         fmt::format("set {:g} baud (-s \"{:g} {}\"), and check the baud parameter of "
+                     "any drive that must talk on this bus",
+                     found.baud, found.baud, format_only(found))});
+  } else if (given.parity != found.parity || given.data_bits != found.data_bits) {
+    out.push_back({"parity-mismatch",
+                   fmt::format("Format mismatch: the line uses {}, not {}", format_only(found),
+                               format_only(given)),
+                   fmt::format("{}; {}", given_text, works),
+                   fmt::format("set {} (-s \"{:g} {}\") and the same parity in every drive's "
+                               "communication parameters",
+                               format_only(found), found.baud, format_only(found))});
+  } else if (given.inverted != found.inverted && !inverted_line) {
+    out.push_back({"settings-mismatch", "Polarity given wrong: the line is not inverted",
+                   fmt::format("{}; {}", given_text, works), "decode without --invert"});
+  }
+}
+
+}  // namespace
+
+std::vector<Verdict> diagnose(const LineEvidence& e) {
+  std::vector<Verdict> out;
+  if (e.from_samples && e.detection)
+    sampled_settings(e, out);
+  else
+    byte_level_settings(e, out);
+
+  if (e.from_samples && e.detection && e.detection->found && !e.detection->baud_standard)
+    out.push_back({"non-standard-baud",
+                   fmt::format("Non-standard baud rate: {:g} (measured {:.0f})",
+                               e.detection->settings.baud, e.detection->measured_baud),
+                   fmt::format("the pulse widths measure {:.0f} baud, more than 3 % from every "
+                               "standard rate ({} pulses, {:.0f} % at whole bit widths)",
+                               e.detection->measured_baud, e.detection->pulses,
+                               e.detection->pulses_fitting * 100),
+                   "a device at a standard rate will see framing errors: check the sender's "
+                   "clock source and baud divisor (an MCU's internal RC oscillator drifts)"});
+
+  // Unbiased bus: the driver releases the line and it floats, read as a 0x00/0xFF byte with a
+  // framing error right after the frame.
+  if (e.release_artefacts >= 2 && e.release_artefacts * 20 >= e.frames)
+    out.push_back(
+        {"unbiased-bus", "Bus not biased: the line floats when a transmitter lets go",
+         fmt::format("{} of {} frames end in a stray 0x00/0xFF or damaged byte without which "
+                     "their checksum is good",
+                     e.release_artefacts, e.frames),
+         "add fail-safe bias at one point of the bus (about 680 ohm pull-up on B/D+ and "
+         "pull-down on A/D-, or the master's or an adapter's bias switch), and check the 120 "
+         "ohm terminations: two, one at each end"});
+
+  // Noise: a few damaged characters inside traffic that otherwise decodes.
+  const std::uint64_t bad_chars = e.framing_errors + e.parity_errors + e.breaks;
+  const std::uint64_t noise_chars =
+      bad_chars > e.release_artefacts ? bad_chars - e.release_artefacts : 0;
+  const bool settings_wrong =
+      !out.empty() && (out.front().id == "settings-mismatch" || out.front().id == "baud-mismatch" ||
+                       out.front().id == "parity-mismatch" || out.front().id == "inverted-line");
+  const std::uint64_t noise_events = noise_chars + e.glitches + e.false_starts;
+  // On samples the settings are measured: whatever errors remain are the line's. On bytes, many
+  // errors are more likely a wrong setting (reported above) than noise.
+  if (!settings_wrong && noise_events > 0 &&
+      (e.from_samples || percent(noise_chars, e.characters) < 20))
+    out.push_back(
+        {"noise", "Noise on the line: damaged characters inside valid traffic",
+         fmt::format("{} of {} characters damaged ({} framing, {} parity, {} breaks){}; {} "
+                     "frames with a bad checksum of {}",
+                     noise_chars, e.characters, e.framing_errors, e.parity_errors, e.breaks,
+                     e.from_samples ? fmt::format("; {} glitches under 1/8 bit filtered, {} "
+                                                  "false start bits",
+                                                  e.glitches, e.false_starts)
+                                    : std::string(),
+                     e.frames_checksum_bad, e.frames),
+         "check the cable: twisted pair with its shield grounded at one end, away from motor "
+         "and mains cables; terminations (120 ohm at both ends, nowhere else); the common (0 V) "
+         "wire between all devices"});
+
+  if (e.intra_frame_gaps > 0)
+    out.push_back({"timing-t15", "Pauses inside frames longer than t1.5",
+                   fmt::format("{} frames have a silence over 1.5 character times between two "
+                               "bytes (first: {})",
+                               e.intra_frame_gaps, e.first_intra_gap),
+                   "a strict Modbus RTU receiver drops these frames: check the sender's UART "
+                   "feeding (a USB adapter or a busy master leaves gaps); if the gaps are the "
+                   "tap's own (USB latency), set its latency_timer to 1 ms"});
+  if (e.short_interframe_gaps > 0)
+    out.push_back({"timing-t35", "Silence between frames shorter than t3.5",
+                   fmt::format("{} frames start less than 3.5 character times after the "
+                               "previous one (first: {})",
+                               e.short_interframe_gaps, e.first_short_gap),
+                   "receivers may merge the two frames: raise the replying drive's response "
+                   "delay parameter or the master's delay between polls"});
+  if (e.timing_rule_breaks > 0)
+    out.push_back({"timing-rule", "A drive's timing rule is broken",
+                   fmt::format("{} times (first: {})", e.timing_rule_breaks, e.first_timing_rule),
+                   "slow the master's polling to what the drive's manual requires (the profile "
+                   "names the rule and its section)"});
+  return out;
+}
+
+void DiagnosisSink::on_frame(const Message& m) {
+  ++evidence_.frames;
+  const ChecksumVerdict verdict = m.checksum.verdict;
+  if (verdict == ChecksumVerdict::good) ++evidence_.frames_checksum_ok;
+  if (verdict != ChecksumVerdict::bad || m.frame.events.size() < 3) return;
+  ++evidence_.frames_checksum_bad;
+  const ByteEvent& last = m.frame.events.back();
+  const bool stray = last.byte == 0x00 || last.byte == 0xFF || last.flags != 0;
+  const ProtocolDecoder* decoder = decoder_for(m.protocol);
+  if (stray && decoder) {
+    Frame trimmed = m.frame;
+    trimmed.events.pop_back();
+    const Message again = decoder->dissect(std::move(trimmed), Direction::unknown, FramingTiming{});
+    if (again.checksum.verdict == ChecksumVerdict::good) ++evidence_.release_artefacts;
+  }
+}
+
+void DiagnosisSink::on_noise(const Frame& noise) {
+  evidence_.noise_bytes += noise.events.size();
+}
+
+void DiagnosisSink::on_anomaly(const Anomaly& a) {
+  auto example = [&](std::string& slot) {
+    if (slot.empty()) slot = fmt::format("frame {}: {}", a.frame_number, a.detail);
+  };
+  switch (a.kind) {
+    case AnomalyKind::intra_frame_gap:
+      ++evidence_.intra_frame_gaps;
+      example(evidence_.first_intra_gap);
+      break;
+    case AnomalyKind::short_interframe_gap:
+      ++evidence_.short_interframe_gaps;
+      example(evidence_.first_short_gap);
+      break;
+    case AnomalyKind::timing_rule:
+      ++evidence_.timing_rule_breaks;
+      example(evidence_.first_timing_rule);
+      break;
+    default:
+      break;
+  }
+}
+
+Diagnosis diagnose_capture(ByteSource& source, const PipelineOptions& options,
+                           ChannelTable& channels, bool settings_given,
+                           const volatile std::sig_atomic_t* stop) {
+  Diagnosis result;
+  LineEvidence& evidence = result.evidence;
+  DiagnosisSink sink(evidence);
+  {
+    Pipeline pipeline(options, channels, sink);
+    ByteEvent e;
+    while (source.next(e)) {
+      for (const Anomaly& a : source.take_findings()) pipeline.report(a);
+      pipeline.push(e);
+      ++evidence.characters;
+      if (e.flags & kUartParityError) ++evidence.parity_errors;
+      if (e.flags & kUartFramingError) ++evidence.framing_errors;
+      if (e.flags & kUartBreak) ++evidence.breaks;
+      if (stop && *stop) {
+        result.interrupted = true;
+        break;
+      }
+    }
+    pipeline.finish();
+  }
+  result.error = source.error();
+  result.stats = sink.stats();
+  evidence.settings = options.serial.to_string();
+  if (const auto* logic = dynamic_cast<const LogicSource*>(&source)) {
+    evidence.from_samples = true;
+    evidence.settings = phy::settings_text(logic->uart());
+    evidence.detection = logic->detection();
+    for (const phy::UartDecoderStats& st : logic->decoder_stats()) {
+      evidence.glitches += st.glitches;
+      evidence.false_starts += st.false_starts;
+    }
+    if (settings_given) {
+      evidence.given = logic->uart();
+      evidence.given_trial =
+          phy::trial_decode(logic->head_runs(), logic->sample_rate(), logic->uart());
+    }
+    if (evidence.detection && evidence.detection->found) {
+      phy::UartSettings flipped = evidence.detection->settings;
+      flipped.inverted = !flipped.inverted;
+      evidence.upright_trial = phy::trial_decode(logic->head_runs(), logic->sample_rate(), flipped);
+    }
+  }
+  result.verdicts = diagnose(evidence);
+  return result;
+}
+
+std::string diagnosis_text(const std::string& file, const LineEvidence& e,
+                           const std::vector<Verdict>& verdicts, const Stats& stats) {
+  std::string out = fmt::format("drivetap diagnose: {}\n", file);
+  if (e.detection && e.detection->found) {
+    const phy::LineDetection& d = *e.detection;
+    out += fmt::format("line:      {}{}\n", e.settings, e.given ? " (as given)" : " (detected)");
+    out += fmt::format(
+        "  baud     {:g}{} (measured {:.0f}, {:+.1f} %), confidence {}: {:.0f} % of {} pulses "
+        "at whole bit widths, {} one bit wide\n",
+        d.settings.baud, d.baud_standard ? "" : " (not a standard rate)", d.measured_baud,
+        (d.measured_baud / d.settings.baud - 1) * 100, phy::confidence_name(d.baud_confidence),
+        d.pulses_fitting * 100, d.pulses, d.single_bit_pulses);
+    out += fmt::format("  polarity {}, confidence {}: {}\n",
+                       d.settings.inverted ? "inverted (idles low)" : "normal (idles high)",
+                       phy::confidence_name(d.polarity_confidence),
+                       d.idle_gaps ? fmt::format("{:.0f} % of {} idle gaps at that level",
+                                                 d.idle_share * 100, d.idle_gaps)
+                                   : std::string("no idle gap in the capture to judge by"));
+    out += fmt::format("  format   {}, confidence {}: {}\n", format_only(d.settings),
+                       phy::confidence_name(d.format_confidence), d.format_reason);
+  } else if (e.detection) {
+    out += fmt::format("line:      {} (as given; detection failed: {})\n", e.settings,
+                       e.detection->why_not);
+  } else {
+    out += fmt::format("line:      {} (from the capture; byte-level evidence only)\n", e.settings);
+  }
+  out += fmt::format(
+      "traffic:   {} characters ({} framing errors, {} parity errors, {} breaks{}); {} frames "
+      "(checksum ok {}, bad {}); {} noise bytes; {} transactions\n",
+      e.characters, e.framing_errors, e.parity_errors, e.breaks,
+      e.from_samples
+          ? fmt::format(", {} glitches filtered, {} false starts", e.glitches, e.false_starts)
+          : std::string(),
+      e.frames, e.frames_checksum_ok, e.frames_checksum_bad, e.noise_bytes, stats.transactions);
+  if (verdicts.empty()) {
+    out += "verdict:   healthy line — no fault found\n";
+    return out;
+  }
+  out += fmt::format("verdicts:  {}\n", verdicts.size());
+  for (const Verdict& v : verdicts)
+    out += fmt::format("  [{}] {}\n      evidence: {}\n      fix:      {}\n", v.id, v.title,
+                       v.evidence, v.fix);
+  return out;
+}
+
+std::string diagnosis_json(const std::string& file, const LineEvidence& e,
+                           const std::vector<Verdict>& verdicts, const Stats& stats) {
+  std::string out = fmt::format("{{\"file\":{},\"line\":{},\"source\":\"{}\"", json_quote(file),
+                                json_quote(e.settings), e.from_samples ? "samples" : "bytes");
+  if (e.detection && e.detection->found) {
+    const phy::LineDetection& d = *e.detection;
+    out += fmt::format(
+        ",\"detection\":{{\"baud\":{:g},\"measured_baud\":{:.1f},\"baud_standard\":{},"
+        "\"baud_confidence\":\"{}\",\"inverted\":{},\"polarity_confidence\":\"{}\","
+        "\"format\":\"{}\",\"format_confidence\":\"{}\",\"format_reason\":{}}}",
+        d.settings.baud, d.measured_baud, d.baud_standard, phy::confidence_name(d.baud_confidence),
+        d.settings.inverted, phy::confidence_name(d.polarity_confidence), format_only(d.settings),
+        phy::confidence_name(d.format_confidence), json_quote(d.format_reason));
+  }
+  out += fmt::format(
+      ",\"characters\":{},\"framing_errors\":{},\"parity_errors\":{},\"breaks\":{},"
+      "\"glitches\":{},\"false_starts\":{},\"frames\":{},\"checksum_ok\":{},\"checksum_bad\":{},"
+      "\"noise_bytes\":{},\"transactions\":{},\"verdicts\":[",
+      e.characters, e.framing_errors, e.parity_errors, e.breaks, e.glitches, e.false_starts,
+      e.frames, e.frames_checksum_ok, e.frames_checksum_bad, e.noise_bytes, stats.transactions);
+  for (std::size_t i = 0; i < verdicts.size(); ++i)
+    out += fmt::format("{}{{\"id\":\"{}\",\"title\":{},\"evidence\":{},\"fix\":{}}}", i ? "," : "",
+                       verdicts[i].id, json_quote(verdicts[i].title),
+                       json_quote(verdicts[i].evidence), json_quote(verdicts[i].fix));
+  out += "]}\n";
+  return out;
+}
+
+}  // namespace drivetap

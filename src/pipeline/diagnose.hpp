@@ -1,0 +1,109 @@
+// Line diagnosis (issue 6 §4; PROTOCOLS.md §1 line settings, §2 Modbus RTU timing): evidence
+// gathered from a capture -> verdicts a field engineer can act on, each with its evidence and fix.
+//
+//   logic capture:  detection + decoder totals ─┐
+//   any capture:    UART flags, frames, anomalies ┴─> LineEvidence ─> diagnose() ─> Verdicts
+//
+// The same verdict logic runs on sampled captures (where polarity and baud can be measured) and
+// on byte-level captures (byte logs, pcapng, live), where only the UART flags and the byte
+// patterns are known; a verdict says which kind of evidence it rests on.
+#pragma once
+
+#include <csignal>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/protocol.hpp"
+#include "phy/detect.hpp"
+#include "pipeline/options.hpp"
+#include "pipeline/stats.hpp"
+#include "sinks/sink.hpp"
+#include "sources/source.hpp"
+
+namespace drivetap {
+
+struct LineEvidence {
+  std::string settings;  // the line settings decoded with ("19200 8E1, inverted")
+
+  // UART level: every character received.
+  std::uint64_t characters = 0;
+  std::uint64_t parity_errors = 0;
+  std::uint64_t framing_errors = 0;  // breaks not included
+  std::uint64_t breaks = 0;
+  // Sampled captures only: pulses under the glitch filter, and start bits gone at their centre.
+  std::uint64_t glitches = 0;
+  std::uint64_t false_starts = 0;
+
+  // Sampled captures: what detection measured, and the settings given with -s (if any).
+  bool from_samples = false;
+  std::optional<phy::LineDetection> detection;
+  std::optional<phy::UartSettings> given;
+  std::optional<phy::FormatTrial> given_trial;    // the given settings on the detection sample
+  std::optional<phy::FormatTrial> upright_trial;  // detected settings, polarity flipped
+
+  // Frame level (from the pipeline).
+  std::uint64_t frames = 0;
+  std::uint64_t frames_checksum_ok = 0;
+  std::uint64_t frames_checksum_bad = 0;
+  // Frames whose checksum fails only because of a last 0x00/0xFF or flagged byte: the line
+  // floating when the driver lets go.
+  std::uint64_t release_artefacts = 0;
+  // Bytes with a UART error inside frames whose checksum is good otherwise... and in bad frames.
+  std::uint64_t flagged_bytes_in_bad_frames = 0;
+  std::uint64_t noise_bytes = 0;
+  std::uint64_t intra_frame_gaps = 0;                               // t1.5 broken
+  std::uint64_t short_interframe_gaps = 0;                          // t3.5 broken
+  std::uint64_t timing_rule_breaks = 0;                             // a drive profile's timing rule
+  std::string first_intra_gap, first_short_gap, first_timing_rule;  // an example of each
+};
+
+struct Verdict {
+  std::string id;     // stable: inverted-line, baud-mismatch, parity-mismatch, settings-mismatch,
+                      // non-standard-baud, noise, unbiased-bus, timing-t15, timing-t35,
+                      // timing-rule
+  std::string title;  // one line
+  std::string evidence;  // what was seen, with figures
+  std::string fix;       // what to do about it
+};
+
+std::vector<Verdict> diagnose(const LineEvidence& evidence);
+
+// Collects the frame-level evidence while the pipeline runs (it prints nothing).
+class DiagnosisSink final : public Sink {
+ public:
+  explicit DiagnosisSink(LineEvidence& evidence) : evidence_(evidence) {}
+  void on_frame(const Message& message) override;
+  void on_noise(const Frame& noise) override;
+  void on_anomaly(const Anomaly& anomaly) override;
+  void on_transaction(const Transaction&) override {}
+  void on_summary(const Stats& stats) override { stats_ = stats; }
+  bool flush() override { return true; }
+  [[nodiscard]] const Stats& stats() const { return stats_; }
+
+ private:
+  LineEvidence& evidence_;
+  Stats stats_;
+};
+
+// A whole diagnosis: the source (read_header() done) through the pipeline, nothing printed;
+// `settings_given`: the line settings came from the user (-s), not from detection.
+struct Diagnosis {
+  LineEvidence evidence;
+  std::vector<Verdict> verdicts;
+  Stats stats;
+  std::string error;  // the source's, when it failed part way (the evidence so far stands)
+  bool interrupted = false;
+};
+Diagnosis diagnose_capture(ByteSource& source, const PipelineOptions& options,
+                           ChannelTable& channels, bool settings_given,
+                           const volatile std::sig_atomic_t* stop = nullptr);
+
+// The report: text for a person, or one JSON object.
+std::string diagnosis_text(const std::string& file, const LineEvidence& evidence,
+                           const std::vector<Verdict>& verdicts, const Stats& stats);
+std::string diagnosis_json(const std::string& file, const LineEvidence& evidence,
+                           const std::vector<Verdict>& verdicts, const Stats& stats);
+
+}  // namespace drivetap
