@@ -75,9 +75,12 @@ const FormatTrial* LineDetection::trial(bool inverted, std::uint8_t data_bits, U
 }
 
 double snap_to_standard_baud(double measured) {
+  double nearest = 0;
   for (double standard : kStandardBauds)
-    if (std::abs(measured - standard) <= standard * 0.03) return standard;
-  return 0;
+    if (std::abs(measured - standard) <= standard * 0.03 &&
+        (nearest == 0 || std::abs(measured / standard - 1) < std::abs(measured / nearest - 1)))
+      nearest = standard;
+  return nearest;
 }
 
 std::string settings_text(const UartSettings& s) {

@@ -3,6 +3,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "pipeline/pipeline.hpp"
@@ -141,9 +142,15 @@ std::vector<Verdict> diagnose(const LineEvidence& e) {
   const std::uint64_t bad_chars = e.framing_errors + e.parity_errors + e.breaks;
   const std::uint64_t noise_chars =
       bad_chars > e.release_artefacts ? bad_chars - e.release_artefacts : 0;
-  const bool settings_wrong =
-      !out.empty() && (out.front().id == "settings-mismatch" || out.front().id == "baud-mismatch" ||
-                       out.front().id == "parity-mismatch" || out.front().id == "inverted-line");
+  auto found = [&](std::initializer_list<std::string_view> wanted) {
+    return std::any_of(out.begin(), out.end(), [&](const Verdict& v) {
+      return std::find(wanted.begin(), wanted.end(), v.id) != wanted.end();
+    });
+  };
+  // Decoded with the wrong settings: the errors are theirs, not noise, and the framing and its
+  // gaps (measured in their character times) mean nothing until they are fixed.
+  const bool decoded_wrong = found({"settings-mismatch", "baud-mismatch", "parity-mismatch"});
+  const bool settings_wrong = decoded_wrong || found({"inverted-line"});
   const std::uint64_t noise_events = noise_chars + e.glitches + e.false_starts;
   // On samples the settings are measured: whatever errors remain are the line's. On bytes, many
   // errors are more likely a wrong setting (reported above) than noise.
@@ -163,6 +170,7 @@ std::vector<Verdict> diagnose(const LineEvidence& e) {
          "and mains cables; terminations (120 ohm at both ends, nowhere else); the common (0 V) "
          "wire between all devices"});
 
+  if (decoded_wrong) return out;
   if (e.intra_frame_gaps > 0)
     out.push_back({"timing-t15", "Pauses inside frames longer than t1.5",
                    fmt::format("{} frames have a silence over 1.5 character times between two "
@@ -203,8 +211,16 @@ void DiagnosisSink::on_frame(const Message& m) {
   }
 }
 
+// A stray byte or two right after a frame (the framer knew the frame's length and left them out):
+// the same artefact of a line left floating.
 void DiagnosisSink::on_noise(const Frame& noise) {
   evidence_.noise_bytes += noise.events.size();
+  const bool right_after = noise.gap_before >= 0 && noise.gap_before < timing_.t15;
+  const bool stray = !noise.events.empty() && noise.events.size() <= 2 &&
+                     std::all_of(noise.events.begin(), noise.events.end(), [](const ByteEvent& e) {
+                       return e.byte == 0x00 || e.byte == 0xFF || e.flags != 0;
+                     });
+  if (right_after && stray) ++evidence_.release_artefacts;
 }
 
 void DiagnosisSink::on_anomaly(const Anomaly& a) {
@@ -234,7 +250,7 @@ Diagnosis diagnose_capture(ByteSource& source, const PipelineOptions& options,
                            const volatile std::sig_atomic_t* stop) {
   Diagnosis result;
   LineEvidence& evidence = result.evidence;
-  DiagnosisSink sink(evidence);
+  DiagnosisSink sink(evidence, options.timing);
   {
     Pipeline pipeline(options, channels, sink);
     ByteEvent e;

@@ -73,7 +73,8 @@ std::vector<Verdict> diagnose(const LineEvidence& evidence);
 // Collects the frame-level evidence while the pipeline runs (it prints nothing).
 class DiagnosisSink final : public Sink {
  public:
-  explicit DiagnosisSink(LineEvidence& evidence) : evidence_(evidence) {}
+  DiagnosisSink(LineEvidence& evidence, const FramingTiming& timing)
+      : evidence_(evidence), timing_(timing) {}
   void on_frame(const Message& message) override;
   void on_noise(const Frame& noise) override;
   void on_anomaly(const Anomaly& anomaly) override;
@@ -84,6 +85,7 @@ class DiagnosisSink final : public Sink {
 
  private:
   LineEvidence& evidence_;
+  FramingTiming timing_;
   Stats stats_;
 };
 
