@@ -68,5 +68,29 @@ err=$("$drivetap" read --channels 0,nope "$sr" 2>&1 >/dev/null); rc=$?
 [ "$rc" = 1 ] && [ "$err" = "drivetap: --channels: $sr: no channel 'nope' (channels: 0, 1, 2, RX, TX, 5, 6, 7)" ] ||
   fail "--channels nope: exit $rc, stderr: $err"
 
+# 8. Line detection and diagnosis (issue 6): brainchild (inverted 19200 8E1) with no option at all;
+#    the flowmeter's line is healthy; bad option combinations are one-line errors.
+bc="$root/captures/sigrok-brainchild-io-16do/brainchild-io-16do.sr"
+out=$("$drivetap" read "$bc" 2>&1)
+grep -q "^transactions: *15 (ok 15," <<<"$out" || fail "brainchild with no option: expected 15 good transactions"
+grep -q "line detected: 19200 8E1, inverted" <<<"$out" || fail "brainchild: detection note missing"
+out=$("$drivetap" diagnose "$bc"); rc=$?
+[ "$rc" = 0 ] || fail "diagnose brainchild: exit $rc"
+grep -q "^line: *19200 8E1, inverted (detected)" <<<"$out" || fail "diagnose brainchild: line settings"
+grep -q "\[inverted-line\]" <<<"$out" || fail "diagnose brainchild: no inverted-line verdict"
+[ "$(grep -c '^  \[' <<<"$out")" = 1 ] || fail "diagnose brainchild: more than the inversion: $out"
+"$drivetap" diagnose -T json "$bc" | grep -q '"id":"inverted-line"' || fail "diagnose -T json"
+for fm in sigrok-flowmeter-graph-tool/flowmeter_graph_tool.sr \
+          sigrok-flowmeter-target-15liter-per-min/flowmeter_target_15liter_per_min.sr; do
+  out=$("$drivetap" diagnose "$root/captures/$fm")
+  grep -q "^verdict: *healthy line" <<<"$out" || fail "diagnose $fm: not healthy: $out"
+done
+out=$("$drivetap" diagnose -s "9600 8E1" --invert "$bc")
+grep -q "\[baud-mismatch\] Baud rate mismatch: the line runs at 19200, not 9600" <<<"$out" ||
+  fail "diagnose -s 9600: no baud mismatch: $out"
+err=$("$drivetap" read --invert "$bc" 2>&1 >/dev/null); rc=$?
+[ "$rc" = 2 ] && grep -q "^drivetap: --invert: give the line settings too" <<<"$err" ||
+  fail "--invert without -s: exit $rc, stderr: $err"
+
 [ "$failed" = 0 ] && echo "ok cli"
 exit "$failed"
