@@ -203,3 +203,30 @@ TEST(UartPhyCaptures, AnalogTrace10700Baud8N2AsSigrokReadsIt) {
   EXPECT_EQ(d.framing, 1u);
   EXPECT_EQ(d.parity, 0u);
 }
+
+// Detection on the recordings, no settings given (issue 6: "the 7O1 one is detected as 7O1").
+namespace {
+
+std::string detected(const std::string& rel) {
+  std::string error;
+  auto file = SigrokFile::open(capture(rel), &error);
+  EXPECT_TRUE(file) << error;
+  if (!file) return {};
+  ChannelTable channels;
+  LogicSource source(std::move(file), rel, channels, LogicSourceOptions{});
+  EXPECT_TRUE(source.read_header()) << source.error();
+  return phy::settings_text(source.uart());
+}
+
+}  // namespace
+
+TEST(UartPhyCaptures, SettingsDetectedFromTheSamples) {
+  EXPECT_EQ(detected("uart-phy/hello_world_7o1_hello_world_7o1_115200.sr"), "115200 7O1");
+  EXPECT_EQ(detected("uart-phy/errors_ampel64_4800_8n1_ok.sr"), "4800 8N1");
+  // The "8N2" recording sends its second character 1.15 stop bits after the first: 1 stop bit
+  // is what reads it all.
+  EXPECT_EQ(detected("uart-phy/errors_ampel64_4800_8n2_ok.sr"), "4800 8N1");
+  // 10700 baud is no standard rate: reported as measured (to three digits).
+  EXPECT_EQ(detected("uart-phy/from_analog_uart_analog_10700_8n2.sr"), "10700 8N1");
+  EXPECT_EQ(detected("sigrok-brainchild-io-16do/brainchild-io-16do.sr"), "19200 8E1, inverted");
+}
