@@ -10,6 +10,8 @@
 #include <cstring>
 #include <limits>
 
+#include <sys/stat.h>
+
 #include "core/time.hpp"
 #include "sources/sigrok_file.hpp"  // parse_sample_rate, for sigrok's "... at 2 MHz" comment
 
@@ -24,9 +26,8 @@ constexpr std::size_t kMaxName = 1024;  // scopes and reference, as declared
 constexpr std::size_t kMaxVariables = 4096;
 constexpr std::size_t kMaxScopes = 4096;
 constexpr std::size_t kMaxScopeDepth = 32;
-constexpr std::size_t kMaxKeywordWords = 16;    // $var type size id name [bits] ... $end
-constexpr std::size_t kMaxComment = 512;        // of a header $comment, kept for the sigrok rate
-constexpr std::int64_t kBlockTokens = 1 << 16;  // tokens per block, about
+constexpr std::size_t kMaxKeywordWords = 16;  // $var type size id name [bits] ... $end
+constexpr std::size_t kMaxComment = 512;      // of a header $comment, kept for the sigrok rate
 constexpr std::uint64_t kMaxSampleRate = 1'000'000'000;  // see the header: finer is divided
 
 // What the first byte of a body token makes of it.
@@ -124,7 +125,9 @@ std::uint64_t sigrok_rate(const std::string& comment) {
 // next call. Tokens never span a newline, so lines are counted while skipping whitespace.
 class VcdFile::Tokens {
  public:
-  explicit Tokens(std::FILE* file) : file_(file), buffer_(kReadBytes + kMaxToken) {}
+  // `read_bytes` per fread; room behind them for the start of a token that runs on.
+  Tokens(std::FILE* file, std::size_t read_bytes)
+      : file_(file), read_bytes_(read_bytes), buffer_(new char[read_bytes + kMaxToken]) {}
   ~Tokens() { std::fclose(file_); }
   Tokens(const Tokens&) = delete;
   Tokens& operator=(const Tokens&) = delete;
@@ -158,13 +161,13 @@ class VcdFile::Tokens {
       if (pos_ < end_ || eof_) break;
       // The token runs on past this piece: move it to the front and read on behind it.
       const std::size_t have = pos_ - start;
-      std::memmove(buffer_.data(), buffer_.data() + start, have);
+      std::memmove(buffer_.get(), buffer_.get() + start, have);
       base_ += start;
       start = 0;
       pos_ = end_ = have;
       if (!fill(why)) return false;
     }
-    out = std::string_view(buffer_.data() + start, pos_ - start);
+    out = std::string_view(buffer_.get() + start, pos_ - start);
     return true;
   }
 
@@ -185,9 +188,9 @@ class VcdFile::Tokens {
   }
 
  private:
-  // Appends up to kReadBytes behind end_ (there is always room: end_ <= kMaxToken here).
+  // Appends up to read_bytes_ behind end_ (there is always room: end_ <= kMaxToken here).
   bool fill(std::string* why) {
-    const std::size_t got = std::fread(buffer_.data() + end_, 1, kReadBytes, file_);
+    const std::size_t got = std::fread(buffer_.get() + end_, 1, read_bytes_, file_);
     if (got == 0) {
       if (std::ferror(file_)) {
         *why = fmt::format("read error: {}", std::strerror(errno));
@@ -200,9 +203,10 @@ class VcdFile::Tokens {
   }
 
   std::FILE* file_;
-  std::vector<char> buffer_;
-  std::size_t pos_ = 0, end_ = 0;  // unread bytes: buffer_[pos_, end_)
-  std::uint64_t base_ = 0;         // file offset of buffer_[0]
+  std::size_t read_bytes_;
+  std::unique_ptr<char[]> buffer_;  // not zeroed: only what fread wrote is read
+  std::size_t pos_ = 0, end_ = 0;   // unread bytes: buffer_[pos_, end_)
+  std::uint64_t base_ = 0;          // file offset of buffer_[0]
   std::uint64_t line_ = 1;
   bool eof_ = false;
 };
@@ -243,15 +247,24 @@ int VcdFile::add_slot(std::string_view id) {
   return slot;
 }
 
-std::unique_ptr<VcdFile> VcdFile::open(const std::string& path, std::string* error) {
+std::unique_ptr<VcdFile> VcdFile::open(const std::string& path, std::string* error,
+                                       std::size_t read_bytes) {
   std::FILE* f = std::fopen(path.c_str(), "rb");
   if (!f) {
     *error = fmt::format("{}: cannot open: {}", path, std::strerror(errno));
     return nullptr;
   }
+  // A small file gets a small buffer (a capture of a few KiB is common, and fuzzing opens many).
+  if (read_bytes == 0 || read_bytes > kReadBytes) {
+    read_bytes = kReadBytes;
+    struct stat st;
+    if (fstat(fileno(f), &st) == 0 && S_ISREG(st.st_mode) && st.st_size >= 0 &&
+        static_cast<std::uint64_t>(st.st_size) < kReadBytes)
+      read_bytes = std::max<std::size_t>(static_cast<std::size_t>(st.st_size) + 1, 4096);
+  }
   std::unique_ptr<VcdFile> file(new VcdFile());
   file->path_ = path;
-  file->tokens_ = std::make_unique<Tokens>(f);
+  file->tokens_ = std::make_unique<Tokens>(f, read_bytes);
   file->slot_by_byte_.assign(256, -1);
   if (!file->read_header(error)) return nullptr;
   return file;
@@ -496,7 +509,7 @@ void VcdFile::commit(std::uint64_t at, RunBlock& block) {
 
 int VcdFile::scan(RunBlock* block, std::string* error) {
   const bool first_pass = block == nullptr;
-  std::int64_t budget = kBlockTokens;
+  auto budget = static_cast<std::int64_t>(block_tokens_);
   const std::uint64_t max_sample =
       static_cast<std::uint64_t>(kTimeLimit / kNsPerSecond) * sample_rate_;
   std::string_view token;

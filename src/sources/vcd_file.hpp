@@ -43,10 +43,11 @@
 //
 // Bounds against hostile files: at most 4096 variables and 4096 scopes, 32 scopes deep, tokens
 // (identifiers, values, words) of at most 64 KiB, identifiers of at most 256 bytes, names of at
-// most 1024. The file is read in 1 MiB pieces and never held whole; a block holds at most one
-// run per selected channel and distinct sample in about 64 K tokens of the file.
+// most 1024. The file is read in pieces of up to 1 MiB and never held whole; a block holds at most
+// one run per selected channel and distinct sample in about 64 K tokens of the file.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <cstdio>
 #include <memory>
@@ -61,8 +62,11 @@ namespace drivetap {
 class VcdFile final : public LogicCapture {
  public:
   // nullptr with *error = "FILE: line N: reason" (or "FILE: reason" when it cannot be opened)
-  // when the header cannot be read or declares no 1-bit variable.
-  static std::unique_ptr<VcdFile> open(const std::string& path, std::string* error);
+  // when the header cannot be read or declares no 1-bit variable. `read_bytes`: bytes per read,
+  // 0 for 1 MiB (less for a smaller file); tests and the fuzz target give a few, so that words
+  // run across reads everywhere.
+  static std::unique_ptr<VcdFile> open(const std::string& path, std::string* error,
+                                       std::size_t read_bytes = 0);
   ~VcdFile() override;
   VcdFile(const VcdFile&) = delete;
   VcdFile& operator=(const VcdFile&) = delete;
@@ -75,6 +79,12 @@ class VcdFile final : public LogicCapture {
   // The file's time units per second (10 MHz for 100 ns); a multiple of sample_rate() unless
   // sigrok had to round its times (24 MHz on 100 ps).
   [[nodiscard]] std::uint64_t timescale_rate() const { return timescale_rate_; }
+
+  // About how many tokens of the file a block covers (default 65536; at least 1): tests and the
+  // fuzz target make blocks small to put their ends everywhere. Takes effect at once.
+  void set_block_tokens(std::size_t tokens) {
+    block_tokens_ = std::clamp<std::size_t>(tokens, 1, std::size_t{1} << 40);
+  }
 
   bool select(const std::vector<std::size_t>& channels, std::string* error) override;
   bool next_block(RunBlock& block, std::string* error) override;
@@ -103,6 +113,7 @@ class VcdFile final : public LogicCapture {
   std::vector<std::string> channels_;
   std::vector<int> channel_slot_;  // per channel: its identifier's slot
   std::size_t skipped_variables_ = 0;
+  std::size_t block_tokens_ = std::size_t{1} << 16;
 
   // Identifiers: one slot each. One- and two-byte identifiers (nearly all of them) index tables.
   std::vector<std::int32_t> slot_by_byte_;  // 256 entries, -1 = none
