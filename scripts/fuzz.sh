@@ -6,7 +6,7 @@
 #   bash scripts/fuzz.sh 120 pcapng byte_log
 #
 # Targets: byte_log pcapng pcap rtu_framer modbus_pdu upper_pdu_link modbus_ascii danfoss_fc
-# easydrive (the "fuzz_" prefix is
+# easydrive vcd (the "fuzz_" prefix is
 # optional). Per target: working corpus build-fuzz/corpus/<target> (kept between runs), seeds
 # build-fuzz/seeds/<target> (remade each run), crash artifacts build-fuzz/artifacts/<target>/,
 # libFuzzer's log build-fuzz/logs/<target>.log. Reproducers saved under
@@ -14,7 +14,9 @@
 # the others, e.g. input.rtu_framer) run first: one that still fails is reported and counts as
 # a failure, one that passes joins the seeds. Reproduce a crash with
 #   build-fuzz/fuzz/fuzz_<target> ARTIFACT
-# Environment: FUZZ_TIMEOUT (seconds one input may take before it counts as a hang, default 20).
+# A dictionary fuzz/fuzz_<target>.dict, when there is one, is passed with -dict.
+# Environment: FUZZ_TIMEOUT (seconds one input may take before it counts as a hang, default 20);
+# FUZZ_BUILD (the build directory, default build-fuzz).
 # Exit status 1 when any target found a crash, hang, leak or out-of-memory, or a regression
 # reproducer still fails.
 set -euo pipefail
@@ -27,7 +29,7 @@ if ! [[ "$seconds" =~ ^[0-9]+$ ]] || [ "$seconds" -eq 0 ]; then
   echo "usage: bash scripts/fuzz.sh [SECONDS_PER_TARGET] [TARGET...]" >&2
   exit 2
 fi
-all_targets=(byte_log pcapng pcap rtu_framer modbus_pdu upper_pdu_link modbus_ascii danfoss_fc easydrive)
+all_targets=(byte_log pcapng pcap rtu_framer modbus_pdu upper_pdu_link modbus_ascii danfoss_fc easydrive vcd)
 targets=()
 for t in "$@"; do
   t=${t#fuzz_}
@@ -40,7 +42,7 @@ done
 [ ${#targets[@]} -gt 0 ] || targets=("${all_targets[@]}")
 timeout=${FUZZ_TIMEOUT:-20}
 
-build=$root/build-fuzz
+build=${FUZZ_BUILD:-$root/build-fuzz}
 jobs=$(nproc 2>/dev/null || echo 2)
 mkdir -p "$build"
 cmake -S . -B "$build" -G Ninja -DCMAKE_CXX_COMPILER=clang++ -DDRIVETAP_FUZZ=ON \
@@ -133,6 +135,16 @@ make_seeds() {
       *.pcap) cp "$f" "$seeds/pcap/$name.pcap" ;;
     esac
   done
+  # sigrok-cli's VCD exports (captures/vcd/README.md) seed the VCD reader, with a simulator's
+  # layout: multi-line sections, nested scopes, vectors, reals, $dumpvars/$dumpoff, 1 ps.
+  cp captures/vcd/*.vcd "$seeds/vcd/"
+  printf '%s\n' '$date' '  today' '$end' '$version Icarus Verilog $end' '$timescale' '  1ps' \
+    '$end' '$scope module tb $end' '$var wire 1 ! clk $end' '$var reg 8 " data [7:0] $end' \
+    '$scope module dut $end' '$var wire 1 #a tx $end' '$var real 1 $ v $end' \
+    '$var wire 1 ! clk_alias $end' '$upscope $end' '$upscope $end' '$enddefinitions $end' \
+    '$comment initial values $end' '#0' '$dumpvars' '0!' 'bxxxxxxxx "' 'z#a' 'r0.5 $' '$end' \
+    '#1500' '1!' 'b1010 "' '1#a' '#3000' '0!' 'x#a' '$dumpoff' 'x!' '$end' '#4500' '$dumpon' \
+    '1!' '0#a' '$end' '#6000' > "$seeds/vcd/simulator.vcd"
   # Every telegram of the captures seeds the protocol-decoder targets too.
   for t in modbus_ascii danfoss_fc easydrive; do
     cp "$seeds/modbus_pdu/"* "$seeds/$t/" 2> /dev/null || true
@@ -218,7 +230,9 @@ for t in "${targets[@]}"; do
   echo "== fuzz_$t: $seconds s (log: ${log#"$root"/})"
   start=$(date +%s)
   rc=0
-  "$bin" -max_total_time="$seconds" -rss_limit_mb=2048 -timeout="$timeout" \
+  dict=()
+  [ -f "fuzz/fuzz_$t.dict" ] && dict=(-dict="fuzz/fuzz_$t.dict")
+  "$bin" -max_total_time="$seconds" -rss_limit_mb=2048 -timeout="$timeout" "${dict[@]}" \
     -print_final_stats=1 -artifact_prefix="$artifacts/" "$corpus" "$build/seeds/$t" \
     > "$log" 2>&1 || rc=$?
   elapsed=$(($(date +%s) - start))
