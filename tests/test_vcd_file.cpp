@@ -167,18 +167,19 @@ TEST(VcdFile, SigrokStyleLinesAndTheEndOfTheCapture) {
 TEST(VcdFile, SimulatorStyleDumpvarsCommentsAndEqualTimes) {
   auto f = open_text(header("1ns",
                             "$var reg 1 ! clk $end\n$var wire 1 # tx $end\n"
-                            "$var wire 8 $ data [7:0] $end\n$var real 1 % volts $end\n") +
+                            "$var wire 8 $ data [7:0] $end\n$var real 1 % volts $end\n"
+                            "$var string 1 & state $end\n") +
                      "$comment all values at 0 $end\n"
                      "$dumpvars\n0!\n1#\nbxxxxxxxx $\nr0.5 %\n$end\n"
                      "#5\n1!\nb10100101 $\n$comment a comment\n  over lines $end\n"
                      "#5\n0#\n"  // equal time stamps are one moment
-                     "#7\nr1.25 %\n$dumpoff\nx!\nx#\n$end\n"
+                     "#7\nr1.25 %\nsIDLE &\n$dumpoff\nx!\nx#\n$end\n"
                      "#9\n$dumpon\n0!\n1#\n$end\n"
                      "#9\n$dumpall 0! 1# $end\n"
                      "#12\n0#\n");  // a value at the last time stamp lasts no sample
   ASSERT_TRUE(f);
   ASSERT_EQ(f->channels(), (std::vector<std::string>{"clk", "tx"}));
-  EXPECT_EQ(f->skipped_variables(), 2u);  // the vector and the real
+  EXPECT_EQ(f->skipped_variables(), 3u);  // the vector, the real and the string
   const Read r = read_all(*f);
   EXPECT_TRUE(r.error.empty()) << r.error;
   EXPECT_EQ(r.samples, 12u);

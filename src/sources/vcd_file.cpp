@@ -41,6 +41,7 @@ constexpr std::array<Kind, 256> make_kinds() {
     k[static_cast<unsigned char>(c)] = kKeep;
   k['b'] = k['B'] = kVector;
   k['r'] = k['R'] = kReal;
+  k['s'] = k['S'] = kReal;  // a string value (GTKWave's extension): skipped like a real
   k['#'] = kTime;
   k['$'] = kKeyword;
   return k;

@@ -28,12 +28,13 @@
 //     limit (2^62 ns, src/core/time.hpp) is refused.
 //
 // Values: 0/1 (and the weak L/H) are levels. x, z, u, w and - keep the level the channel had:
-// a logic analyser has no unknown level, and a floating RS-485 receiver holds its output. A
-// channel's first level also covers the time before it (sample 0 onwards), so a signal dumped
-// late or first as x does not start with an invented edge; a channel that never gets a level
-// reads as 1 (an idle UART line) throughout. A `b` value given to a 1-bit variable counts with
-// its last bit; vector and real values of wider variables are skipped. $dumpvars, $dumpall,
-// $dumpon and $dumpoff are read as the value changes they contain; $comment may appear anywhere.
+// the runs have no unknown level, and the last one seen invents no edge (a simulator's x is
+// mostly an undriven wire before reset or a dump switched off). A channel's first level also
+// covers the time before it (sample 0 onwards), so a signal dumped late or first as x does not
+// start with an invented edge; a channel that never gets a level reads as 1 (an idle UART line)
+// throughout. A `b` value given to a 1-bit variable counts with its last bit; vector, real and
+// string values of other variables are skipped. $dumpvars, $dumpall, $dumpon and $dumpoff are
+// read as the value changes they contain; $comment may appear anywhere.
 //
 // Channel names: the variable's reference name (a bit-select "[3]" is appended, other extra
 // words joined with a space: "Channel 0"), prefixed by the scopes below the ones that all
