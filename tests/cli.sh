@@ -88,6 +88,11 @@ done
 out=$("$drivetap" diagnose -s "9600 8E1" --invert "$bc")
 grep -q "\[baud-mismatch\] Baud rate mismatch: the line runs at 19200, not 9600" <<<"$out" ||
   fail "diagnose -s 9600: no baud mismatch: $out"
+# The same capture as sigrok-cli exported it to VCD: the same line, the same transactions.
+vcd="$root/captures/vcd/brainchild-io-16do.vcd"
+out=$("$drivetap" read "$vcd" 2>&1)
+grep -q "^transactions: *15 (ok 15," <<<"$out" || fail "brainchild VCD: expected 15 good transactions"
+"$drivetap" diagnose "$vcd" | grep -q "\[inverted-line\]" || fail "diagnose brainchild VCD"
 err=$("$drivetap" read --invert "$bc" 2>&1 >/dev/null); rc=$?
 [ "$rc" = 2 ] && grep -q "^drivetap: --invert: give the line settings too" <<<"$err" ||
   fail "--invert without -s: exit $rc, stderr: $err"

@@ -28,6 +28,7 @@
 #include "sources/input_file.hpp"
 #include "sources/logic_source.hpp"
 #include "sources/sigrok_file.hpp"
+#include "sources/vcd_file.hpp"
 
 namespace {
 
@@ -366,11 +367,22 @@ std::unique_ptr<ByteSource> open_source(const CommonOptions& o, const std::strin
           std::make_unique<LogicSource>(std::move(file), path, channels, logic_source_options(o));
       break;
     }
+    case InputFormat::vcd: {
+      // Read by name: detection reads the start twice.
+      if (in.name == "<stdin>") die("<stdin>: a VCD file must be read by name", 1);
+      close_input(in);
+      std::string error;
+      auto file = VcdFile::open(path, &error);
+      if (!file) die(error, 1);
+      source =
+          std::make_unique<LogicSource>(std::move(file), path, channels, logic_source_options(o));
+      break;
+    }
     case InputFormat::empty:
       die(fmt::format("{}: empty file", in.name), 1);
     case InputFormat::unknown:
       die(fmt::format("{}: offset 0: not a recognised capture format (first byte 0x{:02X}); "
-                      "expected pcapng, pcap, a sigrok session or a drivetap byte log",
+                      "expected pcapng, pcap, a sigrok session, a VCD or a drivetap byte log",
                       in.name, in.head[0]),
           1);
   }
@@ -473,8 +485,8 @@ int main(int argc, char** argv) {
 
   CommonOptions read_opts;
   std::string path;
-  CLI::App* read =
-      app.add_subcommand("read", "Decode a capture: pcapng, pcap or byte log; '-' for stdin");
+  CLI::App* read = app.add_subcommand(
+      "read", "Decode a capture: pcapng, pcap, byte log, sigrok session or VCD; '-' for stdin");
   add_common_options(read, read_opts);
   read->add_option("file", path, "Capture file")->required();
 

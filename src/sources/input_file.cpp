@@ -48,6 +48,12 @@ InputFormat recognise(const unsigned char* h, std::size_t n) {
     if (be == 0xA1B2C3D4 || be == 0xD4C3B2A1 || be == 0xA1B23C4D || be == 0x4D3CB2A1)
       return InputFormat::pcap;
   }
+  // A Value Change Dump opens with a $keyword ($date, $version, $timescale...), maybe after
+  // blank lines.
+  for (std::size_t i = 0; i < n; ++i) {
+    if (h[i] == '$') return InputFormat::vcd;
+    if (h[i] != ' ' && h[i] != '\t' && h[i] != '\n' && h[i] != '\r') break;
+  }
   const unsigned char c = h[0];
   if (c == '#' || (c >= '0' && c <= '9') || c == ' ' || c == '\t' || c == '\n' || c == '\r')
     return InputFormat::byte_log;
@@ -66,6 +72,8 @@ const char* input_format_name(InputFormat f) {
       return "pcapng";
     case InputFormat::sigrok:
       return "sigrok session";
+    case InputFormat::vcd:
+      return "VCD";
     case InputFormat::empty:
       return "empty";
     case InputFormat::unknown:

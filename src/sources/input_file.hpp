@@ -7,7 +7,7 @@
 
 namespace drivetap {
 
-enum class InputFormat { byte_log, pcap, pcapng, sigrok, unknown, empty };
+enum class InputFormat { byte_log, pcap, pcapng, sigrok, vcd, unknown, empty };
 
 struct InputFile {
   std::FILE* file = nullptr;  // owned: close with close_input()
