@@ -5,6 +5,7 @@
 #include <zip.h>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -244,8 +245,10 @@ bool SigrokFile::select(const std::vector<std::size_t>& channels, std::string* e
   return open_next_entry(error);
 }
 
-// Logic samples -> runs. Most of a capture is idle line, so whole words of unchanged one-byte
-// samples are skipped eight at a time; only a sample where a selected bit changes costs more.
+// Logic samples -> runs. Most of a capture is idle line, and even a busy one changes a selected
+// bit only every few samples: eight bytes are compared at once with the previous sample repeated
+// (one-, two-, four- and eight-byte samples), and the first changed sample among them is found by
+// counting trailing zero bits, so that only a sample where a selected bit changes costs more.
 void SigrokFile::scan_logic(const std::uint8_t* bytes, std::size_t samples, RunBlock& block) {
   const auto unit = static_cast<std::size_t>(unit_size_);
   std::uint64_t mask = 0;
@@ -256,38 +259,55 @@ void SigrokFile::scan_logic(const std::uint8_t* bytes, std::size_t samples, RunB
       w |= static_cast<std::uint64_t>(bytes[i * unit + b]) << (8 * b);
     return w & mask;
   };
+  // Sample i differs from the previous one in the selected bits: every changed channel's run
+  // ends here.
+  auto change_at = [&](std::size_t i, std::uint64_t w) {
+    const std::uint64_t changed = w ^ last_word_;
+    const std::uint64_t at = sample_ + i;
+    for (std::size_t k = 0; k < selected_.size(); ++k) {
+      if (!((changed >> selected_[k]) & 1)) continue;
+      if (at > run_start_[k]) block.runs[k].push_back({level_[k], at - run_start_[k]});
+      level_[k] = !level_[k];
+      run_start_[k] = at;
+    }
+    last_word_ = w;
+  };
   std::size_t i = 0;
   if (!have_level_ && samples > 0) {
     last_word_ = word_at(0);
     for (std::size_t k = 0; k < selected_.size(); ++k) level_[k] = (last_word_ >> selected_[k]) & 1;
     have_level_ = true;
   }
-  while (i < samples) {
-    if (unit == 1) {
-      // Skip eight unchanged samples at a time.
-      const std::uint64_t same = (last_word_ & 0xFF) * 0x0101010101010101ULL;
-      const std::uint64_t mask8 = (mask & 0xFF) * 0x0101010101010101ULL;
-      while (i + 8 <= samples) {
-        std::uint64_t eight;
-        std::memcpy(&eight, bytes + i, 8);
-        if (((eight ^ same) & mask8) != 0) break;
-        i += 8;
+  // Eight bytes hold 8 / unit whole samples, sample j of them in bits [8 unit j, 8 unit (j + 1)).
+  if (std::endian::native == std::endian::little && std::has_single_bit(unit) && unit <= 8) {
+    const int sample_bits_log2 = 3 + std::countr_zero(unit);  // 8 unit = 1 << this
+    const std::size_t per_word = 8 / unit;
+    // Multiplying a sample by this repeats it in every sample of the eight bytes.
+    const std::uint64_t spread = unit == 8   ? 1
+                                 : unit == 4 ? 0x0000000100000001ULL
+                                 : unit == 2 ? 0x0001000100010001ULL
+                                             : 0x0101010101010101ULL;
+    const std::uint64_t mask8 = mask * spread;
+    std::uint64_t same = last_word_ * spread;
+    while (i + per_word <= samples) {
+      std::uint64_t eight;
+      std::memcpy(&eight, bytes + i * unit, 8);
+      const std::uint64_t diff = (eight ^ same) & mask8;
+      if (diff == 0) {
+        i += per_word;
+        continue;
       }
-      if (i >= samples) break;
+      // The first sample with a changed bit, and where it begins in the eight bytes.
+      const int j = std::countr_zero(diff) >> sample_bits_log2;
+      i += static_cast<std::size_t>(j);
+      change_at(i, (eight >> (j << sample_bits_log2)) & mask);
+      same = last_word_ * spread;
+      ++i;
     }
+  }
+  for (; i < samples; ++i) {
     const std::uint64_t w = word_at(i);
-    if (w != last_word_) {
-      const std::uint64_t changed = w ^ last_word_;
-      const std::uint64_t at = sample_ + i;
-      for (std::size_t k = 0; k < selected_.size(); ++k) {
-        if (!((changed >> selected_[k]) & 1)) continue;
-        if (at > run_start_[k]) block.runs[k].push_back({level_[k], at - run_start_[k]});
-        level_[k] = !level_[k];
-        run_start_[k] = at;
-      }
-      last_word_ = w;
-    }
-    ++i;
+    if (w != last_word_) change_at(i, w);
   }
 }
 
@@ -312,7 +332,9 @@ void SigrokFile::scan_analog(const std::uint8_t* bytes, std::size_t samples, Run
 
 bool SigrokFile::next_block(RunBlock& block, std::string* error) {
   block.begin = sample_;
-  block.runs.assign(selected_.size(), {});
+  // Cleared, not reallocated: a reader of many blocks keeps the capacity the busiest one needed.
+  block.runs.resize(selected_.size());
+  for (auto& runs : block.runs) runs.clear();
   const std::size_t unit = analog_ ? sizeof(float) : static_cast<std::size_t>(unit_size_);
   while (entry_) {
     const zip_int64_t got = zip_fread(entry_->file, raw_.data() + carried_, kReadBytes);
