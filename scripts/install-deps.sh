@@ -2,7 +2,7 @@
 # Installs drivetap's build and test dependencies from Debian (bookworm), as root.
 set -euo pipefail
 packages=(build-essential cmake ninja-build pkg-config libfmt-dev libcli11-dev libgtest-dev libgmock-dev
-          libpcap-dev libtomlplusplus-dev libzip-dev tshark)
+          libpcap-dev libtomlplusplus-dev libzip-dev libbenchmark-dev tshark)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
