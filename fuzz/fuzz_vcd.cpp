@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "fuzz/fuzz_common.hpp"
+#include "sources/logic_source.hpp"
 #include "sources/vcd_file.hpp"
 
 namespace {
@@ -105,5 +106,23 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   // each read at the end of the block before it, which depends on where blocks end.)
   if (complete && complete_alone && first_of_all != first_alone)
     contract_broken("a channel's levels depend on the channels selected or the block size");
+
+  // The whole logic path on it: channel choice, line detection, decoding, the time-ordered merge.
+  file = drivetap::VcdFile::open(path, &error, read_bytes);
+  if (!file) contract_broken("a VCD that opened once does not open again");
+  drivetap::ChannelTable channels;
+  drivetap::LogicSourceOptions options;
+  options.detection_runs = 2'000;
+  drivetap::LogicSource source(std::move(file), path, channels, options);
+  if (!source.read_header()) {
+    if (source.error().empty()) contract_broken("read_header() failed without an error");
+    return 0;
+  }
+  drivetap::ByteEvent e;
+  drivetap::TimeNs last = 0;
+  while (source.next(e)) {
+    if (e.time < last) contract_broken("logic source events out of time order");
+    last = e.time;
+  }
   return 0;
 }
