@@ -356,23 +356,20 @@ std::unique_ptr<ByteSource> open_source(const CommonOptions& o, const std::strin
       source = std::make_unique<CaptureReader>(in.file, in.name, false, channels);
       in.file = nullptr;  // libpcap owns and closes it
       break;
-    case InputFormat::sigrok: {
-      // A zip is read by name (libzip): a sigrok session cannot come through stdin.
-      if (in.name == "<stdin>") die("<stdin>: a sigrok session file (zip) must be read by name", 1);
-      close_input(in);
-      std::string error;
-      auto file = SigrokFile::open(path, &error);
-      if (!file) die(error, 1);
-      source =
-          std::make_unique<LogicSource>(std::move(file), path, channels, logic_source_options(o));
-      break;
-    }
+    case InputFormat::sigrok:
     case InputFormat::vcd: {
-      // Read by name: detection reads the start twice.
-      if (in.name == "<stdin>") die("<stdin>: a VCD file must be read by name", 1);
+      // Logic captures are read by name: a zip (libzip) cannot come through stdin, and detection
+      // reads the start of either twice.
+      if (in.name == "<stdin>")
+        die(fmt::format("<stdin>: a {} must be read by name", input_format_name(in.format)), 1);
+      const InputFormat format = in.format;
       close_input(in);
       std::string error;
-      auto file = VcdFile::open(path, &error);
+      std::unique_ptr<LogicCapture> file;
+      if (format == InputFormat::sigrok)
+        file = SigrokFile::open(path, &error);
+      else
+        file = VcdFile::open(path, &error);
       if (!file) die(error, 1);
       source =
           std::make_unique<LogicSource>(std::move(file), path, channels, logic_source_options(o));
