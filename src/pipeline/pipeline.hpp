@@ -43,6 +43,12 @@ class Pipeline {
   void push(const ByteEvent& event);
   // A finding from the source itself (e.g. a timestamp going backwards in a file).
   void report(const Anomaly& anomaly);
+  // Live capture: the clock reached `now` with no new byte, so frames whose closing silence has
+  // passed are emitted now instead of when the next byte comes (bytes pushed later must not be
+  // earlier than `now`).
+  void advance(TimeNs now) { advance_all(now); }
+  // When advance() can next close something (max() when nothing is pending): a poll timeout.
+  [[nodiscard]] TimeNs next_deadline() const { return earliest_deadline_; }
   // Closes everything pending and emits the summary. Idempotent.
   void finish();
   [[nodiscard]] const Stats& stats() const { return stats_; }
