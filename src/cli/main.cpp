@@ -2,14 +2,20 @@
 #include <fmt/format.h>
 #include <CLI/CLI.hpp>
 
+#include <poll.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <csignal>
 #include <cstdio>
 #include <cstring>
+#include <ctime>
 #include <deque>
 #include <filesystem>
 #include <iostream>
+#include <limits>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -21,12 +27,14 @@
 #include "profiles/profile.hpp"
 #include "sinks/capture_sink.hpp"
 #include "sinks/json_sink.hpp"
+#include "sinks/ring_capture_sink.hpp"
 #include "sinks/text_sink.hpp"
 #include "sources/byte_log.hpp"
 #include "sources/capture_reader.hpp"
 #include "sources/hex_text.hpp"
 #include "sources/input_file.hpp"
 #include "sources/logic_source.hpp"
+#include "sources/serial_port.hpp"
 #include "sources/sigrok_file.hpp"
 #include "sources/vcd_file.hpp"
 
@@ -192,7 +200,7 @@ PipelineOptions make_pipeline_options(const CommonOptions& o, const RunSettings&
 class Outputs {
  public:
   Outputs(const CommonOptions& o, const ChannelTable& channels, const PipelineOptions& p,
-          bool timed)
+          bool timed, const RingOptions* ring = nullptr)
       : options_(o) {
     const bool capture_to_stdout = o.write == "-";
     if (capture_to_stdout && (o.output.empty() || o.output == "-") && o.format == "json")
@@ -204,18 +212,17 @@ class Outputs {
       // With the capture on stdout, the text goes to stderr as a summary only (like tcpdump).
       text_file_ = capture_to_stdout ? stderr : stdout;
     }
-    if (!o.write.empty()) {
+    if (ring) {
+      if (o.write.empty() || capture_to_stdout) die("-b: needs -w FILE (a file name, not -)");
+      ring_ = std::make_unique<RingCaptureSink>(o.write, channels, capture_options(o, p), *ring);
+      std::string error;
+      if (!ring_->open(&error)) die(error, 1);
+      tee_.add(ring_.get());
+    } else if (!o.write.empty()) {
       capture_file_ = capture_to_stdout ? stdout : std::fopen(o.write.c_str(), "wb");
       if (!capture_file_)
         die(fmt::format("-w {}: cannot create: {}", o.write, std::strerror(errno)));
-      CaptureSinkOptions c;
-      c.format = o.classic_pcap ? CaptureFormat::pcap : CaptureFormat::pcapng;
-      c.link_type = o.dlt == "user0" ? CaptureLinkType::user0 : CaptureLinkType::upper_pdu;
-      c.serial = p.serial;
-      c.character_time = p.timing.character_time;
-      c.settings =
-          encode_settings(p.timing.t15, p.timing.t35, p.reply_timeout, p.max_hold, p.protocol);
-      capture_ = std::make_unique<CaptureSink>(capture_file_, channels, c);
+      capture_ = std::make_unique<CaptureSink>(capture_file_, channels, capture_options(o, p));
       tee_.add(capture_.get());
     }
     if (o.format == "json") {
@@ -236,11 +243,19 @@ class Outputs {
     }
   }
   Sink& sink() { return tee_; }
+  // Live capture: everything written so far reaches its file (a text line per frame as it
+  // completes; pcapng packets readable while the capture runs). False when a write failed.
+  bool flush() {
+    const bool ok = tee_.flush();
+    if (!ok && ring_ && !ring_->error().empty()) die(ring_->error(), 1);
+    return ok;
+  }
 
   // Flushes and closes every output; a failed write (disk full, closed pipe) is an error.
   void close() {
     const bool text_ok = text_->flush();
     const bool capture_ok = !capture_ || capture_->flush();
+    if (ring_ && !ring_->close()) die(ring_->error(), 1);
     capture_.reset();
     if (capture_file_ && capture_file_ != stdout && std::fclose(capture_file_) != 0)
       die(fmt::format("-w {}: write failed: {}", options_.write, std::strerror(errno)), 1);
@@ -258,7 +273,19 @@ class Outputs {
   std::unique_ptr<Sink> text_;
   std::unique_ptr<Sink> events_only_;
   std::unique_ptr<CaptureSink> capture_;
+  std::unique_ptr<RingCaptureSink> ring_;
   TeeSink tee_;
+
+  static CaptureSinkOptions capture_options(const CommonOptions& o, const PipelineOptions& p) {
+    CaptureSinkOptions c;
+    c.format = o.classic_pcap ? CaptureFormat::pcap : CaptureFormat::pcapng;
+    c.link_type = o.dlt == "user0" ? CaptureLinkType::user0 : CaptureLinkType::upper_pdu;
+    c.serial = p.serial;
+    c.character_time = p.timing.character_time;
+    c.settings =
+        encode_settings(p.timing.t15, p.timing.t35, p.reply_timeout, p.max_hold, p.protocol);
+    return c;
+  }
 };
 
 int run_decode(const CommonOptions& o, const std::vector<std::string>& args) {
@@ -445,6 +472,183 @@ int run_diagnose(const CommonOptions& o, const std::string& path) {
   return 0;
 }
 
+// Options of `drivetap capture` besides the common ones.
+struct CaptureOptions {
+  std::vector<std::string> ports;     // -i
+  std::uint64_t max_frames = 0;       // -c
+  std::vector<std::string> autostop;  // -a duration:S
+  std::vector<std::string> ring;      // -b filesize:MB|duration:S|files:N
+  bool reconnect = false;
+};
+
+TimeNs monotonic_now() {
+  timespec ts{};
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return static_cast<TimeNs>(ts.tv_sec) * kNsPerSecond + ts.tv_nsec;
+}
+
+TimeNs wall_offset() {
+  timespec mono{}, real{};
+  clock_gettime(CLOCK_MONOTONIC, &mono);
+  clock_gettime(CLOCK_REALTIME, &real);
+  return (static_cast<TimeNs>(real.tv_sec) - mono.tv_sec) * kNsPerSecond +
+         (real.tv_nsec - mono.tv_nsec);
+}
+
+// `drivetap capture -i PORT...`: live, listen-only capture from serial ports (src/sources/
+// serial_port.hpp). Bytes of all ports wait `hold` in a reorder buffer (read latency differs
+// between ports), are pushed in time order, and the pipeline is advanced to now - hold, so a frame
+// is printed about t3.5 + hold after its last byte. Every output is flushed each round; Ctrl-C,
+// SIGTERM, -c, -a, an unplugged adapter (without --reconnect) or a failed write end the run with
+// every file closed valid.
+int run_capture(const CommonOptions& o, const CaptureOptions& c) {
+  if (c.ports.empty()) die("capture: give at least one port with -i (e.g. -i /dev/ttyUSB0)");
+  TimeNs autostop = 0;
+  for (const std::string& a : c.autostop) {
+    if (!a.starts_with("duration:")) die(fmt::format("-a {}: expected duration:SECONDS", a));
+    double seconds = 0;
+    std::size_t used = 0;
+    try {
+      seconds = std::stod(a.substr(9), &used);
+    } catch (...) {
+      used = 0;
+    }
+    if (used == 0 || used != a.size() - 9 || !(seconds > 0) || seconds > 1e9)
+      die(fmt::format("-a {}: expected duration:SECONDS (e.g. duration:60)", a));
+    autostop = static_cast<TimeNs>(seconds * 1e9);
+  }
+  std::optional<RingOptions> ring;
+  for (const std::string& b : c.ring) {
+    if (!ring) ring.emplace();
+    if (const std::string why = parse_ring_option(b, *ring); !why.empty()) die(why);
+  }
+  RunSettings given;
+  PipelineOptions p = make_pipeline_options(o, given);
+  ChannelTable channels;
+  std::vector<std::unique_ptr<SerialPort>> ports(c.ports.size());
+  auto open_port = [&](std::size_t k, std::string* error) {
+    // -i PATH or -i PATH=NAME: NAME "line.m" / "line.s" puts the two ports of a 4-wire link on
+    // one link as master and slave side (src/core/byte_event.hpp channel naming).
+    SerialPortOptions so;
+    const std::size_t eq = c.ports[k].find('=');
+    so.path = c.ports[k].substr(0, eq);
+    if (eq != std::string::npos) so.channel_name = c.ports[k].substr(eq + 1);
+    so.serial = p.serial;
+    ports[k] = SerialPort::open(so, channels, error);
+    return ports[k] != nullptr;
+  };
+  for (std::size_t k = 0; k < c.ports.size(); ++k) {
+    std::string error;
+    if (!open_port(k, &error)) die(error, 1);
+    for (const std::string& w : ports[k]->warnings())
+      std::fprintf(stderr, "drivetap: warning: %s\n", w.c_str());
+  }
+  std::fprintf(stderr, "drivetap: capturing on %s at %s (listen only; Ctrl-C stops)\n",
+               fmt::format("{}", fmt::join(c.ports, ", ")).c_str(), p.serial.to_string().c_str());
+  Outputs out(o, channels, p, /*timed=*/true, ring ? &*ring : nullptr);
+  Pipeline pipeline(p, channels, out.sink());
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGTERM, on_signal);
+  std::signal(SIGPIPE, SIG_IGN);
+
+  const TimeNs offset = wall_offset();
+  const TimeNs hold = 3 * kNsPerMs;
+  const TimeNs started = monotonic_now();
+  std::vector<ByteEvent> pending;  // read, not yet pushed: sorted by time before each push
+  std::vector<ByteEvent> fresh;
+  std::string stop_reason;
+  int exit_code = 0;
+  while (!g_stop) {
+    const TimeNs now = monotonic_now();
+    if (autostop > 0 && now - started >= autostop) {
+      stop_reason = "autostop duration reached";
+      break;
+    }
+    if (c.max_frames > 0 && pipeline.stats().frames >= c.max_frames) {
+      stop_reason = fmt::format("{} frames captured (-c)", c.max_frames);
+      break;
+    }
+    // Sleep until a port has bytes, the next frame can close, or 100 ms pass.
+    TimeNs wake = 100 * kNsPerMs;
+    const TimeNs deadline = pipeline.next_deadline();
+    if (!pending.empty()) wake = std::min(wake, hold);
+    if (deadline != std::numeric_limits<TimeNs>::max())
+      wake = std::min(wake, std::max<TimeNs>(0, deadline + hold - (now + offset)));
+    std::vector<pollfd> fds;
+    std::vector<std::size_t> which;
+    for (std::size_t k = 0; k < ports.size(); ++k)
+      if (ports[k]) {
+        fds.push_back({ports[k]->fd(), POLLIN, 0});
+        which.push_back(k);
+      }
+    if (fds.empty()) {
+      // Every adapter gone, waiting for --reconnect.
+      ::usleep(200'000);
+    } else {
+      const int ready = ::poll(fds.data(), fds.size(), static_cast<int>(wake / kNsPerMs) + 1);
+      if (ready < 0 && errno != EINTR) {
+        stop_reason = fmt::format("poll: {}", std::strerror(errno));
+        exit_code = 1;
+        break;
+      }
+    }
+    for (std::size_t f = 0; f < fds.size(); ++f) {
+      if (!(fds[f].revents & (POLLIN | POLLHUP | POLLERR))) continue;
+      const std::size_t k = which[f];
+      fresh.clear();
+      const bool alive = ports[k]->read_available(fresh);
+      pending.insert(pending.end(), fresh.begin(), fresh.end());
+      if (!alive) {
+        std::fprintf(stderr, "drivetap: %s\n", ports[k]->error().c_str());
+        for (const std::string& n : ports[k]->notes())
+          std::fprintf(stderr, "drivetap: %s\n", n.c_str());
+        ports[k].reset();
+        if (!c.reconnect) {
+          stop_reason = "adapter lost";
+          exit_code = 1;
+        }
+      }
+    }
+    if (exit_code != 0) break;
+    if (c.reconnect)
+      for (std::size_t k = 0; k < ports.size(); ++k) {
+        if (ports[k] || !std::filesystem::exists(c.ports[k].substr(0, c.ports[k].find('='))))
+          continue;
+        std::string error;
+        if (open_port(k, &error))
+          std::fprintf(stderr, "drivetap: %s: reconnected\n", c.ports[k].c_str());
+      }
+    // Push what is older than the hold, in time order; then let silences close frames.
+    const TimeNs settled = monotonic_now() + offset - hold;
+    std::stable_sort(pending.begin(), pending.end(),
+                     [](const ByteEvent& a, const ByteEvent& b) { return a.time < b.time; });
+    std::size_t pushed = 0;
+    while (pushed < pending.size() && pending[pushed].time <= settled)
+      pipeline.push(pending[pushed++]);
+    pending.erase(pending.begin(), pending.begin() + static_cast<std::ptrdiff_t>(pushed));
+    pipeline.advance(settled);
+    if (!out.flush()) {
+      stop_reason = "output write failed";
+      exit_code = 1;
+      break;
+    }
+  }
+  // Whatever stopped the run: what was read is decoded, summarised, written, flushed and closed.
+  for (const ByteEvent& e : pending) pipeline.push(e);
+  pipeline.finish();
+  out.close();
+  for (const auto& port : ports)
+    if (port)
+      for (const std::string& n : port->notes()) std::fprintf(stderr, "drivetap: %s\n", n.c_str());
+  if (g_stop) {
+    std::fprintf(stderr, "drivetap: interrupted; output flushed and closed\n");
+    return 130;
+  }
+  if (!stop_reason.empty())
+    std::fprintf(stderr, "drivetap: capture stopped: %s\n", stop_reason.c_str());
+  return exit_code;
+}
+
 // Lists the built-in drive profiles and checks the given profile files (errors: file:line: key).
 int run_profiles(const std::vector<std::string>& files) {
   auto show = [](const DriveProfile& p, std::string_view where) {
@@ -496,6 +700,22 @@ int main(int argc, char** argv) {
   diagnose_cmd->add_option("file", diagnose_path, "Capture file (a logic capture gives most)")
       ->required();
 
+  CommonOptions capture_opts;
+  CaptureOptions capture_args;
+  CLI::App* capture_cmd = app.add_subcommand(
+      "capture", "Capture live from serial ports (listen only), decode as it comes");
+  add_common_options(capture_cmd, capture_opts);
+  capture_cmd->add_option(
+      "-i,--interface", capture_args.ports,
+      "Serial port to listen on, PATH or PATH=NAME (repeatable; NAME line.m and "
+      "line.s: the master and slave pairs of one 4-wire link)");
+  capture_cmd->add_option("-c,--count", capture_args.max_frames, "Stop after N frames");
+  capture_cmd->add_option("-a,--autostop", capture_args.autostop, "Stop after duration:SECONDS");
+  capture_cmd->add_option("-b,--ring-buffer", capture_args.ring,
+                          "With -w FILE: a ring of files, filesize:MB, duration:S, files:N");
+  capture_cmd->add_flag("--reconnect", capture_args.reconnect,
+                        "Wait for an unplugged adapter to come back and go on");
+
   std::vector<std::string> profile_files;
   CLI::App* profiles = app.add_subcommand(
       "profiles", "List the built-in drive profiles and check profile files (TOML)");
@@ -508,6 +728,7 @@ int main(int argc, char** argv) {
   }
   if (*decode) return run_decode(decode_opts, hex_args);
   if (*read) return run_read(read_opts, path);
+  if (*capture_cmd) return run_capture(capture_opts, capture_args);
   if (*diagnose_cmd) return run_diagnose(diagnose_opts, diagnose_path);
   if (*profiles) return run_profiles(profile_files);
   return 2;

@@ -376,7 +376,8 @@ std::unique_ptr<SerialPort> SerialPort::open(const SerialPortOptions& o, Channel
   const TimeNs mono_after = clock_ns(CLOCK_MONOTONIC);
   port->wall_offset_ = real - (mono_before + (mono_after - mono_before) / 2);
 
-  const std::string name = device_name(resolved);
+  // Named as the user gave it (a udev or test symlink says more than the pts it points to).
+  const std::string name = device_name(o.path);
   port->channel_ = o.channel_name.empty() ? channels.intern(name, name, ChannelRole::bus)
                                           : channels.intern(o.channel_name);
   return port;

@@ -46,7 +46,8 @@ struct SerialPortOptions {
   bool low_latency = true;  // ASYNC_LOW_LATENCY where the driver supports it
   // Where sysfs is mounted (tests put a fake latency_timer under a temporary directory).
   std::string sysfs_root = "/sys";
-  // Empty: the port's name under /dev ("ttyUSB0", "pts/3"), role bus, a link of its own.
+  // Empty: the port's name as given, under /dev or else its file name ("ttyUSB0", "bus0"), role
+  // bus, a link of its own.
   // Otherwise interned as written, so "m"/"s" or "link.m"/"link.s" give a direction and a link
   // (two ports on the two pairs of a 4-wire line).
   std::string channel_name;
