@@ -111,6 +111,57 @@ wait "$sim" 2>/dev/null
 [ "$rc" = 0 ] || fail "-c 10: exit $rc"
 [ "$(summary_field "$tmp/count.txt" frames)" = 10 ] || fail "-c 10: $(grep '^frames' "$tmp/count.txt")"
 
+# start_sim NAME SERIAL SECONDS: a simulator in the background ($sim), its link ready.
+start_sim() {
+  link="$tmp/$1.tty"
+  "$simbus" --link "$link" --serial "$2" --wait-ms 300 --duration "$3" 2>/dev/null &
+  sim=$!
+  for _ in $(seq 50); do [ -e "$link" ] && break; sleep 0.02; done
+}
+stop_sim() { kill "$sim" 2>/dev/null; wait "$sim" 2>/dev/null; }
+
+# Full disk (a file-size limit stands in for it): one error line, exit 1, and a file cut back to
+# its last whole packet, which tshark reads to the end.
+start_sim full "19200 8E1" 5
+(ulimit -f 16; "$drivetap" capture -i "$link" -s "19200 8E1" -P rtu --drive none \
+  -w "$tmp/full.pcapng" >"$tmp/full.txt" 2>"$tmp/full.err")
+rc=$?
+stop_sim
+[ "$rc" = 1 ] && grep -q "^drivetap: -w $tmp/full.pcapng: write failed: File too large" "$tmp/full.err" ||
+  fail "full disk: exit $rc, $(tail -1 "$tmp/full.err")"
+if command -v tshark >/dev/null; then
+  packets=$(tshark -r "$tmp/full.pcapng" 2>/dev/null | wc -l)
+  complaint=$(tshark -r "$tmp/full.pcapng" 2>&1 >/dev/null | grep -v "Running as user" | head -1)
+  [ -z "$complaint" ] && [ "$packets" -gt 20 ] || fail "full disk: file not valid: $complaint ($packets)"
+fi
+
+# Ring of files (-b): rotated by duration, only the newest 2 kept, each readable to its end.
+mkdir "$tmp/ring"
+start_sim ring "19200 8E1" 4
+"$drivetap" capture -i "$link" -s "19200 8E1" -P rtu --drive none -w "$tmp/ring/bus.pcapng" \
+  -b duration:1 -b files:2 -a duration:3.5 >"$tmp/ring.txt" 2>"$tmp/ring.err"
+rc=$?
+stop_sim
+[ "$rc" = 0 ] || fail "ring: exit $rc: $(tail -1 "$tmp/ring.err")"
+files=$(ls "$tmp/ring" | grep -c '^bus_[0-9]\{5\}_[0-9]\{14\}\.pcapng$')
+[ "$files" = 2 ] || fail "ring: $files files kept, expected 2: $(ls "$tmp/ring")"
+for f in "$tmp"/ring/*.pcapng; do
+  cp "$f" "$tmp/ringfile.pcapng"
+  check_pcapng ringfile "$(tshark -r "$f" 2>/dev/null | wc -l)"
+done
+
+# The short form (drivetap -i PORT) and --scan (on a pty every setting hears the traffic: this
+# checks the mechanics, not the choice).
+start_sim short "19200 8E1" 3
+"$drivetap" -i "$link" -s "19200 8E1" -P rtu --drive none -c 5 >"$tmp/short.txt" 2>/dev/null ||
+  fail "short form: exit $?"
+stop_sim
+grep -q "^frames: *5 " "$tmp/short.txt" || fail "short form: $(grep '^frames' "$tmp/short.txt")"
+start_sim scan "19200 8E1" 8
+out=$("$drivetap" capture --scan --scan-time 0.2 -i "$link" -P rtu 2>&1); rc=$?
+stop_sim
+[ "$rc" = 0 ] && grep -q '^best: .* frames with a good checksum' <<<"$out" || fail "--scan: exit $rc: $out"
+
 # Bad ports: one line naming the port, exit 1.
 err=$("$drivetap" capture -i /nonexistent/ttyUSB9 2>&1 >/dev/null); rc=$?
 [ "$rc" = 1 ] && [ "$(wc -l <<<"$err")" = 1 ] && grep -q "^drivetap: /nonexistent/ttyUSB9: " <<<"$err" ||

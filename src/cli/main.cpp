@@ -248,15 +248,24 @@ class Outputs {
   bool flush() {
     const bool ok = tee_.flush();
     if (!ok && ring_ && !ring_->error().empty()) die(ring_->error(), 1);
+    if (capture_file_ && capture_file_ != stdout) {
+      if (ok)
+        capture_good_size_ = std::ftell(capture_file_);
+      else
+        capture_failed_ = true;
+    }
     return ok;
   }
 
   // Flushes and closes every output; a failed write (disk full, closed pipe) is an error.
   void close() {
     const bool text_ok = text_->flush();
-    const bool capture_ok = !capture_ || capture_->flush();
+    const bool capture_ok = !capture_failed_ && (!capture_ || capture_->flush());
     if (ring_ && !ring_->close()) die(ring_->error(), 1);
     capture_.reset();
+    // A failed write (disk full) leaves the file cut back to its last whole packet: valid.
+    if (!capture_ok && capture_file_ && capture_file_ != stdout)
+      cut_back_to(capture_file_, capture_good_size_);
     if (capture_file_ && capture_file_ != stdout && std::fclose(capture_file_) != 0)
       die(fmt::format("-w {}: write failed: {}", options_.write, std::strerror(errno)), 1);
     if (!capture_ok)
@@ -275,6 +284,8 @@ class Outputs {
   std::unique_ptr<CaptureSink> capture_;
   std::unique_ptr<RingCaptureSink> ring_;
   TeeSink tee_;
+  long capture_good_size_ = 0;  // the capture file up to its last packet flushed whole
+  bool capture_failed_ = false;
 
   static CaptureSinkOptions capture_options(const CommonOptions& o, const PipelineOptions& p) {
     CaptureSinkOptions c;
@@ -479,6 +490,8 @@ struct CaptureOptions {
   std::vector<std::string> autostop;  // -a duration:S
   std::vector<std::string> ring;      // -b filesize:MB|duration:S|files:N
   bool reconnect = false;
+  bool scan = false;
+  double scan_seconds = 2;
 };
 
 TimeNs monotonic_now() {
@@ -493,6 +506,104 @@ TimeNs wall_offset() {
   clock_gettime(CLOCK_REALTIME, &real);
   return (static_cast<TimeNs>(real.tv_sec) - mono.tv_sec) * kNsPerSecond +
          (real.tv_nsec - mono.tv_nsec);
+}
+
+// One setting of `capture --scan`: what listening `seconds` at `serial` gave.
+struct ScanResult {
+  SerialConfig serial;
+  std::uint64_t bytes = 0, uart_errors = 0, frames = 0, frames_ok = 0;
+  std::string error;
+};
+
+ScanResult scan_one(const CommonOptions& o, const std::string& path, const SerialConfig& serial,
+                    double seconds) {
+  ScanResult r;
+  r.serial = serial;
+  ChannelTable channels;
+  SerialPortOptions so;
+  so.path = path;
+  so.serial = serial;
+  auto port = SerialPort::open(so, channels, &r.error);
+  if (!port) return r;
+  CommonOptions line = o;
+  line.serial = serial.to_string();
+  PipelineOptions p = make_pipeline_options(line, RunSettings{});
+  p.drives.clear();
+  p.auto_candidates.clear();
+  LineEvidence evidence;
+  DiagnosisSink sink(evidence, p.timing);
+  Pipeline pipeline(p, channels, sink);
+  const TimeNs end = monotonic_now() + static_cast<TimeNs>(seconds * 1e9);
+  std::vector<ByteEvent> events;
+  while (!g_stop && monotonic_now() < end) {
+    pollfd fd{port->fd(), POLLIN, 0};
+    ::poll(&fd, 1, 50);
+    events.clear();
+    const bool alive = port->read_available(events);
+    for (const ByteEvent& e : events) {
+      pipeline.push(e);
+      ++r.bytes;
+      if (e.flags) ++r.uart_errors;
+    }
+    if (!alive) {
+      r.error = port->error();
+      break;
+    }
+  }
+  pipeline.finish();
+  r.frames = evidence.frames;
+  r.frames_ok = evidence.frames_checksum_ok;
+  return r;
+}
+
+// `drivetap capture --scan -i PORT`: listens at each standard rate and format in turn and says
+// which gives frames with good checksums (for a tap on a bus whose settings nobody knows).
+int run_scan(const CommonOptions& o, const CaptureOptions& c) {
+  if (c.ports.size() != 1) die("--scan: give exactly one port with -i");
+  if (!(c.scan_seconds > 0) || c.scan_seconds > 3600)
+    die(fmt::format("--scan-time {}: expected seconds between 0 and 3600", c.scan_seconds));
+  const std::string path = c.ports.front().substr(0, c.ports.front().find('='));
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGTERM, on_signal);
+  std::printf("scan %s: %g s per setting (listen only)\n", path.c_str(), c.scan_seconds);
+  std::fflush(stdout);
+  std::optional<ScanResult> best;
+  for (std::uint32_t baud : {9600u, 19200u, 38400u, 57600u, 115200u, 4800u, 2400u, 1200u}) {
+    for (Parity parity : {Parity::none, Parity::even, Parity::odd}) {
+      if (g_stop) break;
+      SerialConfig serial;
+      serial.baud = baud;
+      serial.parity = parity;
+      const ScanResult r = scan_one(o, path, serial, c.scan_seconds);
+      if (!r.error.empty() && r.bytes == 0) die(r.error, 1);
+      std::printf("  %-11s %6llu bytes, %5llu with UART errors, %4llu frames, %4llu checksum ok\n",
+                  serial.to_string().c_str(), static_cast<unsigned long long>(r.bytes),
+                  static_cast<unsigned long long>(r.uart_errors),
+                  static_cast<unsigned long long>(r.frames),
+                  static_cast<unsigned long long>(r.frames_ok));
+      std::fflush(stdout);
+      // Best: most good frames, then fewest UART errors.
+      if (r.frames_ok > 0 &&
+          (!best || r.frames_ok > best->frames_ok ||
+           (r.frames_ok == best->frames_ok && r.uart_errors < best->uart_errors)))
+        best = r;
+    }
+  }
+  if (g_stop) {
+    std::printf("interrupted\n");
+    return 130;
+  }
+  if (!best) {
+    std::printf(
+        "no setting gave a frame with a good checksum (check the wiring: drivetap "
+        "diagnose on a logic-analyser capture tells more)\n");
+    return 1;
+  }
+  std::printf(
+      "best: %s (%llu frames with a good checksum, %llu UART errors); capture with -s \"%s\"\n",
+      best->serial.to_string().c_str(), static_cast<unsigned long long>(best->frames_ok),
+      static_cast<unsigned long long>(best->uart_errors), best->serial.to_string().c_str());
+  return 0;
 }
 
 // `drivetap capture -i PORT...`: live, listen-only capture from serial ports (src/sources/
@@ -550,6 +661,7 @@ int run_capture(const CommonOptions& o, const CaptureOptions& c) {
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
   std::signal(SIGPIPE, SIG_IGN);
+  std::signal(SIGXFSZ, SIG_IGN);  // a file-size limit is a write error, like a full disk
 
   const TimeNs offset = wall_offset();
   const TimeNs hold = 3 * kNsPerMs;
@@ -623,19 +735,25 @@ int run_capture(const CommonOptions& o, const CaptureOptions& c) {
     std::stable_sort(pending.begin(), pending.end(),
                      [](const ByteEvent& a, const ByteEvent& b) { return a.time < b.time; });
     std::size_t pushed = 0;
-    while (pushed < pending.size() && pending[pushed].time <= settled)
+    auto limit_reached = [&] {
+      return c.max_frames > 0 && pipeline.stats().frames >= c.max_frames;
+    };
+    while (pushed < pending.size() && pending[pushed].time <= settled && !limit_reached())
       pipeline.push(pending[pushed++]);
     pending.erase(pending.begin(), pending.begin() + static_cast<std::ptrdiff_t>(pushed));
-    pipeline.advance(settled);
+    if (!limit_reached()) pipeline.advance(settled);
     if (!out.flush()) {
       stop_reason = "output write failed";
       exit_code = 1;
       break;
     }
   }
-  // Whatever stopped the run: what was read is decoded, summarised, written, flushed and closed.
-  for (const ByteEvent& e : pending) pipeline.push(e);
-  pipeline.finish();
+  // Whatever stopped the run: what was read is decoded, summarised, written, flushed and closed —
+  // except after -c N frames, where the bytes after the Nth frame are not wanted.
+  const bool counted_out = c.max_frames > 0 && pipeline.stats().frames >= c.max_frames;
+  if (!counted_out)
+    for (const ByteEvent& e : pending) pipeline.push(e);
+  pipeline.finish(/*cut_partial=*/!counted_out);
   out.close();
   for (const auto& port : ports)
     if (port)
@@ -673,6 +791,15 @@ int run_profiles(const std::vector<std::string>& files) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // The short, tcpdump-like form: `drivetap -i /dev/ttyUSB0 -s "19200 8E1"` is a capture.
+  std::vector<char*> args(argv, argv + argc);
+  static char capture_word[] = "capture";
+  if (argc > 1 &&
+      (std::string_view(argv[1]) == "-i" || std::string_view(argv[1]) == "--interface" ||
+       std::string_view(argv[1]).starts_with("-i/")))
+    args.insert(args.begin() + 1, capture_word);
+  argc = static_cast<int>(args.size());
+  argv = args.data();
   CLI::App app{"drivetap: passive RS-485 bus analyser for drive networks (Modbus RTU)"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "drivetap 0.1.0");
@@ -715,6 +842,10 @@ int main(int argc, char** argv) {
                           "With -w FILE: a ring of files, filesize:MB, duration:S, files:N");
   capture_cmd->add_flag("--reconnect", capture_args.reconnect,
                         "Wait for an unplugged adapter to come back and go on");
+  capture_cmd->add_flag("--scan", capture_args.scan,
+                        "Listen at each standard rate and parity in turn, say which gives frames");
+  capture_cmd->add_option("--scan-time", capture_args.scan_seconds,
+                          "--scan: seconds per setting (default 2)");
 
   std::vector<std::string> profile_files;
   CLI::App* profiles = app.add_subcommand(
@@ -728,7 +859,9 @@ int main(int argc, char** argv) {
   }
   if (*decode) return run_decode(decode_opts, hex_args);
   if (*read) return run_read(read_opts, path);
-  if (*capture_cmd) return run_capture(capture_opts, capture_args);
+  if (*capture_cmd)
+    return capture_args.scan ? run_scan(capture_opts, capture_args)
+                             : run_capture(capture_opts, capture_args);
   if (*diagnose_cmd) return run_diagnose(diagnose_opts, diagnose_path);
   if (*profiles) return run_profiles(profile_files);
   return 2;

@@ -388,10 +388,10 @@ void Pipeline::emit_transactions(std::vector<Transaction>& transactions) {
   transactions.clear();
 }
 
-void Pipeline::finish() {
+void Pipeline::finish(bool cut_partial) {
   if (finished_) return;
   finished_ = true;
-  for (std::size_t i = 0; i < states_.size(); ++i) {
+  for (std::size_t i = 0; cut_partial && i < states_.size(); ++i) {
     ChannelState& st = *states_[i];
     if (!st.framer) detect(st, static_cast<ChannelId>(i), true);
     if (st.framer) st.framer->finish(ready_);

@@ -49,8 +49,10 @@ class Pipeline {
   void advance(TimeNs now) { advance_all(now); }
   // When advance() can next close something (max() when nothing is pending): a poll timeout.
   [[nodiscard]] TimeNs next_deadline() const { return earliest_deadline_; }
-  // Closes everything pending and emits the summary. Idempotent.
-  void finish();
+  // Closes everything pending and emits the summary. Idempotent. `cut_partial` false: bytes of
+  // a frame not closed yet are dropped, not emitted as a cut frame (a capture told to stop
+  // after N frames).
+  void finish(bool cut_partial = true);
   [[nodiscard]] const Stats& stats() const { return stats_; }
 
  private:

@@ -1,6 +1,9 @@
 // Capture sink: pcapng (our writer) or classic pcap (libpcap) output (README "pcapng output").
 #include "sinks/capture_sink.hpp"
 
+#include <stdio_ext.h>
+#include <unistd.h>
+
 #include <fmt/format.h>
 #include <pcap/pcap.h>
 
@@ -163,6 +166,12 @@ void CaptureSink::write_pending() {
   }
   ++packets_;
   pending_.reset();
+}
+
+void cut_back_to(std::FILE* file, long good_size) {
+  __fpurge(file);
+  if (good_size >= 0 && ::ftruncate(::fileno(file), good_size) == 0)
+    std::fseek(file, good_size, SEEK_SET);
 }
 
 bool CaptureSink::flush() {

@@ -39,6 +39,10 @@ struct CaptureSinkOptions {
   std::string settings;       // encode_settings(...) of the run, stored per interface
 };
 
+// After a failed write (disk full): drops what stdio still buffers and cuts the file back to
+// `good_size`, the end of the last packet that reached the disk whole, so it stays readable.
+void cut_back_to(std::FILE* file, long good_size);
+
 class CaptureSink final : public Sink {
  public:
   CaptureSink(std::FILE* out, const ChannelTable& channels, CaptureSinkOptions options);

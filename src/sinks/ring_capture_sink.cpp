@@ -81,6 +81,7 @@ bool RingCaptureSink::open_next(TimeNs packet_time) {
   }
   sink_ = std::make_unique<CaptureSink>(file_, channels_, capture_options_);
   file_start_ = packet_time;
+  good_size_ = 0;
   written_.push_back(current_name_);
   while (ring_.max_files > 0 && written_.size() > ring_.max_files) {
     std::remove(written_.front().c_str());
@@ -91,7 +92,8 @@ bool RingCaptureSink::open_next(TimeNs packet_time) {
 
 bool RingCaptureSink::close() {
   if (!sink_) return !failed_;
-  const bool ok = sink_->flush();
+  const bool ok = !failed_ && sink_->flush();
+  if (!ok) cut_back_to(file_, good_size_);
   sink_.reset();
   const bool closed = std::fclose(file_) == 0;
   file_ = nullptr;
@@ -137,7 +139,10 @@ void RingCaptureSink::on_anomaly(const Anomaly& anomaly) {
 
 bool RingCaptureSink::flush() {
   if (!sink_) return !failed_;
-  if (!sink_->flush()) {
+  if (sink_->flush()) {
+    good_size_ = std::ftell(file_);
+  } else {
+    cut_back_to(file_, good_size_);
     if (error_.empty())
       error_ = fmt::format("-w {}: write failed: {}", current_name_, std::strerror(errno));
     failed_ = true;

@@ -60,6 +60,7 @@ class RingCaptureSink final : public Sink {
   std::deque<std::string> written_;  // oldest first
   std::uint64_t sequence_ = 0;
   TimeNs file_start_ = -1;
+  long good_size_ = 0;  // the current file up to its last packet flushed whole
   std::uint64_t packets_ = 0;
   bool failed_ = false;
   std::string error_;
