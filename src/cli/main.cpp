@@ -697,7 +697,9 @@ int run_capture(const CommonOptions& o, const CaptureOptions& c) {
       // Every adapter gone, waiting for --reconnect.
       ::usleep(200'000);
     } else {
-      const int ready = ::poll(fds.data(), fds.size(), static_cast<int>(wake / kNsPerMs) + 1);
+      const timespec timeout{static_cast<time_t>(wake / kNsPerSecond),
+                             static_cast<long>(wake % kNsPerSecond)};
+      const int ready = ::ppoll(fds.data(), fds.size(), &timeout, nullptr);
       if (ready < 0 && errno != EINTR) {
         stop_reason = fmt::format("poll: {}", std::strerror(errno));
         exit_code = 1;
