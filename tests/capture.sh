@@ -162,6 +162,27 @@ out=$("$drivetap" capture --scan --scan-time 0.2 -i "$link" -P rtu 2>&1); rc=$?
 stop_sim
 [ "$rc" = 0 ] && grep -q '^best: .* frames with a good checksum' <<<"$out" || fail "--scan: exit $rc: $out"
 
+# --reconnect: the adapter goes (the simulator ends, its pty and link vanish) and comes back (a
+# new simulator on the same link): the capture goes on with both parts, until SIGINT.
+link="$tmp/again.tty"
+"$simbus" --link "$link" --serial "19200 8E1" --wait-ms 300 --frames 20 2>/dev/null &
+sim=$!
+for _ in $(seq 50); do [ -e "$link" ] && break; sleep 0.02; done
+"$drivetap" capture -i "$link" -s "19200 8E1" -P rtu --drive none --reconnect >"$tmp/again.txt" \
+  2>"$tmp/again.err" &
+cap=$!
+wait "$sim"
+sleep 0.5
+"$simbus" --link "$link" --serial "19200 8E1" --wait-ms 800 --frames 20 2>/dev/null
+sleep 0.3
+kill -INT "$cap"
+wait "$cap"
+rc=$?
+[ "$rc" = 130 ] || fail "--reconnect: exit $rc"
+grep -q "reconnected" "$tmp/again.err" || fail "--reconnect: no reconnection: $(cat "$tmp/again.err")"
+[ "$(summary_field "$tmp/again.txt" frames)" = 40 ] ||
+  fail "--reconnect: $(grep '^frames' "$tmp/again.txt"), expected 40"
+
 # Bad ports: one line naming the port, exit 1.
 err=$("$drivetap" capture -i /nonexistent/ttyUSB9 2>&1 >/dev/null); rc=$?
 [ "$rc" = 1 ] && [ "$(wc -l <<<"$err")" = 1 ] && grep -q "^drivetap: /nonexistent/ttyUSB9: " <<<"$err" ||
