@@ -73,7 +73,10 @@ check fast
 # Bytes delivered every 16 ms, as through an FTDI adapter: no gap is visible, content frames.
 run burst "115200 8N1" --frames 120 --burst 16
 check burst
-grep -q "timing trusted: no\|USB burst" "$tmp/burst.err" || fail "burst: no USB burst verdict"
+grep -q "^source: .*\(timing trusted: no\|USB burst\)" "$tmp/burst.txt" ||
+  fail "burst: no USB burst verdict in the summary"
+grep -q "^source: .*kernel counters\|^source: .*TIOCGICOUNT" "$tmp/slow.txt" ||
+  fail "slow: no kernel counter line in the summary"
 run noisy "19200 8E1" --frames 80 --noise 0.3
 check noisy
 [ "$(truth_garbage "$tmp/noisy.truth")" -gt 0 ] || fail "noisy: the simulator sent no garbage"

@@ -714,8 +714,7 @@ int run_capture(const CommonOptions& o, const CaptureOptions& c) {
       pending.insert(pending.end(), fresh.begin(), fresh.end());
       if (!alive) {
         std::fprintf(stderr, "drivetap: %s\n", ports[k]->error().c_str());
-        for (const std::string& n : ports[k]->notes())
-          std::fprintf(stderr, "drivetap: %s\n", n.c_str());
+        for (const std::string& n : ports[k]->notes()) pipeline.add_source_note(n);
         ports[k].reset();
         if (!c.reconnect) {
           stop_reason = "adapter lost";
@@ -755,11 +754,12 @@ int run_capture(const CommonOptions& o, const CaptureOptions& c) {
   const bool counted_out = c.max_frames > 0 && pipeline.stats().frames >= c.max_frames;
   if (!counted_out)
     for (const ByteEvent& e : pending) pipeline.push(e);
-  pipeline.finish(/*cut_partial=*/!counted_out);
-  out.close();
+  // The ports' own findings (kernel error counters, USB bursts) go into the summary.
   for (const auto& port : ports)
     if (port)
-      for (const std::string& n : port->notes()) std::fprintf(stderr, "drivetap: %s\n", n.c_str());
+      for (const std::string& n : port->notes()) pipeline.add_source_note(n);
+  pipeline.finish(/*cut_partial=*/!counted_out);
+  out.close();
   if (g_stop) {
     std::fprintf(stderr, "drivetap: interrupted; output flushed and closed\n");
     return 130;

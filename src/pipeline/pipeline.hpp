@@ -49,6 +49,8 @@ class Pipeline {
   void advance(TimeNs now) { advance_all(now); }
   // When advance() can next close something (max() when nothing is pending): a poll timeout.
   [[nodiscard]] TimeNs next_deadline() const { return earliest_deadline_; }
+  // A line about the source for the summary (before finish()).
+  void add_source_note(std::string note) { stats_.source_notes.push_back(std::move(note)); }
   // Closes everything pending and emits the summary. Idempotent. `cut_partial` false: bytes of
   // a frame not closed yet are dropped, not emitted as a cut frame (a capture told to stop
   // after N frames).

@@ -41,6 +41,9 @@ struct Stats {
   TimeNs first_time = std::numeric_limits<TimeNs>::max();
   TimeNs last_time = std::numeric_limits<TimeNs>::min();
   std::vector<DriveSummary> drives;
+  // What the source says about itself at the end (a serial port's kernel error counters, its
+  // USB burst verdict): one line each, shown in the summary; empty for files.
+  std::vector<std::string> source_notes;
 
   void count_frame(const Message& m);
   void count_noise(const Frame& f);

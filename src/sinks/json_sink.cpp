@@ -220,7 +220,14 @@ void JsonSink::on_summary(const Stats& s) {
         i ? "," : "", d.link, d.address, json_quote(d.profile), json_quote(d.profile_name),
         json_quote(d.binding), json_quote(d.state), d.events);
   }
-  line += "]}";
+  line += "]";
+  if (!s.source_notes.empty()) {
+    line += ",\"source_notes\":[";
+    for (std::size_t i = 0; i < s.source_notes.size(); ++i)
+      line += (i ? "," : "") + json_quote(s.source_notes[i]);
+    line += "]";
+  }
+  line += "}";
   write(line);
 }
 

@@ -182,6 +182,7 @@ void TextSink::on_summary(const Stats& s) {
   }
   if (!first) an += ")";
   write(an);
+  for (const std::string& note : s.source_notes) write(fmt::format("source:       {}", note));
   for (const DriveSummary& d : s.drives) {
     write(fmt::format("drive {:<7} {}{}{}", d.address, d.profile_name,
                       d.binding.empty() ? "" : " (" + d.binding + ")",
