@@ -47,7 +47,10 @@ check() {
   grep -q "adapter unplugged or gone" "$tmp/$name.err" || fail "$name: no unplugged message"
   [ "$frames" = "$sent" ] && [ "$ok" = "$sent" ] ||
     fail "$name: $sent frames sent, captured $frames ($ok with a good CRC)"
-  [ "$noise" = "$garbage" ] || fail "$name: $garbage garbage records sent, $noise noise records"
+  # Every garbage record is seen as noise; on a loaded machine the pty may deliver one in two
+  # reads far apart, which makes two noise records of it.
+  [ "${noise:-0}" -ge "$garbage" ] && [ "${noise:-0}" -le $((2 * garbage)) ] ||
+    fail "$name: $garbage garbage records sent, $noise noise records"
   check_pcapng "$name" $((frames + noise))
 }
 

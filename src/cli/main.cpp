@@ -635,6 +635,7 @@ int run_capture(const CommonOptions& o, const CaptureOptions& c) {
   }
   RunSettings given;
   PipelineOptions p = make_pipeline_options(o, given);
+  p.max_frames = c.max_frames;
   ChannelTable channels;
   std::vector<std::unique_ptr<SerialPort>> ports(c.ports.size());
   auto open_port = [&](std::size_t k, std::string* error) {

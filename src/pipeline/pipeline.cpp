@@ -191,7 +191,10 @@ void Pipeline::handle_frames() {
                    [](const Frame& a, const Frame& b) { return a.start() < b.start(); });
   std::vector<Frame> batch;
   batch.swap(ready_);
-  for (Frame& f : batch) handle_frame(f);
+  for (Frame& f : batch) {
+    if (options_.max_frames > 0 && stats_.frames >= options_.max_frames) break;
+    handle_frame(f);
+  }
 }
 
 Direction Pipeline::decide_direction(const ProtocolDecoder& decoder, const Frame& frame,
