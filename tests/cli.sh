@@ -97,5 +97,13 @@ err=$("$drivetap" read --invert "$bc" 2>&1 >/dev/null); rc=$?
 [ "$rc" = 2 ] && grep -q "^drivetap: --invert: give the line settings too" <<<"$err" ||
   fail "--invert without -s: exit $rc, stderr: $err"
 
+# 9. --stats: only the closing summary, the same as a full run's (text and JSON).
+log="$root/captures/session-e9/input.log"
+full=$("$drivetap" read "$log" | sed -n '/^--- summary ---$/,$p')
+stats=$("$drivetap" read --stats "$log" | sed '/^$/d')
+[ "$stats" = "$full" ] || fail "--stats: summary differs from a full run's"
+[ "$("$drivetap" read --stats -T json "$log" | grep -c .)" = 1 ] || fail "--stats -T json: not one line"
+"$drivetap" read --stats -T json "$log" | grep -q '^{"type":"summary"' || fail "--stats -T json: no summary"
+
 [ "$failed" = 0 ] && echo "ok cli"
 exit "$failed"

@@ -65,6 +65,7 @@ struct CommonOptions {
   std::vector<std::string> profiles;  // user profile files
   std::vector<std::string> profile_dirs;
   bool events_only = false;
+  bool stats_only = false;                  // --stats
   std::vector<std::string> logic_channels;  // --channels RX,TX
   bool invert = false;
 };
@@ -105,6 +106,8 @@ void add_common_options(CLI::App* cmd, CommonOptions& o) {
   cmd->add_flag("--events", o.events_only,
                 "Print only the events: drive-state timeline, drive bindings, protocol detection");
   cmd->add_flag("--no-summary", o.no_summary, "Do not print the closing summary");
+  cmd->add_flag("--stats", o.stats_only,
+                "Decode everything, print only the closing summary (text or JSON)");
   cmd->add_option("-o,--output", o.output, "Write the text/JSON output to FILE instead of stdout");
   cmd->add_option("-w,--write", o.write,
                   "Write every frame as a packet to a pcapng FILE ('-' for stdout)");
@@ -235,7 +238,11 @@ class Outputs {
       t.frames = !(capture_to_stdout && text_file_ == stderr);
       text_ = std::make_unique<TextSink>(text_file_, channels, t);
     }
-    if (o.events_only) {
+    if (o.stats_only && o.no_summary) die("--stats and --no-summary leave nothing to print");
+    if (o.stats_only) {
+      summary_only_ = std::make_unique<SummaryOnlySink>(*text_);
+      tee_.add(summary_only_.get());
+    } else if (o.events_only) {
       events_only_ = std::make_unique<EventsOnlySink>(*text_);
       tee_.add(events_only_.get());
     } else {
@@ -281,6 +288,7 @@ class Outputs {
   std::FILE* capture_file_ = nullptr;
   std::unique_ptr<Sink> text_;
   std::unique_ptr<Sink> events_only_;
+  std::unique_ptr<Sink> summary_only_;
   std::unique_ptr<CaptureSink> capture_;
   std::unique_ptr<RingCaptureSink> ring_;
   TeeSink tee_;

@@ -62,6 +62,22 @@ class TeeSink final : public Sink {
   std::vector<Sink*> sinks_;
 };
 
+// Passes on only the closing summary: `drivetap read --stats` decodes everything and prints
+// nothing per frame (no formatting cost either).
+class SummaryOnlySink final : public Sink {
+ public:
+  explicit SummaryOnlySink(Sink& inner) : inner_(inner) {}
+  void on_frame(const Message&) override {}
+  void on_noise(const Frame&) override {}
+  void on_anomaly(const Anomaly&) override {}
+  void on_transaction(const Transaction&) override {}
+  void on_summary(const Stats& s) override { inner_.on_summary(s); }
+  bool flush() override { return inner_.flush(); }
+
+ private:
+  Sink& inner_;
+};
+
 // Passes on only the events — the drive-state timeline with the bindings and protocol detection
 // that explain it (`drivetap read --events`).
 class EventsOnlySink final : public Sink {
