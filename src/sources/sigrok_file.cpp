@@ -182,38 +182,66 @@ bool SigrokFile::open_next_entry(std::string* error) {
   return true;
 }
 
+// Back to the first sample chunk.
+bool SigrokFile::rewind(std::string* error) {
+  next_chunk_ = 0;
+  filled_ = 0;
+  used_ = 0;
+  raw_.resize(kReadBytes + 8);  // room for the part of a sample a read leaves over
+  return open_next_entry(error);
+}
+
+// Reads on through the sample chunks: *samples whole samples at the start of raw_ (0 at the end of
+// the capture), a sample split between two reads (or two chunks' reads) carried to the next piece.
+// False with *error when the zip is damaged.
+bool SigrokFile::read_piece(std::size_t* samples, std::string* error) {
+  const std::size_t unit = analog_ ? sizeof(float) : static_cast<std::size_t>(unit_size_);
+  filled_ -= used_;
+  std::memmove(raw_.data(), raw_.data() + used_, filled_);
+  used_ = 0;
+  *samples = 0;
+  while (entry_) {
+    const zip_int64_t got = zip_fread(entry_->file, raw_.data() + filled_, kReadBytes);
+    if (got < 0) {
+      *error = fmt::format("{}: {}: offset {}: damaged: {}", path_, entry_->name, entry_offset_,
+                           zip_file_strerror(entry_->file));
+      entry_.reset();
+      return false;
+    }
+    if (got == 0) {
+      if (filled_ != 0) {
+        *error = fmt::format("{}: {}: ends inside a sample ({} stray bytes)", path_, entry_->name,
+                             filled_);
+        entry_.reset();
+        return false;
+      }
+      if (!open_next_entry(error)) return false;
+      continue;
+    }
+    entry_offset_ += static_cast<std::uint64_t>(got);
+    filled_ += static_cast<std::size_t>(got);
+    *samples = filled_ / unit;
+    if (*samples == 0) continue;
+    used_ = *samples * unit;
+    return true;
+  }
+  return true;
+}
+
 // An oscilloscope trace has no logic levels: a first pass finds its range.
 bool SigrokFile::find_analog_range(std::string* error) {
   float lo = std::numeric_limits<float>::max(), hi = std::numeric_limits<float>::lowest();
-  std::vector<std::uint8_t> raw(kReadBytes);
-  for (const std::string& name : chunks_) {
-    Entry e;
-    e.name = name;
-    e.file = zip_fopen(zip_->archive, name.c_str(), 0);
-    if (!e.file) {
-      *error = fmt::format("{}: {}: cannot open: {}", path_, name, zip_strerror(zip_->archive));
-      return false;
-    }
-    std::size_t carried = 0;
-    for (;;) {
-      const zip_int64_t got = zip_fread(e.file, raw.data() + carried, kReadBytes - carried);
-      if (got < 0) {
-        *error = fmt::format("{}: {}: damaged: {}", path_, name, zip_file_strerror(e.file));
-        return false;
+  if (!rewind(error)) return false;
+  for (std::size_t samples = 0;;) {
+    if (!read_piece(&samples, error)) return false;
+    if (samples == 0) break;
+    for (std::size_t i = 0; i < samples; ++i) {
+      float v;
+      std::memcpy(&v, raw_.data() + i * sizeof(float), sizeof v);
+      if (std::isfinite(v)) {
+        lo = std::min(lo, v);
+        hi = std::max(hi, v);
       }
-      if (got == 0) break;
-      const std::size_t have = carried + static_cast<std::size_t>(got);
-      const std::size_t whole = have / sizeof(float) * sizeof(float);
-      for (std::size_t at = 0; at < whole; at += sizeof(float)) {
-        float v;
-        std::memcpy(&v, raw.data() + at, sizeof v);
-        if (std::isfinite(v)) {
-          lo = std::min(lo, v);
-          hi = std::max(hi, v);
-        }
-      }
-      carried = have - whole;
-      std::memmove(raw.data(), raw.data() + whole, carried);
     }
   }
   if (lo > hi) lo = hi = 0;
@@ -234,15 +262,12 @@ bool SigrokFile::select(const std::vector<std::size_t>& channels, std::string* e
     }
   if (analog_ && !analog_range_known_ && !find_analog_range(error)) return false;
   selected_ = channels;
-  next_chunk_ = 0;
-  carried_ = 0;
   sample_ = 0;
   have_level_ = false;
   last_word_ = 0;
   run_start_.assign(channels.size(), 0);
   level_.assign(channels.size(), true);
-  raw_.resize(kReadBytes + 8);
-  return open_next_entry(error);
+  return rewind(error);
 }
 
 // Logic samples -> runs. Most of a capture is idle line, and even a busy one changes a selected
@@ -335,45 +360,20 @@ bool SigrokFile::next_block(RunBlock& block, std::string* error) {
   // Cleared, not reallocated: a reader of many blocks keeps the capacity the busiest one needed.
   block.runs.resize(selected_.size());
   for (auto& runs : block.runs) runs.clear();
-  const std::size_t unit = analog_ ? sizeof(float) : static_cast<std::size_t>(unit_size_);
-  while (entry_) {
-    const zip_int64_t got = zip_fread(entry_->file, raw_.data() + carried_, kReadBytes);
-    if (got < 0) {
-      *error = fmt::format("{}: {}: offset {}: damaged: {}", path_, entry_->name, entry_offset_,
-                           zip_file_strerror(entry_->file));
-      entry_.reset();
-      return false;
-    }
-    if (got == 0) {
-      if (carried_ != 0) {
-        *error = fmt::format("{}: {}: ends inside a sample ({} stray bytes)", path_, entry_->name,
-                             carried_);
-        entry_.reset();
-        return false;
-      }
-      if (!open_next_entry(error)) return false;
-      continue;
-    }
-    entry_offset_ += static_cast<std::uint64_t>(got);
-    const std::size_t have = carried_ + static_cast<std::size_t>(got);
-    const std::size_t samples = have / unit;
-    if (analog_)
-      scan_analog(raw_.data(), samples, block);
-    else
-      scan_logic(raw_.data(), samples, block);
-    sample_ += samples;
-    carried_ = have - samples * unit;
-    std::memmove(raw_.data(), raw_.data() + samples * unit, carried_);
-    if (samples == 0) continue;
-    // Close every channel's run at the block end; the next block continues it.
-    for (std::size_t k = 0; k < selected_.size(); ++k) {
-      if (sample_ > run_start_[k]) block.runs[k].push_back({level_[k], sample_ - run_start_[k]});
-      run_start_[k] = sample_;
-    }
-    block.end = sample_;
-    return true;
+  std::size_t samples = 0;
+  if (!read_piece(&samples, error) || samples == 0) return false;
+  if (analog_)
+    scan_analog(raw_.data(), samples, block);
+  else
+    scan_logic(raw_.data(), samples, block);
+  sample_ += samples;
+  // Close every channel's run at the block end; the next block continues it.
+  for (std::size_t k = 0; k < selected_.size(); ++k) {
+    if (sample_ > run_start_[k]) block.runs[k].push_back({level_[k], sample_ - run_start_[k]});
+    run_start_[k] = sample_;
   }
-  return false;
+  block.end = sample_;
+  return true;
 }
 
 }  // namespace drivetap

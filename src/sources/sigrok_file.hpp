@@ -41,6 +41,8 @@ class SigrokFile final : public LogicCapture {
   std::string path_;
   struct Entry;
   bool open_next_entry(std::string* error);
+  bool rewind(std::string* error);
+  bool read_piece(std::size_t* samples, std::string* error);
   bool find_analog_range(std::string* error);
   void scan_logic(const std::uint8_t* bytes, std::size_t samples, RunBlock& block);
   void scan_analog(const std::uint8_t* bytes, std::size_t samples, RunBlock& block);
@@ -55,8 +57,9 @@ class SigrokFile final : public LogicCapture {
   std::vector<std::size_t> selected_;
   std::unique_ptr<Entry> entry_;  // the open sample chunk
   std::size_t next_chunk_ = 0;
-  std::vector<std::uint8_t> raw_;
-  std::size_t carried_ = 0;  // bytes of a sample split across two reads
+  std::vector<std::uint8_t> raw_;  // the piece read last: whole samples, then part of one
+  std::size_t filled_ = 0;         // bytes in raw_
+  std::size_t used_ = 0;           // bytes of whole samples handed out from raw_
   std::uint64_t entry_offset_ = 0;
   std::uint64_t sample_ = 0;  // samples handed out so far
   bool have_level_ = false;
