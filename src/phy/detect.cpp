@@ -106,15 +106,7 @@ FormatTrial trial_decode(std::span<const std::vector<LevelRun>> channels,
     out.clear();
     decoder.push_runs(std::span(runs).first(std::min(runs.size(), max_runs_per_channel)), out);
     decoder.finish(out);
-    const UartDecoderStats& s = decoder.stats();
-    t.stats.characters += s.characters;
-    t.stats.parity_errors += s.parity_errors;
-    t.stats.framing_errors += s.framing_errors;
-    t.stats.breaks += s.breaks;
-    t.stats.glitches += s.glitches;
-    t.stats.false_starts += s.false_starts;
-    t.stats.short_stop_bits += s.short_stop_bits;
-    t.stats.cut_by_end += s.cut_by_end;
+    t.stats += decoder.stats();
     for (std::size_t i = 1; i < out.size(); ++i)
       if (out[i].start_sample <=
           out[i - 1].start_sample + frame + static_cast<std::uint64_t>(per_bit / 2))

@@ -93,6 +93,19 @@ struct UartDecoderStats {
   std::uint64_t short_stop_bits = 0;
   // A character the end of the capture cut before its first stop bit: not reported.
   std::uint64_t cut_by_end = 0;
+
+  // Totals of several decoders (the channels of one line).
+  UartDecoderStats& operator+=(const UartDecoderStats& o) {
+    characters += o.characters;
+    parity_errors += o.parity_errors;
+    framing_errors += o.framing_errors;
+    breaks += o.breaks;
+    glitches += o.glitches;
+    false_starts += o.false_starts;
+    short_stop_bits += o.short_stop_bits;
+    cut_by_end += o.cut_by_end;
+    return *this;
+  }
 };
 
 class UartDecoder {

@@ -275,10 +275,10 @@ Diagnosis diagnose_capture(ByteSource& source, const PipelineOptions& options,
     evidence.from_samples = true;
     evidence.settings = phy::settings_text(logic->uart());
     evidence.detection = logic->detection();
-    for (const phy::UartDecoderStats& st : logic->decoder_stats()) {
-      evidence.glitches += st.glitches;
-      evidence.false_starts += st.false_starts;
-    }
+    phy::UartDecoderStats line;
+    for (const phy::UartDecoderStats& st : logic->decoder_stats()) line += st;
+    evidence.glitches = line.glitches;
+    evidence.false_starts = line.false_starts;
     if (settings_given) {
       evidence.given = logic->uart();
       evidence.given_trial =
