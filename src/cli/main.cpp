@@ -502,20 +502,6 @@ struct CaptureOptions {
   double scan_seconds = 2;
 };
 
-TimeNs monotonic_now() {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<TimeNs>(ts.tv_sec) * kNsPerSecond + ts.tv_nsec;
-}
-
-TimeNs wall_offset() {
-  timespec mono{}, real{};
-  clock_gettime(CLOCK_MONOTONIC, &mono);
-  clock_gettime(CLOCK_REALTIME, &real);
-  return (static_cast<TimeNs>(real.tv_sec) - mono.tv_sec) * kNsPerSecond +
-         (real.tv_nsec - mono.tv_nsec);
-}
-
 // One setting of `capture --scan`: what listening `seconds` at `serial` gave.
 struct ScanResult {
   SerialConfig serial;
@@ -541,9 +527,9 @@ ScanResult scan_one(const CommonOptions& o, const std::string& path, const Seria
   LineEvidence evidence;
   DiagnosisSink sink(evidence, p.timing);
   Pipeline pipeline(p, channels, sink);
-  const TimeNs end = monotonic_now() + static_cast<TimeNs>(seconds * 1e9);
+  const TimeNs end = CaptureClock::monotonic() + static_cast<TimeNs>(seconds * 1e9);
   std::vector<ByteEvent> events;
-  while (!g_stop && monotonic_now() < end) {
+  while (!g_stop && CaptureClock::monotonic() < end) {
     pollfd fd{port->fd(), POLLIN, 0};
     ::poll(&fd, 1, 50);
     events.clear();
@@ -646,6 +632,8 @@ int run_capture(const CommonOptions& o, const CaptureOptions& c) {
   p.max_frames = c.max_frames;
   ChannelTable channels;
   std::vector<std::unique_ptr<SerialPort>> ports(c.ports.size());
+  // One clock for the ports and this loop: their byte times and its "now" compare.
+  const CaptureClock clock = CaptureClock::take();
   auto open_port = [&](std::size_t k, std::string* error) {
     // -i PATH or -i PATH=NAME: NAME "line.m" / "line.s" puts the two ports of a 4-wire link on
     // one link as master and slave side (src/core/byte_event.hpp channel naming).
@@ -653,6 +641,7 @@ int run_capture(const CommonOptions& o, const CaptureOptions& c) {
     const std::size_t eq = c.ports[k].find('=');
     so.path = c.ports[k].substr(0, eq);
     if (eq != std::string::npos) so.channel_name = c.ports[k].substr(eq + 1);
+    so.clock = clock;
     so.serial = p.serial;
     ports[k] = SerialPort::open(so, channels, error);
     return ports[k] != nullptr;
@@ -672,15 +661,14 @@ int run_capture(const CommonOptions& o, const CaptureOptions& c) {
   std::signal(SIGPIPE, SIG_IGN);
   std::signal(SIGXFSZ, SIG_IGN);  // a file-size limit is a write error, like a full disk
 
-  const TimeNs offset = wall_offset();
   const TimeNs hold = 3 * kNsPerMs;
-  const TimeNs started = monotonic_now();
+  const TimeNs started = clock.now();
   std::vector<ByteEvent> pending;  // read, not yet pushed: sorted by time before each push
   std::vector<ByteEvent> fresh;
   std::string stop_reason;
   int exit_code = 0;
   while (!g_stop) {
-    const TimeNs now = monotonic_now();
+    const TimeNs now = clock.now();
     if (autostop > 0 && now - started >= autostop) {
       stop_reason = "autostop duration reached";
       break;
@@ -694,7 +682,7 @@ int run_capture(const CommonOptions& o, const CaptureOptions& c) {
     const TimeNs deadline = pipeline.next_deadline();
     if (!pending.empty()) wake = std::min(wake, hold);
     if (deadline != std::numeric_limits<TimeNs>::max())
-      wake = std::min(wake, std::max<TimeNs>(0, deadline + hold - (now + offset)));
+      wake = std::min(wake, std::max<TimeNs>(0, deadline + hold - now));
     std::vector<pollfd> fds;
     std::vector<std::size_t> which;
     for (std::size_t k = 0; k < ports.size(); ++k)
@@ -741,7 +729,7 @@ int run_capture(const CommonOptions& o, const CaptureOptions& c) {
           std::fprintf(stderr, "drivetap: %s: reconnected\n", c.ports[k].c_str());
       }
     // Push what is older than the hold, in time order; then let silences close frames.
-    const TimeNs settled = monotonic_now() + offset - hold;
+    const TimeNs settled = clock.now() - hold;
     std::stable_sort(pending.begin(), pending.end(),
                      [](const ByteEvent& a, const ByteEvent& b) { return a.time < b.time; });
     std::size_t pushed = 0;

@@ -38,6 +38,22 @@ TimeNs clock_ns(clockid_t clock) {
   return static_cast<TimeNs>(ts.tv_sec) * kNsPerSecond + ts.tv_nsec;
 }
 
+}  // namespace
+
+TimeNs CaptureClock::monotonic() {
+  return clock_ns(CLOCK_MONOTONIC);
+}
+
+// The realtime reading is paired with the middle of two monotonic ones.
+CaptureClock CaptureClock::take() {
+  const TimeNs mono_before = clock_ns(CLOCK_MONOTONIC);
+  const TimeNs real = clock_ns(CLOCK_REALTIME);
+  const TimeNs mono_after = clock_ns(CLOCK_MONOTONIC);
+  return CaptureClock{real - (mono_before + (mono_after - mono_before) / 2)};
+}
+
+namespace {
+
 ByteEvent plain(std::uint8_t byte) {
   ByteEvent e;
   e.byte = byte;
@@ -368,13 +384,7 @@ std::unique_ptr<SerialPort> SerialPort::open(const SerialPortOptions& o, Channel
         static_cast<std::uint32_t>(icount.overrun), static_cast<std::uint32_t>(icount.buf_overrun)};
   }
 
-  // One offset for the whole capture: monotonic times mapped to the wall clock as it was at
-  // open, so an NTP step during the capture moves no byte. The realtime reading is paired with
-  // the middle of two monotonic ones.
-  const TimeNs mono_before = clock_ns(CLOCK_MONOTONIC);
-  const TimeNs real = clock_ns(CLOCK_REALTIME);
-  const TimeNs mono_after = clock_ns(CLOCK_MONOTONIC);
-  port->wall_offset_ = real - (mono_before + (mono_after - mono_before) / 2);
+  port->wall_offset_ = o.clock.value_or(CaptureClock::take()).wall_offset;
 
   // Named as the user gave it (a udev or test symlink says more than the pts it points to).
   const std::string name = device_name(o.path);
@@ -423,7 +433,7 @@ bool SerialPort::read_available(std::vector<ByteEvent>& out) {
   while (raw_.size() < kMaxBytesPerCall) {
     const ssize_t n = ::read(fd_, buffer, sizeof buffer);
     if (n > 0) {
-      const TimeNs read_time = clock_ns(CLOCK_MONOTONIC) + wall_offset_;
+      const TimeNs read_time = CaptureClock::monotonic() + wall_offset_;
       raw_.insert(raw_.end(), buffer, buffer + n);
       chunks_.push_back({raw_.size(), read_time});
       continue;

@@ -30,6 +30,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -39,6 +40,17 @@
 #include "core/time.hpp"
 
 namespace drivetap {
+
+// CLOCK_MONOTONIC mapped to the wall clock once. Every port of a capture and the capture loop share
+// one mapping, so that byte times of different ports (and of a port reopened after --reconnect)
+// compare with each other and with the loop's clock, and an NTP step during the run moves nothing.
+struct CaptureClock {
+  TimeNs wall_offset = 0;  // CLOCK_REALTIME - CLOCK_MONOTONIC when taken
+
+  static CaptureClock take();
+  static TimeNs monotonic();
+  [[nodiscard]] TimeNs now() const { return monotonic() + wall_offset; }  // wall time
+};
 
 struct SerialPortOptions {
   std::string path;         // /dev/ttyUSB0, /dev/serial/by-id/..., /dev/pts/3
@@ -51,6 +63,8 @@ struct SerialPortOptions {
   // Otherwise interned as written, so "m"/"s" or "link.m"/"link.s" give a direction and a link
   // (two ports on the two pairs of a 4-wire line).
   std::string channel_name;
+  // The capture's clock; unset: taken when the port opens.
+  std::optional<CaptureClock> clock;
 };
 
 // Error marks the kernel counted (TIOCGICOUNT deltas) that no PARMRK mark has been matched with
