@@ -432,13 +432,20 @@ std::unique_ptr<ByteSource> open_source(const CommonOptions& o, const std::strin
   return source;
 }
 
+// Reads the source's header and settles the run's options: the capture's settings, overridden by
+// the command line's.
+PipelineOptions start_source(const CommonOptions& o, ByteSource& source) {
+  if (!source.read_header()) die(source.error(), 1);
+  PipelineOptions p = make_pipeline_options(o, source.settings());
+  source.set_character_time(p.timing.character_time);
+  return p;
+}
+
 int run_read(const CommonOptions& o, const std::string& path) {
   InputFile in;
   ChannelTable channels;
   std::unique_ptr<ByteSource> source = open_source(o, path, in, channels);
-  if (!source->read_header()) die(source->error(), 1);
-  PipelineOptions p = make_pipeline_options(o, source->settings());
-  source->set_character_time(p.timing.character_time);
+  const PipelineOptions p = start_source(o, *source);
   Outputs out(o, channels, p, /*timed=*/true);
   Pipeline pipeline(p, channels, out.sink());
 
@@ -474,9 +481,7 @@ int run_diagnose(const CommonOptions& o, const std::string& path) {
   InputFile in;
   ChannelTable channels;
   std::unique_ptr<ByteSource> source = open_source(o, path, in, channels);
-  if (!source->read_header()) die(source->error(), 1);
-  PipelineOptions p = make_pipeline_options(o, source->settings());
-  source->set_character_time(p.timing.character_time);
+  const PipelineOptions p = start_source(o, *source);
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
   const Diagnosis d = diagnose_capture(*source, p, channels, !o.serial.empty(), &g_stop);
