@@ -107,33 +107,24 @@ bool is_response_ak(unsigned ak) {
 
 Message dissect_fc(Frame frame, Direction direction, const FramingTiming& timing) {
   (void)timing;
-  Message m;
-  m.frame = std::move(frame);
-  m.bytes = m.frame.bytes();
-  m.protocol = Protocol::danfoss_fc;
-  m.direction = direction;
-  const TimeNs t0 = m.frame.start();
-  const ChannelId ch = m.frame.channel;
+  Message m = begin_message(std::move(frame), Protocol::danfoss_fc, direction);
   const std::span<const std::uint8_t> bytes(m.bytes);
   FieldTreeBuilder tree(m.fields);
-  auto problem = [&](std::string text) {
-    m.anomalies.push_back({AnomalyKind::malformed, t0, ch, 0, std::move(text)});
-  };
   Cursor c(bytes);
   auto stx = c.u8();
   auto lge = c.u8();
   auto adr = c.u8();
   if (!stx || !lge || !adr || bytes.size() < 4) {
     m.info = fmt::format("{}-byte fragment, too short for an FC telegram", bytes.size());
-    problem(m.info);
+    add_malformed(m, m.info);
     return m;
   }
   tree.add(kStx, 0, 1, *stx);
-  if (*stx != kStxByte) problem(fmt::format("starts with 0x{:02X}, not STX 0x02", *stx));
+  if (*stx != kStxByte) add_malformed(m, fmt::format("starts with 0x{:02X}, not STX 0x02", *stx));
   tree.add(kLge, 1, 1, *lge);
   if (std::size_t{*lge} + 2 != bytes.size())
-    problem(fmt::format("LGE {} announces {} bytes, the telegram has {}", *lge, *lge + 2,
-                        bytes.size()));
+    add_malformed(m, fmt::format("LGE {} announces {} bytes, the telegram has {}", *lge, *lge + 2,
+                                 bytes.size()));
   const Address a = decode_adr(*adr);
   tree.open(kAdr, 2, 1, *adr);
   tree.add(kAddress, 2, 1, a.number);
@@ -169,7 +160,7 @@ Message dissect_fc(Frame frame, Direction direction, const FramingTiming& timing
           fmt::format("{} text {} \"{}\"", mode == 0x05 ? "write" : "read", param, text));
     } else {
       if (value_len != 4)
-        problem(fmt::format("parameter value of {} bytes (4 expected)", value_len));
+        add_malformed(m, fmt::format("parameter value of {} bytes (4 expected)", value_len));
       auto hi = c.be16();
       auto lo = c.be16();
       const std::uint32_t pwe = (std::uint32_t{hi.value_or(0)} << 16) | lo.value_or(0);
@@ -200,12 +191,13 @@ Message dissect_fc(Frame frame, Direction direction, const FramingTiming& timing
         }
       }
       if (!(to_drive ? is_request_ak(ak) : is_response_ak(ak)))
-        problem(
-            fmt::format("AK 0x{:X} is not a {} command", ak, to_drive ? "request" : "response"));
+        add_malformed(
+            m, fmt::format("AK 0x{:X} is not a {} command", ak, to_drive ? "request" : "response"));
     }
   } else if (data_len != 4) {
-    problem(fmt::format("{} data bytes: neither process data (4) nor a parameter block (12)",
-                        data_len));
+    add_malformed(m,
+                  fmt::format("{} data bytes: neither process data (4) nor a parameter block (12)",
+                              data_len));
   }
   // Process data: the last 4 data bytes.
   if (data_len >= 4 && c.remaining() >= 5) {

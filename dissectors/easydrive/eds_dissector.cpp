@@ -78,38 +78,29 @@ std::uint16_t ascii_sum(std::span<const std::uint8_t> text) {
 Message dissect_eds(Frame frame, Direction direction, const FramingTiming& timing,
                     std::span<const std::uint8_t> request) {
   (void)timing;
-  Message m;
-  m.frame = std::move(frame);
-  m.bytes = m.frame.bytes();
-  m.protocol = Protocol::easydrive;
-  m.direction = direction;
+  Message m = begin_message(std::move(frame), Protocol::easydrive, direction);
   m.text_encoded = true;
-  const TimeNs t0 = m.frame.start();
-  const ChannelId ch = m.frame.channel;
   const std::span<const std::uint8_t> f(m.bytes);
   FieldTreeBuilder tree(m.fields);
-  auto problem = [&](std::string text) {
-    m.anomalies.push_back({AnomalyKind::malformed, t0, ch, 0, std::move(text)});
-  };
   if (f.empty() || f[0] != '~') {
-    problem("does not start with '~'");
+    add_malformed(m, "does not start with '~'");
     m.info = "not an Easydrive frame";
     return m;
   }
   tree.add_text(kStart, 0, 1, "~");
-  if (f.back() != '\r') problem("no CR at the end: frame cut");
+  if (f.back() != '\r') add_malformed(m, "no CR at the end: frame cut");
   // Only '~', 0-9, A-F and CR are valid (lower case is an error too).
   for (std::size_t i = 1; i < f.size(); ++i) {
     const std::uint8_t c = f[i];
     if (hex_value(c) < 0 && !(c == '\r' && i + 1 == f.size())) {
-      problem(fmt::format("invalid character 0x{:02X} ('{}') at {}", c,
-                          c >= 0x20 && c < 0x7F ? static_cast<char>(c) : '?', i));
+      add_malformed(m, fmt::format("invalid character 0x{:02X} ('{}') at {}", c,
+                                   c >= 0x20 && c < 0x7F ? static_cast<char>(c) : '?', i));
       break;
     }
   }
   const std::size_t len = f.size() - (f.back() == '\r' ? 1 : 0);  // without CR
   if (len != 13 && len != 17) {
-    problem(fmt::format("{} characters before CR: a frame has 13 or 17", len));
+    add_malformed(m, fmt::format("{} characters before CR: a frame has 13 or 17", len));
   }
   const long addr = hex_field(f, 1, 2);
   const long cmd = hex_field(f, 3, 2);

@@ -63,18 +63,11 @@ AsciiHex decode_ascii_hex(std::span<const std::uint8_t> frame) {
 
 Message dissect_ascii(Frame frame, Direction direction, const FramingTiming& timing) {
   (void)timing;  // ASCII allows up to 1 s between characters: no t1.5 rule
-  Message m;
-  m.frame = std::move(frame);
-  m.bytes = m.frame.bytes();
-  m.protocol = Protocol::modbus_ascii;
-  m.direction = direction;
+  Message m = begin_message(std::move(frame), Protocol::modbus_ascii, direction);
   m.text_encoded = true;
-  const TimeNs t0 = m.frame.start();
-  const ChannelId ch = m.frame.channel;
   const AsciiHex hex = decode_ascii_hex(m.bytes);
   const std::vector<std::uint8_t>& bin = hex.binary;
-  for (const std::string& p : hex.problems)
-    m.anomalies.push_back({AnomalyKind::malformed, t0, ch, 0, p});
+  for (const std::string& p : hex.problems) add_malformed(m, p);
   if (bin.size() < 3) {
     m.info = fmt::format("{}-character fragment, too short for Modbus ASCII", m.bytes.size());
     if (!bin.empty()) m.address = bin[0];
@@ -96,8 +89,7 @@ Message dissect_ascii(Frame frame, Direction direction, const FramingTiming& tim
   }
   m.info = std::move(pdu.info);
   m.exception_code = pdu.exception_code;
-  for (std::string& problem : pdu.problems)
-    m.anomalies.push_back({AnomalyKind::malformed, t0, ch, 0, std::move(problem)});
+  for (std::string& problem : pdu.problems) add_malformed(m, std::move(problem));
 
   const std::uint8_t computed = lrc8(std::span(bin).first(bin.size() - 1));
   m.checksum.name = "LRC";

@@ -26,11 +26,7 @@ DirectionFit rtu_direction_fit(std::span<const std::uint8_t> frame) {
 }
 
 Message dissect_rtu(Frame frame, Direction direction, const FramingTiming& timing) {
-  Message m;
-  m.frame = std::move(frame);
-  m.bytes = m.frame.bytes();
-  m.protocol = Protocol::modbus_rtu;
-  m.direction = direction;
+  Message m = begin_message(std::move(frame), Protocol::modbus_rtu, direction);
   const std::span<const std::uint8_t> bytes(m.bytes);
   const TimeNs t0 = m.frame.start();
   const ChannelId ch = m.frame.channel;
@@ -49,14 +45,12 @@ Message dissect_rtu(Frame frame, Direction direction, const FramingTiming& timin
     PduDecode pdu = dissect_pdu(bytes, 1, pdu_len, direction, tree);
     m.info = std::move(pdu.info);
     m.exception_code = pdu.exception_code;
-    for (std::string& problem : pdu.problems)
-      m.anomalies.push_back({AnomalyKind::malformed, t0, ch, 0, std::move(problem)});
+    for (std::string& problem : pdu.problems) add_malformed(m, std::move(problem));
     m.checksum = check_rtu_crc(bytes);
     tree.add(kCrc, bytes.size() - 2, 2, m.checksum.stated_wire);
   } else {
     m.info = fmt::format("{}-byte fragment, too short for Modbus RTU", bytes.size());
-    m.anomalies.push_back({AnomalyKind::malformed, t0, ch, 0,
-                           fmt::format("{} bytes: shorter than the minimum 4", bytes.size())});
+    add_malformed(m, fmt::format("{} bytes: shorter than the minimum 4", bytes.size()));
   }
 
   add_checksum_anomaly(m);

@@ -45,6 +45,22 @@ struct Message {
   std::uint64_t request_number = 0;  // frame number of the paired request
 };
 
+// What every dissector starts from: the frame, its bytes, protocol and direction.
+inline Message begin_message(Frame frame, Protocol protocol, Direction direction) {
+  Message m;
+  m.frame = std::move(frame);
+  m.bytes = m.frame.bytes();
+  m.protocol = protocol;
+  m.direction = direction;
+  return m;
+}
+
+// A finding that the frame's length or content breaks its protocol's rules.
+inline void add_malformed(Message& m, std::string detail) {
+  m.anomalies.push_back(
+      {AnomalyKind::malformed, m.frame.start(), m.frame.channel, 0, std::move(detail)});
+}
+
 // Puts the finding for a bad or byte-swapped checksum first among the message's anomalies:
 // "CRC on wire DA 27, computed DA 26" (+ `hint`); nothing for a good or absent checksum.
 void add_checksum_anomaly(Message& m, std::string_view hint = {});
