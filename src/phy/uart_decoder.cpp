@@ -71,6 +71,17 @@ UartSettings UartSettings::from(const SerialConfig& serial) {
   return s;
 }
 
+SerialConfig UartSettings::serial_config() const {
+  SerialConfig serial;
+  serial.baud = static_cast<std::uint32_t>(baud + 0.5);
+  serial.data_bits = data_bits;
+  serial.parity = parity == UartParity::even  ? Parity::even
+                  : parity == UartParity::odd ? Parity::odd
+                                              : Parity::none;
+  serial.stop_bits = stop_bits == StopBits::two ? 2 : 1;
+  return serial;
+}
+
 double UartSettings::frame_bits() const {
   return 1.0 + data_bits + (parity == UartParity::none ? 0.0 : 1.0) + stop_bit_count(stop_bits);
 }

@@ -54,6 +54,9 @@ struct UartSettings {
 
   // Baud rate and format of a byte-level configuration ("19200 8E1").
   static UartSettings from(const SerialConfig& serial);
+  // The inverse, for the byte-level pipeline: baud rounded to a whole number, mark/space parity
+  // as none, 1.5 stop bits as 1 (SerialConfig has neither).
+  [[nodiscard]] SerialConfig serial_config() const;
 
   // Start bit + data bits + parity bit + stop bits, in bit times (10.5 for 8N1.5).
   [[nodiscard]] double frame_bits() const;

@@ -121,14 +121,7 @@ bool LogicSource::read_header() {
 RunSettings LogicSource::settings() const {
   // The pipeline's timing (t1.5, t3.5, character time) follows the line found or given.
   RunSettings s;
-  SerialConfig serial;
-  serial.baud = static_cast<std::uint32_t>(uart_.baud + 0.5);
-  serial.data_bits = uart_.data_bits;
-  serial.parity = uart_.parity == phy::UartParity::even  ? Parity::even
-                  : uart_.parity == phy::UartParity::odd ? Parity::odd
-                                                         : Parity::none;
-  serial.stop_bits = uart_.stop_bits == phy::StopBits::two ? 2 : 1;
-  s.serial = serial;
+  s.serial = uart_.serial_config();
   return s;
 }
 
