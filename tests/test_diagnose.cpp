@@ -134,7 +134,7 @@ Diagnosis diagnose_line(std::vector<LevelRun> runs, std::optional<UartSettings> 
   p.serial = *source.settings().serial;
   p.timing = FramingTiming::from(p.serial);
   p.protocol = Protocol::modbus_rtu;
-  return diagnose_capture(source, p, channels, given.has_value());
+  return diagnose_capture(source, p, channels);
 }
 
 std::vector<std::string> ids(const Diagnosis& d) {

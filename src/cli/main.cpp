@@ -484,7 +484,7 @@ int run_diagnose(const CommonOptions& o, const std::string& path) {
   const PipelineOptions p = start_source(o, *source);
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
-  const Diagnosis d = diagnose_capture(*source, p, channels, !o.serial.empty(), &g_stop);
+  const Diagnosis d = diagnose_capture(*source, p, channels, &g_stop);
   if (!d.error.empty()) die(d.error, 1);
   if (d.interrupted) die("interrupted", 130);
   const std::string report = o.format == "json"

@@ -246,8 +246,7 @@ void DiagnosisSink::on_anomaly(const Anomaly& a) {
 }
 
 Diagnosis diagnose_capture(ByteSource& source, const PipelineOptions& options,
-                           ChannelTable& channels, bool settings_given,
-                           const volatile std::sig_atomic_t* stop) {
+                           ChannelTable& channels, const volatile std::sig_atomic_t* stop) {
   Diagnosis result;
   LineEvidence& evidence = result.evidence;
   DiagnosisSink sink(evidence, options.timing);
@@ -279,10 +278,9 @@ Diagnosis diagnose_capture(ByteSource& source, const PipelineOptions& options,
     for (const phy::UartDecoderStats& st : logic->decoder_stats()) line += st;
     evidence.glitches = line.glitches;
     evidence.false_starts = line.false_starts;
-    if (settings_given) {
+    if (logic->given_trial()) {
       evidence.given = logic->uart();
-      evidence.given_trial =
-          phy::trial_decode(logic->head_runs(), logic->sample_rate(), logic->uart());
+      evidence.given_trial = logic->given_trial();
     }
     if (evidence.detection && evidence.detection->found) {
       phy::UartSettings flipped = evidence.detection->settings;

@@ -89,8 +89,7 @@ class DiagnosisSink final : public Sink {
   Stats stats_;
 };
 
-// A whole diagnosis: the source (read_header() done) through the pipeline, nothing printed;
-// `settings_given`: the line settings came from the user (-s), not from detection.
+// A whole diagnosis: the source (read_header() done) through the pipeline, nothing printed.
 struct Diagnosis {
   LineEvidence evidence;
   std::vector<Verdict> verdicts;
@@ -99,7 +98,7 @@ struct Diagnosis {
   bool interrupted = false;
 };
 Diagnosis diagnose_capture(ByteSource& source, const PipelineOptions& options,
-                           ChannelTable& channels, bool settings_given,
+                           ChannelTable& channels,
                            const volatile std::sig_atomic_t* stop = nullptr);
 
 // The report: text for a person, or one JSON object.

@@ -85,7 +85,8 @@ bool LogicSource::read_header() {
   if (options_.uart) {
     uart_ = *options_.uart;
     // Given settings are used as given; when they decode badly and others decode clean, say so.
-    const phy::FormatTrial given = phy::trial_decode(head_runs_, rate, uart_);
+    given_trial_ = phy::trial_decode(head_runs_, rate, uart_);
+    const phy::FormatTrial& given = *given_trial_;
     if (found.found && given.error_rate() > 0.05 && found.best().error_rate() < 0.01)
       extra_notes_.push_back(fmt::format(
           "{}: {} of {} characters have errors with the given settings ({}); the line looks "

@@ -44,6 +44,8 @@ class LogicSource final : public ByteSource {
   // What read_header() found.
   [[nodiscard]] const phy::UartSettings& uart() const { return uart_; }
   [[nodiscard]] const std::optional<phy::LineDetection>& detection() const { return detection_; }
+  // With settings given (-s): how they decode the first runs; unset when they were detected.
+  [[nodiscard]] const std::optional<phy::FormatTrial>& given_trial() const { return given_trial_; }
   // The first runs of each decoded channel (what detection read), for diagnosis.
   [[nodiscard]] const std::vector<std::vector<phy::LevelRun>>& head_runs() const {
     return head_runs_;
@@ -64,6 +66,7 @@ class LogicSource final : public ByteSource {
 
   phy::UartSettings uart_;
   std::optional<phy::LineDetection> detection_;
+  std::optional<phy::FormatTrial> given_trial_;
   std::vector<std::size_t> chosen_;
   std::vector<std::string> chosen_names_;
   std::vector<std::vector<phy::LevelRun>> head_runs_;
