@@ -102,7 +102,8 @@ void add_common_options(CLI::App* cmd, CommonOptions& o) {
                   "e.g. RX,TX (default: every channel whose line moves)")
       ->delimiter(',');
   cmd->add_flag("--invert", o.invert,
-                "Logic-analyser captures: the line idles low (A/B swapped, RS-232 side)");
+                "Logic-analyser captures, with -s: the line idles low (A/B swapped, RS-232 side); "
+                "without -s polarity and settings are detected");
   cmd->add_flag("--events", o.events_only,
                 "Print only the events: drive-state timeline, drive bindings, protocol detection");
   cmd->add_flag("--no-summary", o.no_summary, "Do not print the closing summary");
@@ -804,7 +805,9 @@ int main(int argc, char** argv) {
     args.insert(args.begin() + 1, capture_word);
   argc = static_cast<int>(args.size());
   argv = args.data();
-  CLI::App app{"drivetap: passive RS-485 bus analyser for drive networks (Modbus RTU)"};
+  CLI::App app{
+      "drivetap: passive RS-485 bus analyser for drive networks (Modbus RTU/ASCII, Danfoss FC, "
+      "Easydrive)"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "drivetap 0.1.0");
 
