@@ -105,6 +105,7 @@ void append_uart_anomalies(std::span<const ByteEvent> events, std::uint64_t fram
 
 void add_checksum_anomaly(Message& m, std::string_view hint) {
   const ChecksumResult& c = m.checksum;
+  if (c.verdict != ChecksumVerdict::bad && c.verdict != ChecksumVerdict::swapped) return;
   const char* separator = c.text ? "" : " ";
   const std::string stated = wire_hex(c.stated_wire, c.width, separator);
   const std::string computed = wire_hex(c.computed_wire, c.width, separator);

@@ -119,18 +119,20 @@ void Pairer::add(std::size_t link, Message& m, std::vector<Transaction>& out) {
     }
   }
   if (match < pending_.size()) {
-    const Pending request = pending_[match];
-    std::deque<Pending> kept;
+    const Pending request = std::move(pending_[match]);
+    // Compacted in place, in order: the answered request leaves, and older requests on the same
+    // link were never answered.
+    std::size_t kept = 0;
     for (std::size_t i = 0; i < pending_.size(); ++i) {
       if (i == match) continue;
       if (i < match && pending_[i].link == link) {
-        // Older requests on the same link were never answered.
         close_unanswered(pending_[i], "no reply before a later request was answered", out);
         continue;
       }
-      kept.push_back(pending_[i]);
+      if (kept != i) pending_[kept] = std::move(pending_[i]);
+      ++kept;
     }
-    pending_ = std::move(kept);
+    pending_.resize(kept);
     t.outcome = m.is_exception ? Outcome::exception : Outcome::ok;
     t.channel = request.channel;
     t.request_number = request.number;

@@ -189,12 +189,18 @@ void Pipeline::handle_frames() {
   // Frames closed together (several channels) go out in order of their first byte.
   std::stable_sort(ready_.begin(), ready_.end(),
                    [](const Frame& a, const Frame& b) { return a.start() < b.start(); });
-  std::vector<Frame> batch;
+  // Nested calls (none today) would get a batch of their own rather than clobber this one.
+  std::vector<Frame> nested;
+  std::vector<Frame>& batch = in_batch_ ? nested : batch_;
+  const bool outer = !in_batch_;
+  in_batch_ = true;
   batch.swap(ready_);
   for (Frame& f : batch) {
     if (options_.max_frames > 0 && stats_.frames >= options_.max_frames) break;
     handle_frame(f);
   }
+  batch.clear();
+  if (outer) in_batch_ = false;
 }
 
 Direction Pipeline::decide_direction(const ProtocolDecoder& decoder, const Frame& frame,
@@ -301,11 +307,14 @@ void Pipeline::handle_frame(Frame& frame) {
   emit_transactions(transactions_);
 
   const ProtocolDecoder& decoder = *state_for(frame.channel).decoder;
-  const std::vector<std::uint8_t> bytes = frame.bytes();
+  std::vector<std::uint8_t>& bytes = frame_bytes_;
+  bytes.clear();
+  for (const ByteEvent& e : frame.events) bytes.push_back(e.byte);
   const ProtocolDecoder::PairingKeys keys = decoder.pairing_keys(bytes);
   const Direction dir = decide_direction(decoder, frame, bytes, keys.address, keys.function, link);
   // A reply is dissected in the light of the request it answers (copied: pairing follows).
-  std::vector<std::uint8_t> request;
+  std::vector<std::uint8_t>& request = request_bytes_;
+  request.clear();
   if (dir == Direction::response) {
     const auto r = pairer_.awaited_request(link, keys.address, keys.function, frame.start());
     request.assign(r.begin(), r.end());

@@ -84,6 +84,12 @@ class Pipeline {
   Stats stats_;
   std::vector<std::unique_ptr<ChannelState>> states_;
   std::vector<Frame> ready_;
+  // Reused from frame to frame so that the hot path does not allocate: the batch being handled
+  // (ready_ swaps with it), the bytes of the current frame, the request a reply answers.
+  std::vector<Frame> batch_;
+  bool in_batch_ = false;
+  std::vector<std::uint8_t> frame_bytes_;
+  std::vector<std::uint8_t> request_bytes_;
   std::vector<Transaction> transactions_;
   TimeNs earliest_deadline_;
   std::uint64_t frame_counter_ = 0;
