@@ -33,15 +33,21 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     if (parsed->payload_offset > packet.size())
       fuzz::contract_broken("parse_tags: payload offset beyond the packet");
     // What we parsed, written back and parsed again, is the same (strings the writer keeps whole).
-    const upper_pdu::Tags& a = parsed->tags;
+    const upper_pdu::TagView& a = parsed->tags;
     if (a.dissector.size() < 0xFFF0 && a.protocol_column.size() < 0xFFF0 &&
         a.info_column.size() < 0xFFF0) {
+      const upper_pdu::Tags owned{std::string(a.dissector),
+                                  std::string(a.protocol_column),
+                                  std::string(a.info_column),
+                                  a.direction,
+                                  a.source_port,
+                                  a.destination_port};
       std::vector<std::uint8_t> written;
-      upper_pdu::append_tags(a, written);
+      upper_pdu::append_tags(owned, written);
       std::string error2;
       auto again = upper_pdu::parse_tags(written, &error2);
       if (!again) fuzz::contract_broken("parse_tags rejects what append_tags wrote");
-      const upper_pdu::Tags& b = again->tags;
+      const upper_pdu::TagView& b = again->tags;
       if (again->payload_offset != written.size() || a.dissector != b.dissector ||
           a.protocol_column != b.protocol_column || a.info_column != b.info_column ||
           a.direction != b.direction || a.source_port != b.source_port ||

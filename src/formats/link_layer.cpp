@@ -163,7 +163,7 @@ std::optional<SerialPayload> extract_serial_payload(std::uint32_t link_type,
         *fatal = true;
         return std::nullopt;
       }
-      const std::string& d = parsed->tags.dissector;
+      const std::string_view d = parsed->tags.dissector;
       if (!d.empty() && d != "mbrtu" && d != "data") {
         *why = fmt::format("exported PDU for dissector '{}', not serial bytes", d);
         return std::nullopt;

@@ -49,17 +49,6 @@ void put_varint(std::vector<std::uint8_t>& out, std::uint64_t v) {
   out.push_back(static_cast<std::uint8_t>(v));
 }
 
-std::optional<std::uint64_t> get_varint(std::span<const std::uint8_t> data, std::size_t* pos) {
-  std::uint64_t v = 0;
-  for (int shift = 0; shift < 64; shift += 7) {
-    if (*pos >= data.size()) return std::nullopt;
-    const std::uint8_t b = data[(*pos)++];
-    v |= static_cast<std::uint64_t>(b & 0x7F) << shift;
-    if (!(b & 0x80)) return v;
-  }
-  return std::nullopt;
-}
-
 // ---- writer ----
 
 void Writer::block(std::uint32_t type, const std::vector<std::uint8_t>& body) {
@@ -192,6 +181,7 @@ bool Reader::parse_section(const std::vector<std::uint8_t>& body, std::uint64_t 
     return fail(at + 12,
                 fmt::format("unsupported pcapng version {}.{}", u16(&body[4]), u16(&body[6])));
   interfaces_.clear();
+  ++sections_;
   in_section_ = true;
   by_drivetap_ = false;
   const std::string err = walk_options(body, 16, [&](std::uint16_t code, auto value) {
@@ -272,12 +262,26 @@ TimeNs scale_time(std::uint64_t value, const Interface& itf, bool* overflow) {
 }
 }  // namespace
 
+namespace {
+// Empties a record for the next packet, keeping its buffers' capacity: a reader reusing one
+// record allocates nothing per packet.
+void reset(PacketRecord& out, std::uint64_t at) {
+  out.interface = 0;
+  out.timestamp = 0;
+  out.has_timestamp = false;
+  out.data.clear();
+  out.flags.reset();
+  out.comment.clear();
+  out.drivetap_option.clear();
+  out.offset = at;
+}
+}  // namespace
+
 bool Reader::parse_enhanced(const std::vector<std::uint8_t>& body, std::uint64_t at,
                             PacketRecord& out) {
   // body: interface(4) ts high(4) ts low(4) captured(4) original(4) data options
   if (body.size() < 20) return fail(at, "enhanced packet block too short");
-  out = PacketRecord{};
-  out.offset = at;
+  reset(out, at);
   out.interface = u32(&body[0]);
   if (out.interface >= interfaces_.size())
     return fail(at + 8, fmt::format("packet names interface {}, but only {} described",
@@ -297,7 +301,7 @@ bool Reader::parse_enhanced(const std::vector<std::uint8_t>& body, std::uint64_t
   const std::string err = walk_options(body, options_at, [&](std::uint16_t code, auto value) {
     switch (code) {
       case kOptComment:
-        out.comment.assign(value.begin(), value.end());
+        if (keep_comments_) out.comment.assign(value.begin(), value.end());
         break;
       case kOptEpbFlags:
         if (value.size() >= 4) out.flags = u32(value.data());
@@ -318,8 +322,7 @@ bool Reader::parse_simple(const std::vector<std::uint8_t>& body, std::uint64_t a
                           PacketRecord& out) {
   if (body.size() < 4) return fail(at, "simple packet block too short");
   if (interfaces_.empty()) return fail(at, "simple packet before any interface description");
-  out = PacketRecord{};
-  out.offset = at;
+  reset(out, at);
   const std::uint32_t original = u32(&body[0]);
   const std::size_t n = std::min<std::size_t>(original, body.size() - 4);
   out.data.assign(body.begin() + 4, body.begin() + 4 + static_cast<std::ptrdiff_t>(n));

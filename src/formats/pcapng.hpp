@@ -105,12 +105,17 @@ struct PacketRecord {
 class Reader {
  public:
   Reader(std::FILE* in, std::string name) : in_(in), name_(std::move(name)) {}
+  // Packet comments are copied into PacketRecord::comment unless turned off (a reader that
+  // does not use them saves a copy per packet: drivetap's comments hold the annotation).
+  void keep_comments(bool keep) { keep_comments_ = keep; }
   // Next packet block; false at a clean end of file or on error (error() non-empty).
   bool next(PacketRecord& out);
   [[nodiscard]] const std::string& error() const { return error_; }
   [[nodiscard]] const std::vector<Interface>& interfaces() const { return interfaces_; }
   [[nodiscard]] bool written_by_drivetap() const { return by_drivetap_; }
   [[nodiscard]] std::uint64_t offset() const { return offset_; }
+  // Section headers read so far: interface numbers restart with each section.
+  [[nodiscard]] std::uint64_t sections() const { return sections_; }
 
  private:
   bool fail(std::uint64_t at, const std::string& what);
@@ -135,13 +140,26 @@ class Reader {
   bool big_endian_ = false;
   bool in_section_ = false;
   bool by_drivetap_ = false;
+  std::uint64_t sections_ = 0;
+  bool keep_comments_ = true;
   std::vector<Interface> interfaces_;
   std::vector<std::uint8_t> body_;
 };
 
 // Varint helpers for the drivetap EPB option.
 void put_varint(std::vector<std::uint8_t>& out, std::uint64_t v);
-std::optional<std::uint64_t> get_varint(std::span<const std::uint8_t> data, std::size_t* pos);
+// Inline: the reader decodes three per byte of every packet drivetap wrote.
+inline std::optional<std::uint64_t> get_varint(std::span<const std::uint8_t> data,
+                                               std::size_t* pos) {
+  std::uint64_t v = 0;
+  for (int shift = 0; shift < 64; shift += 7) {
+    if (*pos >= data.size()) return std::nullopt;
+    const std::uint8_t b = data[(*pos)++];
+    v |= static_cast<std::uint64_t>(b & 0x7F) << shift;
+    if (!(b & 0x80)) return v;
+  }
+  return std::nullopt;
+}
 inline std::uint64_t zigzag(std::int64_t v) {
   return (static_cast<std::uint64_t>(v) << 1) ^ static_cast<std::uint64_t>(v >> 63);
 }

@@ -37,10 +37,10 @@ void put_u32(std::vector<std::uint8_t>& out, std::uint16_t type, std::optional<s
   put_tlv(out, type, b);
 }
 
-std::string as_string(std::span<const std::uint8_t> v) {
-  std::string s(v.begin(), v.end());
-  while (!s.empty() && s.back() == '\0') s.pop_back();
-  return s;
+std::string_view as_string(std::span<const std::uint8_t> v) {
+  std::size_t n = v.size();
+  while (n > 0 && v[n - 1] == 0) --n;
+  return {reinterpret_cast<const char*>(v.data()), n};
 }
 
 }  // namespace

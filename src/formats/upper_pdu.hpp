@@ -11,6 +11,7 @@
 #include <optional>
 #include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace drivetap::upper_pdu {
@@ -40,8 +41,19 @@ void append_tags(const Tags& tags, std::vector<std::uint8_t>& out);
 
 // Parses the TLVs at the start of `packet`. Returns the tags and the payload offset, or nullopt
 // with *error naming the offset inside the packet.
+// Tags as read from a packet: the strings are views into the packet (no copies on the read
+// path), trailing NUL padding removed.
+struct TagView {
+  std::string_view dissector;
+  std::string_view protocol_column;
+  std::string_view info_column;
+  std::optional<std::uint32_t> direction;
+  std::optional<std::uint32_t> source_port;
+  std::optional<std::uint32_t> destination_port;
+};
+
 struct Parsed {
-  Tags tags;
+  TagView tags;
   std::size_t payload_offset = 0;
 };
 std::optional<Parsed> parse_tags(std::span<const std::uint8_t> packet, std::string* error);

@@ -54,6 +54,7 @@ CaptureReader::CaptureReader(std::FILE* in, std::string name, bool pcapng, Chann
     : name_(std::move(name)), pcapng_(pcapng), channels_(channels) {
   if (pcapng_) {
     ng_ = std::make_unique<pcapng::Reader>(in, name_);
+    ng_->keep_comments(false);
     return;
   }
   char errbuf[PCAP_ERRBUF_SIZE] = {0};
@@ -89,6 +90,23 @@ ChannelId CaptureReader::channel_for(const std::string& base, const SerialPayloa
   if (payload.outbound)
     return channels_.intern(base + (*payload.outbound ? ".tx" : ".rx"), base, ChannelRole::bus);
   return channels_.intern(base);
+}
+
+ChannelId CaptureReader::pcapng_channel(std::uint32_t interface, const SerialPayload& payload) {
+  // Serial packets of one interface and direction always land on the same channel: remembered,
+  // so that the name is built and looked up once per interface rather than once per packet.
+  const int direction = payload.outbound ? (*payload.outbound ? 1 : 2) : 0;
+  if (payload.flow.empty()) {
+    for (const CachedChannel& c : channel_cache_)
+      if (c.section == ng_->sections() && c.interface == interface && c.direction == direction)
+        return c.channel;
+  }
+  const pcapng::Interface& itf = ng_->interfaces().at(interface);
+  std::string base = itf.name;
+  if (base.empty()) base = ng_->interfaces().size() == 1 ? "bus" : fmt::format("if{}", interface);
+  const ChannelId ch = channel_for(base, payload);
+  if (payload.flow.empty()) channel_cache_.push_back({ng_->sections(), interface, direction, ch});
+  return ch;
 }
 
 void CaptureReader::lay_out(std::span<const std::uint8_t> bytes, TimeNs timestamp,
@@ -149,7 +167,7 @@ void CaptureReader::lay_out(std::span<const std::uint8_t> bytes, TimeNs timestam
 }
 
 bool CaptureReader::load_pcapng_packet() {
-  pcapng::PacketRecord rec;
+  pcapng::PacketRecord& rec = record_;
   // Each pass consumes one packet block, or returns.
   while (ng_->next(rec)) {
     ++packets_;
@@ -171,15 +189,13 @@ bool CaptureReader::load_pcapng_packet() {
       continue;
     }
     const bool ours = ng_->written_by_drivetap() && !rec.drivetap_option.empty();
-    std::string base = itf.name;
-    if (base.empty())
-      base = ng_->interfaces().size() == 1 ? "bus" : fmt::format("if{}", rec.interface);
     if (!ours && rec.flags && (*rec.flags & 3) != 0 && !payload->outbound && payload->flow.empty())
       payload->outbound = (*rec.flags & 3) == pcapng::kFlagOutbound;
     if (ours) payload->outbound.reset();  // our channel names already say everything
-    const ChannelId ch = channel_for(base, *payload);
-    hold(payload->bytes, rec.timestamp, ch,
-         ours ? std::move(rec.drivetap_option) : std::vector<std::uint8_t>{});
+    const ChannelId ch = pcapng_channel(rec.interface, *payload);
+    hold(payload->bytes, rec.timestamp, ch);
+    held_.option.clear();
+    if (ours) held_.option.swap(rec.drivetap_option);  // buffers trade places: no allocation
     return true;
   }
   if (!ng_->error().empty()) error_ = ng_->error();
@@ -221,7 +237,7 @@ bool CaptureReader::load_pcap_packet() {
     const TimeNs ts = static_cast<TimeNs>(header->ts.tv_sec) * kNsPerSecond +
                       static_cast<TimeNs>(header->ts.tv_usec);  // ns precision requested
     if (payload->bytes.empty()) continue;
-    hold(payload->bytes, ts, channel_for("bus", *payload), {});
+    hold(payload->bytes, ts, channel_for("bus", *payload));
     return true;
   }
 }
@@ -231,12 +247,11 @@ bool CaptureReader::read_packet() {
   return pcapng_ ? load_pcapng_packet() : load_pcap_packet();
 }
 
-void CaptureReader::hold(std::span<const std::uint8_t> bytes, TimeNs timestamp, ChannelId channel,
-                         std::vector<std::uint8_t> option) {
+void CaptureReader::hold(std::span<const std::uint8_t> bytes, TimeNs timestamp, ChannelId channel) {
   held_.bytes.assign(bytes.begin(), bytes.end());
   held_.timestamp = timestamp;
   held_.channel = channel;
-  held_.option = std::move(option);
+  held_.option.clear();
   held_.origin = static_cast<std::uint32_t>(packets_);
 }
 

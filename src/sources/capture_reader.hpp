@@ -58,15 +58,24 @@ class CaptureReader final : public ByteSource {
   bool load_pcap_packet();
   void lay_out(std::span<const std::uint8_t> bytes, TimeNs timestamp, ChannelId channel,
                const std::vector<std::uint8_t>& drivetap_option);
-  void hold(std::span<const std::uint8_t> bytes, TimeNs timestamp, ChannelId channel,
-            std::vector<std::uint8_t> option);
+  // Keeps a packet's bytes until lay_out (held_.option is left empty: the caller fills it).
+  void hold(std::span<const std::uint8_t> bytes, TimeNs timestamp, ChannelId channel);
   void skip(const std::string& why, std::uint64_t where);
   ChannelId channel_for(const std::string& base, const SerialPayload& payload);
+  ChannelId pcapng_channel(std::uint32_t interface, const SerialPayload& payload);
 
   std::string name_;
   bool pcapng_;
   ChannelTable& channels_;
   std::unique_ptr<pcapng::Reader> ng_;
+  pcapng::PacketRecord record_;  // reused for every packet
+  struct CachedChannel {
+    std::uint64_t section = 0;
+    std::uint32_t interface = 0;
+    int direction = 0;  // 0 none stated, 1 outbound, 2 inbound
+    ChannelId channel = 0;
+  };
+  std::vector<CachedChannel> channel_cache_;
   ::pcap* pcap_ = nullptr;
   std::uint32_t pcap_link_type_ = 0;
   RunSettings settings_;

@@ -82,6 +82,21 @@ const char* input_format_name(InputFormat f) {
   return "unknown";
 }
 
+namespace {
+constexpr std::size_t kReadBuffer = 1 << 20;
+
+// Before the first read of `f`: a 1 MiB stdio buffer (a file of many small pcapng blocks is
+// otherwise read 4 KiB per system call).
+void use_large_buffer(std::FILE* f, InputFile* in) {
+  if (in->buffer) return;  // one per input: a replay cookie keeps the file's buffer too
+  in->buffer = new char[kReadBuffer];
+  if (std::setvbuf(f, in->buffer, _IOFBF, kReadBuffer) != 0) {
+    delete[] in->buffer;  // not taken: stdio keeps its own
+    in->buffer = nullptr;
+  }
+}
+}  // namespace
+
 bool open_input(const std::string& path, InputFile* out, std::string* error) {
   out->name = path == "-" ? "<stdin>" : path;
   std::FILE* f = stdin;
@@ -97,6 +112,7 @@ bool open_input(const std::string& path, InputFile* out, std::string* error) {
       return false;
     }
   }
+  if (f != stdin) use_large_buffer(f, out);
   out->head_size = std::fread(out->head, 1, sizeof out->head, f);
   if (out->head_size < sizeof out->head && std::ferror(f)) {
     *error = fmt::format("{}: read error: {}", out->name, std::strerror(errno));
@@ -118,12 +134,15 @@ bool open_input(const std::string& path, InputFile* out, std::string* error) {
     *error = fmt::format("{}: cannot set up reading", out->name);
     return false;
   }
+  use_large_buffer(out->file, out);
   return true;
 }
 
 void close_input(InputFile& in) {
   if (in.file && in.file != stdin) std::fclose(in.file);
   in.file = nullptr;
+  delete[] in.buffer;
+  in.buffer = nullptr;
 }
 
 }  // namespace drivetap
