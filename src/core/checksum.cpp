@@ -90,9 +90,14 @@ ChecksumResult check_rtu_crc(std::span<const std::uint8_t> frame) {
 }
 
 std::string wire_hex(std::uint32_t packed, std::uint8_t width, const char* separator) {
+  constexpr char kDigits[] = "0123456789ABCDEF";
   std::string out;
-  for (int i = width - 1; i >= 0; --i)
-    out += fmt::format("{}{:02X}", i == width - 1 ? "" : separator, (packed >> (8 * i)) & 0xFF);
+  for (int i = width - 1; i >= 0; --i) {
+    if (i != width - 1) out += separator;
+    const unsigned byte = (packed >> (8 * i)) & 0xFF;
+    out += kDigits[byte >> 4];
+    out += kDigits[byte & 0x0F];
+  }
   return out;
 }
 

@@ -6,31 +6,84 @@
 #include <cstdint>
 #include <span>
 #include <string>
+#include <string_view>
 
 #include "core/time.hpp"
 
 namespace drivetap {
 
+// The sinks build each output line by appending to one reused string: no temporary strings and
+// no format-string parsing per frame on the paths taken for every frame.
+
+inline void append_uint(std::string& out, std::uint64_t v) {
+  const fmt::format_int digits(v);
+  out.append(digits.data(), digits.size());
+}
+
+inline void append_int(std::string& out, std::int64_t v) {
+  const fmt::format_int digits(v);
+  out.append(digits.data(), digits.size());
+}
+
+// `text` right-aligned (pad_left) or left-aligned in `width` columns.
+inline void append_padded(std::string& out, std::string_view text, std::size_t width,
+                          bool pad_left) {
+  const std::size_t pad = text.size() < width ? width - text.size() : 0;
+  if (pad_left) out.append(pad, ' ');
+  out.append(text);
+  if (!pad_left) out.append(pad, ' ');
+}
+
 // Seconds with `decimals` (<= 9) digits, exact (no floating point): 1.500000.
-inline std::string format_seconds(TimeNs t, int decimals) {
+inline void append_seconds(std::string& out, TimeNs t, int decimals) {
   const bool negative = t < 0;
   const std::uint64_t a =
       negative ? static_cast<std::uint64_t>(-(t + 1)) + 1u : static_cast<std::uint64_t>(t);
   std::uint64_t frac = a % 1'000'000'000u;
   for (int i = decimals; i < 9; ++i) frac /= 10;
-  if (decimals <= 0) return fmt::format("{}{}", negative ? "-" : "", a / 1'000'000'000u);
-  return fmt::format("{}{}.{:0{}}", negative ? "-" : "", a / 1'000'000'000u, frac, decimals);
+  if (negative) out += '-';
+  append_uint(out, a / 1'000'000'000u);
+  if (decimals <= 0) return;
+  out += '.';
+  char digits[9];
+  for (int i = decimals - 1; i >= 0; --i) {
+    digits[i] = static_cast<char>('0' + frac % 10);
+    frac /= 10;
+  }
+  out.append(digits, static_cast<std::size_t>(decimals));
+}
+
+inline std::string format_seconds(TimeNs t, int decimals) {
+  std::string s;
+  append_seconds(s, t, decimals);
+  return s;
+}
+
+inline void append_ms(std::string& out, TimeNs t) {
+  fmt::format_to(std::back_inserter(out), "{:.3f}",
+                 static_cast<double>(t) / static_cast<double>(kNsPerMs));
 }
 
 inline std::string format_ms(TimeNs t) {
-  return fmt::format("{:.3f}", static_cast<double>(t) / static_cast<double>(kNsPerMs));
+  std::string s;
+  append_ms(s, t);
+  return s;
+}
+
+inline void append_hex_bytes(std::string& out, std::span<const std::uint8_t> bytes,
+                             std::string_view separator = " ") {
+  constexpr char kDigits[] = "0123456789ABCDEF";
+  for (std::size_t i = 0; i < bytes.size(); ++i) {
+    if (i) out.append(separator);
+    out += kDigits[bytes[i] >> 4];
+    out += kDigits[bytes[i] & 0x0F];
+  }
 }
 
 inline std::string hex_bytes(std::span<const std::uint8_t> bytes, const char* separator = " ") {
   std::string out;
   out.reserve(bytes.size() * 3);
-  for (std::size_t i = 0; i < bytes.size(); ++i)
-    fmt::format_to(std::back_inserter(out), "{}{:02X}", i ? separator : "", bytes[i]);
+  append_hex_bytes(out, bytes, separator);
   return out;
 }
 

@@ -10,33 +10,46 @@
 
 namespace drivetap {
 
-std::string json_quote(std::string_view s) {
-  std::string out = "\"";
-  for (const char c : s) {
+void append_json_quoted(std::string& out, std::string_view s) {
+  out += '"';
+  std::size_t plain = 0;  // start of the run of characters that need no escape
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    const char c = s[i];
+    const char* escape = nullptr;
     switch (c) {
       case '"':
-        out += "\\\"";
+        escape = "\\\"";
         break;
       case '\\':
-        out += "\\\\";
+        escape = "\\\\";
         break;
       case '\n':
-        out += "\\n";
+        escape = "\\n";
         break;
       case '\r':
-        out += "\\r";
+        escape = "\\r";
         break;
       case '\t':
-        out += "\\t";
+        escape = "\\t";
         break;
       default:
-        if (static_cast<unsigned char>(c) < 0x20)
-          out += fmt::format("\\u{:04x}", static_cast<unsigned char>(c));
-        else
-          out += c;
+        if (static_cast<unsigned char>(c) >= 0x20) continue;
+        break;
     }
+    out.append(s.substr(plain, i - plain));
+    if (escape)
+      out += escape;
+    else
+      fmt::format_to(std::back_inserter(out), "\\u{:04x}", static_cast<unsigned char>(c));
+    plain = i + 1;
   }
+  out.append(s.substr(plain));
   out += '"';
+}
+
+std::string json_quote(std::string_view s) {
+  std::string out;
+  append_json_quoted(out, s);
   return out;
 }
 
@@ -47,44 +60,53 @@ std::string seconds(TimeNs t) {
 }
 
 // Field nodes keyed by dotted id, in first-seen order; repeated ids become arrays.
-std::string fields_object(const Message& m) {
-  std::vector<std::pair<std::string_view, std::vector<std::string>>> entries;
-  for (const FieldNode& node : m.fields) {
-    std::string value;
-    switch (node.desc->type) {
-      case FieldType::group:
-        continue;
-      case FieldType::bytes:
-        value = json_quote(field_bytes_hex(node, m.bytes, m.text_encoded));
-        break;
-      case FieldType::text:
-        value = json_quote(node.text);
-        break;
-      default:
-        value = fmt::format("{}", node.value);
-        break;
-    }
-    auto it = std::find_if(entries.begin(), entries.end(),
-                           [&](const auto& e) { return e.first == node.desc->id; });
-    if (it == entries.end()) {
-      entries.push_back({node.desc->id, {std::move(value)}});
-    } else {
-      it->second.push_back(std::move(value));
-    }
+void append_field_value(std::string& out, const Message& m, const FieldNode& node) {
+  switch (node.desc->type) {
+    case FieldType::bytes:
+      append_json_quoted(out, field_bytes_hex(node, m.bytes, m.text_encoded));
+      return;
+    case FieldType::text:
+      append_json_quoted(out, node.text);
+      return;
+    default:
+      append_int(out, node.value);
+      return;
   }
-  std::string out = "{";
-  for (std::size_t i = 0; i < entries.size(); ++i) {
-    out += fmt::format("{}{}:", i ? "," : "", json_quote(entries[i].first));
-    const auto& values = entries[i].second;
-    if (values.size() == 1) {
-      out += values[0];
-    } else {
-      out += '[';
-      for (std::size_t j = 0; j < values.size(); ++j) out += (j ? "," : "") + values[j];
-      out += ']';
+}
+
+void append_fields_object(std::string& out, const Message& m) {
+  out += '{';
+  bool first_key = true;
+  for (std::size_t i = 0; i < m.fields.size(); ++i) {
+    const FieldNode& node = m.fields[i];
+    if (node.desc->type == FieldType::group) continue;
+    const std::string_view id = node.desc->id;
+    bool seen = false;  // the id's values went out at its first occurrence
+    for (std::size_t j = 0; j < i && !seen; ++j)
+      seen = m.fields[j].desc->type != FieldType::group && m.fields[j].desc->id == id;
+    if (seen) continue;
+    std::size_t count = 0;
+    for (std::size_t j = i; j < m.fields.size(); ++j)
+      if (m.fields[j].desc->type != FieldType::group && m.fields[j].desc->id == id) ++count;
+    if (!first_key) out += ',';
+    first_key = false;
+    append_json_quoted(out, id);
+    out += ':';
+    if (count == 1) {
+      append_field_value(out, m, node);
+      continue;
     }
+    out += '[';
+    bool first_value = true;
+    for (std::size_t j = i; j < m.fields.size(); ++j) {
+      if (m.fields[j].desc->type == FieldType::group || m.fields[j].desc->id != id) continue;
+      if (!first_value) out += ',';
+      first_value = false;
+      append_field_value(out, m, m.fields[j]);
+    }
+    out += ']';
   }
-  return out + "}";
+  out += '}';
 }
 
 const char* close_id(FrameClose c) {
@@ -115,28 +137,72 @@ void JsonSink::write(std::string& line) {
 
 void JsonSink::on_frame(const Message& m) {
   const TimeNs t_end = m.frame.events.empty() ? 0 : m.frame.events.back().time + character_time_;
-  std::string line = fmt::format(
-      "{{\"type\":\"frame\",\"n\":{},\"t\":{},\"t_end\":{},\"channel\":{},\"dir\":\"{}\","
-      "\"protocol\":\"{}\",\"addr\":{},\"fc\":{},\"hex\":\"{}\",\"checksum\":\"{}\"",
-      m.frame.number, seconds(m.frame.start()), seconds(t_end),
-      json_quote(channels_.at(m.frame.channel).name), direction_id(m.direction),
-      protocol_id(m.protocol), m.address < 0 ? std::string("null") : fmt::format("{}", m.address),
-      m.function < 0 ? std::string("null") : fmt::format("{}", m.function), hex_bytes(m.bytes, ""),
-      to_string(m.checksum.verdict));
-  if (m.checksum.verdict != ChecksumVerdict::none)
-    line += fmt::format(",\"checksum_stated\":\"{}\",\"checksum_computed\":\"{}\"",
-                        wire_hex(m.checksum.stated_wire, m.checksum.width, ""),
-                        wire_hex(m.checksum.computed_wire, m.checksum.width, ""));
-  if (m.is_exception) line += fmt::format(",\"exception\":{}", m.exception_code);
-  if (!m.drive_info.empty()) line += fmt::format(",\"drive\":{}", json_quote(m.drive_info));
-  if (m.request_number != 0)
-    line += fmt::format(",\"latency_ms\":{},\"request_n\":{}",
-                        m.latency >= 0 && show_latency_ ? format_ms(m.latency) : "null",
-                        m.request_number);
-  if (m.frame.gap_before >= 0 && show_latency_)
-    line += fmt::format(",\"gap_before_ms\":{}", format_ms(m.frame.gap_before));
-  line += fmt::format(",\"close\":\"{}\",\"fields\":{},\"summary\":{}}}", close_id(m.frame.close),
-                      fields_object(m), json_quote(frame_summary(m, show_latency_)));
+  std::string& line = line_;
+  line.clear();
+  line += "{\"type\":\"frame\",\"n\":";
+  append_uint(line, m.frame.number);
+  line += ",\"t\":";
+  append_seconds(line, m.frame.start(), 9);
+  line += ",\"t_end\":";
+  append_seconds(line, t_end, 9);
+  line += ",\"channel\":";
+  append_json_quoted(line, channels_.at(m.frame.channel).name);
+  line += ",\"dir\":\"";
+  line += direction_id(m.direction);
+  line += "\",\"protocol\":\"";
+  line += protocol_id(m.protocol);
+  line += "\",\"addr\":";
+  if (m.address < 0)
+    line += "null";
+  else
+    append_int(line, m.address);
+  line += ",\"fc\":";
+  if (m.function < 0)
+    line += "null";
+  else
+    append_int(line, m.function);
+  line += ",\"hex\":\"";
+  append_hex_bytes(line, m.bytes, "");
+  line += "\",\"checksum\":\"";
+  line += to_string(m.checksum.verdict);
+  line += '"';
+  if (m.checksum.verdict != ChecksumVerdict::none) {
+    line += ",\"checksum_stated\":\"";
+    line += wire_hex(m.checksum.stated_wire, m.checksum.width, "");
+    line += "\",\"checksum_computed\":\"";
+    line += wire_hex(m.checksum.computed_wire, m.checksum.width, "");
+    line += '"';
+  }
+  if (m.is_exception) {
+    line += ",\"exception\":";
+    append_int(line, m.exception_code);
+  }
+  if (!m.drive_info.empty()) {
+    line += ",\"drive\":";
+    append_json_quoted(line, m.drive_info);
+  }
+  if (m.request_number != 0) {
+    line += ",\"latency_ms\":";
+    if (m.latency >= 0 && show_latency_)
+      append_ms(line, m.latency);
+    else
+      line += "null";
+    line += ",\"request_n\":";
+    append_uint(line, m.request_number);
+  }
+  if (m.frame.gap_before >= 0 && show_latency_) {
+    line += ",\"gap_before_ms\":";
+    append_ms(line, m.frame.gap_before);
+  }
+  line += ",\"close\":\"";
+  line += close_id(m.frame.close);
+  line += "\",\"fields\":";
+  append_fields_object(line, m);
+  line += ",\"summary\":";
+  summary_.clear();
+  append_frame_summary(summary_, m, show_latency_);
+  append_json_quoted(line, summary_);
+  line += '}';
   write(line);
 }
 

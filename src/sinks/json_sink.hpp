@@ -29,9 +29,12 @@ class JsonSink final : public Sink {
   TimeNs character_time_;
   bool show_latency_;
   bool write_failed_ = false;
+  std::string line_;     // reused for every frame line
+  std::string summary_;  // scratch: the frame's one-line decode
 };
 
 // JSON string literal with escapes.
 std::string json_quote(std::string_view s);
+void append_json_quoted(std::string& out, std::string_view s);
 
 }  // namespace drivetap

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <string_view>
 
 #include "sinks/format.hpp"
 
@@ -24,41 +25,63 @@ const char* direction_tag(Direction d) {
   return "???";
 }
 
-std::string checksum_text(const ChecksumResult& c) {
+void append_checksum_text(std::string& out, const ChecksumResult& c) {
   auto wire = [&](std::uint32_t v) { return wire_hex(v, c.width, c.text ? "" : " "); };
-  std::string lower = c.name;
-  for (char& ch : lower) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
   switch (c.verdict) {
     case ChecksumVerdict::good:
-      return lower + " ok";
+      for (const char ch : std::string_view(c.name))
+        out += static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+      out += " ok";
+      return;
     case ChecksumVerdict::bad:
-      return fmt::format("{} BAD (wire {}, computed {})", c.name, wire(c.stated_wire),
-                         wire(c.computed_wire));
+      fmt::format_to(std::back_inserter(out), "{} BAD (wire {}, computed {})", c.name,
+                     wire(c.stated_wire), wire(c.computed_wire));
+      return;
     case ChecksumVerdict::swapped:
-      return fmt::format("{} SWAPPED (wire {}, expected {}: sent high byte first)", c.name,
-                         wire(c.stated_wire), wire(c.computed_wire));
+      fmt::format_to(std::back_inserter(out),
+                     "{} SWAPPED (wire {}, expected {}: sent high byte first)", c.name,
+                     wire(c.stated_wire), wire(c.computed_wire));
+      return;
     case ChecksumVerdict::none:
       break;
   }
-  return "no checksum";
+  out += "no checksum";
 }
 
 }  // namespace
 
-std::string frame_summary(const Message& m, bool with_latency) {
-  const std::string station = m.address == 0  ? std::string("broadcast")
-                              : m.address < 0 ? std::string("addr ?")
-                                              : fmt::format("addr {}", m.address);
-  std::string s = fmt::format("{}  {}  {}  {}", protocol_label(m.protocol), station, m.info,
-                              checksum_text(m.checksum));
-  if (m.request_number != 0) {
-    if (!with_latency)
-      s += fmt::format("  reply to #{}", m.request_number);
-    else if (m.latency >= 0)
-      s += fmt::format("  reply to #{} in {} ms", m.request_number, format_ms(m.latency));
-    else
-      s += fmt::format("  reply to #{} (latency hidden: no silence before it)", m.request_number);
+void append_frame_summary(std::string& out, const Message& m, bool with_latency) {
+  out += protocol_label(m.protocol);
+  out += "  ";
+  if (m.address == 0) {
+    out += "broadcast";
+  } else if (m.address < 0) {
+    out += "addr ?";
+  } else {
+    out += "addr ";
+    append_int(out, m.address);
   }
+  out += "  ";
+  out += m.info;
+  out += "  ";
+  append_checksum_text(out, m.checksum);
+  if (m.request_number != 0) {
+    out += "  reply to #";
+    append_uint(out, m.request_number);
+    if (!with_latency) return;
+    if (m.latency >= 0) {
+      out += " in ";
+      append_ms(out, m.latency);
+      out += " ms";
+    } else {
+      out += " (latency hidden: no silence before it)";
+    }
+  }
+}
+
+std::string frame_summary(const Message& m, bool with_latency) {
+  std::string s;
+  append_frame_summary(s, m, with_latency);
   return s;
 }
 
@@ -71,19 +94,41 @@ void TextSink::write(const std::string& line) {
     write_failed_ = true;
 }
 
+void TextSink::append_prefix(std::string& s, std::uint64_t number, TimeNs time,
+                             ChannelId channel) const {
+  if (number) {
+    const fmt::format_int digits(number);
+    append_padded(s, {digits.data(), digits.size()}, 5, true);
+    s += ' ';
+  } else {
+    s += "    - ";
+  }
+  if (options_.show_time) {
+    seconds_.clear();
+    append_seconds(seconds_, time, 6);
+    append_padded(s, seconds_, 14, true);
+    s += ' ';
+  }
+  append_padded(s, channels_.at(channel).name, 3, false);
+  s += ' ';
+}
+
 std::string TextSink::prefix(std::uint64_t number, TimeNs time, ChannelId channel) const {
-  std::string s = number ? fmt::format("{:>5} ", number) : std::string("    - ");
-  if (options_.show_time) s += fmt::format("{:>14} ", format_seconds(time, 6));
-  const std::string& name = channels_.at(channel).name;
-  s += fmt::format("{:<{}} ", name, std::max<std::size_t>(3, name.size()));
+  std::string s;
+  append_prefix(s, number, time, channel);
   return s;
 }
 
 void TextSink::on_frame(const Message& m) {
   last_frame_number_ = m.frame.number;
   if (!options_.frames) return;
-  write(prefix(m.frame.number, m.frame.start(), m.frame.channel) +
-        fmt::format("{}  {}", direction_tag(m.direction), frame_summary(m, options_.show_time)));
+  std::string& line = line_;
+  line.clear();
+  append_prefix(line, m.frame.number, m.frame.start(), m.frame.channel);
+  line += direction_tag(m.direction);
+  line += "  ";
+  append_frame_summary(line, m, options_.show_time);
+  write(line);
   if (!m.drive_info.empty()) write(fmt::format("{:>8}= {}", "", m.drive_info));
   if (!options_.verbose) return;
   if (m.text_encoded) {

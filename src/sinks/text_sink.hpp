@@ -30,6 +30,8 @@ class TextSink final : public Sink {
 
  private:
   void write(const std::string& line);
+  // "   12   1.234567 bus " (number, time, channel), appended to `s`.
+  void append_prefix(std::string& s, std::uint64_t number, TimeNs time, ChannelId channel) const;
   std::string prefix(std::uint64_t number, TimeNs time, ChannelId channel) const;
 
   std::FILE* out_;
@@ -37,10 +39,13 @@ class TextSink final : public Sink {
   TextSinkOptions options_;
   std::uint64_t last_frame_number_ = 0;
   bool write_failed_ = false;
+  std::string line_;             // reused for every frame line
+  mutable std::string seconds_;  // scratch for the time column
 };
 
 // The decode of a frame in one line, without number/time/channel: shared with the JSON
 // `summary` key so both sinks say the same thing.
 std::string frame_summary(const Message& message, bool with_latency = true);
+void append_frame_summary(std::string& out, const Message& message, bool with_latency = true);
 
 }  // namespace drivetap
