@@ -19,10 +19,28 @@ std::string ProfileError::text() const {
   return fmt::format("{}:{}: key '{}': {}", file, line, key, message);
 }
 
+namespace {
+std::uint64_t register_key(RegisterKind kind, std::uint32_t address) {
+  return (static_cast<std::uint64_t>(kind) << 32) | address;
+}
+}  // namespace
+
 const RegisterDef* DriveProfile::find(RegisterKind kind, std::uint32_t address) const {
-  for (const RegisterDef& r : registers)
-    if (r.kind == kind && r.address == address) return &r;
-  return nullptr;
+  if (indexed_count_ != registers.size()) {
+    registers_index_.clear();
+    for (std::size_t i = 0; i < registers.size(); ++i)
+      registers_index_.push_back(
+          {register_key(registers[i].kind, registers[i].address), static_cast<std::uint32_t>(i)});
+    // Stable: of two definitions with one key the first wins, as the linear search had it.
+    std::stable_sort(registers_index_.begin(), registers_index_.end(),
+                     [](const auto& a, const auto& b) { return a.first < b.first; });
+    indexed_count_ = registers.size();
+  }
+  const std::uint64_t key = register_key(kind, address);
+  const auto it = std::lower_bound(registers_index_.begin(), registers_index_.end(), key,
+                                   [](const auto& e, std::uint64_t k) { return e.first < k; });
+  if (it == registers_index_.end() || it->first != key) return nullptr;
+  return &registers[it->second];
 }
 
 std::optional<std::uint32_t> DriveProfile::parameter_of_register(std::uint32_t address) const {

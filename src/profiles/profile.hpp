@@ -90,6 +90,14 @@ struct DriveProfile {
   [[nodiscard]] std::optional<std::uint32_t> parameter_of_register(std::uint32_t address) const;
   // The manual's spelling of a parameter wire number ("4-14", "08-03", "F0.05").
   [[nodiscard]] std::string parameter_label(std::uint32_t number) const;
+
+ private:
+  // find() is called for every register of every frame of every candidate profile: it searches
+  // a sorted (kind, address) -> index table, rebuilt whenever `registers` changed size (profiles
+  // are built once and then only read; a caller editing a register's key in place must clear
+  // `registers_index_`).
+  mutable std::vector<std::pair<std::uint64_t, std::uint32_t>> registers_index_;
+  mutable std::size_t indexed_count_ = 0;
 };
 
 // The manual's parameter number ("4-14") as its wire number under `rule`; nullopt if malformed.
