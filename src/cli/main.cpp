@@ -6,6 +6,8 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <charconv>
+#include <chrono>
 #include <csignal>
 #include <cstdio>
 #include <cstring>
@@ -21,6 +23,8 @@
 
 #include "core/protocol.hpp"
 #include "core/serial_config.hpp"
+#include "generate/byte_log_writer.hpp"
+#include "generate/traffic.hpp"
 #include "pipeline/diagnose.hpp"
 #include "pipeline/options.hpp"
 #include "pipeline/pipeline.hpp"
@@ -200,6 +204,18 @@ PipelineOptions make_pipeline_options(const CommonOptions& o, const RunSettings&
   return *p;
 }
 
+// The capture file's options for -w (format, link type, the run's settings in each interface).
+CaptureSinkOptions capture_options(const CommonOptions& o, const PipelineOptions& p) {
+  CaptureSinkOptions c;
+  c.format = o.classic_pcap ? CaptureFormat::pcap : CaptureFormat::pcapng;
+  c.link_type = o.dlt == "user0" ? CaptureLinkType::user0 : CaptureLinkType::upper_pdu;
+  c.serial = p.serial;
+  c.character_time = p.timing.character_time;
+  c.settings =
+      encode_settings(p.timing.t15, p.timing.t35, p.reply_timeout, p.max_hold, p.protocol);
+  return c;
+}
+
 // Owns the output files and the sinks chosen by -T, -o and -w.
 class Outputs {
  public:
@@ -296,16 +312,6 @@ class Outputs {
   long capture_good_size_ = 0;  // the capture file up to its last packet flushed whole
   bool capture_failed_ = false;
 
-  static CaptureSinkOptions capture_options(const CommonOptions& o, const PipelineOptions& p) {
-    CaptureSinkOptions c;
-    c.format = o.classic_pcap ? CaptureFormat::pcap : CaptureFormat::pcapng;
-    c.link_type = o.dlt == "user0" ? CaptureLinkType::user0 : CaptureLinkType::upper_pdu;
-    c.serial = p.serial;
-    c.character_time = p.timing.character_time;
-    c.settings =
-        encode_settings(p.timing.t15, p.timing.t35, p.reply_timeout, p.max_hold, p.protocol);
-    return c;
-  }
 };
 
 int run_decode(const CommonOptions& o, const std::vector<std::string>& args) {
@@ -772,6 +778,130 @@ int run_capture(const CommonOptions& o, const CaptureOptions& c) {
   return exit_code;
 }
 
+// Options of `drivetap generate`, kept as text: each is checked here, with one line naming it.
+struct GenerateOptions {
+  std::string frames = "100000";
+  std::string seed = "1";
+  std::string mix = "all";
+  std::string output;  // -o: byte log
+  std::string write;   // -w: pcapng
+  std::string truth;   // --truth: what was injected, JSON
+};
+
+// `drivetap generate`: a large, realistic, reproducible capture (src/generate/traffic.hpp) as a
+// byte log (-o) and/or a pcapng (-w). The pcapng is what `drivetap read LOG -w FILE` writes of the
+// byte log: the records go through the same pipeline, with read's default options, into the same
+// capture sink. Streams: memory stays constant whatever --frames.
+int run_generate(const GenerateOptions& g) {
+  auto number = [](const char* option, const std::string& text, std::uint64_t lo, std::uint64_t hi,
+                   const char* expected) {
+    std::uint64_t v = 0;
+    const char* end = text.data() + text.size();
+    const auto [ptr, ec] = std::from_chars(text.data(), end, v);
+    if (text.empty() || ec != std::errc() || ptr != end || v < lo || v > hi)
+      die(fmt::format("{} {}: expected {}", option, text, expected));
+    return v;
+  };
+  generate::Options go;
+  go.frames = number("--frames", g.frames, 1, 10'000'000'000ull, "a number of records, 1 to 10^10");
+  go.seed = number("--seed", g.seed, 0, std::numeric_limits<std::uint64_t>::max(),
+                   "a whole number, 0 to 2^64-1");
+  if (g.mix == "all")
+    go.mix = generate::Mix::all;
+  else if (g.mix == "modbus-rtu")
+    go.mix = generate::Mix::modbus_rtu;
+  else
+    die(fmt::format("--mix {}: expected all or modbus-rtu", g.mix));
+  if (g.output.empty() && g.write.empty())
+    die("generate: give -o FILE (byte log), -w FILE (pcapng) or both");
+  if (g.output == "-" && g.write == "-") die("-o - and -w - cannot both be stdout");
+  auto create = [](const char* option, const std::string& path, const char* mode) {
+    if (path.empty()) return static_cast<std::FILE*>(nullptr);
+    if (path == "-") return stdout;
+    std::FILE* f = std::fopen(path.c_str(), mode);
+    if (!f) die(fmt::format("{} {}: cannot create: {}", option, path, std::strerror(errno)), 1);
+    return f;
+  };
+  std::FILE* log_file = create("-o", g.output, "w");
+  std::FILE* capture_file = create("-w", g.write, "wb");
+  std::FILE* truth_file = create("--truth", g.truth, "w");
+  std::signal(SIGPIPE, SIG_IGN);
+  std::signal(SIGXFSZ, SIG_IGN);
+  const auto started = std::chrono::steady_clock::now();
+
+  generate::Generator gen(go);
+  const SerialConfig serial = generate::Generator::serial();
+  std::optional<ByteLogWriter> log;
+  if (log_file) {
+    log.emplace(log_file);
+    log->comment(fmt::format(
+        "drivetap generate --frames {} --seed {} --mix {}: a generated capture (README \"drivetap "
+        "generate\")\nstations: {}",
+        go.frames, go.seed, g.mix, gen.drive_bindings()));
+    log->header(serial);
+  }
+  // The pcapng: the pipeline with `drivetap read`'s default options, channels interned as the
+  // byte log's reader meets them, so that the file equals `drivetap read LOG -w FILE`'s.
+  CommonOptions read_defaults;
+  std::optional<PipelineOptions> p;
+  ChannelTable channels;
+  std::unique_ptr<CaptureSink> sink;
+  std::unique_ptr<Pipeline> pipeline;
+  if (capture_file) {
+    RunSettings settings;
+    settings.serial = serial;
+    p = make_pipeline_options(read_defaults, settings);
+    sink = std::make_unique<CaptureSink>(capture_file, channels, capture_options(read_defaults, *p));
+    pipeline = std::make_unique<Pipeline>(*p, channels, *sink);
+  }
+  std::vector<int> channel_of(gen.links().size(), -1);
+  const TimeNs character = serial.character_time();
+  generate::Record r;
+  TimeNs last = 0;
+  while (gen.next(r)) {
+    const std::string& name = gen.links()[r.link].channel;
+    if (log) log->line(r.start, name, r.bytes, r.flags, r.note);
+    if (pipeline) {
+      if (channel_of[r.link] < 0) channel_of[r.link] = channels.intern(name);
+      ByteEvent e;
+      e.channel = static_cast<ChannelId>(channel_of[r.link]);
+      for (std::size_t i = 0; i < r.bytes.size(); ++i) {
+        e.time = r.start + static_cast<TimeNs>(i) * character;
+        e.byte = r.bytes[i];
+        e.flags = r.flags[i];
+        pipeline->push(e);
+      }
+    }
+    last = r.start + static_cast<TimeNs>(r.bytes.size()) * character;
+  }
+  if (log && (!log->flush() || (log_file != stdout && std::fclose(log_file) != 0)))
+    die(fmt::format("-o {}: write failed: {}", g.output, std::strerror(errno)), 1);
+  if (pipeline) {
+    pipeline->finish();
+    const bool ok = sink->flush();
+    sink.reset();
+    if (!ok || (capture_file != stdout && std::fclose(capture_file) != 0))
+      die(fmt::format("-w {}: write failed: {}", g.write, std::strerror(errno)), 1);
+  }
+  if (truth_file) {
+    const std::string truth = gen.truth_json();
+    if (std::fputs(truth.c_str(), truth_file) < 0 || std::fclose(truth_file) != 0)
+      die(fmt::format("--truth {}: write failed: {}", g.truth, std::strerror(errno)), 1);
+  }
+  generate::Counts total;
+  for (const generate::Counts& c : gen.counts()) total += c;
+  const double took =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  std::fprintf(stderr,
+               "drivetap: generated %llu frames and %llu noise records (%llu bytes, %.1f s of bus "
+               "time, seed %llu) in %.1f s\n",
+               static_cast<unsigned long long>(total.frames),
+               static_cast<unsigned long long>(total.noise_records),
+               static_cast<unsigned long long>(total.bytes), static_cast<double>(last) / 1e9,
+               static_cast<unsigned long long>(go.seed), took);
+  return 0;
+}
+
 // Lists the built-in drive profiles and checks the given profile files (errors: file:line: key).
 int run_profiles(const std::vector<std::string>& files) {
   auto show = [](const DriveProfile& p, std::string_view where) {
@@ -854,6 +984,23 @@ int main(int argc, char** argv) {
   capture_cmd->add_option("--scan-time", capture_args.scan_seconds,
                           "--scan: seconds per setting (default 2)");
 
+  GenerateOptions generate_opts;
+  CLI::App* generate_cmd = app.add_subcommand(
+      "generate",
+      "Write a large, realistic, reproducible capture: a master polling drives of the five "
+      "families, with errors, noise, exceptions and timeouts");
+  generate_cmd->add_option("--frames", generate_opts.frames,
+                           "Records to write: requests, replies and noise records (default 100000)");
+  generate_cmd->add_option("--seed", generate_opts.seed,
+                           "Seed: the same seed gives the same bytes (default 1)");
+  generate_cmd->add_option("--mix", generate_opts.mix,
+                           "all (default): Modbus RTU, Danfoss FC, Easydrive and Modbus ASCII "
+                           "links; modbus-rtu: the Modbus RTU link only");
+  generate_cmd->add_option("-o,--output", generate_opts.output, "Write a byte log to FILE");
+  generate_cmd->add_option("-w,--write", generate_opts.write, "Write a pcapng to FILE");
+  generate_cmd->add_option("--truth", generate_opts.truth,
+                           "Write what was generated (counts per link, JSON) to FILE");
+
   std::vector<std::string> profile_files;
   CLI::App* profiles = app.add_subcommand(
       "profiles", "List the built-in drive profiles and check profile files (TOML)");
@@ -871,5 +1018,6 @@ int main(int argc, char** argv) {
                              : run_capture(capture_opts, capture_args);
   if (*diagnose_cmd) return run_diagnose(diagnose_opts, diagnose_path);
   if (*profiles) return run_profiles(profile_files);
+  if (*generate_cmd) return run_generate(generate_opts);
   return 2;
 }
