@@ -211,8 +211,7 @@ CaptureSinkOptions capture_options(const CommonOptions& o, const PipelineOptions
   c.link_type = o.dlt == "user0" ? CaptureLinkType::user0 : CaptureLinkType::upper_pdu;
   c.serial = p.serial;
   c.character_time = p.timing.character_time;
-  c.settings =
-      encode_settings(p.timing.t15, p.timing.t35, p.reply_timeout, p.max_hold, p.protocol);
+  c.settings = encode_settings(p.timing.t15, p.timing.t35, p.reply_timeout, p.max_hold, p.protocol);
   return c;
 }
 
@@ -311,7 +310,6 @@ class Outputs {
   TeeSink tee_;
   long capture_good_size_ = 0;  // the capture file up to its last packet flushed whole
   bool capture_failed_ = false;
-
 };
 
 int run_decode(const CommonOptions& o, const std::vector<std::string>& args) {
@@ -851,7 +849,8 @@ int run_generate(const GenerateOptions& g) {
     RunSettings settings;
     settings.serial = serial;
     p = make_pipeline_options(read_defaults, settings);
-    sink = std::make_unique<CaptureSink>(capture_file, channels, capture_options(read_defaults, *p));
+    sink =
+        std::make_unique<CaptureSink>(capture_file, channels, capture_options(read_defaults, *p));
     pipeline = std::make_unique<Pipeline>(*p, channels, *sink);
   }
   std::vector<int> channel_of(gen.links().size(), -1);
@@ -989,8 +988,9 @@ int main(int argc, char** argv) {
       "generate",
       "Write a large, realistic, reproducible capture: a master polling drives of the five "
       "families, with errors, noise, exceptions and timeouts");
-  generate_cmd->add_option("--frames", generate_opts.frames,
-                           "Records to write: requests, replies and noise records (default 100000)");
+  generate_cmd->add_option(
+      "--frames", generate_opts.frames,
+      "Records to write: requests, replies and noise records (default 100000)");
   generate_cmd->add_option("--seed", generate_opts.seed,
                            "Seed: the same seed gives the same bytes (default 1)");
   generate_cmd->add_option("--mix", generate_opts.mix,

@@ -1,0 +1,108 @@
+#!/usr/bin/env bash
+# `drivetap generate` (issue 8): reproducible, decoded exactly as injected, bad options refused.
+#   tests/generate.sh DRIVETAP_BIN
+# 1. The same seed gives byte-identical byte logs, pcapngs and truth files; another seed differs.
+# 2. drivetap read of the byte log and of the pcapng reports what --truth says was injected:
+#    frames, checksums bad and swapped, exceptions, timeouts, noise, parity marks, timing-rule
+#    breaks, and no other finding; per link, every frame has the link's protocol and the link's
+#    own counts. The pcapng equals what `drivetap read LOG -w` writes of the byte log.
+# 3. Bad options: one line naming the option, exit 2.
+set -uo pipefail
+drivetap="$1"
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+failed=0
+fail() { echo "FAIL: $*"; failed=1; }
+# value KEY FILE-or-TEXT: the first number after "KEY": in a JSON text.
+value() { grep -o "\"$1\":[0-9]*" <<<"$2" | head -1 | cut -d: -f2; }
+
+frames=20000
+gen() { "$drivetap" generate --frames $frames "$@" 2>/dev/null; }
+
+# 1. Reproducible.
+gen --seed 7 -o "$work/a.log" -w "$work/a.pcapng" --truth "$work/a.json" || fail "generate exit $?"
+gen --seed 7 -o "$work/b.log" -w "$work/b.pcapng" --truth "$work/b.json" || fail "generate exit $?"
+gen --seed 8 -o "$work/c.log" || fail "generate exit $?"
+cmp -s "$work/a.log" "$work/b.log" || fail "same seed, byte logs differ"
+cmp -s "$work/a.pcapng" "$work/b.pcapng" || fail "same seed, pcapngs differ"
+cmp -s "$work/a.json" "$work/b.json" || fail "same seed, truth files differ"
+cmp -s "$work/a.log" "$work/c.log" && fail "seeds 7 and 8 gave the same byte log"
+# -o and -w alone write what they write together.
+gen --seed 7 -w "$work/d.pcapng" || fail "generate -w exit $?"
+cmp -s "$work/a.pcapng" "$work/d.pcapng" || fail "-w alone differs from -o and -w together"
+# The pcapng is `drivetap read LOG -w`'s.
+"$drivetap" read --stats -w "$work/e.pcapng" "$work/a.log" >/dev/null || fail "read -w exit $?"
+cmp -s "$work/a.pcapng" "$work/e.pcapng" || fail "generate -w differs from read LOG -w"
+
+# 2. Decoded as injected, from both files, with the stations bound as the truth file says.
+truth=$(cat "$work/a.json")
+total=$(grep '^"total"' <<<"$truth")
+[ "$(value frames "$total")" -ge $((frames * 9 / 10)) ] || fail "only $(value frames "$total") frames"
+for k in exceptions timeouts checksum_bad checksum_swapped noise_records parity_errors timing_rule; do
+  [ "$(value $k "$total")" -gt 0 ] || fail "truth: no $k injected"
+done
+bindings=()
+for b in $(grep -o '"drives":"[^"]*"' <<<"$truth" | head -1 | cut -d'"' -f4); do bindings+=(--drive "$b"); done
+for file in a.log a.pcapng; do
+  s=$("$drivetap" read --stats -T json "${bindings[@]}" "$work/$file") || fail "$file: read exit $?"
+  check() {  # check NAME DECODED TRUTH
+    [ "$2" = "$3" ] || fail "$file: $1 decoded $2, injected $3"
+  }
+  check frames "$(value frames "$s")" "$(value frames "$total")"
+  check "checksum bad" "$(grep -o '"checksum":{[^}]*}' <<<"$s" | grep -o '"bad":[0-9]*' | cut -d: -f2)" "$(value checksum_bad "$total")"
+  check "checksum swapped" "$(grep -o '"checksum":{[^}]*}' <<<"$s" | grep -o '"swapped":[0-9]*' | cut -d: -f2)" "$(value checksum_swapped "$total")"
+  tx=$(grep -o '"transactions":{[^}]*}' <<<"$s")
+  check transactions "$(value total "$tx")" "$(value requests "$total")"
+  check ok "$(value ok "$tx")" "$(value ok "$total")"
+  check exceptions "$(value exception "$tx")" "$(value exceptions "$total")"
+  check timeouts "$(value timeout "$tx")" "$(value timeouts "$total")"
+  check "noise records" "$(value noise_records "$s")" "$(value noise_records "$total")"
+  check "noise bytes" "$(value noise_bytes "$s")" "$(value noise_bytes "$total")"
+  check bytes "$(value bytes "$s")" "$(value bytes "$total")"
+  an=$(grep -o '"anomalies":{[^}]*}' <<<"$s")
+  check "uart_parity" "$(value uart_parity "$an")" "$(value parity_errors "$total")"
+  check "timing_rule" "$(value timing_rule "$an")" "$(value timing_rule "$total")"
+  check "unanswered_request" "$(value unanswered_request "$an")" "$(value timeouts "$total")"
+  # No finding besides the injected ones.
+  others=$(grep -o '"[a-z_]*":[1-9][0-9]*' <<<"$an" |
+           grep -v '"\(checksum_bad\|checksum_swapped\|noise\|unanswered_request\|uart_parity\|timing_rule\)"')
+  [ -z "$others" ] || fail "$file: findings not injected: $others"
+done
+
+# Per link, from the JSON lines: frames with the link's protocol, its checksum errors, noise.
+json=$("$drivetap" read -T json "${bindings[@]}" "$work/a.log")
+while read -r link; do
+  ch=$(grep -o '"channel":"[a-z]*"' <<<"$link" | cut -d'"' -f4)
+  proto=$(grep -o '"protocol":"[a-z-]*"' <<<"$link" | cut -d'"' -f4)
+  frames_ch=$(grep '^{"type":"frame"' <<<"$json" | grep -c "\"channel\":\"$ch\",")
+  proto_ch=$(grep '^{"type":"frame"' <<<"$json" | grep "\"channel\":\"$ch\"," | grep -c "\"protocol\":\"$proto\"")
+  bad_ch=$(grep '^{"type":"frame"' <<<"$json" | grep "\"channel\":\"$ch\"," | grep -c '"checksum":"bad"')
+  noise_ch=$(grep '^{"type":"noise"' <<<"$json" | grep -c "\"channel\":\"$ch\",")
+  [ "$frames_ch" = "$(value frames "$link")" ] || fail "link $ch: $frames_ch frames decoded, $(value frames "$link") written"
+  [ "$proto_ch" = "$frames_ch" ] || fail "link $ch: $((frames_ch - proto_ch)) frames not decoded as $proto"
+  [ "$bad_ch" = "$(value checksum_bad "$link")" ] || fail "link $ch: $bad_ch bad checksums decoded, $(value checksum_bad "$link") injected"
+  [ "$noise_ch" = "$(value noise_records "$link")" ] || fail "link $ch: $noise_ch noise records decoded, $(value noise_records "$link") written"
+done < <(grep '^{"channel"' <<<"$truth")
+[ "$(grep -c '^{"channel"' <<<"$truth")" = 4 ] || fail "truth: expected 4 links with --mix all"
+
+# --mix modbus-rtu: one link, Modbus RTU only.
+gen --mix modbus-rtu -o "$work/r.log" --truth "$work/r.json" || fail "generate --mix modbus-rtu exit $?"
+[ "$(grep -c '^{"channel"' "$work/r.json")" = 1 ] || fail "--mix modbus-rtu: more than one link"
+grep -v '^#' "$work/r.log" | grep -qv ' rtu ' && fail "--mix modbus-rtu: a line on another channel"
+
+# 3. Bad options: one line naming the option, exit 2.
+for args in "--frames 0" "--frames 12x" "--frames -5" "--seed abc" "--mix modbus" ""; do
+  err=$("$drivetap" generate $args -o "$work/x.log" 2>&1 >/dev/null); rc=$?
+  [ -z "$args" ] && { err=$("$drivetap" generate 2>&1 >/dev/null); rc=$?; args="(no output)"; }
+  opt=${args%% *}
+  [ "$rc" = 2 ] || fail "generate $args: exit $rc, expected 2"
+  [ "$(wc -l <<<"$err")" = 1 ] || fail "generate $args: more than one line: $err"
+  [[ "$err" == "drivetap: "* ]] || fail "generate $args: stderr was: $err"
+  [ "$opt" = "(no" ] || [[ "$err" == *"$opt"* ]] || fail "generate $args: error does not name $opt: $err"
+done
+err=$("$drivetap" generate -o /nonexistent/dir/x.log 2>&1 >/dev/null); rc=$?
+[ "$rc" = 1 ] && [[ "$err" == "drivetap: -o /nonexistent/dir/x.log: cannot create: "* ]] ||
+  fail "unwritable -o: exit $rc, stderr: $err"
+
+[ $failed = 0 ] && echo "generate: all checks passed"
+exit $failed
