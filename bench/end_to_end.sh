@@ -1,24 +1,24 @@
 #!/usr/bin/env bash
 # End to end against tshark (issue 8): the same Modbus RTU pcapng through `drivetap read` in text,
 # JSON and --stats modes and through tshark (text, -T fields, -q -z io,stat,0), side by side:
-# seconds, frames/s, drivetap's ratio to tshark, peak RSS. Writes bench/RESULTS.md.
+# seconds, packets/s, drivetap's ratio to tshark, peak RSS; then drivetap alone on the realistic
+# mix of the five drive families (tshark decodes neither the FC nor the '~' protocol). One table
+# per size, and drivetap's peak RSS across the sizes. Writes bench/RESULTS.md.
 #
-#   bench/end_to_end.sh [BUILD_DIR] [SIZE_MB]     default: build 45 (about 1 M frames)
+#   bench/end_to_end.sh [BUILD_DIR] [FRAMES...]     default: build 1000000 10000000
 #
-# The capture comes from bench/gen_bytelog.py (random register reads of several stations; to be
-# replaced by the multi-family generator), written to pcapng by drivetap itself.
+# The captures come from `drivetap generate` (README "drivetap generate"): --mix modbus-rtu for
+# the comparison, --mix all for the mix, seed 1, written to pcapng by drivetap itself. A 10 M
+# capture is about 4 GB (5 GB for the mix) in $TMPDIR; tshark needs about 3 GB of memory for it.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 build=${1:-$root/build}
-size=${2:-45}
+shift || true
+sizes=("$@")
+[ ${#sizes[@]} -gt 0 ] || sizes=(1000000 10000000)
 drivetap="$build/drivetap"
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
-
-python3 "$root/bench/gen_bytelog.py" "$size" "$work/bus.log" >/dev/null
-"$drivetap" read --drive none --stats -w "$work/bus.pcapng" "$work/bus.log" >/dev/null
-packets=$(tshark -r "$work/bus.pcapng" -q -z io,stat,0 2>/dev/null |
-          sed -n 's/^| *0\.0 <> [0-9.]* *| *\([0-9]*\) .*/\1/p')
 
 rows=()
 # measure NAME COMMAND...: wall seconds and peak RSS of one run, output to /dev/null.
@@ -33,35 +33,83 @@ measure() {
   rows+=("$name|$seconds|$rss|$*")
   echo "$name: $seconds s, $((rss / 1024)) MB" >&2
 }
+seconds_of() { for r in "${rows[@]}"; do [ "${r%%|*}" != "$1" ] || cut -d'|' -f2 <<<"$r"; done; }
+rss_of() { for r in "${rows[@]}"; do [ "${r%%|*}" != "$1" ] || cut -d'|' -f3 <<<"$r"; done; }
+# Packets of a generated pcapng: one per frame and one per noise record (its --truth file).
+packets_of() {
+  local total
+  total=$(grep '^"total"' "$1")
+  echo $(($(grep -o '"frames":[0-9]*' <<<"$total" | cut -d: -f2) +
+          $(grep -o '"noise_records":[0-9]*' <<<"$total" | cut -d: -f2)))
+}
 
-measure "tshark text" tshark -r "$work/bus.pcapng"
-measure "tshark -T fields" tshark -r "$work/bus.pcapng" -T fields -e modbus.func_code
-measure "tshark io,stat" tshark -r "$work/bus.pcapng" -q -z io,stat,0
-measure "drivetap text" "$drivetap" read --drive none "$work/bus.pcapng"
-measure "drivetap -T json" "$drivetap" read --drive none -T json "$work/bus.pcapng"
-measure "drivetap --stats" "$drivetap" read --drive none --stats "$work/bus.pcapng"
-measure "drivetap text, drives" "$drivetap" read "$work/bus.pcapng"
-
-seconds_of() { for r in "${rows[@]}"; do [ "${r%%|*}" = "$1" ] && cut -d'|' -f2 <<<"$r"; done; }
+report="$work/RESULTS.md"
 {
   echo "# End-to-end results (bench/end_to_end.sh)"
   echo
   echo "Machine: $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //'), $(nproc) cores;"
-  echo "$(date -u +%Y-%m-%d); capture: $packets packets (bench/gen_bytelog.py $size MB, as pcapng"
-  echo "$(du -m "$work/bus.pcapng" | cut -f1) MB); drivetap $(git -C "$root" rev-parse --short HEAD)."
+  echo "$(date -u +%Y-%m-%d); drivetap $(git -C "$root" rev-parse --short HEAD); captures from"
+  echo "\`drivetap generate --seed 1\` (Modbus RTU only for the comparison with tshark; all links for the mix)."
+} >"$report"
+
+stats_rss=()
+for frames in "${sizes[@]}"; do
+  rows=()
+  echo "== $frames frames" >&2
+  measure "generate --mix modbus-rtu" "$drivetap" generate --mix modbus-rtu --frames "$frames" \
+    -w "$work/bus.pcapng" --truth "$work/bus.json"
+  packets=$(packets_of "$work/bus.json")
+  size_mb=$(du -m "$work/bus.pcapng" | cut -f1)
+  measure "tshark text" tshark -r "$work/bus.pcapng"
+  measure "tshark -T fields" tshark -r "$work/bus.pcapng" -T fields -e modbus.func_code
+  measure "tshark io,stat" tshark -r "$work/bus.pcapng" -q -z io,stat,0
+  measure "drivetap text" "$drivetap" read --drive none "$work/bus.pcapng"
+  measure "drivetap -T json" "$drivetap" read --drive none -T json "$work/bus.pcapng"
+  measure "drivetap --stats" "$drivetap" read --drive none --stats "$work/bus.pcapng"
+  measure "drivetap text, drives" "$drivetap" read "$work/bus.pcapng"
+  rm -f "$work/bus.pcapng"
+  measure "generate --mix all" "$drivetap" generate --frames "$frames" -w "$work/mix.pcapng" \
+    --truth "$work/mix.json"
+  mix_packets=$(packets_of "$work/mix.json")
+  mix_mb=$(du -m "$work/mix.pcapng" | cut -f1)
+  measure "drivetap text, mix, drives" "$drivetap" read "$work/mix.pcapng"
+  rm -f "$work/mix.pcapng"
+  stats_rss+=("$frames:$(rss_of 'drivetap --stats'):$(rss_of 'drivetap text, drives'):$(rss_of 'tshark text')")
+  {
+    echo
+    echo "## $frames frames"
+    echo
+    echo "Modbus RTU capture: $packets packets, $size_mb MB of pcapng; the mix: $mix_packets packets,"
+    echo "$mix_mb MB (generation seconds and memory in the \`generate\` rows)."
+    echo
+    echo "| run | seconds | packets/s | peak RSS MB | vs tshark | command |"
+    echo "|---|---|---|---|---|---|"
+    for r in "${rows[@]}"; do
+      IFS='|' read -r name seconds rss cmd <<<"$r"
+      p=$packets
+      case $name in *mix*) p=$mix_packets ;; esac
+      rate=$(awk -v p="$p" -v s="$seconds" 'BEGIN { printf "%.0f", (s > 0 ? p / s : 0) }')
+      ratio=""
+      case $name in
+        "drivetap text" | "drivetap text, drives") ratio=$(awk -v a="$(seconds_of 'tshark text')" -v b="$seconds" 'BEGIN { printf "%.1fx text", a / b }') ;;
+        "drivetap -T json") ratio=$(awk -v a="$(seconds_of 'tshark -T fields')" -v b="$seconds" 'BEGIN { printf "%.1fx fields", a / b }') ;;
+        "drivetap --stats") ratio=$(awk -v a="$(seconds_of 'tshark io,stat')" -v b="$seconds" 'BEGIN { printf "%.1fx io,stat", a / b }') ;;
+      esac
+      echo "| $name | $seconds | $rate | $((rss / 1024)) | $ratio | \`${cmd//$work\//}\` |"
+    done
+  } >>"$report"
+done
+
+{
   echo
-  echo "| run | seconds | packets/s | peak RSS MB | vs tshark | command |"
-  echo "|---|---|---|---|---|---|"
-  for r in "${rows[@]}"; do
-    IFS='|' read -r name seconds rss cmd <<<"$r"
-    rate=$(awk -v p="$packets" -v s="$seconds" 'BEGIN { printf "%.0f", (s > 0 ? p / s : 0) }')
-    ratio=""
-    case $name in
-      "drivetap text"*) ratio=$(awk -v a="$(seconds_of 'tshark text')" -v b="$seconds" 'BEGIN { printf "%.1fx text", a / b }') ;;
-      "drivetap -T json") ratio=$(awk -v a="$(seconds_of 'tshark -T fields')" -v b="$seconds" 'BEGIN { printf "%.1fx fields", a / b }') ;;
-      "drivetap --stats") ratio=$(awk -v a="$(seconds_of 'tshark io,stat')" -v b="$seconds" 'BEGIN { printf "%.1fx io,stat", a / b }') ;;
-    esac
-    echo "| $name | $seconds | $rate | $((rss / 1024)) | $ratio | \`${cmd//$work\//}\` |"
+  echo "## Memory across sizes"
+  echo
+  echo "Peak RSS in MB, drivetap read --stats / drivetap read with drives / tshark text:"
+  echo
+  for s in "${stats_rss[@]}"; do
+    IFS=: read -r frames a b c <<<"$s"
+    echo "- $frames frames: $((a / 1024)) / $((b / 1024)) / $((c / 1024))"
   done
-} >"$root/bench/RESULTS.md"
+} >>"$report"
+cp "$report" "$root/bench/RESULTS.md"
 cat "$root/bench/RESULTS.md"
