@@ -410,24 +410,25 @@ class Link {
 
   // Changes one byte in [from, to) (one bit flipped); a parity mark on it when `parity`.
   // `ambiguous` says when the damage would let the framer cut the frame elsewhere: then another
-  // byte or bit is tried.
+  // byte or bit is tried, and when none will do (a valid CRC inside the frame that no change in
+  // the range breaks) the frame goes out undamaged.
   template <typename Check>
   void corrupt_binary(Record& r, std::size_t from, std::size_t to, bool parity, Check ambiguous) {
     const Bytes original = r.bytes;
-    for (int attempt = 0;; ++attempt) {
-      r.bytes = original;
+    for (int attempt = 0; attempt < 64; ++attempt) {
       const std::size_t i = from + rng_.below(static_cast<std::uint32_t>(to - from));
       r.bytes[i] ^= static_cast<std::uint8_t>(1u << rng_.below(8));
-      if (!ambiguous(r.bytes) || attempt == 64) {
+      if (!ambiguous(r.bytes)) {
         if (parity) {
           r.flags[i] = kUartParityError;
           r.parity_errors = 1;
         }
-        break;
+        r.checksum = ChecksumVerdict::bad;
+        r.note = parity ? "parity error: byte changed" : "checksum error: byte changed";
+        return;
       }
+      r.bytes = original;
     }
-    r.checksum = ChecksumVerdict::bad;
-    r.note = parity ? "parity error: byte changed" : "checksum error: byte changed";
   }
 
   // Changes one hex character in [from, to) into another hex character.
@@ -688,10 +689,12 @@ class FcLink final : public Link {
   }
 
  private:
+  // One byte of PCD1, PCD2 or the BCC changed (never LGE, ADR or the parameter block's AK).
   void damage(Record& r) {
-    corrupt_binary(r, 3, r.bytes.size(), false, [](std::span<const std::uint8_t> b) {
-      return danfoss_fc::bcc(b.first(b.size() - 1)) == b.back() || fc_inner_telegram(b);
-    });
+    corrupt_binary(
+        r, r.bytes.size() - 5, r.bytes.size(), false, [](std::span<const std::uint8_t> b) {
+          return danfoss_fc::bcc(b.first(b.size() - 1)) == b.back() || fc_inner_telegram(b);
+        });
   }
   DriveState drives_[2];
   std::size_t next_ = 0;
