@@ -5,7 +5,8 @@
 // bench/README.md has the command and the figures.
 //
 //   BM_Crc16 / BM_Lrc / BM_Bcc       the checksums on 1 KiB .. 1 MiB of random bytes
-//   BM_RtuFramer                     the Modbus RTU framer on the ByteEvents of polling traffic
+//   BM_RtuFramer/1, /4096            the Modbus RTU framer on the ByteEvents of polling traffic,
+//                                    one event per call or runs of 4096 (push_all)
 //   BM_Dissect_<protocol>            each dissector on valid frames (the Frame copy included)
 //   BM_DriveAnnotate                 read_for_drive with the E-9 profile on the RTU traffic
 //   BM_Pipeline_RtuNoDrives          the whole pipeline (framer, dissector, pairing), no profiles
@@ -17,11 +18,13 @@
 // DRIVETAP_BENCH_SMOKE=1 makes every input small.
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <memory>
 #include <random>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -203,8 +206,11 @@ const Traffic& rtu_traffic() {
   return t;
 }
 
-// Per iteration: a fresh framer from decoder_for(modbus_rtu) re-frames the whole byte log.
+// Per iteration: a fresh framer from decoder_for(modbus_rtu) re-frames the whole byte log,
+// handed over in runs of state.range(0) events (Framer::push_all, as a reader's buffer would),
+// or one event at a time with range 1 (Framer::push, what the pipeline does).
 void BM_RtuFramer(benchmark::State& state) {
+  const std::size_t run = static_cast<std::size_t>(state.range(0));
   const Traffic& t = rtu_traffic();
   const ProtocolDecoder* decoder = decoder_for(Protocol::modbus_rtu);
   FramerSettings settings;
@@ -222,9 +228,16 @@ void BM_RtuFramer(benchmark::State& state) {
       }
       out.clear();
     };
-    for (const ByteEvent& e : t.events) {
-      framer->push(e, out);
-      if (!out.empty()) drain();
+    if (run == 1) {
+      for (const ByteEvent& e : t.events) {
+        framer->push(e, out);
+        if (!out.empty()) drain();
+      }
+    } else {
+      for (std::size_t i = 0; i < t.events.size(); i += run) {
+        framer->push_all(std::span(t.events).subspan(i, std::min(run, t.events.size() - i)), out);
+        drain();
+      }
     }
     framer->finish(out);
     drain();
@@ -604,7 +617,7 @@ BENCHMARK(BM_Crc16)->Apply(buffer_sizes);
 BENCHMARK(BM_Crc16_Bytewise)->Apply(buffer_sizes);
 BENCHMARK(BM_Lrc)->Apply(buffer_sizes);
 BENCHMARK(BM_Bcc)->Apply(buffer_sizes);
-BENCHMARK(BM_RtuFramer)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_RtuFramer)->Arg(1)->Arg(64)->Arg(4096)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_Dissect_ModbusRtu)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_Dissect_ModbusAscii)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_Dissect_DanfossFc)->Unit(benchmark::kMicrosecond);

@@ -260,3 +260,62 @@ TEST(RtuFramer, EveryByteAccountedForUnderRandomNoise) {
   EXPECT_EQ(seen, all);
   EXPECT_EQ(intact, good_frames);
 }
+
+TEST(RtuFramer, PushAllGivesTheFramesOfPushingOneByOne) {
+  // Framer::push_all appends runs without silence in bulk; it must cut exactly where push()
+  // does: silences of every length, one-stamp bursts, noise, UART marks, and the pressure mark
+  // (set low so that runs meet it).
+  std::mt19937 rng(2026);
+  const FramingTiming timing = FramingTiming::from(k9600);
+  const TimeNs gaps[] = {
+      0, kChar / 2, timing.t15 + 1, timing.t35 - 1, timing.t35 + 1, 5 * kNsPerMs, 200 * kNsPerMs};
+  std::vector<ByteEvent> events;
+  TimeNs clock = 0;
+  for (int i = 0; i < 3000; ++i) {
+    std::vector<std::uint8_t> bytes = (i % 2) ? kReply : kRequest;
+    if (rng() % 5 == 0) bytes.resize(1 + rng() % bytes.size());  // cut short
+    if (rng() % 4 == 0)
+      for (std::size_t k = 0; k < 1 + rng() % 4; ++k)
+        bytes.push_back(static_cast<std::uint8_t>(rng()));
+    const bool one_stamp = rng() % 6 == 0;
+    const std::uint8_t flags = rng() % 20 == 0 ? kUartParityError : 0;
+    const TimeNs first = clock;
+    for (std::uint8_t b : bytes) {
+      events.push_back(ByteEvent{one_stamp ? first : clock, b, flags, 0});
+      clock += kChar + (rng() % 10 == 0 ? gaps[rng() % 4] : 0);
+    }
+    clock += gaps[rng() % std::size(gaps)];
+    if (i % 500 == 499) {
+      // A long run with no silence at all, past the pressure mark and the longest frame.
+      for (int k = 0; k < 600; ++k) {
+        events.push_back(ByteEvent{clock, static_cast<std::uint8_t>(rng()), 0, 0});
+        clock += kChar;
+      }
+    }
+  }
+  const RtuFramerOptions options{timing, 100 * kNsPerMs, 64};
+  RtuFramer one_by_one(0, options), in_runs(0, options);
+  std::vector<Frame> expected, got;
+  for (const ByteEvent& e : events) one_by_one.push(e, expected);
+  one_by_one.finish(expected);
+  for (std::size_t i = 0; i < events.size();) {
+    const std::size_t run = std::min<std::size_t>(1 + rng() % 300, events.size() - i);
+    in_runs.push_all(std::span(events).subspan(i, run), got);
+    i += run;
+  }
+  in_runs.finish(got);
+  ASSERT_EQ(got.size(), expected.size());
+  std::size_t telegrams = 0;
+  for (std::size_t i = 0; i < got.size(); ++i) {
+    SCOPED_TRACE(i);
+    EXPECT_EQ(got[i].bytes(), expected[i].bytes());
+    EXPECT_EQ(got[i].kind, expected[i].kind);
+    EXPECT_EQ(got[i].close, expected[i].close);
+    EXPECT_EQ(got[i].gap_before, expected[i].gap_before);
+    EXPECT_EQ(got[i].max_intra_gap, expected[i].max_intra_gap);
+    telegrams += got[i].kind == FrameKind::telegram;
+  }
+  // The stream exercises every path: telegrams, noise, and closes by silence and by content.
+  EXPECT_GT(telegrams, 1000u);
+  EXPECT_LT(telegrams, got.size());
+}

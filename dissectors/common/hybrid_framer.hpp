@@ -68,13 +68,20 @@ class HybridFrameRules {
   }
 };
 
+// `Rules` is a final HybridFrameRules: the framer asks it several questions per frame, and knowing
+// the type turns those into direct (inlinable) calls. The member definitions are in
+// hybrid_framer_impl.hpp, instantiated once per protocol in that protocol's framer source.
+template <class Rules>
 class HybridFramer final : public Framer {
  public:
   // `rules` must outlive the framer (decoders keep them as static objects).
-  HybridFramer(ChannelId channel, HybridFramerOptions options, const HybridFrameRules& rules);
+  HybridFramer(ChannelId channel, HybridFramerOptions options, const Rules& rules);
 
   // Adds one byte; frames that it completes are appended to `out`.
   void push(const ByteEvent& event, std::vector<Frame>& out) override;
+  // The same, a run at a time: bytes that close nothing (no silence before them, no pressure)
+  // are appended in bulk.
+  void push_all(std::span<const ByteEvent> events, std::vector<Frame>& out) override;
   // Time has reached `now` on the bus; closes what silence or the hold limit has completed.
   void advance(TimeNs now, std::vector<Frame>& out) override;
   // End of input: everything pending becomes frames or noise.
@@ -100,7 +107,7 @@ class HybridFramer final : public Framer {
 
   ChannelId channel_;
   HybridFramerOptions options_;
-  const HybridFrameRules& rules_;
+  const Rules& rules_;
   std::vector<ByteEvent> pending_;
   std::vector<std::uint8_t> pending_bytes_;
   std::vector<std::size_t> hard_;  // indices in pending_ preceded by silence > t3.5

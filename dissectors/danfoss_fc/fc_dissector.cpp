@@ -4,6 +4,7 @@
 #include <fmt/format.h>
 
 #include "core/cursor.hpp"
+#include "dissectors/common/hybrid_framer_impl.hpp"
 #include "dissectors/danfoss_fc/fc_fields.hpp"
 
 namespace drivetap::danfoss_fc {
@@ -263,7 +264,7 @@ std::unique_ptr<Framer> FcDecoder::make_framer(ChannelId channel, const FramerSe
   HybridFramerOptions o;
   o.timing = s.timing;
   o.max_hold = s.max_hold;
-  return std::make_unique<HybridFramer>(channel, o, rules);
+  return std::make_unique<HybridFramer<FcRules>>(channel, o, rules);
 }
 
 DirectionFit FcDecoder::direction_fit(std::span<const std::uint8_t> frame) const {
@@ -293,3 +294,5 @@ ProtocolDecoder::PairingKeys FcDecoder::pairing_keys(std::span<const std::uint8_
 }
 
 }  // namespace drivetap::danfoss_fc
+
+template class drivetap::HybridFramer<drivetap::danfoss_fc::FcRules>;

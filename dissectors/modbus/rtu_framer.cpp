@@ -2,6 +2,7 @@
 #include "dissectors/modbus/rtu_framer.hpp"
 
 #include "core/checksum.hpp"
+#include "dissectors/common/hybrid_framer_impl.hpp"
 #include "dissectors/modbus/modbus_pdu.hpp"
 
 namespace drivetap::modbus {
@@ -56,3 +57,5 @@ std::size_t RtuRules::scan_unknown_layout(std::span<const std::uint8_t> from,
 }
 
 }  // namespace drivetap::modbus
+
+template class drivetap::HybridFramer<drivetap::modbus::RtuRules>;

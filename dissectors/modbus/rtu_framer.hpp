@@ -35,13 +35,19 @@ class RtuFramer final : public Framer {
  public:
   RtuFramer(ChannelId channel, RtuFramerOptions options) : framer_(channel, options, rules()) {}
   void push(const ByteEvent& e, std::vector<Frame>& out) override { framer_.push(e, out); }
+  void push_all(std::span<const ByteEvent> events, std::vector<Frame>& out) override {
+    framer_.push_all(events, out);
+  }
   void advance(TimeNs now, std::vector<Frame>& out) override { framer_.advance(now, out); }
   void finish(std::vector<Frame>& out) override { framer_.finish(out); }
   [[nodiscard]] TimeNs next_deadline() const override { return framer_.next_deadline(); }
   static const RtuRules& rules();
 
  private:
-  HybridFramer framer_;
+  HybridFramer<RtuRules> framer_;
 };
 
 }  // namespace drivetap::modbus
+
+// Instantiated in rtu_framer.cpp, next to the rules it inlines.
+extern template class drivetap::HybridFramer<drivetap::modbus::RtuRules>;

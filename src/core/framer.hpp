@@ -5,6 +5,7 @@
 // advance() tells it that time has passed with no byte, finish() that the input ended.
 #pragma once
 
+#include <span>
 #include <vector>
 
 #include "core/byte_event.hpp"
@@ -18,6 +19,11 @@ class Framer {
   virtual ~Framer() = default;
   // Adds one byte; frames it completes are appended to `out`.
   virtual void push(const ByteEvent& event, std::vector<Frame>& out) = 0;
+  // Adds bytes in order: exactly the frames of push() on each in turn. Framers that can take a
+  // run of bytes at once (no virtual call, no decision per byte) override it.
+  virtual void push_all(std::span<const ByteEvent> events, std::vector<Frame>& out) {
+    for (const ByteEvent& e : events) push(e, out);
+  }
   // Time has reached `now`; closes what silence or a hold limit has completed.
   virtual void advance(TimeNs now, std::vector<Frame>& out) = 0;
   // End of input: everything pending becomes frames or noise.

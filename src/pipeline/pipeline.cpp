@@ -105,7 +105,7 @@ Score score(const ProtocolDecoder& d, ChannelId channel, const std::vector<ByteE
   Score s{&d, 0, 0};
   auto framer = d.make_framer(channel, {options.timing, options.max_hold});
   std::vector<Frame> out;
-  for (const ByteEvent& e : held) framer->push(e, out);
+  framer->push_all(held, out);
   framer->finish(out);
   for (Frame& f : out) {
     if (f.kind != FrameKind::telegram) continue;
@@ -169,7 +169,7 @@ void Pipeline::detect(ChannelState& st, ChannelId channel, bool final) {
   st.framer = chosen->make_framer(channel, {options_.timing, options_.max_hold});
   std::vector<ByteEvent> held;
   held.swap(st.held);
-  for (const ByteEvent& e : held) st.framer->push(e, ready_);
+  st.framer->push_all(held, ready_);
   // Time has moved on while the bytes were held: let silence close what it closed meanwhile.
   st.framer->advance(latest_time_, ready_);
   earliest_deadline_ = std::min(earliest_deadline_, st.framer->next_deadline());

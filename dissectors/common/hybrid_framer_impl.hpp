@@ -1,5 +1,8 @@
-// Hybrid framer: silence proposes boundaries, length rules and checksums confirm them
-// (PROTOCOLS.md §1; algorithm in hybrid_framer.hpp).
+// Hybrid framer's member definitions: silence proposes boundaries, length rules and checksums
+// confirm them (PROTOCOLS.md §1; algorithm in hybrid_framer.hpp). Included only by the sources
+// that instantiate HybridFramer<Rules> (rtu_framer.cpp, fc_dissector.cpp).
+#pragma once
+
 #include "dissectors/common/hybrid_framer.hpp"
 
 #include <algorithm>
@@ -7,11 +10,13 @@
 
 namespace drivetap {
 
-HybridFramer::HybridFramer(ChannelId channel, HybridFramerOptions options,
-                           const HybridFrameRules& rules)
+template <class Rules>
+HybridFramer<Rules>::HybridFramer(ChannelId channel, HybridFramerOptions options,
+                                  const Rules& rules)
     : channel_(channel), options_(options), rules_(rules) {}
 
-void HybridFramer::push(const ByteEvent& event, std::vector<Frame>& out) {
+template <class Rules>
+void HybridFramer<Rules>::push(const ByteEvent& event, std::vector<Frame>& out) {
   if (!pending_.empty() || have_emitted_) {
     const TimeNs gap = event.time - last_end_;
     if (gap > options_.timing.t35) {
@@ -26,13 +31,51 @@ void HybridFramer::push(const ByteEvent& event, std::vector<Frame>& out) {
   if (pending_.size() >= options_.pressure_bytes) process(Mode::pressure, event.time, out);
 }
 
-TimeNs HybridFramer::next_deadline() const {
+template <class Rules>
+void HybridFramer<Rules>::push_all(std::span<const ByteEvent> events, std::vector<Frame>& out) {
+  const TimeNs t35 = options_.timing.t35;
+  const TimeNs character_time = options_.timing.character_time;
+  std::size_t i = 0;
+  // Every pass pushes at least the byte at i.
+  while (i < events.size()) {
+    // The byte that may close something goes the single-byte way.
+    push(events[i], out);
+    ++i;
+    // After it, pending_ holds bytes or something was emitted, so push() would test the gap of
+    // every following byte: a run with no silence > t3.5 and below the pressure mark closes
+    // nothing and only needs appending.
+    const std::size_t room = pending_.size() + 1 < options_.pressure_bytes
+                                 ? options_.pressure_bytes - 1 - pending_.size()
+                                 : 0;
+    const std::size_t run_begin = i;
+    TimeNs end = last_end_;
+    while (i < events.size() && i - run_begin < room && events[i].time - end <= t35) {
+      end = std::max(end, events[i].time + character_time);
+      ++i;
+    }
+    if (i == run_begin) continue;
+    const auto first = events.begin() + static_cast<std::ptrdiff_t>(run_begin);
+    const auto last = events.begin() + static_cast<std::ptrdiff_t>(i);
+    pending_.insert(pending_.end(), first, last);
+    const std::size_t old_size = pending_bytes_.size();
+    pending_bytes_.resize(old_size + (i - run_begin));
+    // Through a local span: a byte store could alias the vector's own pointers, which would
+    // then be reloaded for every byte.
+    const std::span<std::uint8_t> to = std::span(pending_bytes_).subspan(old_size);
+    for (std::size_t k = 0; k < to.size(); ++k) to[k] = events[run_begin + k].byte;
+    last_end_ = end;
+  }
+}
+
+template <class Rules>
+TimeNs HybridFramer<Rules>::next_deadline() const {
   if (pending_.empty()) return std::numeric_limits<TimeNs>::max();
   if (!processed_since_last_byte_) return last_end_ + options_.timing.t35 + 1;
   return pending_.front().time + options_.max_hold + 1;
 }
 
-void HybridFramer::advance(TimeNs now, std::vector<Frame>& out) {
+template <class Rules>
+void HybridFramer<Rules>::advance(TimeNs now, std::vector<Frame>& out) {
   if (pending_.empty()) return;
   if (!processed_since_last_byte_) {
     if (now - last_end_ > options_.timing.t35) {
@@ -44,17 +87,20 @@ void HybridFramer::advance(TimeNs now, std::vector<Frame>& out) {
   if (now - pending_.front().time > options_.max_hold) process(Mode::flush, now, out);
 }
 
-void HybridFramer::finish(std::vector<Frame>& out) {
+template <class Rules>
+void HybridFramer<Rules>::finish(std::vector<Frame>& out) {
   if (!pending_.empty()) process(Mode::end_of_input, last_end_, out);
 }
 
-bool HybridFramer::checksum_matches(std::size_t p, std::size_t len) const {
+template <class Rules>
+bool HybridFramer<Rules>::checksum_matches(std::size_t p, std::size_t len) const {
   if (len < rules_.min_frame() || p + len > pending_bytes_.size()) return false;
   return rules_.checksum_matches(std::span(pending_bytes_).subspan(p, len));
 }
 
-void HybridFramer::predicted_lengths(std::size_t p, std::size_t n, std::size_t out[2],
-                                     bool* needs_more) const {
+template <class Rules>
+void HybridFramer<Rules>::predicted_lengths(std::size_t p, std::size_t n, std::size_t out[2],
+                                            bool* needs_more) const {
   out[0] = out[1] = 0;
   *needs_more = false;
   std::size_t candidates[2] = {0, 0};
@@ -67,7 +113,8 @@ void HybridFramer::predicted_lengths(std::size_t p, std::size_t n, std::size_t o
   }
 }
 
-std::size_t HybridFramer::good_frame_at(std::size_t p, std::size_t limit) const {
+template <class Rules>
+std::size_t HybridFramer<Rules>::good_frame_at(std::size_t p, std::size_t limit) const {
   std::size_t lengths[2];
   bool needs_more = false;
   predicted_lengths(p, limit, lengths, &needs_more);
@@ -76,33 +123,39 @@ std::size_t HybridFramer::good_frame_at(std::size_t p, std::size_t limit) const 
   return 0;
 }
 
-std::size_t HybridFramer::first_good_start(std::size_t from, std::size_t to) const {
+template <class Rules>
+std::size_t HybridFramer<Rules>::first_good_start(std::size_t from, std::size_t to) const {
   const std::size_t n = pending_bytes_.size();
   for (std::size_t q = from; q < to; ++q)
     if (good_frame_at(q, n) != 0) return q;
   return to;
 }
 
-std::size_t HybridFramer::next_hard_boundary(std::size_t p) const {
+template <class Rules>
+std::size_t HybridFramer<Rules>::next_hard_boundary(std::size_t p) const {
   auto it = std::upper_bound(hard_.begin(), hard_.end(), p);
   return it == hard_.end() ? pending_.size() : *it;
 }
 
-TimeNs HybridFramer::silence_before(std::size_t index) const {
+template <class Rules>
+TimeNs HybridFramer<Rules>::silence_before(std::size_t index) const {
   if (index == 0 || index >= pending_.size()) return 0;
   return pending_[index].time - (pending_[index - 1].time + options_.timing.character_time);
 }
 
-bool HybridFramer::is_hard_boundary(std::size_t index) const {
+template <class Rules>
+bool HybridFramer<Rules>::is_hard_boundary(std::size_t index) const {
   return std::binary_search(hard_.begin(), hard_.end(), index);
 }
 
-bool HybridFramer::looks_like_frame_start(std::size_t p) const {
+template <class Rules>
+bool HybridFramer<Rules>::looks_like_frame_start(std::size_t p) const {
   return rules_.looks_like_frame_start(std::span(pending_bytes_).subspan(p));
 }
 
-void HybridFramer::emit(std::size_t p, std::size_t len, FrameKind kind, FrameClose close,
-                        std::vector<Frame>& out) {
+template <class Rules>
+void HybridFramer<Rules>::emit(std::size_t p, std::size_t len, FrameKind kind, FrameClose close,
+                               std::vector<Frame>& out) {
   Frame f;
   f.kind = kind;
   f.channel = channel_;
@@ -113,7 +166,8 @@ void HybridFramer::emit(std::size_t p, std::size_t len, FrameKind kind, FrameClo
   out.push_back(std::move(f));
 }
 
-void HybridFramer::process(Mode mode, TimeNs now, std::vector<Frame>& out) {
+template <class Rules>
+void HybridFramer<Rules>::process(Mode mode, TimeNs now, std::vector<Frame>& out) {
   const std::size_t n = pending_.size();
   const bool end_is_boundary = mode != Mode::pressure;
   const bool may_hold = mode == Mode::silence || mode == Mode::pressure;
