@@ -8,6 +8,8 @@
 //   BM_RtuFramer/1, /4096            the Modbus RTU framer on the ByteEvents of polling traffic,
 //                                    one event per call or runs of 4096 (push_all)
 //   BM_Dissect_<protocol>            each dissector on valid frames (the Frame copy included)
+//   BM_Framer_<protocol>             the Modbus ASCII, FC and Easydrive framers on those frames
+//   BM_Pairer                        pairing the RTU traffic's dissected requests and replies
 //   BM_DriveAnnotate                 read_for_drive with the E-9 profile on the RTU traffic
 //   BM_Pipeline_RtuNoDrives          the whole pipeline (framer, dissector, pairing), no profiles
 //   BM_Pipeline_RtuAutoDrives        the same with every built-in profile as --drive auto candidate
@@ -34,6 +36,7 @@
 #include "core/protocol.hpp"
 #include "dissectors/danfoss_fc/fc_dissector.hpp"
 #include "dissectors/easydrive/eds_dissector.hpp"
+#include "pipeline/pairer.hpp"
 #include "pipeline/pipeline.hpp"
 #include "profiles/annotate.hpp"
 #include "profiles/profile.hpp"
@@ -386,6 +389,110 @@ void BM_Dissect_Easydrive(benchmark::State& state) {
   run_dissect(state, Protocol::easydrive, eds_set());
 }
 
+// ---- The other framers and pairing ------------------------------------------------------------
+
+// Per iteration: a fresh framer from decoder_for(protocol) re-frames the byte events of a
+// DissectSet's frames, each followed by 5 characters of silence, a push per byte as the pipeline
+// does.
+void run_framer(benchmark::State& state, Protocol protocol, const DissectSet& set) {
+  const ProtocolDecoder* decoder = decoder_for(protocol);
+  const TimeNs ct = set.timing.character_time;
+  std::vector<ByteEvent> events;
+  TimeNs now = 0;
+  for (const DissectCase& c : set.cases) {
+    for (const ByteEvent& e : c.frame.events) {
+      events.push_back({now, e.byte, 0, 0, 0});
+      now += ct;
+    }
+    now += 5 * ct;
+  }
+  FramerSettings settings;
+  settings.timing = set.timing;
+  std::vector<Frame> out;
+  std::uint64_t telegrams = 0, noise = 0, bytes = 0;
+  for (auto _ : state) {
+    telegrams = noise = bytes = 0;
+    auto framer = decoder->make_framer(0, settings);
+    auto drain = [&] {
+      for (const Frame& f : out) {
+        (f.kind == FrameKind::telegram ? telegrams : noise) += 1;
+        bytes += f.size();
+      }
+      out.clear();
+    };
+    for (const ByteEvent& e : events) {
+      framer->push(e, out);
+      if (!out.empty()) drain();
+    }
+    framer->finish(out);
+    drain();
+  }
+  if (telegrams != set.cases.size() || noise != 0 || bytes != set.bytes)
+    fail(fmt::format("{} framer: {} telegrams, {} noise, {} bytes of {} frames, {} bytes",
+                     protocol_id(protocol), telegrams, noise, bytes, set.cases.size(), set.bytes));
+  count_frames(state, set.cases.size(), set.bytes);
+}
+
+void BM_Framer_ModbusAscii(benchmark::State& state) {
+  run_framer(state, Protocol::modbus_ascii, ascii_set());
+}
+void BM_Framer_DanfossFc(benchmark::State& state) {
+  run_framer(state, Protocol::danfoss_fc, fc_set());
+}
+void BM_Framer_Easydrive(benchmark::State& state) {
+  run_framer(state, Protocol::easydrive, eds_set());
+}
+
+// Per iteration: a fresh Pairer pairs the RTU traffic's messages (framed and dissected once,
+// request and reply in turn, as on the bus), draining its transactions as they come.
+void BM_Pairer(benchmark::State& state) {
+  const Traffic& t = rtu_traffic();
+  const ProtocolDecoder* decoder = decoder_for(Protocol::modbus_rtu);
+  std::vector<Frame> frames;
+  {
+    FramerSettings settings;
+    settings.timing = t.timing;
+    auto framer = decoder->make_framer(0, settings);
+    framer->push_all(t.events, frames);
+    framer->finish(frames);
+  }
+  std::vector<Message> messages;
+  messages.reserve(frames.size());
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    const bool reply = i % 2 == 1;
+    Message m = decoder->dissect(std::move(frames[i]),
+                                 reply ? Direction::response : Direction::request, t.timing,
+                                 reply ? std::span<const std::uint8_t>(messages.back().bytes)
+                                       : std::span<const std::uint8_t>());
+    m.frame.number = i + 1;
+    messages.push_back(std::move(m));
+  }
+  const PairerOptions options{kNsPerSecond, t.timing.character_time, 64};
+  std::vector<Transaction> out;
+  std::uint64_t transactions = 0, ok = 0;
+  for (auto _ : state) {
+    transactions = ok = 0;
+    Pairer pairer(options);
+    auto drain = [&] {
+      for (const Transaction& tr : out) {
+        ++transactions;
+        ok += tr.outcome == Outcome::ok;
+      }
+      out.clear();
+    };
+    for (Message& m : messages) {
+      pairer.add(0, m, out);
+      if (!out.empty()) drain();
+    }
+    pairer.finish(out);
+    drain();
+  }
+  if (transactions != t.frames.size() / 2 || ok != transactions)
+    fail(fmt::format("pairer: {} transactions ({} ok) of {} request/reply pairs", transactions, ok,
+                     t.frames.size() / 2));
+  count_frames(state, t.frames.size(), t.bytes);
+}
+
 // ---- Pipeline ---------------------------------------------------------------------------------
 
 struct CountingSink final : Sink {
@@ -622,6 +729,10 @@ BENCHMARK(BM_Dissect_ModbusRtu)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_Dissect_ModbusAscii)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_Dissect_DanfossFc)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_Dissect_Easydrive)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_Framer_ModbusAscii)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_Framer_DanfossFc)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_Framer_Easydrive)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_Pairer)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_DriveAnnotate)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_Pipeline_RtuNoDrives)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_Pipeline_RtuAutoDrives)->Unit(benchmark::kMicrosecond);
