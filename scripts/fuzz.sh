@@ -6,7 +6,7 @@
 #   bash scripts/fuzz.sh 120 pcapng byte_log
 #
 # Targets: byte_log pcapng pcap rtu_framer modbus_pdu upper_pdu_link modbus_ascii danfoss_fc
-# easydrive vcd (the "fuzz_" prefix is
+# easydrive vcd sigrok profile (the "fuzz_" prefix is
 # optional). Per target: working corpus build-fuzz/corpus/<target> (kept between runs), seeds
 # build-fuzz/seeds/<target> (remade each run), crash artifacts build-fuzz/artifacts/<target>/,
 # libFuzzer's log build-fuzz/logs/<target>.log. Reproducers saved under
@@ -29,7 +29,8 @@ if ! [[ "$seconds" =~ ^[0-9]+$ ]] || [ "$seconds" -eq 0 ]; then
   echo "usage: bash scripts/fuzz.sh [SECONDS_PER_TARGET] [TARGET...]" >&2
   exit 2
 fi
-all_targets=(byte_log pcapng pcap rtu_framer modbus_pdu upper_pdu_link modbus_ascii danfoss_fc easydrive vcd)
+all_targets=(byte_log pcapng pcap rtu_framer modbus_pdu upper_pdu_link modbus_ascii danfoss_fc easydrive vcd
+  sigrok profile)
 targets=()
 for t in "$@"; do
   t=${t#fuzz_}
@@ -145,6 +146,29 @@ make_seeds() {
     '$comment initial values $end' '#0' '$dumpvars' '0!' 'bxxxxxxxx "' 'z#a' 'r0.5 $' '$end' \
     '#1500' '1!' 'b1010 "' '1#a' '#3000' '0!' 'x#a' '$dumpoff' 'x!' '$end' '#4500' '$dumpon' \
     '1!' '0#a' '$end' '#6000' > "$seeds/vcd/simulator.vcd"
+  # sigrok sessions as they are (a zip: first byte 'P', even, so read raw), and each as the
+  # recipe fuzz/fuzz_sigrok.cpp zips itself: mode byte, metadata, NUL, the first 4 KiB of samples.
+  local sr chunk
+  for sr in $(find captures -name '*.sr' | sort); do
+    name=$(basename "$sr" .sr)
+    cp "$sr" "$seeds/sigrok/$name.sr"
+    chunk=$(unzip -Z1 "$sr" 2> /dev/null | grep -E '^(logic|analog)-1' | sort -V | head -n 1 || true)
+    [ -n "$chunk" ] || continue
+    {
+      case "$chunk" in analog-*) printf '\x05' ;; logic-1) printf '\x03' ;; *) printf '\x01' ;; esac
+      unzip -p "$sr" metadata
+      printf '\0'
+      unzip -p "$sr" "$chunk" | head -c 4096
+    } > "$seeds/sigrok/$name.recipe" 2> /dev/null || true
+  done
+  # Drive profiles: each built-in one alone, and followed by a capture's bytes for its pipeline.
+  local toml
+  for toml in dissectors/profiles/*.toml; do
+    name=$(basename "$toml" .toml)
+    cp "$toml" "$seeds/profile/$name.toml"
+    { cat "$toml"; printf '\0'; cat "$seeds/modbus_pdu/"seed-* 2> /dev/null | head -c 2048; } \
+      > "$seeds/profile/$name-with-frames"
+  done
   # Every telegram of the captures seeds the protocol-decoder targets too.
   for t in modbus_ascii danfoss_fc easydrive; do
     cp "$seeds/modbus_pdu/"* "$seeds/$t/" 2> /dev/null || true
