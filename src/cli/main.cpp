@@ -94,17 +94,20 @@ void add_common_options(CLI::App* cmd, CommonOptions& o) {
                   "frames), rtu (Modbus RTU), ascii (Modbus ASCII), fc (Danfoss FC protocol), "
                   "eds (Easydrive '~' protocol)")
       ->check(CLI::IsMember({"auto", "rtu", "ascii", "fc", "eds"}));
-  cmd->add_option(
-      "--drive", o.drives,
-      "Bind a station address to a drive profile, e.g. 2=e9 (see `drivetap profiles`); "
-      "auto (default): guess each station's family from its traffic; none: no guessing");
+  cmd->add_option("--drive", o.drives,
+                  "Bind a station address to a drive profile, e.g. 2=e9 (see `drivetap profiles`); "
+                  "auto (default): guess each station's family from its traffic; none: no guessing")
+      ->allow_extra_args(false);  // repeatable, one value each: `--drive 2=e9 FILE` keeps FILE
   cmd->add_option("--profile", o.profiles,
-                  "Load a drive profile file (TOML) besides the built-in ones; same id replaces");
-  cmd->add_option("--profile-dir", o.profile_dirs, "Load every *.toml drive profile in DIR");
+                  "Load a drive profile file (TOML) besides the built-in ones; same id replaces")
+      ->allow_extra_args(false);
+  cmd->add_option("--profile-dir", o.profile_dirs, "Load every *.toml drive profile in DIR")
+      ->allow_extra_args(false);
   cmd->add_option("--channels", o.logic_channels,
                   "Logic-analyser captures: the channels to decode as UART, by name or index, "
                   "e.g. RX,TX (default: every channel whose line moves)")
-      ->delimiter(',');
+      ->delimiter(',')
+      ->allow_extra_args(false);
   cmd->add_flag("--invert", o.invert,
                 "Logic-analyser captures, with -s: the line idles low (A/B swapped, RS-232 side); "
                 "without -s polarity and settings are detected");
@@ -272,36 +275,49 @@ class Outputs {
     const bool ok = tee_.flush();
     if (!ok && ring_ && !ring_->error().empty()) die(ring_->error(), 1);
     if (capture_file_ && capture_file_ != stdout) {
-      if (ok)
+      if (ok) {
         capture_good_size_ = std::ftell(capture_file_);
-      else
+      } else if (!capture_failed_) {
         capture_failed_ = true;
+        capture_errno_ = errno;
+      }
     }
     return ok;
   }
 
   // Flushes and closes every output; a failed write (disk full, closed pipe) is an error.
   void close() {
+    // Each failure's errno is kept where it happens: cutting the file back and closing it
+    // overwrite errno, and the message must give the write's own reason ("No space left").
     const bool text_ok = text_->flush();
+    const int text_errno = errno;
     const bool capture_ok = !capture_failed_ && (!capture_ || capture_->flush());
+    const int capture_errno = capture_failed_ ? capture_errno_ : errno;
     if (ring_ && !ring_->close()) die(ring_->error(), 1);
     capture_.reset();
     // A failed write (disk full) leaves the file cut back to its last whole packet: valid.
     if (!capture_ok && capture_file_ && capture_file_ != stdout)
       cut_back_to(capture_file_, capture_good_size_);
-    if (capture_file_ && capture_file_ != stdout && std::fclose(capture_file_) != 0)
-      die(fmt::format("-w {}: write failed: {}", options_.write, std::strerror(errno)), 1);
+    const bool capture_closed =
+        !capture_file_ || capture_file_ == stdout || std::fclose(capture_file_) == 0;
     if (!capture_ok)
+      die(fmt::format("-w {}: write failed: {}", options_.write, std::strerror(capture_errno)), 1);
+    if (!capture_closed)
       die(fmt::format("-w {}: write failed: {}", options_.write, std::strerror(errno)), 1);
-    if (text_file_ != stdout && text_file_ != stderr && std::fclose(text_file_) != 0)
-      die(fmt::format("-o {}: write failed: {}", options_.output, std::strerror(errno)), 1);
-    if (!text_ok) die(fmt::format("writing output failed: {}", std::strerror(errno)), 1);
+    const bool to_file = text_file_ != stdout && text_file_ != stderr;
+    const std::string text_name = to_file                ? "-o " + options_.output
+                                  : text_file_ == stdout ? std::string("standard output")
+                                                         : std::string("standard error");
+    if (!text_ok) die(fmt::format("{}: write failed: {}", text_name, std::strerror(text_errno)), 1);
+    if (to_file && std::fclose(text_file_) != 0)
+      die(fmt::format("{}: write failed: {}", text_name, std::strerror(errno)), 1);
   }
 
  private:
   const CommonOptions& options_;
   std::FILE* text_file_ = stdout;
   std::FILE* capture_file_ = nullptr;
+  int capture_errno_ = 0;  // why the first failed flush failed
   std::unique_ptr<Sink> text_;
   std::unique_ptr<Sink> events_only_;
   std::unique_ptr<Sink> summary_only_;
@@ -968,10 +984,11 @@ int main(int argc, char** argv) {
   CLI::App* capture_cmd = app.add_subcommand(
       "capture", "Capture live from serial ports (listen only), decode as it comes");
   add_common_options(capture_cmd, capture_opts);
-  capture_cmd->add_option(
-      "-i,--interface", capture_args.ports,
-      "Serial port to listen on, PATH or PATH=NAME (repeatable; NAME line.m and "
-      "line.s: the master and slave pairs of one 4-wire link)");
+  capture_cmd
+      ->add_option("-i,--interface", capture_args.ports,
+                   "Serial port to listen on, PATH or PATH=NAME (repeatable; NAME line.m and "
+                   "line.s: the master and slave pairs of one 4-wire link)")
+      ->allow_extra_args(false);
   capture_cmd->add_option("-c,--count", capture_args.max_frames, "Stop after N frames");
   capture_cmd->add_option("-a,--autostop", capture_args.autostop, "Stop after duration:SECONDS");
   capture_cmd->add_option("-b,--ring-buffer", capture_args.ring,
@@ -1009,7 +1026,8 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    // --help and --version exit 0; every command-line error exits 2 (CLI11's own codes vary).
+    return app.exit(e) == 0 ? 0 : 2;
   }
   if (*decode) return run_decode(decode_opts, hex_args);
   if (*read) return run_read(read_opts, path);

@@ -15,8 +15,10 @@
 namespace drivetap {
 
 std::string ProfileError::text() const {
-  if (key.empty()) return fmt::format("{}:{}: {}", file, line, message);
-  return fmt::format("{}:{}: key '{}': {}", file, line, key, message);
+  // Line 0: the file as a whole (cannot be opened), no line to point at.
+  const std::string where = line > 0 ? fmt::format("{}:{}", file, line) : file;
+  if (key.empty()) return fmt::format("{}: {}", where, message);
+  return fmt::format("{}: key '{}': {}", where, key, message);
 }
 
 namespace {

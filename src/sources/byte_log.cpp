@@ -54,6 +54,7 @@ bool ByteLogReader::read_line() {
     return false;
   }
   line_ = std::string_view(line_buf_, static_cast<std::size_t>(n));
+  line_ended_ = line_.ends_with('\n');
   while (!line_.empty() && (line_.back() == '\n' || line_.back() == '\r')) line_.remove_suffix(1);
   return true;
 }
@@ -150,6 +151,7 @@ bool ByteLogReader::parse_data_line() {
   last_line_time_[channel] = line_time;
 
   TimeNs t = line_time;
+  const std::size_t queued_before = queue_.size();
   while (true) {
     skip_space();
     if (i >= line.size() || line[i] == '#') break;
@@ -202,6 +204,10 @@ bool ByteLogReader::parse_data_line() {
     }
     i = end;
   }
+  // A file cut off inside its last line ("0.1 b"): the time and channel are there, the bytes
+  // and the end of line are not. (A line cut right after a whole byte cannot be told apart.)
+  if (queue_.size() == queued_before && !line_ended_)
+    return fail(channel_col, "last line cut short: no bytes and no end of line (file truncated?)");
   return true;
 }
 

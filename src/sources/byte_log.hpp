@@ -63,6 +63,7 @@ class ByteLogReader final : public ByteSource {
   char* line_buf_ = nullptr;
   std::size_t line_cap_ = 0;
   std::string_view line_;
+  bool line_ended_ = true;  // the line had its '\n' (only a file's last line may lack it)
   std::uint64_t line_number_ = 0;
   bool have_pending_line_ = false;  // read_header() stopped at a data line
   std::vector<ByteEvent> queue_;

@@ -1,0 +1,101 @@
+#!/usr/bin/env bash
+# Fault tests (issue 9): outputs that cannot be created or fill the disk, inputs that are cut
+# short, directories, devices, missing profiles. Each must give one error line naming the file
+# or option, a non-zero exit, and leave what was already written valid.
+#   bash tests/faults.sh BUILD/drivetap
+set -uo pipefail
+drivetap=$1
+root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+failures=0
+fail() {
+  echo "FAIL: $*" >&2
+  failures=$((failures + 1))
+}
+log=$root/captures/session-e9/input.log
+
+# expect NAME CODE PATTERN -- COMMAND...: exit status CODE, exactly one stderr line, matching PATTERN.
+expect() {
+  local name=$1 code=$2 pattern=$3
+  shift 4
+  "$@" > "$work/out" 2> "$work/err"
+  local rc=$?
+  local lines
+  lines=$(wc -l < "$work/err")
+  [ "$rc" -eq "$code" ] || fail "$name: exit $rc, expected $code ($(head -c 300 "$work/err"))"
+  [ "$lines" -eq 1 ] || fail "$name: $lines stderr lines, expected one: $(head -c 300 "$work/err")"
+  grep -qE -- "$pattern" "$work/err" || fail "$name: stderr '$(cat "$work/err")' lacks /$pattern/"
+}
+
+# Outputs.
+expect "-o in a missing directory" 2 '^drivetap: -o /nonexistent/x.txt: cannot create: No such file' -- \
+  "$drivetap" read "$log" -o /nonexistent/x.txt
+expect "-w in a missing directory" 2 '^drivetap: -w /nonexistent/x.pcapng: cannot create' -- \
+  "$drivetap" read "$log" -w /nonexistent/x.pcapng -o /dev/null
+expect "-o on a full disk" 1 '^drivetap: -o /dev/full: write failed: No space left on device$' -- \
+  "$drivetap" read "$log" -o /dev/full
+expect "-w on a full disk" 1 '^drivetap: -w /dev/full: write failed: No space left on device$' -- \
+  "$drivetap" read "$log" -w /dev/full -o /dev/null
+expect "stdout on a full disk" 1 '^drivetap: standard output: write failed: No space left on device$' -- \
+  sh -c '"$0" read "$1" > /dev/full' "$drivetap" "$log"
+expect "JSON to a full disk" 1 '^drivetap: standard output: write failed: No space left on device$' -- \
+  sh -c '"$0" read -T json "$1" > /dev/full' "$drivetap" "$log"
+
+# Inputs that are no capture file.
+expect "input is a directory" 1 "^drivetap: $work: is a directory" -- "$drivetap" read "$work"
+expect "input is /dev/null" 1 '^drivetap: /dev/null: empty file$' -- "$drivetap" read /dev/null
+expect "input is /dev/zero" 1 '^drivetap: /dev/zero: offset 0: not a recognised capture format' -- \
+  timeout 20 "$drivetap" read /dev/zero
+expect "input missing" 1 '^drivetap: /nonexistent.log: cannot open: No such file' -- \
+  "$drivetap" read /nonexistent.log
+
+# Profiles.
+expect "--drive names no profile" 2 "^drivetap: --drive 2=nope: no profile .nope." -- "$drivetap" read --drive 2=nope "$log" -o /dev/null
+expect "--profile file missing" 1 '^drivetap: profile /nonexistent.toml: cannot open' -- \
+  "$drivetap" read --profile /nonexistent.toml "$log" -o /dev/null
+expect "--profile-dir missing" 1 '/nonexistent' -- \
+  "$drivetap" read --profile-dir /nonexistent "$log" -o /dev/null
+expect "profiles FILE missing" 1 '^drivetap: /nonexistent.toml: cannot open the profile file$' -- \
+  "$drivetap" profiles /nonexistent.toml
+
+# Inputs cut short: one error line, exit 1, and the outputs hold everything before the cut,
+# valid (drivetap reads its pcapng back; so does tshark when installed).
+cut_half() { head -c $(($(stat -c %s "$1") / 2 + 3)) "$1" > "$2"; }
+"$drivetap" read "$log" -w "$work/full.pcapng" -o /dev/null 2> /dev/null || fail "writing full.pcapng"
+"$drivetap" read "$log" --pcap -w "$work/full.pcap" -o /dev/null 2> /dev/null || fail "writing full.pcap"
+cut_half "$work/full.pcapng" "$work/cut.pcapng"
+cut_half "$work/full.pcap" "$work/cut.pcap"
+cut_half "$log" "$work/cut.log"
+cut_half "$root/captures/uart-phy/from_analog_uart_analog_10700_8n2.sr" "$work/cut.sr"
+vcd=$(ls "$root"/captures/vcd/*.vcd | head -n 1)
+cut_half "$vcd" "$work/cut.vcd"
+check_cut() {  # check_cut FILE PATTERN
+  local f=$1 pattern=$2
+  expect "$(basename "$f") cut short" 1 "$pattern" -- \
+    "$drivetap" read "$f" -w "$work/out.pcapng" -o "$work/out.txt"
+  grep -q '^--- summary ---' "$work/out.txt" || fail "$(basename "$f"): text output lacks the summary"
+  "$drivetap" read "$work/out.pcapng" -o "$work/reread.txt" 2> "$work/reread.err" ||
+    fail "$(basename "$f"): the -w output does not read back: $(cat "$work/reread.err")"
+  if command -v tshark > /dev/null; then
+    tshark -r "$work/out.pcapng" > /dev/null 2> "$work/tshark.err" ||
+      fail "$(basename "$f"): tshark rejects the -w output: $(cat "$work/tshark.err")"
+  fi
+}
+check_cut "$work/cut.pcapng" "^drivetap: $work/cut.pcapng: offset [0-9]+: truncated block"
+check_cut "$work/cut.pcap" "^drivetap: $work/cut.pcap: offset [0-9]+: packet [0-9]+: truncated"
+check_cut "$work/cut.log" "^drivetap: $work/cut.log:[0-9]+:[0-9]+: (last line cut short|bad byte|expected)"
+# A zip without its central directory cannot be opened at all; a VCD names the line.
+expect "cut.sr cut short" 1 "^drivetap: $work/cut.sr: not a readable zip" -- \
+  "$drivetap" read "$work/cut.sr" -o /dev/null
+"$drivetap" read "$work/cut.vcd" -o "$work/out.txt" > /dev/null 2> "$work/err"
+rc=$?
+[ "$rc" -ne 0 ] || fail "cut.vcd: exit 0"
+tail -n 1 "$work/err" | grep -qE "^drivetap: $work/cut.vcd: line [0-9]+: " ||
+  fail "cut.vcd: last stderr line '$(tail -n 1 "$work/err")' does not name the line"
+
+if [ "$failures" -ne 0 ]; then
+  echo "$failures fault test(s) failed" >&2
+  exit 1
+fi
+echo "fault tests: all passed"
