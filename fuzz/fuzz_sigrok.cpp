@@ -9,19 +9,15 @@
 //           three chunks at 0xA5 0x5A markers.
 //
 // Every channel is selected and every block read, with the block contract of
-// src/sources/logic_capture.hpp checked; errors must name the file.
-#include <unistd.h>
+// src/sources/logic_capture.hpp checked (fuzz_logic.hpp); errors must name the file.
 #include <zip.h>
 
 #include <cstdint>
-#include <cstdio>
-#include <cstdlib>
 #include <string>
 #include <string_view>
 #include <vector>
 
-#include "fuzz/fuzz_common.hpp"
-#include "sources/logic_source.hpp"
+#include "fuzz/fuzz_logic.hpp"
 #include "sources/sigrok_file.hpp"
 
 namespace {
@@ -29,25 +25,7 @@ namespace {
 using drivetap::fuzz::contract_broken;
 
 const std::string& input_path() {
-  static const std::string path = [] {
-    // tmpfs when there is one (see fuzz_vcd.cpp).
-    std::string name = access("/dev/shm", W_OK) == 0 ? "/dev/shm" : "/tmp";
-    name += "/drivetap-fuzz-sr-XXXXXX";
-    const int fd = mkstemp(name.data());
-    if (fd < 0) contract_broken("cannot create a temporary file");
-    close(fd);
-    static std::string kept = name;
-    std::atexit([] { unlink(kept.c_str()); });
-    return kept;
-  }();
-  return path;
-}
-
-void write_raw(const std::uint8_t* data, std::size_t size) {
-  std::FILE* out = std::fopen(input_path().c_str(), "wb");
-  if (!out) contract_broken("cannot write the temporary file");
-  if (size > 0 && std::fwrite(data, 1, size, out) != size) contract_broken("short write");
-  std::fclose(out);
+  return drivetap::fuzz::temp_input_path("sr");
 }
 
 void add_entry(zip_t* archive, const std::string& name, std::string_view content) {
@@ -102,11 +80,11 @@ void write_recipe(const std::uint8_t* data, std::size_t size) {
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  const std::string& path = input_path();
   if (size > 0 && (data[0] & 1))
     write_recipe(data, size);
   else
-    write_raw(data, size);
-  const std::string& path = input_path();
+    drivetap::fuzz::write_file(path, data, size);
 
   std::string error;
   auto file = drivetap::SigrokFile::open(path, &error);
@@ -125,17 +103,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   drivetap::RunBlock block;
   std::uint64_t at = 0;
   while (file->next_block(block, &error)) {
-    if (block.begin != at) contract_broken("a block does not begin where the last one ended");
-    if (block.end <= block.begin) contract_broken("an empty block");
-    if (block.runs.size() != all.size()) contract_broken("runs not one per selected channel");
-    for (const auto& runs : block.runs) {
-      std::uint64_t covered = 0;
-      for (const drivetap::phy::LevelRun& run : runs) {
-        if (run.length == 0) contract_broken("an empty run");
-        covered += run.length;
-      }
-      if (covered != block.end - block.begin) contract_broken("runs do not cover the block");
-    }
+    drivetap::fuzz::check_block(block, at, all.size(),
+                                [](std::size_t, const drivetap::phy::LevelRun&) {});
     at = block.end;
   }
   if (!error.empty() && error.rfind(path + ": ", 0) != 0)
@@ -144,19 +113,6 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   // The whole logic path: channel choice, line detection, UART decoding, the time-ordered merge.
   file = drivetap::SigrokFile::open(path, &error);
   if (!file) contract_broken("a session that opened once does not open again");
-  drivetap::ChannelTable channels;
-  drivetap::LogicSourceOptions options;
-  options.detection_runs = 2'000;
-  drivetap::LogicSource source(std::move(file), path, channels, options);
-  if (!source.read_header()) {
-    if (source.error().empty()) contract_broken("read_header() failed without an error");
-    return 0;
-  }
-  drivetap::ByteEvent e;
-  drivetap::TimeNs last = 0;
-  while (source.next(e)) {
-    if (e.time < last) contract_broken("logic source events out of time order");
-    last = e.time;
-  }
+  drivetap::fuzz::run_logic_path(std::move(file), path);
   return 0;
 }

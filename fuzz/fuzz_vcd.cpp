@@ -3,34 +3,17 @@
 // block contract of src/sources/logic_capture.hpp checked; a second select() of the first channel
 // alone, in blocks of a few tokens, must give that channel's levels again (select() starts over,
 // channels are independent, where blocks end changes nothing).
-#include <unistd.h>
-
 #include <cstdint>
-#include <cstdio>
-#include <cstdlib>
 #include <string>
 #include <vector>
 
-#include "fuzz/fuzz_common.hpp"
-#include "sources/logic_source.hpp"
+#include "fuzz/fuzz_logic.hpp"
 #include "sources/vcd_file.hpp"
 
 namespace {
 
 const std::string& input_path() {
-  static const std::string path = [] {
-    // tmpfs when there is one: ext4 flushes a file rewritten after truncation on every close,
-    // which makes each run wait for the disk.
-    std::string name = access("/dev/shm", W_OK) == 0 ? "/dev/shm" : "/tmp";
-    name += "/drivetap-fuzz-vcd-XXXXXX";
-    const int fd = mkstemp(name.data());
-    if (fd < 0) drivetap::fuzz::contract_broken("cannot create a temporary file");
-    close(fd);
-    static std::string kept = name;
-    std::atexit([] { unlink(kept.c_str()); });
-    return kept;
-  }();
-  return path;
+  return drivetap::fuzz::temp_input_path("vcd");
 }
 
 // One channel's levels as (level, length) with equal neighbours merged: blocks may split a run.
@@ -53,19 +36,10 @@ bool read_checked(drivetap::VcdFile& file, const std::vector<std::size_t>& selec
   drivetap::RunBlock block;
   std::uint64_t at = 0;
   while (file.next_block(block, &error)) {
-    if (block.begin != at) contract_broken("a block does not begin where the last one ended");
-    if (block.end <= block.begin) contract_broken("an empty block");
-    if (block.runs.size() != selected.size()) contract_broken("runs not one per selected channel");
-    for (std::size_t k = 0; k < block.runs.size(); ++k) {
-      std::uint64_t covered = 0;
-      for (const drivetap::phy::LevelRun& run : block.runs[k]) {
-        if (run.length == 0) contract_broken("an empty run");
-        if (covered + run.length < covered) contract_broken("run lengths overflow");
-        covered += run.length;
-        if (k == 0) append(first, run);
-      }
-      if (covered != block.end - block.begin) contract_broken("runs do not cover the block");
-    }
+    drivetap::fuzz::check_block(block, at, selected.size(),
+                                [&](std::size_t k, const drivetap::phy::LevelRun& run) {
+                                  if (k == 0) append(first, run);
+                                });
     at = block.end;
   }
   if (file.next_block(block, &error)) contract_broken("a block after the end");
@@ -79,10 +53,7 @@ bool read_checked(drivetap::VcdFile& file, const std::vector<std::size_t>& selec
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   using drivetap::fuzz::contract_broken;
   const std::string& path = input_path();
-  std::FILE* out = std::fopen(path.c_str(), "wb");
-  if (!out) contract_broken("cannot write the temporary file");
-  if (size > 0 && std::fwrite(data, 1, size, out) != size) contract_broken("short write");
-  std::fclose(out);
+  drivetap::fuzz::write_file(path, data, size);
 
   std::string error;
   // Every other input is read a few bytes at a time, so that words run across reads.
@@ -110,19 +81,6 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   // The whole logic path on it: channel choice, line detection, decoding, the time-ordered merge.
   file = drivetap::VcdFile::open(path, &error, read_bytes);
   if (!file) contract_broken("a VCD that opened once does not open again");
-  drivetap::ChannelTable channels;
-  drivetap::LogicSourceOptions options;
-  options.detection_runs = 2'000;
-  drivetap::LogicSource source(std::move(file), path, channels, options);
-  if (!source.read_header()) {
-    if (source.error().empty()) contract_broken("read_header() failed without an error");
-    return 0;
-  }
-  drivetap::ByteEvent e;
-  drivetap::TimeNs last = 0;
-  while (source.next(e)) {
-    if (e.time < last) contract_broken("logic source events out of time order");
-    last = e.time;
-  }
+  drivetap::fuzz::run_logic_path(std::move(file), path);
   return 0;
 }
