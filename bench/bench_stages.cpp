@@ -209,9 +209,41 @@ const Traffic& rtu_traffic() {
   return t;
 }
 
-// Per iteration: a fresh framer from decoder_for(modbus_rtu) re-frames the whole byte log,
-// handed over in runs of state.range(0) events (Framer::push_all, as a reader's buffer would),
-// or one event at a time with range 1 (Framer::push, what the pipeline does).
+struct Reframed {
+  std::uint64_t telegrams = 0, noise = 0, bytes = 0;
+};
+
+// A fresh framer from `decoder` re-frames `events`: a push per event with run 1 (what the
+// pipeline does), else Framer::push_all on runs of `run` events (as a reader's buffer would);
+// frames are counted as they come out and dropped.
+Reframed reframe(const ProtocolDecoder& decoder, const FramerSettings& settings,
+                 std::span<const ByteEvent> events, std::size_t run, std::vector<Frame>& out) {
+  Reframed r;
+  auto framer = decoder.make_framer(0, settings);
+  auto drain = [&] {
+    for (const Frame& f : out) {
+      (f.kind == FrameKind::telegram ? r.telegrams : r.noise) += 1;
+      r.bytes += f.size();
+    }
+    out.clear();
+  };
+  if (run == 1) {
+    for (const ByteEvent& e : events) {
+      framer->push(e, out);
+      if (!out.empty()) drain();
+    }
+  } else {
+    for (std::size_t i = 0; i < events.size(); i += run) {
+      framer->push_all(events.subspan(i, std::min(run, events.size() - i)), out);
+      drain();
+    }
+  }
+  framer->finish(out);
+  drain();
+  return r;
+}
+
+// Per iteration: the whole byte log re-framed by reframe(), runs of state.range(0) events.
 void BM_RtuFramer(benchmark::State& state) {
   const std::size_t run = static_cast<std::size_t>(state.range(0));
   const Traffic& t = rtu_traffic();
@@ -220,31 +252,9 @@ void BM_RtuFramer(benchmark::State& state) {
   settings.timing = t.timing;
   std::vector<Frame> out;
   out.reserve(64);
-  std::uint64_t telegrams = 0, noise = 0, bytes = 0;
-  for (auto _ : state) {
-    telegrams = noise = bytes = 0;
-    auto framer = decoder->make_framer(0, settings);
-    auto drain = [&] {
-      for (const Frame& f : out) {
-        (f.kind == FrameKind::telegram ? telegrams : noise) += 1;
-        bytes += f.size();
-      }
-      out.clear();
-    };
-    if (run == 1) {
-      for (const ByteEvent& e : t.events) {
-        framer->push(e, out);
-        if (!out.empty()) drain();
-      }
-    } else {
-      for (std::size_t i = 0; i < t.events.size(); i += run) {
-        framer->push_all(std::span(t.events).subspan(i, std::min(run, t.events.size() - i)), out);
-        drain();
-      }
-    }
-    framer->finish(out);
-    drain();
-  }
+  Reframed r;
+  for (auto _ : state) r = reframe(*decoder, settings, t.events, run, out);
+  const auto [telegrams, noise, bytes] = r;
   if (telegrams != t.frames.size() || noise != 0 || bytes != t.bytes) {
     // Name the first frame that came out differently.
     auto framer = decoder->make_framer(0, settings);
@@ -391,9 +401,8 @@ void BM_Dissect_Easydrive(benchmark::State& state) {
 
 // ---- The other framers and pairing ------------------------------------------------------------
 
-// Per iteration: a fresh framer from decoder_for(protocol) re-frames the byte events of a
-// DissectSet's frames, each followed by 5 characters of silence, a push per byte as the pipeline
-// does.
+// Per iteration: reframe() with a push per byte, as the pipeline does, on the byte events of a
+// DissectSet's frames, each followed by 5 characters of silence.
 void run_framer(benchmark::State& state, Protocol protocol, const DissectSet& set) {
   const ProtocolDecoder* decoder = decoder_for(protocol);
   const TimeNs ct = set.timing.character_time;
@@ -409,24 +418,9 @@ void run_framer(benchmark::State& state, Protocol protocol, const DissectSet& se
   FramerSettings settings;
   settings.timing = set.timing;
   std::vector<Frame> out;
-  std::uint64_t telegrams = 0, noise = 0, bytes = 0;
-  for (auto _ : state) {
-    telegrams = noise = bytes = 0;
-    auto framer = decoder->make_framer(0, settings);
-    auto drain = [&] {
-      for (const Frame& f : out) {
-        (f.kind == FrameKind::telegram ? telegrams : noise) += 1;
-        bytes += f.size();
-      }
-      out.clear();
-    };
-    for (const ByteEvent& e : events) {
-      framer->push(e, out);
-      if (!out.empty()) drain();
-    }
-    framer->finish(out);
-    drain();
-  }
+  Reframed r;
+  for (auto _ : state) r = reframe(*decoder, settings, events, 1, out);
+  const auto [telegrams, noise, bytes] = r;
   if (telegrams != set.cases.size() || noise != 0 || bytes != set.bytes)
     fail(fmt::format("{} framer: {} telegrams, {} noise, {} bytes of {} frames, {} bytes",
                      protocol_id(protocol), telegrams, noise, bytes, set.cases.size(), set.bytes));
