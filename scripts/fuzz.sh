@@ -43,6 +43,10 @@ done
 [ ${#targets[@]} -gt 0 ] || targets=("${all_targets[@]}")
 timeout=${FUZZ_TIMEOUT:-20}
 
+# clang with its libFuzzer runtime (only a recommendation of clang, so named), xxd and unzip for
+# the seeds.
+bash scripts/install-deps.sh clang libclang-rt-14-dev xxd unzip
+
 build=${FUZZ_BUILD:-$root/build-fuzz}
 jobs=$(nproc 2>/dev/null || echo 2)
 mkdir -p "$build"

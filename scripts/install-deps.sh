@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
-# Installs drivetap's build and test dependencies from Debian (bookworm), as root.
+# Installs drivetap's build and test dependencies from Debian (bookworm), as root; packages given
+# as arguments are installed too (scripts/fuzz.sh adds clang and its tools).
 set -euo pipefail
 packages=(build-essential cmake ninja-build pkg-config libfmt-dev libcli11-dev libgtest-dev libgmock-dev
-          libpcap-dev libtomlplusplus-dev libzip-dev libbenchmark-dev tshark)
+          libpcap-dev libtomlplusplus-dev libzip-dev libbenchmark-dev tshark "$@")
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
