@@ -1,7 +1,9 @@
 // Unit tests: the byte log reader (drivetap's plain-text capture format).
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <cstdio>
+#include <cstring>
 #include <memory>
 #include <string>
 #include <string_view>
@@ -267,6 +269,88 @@ TEST(ChannelTable, NamesRolesAndLinks) {
   EXPECT_EQ(t.at(2).link, "/dev/ttyUSB0");
   EXPECT_NE(t.link_index(2), t.link_index(0));
   EXPECT_EQ(t.link_count(), 2u);
+}
+
+TEST(ChannelTable, StopsAtItsLimit) {
+  ChannelTable t;
+  for (std::size_t i = 0; i < ChannelTable::kMaxChannels; ++i)
+    ASSERT_EQ(t.intern("c" + std::to_string(i)), i);
+  EXPECT_EQ(t.intern("one-more"), kNoChannel);
+  EXPECT_EQ(t.intern("one-more", "", ChannelRole::bus), kNoChannel);
+  EXPECT_EQ(t.intern("c7"), 7);  // names already known still resolve
+  EXPECT_EQ(t.size(), ChannelTable::kMaxChannels);
+}
+
+TEST(ByteLog, ErrorTooManyChannels) {
+  std::string text;
+  for (std::size_t i = 0; i <= ChannelTable::kMaxChannels; ++i)
+    text += "0." + std::to_string(i) + " ch" + std::to_string(i) + " 01\n";
+  Log log(text);
+  ASSERT_TRUE(log.reader().read_header());
+  const auto ev = log.read_all();
+  EXPECT_EQ(ev.size(), ChannelTable::kMaxChannels);  // everything before the bad line
+  EXPECT_TRUE(
+      HasSub(log.reader().error(), fmt::format("cap.log:{}:", ChannelTable::kMaxChannels + 1)))
+      << log.reader().error();
+  EXPECT_TRUE(HasSub(log.reader().error(), "more than 256 channels"));
+}
+
+TEST(ByteLog, LinesAcrossReadBlocksAndLongLines) {
+  // The reader cuts lines from 64 KiB reads: lines straddle the seams, and one line is longer
+  // than a read.
+  std::string text = "#! serial 9600 8N1\n";
+  std::vector<std::uint8_t> expected;
+  for (int i = 0; i < 20000; ++i) {
+    text += fmt::format("{}.{:06} bus {:02x} {:02x}\r\n", i / 1000, (i % 1000) * 1000, i & 0xFF,
+                        (i >> 8) & 0xFF);
+    expected.push_back(static_cast<std::uint8_t>(i & 0xFF));
+    expected.push_back(static_cast<std::uint8_t>((i >> 8) & 0xFF));
+  }
+  text += "30.0 bus";
+  for (int i = 0; i < 50000; ++i) {
+    text += fmt::format(" {:02x}", i % 251);
+    expected.push_back(static_cast<std::uint8_t>(i % 251));
+  }
+  text += "\n31.0 bus 7e";  // last line without its newline
+  expected.push_back(0x7E);
+  Log log(text);
+  ASSERT_TRUE(log.reader().read_header());
+  const auto ev = log.read_all();
+  ASSERT_EQ(log.reader().error(), "");
+  ASSERT_EQ(ev.size(), expected.size());
+  for (std::size_t i = 0; i < ev.size(); ++i) ASSERT_EQ(ev[i].byte, expected[i]) << i;
+  EXPECT_EQ(ev.back().time, 31 * kNsPerSecond);
+}
+
+namespace {
+// An endless stream of one character, counting what was read from it.
+struct Endless {
+  char fill;
+  std::size_t served = 0;
+};
+ssize_t endless_read(void* cookie, char* buf, size_t n) {
+  auto* e = static_cast<Endless*>(cookie);
+  std::memset(buf, e->fill, n);
+  e->served += n;
+  return static_cast<ssize_t>(n);
+}
+}  // namespace
+
+TEST(ByteLog, EndlessLineIsRefusedAtTheLimitNotRead) {
+  // A file that never ends its line: refused after the line length limit, having read (and
+  // held) little more than that (getline() would have read on until memory ran out).
+  Endless source{'0'};
+  std::FILE* f = fopencookie(&source, "r", {endless_read, nullptr, nullptr, nullptr});
+  ASSERT_NE(f, nullptr);
+  ChannelTable channels;
+  {
+    ByteLogReader reader(f, "endless.log", channels);
+    EXPECT_FALSE(reader.read_header());
+    EXPECT_TRUE(HasSub(reader.error(), "endless.log:1:")) << reader.error();
+    EXPECT_TRUE(HasSub(reader.error(), "line longer than")) << reader.error();
+  }
+  EXPECT_LT(source.served, (16u << 20) + (1u << 20));
+  std::fclose(f);
 }
 
 TEST(ByteLog, ErrorBadHexDigit) {

@@ -1,8 +1,10 @@
 // Unit tests: reading captures of other tools — re-framing badly cut packets, RTU over UDP.
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <pcap/pcap.h>
 
 #include "core/checksum.hpp"
+#include "formats/pcapng.hpp"
 #include "sources/capture_reader.hpp"
 #include "test_support.hpp"
 
@@ -151,4 +153,34 @@ TEST(CaptureReader, PacketsWithoutSerialBytesAreCountedNotFatal) {
   EXPECT_NE(d.notes[0].find("skipped 3 packets (ethertype 0x0806 is not IP), first: packet 1"),
             std::string::npos)
       << d.notes[0];
+}
+
+TEST(CaptureReader, ChannelsAreBoundedAndTheExcessNamed) {
+  // Each named interface is a channel: one more than ChannelTable::kMaxChannels ends the read at
+  // that packet, everything before it decoded.
+  const std::string path = ::testing::TempDir() + "many-interfaces.pcapng";
+  std::FILE* f = std::fopen(path.c_str(), "wb");
+  ASSERT_NE(f, nullptr);
+  pcapng::Writer w(f);
+  w.section_header("test");
+  const std::size_t interfaces = ChannelTable::kMaxChannels + 1;
+  for (std::size_t i = 0; i < interfaces; ++i) w.interface(147, fmt::format("port{}", i), "", "");
+  const std::uint8_t request[] = {1, 3, 0, 0, 0, 1, 0x84, 0x0A};
+  for (std::size_t i = 0; i < interfaces; ++i) {
+    pcapng::Writer::Packet p;
+    p.interface = static_cast<std::uint32_t>(i);
+    p.timestamp = static_cast<TimeNs>(i + 1) * kNsPerSecond;
+    p.data = request;
+    w.packet(p);
+  }
+  std::fclose(f);
+  Decoded d;
+  decode_capture(path, true, d);
+  EXPECT_NE(d.error.find(fmt::format("{}: offset ", path)), std::string::npos) << d.error;
+  EXPECT_NE(d.error.find(fmt::format("packet {}: more than {} channels", interfaces,
+                                     ChannelTable::kMaxChannels)),
+            std::string::npos)
+      << d.error;
+  EXPECT_EQ(d.channels.size(), ChannelTable::kMaxChannels);
+  EXPECT_EQ(d.sink.frames.size(), ChannelTable::kMaxChannels);
 }

@@ -142,6 +142,27 @@ TEST(Pcapng, TrailerMismatchAndBadInterfaceAreErrors) {
   EXPECT_NE(read_file(bad_itf).error.find("names interface 3"), std::string::npos);
 }
 
+TEST(Pcapng, InterfacesOfOneSectionAreBounded) {
+  // Interface blocks alone would otherwise grow memory with the file; a new section starts over.
+  auto file = write_file([](pcapng::Writer& w) {
+    w.section_header("x");
+    for (std::size_t i = 0; i <= pcapng::kMaxInterfaces; ++i) w.interface(147, "", "", "");
+  });
+  const ReadResult r = read_file(file);
+  EXPECT_NE(
+      r.error.find(fmt::format("more than {} interfaces in one section", pcapng::kMaxInterfaces)),
+      std::string::npos)
+      << r.error;
+  EXPECT_EQ(r.interfaces.size(), pcapng::kMaxInterfaces);
+  auto two_sections = write_file([](pcapng::Writer& w) {
+    for (int section = 0; section < 2; ++section) {
+      w.section_header("x");
+      for (std::size_t i = 0; i < pcapng::kMaxInterfaces; ++i) w.interface(147, "", "", "");
+    }
+  });
+  EXPECT_EQ(read_file(two_sections).error, "");
+}
+
 TEST(Pcapng, MicrosecondDefaultResolutionAndOtherWriters) {
   // An IDB without if_tsresol: timestamps are microseconds.
   auto file = write_file([](pcapng::Writer& w) { w.section_header("someone else"); });

@@ -161,3 +161,26 @@ TEST(SigrokScan, ChangesAtWordAndCaptureEdges) {
     std::filesystem::remove(path);
   }
 }
+
+TEST(SigrokFile, OversizedMetadataIsRefused) {
+  // metadata is read whole: a claim past 1 MiB is refused before any allocation of its size.
+  const std::string path =
+      (std::filesystem::temp_directory_path() / "drivetap_SigrokFile_big_metadata.sr").string();
+  int code = 0;
+  zip_t* z = zip_open(path.c_str(), ZIP_CREATE | ZIP_TRUNCATE, &code);
+  ASSERT_NE(z, nullptr);
+  std::string metadata = "[device 1]\ncapturefile=logic-1\ntotal probes=1\nsamplerate=1 MHz\n";
+  metadata.resize((1u << 20) + 1, ';');
+  zip_source_t* src = zip_source_buffer(z, metadata.data(), metadata.size(), 0);
+  ASSERT_NE(src, nullptr);
+  ASSERT_GE(zip_file_add(z, "metadata", src, ZIP_FL_OVERWRITE), 0);
+  const std::uint8_t sample = 1;
+  src = zip_source_buffer(z, &sample, 1, 0);
+  ASSERT_GE(zip_file_add(z, "logic-1-1", src, ZIP_FL_OVERWRITE), 0);
+  ASSERT_EQ(zip_close(z), 0);
+  std::string error;
+  EXPECT_EQ(SigrokFile::open(path, &error), nullptr);
+  EXPECT_NE(error.find(path + ": 'metadata' is larger than 1048576 bytes"), std::string::npos)
+      << error;
+  std::filesystem::remove(path);
+}

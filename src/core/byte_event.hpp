@@ -52,9 +52,19 @@ struct Channel {
   ChannelRole role = ChannelRole::bus;
 };
 
+// A channel id that names no channel: what intern() returns for a new name once the table is full.
+inline constexpr ChannelId kNoChannel = 0xFFFF;
+
 class ChannelTable {
  public:
-  // Returns the id of `name`, adding the channel on first use (link and role from the name).
+  // Channels one run keeps apart. Sources name channels from their input (byte log columns, IP
+  // flows, pcapng interfaces, logic-analyser lines), and every channel gets its own framer,
+  // detection buffer and statistics: without a bound a hostile file could grow memory (and the
+  // linear name lookup) without end. A real tap has a handful.
+  static constexpr std::size_t kMaxChannels = 256;
+
+  // Returns the id of `name`, adding the channel on first use (link and role from the name);
+  // kNoChannel when the name is new and the table already holds kMaxChannels.
   ChannelId intern(std::string_view name);
   // Same, with the link and role given explicitly (sources that know them, e.g. IP flows).
   ChannelId intern(std::string_view name, std::string_view link, ChannelRole role);
@@ -74,6 +84,7 @@ inline ChannelId ChannelTable::intern(std::string_view name, std::string_view li
                                       ChannelRole role) {
   for (std::size_t i = 0; i < channels_.size(); ++i)
     if (channels_[i].name == name) return static_cast<ChannelId>(i);
+  if (channels_.size() >= kMaxChannels) return kNoChannel;
   Channel ch{std::string(name), std::string(link), role};
   std::size_t link_index = links_.size();
   for (std::size_t i = 0; i < links_.size(); ++i)

@@ -244,6 +244,8 @@ bool Reader::parse_interface(const std::vector<std::uint8_t>& body, std::uint64_
   if (!err.empty()) return fail(at, "interface description: " + err);
   if (!bad_resolution.empty())
     return fail(at, "unsupported timestamp resolution " + bad_resolution);
+  if (interfaces_.size() >= kMaxInterfaces)
+    return fail(at, fmt::format("more than {} interfaces in one section", kMaxInterfaces));
   interfaces_.push_back(std::move(itf));
   return true;
 }

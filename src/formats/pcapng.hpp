@@ -56,6 +56,9 @@ inline constexpr std::uint32_t kFlagCrcError = 1u << 24;
 
 // Largest block accepted when reading: bounds memory on hostile files.
 inline constexpr std::uint32_t kMaxBlockLength = 16u << 20;
+// Most interfaces one section may describe: each is kept until the section ends (a hostile file
+// of nothing but interface blocks would otherwise grow memory with its size).
+inline constexpr std::size_t kMaxInterfaces = 65536;
 
 class Writer {
  public:

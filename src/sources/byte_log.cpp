@@ -27,9 +27,7 @@ bool is_space(char c) {
 ByteLogReader::ByteLogReader(std::FILE* in, std::string name, ChannelTable& channels)
     : in_(in), name_(std::move(name)), channels_(channels) {}
 
-ByteLogReader::~ByteLogReader() {
-  std::free(line_buf_);
-}
+ByteLogReader::~ByteLogReader() = default;
 
 bool ByteLogReader::fail(std::size_t column, const std::string& reason) {
   // Bytes already parsed from the failing line are not delivered: the line is rejected whole.
@@ -40,20 +38,46 @@ bool ByteLogReader::fail(std::size_t column, const std::string& reason) {
 }
 
 bool ByteLogReader::read_line() {
-  const ssize_t n = ::getline(&line_buf_, &line_cap_, in_);
-  if (n < 0) {
-    if (std::ferror(in_)) {
-      error_ = fmt::format("{}: read error after line {}: {}", name_, line_number_,
-                           std::strerror(errno));
+  constexpr std::size_t kReadBytes = 64u << 10;
+  std::size_t scanned = 0;  // bytes of this line already searched for '\n'
+  // Each pass finds the line's end or reads more (or ends): the buffer only fills up.
+  while (true) {
+    const char* start = buffer_.data() + buffer_pos_;
+    const std::size_t have = buffer_end_ - buffer_pos_;
+    const auto* newline =
+        static_cast<const char*>(std::memchr(start + scanned, '\n', have - scanned));
+    const std::size_t length = newline ? static_cast<std::size_t>(newline - start) + 1 : have;
+    if (length > kMaxLineLength) {
+      ++line_number_;
+      fail(0, fmt::format("line longer than {} bytes", kMaxLineLength));
+      return false;
     }
-    return false;
+    if (newline || (at_eof_ && have > 0)) {
+      ++line_number_;
+      line_ = std::string_view(start, length);
+      buffer_pos_ += length;
+      break;
+    }
+    if (at_eof_) return false;
+    scanned = have;
+    // Keep the partial line, make room for one more block, read it.
+    if (buffer_pos_ > 0) {
+      std::memmove(buffer_.data(), start, have);
+      buffer_pos_ = 0;
+      buffer_end_ = have;
+    }
+    if (buffer_.size() < buffer_end_ + kReadBytes) buffer_.resize(buffer_end_ + kReadBytes);
+    const std::size_t got = std::fread(buffer_.data() + buffer_end_, 1, kReadBytes, in_);
+    buffer_end_ += got;
+    if (got < kReadBytes) {
+      if (std::ferror(in_)) {
+        error_ = fmt::format("{}: read error after line {}: {}", name_, line_number_,
+                             std::strerror(errno));
+        return false;
+      }
+      if (std::feof(in_)) at_eof_ = true;
+    }
   }
-  ++line_number_;
-  if (static_cast<std::size_t>(n) > kMaxLineLength) {
-    fail(0, fmt::format("line longer than {} bytes", kMaxLineLength));
-    return false;
-  }
-  line_ = std::string_view(line_buf_, static_cast<std::size_t>(n));
   line_ended_ = line_.ends_with('\n');
   while (!line_.empty() && (line_.back() == '\n' || line_.back() == '\r')) line_.remove_suffix(1);
   return true;
@@ -141,6 +165,9 @@ bool ByteLogReader::parse_data_line() {
   if (channel_name.empty() || channel_name.front() == '#')
     return fail(channel_col, "expected a channel name after the time (e.g. bus, m, s)");
   const ChannelId channel = channels_.intern(channel_name);
+  if (channel == kNoChannel)
+    return fail(channel_col, fmt::format("more than {} channels (the most drivetap keeps apart)",
+                                         ChannelTable::kMaxChannels));
   if (last_line_time_.size() <= channel) last_line_time_.resize(channel + 1u, -1);
   if (last_line_time_[channel] > line_time) {
     findings_.push_back(

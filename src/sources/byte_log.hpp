@@ -60,8 +60,12 @@ class ByteLogReader final : public ByteSource {
   ChannelTable& channels_;
   std::optional<SerialConfig> header_serial_;
   TimeNs character_time_ = 0;
-  char* line_buf_ = nullptr;
-  std::size_t line_cap_ = 0;
+  // Lines are cut from this buffer (read in blocks; it grows only while one line outgrows it, up
+  // to the line length limit, so a file with no newline cannot take memory without bound).
+  std::vector<char> buffer_;
+  std::size_t buffer_pos_ = 0;  // start of the next line
+  std::size_t buffer_end_ = 0;  // end of what was read
+  bool at_eof_ = false;
   std::string_view line_;
   bool line_ended_ = true;  // the line had its '\n' (only a file's last line may lack it)
   std::uint64_t line_number_ = 0;

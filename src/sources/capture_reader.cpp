@@ -84,6 +84,14 @@ std::vector<std::string> CaptureReader::notes() const {
   return out;
 }
 
+std::string CaptureReader::too_many_channels(long long offset) const {
+  // Interfaces, directions and IP flows each make a channel.
+  return fmt::format(
+      "{}: offset {}: packet {}: more than {} channels (interfaces, directions "
+      "and flows; the most drivetap keeps apart)",
+      name_, offset, packets_, ChannelTable::kMaxChannels);
+}
+
 ChannelId CaptureReader::channel_for(const std::string& base, const SerialPayload& payload) {
   if (!payload.flow.empty())
     return channels_.intern(payload.flow, payload.flow_link, ChannelRole::bus);
@@ -97,15 +105,22 @@ ChannelId CaptureReader::pcapng_channel(std::uint32_t interface, const SerialPay
   // so that the name is built and looked up once per interface rather than once per packet.
   const int direction = payload.outbound ? (*payload.outbound ? 1 : 2) : 0;
   if (payload.flow.empty()) {
-    for (const CachedChannel& c : channel_cache_)
-      if (c.section == ng_->sections() && c.interface == interface && c.direction == direction)
-        return c.channel;
+    if (cache_section_ != ng_->sections()) {
+      channel_cache_.clear();
+      cache_section_ = ng_->sections();
+    }
+    if (interface < channel_cache_.size() && channel_cache_[interface][direction] != kNoChannel)
+      return channel_cache_[interface][direction];
   }
   const pcapng::Interface& itf = ng_->interfaces().at(interface);
   std::string base = itf.name;
   if (base.empty()) base = ng_->interfaces().size() == 1 ? "bus" : fmt::format("if{}", interface);
   const ChannelId ch = channel_for(base, payload);
-  if (payload.flow.empty()) channel_cache_.push_back({ng_->sections(), interface, direction, ch});
+  if (payload.flow.empty() && ch != kNoChannel) {
+    if (channel_cache_.size() <= interface)
+      channel_cache_.resize(interface + std::size_t{1}, {kNoChannel, kNoChannel, kNoChannel});
+    channel_cache_[interface][direction] = ch;
+  }
   return ch;
 }
 
@@ -193,6 +208,10 @@ bool CaptureReader::load_pcapng_packet() {
       payload->outbound = (*rec.flags & 3) == pcapng::kFlagOutbound;
     if (ours) payload->outbound.reset();  // our channel names already say everything
     const ChannelId ch = pcapng_channel(rec.interface, *payload);
+    if (ch == kNoChannel) {
+      error_ = too_many_channels(rec.offset);
+      return false;
+    }
     hold(payload->bytes, rec.timestamp, ch);
     held_.option.clear();
     if (ours) held_.option.swap(rec.drivetap_option);  // buffers trade places: no allocation
@@ -237,7 +256,12 @@ bool CaptureReader::load_pcap_packet() {
     const TimeNs ts = static_cast<TimeNs>(header->ts.tv_sec) * kNsPerSecond +
                       static_cast<TimeNs>(header->ts.tv_usec);  // ns precision requested
     if (payload->bytes.empty()) continue;
-    hold(payload->bytes, ts, channel_for("bus", *payload));
+    const ChannelId ch = channel_for("bus", *payload);
+    if (ch == kNoChannel) {
+      error_ = too_many_channels(before);
+      return false;
+    }
+    hold(payload->bytes, ts, ch);
     return true;
   }
 }

@@ -61,7 +61,9 @@ class CaptureReader final : public ByteSource {
   // Keeps a packet's bytes until lay_out (held_.option is left empty: the caller fills it).
   void hold(std::span<const std::uint8_t> bytes, TimeNs timestamp, ChannelId channel);
   void skip(const std::string& why, std::uint64_t where);
+  // The channel of a packet's bytes; kNoChannel when it would be one too many.
   ChannelId channel_for(const std::string& base, const SerialPayload& payload);
+  [[nodiscard]] std::string too_many_channels(long long offset) const;
   ChannelId pcapng_channel(std::uint32_t interface, const SerialPayload& payload);
 
   std::string name_;
@@ -69,13 +71,11 @@ class CaptureReader final : public ByteSource {
   ChannelTable& channels_;
   std::unique_ptr<pcapng::Reader> ng_;
   pcapng::PacketRecord record_;  // reused for every packet
-  struct CachedChannel {
-    std::uint64_t section = 0;
-    std::uint32_t interface = 0;
-    int direction = 0;  // 0 none stated, 1 outbound, 2 inbound
-    ChannelId channel = 0;
-  };
-  std::vector<CachedChannel> channel_cache_;
+  // Channel of each interface of the current section, by direction (none stated, outbound,
+  // inbound); kNoChannel until its first packet. Indexed, so a file with many interfaces or
+  // sections costs no search per packet.
+  std::vector<std::array<ChannelId, 3>> channel_cache_;
+  std::uint64_t cache_section_ = 0;
   ::pcap* pcap_ = nullptr;
   std::uint32_t pcap_link_type_ = 0;
   RunSettings settings_;

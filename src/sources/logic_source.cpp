@@ -110,6 +110,13 @@ bool LogicSource::read_header() {
     // All channels of one analyser watch one link: on a 4-wire link RX and TX are its two
     // directions, and content and order tell requests from replies (as on a shared pair).
     ids_.push_back(channels_.intern(chosen_names_[k], "", ChannelRole::bus));
+    if (ids_.back() == kNoChannel) {
+      error_ = fmt::format(
+          "{}: {} channels chosen; drivetap keeps at most {} apart (choose with "
+          "--channels)",
+          name_, chosen_.size(), ChannelTable::kMaxChannels);
+      return false;
+    }
   }
   clock_ = phy::SampleClock{rate, 0};
   // A character still to come began at most one character (plus a filtered edge) before the end

@@ -38,10 +38,19 @@ double parse_sample_rate(const std::string& text) {
 
 namespace {
 
-// Reads a whole zip entry (metadata is small; sample chunks are read in pieces elsewhere).
-bool read_entry(zip_t* z, const std::string& name, std::string& out) {
+// sigrok writes a metadata of a few hundred bytes; a larger claim is a hostile or broken file.
+constexpr zip_uint64_t kMaxMetadata = 1u << 20;
+
+// Reads a whole zip entry of at most kMaxMetadata bytes (metadata is small; sample chunks are read
+// in pieces elsewhere). *too_large when the entry claims more.
+bool read_entry(zip_t* z, const std::string& name, std::string& out, bool* too_large) {
   zip_stat_t st;
+  *too_large = false;
   if (zip_stat(z, name.c_str(), 0, &st) != 0) return false;
+  if (!(st.valid & ZIP_STAT_SIZE) || st.size > kMaxMetadata) {
+    *too_large = true;
+    return false;
+  }
   zip_file_t* f = zip_fopen(z, name.c_str(), 0);
   if (!f) return false;
   out.resize(static_cast<std::size_t>(st.size));
@@ -96,8 +105,14 @@ std::unique_ptr<SigrokFile> SigrokFile::open(const std::string& path, std::strin
   }
   zip_t* z = file->zip_->archive;
   std::string ini;
-  if (!read_entry(z, "metadata", ini)) {
-    *error = fmt::format("{}: no 'metadata' in the zip: not a sigrok session file", path);
+  bool too_large = false;
+  if (!read_entry(z, "metadata", ini, &too_large)) {
+    *error = too_large
+                 ? fmt::format(
+                       "{}: 'metadata' is larger than {} bytes: not a sigrok "
+                       "session file",
+                       path, kMaxMetadata)
+                 : fmt::format("{}: no 'metadata' in the zip: not a sigrok session file", path);
     return nullptr;
   }
   auto keys = device_keys(ini);
