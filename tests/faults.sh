@@ -94,6 +94,24 @@ rc=$?
 tail -n 1 "$work/err" | grep -qE "^drivetap: $work/cut.vcd: line [0-9]+: " ||
   fail "cut.vcd: last stderr line '$(tail -n 1 "$work/err")' does not name the line"
 
+# Inputs that would grow memory without bound (resource limits): refused with their position,
+# what came before decoded.
+for i in $(seq 0 300); do printf '%d.0 ch%d 01 03 00 00 00 01 84 0A\n' "$i" "$i"; done > "$work/many.log"
+expect "byte log with 301 channels" 1 "^drivetap: $work/many.log:257:[0-9]+: more than 256 channels" -- \
+  "$drivetap" read "$work/many.log" -o "$work/out.txt"
+[ "$(grep -c 'ch255' "$work/out.txt")" -ge 1 ] || fail "many.log: channels before the limit not decoded"
+grep -q '^--- summary ---' "$work/out.txt" || fail "many.log: text output lacks the summary"
+head -c 20000000 /dev/zero | tr '\0' '0' > "$work/long.log"
+expect "byte log line of 20 MB" 1 "^drivetap: $work/long.log:1:.*line longer than 16777216 bytes" -- \
+  "$drivetap" read "$work/long.log" -o /dev/null
+expect "decode: stdin line of 2 MB" 2 '^drivetap: standard input: line 2: longer than 1048576 bytes' -- \
+  sh -c '{ echo "01 03 00 00 00 01 84 0A"; head -c 2000000 /dev/zero | tr "\0" "0"; } |
+    "$0" decode -o "$1"' "$drivetap" "$work/decoded.txt"
+grep -q 'addr 1  Read Holding Registers 0x0000  crc ok' "$work/decoded.txt" ||
+  fail "decode: the frame before the long line was not written: $(head -c 300 "$work/decoded.txt")"
+expect "decode: hex then ASCII" 2 '^drivetap: standard input: line 2 \(":010300000001FB"\): give frames of one kind' -- \
+  sh -c 'printf "01 03 00 00 00 01 84 0A\n:010300000001FB\n" | "$0" decode' "$drivetap"
+
 if [ "$failures" -ne 0 ]; then
   echo "$failures fault test(s) failed" >&2
   exit 1

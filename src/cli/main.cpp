@@ -328,66 +328,98 @@ class Outputs {
   bool capture_failed_ = false;
 };
 
-int run_decode(const CommonOptions& o, const std::vector<std::string>& args) {
-  std::vector<std::string> texts = args;
-  if (texts.empty() || (texts.size() == 1 && texts[0] == "-")) {
-    texts.clear();
-    std::string line;
-    while (std::getline(std::cin, line)) texts.push_back(line);
+// Reads one line of standard input into `line` (without its '\n'), at most kMaxDecodeLine bytes;
+// false at the end, or with *error and *code set (a longer line, 2: frames are a few hundred
+// characters; a read error, 1).
+constexpr std::size_t kMaxDecodeLine = 1u << 20;
+bool read_decode_line(std::string& line, std::uint64_t number, std::string* error, int* code) {
+  line.clear();
+  int c = 0;
+  while ((c = std::getchar()) != EOF && c != '\n') {
+    if (line.size() == kMaxDecodeLine) {
+      *error = fmt::format("standard input: line {}: longer than {} bytes", number, kMaxDecodeLine);
+      *code = 2;
+      return false;
+    }
+    line.push_back(static_cast<char>(c));
   }
+  if (c == EOF && std::ferror(stdin)) {
+    *error = fmt::format("standard input: line {}: read error: {}", number, std::strerror(errno));
+    *code = 1;
+    return false;
+  }
+  return c != EOF || !line.empty();
+}
+
+// Frames given as arguments, or one text per line of standard input, decoded as they come (a
+// long stdin is never held whole).
+int run_decode(const CommonOptions& o, const std::vector<std::string>& args) {
   ChannelTable channels;
   const ChannelId bus = channels.intern("bus");
   PipelineOptions p = make_pipeline_options(o, RunSettings{});
-  // Frames written as text are Modbus ASCII (":0103...") or Easydrive ("~010A..."); hex bytes
-  // are left to detection (Modbus RTU, Danfoss FC).
-  auto text_start = [](const std::string& t) {
-    const std::size_t first = t.find_first_not_of(" \t");
-    return first == std::string::npos ? '\0' : t[first];
-  };
-  auto is_text_frame = [&](const std::string& t) {
-    return text_start(t) == ':' || text_start(t) == '~';
-  };
-  bool any_text = false;
-  bool any_hex = false;
-  for (const std::string& t : texts) {
-    if (t.find_first_not_of(" \t\r") == std::string::npos) continue;
-    (is_text_frame(t) ? any_text : any_hex) = true;
-  }
-  if (any_text && any_hex)
-    die("decode: give either hex bytes or text frames (':' or '~'), not both");
-  // Text frames say their protocol by their first character; hex bytes are left to detection.
-  if (o.protocol.empty() && any_text) {
-    for (const std::string& t : texts)
-      if (is_text_frame(t))
-        p.protocol = text_start(t) == ':' ? Protocol::modbus_ascii : Protocol::easydrive;
-  }
-  std::vector<ByteEvent> events;
-  TimeNs clock = 0;
   // Frames given separately are laid out with a clean silence between them; bytes run together
   // in one frame text are back to back and get split by content.
   const TimeNs gap = std::max<TimeNs>(p.timing.t35 * 4, 20 * kNsPerMs);
-  for (std::size_t i = 0; i < texts.size(); ++i) {
+  const bool from_stdin = args.empty() || (args.size() == 1 && args[0] == "-");
+  // Frames written as text are Modbus ASCII (":0103...") or Easydrive ("~010A..."); hex bytes
+  // are left to detection (Modbus RTU, Danfoss FC). The first frame decides, for the whole run.
+  char first_kind = 0;  // ':' '~' or 'x' (hex) once a frame was seen
+  std::unique_ptr<Outputs> out;
+  std::unique_ptr<Pipeline> pipeline;
+  std::vector<ByteEvent> events;
+  TimeNs clock = 0;
+  auto stop = [&](const std::string& message, int code = 2) {
+    // What was decoded before the bad text stays written.
+    if (pipeline) pipeline->finish();
+    if (out) out->close();
+    die(message, code);
+  };
+  auto take = [&](const std::string& text, const std::string& where) {
+    const std::size_t first = text.find_first_not_of(" \t\r");
+    if (first == std::string::npos) return;
+    const char kind = text[first] == ':' || text[first] == '~' ? text[first] : 'x';
+    const std::string shown = text.size() > 60 ? text.substr(0, 57) + "..." : text;
+    if (first_kind != 0 && kind != first_kind)
+      stop(
+          fmt::format("{} (\"{}\"): give frames of one kind (hex bytes, ':' Modbus ASCII or '~' "
+                      "Easydrive), not several",
+                      where, shown));
     std::string err;
-    if (texts[i].find_first_not_of(" \t\r") == std::string::npos) continue;
     std::optional<std::vector<std::vector<std::uint8_t>>> frames;
-    if (is_text_frame(texts[i])) {
-      const char start = text_start(texts[i]);
-      const std::string t = texts[i].substr(texts[i].find(start));
-      if (auto f = parse_text_frame(t, start == ':' ? "\r\n" : "\r", &err))
+    if (kind != 'x') {
+      if (auto f = parse_text_frame(text.substr(first), kind == ':' ? "\r\n" : "\r", &err))
         frames.emplace(1, std::move(*f));
     } else {
-      frames = parse_hex_frames(texts[i], &err);
+      frames = parse_hex_frames(text, &err);
     }
-    if (!frames) die(fmt::format("argument {} (\"{}\"): {}", i + 1, texts[i], err));
+    if (!frames) stop(fmt::format("{} (\"{}\"): {}", where, shown, err));
+    if (first_kind == 0) {
+      first_kind = kind;
+      if (o.protocol.empty() && kind != 'x')
+        p.protocol = kind == ':' ? Protocol::modbus_ascii : Protocol::easydrive;
+    }
+    events.clear();
     synthesize_events(*frames, bus, p.timing.character_time, gap, &clock, events);
+    if (events.empty()) return;
+    if (!pipeline) {
+      out = std::make_unique<Outputs>(o, channels, p, /*timed=*/false);
+      pipeline = std::make_unique<Pipeline>(p, channels, out->sink());
+    }
+    for (const ByteEvent& e : events) pipeline->push(e);
+  };
+  if (from_stdin) {
+    std::string line, error;
+    int code = 0;
+    for (std::uint64_t number = 1; read_decode_line(line, number, &error, &code); ++number)
+      take(line, fmt::format("standard input: line {}", number));
+    if (!error.empty()) stop(error, code);
+  } else {
+    for (std::size_t i = 0; i < args.size(); ++i) take(args[i], fmt::format("argument {}", i + 1));
   }
-  if (events.empty())
+  if (!pipeline)
     die("decode: no hex bytes given (e.g. drivetap decode \"01 03 00 00 00 01 84 0A\")");
-  Outputs out(o, channels, p, /*timed=*/false);
-  Pipeline pipeline(p, channels, out.sink());
-  for (const ByteEvent& e : events) pipeline.push(e);
-  pipeline.finish();
-  out.close();
+  pipeline->finish();
+  out->close();
   return 0;
 }
 
