@@ -6,6 +6,7 @@
 
 #include <toml++/toml.h>
 #include <algorithm>
+#include <filesystem>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -521,14 +522,33 @@ std::optional<std::vector<DriveProfile>> load_builtin_profiles(ProfileError* err
 }
 
 std::optional<DriveProfile> load_profile_file(const std::string& path, ProfileError* error) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) {
+    *error = {path, 0, "", "is a directory, not a profile file"};
+    return std::nullopt;
+  }
   std::ifstream in(path);
   if (!in) {
     *error = {path, 0, "", "cannot open the profile file"};
     return std::nullopt;
   }
-  std::ostringstream text;
-  text << in.rdbuf();
-  return parse_profile(text.str(), path, error);
+  // Profiles are a few KiB of TOML; reading stops past the limit (a device such as /dev/zero, or
+  // a large file given by mistake, would otherwise be read whole into memory).
+  constexpr std::size_t kMaxProfileBytes = 1u << 20;
+  std::string text(kMaxProfileBytes + 1, '\0');
+  in.read(text.data(), static_cast<std::streamsize>(text.size()));
+  if (in.bad()) {
+    *error = {path, 0, "", "cannot read the profile file"};
+    return std::nullopt;
+  }
+  const auto got = static_cast<std::size_t>(in.gcount());
+  if (got > kMaxProfileBytes) {
+    *error = {path, 0, "",
+              fmt::format("larger than {} bytes: not a drive profile", kMaxProfileBytes)};
+    return std::nullopt;
+  }
+  text.resize(got);
+  return parse_profile(text, path, error);
 }
 
 }  // namespace drivetap
