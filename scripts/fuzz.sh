@@ -16,7 +16,8 @@
 #   build-fuzz/fuzz/fuzz_<target> ARTIFACT
 # A dictionary fuzz/fuzz_<target>.dict, when there is one, is passed with -dict.
 # Environment: FUZZ_TIMEOUT (seconds one input may take before it counts as a hang, default 20);
-# FUZZ_BUILD (the build directory, default build-fuzz).
+# FUZZ_BUILD (the build directory, default build-fuzz); FUZZ_JOBS (targets run at once, default
+# 1).
 # Exit status 1 when any target found a crash, hang, leak or out-of-memory, or a regression
 # reproducer still fails.
 set -euo pipefail
@@ -232,37 +233,43 @@ make_seeds
 export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=1:symbolize=1}
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-halt_on_error=1:print_stacktrace=1}
 mkdir -p "$build/logs"
-results=()
-failed=0
-for t in "${targets[@]}"; do
-  bin=$build/fuzz/fuzz_$t
-  corpus=$build/corpus/$t
-  artifacts=$build/artifacts/$t
-  log=$build/logs/$t.log
+
+# Runs one target: its regression reproducers, then the fuzzer. Writes its summary lines to
+# build-fuzz/logs/<target>.result, and exits 1 when it found something.
+run_target() {
+  local t=$1
+  local bin=$build/fuzz/fuzz_$t
+  local corpus=$build/corpus/$t
+  local artifacts=$build/artifacts/$t
+  local log=$build/logs/$t.log
+  local result_file=$build/logs/$t.result
+  local failed=0 line
+  : > "$result_file"
   mkdir -p "$corpus" "$artifacts"
   # Reproducers of known bugs first: one that still fails is reported (and kept out of the
   # seeds, so that fuzzing goes on); one that passes joins the seeds.
   while read -r r; do
     [ -n "$r" ] || continue
-    if "$bin" -timeout="$timeout" -rss_limit_mb=2048 "$r" > "$build/logs/regression.log" 2>&1; then
+    if "$bin" -timeout="$timeout" -rss_limit_mb=2048 "$r" > "$build/logs/$t.regression.log" 2>&1; then
       cp "$r" "$build/seeds/$t/regression-$(basename "$(dirname "$r")")"
     else
+      local where
       where=$(grep -m 1 -E 'runtime error|ERROR: (AddressSanitizer|LeakSanitizer|libFuzzer)' \
-        "$build/logs/regression.log" | sed "s|$root/||" || true)
+        "$build/logs/$t.regression.log" | sed "s|$root/||" || true)
       line=$(printf '%-15s regression %s STILL FAILS: %s' "$t" "$r" "${where:-see fuzz_$t $r}")
       echo "$line"
-      results+=("$line")
+      echo "$line" >> "$result_file"
       failed=1
     fi
   done <<< "$(regressions_of "$t")"
   echo "== fuzz_$t: $seconds s (log: ${log#"$root"/})"
+  local start rc=0 dict=()
   start=$(date +%s)
-  rc=0
-  dict=()
   [ -f "fuzz/fuzz_$t.dict" ] && dict=(-dict="fuzz/fuzz_$t.dict")
   "$bin" -max_total_time="$seconds" -rss_limit_mb=2048 -timeout="$timeout" "${dict[@]}" \
     -print_final_stats=1 -artifact_prefix="$artifacts/" "$corpus" "$build/seeds/$t" \
     > "$log" 2>&1 || rc=$?
+  local elapsed runs last cov ft files kib artifact result
   elapsed=$(($(date +%s) - start))
   runs=$(sed -n 's/^stat::number_of_executed_units: *\([0-9]*\).*/\1/p' "$log" | tail -n 1)
   [ -n "$runs" ] || runs=$(sed -n 's/^Done \([0-9]*\) runs.*/\1/p' "$log" | tail -n 1)
@@ -286,10 +293,29 @@ for t in "${targets[@]}"; do
   line=$(printf '%-15s %5ss %10s runs  cov %-5s ft %-6s corpus %5s files %6s KiB  %s' \
     "$t" "$elapsed" "${runs:-?}" "${cov:-?}" "${ft:-?}" "$files" "$kib" "$result")
   echo "$line"
-  results+=("$line")
+  echo "$line" >> "$result_file"
+  return "$failed"
+}
+
+# FUZZ_JOBS targets at a time (default 1: each target gets a core of its own on a 2-core machine
+# while the machine stays usable).
+parallel=${FUZZ_JOBS:-1}
+if ! [[ "$parallel" =~ ^[0-9]+$ ]] || [ "$parallel" -eq 0 ]; then
+  echo "fuzz.sh: FUZZ_JOBS must be a positive number, not '$parallel'" >&2
+  exit 2
+fi
+failed=0
+for t in "${targets[@]}"; do
+  while [ "$(jobs -rp | wc -l)" -ge "$parallel" ]; do wait -n || true; done
+  run_target "$t" &
 done
+while [ "$(jobs -rp | wc -l)" -gt 0 ]; do wait -n || true; done
 
 echo
-echo "== summary (${seconds} s per target)"
-printf '%s\n' "${results[@]}"
+echo "== summary (${seconds} s per target, $parallel at a time)"
+for t in "${targets[@]}"; do
+  cat "$build/logs/$t.result"
+  # A target whose summary says it failed fails the run, however its job ended.
+  grep -q 'STILL FAILS\|CRASH' "$build/logs/$t.result" && failed=1
+done
 exit "$failed"

@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # The test command of the README and of CI: installs dependencies, builds, runs every unit and
-# golden test, then repeats the whole suite in an ASan+UBSan build.
+# golden test, repeats the whole suite in an ASan+UBSan build, then a short fuzz pass: every
+# libFuzzer target for FUZZ_SECONDS (default 30) seconds, after the regression reproducers of
+# captures/regressions/ (scripts/fuzz.sh; FUZZ_SECONDS=0 skips it).
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 bash scripts/install-deps.sh
@@ -14,3 +16,8 @@ cmake -S . -B build-asan -G Ninja -DCMAKE_BUILD_TYPE=Debug -DDRIVETAP_SANITIZE=O
 cmake --build build-asan -j "$jobs"
 ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
   DRIVETAP_REQUIRE_TSHARK=1 ctest --test-dir build-asan --output-on-failure -j "$jobs"
+
+fuzz_seconds=${FUZZ_SECONDS:-30}
+if [ "$fuzz_seconds" != 0 ]; then
+  bash scripts/fuzz.sh "$fuzz_seconds"
+fi

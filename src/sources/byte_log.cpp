@@ -44,8 +44,11 @@ bool ByteLogReader::read_line() {
   while (true) {
     const char* start = buffer_.data() + buffer_pos_;
     const std::size_t have = buffer_end_ - buffer_pos_;
+    // (memchr is never given the empty buffer's null pointer, even for 0 bytes.)
     const auto* newline =
-        static_cast<const char*>(std::memchr(start + scanned, '\n', have - scanned));
+        have > scanned
+            ? static_cast<const char*>(std::memchr(start + scanned, '\n', have - scanned))
+            : nullptr;
     const std::size_t length = newline ? static_cast<std::size_t>(newline - start) + 1 : have;
     if (length > kMaxLineLength) {
       ++line_number_;
