@@ -41,6 +41,25 @@ expect "stdout on a full disk" 1 '^drivetap: standard output: write failed: No s
   sh -c '"$0" read "$1" > /dev/full' "$drivetap" "$log"
 expect "JSON to a full disk" 1 '^drivetap: standard output: write failed: No space left on device$' -- \
   sh -c '"$0" read -T json "$1" > /dev/full' "$drivetap" "$log"
+# A disk that fills mid-write, as a file size limit (ulimit -f 4: 4 KiB, the first stdio buffer
+# reach the disk, then EFBIG): the -w file is cut back to its last whole block or record and
+# reads back with the packets that fitted.
+for format in pcapng pcap; do
+  flag=()
+  [ "$format" = pcap ] && flag=(--pcap)
+  out=$work/limited.$format
+  expect "-w $format past a file size limit" 1 "^drivetap: -w $out: write failed: File too large\$" -- \
+    bash -c 'ulimit -f 4; exec "$@"' _ "$drivetap" read "$log" "${flag[@]}" -w "$out" -o /dev/null
+  size=$(stat -c %s "$out")
+  { [ "$size" -gt 0 ] && [ "$size" -le 4096 ]; } || fail "limited.$format: $size bytes"
+  "$drivetap" read "$out" -o "$work/limited.txt" 2> "$work/reread.err" ||
+    fail "limited.$format does not read back: $(cat "$work/reread.err")"
+  grep -qE '^frames: +[1-9]' "$work/limited.txt" || fail "limited.$format: no frames kept"
+  if command -v tshark > /dev/null; then
+    tshark -r "$out" > /dev/null 2> "$work/tshark.err" ||
+      fail "limited.$format: tshark rejects it: $(cat "$work/tshark.err")"
+  fi
+done
 
 # Inputs that are no capture file.
 expect "input is a directory" 1 "^drivetap: $work: is a directory" -- "$drivetap" read "$work"

@@ -241,7 +241,7 @@ class Outputs {
       if (!ring_->open(&error)) die(error, 1);
       tee_.add(ring_.get());
     } else if (!o.write.empty()) {
-      capture_file_ = capture_to_stdout ? stdout : std::fopen(o.write.c_str(), "wb");
+      capture_file_ = capture_to_stdout ? stdout : open_capture_file(o.write);
       if (!capture_file_)
         die(fmt::format("-w {}: cannot create: {}", o.write, std::strerror(errno)));
       capture_ = std::make_unique<CaptureSink>(capture_file_, channels, capture_options(o, p));
@@ -295,9 +295,11 @@ class Outputs {
     const int capture_errno = capture_failed_ ? capture_errno_ : errno;
     if (ring_ && !ring_->close()) die(ring_->error(), 1);
     capture_.reset();
-    // A failed write (disk full) leaves the file cut back to its last whole packet: valid.
+    // A failed write (disk full) leaves the file cut back to its last whole block: valid, with
+    // every packet that reached the disk.
     if (!capture_ok && capture_file_ && capture_file_ != stdout)
-      cut_back_to(capture_file_, capture_good_size_);
+      cut_back_to(capture_file_, capture_good_size_,
+                  options_.classic_pcap ? CaptureFormat::pcap : CaptureFormat::pcapng);
     const bool capture_closed =
         !capture_file_ || capture_file_ == stdout || std::fclose(capture_file_) == 0;
     if (!capture_ok)
@@ -973,6 +975,9 @@ int run_profiles(const std::vector<std::string>& files) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // A file size limit (ulimit -f) must fail the write (EFBIG) like a full disk, so that outputs
+  // are cut back to whole packets and closed, rather than kill the process mid-packet.
+  std::signal(SIGXFSZ, SIG_IGN);
   // The short, tcpdump-like form: `drivetap -i /dev/ttyUSB0 -s "19200 8E1"` is a capture.
   std::vector<char*> args(argv, argv + argc);
   static char capture_word[] = "capture";

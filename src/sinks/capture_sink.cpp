@@ -2,7 +2,11 @@
 #include "sinks/capture_sink.hpp"
 
 #include <stdio_ext.h>
+#include <sys/stat.h>
 #include <unistd.h>
+
+#include <algorithm>
+#include <cstring>
 
 #include <fmt/format.h>
 #include <pcap/pcap.h>
@@ -168,10 +172,54 @@ void CaptureSink::write_pending() {
   pending_.reset();
 }
 
-void cut_back_to(std::FILE* file, long good_size) {
+long whole_capture_prefix(int fd, long from, long size, CaptureFormat format) {
+  auto read_u32 = [fd](long at, std::uint32_t* value) {
+    std::uint8_t b[4];
+    if (::pread(fd, b, 4, at) != 4) return false;
+    std::memcpy(value, b, 4);  // host order: the order this process wrote it in
+    return true;
+  };
+  long at = std::max(from, 0L);
+  if (format == CaptureFormat::pcap) {
+    constexpr long kFileHeader = 24, kRecordHeader = 16;
+    if (at == 0) {
+      if (size < kFileHeader) return 0;
+      at = kFileHeader;
+    }
+    // Each pass steps over one whole record (at least its 16-byte header), or stops.
+    while (at + kRecordHeader <= size) {
+      std::uint32_t captured = 0;
+      if (!read_u32(at + 8, &captured)) break;
+      const long end = at + kRecordHeader + static_cast<long>(captured);
+      if (end > size) break;
+      at = end;
+    }
+    return at;
+  }
+  // pcapng: type(4) total length(4) ... total length(4); lengths >= 12 and multiples of 4.
+  while (at + 12 <= size) {
+    std::uint32_t total = 0;
+    if (!read_u32(at + 4, &total) || total < 12 || total % 4 != 0) break;
+    const long end = at + static_cast<long>(total);
+    if (end > size) break;
+    at = end;
+  }
+  return at;
+}
+
+std::FILE* open_capture_file(const std::string& path) {
+  struct stat st {};
+  const bool special = ::stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode);
+  return std::fopen(path.c_str(), special ? "wb" : "w+b");
+}
+
+void cut_back_to(std::FILE* file, long known_good, CaptureFormat format) {
   __fpurge(file);
-  if (good_size >= 0 && ::ftruncate(::fileno(file), good_size) == 0)
-    std::fseek(file, good_size, SEEK_SET);
+  const int fd = ::fileno(file);
+  struct stat st {};
+  if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) return;  // a pipe or device: nothing to cut
+  const long good = whole_capture_prefix(fd, known_good, static_cast<long>(st.st_size), format);
+  if (::ftruncate(fd, good) == 0) std::fseek(file, good, SEEK_SET);
 }
 
 bool CaptureSink::flush() {

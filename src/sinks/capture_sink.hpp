@@ -39,9 +39,23 @@ struct CaptureSinkOptions {
   std::string settings;       // encode_settings(...) of the run, stored per interface
 };
 
-// After a failed write (disk full): drops what stdio still buffers and cuts the file back to
-// `good_size`, the end of the last packet that reached the disk whole, so it stays readable.
-void cut_back_to(std::FILE* file, long good_size);
+// After a failed write (disk full, file size limit): drops what stdio still buffers and cuts the
+// file back to the end of the last block (pcapng) or record (classic pcap) that reached the disk
+// whole, so it stays readable with every packet that fitted. `known_good` is an offset already
+// known to end a whole block (the last successful flush, or 0): the walk over the blocks on disk
+// starts there.
+void cut_back_to(std::FILE* file, long known_good, CaptureFormat format);
+
+// The end of the last whole pcapng block / pcap record of the file `fd` holds, walking from
+// `from` (a block boundary, or 0) to `size` bytes. Lengths are read as this host wrote them.
+// Capture files are opened with open_capture_file() so that the walk can read them back; where
+// it cannot, the result is `from`.
+long whole_capture_prefix(int fd, long from, long size, CaptureFormat format);
+
+// Creates a capture file for writing: a regular file is opened for reading too ("w+b"), so
+// that cut_back_to() can read its blocks back; a FIFO or device only for writing ("wb": a FIFO
+// opened read-write would never report its reader gone).
+std::FILE* open_capture_file(const std::string& path);
 
 class CaptureSink final : public Sink {
  public:

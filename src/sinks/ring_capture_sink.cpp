@@ -73,7 +73,7 @@ bool RingCaptureSink::open_next(TimeNs packet_time) {
   char stamp[32];
   std::strftime(stamp, sizeof stamp, "%Y%m%d%H%M%S", &local);
   current_name_ = fmt::format("{}_{:05}_{}{}", stem, sequence_, stamp, ext);
-  file_ = std::fopen(current_name_.c_str(), "wb");
+  file_ = open_capture_file(current_name_);
   if (!file_) {
     error_ = fmt::format("-w {}: cannot create: {}", current_name_, std::strerror(errno));
     failed_ = true;
@@ -93,7 +93,7 @@ bool RingCaptureSink::open_next(TimeNs packet_time) {
 bool RingCaptureSink::close() {
   if (!sink_) return !failed_;
   const bool ok = !failed_ && sink_->flush();
-  if (!ok) cut_back_to(file_, good_size_);
+  if (!ok) cut_back_to(file_, good_size_, capture_options_.format);
   sink_.reset();
   const bool closed = std::fclose(file_) == 0;
   file_ = nullptr;
@@ -142,7 +142,7 @@ bool RingCaptureSink::flush() {
   if (sink_->flush()) {
     good_size_ = std::ftell(file_);
   } else {
-    cut_back_to(file_, good_size_);
+    cut_back_to(file_, good_size_, capture_options_.format);
     if (error_.empty())
       error_ = fmt::format("-w {}: write failed: {}", current_name_, std::strerror(errno));
     failed_ = true;
