@@ -60,6 +60,18 @@ for format in pcapng pcap; do
       fail "limited.$format: tshark rejects it: $(cat "$work/tshark.err")"
   fi
 done
+# The same for -o: text and JSON Lines are cut back after their last whole line.
+for format in text json; do
+  out=$work/limited.$format
+  expect "-o $format past a file size limit" 1 "^drivetap: -o $out: write failed: File too large\$" -- \
+    bash -c 'ulimit -f 4; exec "$@"' _ "$drivetap" read -T "$format" "$log" -o "$out"
+  size=$(stat -c %s "$out")
+  { [ "$size" -gt 0 ] && [ "$size" -le 4096 ]; } || fail "limited.$format: $size bytes"
+  [ "$(tail -c 1 "$out" | od -An -c | tr -d ' ')" = '\n' ] || fail "limited.$format: ends inside a line"
+  if [ "$format" = json ] && grep -qvE '^\{.*\}$' "$out"; then
+    fail "limited.json: a line that is no whole record: $(grep -vE '^\{.*\}$' "$out" | head -n 1)"
+  fi
+done
 
 # Inputs that are no capture file.
 expect "input is a directory" 1 "^drivetap: $work: is a directory" -- "$drivetap" read "$work"

@@ -228,7 +228,7 @@ class Outputs {
     if (capture_to_stdout && (o.output.empty() || o.output == "-") && o.format == "json")
       die("-w - and JSON output cannot share stdout: add -o FILE for the JSON");
     if (!o.output.empty() && o.output != "-") {
-      text_file_ = std::fopen(o.output.c_str(), "w");
+      text_file_ = open_output_file(o.output);
       if (!text_file_) die(fmt::format("-o {}: cannot create: {}", o.output, std::strerror(errno)));
     } else {
       // With the capture on stdout, the text goes to stderr as a summary only (like tcpdump).
@@ -241,7 +241,7 @@ class Outputs {
       if (!ring_->open(&error)) die(error, 1);
       tee_.add(ring_.get());
     } else if (!o.write.empty()) {
-      capture_file_ = capture_to_stdout ? stdout : open_capture_file(o.write);
+      capture_file_ = capture_to_stdout ? stdout : open_output_file(o.write);
       if (!capture_file_)
         die(fmt::format("-w {}: cannot create: {}", o.write, std::strerror(errno)));
       capture_ = std::make_unique<CaptureSink>(capture_file_, channels, capture_options(o, p));
@@ -310,7 +310,11 @@ class Outputs {
     const std::string text_name = to_file                ? "-o " + options_.output
                                   : text_file_ == stdout ? std::string("standard output")
                                                          : std::string("standard error");
-    if (!text_ok) die(fmt::format("{}: write failed: {}", text_name, std::strerror(text_errno)), 1);
+    if (!text_ok) {
+      // Half a line (half a JSON record) would mislead whoever reads the file: cut it off.
+      if (to_file) cut_back_to_last_line(text_file_);
+      die(fmt::format("{}: write failed: {}", text_name, std::strerror(text_errno)), 1);
+    }
     if (to_file && std::fclose(text_file_) != 0)
       die(fmt::format("{}: write failed: {}", text_name, std::strerror(errno)), 1);
   }

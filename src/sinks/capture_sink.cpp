@@ -207,10 +207,33 @@ long whole_capture_prefix(int fd, long from, long size, CaptureFormat format) {
   return at;
 }
 
-std::FILE* open_capture_file(const std::string& path) {
+std::FILE* open_output_file(const std::string& path) {
   struct stat st {};
   const bool special = ::stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode);
   return std::fopen(path.c_str(), special ? "wb" : "w+b");
+}
+
+void cut_back_to_last_line(std::FILE* file) {
+  __fpurge(file);
+  const int fd = ::fileno(file);
+  struct stat st {};
+  if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) return;
+  // Backwards from the end, a block at a time, to the last '\n' (none: nothing whole, cut to 0).
+  char block[4096];
+  long end = static_cast<long>(st.st_size);
+  long keep = 0;
+  while (end > 0 && keep == 0) {
+    const long start = std::max(0L, end - static_cast<long>(sizeof block));
+    const ssize_t got = ::pread(fd, block, static_cast<std::size_t>(end - start), start);
+    if (got != end - start) return;  // cannot read it back: leave it as it is
+    for (long i = got - 1; i >= 0; --i)
+      if (block[i] == '\n') {
+        keep = start + i + 1;
+        break;
+      }
+    end = start;
+  }
+  if (::ftruncate(fd, keep) == 0) std::fseek(file, keep, SEEK_SET);
 }
 
 void cut_back_to(std::FILE* file, long known_good, CaptureFormat format) {

@@ -48,14 +48,18 @@ void cut_back_to(std::FILE* file, long known_good, CaptureFormat format);
 
 // The end of the last whole pcapng block / pcap record of the file `fd` holds, walking from
 // `from` (a block boundary, or 0) to `size` bytes. Lengths are read as this host wrote them.
-// Capture files are opened with open_capture_file() so that the walk can read them back; where
+// Capture files are opened with open_output_file() so that the walk can read them back; where
 // it cannot, the result is `from`.
 long whole_capture_prefix(int fd, long from, long size, CaptureFormat format);
 
-// Creates a capture file for writing: a regular file is opened for reading too ("w+b"), so
-// that cut_back_to() can read its blocks back; a FIFO or device only for writing ("wb": a FIFO
-// opened read-write would never report its reader gone).
-std::FILE* open_capture_file(const std::string& path);
+// Creates an output file (capture, text or JSON) for writing: a regular file is opened for
+// reading too ("w+b"), so that cut_back_to() / cut_back_to_last_line() can read it back; a FIFO
+// or device only for writing ("wb": a FIFO opened read-write would never report its reader gone).
+std::FILE* open_output_file(const std::string& path);
+
+// After a failed write of a text or JSON Lines output: drops what stdio still buffers and cuts
+// the file back after its last whole line, so that no reader meets half a record.
+void cut_back_to_last_line(std::FILE* file);
 
 class CaptureSink final : public Sink {
  public:

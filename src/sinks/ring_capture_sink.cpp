@@ -73,7 +73,7 @@ bool RingCaptureSink::open_next(TimeNs packet_time) {
   char stamp[32];
   std::strftime(stamp, sizeof stamp, "%Y%m%d%H%M%S", &local);
   current_name_ = fmt::format("{}_{:05}_{}{}", stem, sequence_, stamp, ext);
-  file_ = open_capture_file(current_name_);
+  file_ = open_output_file(current_name_);
   if (!file_) {
     error_ = fmt::format("-w {}: cannot create: {}", current_name_, std::strerror(errno));
     failed_ = true;
