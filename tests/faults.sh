@@ -78,6 +78,15 @@ expect "input is a directory" 1 "^drivetap: $work: is a directory" -- "$drivetap
 expect "input is /dev/null" 1 '^drivetap: /dev/null: empty file$' -- "$drivetap" read /dev/null
 expect "input is /dev/zero" 1 '^drivetap: /dev/zero: offset 0: not a recognised capture format' -- \
   timeout 20 "$drivetap" read /dev/zero
+expect "input is /dev/urandom" 1 '^drivetap: /dev/urandom: ' -- timeout 20 "$drivetap" read /dev/urandom -o /dev/null
+"$drivetap" read "$log" -w "$work/whole.pcapng" -o /dev/null 2> /dev/null || fail "writing whole.pcapng"
+mkfifo "$work/fifo"
+head -c 10000 "$work/whole.pcapng" > "$work/fifo" &
+expect "input is a FIFO, cut short" 1 "^drivetap: $work/fifo: offset [0-9]+: truncated block" -- \
+  timeout 20 "$drivetap" read "$work/fifo" -o /dev/null
+wait
+expect "standard input cut short" 1 '^drivetap: <stdin>: offset [0-9]+: truncated block' -- \
+  sh -c 'head -c 10000 "$1" | timeout 20 "$0" read - -o /dev/null' "$drivetap" "$work/whole.pcapng"
 expect "input missing" 1 '^drivetap: /nonexistent.log: cannot open: No such file' -- \
   "$drivetap" read /nonexistent.log
 
