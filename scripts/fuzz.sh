@@ -6,7 +6,7 @@
 #   bash scripts/fuzz.sh 120 pcapng byte_log
 #
 # Targets: byte_log pcapng pcap rtu_framer modbus_pdu upper_pdu_link modbus_ascii danfoss_fc
-# easydrive vcd sigrok profile (the "fuzz_" prefix is
+# easydrive vcd sigrok profile hex_text (the "fuzz_" prefix is
 # optional). Per target: working corpus build-fuzz/corpus/<target> (kept between runs), seeds
 # build-fuzz/seeds/<target> (remade each run), crash artifacts build-fuzz/artifacts/<target>/,
 # libFuzzer's log build-fuzz/logs/<target>.log. Reproducers saved under
@@ -31,7 +31,7 @@ if ! [[ "$seconds" =~ ^[0-9]+$ ]] || [ "$seconds" -eq 0 ]; then
   exit 2
 fi
 all_targets=(byte_log pcapng pcap rtu_framer modbus_pdu upper_pdu_link modbus_ascii danfoss_fc easydrive vcd
-  sigrok profile)
+  sigrok profile hex_text)
 targets=()
 for t in "$@"; do
   t=${t#fuzz_}
@@ -173,6 +173,14 @@ make_seeds() {
     cp "$toml" "$seeds/profile/$name.toml"
     { cat "$toml"; printf '\0'; cat "$seeds/modbus_pdu/"seed-* 2> /dev/null | head -c 2048; } \
       > "$seeds/profile/$name-with-frames"
+  done
+  # `drivetap decode` text: the README's examples, and each telegram seed written as hex.
+  grep -ho 'decode "[^"]*"' README.md tests/*.sh | sed 's/^decode "//; s/"$//' | sort -u |
+    awk -v dir="$seeds/hex_text" '{ print > (dir "/example-" NR) }'
+  printf '01 03 00 00 00 01 84 0A | 0x01,0x83;02 C0 F1\n:010300000001FB\\r\\n\n~010C00010FA0027C\\x0d\n' \
+    > "$seeds/hex_text/mixed"
+  for f in "$seeds/modbus_pdu/"*; do
+    [ -f "$f" ] && xxd -p "$f" | tr -d '\n' > "$seeds/hex_text/hex-$(basename "$f")"
   done
   # Every telegram of the captures seeds the protocol-decoder targets too.
   for t in modbus_ascii danfoss_fc easydrive; do

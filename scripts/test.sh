@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # The test command of the README and of CI: installs dependencies, builds, runs every unit and
 # golden test, repeats the whole suite in an ASan+UBSan build, then a short fuzz pass: every
-# libFuzzer target for FUZZ_SECONDS (default 30) seconds, after the regression reproducers of
-# captures/regressions/ (scripts/fuzz.sh; FUZZ_SECONDS=0 skips it).
+# libFuzzer target for FUZZ_SECONDS (default 30) seconds, one per core at a time, after the
+# regression reproducers of captures/regressions/ (scripts/fuzz.sh; FUZZ_SECONDS=0 skips it).
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 bash scripts/install-deps.sh
@@ -19,5 +19,5 @@ ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
 
 fuzz_seconds=${FUZZ_SECONDS:-30}
 if [ "$fuzz_seconds" != 0 ]; then
-  bash scripts/fuzz.sh "$fuzz_seconds"
+  FUZZ_JOBS=${FUZZ_JOBS:-$jobs} bash scripts/fuzz.sh "$fuzz_seconds"
 fi

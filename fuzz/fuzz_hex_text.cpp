@@ -1,0 +1,57 @@
+// Fuzzes the text `drivetap decode` reads (src/sources/hex_text.hpp, README "Quick start"): each
+// line of the input is hex bytes ("01 03 00 00 | 01 83 02") or one ':' / '~' text frame with
+// escapes, parsed as decode parses it; a refused line must say why; the frames are laid out on a
+// synthetic time line (times must not go back) and decoded by a pipeline with detection.
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "fuzz/fuzz_common.hpp"
+#include "sources/hex_text.hpp"
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  using namespace drivetap;
+  const std::string_view all(reinterpret_cast<const char*>(data), size);
+  ChannelTable channels;
+  channels.intern("bus");
+  PipelineOptions options;
+  options.timing = FramingTiming::from(options.serial);
+  fuzz::CheckedRun run(options, channels);
+  const TimeNs gap = std::max<TimeNs>(options.timing.t35 * 4, 20 * kNsPerMs);
+  TimeNs clock = 0;
+  std::vector<ByteEvent> events;
+  // Each pass takes one line (up to '\n' or the end) and moves past it.
+  for (std::size_t at = 0; at < all.size();) {
+    const std::size_t newline = all.find('\n', at);
+    const std::size_t end = newline == std::string_view::npos ? all.size() : newline;
+    const std::string_view line = all.substr(at, end - at);
+    at = end + 1;
+    const std::size_t first = line.find_first_not_of(" \t\r");
+    if (first == std::string_view::npos) continue;
+    std::string error;
+    std::optional<std::vector<std::vector<std::uint8_t>>> frames;
+    if (line[first] == ':' || line[first] == '~') {
+      if (auto f = parse_text_frame(line.substr(first), line[first] == ':' ? "\r\n" : "\r", &error))
+        frames.emplace(1, std::move(*f));
+    } else {
+      frames = parse_hex_frames(line, &error);
+    }
+    if (!frames) {
+      if (error.empty()) fuzz::contract_broken("a refused line without a reason");
+      continue;
+    }
+    events.clear();
+    const TimeNs before = clock;
+    synthesize_events(*frames, 0, options.timing.character_time, gap, &clock, events);
+    TimeNs last = before;
+    for (const ByteEvent& e : events) {
+      if (e.time < last) fuzz::contract_broken("synthesized times go back");
+      last = e.time;
+      run.push(e);
+    }
+  }
+  run.finish();
+  return 0;
+}
