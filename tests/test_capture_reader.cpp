@@ -184,3 +184,41 @@ TEST(CaptureReader, ChannelsAreBoundedAndTheExcessNamed) {
   EXPECT_EQ(d.channels.size(), ChannelTable::kMaxChannels);
   EXPECT_EQ(d.sink.frames.size(), ChannelTable::kMaxChannels);
 }
+
+TEST(CaptureReader, LargePacketIsLaidOutByteByByteWithItsTimes) {
+  // One 256 KiB packet of another tool (no per-byte option): its bytes are placed as next()
+  // takes them, evenly spaced so that the last ends at the packet's time stamp.
+  const std::string path = ::testing::TempDir() + "large-packet.pcapng";
+  std::FILE* f = std::fopen(path.c_str(), "wb");
+  ASSERT_NE(f, nullptr);
+  pcapng::Writer w(f);
+  w.section_header("test");
+  w.interface(147, "", "", "");
+  const std::uint8_t request[] = {1, 3, 0, 0, 0, 1, 0x84, 0x0A};
+  std::vector<std::uint8_t> data;
+  for (int i = 0; i < 32768; ++i) data.insert(data.end(), std::begin(request), std::end(request));
+  pcapng::Writer::Packet p;
+  p.timestamp = 100 * kNsPerSecond;
+  p.data = data;
+  w.packet(p);
+  std::fclose(f);
+  ChannelTable channels;
+  std::FILE* in = std::fopen(path.c_str(), "rb");
+  ASSERT_NE(in, nullptr);
+  CaptureReader reader(in, path, true, channels);
+  ASSERT_TRUE(reader.read_header()) << reader.error();
+  const TimeNs character = 1'000'000;
+  reader.set_character_time(character);
+  ByteEvent e;
+  std::size_t n = 0;
+  while (reader.next(e)) {
+    ASSERT_LT(n, data.size());
+    EXPECT_EQ(e.byte, data[n]);
+    EXPECT_EQ(e.time, p.timestamp - static_cast<TimeNs>(data.size() - n) * character);
+    EXPECT_EQ(e.origin, 1u);
+    ++n;
+  }
+  EXPECT_EQ(reader.error(), "");
+  EXPECT_EQ(n, data.size());
+  std::fclose(in);
+}

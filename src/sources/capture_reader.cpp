@@ -124,61 +124,51 @@ ChannelId CaptureReader::pcapng_channel(std::uint32_t interface, const SerialPay
   return ch;
 }
 
-void CaptureReader::lay_out(std::span<const std::uint8_t> bytes, TimeNs timestamp,
-                            ChannelId channel, const std::vector<std::uint8_t>& option) {
-  queue_.clear();
-  queue_pos_ = 0;
-  const std::uint32_t origin = held_.origin;
-  // drivetap's own option: exact per-byte times and UART marks.
+bool CaptureReader::option_step(const std::vector<std::uint8_t>& option, std::size_t& pos,
+                                TimeNs& time, std::int64_t& source_packet, std::uint8_t& flags) {
+  auto delta = pcapng::get_varint(option, &pos);
+  if (!delta || pos >= option.size()) return false;
+  flags = option[pos++];
+  auto origin_delta = pcapng::get_varint(option, &pos);
+  if (!origin_delta) return false;
+  const std::int64_t step = pcapng::unzigzag(*delta);
+  // |time| and |step| below 2^62: the sum cannot overflow; out of range = a bad option.
+  if (step >= kTimeLimit || step <= -kTimeLimit || !time_in_range(time + step)) return false;
+  time += step;
+  source_packet += pcapng::unzigzag(*origin_delta);
+  return source_packet >= 0 && source_packet <= UINT32_MAX;
+}
+
+void CaptureReader::lay_out() {
+  layout_ = Layout{};
+  const std::vector<std::uint8_t>& option = held_.option;
+  // drivetap's own option: exact per-byte times and UART marks. Checked whole first (a
+  // malformed one is not used at all), then read again byte by byte as next() takes them.
   if (option.size() >= 4 && option[0] == 'D' && option[1] == 'T' && option[2] == 1) {
     std::size_t pos = 4;
     auto count = pcapng::get_varint(option, &pos);
-    if (count && *count == bytes.size()) {
-      TimeNs t = timestamp;
+    if (count && *count == held_.bytes.size()) {
+      const std::size_t first = pos;
+      TimeNs t = held_.timestamp;
       std::int64_t source_packet = 0;
+      std::uint8_t flags = 0;
       bool good = true;
-      for (std::size_t i = 0; i < bytes.size() && good; ++i) {
-        auto delta = pcapng::get_varint(option, &pos);
-        if (!delta || pos >= option.size()) {
-          good = false;
-          break;
-        }
-        const std::uint8_t flags = option[pos++];
-        auto origin_delta = pcapng::get_varint(option, &pos);
-        if (!origin_delta) {
-          good = false;
-          break;
-        }
-        const std::int64_t step = pcapng::unzigzag(*delta);
-        // |t| and |step| below 2^62: the sum cannot overflow; out of range = a bad option.
-        if (step >= kTimeLimit || step <= -kTimeLimit || !time_in_range(t + step)) {
-          good = false;
-          break;
-        }
-        t += step;
-        source_packet += pcapng::unzigzag(*origin_delta);
-        if (source_packet < 0 || source_packet > UINT32_MAX) {
-          good = false;
-          break;
-        }
-        // The byte keeps the packet number of the capture it was first read from.
-        queue_.push_back({t, bytes[i], flags, channel, static_cast<std::uint32_t>(source_packet)});
+      for (std::size_t i = 0; i < held_.bytes.size() && good; ++i)
+        good = option_step(option, pos, t, source_packet, flags);
+      if (good) {
+        layout_ = {true, 0, held_.bytes.size(), first, held_.timestamp, 0};
+        return;
       }
-      if (good) return;
-      queue_.clear();
     }
   }
   // Other tools: the packet was stamped when its last byte had arrived. Times and the character
   // time are bounded (kTimeLimit, kMaxInterval) and a packet holds < 2^24 bytes: no overflow.
-  const TimeNs n = static_cast<TimeNs>(bytes.size());
-  if (!time_in_range(timestamp - n * character_time_)) {
-    skip("timestamp out of range", origin);
+  const TimeNs n = static_cast<TimeNs>(held_.bytes.size());
+  if (!time_in_range(held_.timestamp - n * character_time_)) {
+    skip("timestamp out of range", held_.origin);
     return;
   }
-  for (std::size_t i = 0; i < bytes.size(); ++i) {
-    const TimeNs start = timestamp - (n - static_cast<TimeNs>(i)) * character_time_;
-    queue_.push_back({start, bytes[i], 0, channel, origin});
-  }
+  layout_.count = held_.bytes.size();
 }
 
 bool CaptureReader::load_pcapng_packet() {
@@ -288,15 +278,27 @@ bool CaptureReader::read_header() {
 bool CaptureReader::next(ByteEvent& out) {
   // Each pass lays out one packet (its bytes are placed only now, once the character time that
   // spaces them is known), or returns.
-  while (queue_pos_ >= queue_.size()) {
+  while (layout_.index >= layout_.count) {
     if (pending_packet_) {
       pending_packet_ = false;
     } else if (!read_packet()) {
       return false;
     }
-    lay_out(held_.bytes, held_.timestamp, held_.channel, held_.option);
+    lay_out();
   }
-  out = queue_[queue_pos_++];
+  const std::size_t i = layout_.index++;
+  if (layout_.exact) {
+    // lay_out() checked the whole option: every step succeeds again.
+    std::uint8_t flags = 0;
+    option_step(held_.option, layout_.option_pos, layout_.time, layout_.source_packet, flags);
+    // The byte keeps the packet number of the capture it was first read from.
+    out = {layout_.time, held_.bytes[i], flags, held_.channel,
+           static_cast<std::uint32_t>(layout_.source_packet)};
+  } else {
+    const TimeNs n = static_cast<TimeNs>(layout_.count);
+    out = {held_.timestamp - (n - static_cast<TimeNs>(i)) * character_time_, held_.bytes[i], 0,
+           held_.channel, held_.origin};
+  }
   return true;
 }
 

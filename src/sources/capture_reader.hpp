@@ -53,11 +53,16 @@ class CaptureReader final : public ByteSource {
   [[nodiscard]] std::uint64_t packets() const { return packets_; }
 
  private:
-  bool read_packet();  // next packet into queue_; false at end or error
+  bool read_packet();  // next packet into held_; false at end or error
   bool load_pcapng_packet();
   bool load_pcap_packet();
-  void lay_out(std::span<const std::uint8_t> bytes, TimeNs timestamp, ChannelId channel,
-               const std::vector<std::uint8_t>& drivetap_option);
+  // Places the held packet's bytes in time: sets layout_ up (a byte event is made only when
+  // next() takes it, so a large packet costs no per-byte memory).
+  void lay_out();
+  // One step of drivetap's per-byte option (time delta, UART marks, source packet delta) from
+  // `pos`; false when the option is malformed or leaves the time range.
+  static bool option_step(const std::vector<std::uint8_t>& option, std::size_t& pos, TimeNs& time,
+                          std::int64_t& source_packet, std::uint8_t& flags);
   // Keeps a packet's bytes until lay_out (held_.option is left empty: the caller fills it).
   void hold(std::span<const std::uint8_t> bytes, TimeNs timestamp, ChannelId channel);
   void skip(const std::string& why, std::uint64_t where);
@@ -87,8 +92,13 @@ class CaptureReader final : public ByteSource {
     std::vector<std::uint8_t> option;
     std::uint32_t origin = 0;
   } held_;
-  std::vector<ByteEvent> queue_;
-  std::size_t queue_pos_ = 0;
+  struct Layout {        // where next() is in the held packet
+    bool exact = false;  // per-byte times from drivetap's option; else evenly spaced
+    std::size_t index = 0, count = 0;
+    std::size_t option_pos = 0;  // exact: the next byte's entry in held_.option
+    TimeNs time = 0;             // exact: the previous byte's time (first: the packet's)
+    std::int64_t source_packet = 0;
+  } layout_;
   bool pending_packet_ = false;  // read_header() loaded the first packet already
   std::uint64_t packets_ = 0;
   std::string error_;
