@@ -222,3 +222,71 @@ TEST(CaptureReader, LargePacketIsLaidOutByteByByteWithItsTimes) {
   EXPECT_EQ(n, data.size());
   std::fclose(in);
 }
+
+TEST(CaptureReader, LargePacketWithExactTimesIsDecodedInChunks) {
+  // drivetap's per-byte option on a packet larger than one decoded chunk (4096 entries): exact
+  // times, UART marks and source packets come out byte for byte across the chunk seams; a packet
+  // whose option breaks near its end falls back to even spacing as a whole.
+  const std::string path = ::testing::TempDir() + "large-exact.pcapng";
+  std::FILE* f = std::fopen(path.c_str(), "wb");
+  ASSERT_NE(f, nullptr);
+  pcapng::Writer w(f);
+  w.section_header("drivetap test");
+  w.interface(147, "bus", "", "");
+  const std::size_t n = 10000;
+  std::vector<std::uint8_t> data(n), option = {'D', 'T', 1, 0};
+  std::vector<TimeNs> times(n);
+  std::vector<std::uint32_t> sources(n);
+  pcapng::put_varint(option, n);
+  const TimeNs stamp = 50 * kNsPerSecond;
+  TimeNs t = stamp;
+  std::int64_t source = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    data[i] = static_cast<std::uint8_t>(i * 7);
+    const TimeNs delta = 1000 + static_cast<TimeNs>(i % 13) * 100;
+    const std::int64_t source_delta = i % 1000 == 0 ? 1 : 0;
+    t += delta;
+    source += source_delta;
+    times[i] = t;
+    sources[i] = static_cast<std::uint32_t>(source);
+    pcapng::put_varint(option, pcapng::zigzag(delta));
+    option.push_back(static_cast<std::uint8_t>(i % 3 == 0 ? kUartParityError : 0));
+    pcapng::put_varint(option, pcapng::zigzag(source_delta));
+  }
+  pcapng::Writer::Packet p;
+  p.timestamp = stamp;
+  p.data = data;
+  p.drivetap_option = option;
+  w.packet(p);
+  std::vector<std::uint8_t> broken = option;
+  broken.resize(broken.size() - 2);  // the last entry cut: the whole option is unusable
+  p.timestamp = 100 * kNsPerSecond;
+  p.drivetap_option = broken;
+  w.packet(p);
+  std::fclose(f);
+  ChannelTable channels;
+  std::FILE* in = std::fopen(path.c_str(), "rb");
+  ASSERT_NE(in, nullptr);
+  CaptureReader reader(in, path, true, channels);
+  ASSERT_TRUE(reader.read_header()) << reader.error();
+  const TimeNs character = 500'000;
+  reader.set_character_time(character);
+  ByteEvent e;
+  for (std::size_t i = 0; i < n; ++i) {
+    ASSERT_TRUE(reader.next(e)) << i << ": " << reader.error();
+    ASSERT_EQ(e.byte, data[i]) << i;
+    ASSERT_EQ(e.time, times[i]) << i;
+    ASSERT_EQ(e.flags, i % 3 == 0 ? kUartParityError : 0) << i;
+    ASSERT_EQ(e.origin, sources[i]) << i;
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    ASSERT_TRUE(reader.next(e)) << i << ": " << reader.error();
+    ASSERT_EQ(e.byte, data[i]) << i;
+    ASSERT_EQ(e.time, p.timestamp - static_cast<TimeNs>(n - i) * character) << i;
+    ASSERT_EQ(e.flags, 0) << i;
+    ASSERT_EQ(e.origin, 2u) << i;
+  }
+  EXPECT_FALSE(reader.next(e));
+  EXPECT_EQ(reader.error(), "");
+  std::fclose(in);
+}

@@ -139,11 +139,25 @@ bool CaptureReader::option_step(const std::vector<std::uint8_t>& option, std::si
   return source_packet >= 0 && source_packet <= UINT32_MAX;
 }
 
+void CaptureReader::decode_chunk(std::size_t from) {
+  decoded_.clear();
+  layout_.chunk_start = from;
+  const std::size_t end = std::min(layout_.count, from + kDecodedChunk);
+  // lay_out() checked the whole option: every step succeeds again.
+  for (std::size_t i = from; i < end; ++i) {
+    std::uint8_t flags = 0;
+    option_step(held_.option, layout_.option_pos, layout_.time, layout_.source_packet, flags);
+    decoded_.push_back({layout_.time, flags, static_cast<std::uint32_t>(layout_.source_packet)});
+  }
+}
+
 void CaptureReader::lay_out() {
   layout_ = Layout{};
+  decoded_.clear();
   const std::vector<std::uint8_t>& option = held_.option;
-  // drivetap's own option: exact per-byte times and UART marks. Checked whole first (a
-  // malformed one is not used at all), then read again byte by byte as next() takes them.
+  // drivetap's own option: exact per-byte times and UART marks, used only when the whole of it
+  // is good. A packet of up to kDecodedChunk bytes is decoded and checked in one pass; a larger
+  // one is checked whole first, then decoded a chunk at a time as next() takes its bytes.
   if (option.size() >= 4 && option[0] == 'D' && option[1] == 'T' && option[2] == 1) {
     std::size_t pos = 4;
     auto count = pcapng::get_varint(option, &pos);
@@ -152,13 +166,20 @@ void CaptureReader::lay_out() {
       TimeNs t = held_.timestamp;
       std::int64_t source_packet = 0;
       std::uint8_t flags = 0;
+      const bool small = held_.bytes.size() <= kDecodedChunk;
       bool good = true;
-      for (std::size_t i = 0; i < held_.bytes.size() && good; ++i)
+      for (std::size_t i = 0; i < held_.bytes.size() && good; ++i) {
         good = option_step(option, pos, t, source_packet, flags);
+        if (good && small)
+          decoded_.push_back({t, flags, static_cast<std::uint32_t>(source_packet)});
+      }
       if (good) {
-        layout_ = {true, 0, held_.bytes.size(), first, held_.timestamp, 0};
+        // Small: all decoded already (decode_chunk() is never called); large: from the start.
+        layout_ = small ? Layout{true, 0, held_.bytes.size(), pos, t, source_packet, 0}
+                        : Layout{true, 0, held_.bytes.size(), first, held_.timestamp, 0, 0};
         return;
       }
+      decoded_.clear();
     }
   }
   // Other tools: the packet was stamped when its last byte had arrived. Times and the character
@@ -288,12 +309,10 @@ bool CaptureReader::next(ByteEvent& out) {
   }
   const std::size_t i = layout_.index++;
   if (layout_.exact) {
-    // lay_out() checked the whole option: every step succeeds again.
-    std::uint8_t flags = 0;
-    option_step(held_.option, layout_.option_pos, layout_.time, layout_.source_packet, flags);
+    if (i - layout_.chunk_start >= decoded_.size()) decode_chunk(i);
+    const Decoded& d = decoded_[i - layout_.chunk_start];
     // The byte keeps the packet number of the capture it was first read from.
-    out = {layout_.time, held_.bytes[i], flags, held_.channel,
-           static_cast<std::uint32_t>(layout_.source_packet)};
+    out = {d.time, held_.bytes[i], d.flags, held_.channel, d.source_packet};
   } else {
     const TimeNs n = static_cast<TimeNs>(layout_.count);
     out = {held_.timestamp - (n - static_cast<TimeNs>(i)) * character_time_, held_.bytes[i], 0,

@@ -95,10 +95,22 @@ class CaptureReader final : public ByteSource {
   struct Layout {        // where next() is in the held packet
     bool exact = false;  // per-byte times from drivetap's option; else evenly spaced
     std::size_t index = 0, count = 0;
-    std::size_t option_pos = 0;  // exact: the next byte's entry in held_.option
-    TimeNs time = 0;             // exact: the previous byte's time (first: the packet's)
+    std::size_t option_pos = 0;  // exact: the entry after the decoded ones in held_.option
+    TimeNs time = 0;             // exact: the last decoded byte's time (first: the packet's)
     std::int64_t source_packet = 0;
+    std::size_t chunk_start = 0;  // exact: packet index of decoded_[0]
   } layout_;
+  // exact: the option's entries decoded ahead, at most kDecodedChunk at a time (a packet that
+  // fits, nearly all, is decoded and checked in one pass; a larger one is checked whole first).
+  struct Decoded {
+    TimeNs time;
+    std::uint8_t flags;
+    std::uint32_t source_packet;
+  };
+  static constexpr std::size_t kDecodedChunk = 4096;
+  std::vector<Decoded> decoded_;
+  // Entries `from`.. (at most kDecodedChunk, in order after the last decoded) into decoded_.
+  void decode_chunk(std::size_t from);
   bool pending_packet_ = false;  // read_header() loaded the first packet already
   std::uint64_t packets_ = 0;
   std::string error_;
