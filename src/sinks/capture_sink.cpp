@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <optional>
 
 #include <fmt/format.h>
 #include <pcap/pcap.h>
@@ -213,36 +214,47 @@ std::FILE* open_output_file(const std::string& path) {
   return std::fopen(path.c_str(), special ? "wb" : "w+b");
 }
 
-void cut_back_to_last_line(std::FILE* file) {
+namespace {
+
+// The one way outputs are cut back after a failed write: drop what stdio still buffers, and
+// truncate a regular file to what `keep(fd, size)` says stays (nullopt: leave it as it is).
+// Pipes and devices have nothing to cut.
+template <typename Keep>
+void cut_file_back(std::FILE* file, Keep keep) {
   __fpurge(file);
   const int fd = ::fileno(file);
   struct stat st {};
   if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) return;
-  // Backwards from the end, a block at a time, to the last '\n' (none: nothing whole, cut to 0).
+  const std::optional<long> size = keep(fd, static_cast<long>(st.st_size));
+  if (size && ::ftruncate(fd, *size) == 0) std::fseek(file, *size, SEEK_SET);
+}
+
+// The end of the last whole line of the `size` bytes of `fd` (0: none); nullopt when they cannot
+// be read back.
+std::optional<long> last_line_end(int fd, long size) {
+  // Backwards from the end, a block at a time, to the last '\n'.
   char block[4096];
-  long end = static_cast<long>(st.st_size);
-  long keep = 0;
-  while (end > 0 && keep == 0) {
+  for (long end = size; end > 0;) {
     const long start = std::max(0L, end - static_cast<long>(sizeof block));
     const ssize_t got = ::pread(fd, block, static_cast<std::size_t>(end - start), start);
-    if (got != end - start) return;  // cannot read it back: leave it as it is
+    if (got != end - start) return std::nullopt;
     for (long i = got - 1; i >= 0; --i)
-      if (block[i] == '\n') {
-        keep = start + i + 1;
-        break;
-      }
+      if (block[i] == '\n') return start + i + 1;
     end = start;
   }
-  if (::ftruncate(fd, keep) == 0) std::fseek(file, keep, SEEK_SET);
+  return 0;
+}
+
+}  // namespace
+
+void cut_back_to_last_line(std::FILE* file) {
+  cut_file_back(file, last_line_end);
 }
 
 void cut_back_to(std::FILE* file, long known_good, CaptureFormat format) {
-  __fpurge(file);
-  const int fd = ::fileno(file);
-  struct stat st {};
-  if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) return;  // a pipe or device: nothing to cut
-  const long good = whole_capture_prefix(fd, known_good, static_cast<long>(st.st_size), format);
-  if (::ftruncate(fd, good) == 0) std::fseek(file, good, SEEK_SET);
+  cut_file_back(file, [&](int fd, long size) -> std::optional<long> {
+    return whole_capture_prefix(fd, known_good, size, format);
+  });
 }
 
 bool CaptureSink::flush() {
