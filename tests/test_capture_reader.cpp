@@ -3,6 +3,11 @@
 #include <gtest/gtest.h>
 #include <pcap/pcap.h>
 
+#include <cstdio>
+#include <memory>
+#include <string>
+#include <string_view>
+
 #include "core/checksum.hpp"
 #include "formats/pcapng.hpp"
 #include "sources/capture_reader.hpp"
@@ -37,6 +42,46 @@ void decode_capture(const std::string& path, bool pcapng, Decoded& d) {
   d.notes = reader.notes();
   if (pcapng) std::fclose(f);
 }
+
+// Writes a pcapng file under the test directory with pcapng::Writer: `fill` writes the blocks
+// after the section header. Returns its path.
+template <typename Fill>
+std::string write_pcapng(const std::string& name, std::string_view application, Fill fill) {
+  const std::string path = ::testing::TempDir() + name;
+  std::FILE* f = std::fopen(path.c_str(), "wb");
+  EXPECT_NE(f, nullptr) << path;
+  if (!f) return path;
+  pcapng::Writer w(f);
+  w.section_header(application);
+  fill(w);
+  std::fclose(f);
+  return path;
+}
+
+// A CaptureReader over a pcapng file, its header read, bytes spaced by `character`.
+class OpenReader {
+ public:
+  OpenReader(const std::string& path, TimeNs character)
+      : file_(std::fopen(path.c_str(), "rb"), &std::fclose) {
+    if (!file_) return;
+    reader_ = std::make_unique<CaptureReader>(file_.get(), path, true, channels_);
+    header_read_ = reader_->read_header();
+    reader_->set_character_time(character);
+  }
+  // The file opened and its header read; the tests ASSERT this before reading on.
+  [[nodiscard]] ::testing::AssertionResult ok() const {
+    if (!file_) return ::testing::AssertionFailure() << "cannot open the file";
+    if (!header_read_) return ::testing::AssertionFailure() << reader_->error();
+    return ::testing::AssertionSuccess();
+  }
+  CaptureReader* operator->() { return reader_.get(); }
+
+ private:
+  ChannelTable channels_;
+  std::unique_ptr<std::FILE, int (*)(std::FILE*)> file_;
+  std::unique_ptr<CaptureReader> reader_;
+  bool header_read_ = false;
+};
 
 }  // namespace
 
@@ -158,22 +203,18 @@ TEST(CaptureReader, PacketsWithoutSerialBytesAreCountedNotFatal) {
 TEST(CaptureReader, ChannelsAreBoundedAndTheExcessNamed) {
   // Each named interface is a channel: one more than ChannelTable::kMaxChannels ends the read at
   // that packet, everything before it decoded.
-  const std::string path = ::testing::TempDir() + "many-interfaces.pcapng";
-  std::FILE* f = std::fopen(path.c_str(), "wb");
-  ASSERT_NE(f, nullptr);
-  pcapng::Writer w(f);
-  w.section_header("test");
   const std::size_t interfaces = ChannelTable::kMaxChannels + 1;
-  for (std::size_t i = 0; i < interfaces; ++i) w.interface(147, fmt::format("port{}", i), "", "");
-  const std::uint8_t request[] = {1, 3, 0, 0, 0, 1, 0x84, 0x0A};
-  for (std::size_t i = 0; i < interfaces; ++i) {
-    pcapng::Writer::Packet p;
-    p.interface = static_cast<std::uint32_t>(i);
-    p.timestamp = static_cast<TimeNs>(i + 1) * kNsPerSecond;
-    p.data = request;
-    w.packet(p);
-  }
-  std::fclose(f);
+  const std::string path = write_pcapng("many-interfaces.pcapng", "test", [&](pcapng::Writer& w) {
+    for (std::size_t i = 0; i < interfaces; ++i) w.interface(147, fmt::format("port{}", i), "", "");
+    const std::uint8_t request[] = {1, 3, 0, 0, 0, 1, 0x84, 0x0A};
+    for (std::size_t i = 0; i < interfaces; ++i) {
+      pcapng::Writer::Packet p;
+      p.interface = static_cast<std::uint32_t>(i);
+      p.timestamp = static_cast<TimeNs>(i + 1) * kNsPerSecond;
+      p.data = request;
+      w.packet(p);
+    }
+  });
   Decoded d;
   decode_capture(path, true, d);
   EXPECT_NE(d.error.find(fmt::format("{}: offset ", path)), std::string::npos) << d.error;
@@ -188,51 +229,36 @@ TEST(CaptureReader, ChannelsAreBoundedAndTheExcessNamed) {
 TEST(CaptureReader, LargePacketIsLaidOutByteByByteWithItsTimes) {
   // One 256 KiB packet of another tool (no per-byte option): its bytes are placed as next()
   // takes them, evenly spaced so that the last ends at the packet's time stamp.
-  const std::string path = ::testing::TempDir() + "large-packet.pcapng";
-  std::FILE* f = std::fopen(path.c_str(), "wb");
-  ASSERT_NE(f, nullptr);
-  pcapng::Writer w(f);
-  w.section_header("test");
-  w.interface(147, "", "", "");
   const std::uint8_t request[] = {1, 3, 0, 0, 0, 1, 0x84, 0x0A};
   std::vector<std::uint8_t> data;
   for (int i = 0; i < 32768; ++i) data.insert(data.end(), std::begin(request), std::end(request));
   pcapng::Writer::Packet p;
   p.timestamp = 100 * kNsPerSecond;
   p.data = data;
-  w.packet(p);
-  std::fclose(f);
-  ChannelTable channels;
-  std::FILE* in = std::fopen(path.c_str(), "rb");
-  ASSERT_NE(in, nullptr);
-  CaptureReader reader(in, path, true, channels);
-  ASSERT_TRUE(reader.read_header()) << reader.error();
+  const std::string path = write_pcapng("large-packet.pcapng", "test", [&](pcapng::Writer& w) {
+    w.interface(147, "", "", "");
+    w.packet(p);
+  });
   const TimeNs character = 1'000'000;
-  reader.set_character_time(character);
+  OpenReader reader(path, character);
+  ASSERT_TRUE(reader.ok());
   ByteEvent e;
   std::size_t n = 0;
-  while (reader.next(e)) {
+  while (reader->next(e)) {
     ASSERT_LT(n, data.size());
     EXPECT_EQ(e.byte, data[n]);
     EXPECT_EQ(e.time, p.timestamp - static_cast<TimeNs>(data.size() - n) * character);
     EXPECT_EQ(e.origin, 1u);
     ++n;
   }
-  EXPECT_EQ(reader.error(), "");
+  EXPECT_EQ(reader->error(), "");
   EXPECT_EQ(n, data.size());
-  std::fclose(in);
 }
 
 TEST(CaptureReader, LargePacketWithExactTimesIsDecodedInChunks) {
   // drivetap's per-byte option on a packet larger than one decoded chunk (4096 entries): exact
   // times, UART marks and source packets come out byte for byte across the chunk seams; a packet
   // whose option breaks near its end falls back to even spacing as a whole.
-  const std::string path = ::testing::TempDir() + "large-exact.pcapng";
-  std::FILE* f = std::fopen(path.c_str(), "wb");
-  ASSERT_NE(f, nullptr);
-  pcapng::Writer w(f);
-  w.section_header("drivetap test");
-  w.interface(147, "bus", "", "");
   const std::size_t n = 10000;
   std::vector<std::uint8_t> data(n), option = {'D', 'T', 1, 0};
   std::vector<TimeNs> times(n);
@@ -253,40 +279,39 @@ TEST(CaptureReader, LargePacketWithExactTimesIsDecodedInChunks) {
     option.push_back(static_cast<std::uint8_t>(i % 3 == 0 ? kUartParityError : 0));
     pcapng::put_varint(option, pcapng::zigzag(source_delta));
   }
-  pcapng::Writer::Packet p;
-  p.timestamp = stamp;
-  p.data = data;
-  p.drivetap_option = option;
-  w.packet(p);
   std::vector<std::uint8_t> broken = option;
   broken.resize(broken.size() - 2);  // the last entry cut: the whole option is unusable
-  p.timestamp = 100 * kNsPerSecond;
-  p.drivetap_option = broken;
-  w.packet(p);
-  std::fclose(f);
-  ChannelTable channels;
-  std::FILE* in = std::fopen(path.c_str(), "rb");
-  ASSERT_NE(in, nullptr);
-  CaptureReader reader(in, path, true, channels);
-  ASSERT_TRUE(reader.read_header()) << reader.error();
+  const TimeNs broken_stamp = 100 * kNsPerSecond;
+  const std::string path =
+      write_pcapng("large-exact.pcapng", "drivetap test", [&](pcapng::Writer& w) {
+        w.interface(147, "bus", "", "");
+        pcapng::Writer::Packet p;
+        p.timestamp = stamp;
+        p.data = data;
+        p.drivetap_option = option;
+        w.packet(p);
+        p.timestamp = broken_stamp;
+        p.drivetap_option = broken;
+        w.packet(p);
+      });
   const TimeNs character = 500'000;
-  reader.set_character_time(character);
+  OpenReader reader(path, character);
+  ASSERT_TRUE(reader.ok());
   ByteEvent e;
   for (std::size_t i = 0; i < n; ++i) {
-    ASSERT_TRUE(reader.next(e)) << i << ": " << reader.error();
+    ASSERT_TRUE(reader->next(e)) << i << ": " << reader->error();
     ASSERT_EQ(e.byte, data[i]) << i;
     ASSERT_EQ(e.time, times[i]) << i;
     ASSERT_EQ(e.flags, i % 3 == 0 ? kUartParityError : 0) << i;
     ASSERT_EQ(e.origin, sources[i]) << i;
   }
   for (std::size_t i = 0; i < n; ++i) {
-    ASSERT_TRUE(reader.next(e)) << i << ": " << reader.error();
+    ASSERT_TRUE(reader->next(e)) << i << ": " << reader->error();
     ASSERT_EQ(e.byte, data[i]) << i;
-    ASSERT_EQ(e.time, p.timestamp - static_cast<TimeNs>(n - i) * character) << i;
+    ASSERT_EQ(e.time, broken_stamp - static_cast<TimeNs>(n - i) * character) << i;
     ASSERT_EQ(e.flags, 0) << i;
     ASSERT_EQ(e.origin, 2u) << i;
   }
-  EXPECT_FALSE(reader.next(e));
-  EXPECT_EQ(reader.error(), "");
-  std::fclose(in);
+  EXPECT_FALSE(reader->next(e));
+  EXPECT_EQ(reader->error(), "");
 }
