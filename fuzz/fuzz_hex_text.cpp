@@ -1,7 +1,8 @@
 // Fuzzes the text `drivetap decode` reads (src/sources/hex_text.hpp, README "Quick start"): each
 // line of the input is hex bytes ("01 03 00 00 | 01 83 02") or one ':' / '~' text frame with
-// escapes, parsed as decode parses it; a refused line must say why; the frames are laid out on a
-// synthetic time line (times must not go back) and decoded by a pipeline with detection.
+// escapes, parsed by the functions decode uses (decode_text_kind, parse_decode_text); a refused
+// line must say why; the frames are laid out on a synthetic time line (times must not go back) and
+// decoded by a pipeline with detection.
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -28,16 +29,10 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     const std::size_t end = newline == std::string_view::npos ? all.size() : newline;
     const std::string_view line = all.substr(at, end - at);
     at = end + 1;
-    const std::size_t first = line.find_first_not_of(" \t\r");
-    if (first == std::string_view::npos) continue;
+    const char kind = decode_text_kind(line);
+    if (kind == 0) continue;
     std::string error;
-    std::optional<std::vector<std::vector<std::uint8_t>>> frames;
-    if (line[first] == ':' || line[first] == '~') {
-      if (auto f = parse_text_frame(line.substr(first), line[first] == ':' ? "\r\n" : "\r", &error))
-        frames.emplace(1, std::move(*f));
-    } else {
-      frames = parse_hex_frames(line, &error);
-    }
+    const auto frames = parse_decode_text(line, kind, &error);
     if (!frames) {
       if (error.empty()) fuzz::contract_broken("a refused line without a reason");
       continue;

@@ -381,9 +381,8 @@ int run_decode(const CommonOptions& o, const std::vector<std::string>& args) {
     die(message, code);
   };
   auto take = [&](const std::string& text, const std::string& where) {
-    const std::size_t first = text.find_first_not_of(" \t\r");
-    if (first == std::string::npos) return;
-    const char kind = text[first] == ':' || text[first] == '~' ? text[first] : 'x';
+    const char kind = decode_text_kind(text);
+    if (kind == 0) return;
     const std::string shown = text.size() > 60 ? text.substr(0, 57) + "..." : text;
     if (first_kind != 0 && kind != first_kind)
       stop(
@@ -391,13 +390,7 @@ int run_decode(const CommonOptions& o, const std::vector<std::string>& args) {
                       "Easydrive), not several",
                       where, shown));
     std::string err;
-    std::optional<std::vector<std::vector<std::uint8_t>>> frames;
-    if (kind != 'x') {
-      if (auto f = parse_text_frame(text.substr(first), kind == ':' ? "\r\n" : "\r", &err))
-        frames.emplace(1, std::move(*f));
-    } else {
-      frames = parse_hex_frames(text, &err);
-    }
+    const auto frames = parse_decode_text(text, kind, &err);
     if (!frames) stop(fmt::format("{} (\"{}\"): {}", where, shown, err));
     if (first_kind == 0) {
       first_kind = kind;

@@ -111,6 +111,21 @@ std::optional<std::vector<std::uint8_t>> parse_text_frame(std::string_view text,
   return out;
 }
 
+char decode_text_kind(std::string_view text) {
+  const std::size_t first = text.find_first_not_of(" \t\r");
+  if (first == std::string_view::npos) return 0;
+  return text[first] == ':' || text[first] == '~' ? text[first] : 'x';
+}
+
+std::optional<std::vector<std::vector<std::uint8_t>>> parse_decode_text(std::string_view text,
+                                                                        char kind,
+                                                                        std::string* error) {
+  if (kind == 'x') return parse_hex_frames(text, error);
+  auto frame = parse_text_frame(text.substr(text.find(kind)), kind == ':' ? "\r\n" : "\r", error);
+  if (!frame) return std::nullopt;
+  return std::vector<std::vector<std::uint8_t>>{std::move(*frame)};
+}
+
 void synthesize_events(const std::vector<std::vector<std::uint8_t>>& frames, ChannelId channel,
                        TimeNs character_time, TimeNs gap, TimeNs* clock,
                        std::vector<ByteEvent>& out) {

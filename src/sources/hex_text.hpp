@@ -28,6 +28,17 @@ std::optional<std::vector<std::uint8_t>> parse_text_frame(std::string_view text,
                                                           std::string_view terminator,
                                                           std::string* error);
 
+// What kind of text one `drivetap decode` input is: ':' (a Modbus ASCII frame) or '~' (an
+// Easydrive frame) by its first non-blank character, 'x' (hex bytes) otherwise, 0 when blank.
+char decode_text_kind(std::string_view text);
+
+// The frames of one `drivetap decode` input of that kind (not 0): a text frame from its first
+// character on, with the protocol's terminator (":" CR LF, "~" CR) appended when missing, or the
+// hex frames. nullopt with *error when refused.
+std::optional<std::vector<std::vector<std::uint8_t>>> parse_decode_text(std::string_view text,
+                                                                        char kind,
+                                                                        std::string* error);
+
 // Lays frames out on a synthetic time line: back-to-back characters, `gap` of silence between
 // frames (the first starts at time 0). Appends to `out`.
 void synthesize_events(const std::vector<std::vector<std::uint8_t>>& frames, ChannelId channel,
