@@ -1,7 +1,10 @@
 // Unit tests: the pipeline stage wiring — direction, pairing outcomes, anomalies, time discipline.
 #include <gtest/gtest.h>
 
+#include <fmt/format.h>
+
 #include "core/checksum.hpp"
+#include "generate/traffic.hpp"
 #include "test_support.hpp"
 
 using namespace drivetap;
@@ -156,4 +159,85 @@ TEST(Pipeline, SummaryCountsVerdictsAndNoise) {
   EXPECT_EQ(s.bytes, 17u);
   EXPECT_EQ(s.anomalies[static_cast<int>(AnomalyKind::checksum_bad)], 1u);
   EXPECT_EQ(s.anomalies[static_cast<int>(AnomalyKind::checksum_swapped)], 1u);
+}
+
+namespace {
+
+// Writes down everything a sink is told, fields and info lines apart, as text lines.
+struct TranscriptSink final : Sink {
+  explicit TranscriptSink(bool detail) : detail(detail) {}
+  bool detail;
+  std::vector<std::string> records;
+  std::size_t with_fields = 0, with_info = 0, messages = 0;
+  void on_frame(const Message& m) override {
+    ++messages;
+    with_fields += !m.fields.empty();
+    with_info += !m.info.empty();
+    records.push_back(fmt::format(
+        "frame #{} {} {} addr {} fc {} exc {} code {} crc {} lat {} req #{} drive '{}' anomalies "
+        "{}",
+        m.frame.number, protocol_id(m.protocol), direction_id(m.direction), m.address, m.function,
+        m.is_exception, m.exception_code, static_cast<int>(m.checksum.verdict), m.latency,
+        m.request_number, m.drive_info, m.anomalies.size()));
+  }
+  void on_noise(const Frame& f) override {
+    records.push_back(fmt::format("noise #{} {} bytes", f.number, f.size()));
+  }
+  void on_anomaly(const Anomaly& a) override {
+    records.push_back(
+        fmt::format("anomaly {} #{} {}", static_cast<int>(a.kind), a.frame_number, a.detail));
+  }
+  void on_transaction(const Transaction& t) override {
+    records.push_back(fmt::format("transaction {} #{} #{} {} {}", outcome_id(t.outcome),
+                                  t.request_number, t.response_number, t.latency, t.detail));
+  }
+  void on_event(const BusEvent& e) override {
+    records.push_back(fmt::format("event {} {}", e.kind, e.detail));
+  }
+  void on_summary(const Stats& s) override {
+    records.push_back(fmt::format("summary {} frames {} noise {} transactions {} anomalies",
+                                  s.frames, s.noise_records, s.transactions, s.anomaly_total));
+  }
+  bool flush() override { return true; }
+  [[nodiscard]] bool wants_detail() const override { return detail; }
+};
+
+// The generator's mixed bus (four protocols, errors, noise, timeouts) through one pipeline.
+void run_generated(TranscriptSink& sink) {
+  generate::Options go;
+  go.frames = 20000;
+  go.seed = 7;
+  generate::Generator gen(go);
+  ChannelTable channels;
+  PipelineOptions options;
+  options.serial = generate::Generator::serial();
+  options.timing = FramingTiming::from(options.serial);
+  Pipeline pipeline(options, channels, sink);
+  std::vector<int> channel_of(gen.links().size(), -1);
+  generate::Record r;
+  while (gen.next(r)) {
+    if (channel_of[r.link] < 0) channel_of[r.link] = channels.intern(gen.links()[r.link].channel);
+    for (std::size_t i = 0; i < r.bytes.size(); ++i)
+      pipeline.push({r.start + static_cast<TimeNs>(i) * options.timing.character_time, r.bytes[i],
+                     r.flags[i], static_cast<ChannelId>(channel_of[r.link])});
+  }
+  pipeline.finish();
+}
+
+}  // namespace
+
+// A sink that shows no decode (`read --stats`) lets dissectors skip fields and info lines; every
+// key, verdict, pairing, anomaly and count must still be what a detailed run finds.
+TEST(Pipeline, SummaryOnlyRunFindsWhatADetailedRunFinds) {
+  TranscriptSink detailed(true), summary_only(false);
+  run_generated(detailed);
+  run_generated(summary_only);
+  ASSERT_GT(detailed.messages, 10000u);
+  EXPECT_EQ(detailed.with_info, detailed.messages);
+  EXPECT_GT(detailed.with_fields, detailed.messages * 9 / 10);
+  EXPECT_EQ(summary_only.with_fields, 0u);
+  EXPECT_EQ(summary_only.with_info, 0u);
+  ASSERT_EQ(detailed.records.size(), summary_only.records.size());
+  for (std::size_t i = 0; i < detailed.records.size(); ++i)
+    ASSERT_EQ(detailed.records[i], summary_only.records[i]) << "record " << i;
 }

@@ -107,18 +107,25 @@ bool is_response_ak(unsigned ak) {
 }  // namespace
 
 Message dissect_fc(Frame frame, Direction direction, const FramingTiming& timing) {
+  Message m;
+  dissect_fc(m, std::move(frame), direction, timing);
+  return m;
+}
+
+void dissect_fc(Message& m, Frame&& frame, Direction direction, const FramingTiming& timing) {
   (void)timing;
-  Message m = begin_message(std::move(frame), Protocol::danfoss_fc, direction);
+  begin_message(m, std::move(frame), Protocol::danfoss_fc, direction);
   const std::span<const std::uint8_t> bytes(m.bytes);
-  FieldTreeBuilder tree(m.fields);
+  FieldTreeBuilder tree(m.fields, m.detail);
   Cursor c(bytes);
   auto stx = c.u8();
   auto lge = c.u8();
   auto adr = c.u8();
   if (!stx || !lge || !adr || bytes.size() < 4) {
-    m.info = fmt::format("{}-byte fragment, too short for an FC telegram", bytes.size());
-    add_malformed(m, m.info);
-    return m;
+    std::string what = fmt::format("{}-byte fragment, too short for an FC telegram", bytes.size());
+    if (m.detail) m.info = what;
+    add_malformed(m, std::move(what));
+    return;
   }
   tree.add(kStx, 0, 1, *stx);
   if (*stx != kStxByte) add_malformed(m, fmt::format("starts with 0x{:02X}, not STX 0x02", *stx));
@@ -221,8 +228,10 @@ Message dissect_fc(Frame frame, Direction direction, const FramingTiming& timing
       info.push_back(fmt::format("PCD1 0x{:04X}, PCD2 0x{:04X}", pcd1, pcd2));
     }
   }
-  m.info = (a.broadcast ? std::string("broadcast: ") : std::string()) + join(info);
-  if (m.info.empty()) m.info = "empty telegram";
+  m.describe([&] {
+    std::string text = (a.broadcast ? std::string("broadcast: ") : std::string()) + join(info);
+    return text.empty() ? std::string("empty telegram") : text;
+  });
   // BCC.
   const std::uint8_t stated = bytes.back();
   const std::uint8_t computed = bcc(bytes.first(bytes.size() - 1));
@@ -234,7 +243,6 @@ Message dissect_fc(Frame frame, Direction direction, const FramingTiming& timing
   m.checksum.verdict = stated == computed ? ChecksumVerdict::good : ChecksumVerdict::bad;
   add_checksum_anomaly(m);
   append_uart_anomalies(m.frame.events, 0, m.anomalies);
-  return m;
 }
 
 void FcRules::predicted_lengths(std::span<const std::uint8_t> from, std::size_t out[2],

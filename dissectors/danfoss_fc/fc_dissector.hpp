@@ -29,6 +29,8 @@ std::uint8_t bcc(std::span<const std::uint8_t> bytes);
 // "4-14" for PNU 414.
 std::string parameter_name(unsigned pnu);
 
+// Decodes into `m`, reusing its storage (begin_message); the other form returns a new Message.
+void dissect_fc(Message& m, Frame&& frame, Direction direction, const FramingTiming& timing);
 Message dissect_fc(Frame frame, Direction direction, const FramingTiming& timing);
 
 class FcRules final : public HybridFrameRules {
@@ -50,10 +52,10 @@ class FcDecoder final : public ProtocolDecoder {
   [[nodiscard]] bool always_response(std::span<const std::uint8_t> frame) const override;
   [[nodiscard]] bool recognisable(std::span<const std::uint8_t> frame) const override;
   [[nodiscard]] PairingKeys pairing_keys(std::span<const std::uint8_t> frame) const override;
-  Message dissect(Frame frame, Direction direction, const FramingTiming& timing,
-                  std::span<const std::uint8_t> request = {}) const override {
+  void dissect_into(Message& out, Frame&& frame, Direction direction, const FramingTiming& timing,
+                    std::span<const std::uint8_t> request = {}) const override {
     (void)request;  // replies of this protocol stand on their own
-    return dissect_fc(std::move(frame), direction, timing);
+    dissect_fc(out, std::move(frame), direction, timing);
   }
 };
 

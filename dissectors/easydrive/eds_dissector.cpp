@@ -77,15 +77,22 @@ std::uint16_t ascii_sum(std::span<const std::uint8_t> text) {
 
 Message dissect_eds(Frame frame, Direction direction, const FramingTiming& timing,
                     std::span<const std::uint8_t> request) {
+  Message m;
+  dissect_eds(m, std::move(frame), direction, timing, request);
+  return m;
+}
+
+void dissect_eds(Message& m, Frame&& frame, Direction direction, const FramingTiming& timing,
+                 std::span<const std::uint8_t> request) {
   (void)timing;
-  Message m = begin_message(std::move(frame), Protocol::easydrive, direction);
+  begin_message(m, std::move(frame), Protocol::easydrive, direction);
   m.text_encoded = true;
   const std::span<const std::uint8_t> f(m.bytes);
-  FieldTreeBuilder tree(m.fields);
+  FieldTreeBuilder tree(m.fields, m.detail);
   if (f.empty() || f[0] != '~') {
     add_malformed(m, "does not start with '~'");
-    m.info = "not an Easydrive frame";
-    return m;
+    m.describe([] { return std::string("not an Easydrive frame"); });
+    return;
   }
   tree.add_text(kStart, 0, 1, "~");
   if (f.back() != '\r') add_malformed(m, "no CR at the end: frame cut");
@@ -167,7 +174,9 @@ Message dissect_eds(Frame frame, Direction direction, const FramingTiming& timin
     info.push_back(context_cmd == 0x0E ? fmt::format("= {}", value) : value);
   }
   if (response && aux > 0) info.push_back(fmt::format("drive fault code {}", aux));
-  m.info = info.empty() ? "Easydrive frame" : fmt::format("{}", fmt::join(info, ", "));
+  m.describe([&] {
+    return info.empty() ? std::string("Easydrive frame") : fmt::format("{}", fmt::join(info, ", "));
+  });
   // SUM: the 4 characters before CR.
   if (len >= 13) {
     const long stated = hex_field(f, len - 4, 4);
@@ -184,10 +193,11 @@ Message dissect_eds(Frame frame, Direction direction, const FramingTiming& timin
     if (stated >= 0 && stated == computed + '\r') why = " (CR counted in the sum)";
     add_checksum_anomaly(m, why);
   } else {
-    m.info = fmt::format("{}-character fragment, too short for an Easydrive frame", f.size());
+    m.describe([&] {
+      return fmt::format("{}-character fragment, too short for an Easydrive frame", f.size());
+    });
   }
   append_uart_anomalies(m.frame.events, 0, m.anomalies);
-  return m;
 }
 
 std::unique_ptr<Framer> EdsDecoder::make_framer(ChannelId channel, const FramerSettings& s) const {

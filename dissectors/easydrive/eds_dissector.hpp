@@ -22,6 +22,9 @@ std::uint16_t ascii_sum(std::span<const std::uint8_t> text);
 
 // `request`: for a reply, the request it answers — its command and index say what the reply's
 // data is (a frequency, the status word).
+// The first form decodes into `m`, reusing its storage (begin_message).
+void dissect_eds(Message& m, Frame&& frame, Direction direction, const FramingTiming& timing,
+                 std::span<const std::uint8_t> request = {});
 Message dissect_eds(Frame frame, Direction direction, const FramingTiming& timing,
                     std::span<const std::uint8_t> request = {});
 
@@ -34,9 +37,9 @@ class EdsDecoder final : public ProtocolDecoder {
   [[nodiscard]] bool always_response(std::span<const std::uint8_t> frame) const override;
   [[nodiscard]] bool recognisable(std::span<const std::uint8_t> frame) const override;
   [[nodiscard]] PairingKeys pairing_keys(std::span<const std::uint8_t> frame) const override;
-  Message dissect(Frame frame, Direction direction, const FramingTiming& timing,
-                  std::span<const std::uint8_t> request = {}) const override {
-    return dissect_eds(std::move(frame), direction, timing, request);
+  void dissect_into(Message& out, Frame&& frame, Direction direction, const FramingTiming& timing,
+                    std::span<const std::uint8_t> request = {}) const override {
+    dissect_eds(out, std::move(frame), direction, timing, request);
   }
 };
 

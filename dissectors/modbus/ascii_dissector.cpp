@@ -62,23 +62,31 @@ AsciiHex decode_ascii_hex(std::span<const std::uint8_t> frame) {
 }
 
 Message dissect_ascii(Frame frame, Direction direction, const FramingTiming& timing) {
+  Message m;
+  dissect_ascii(m, std::move(frame), direction, timing);
+  return m;
+}
+
+void dissect_ascii(Message& m, Frame&& frame, Direction direction, const FramingTiming& timing) {
   (void)timing;  // ASCII allows up to 1 s between characters: no t1.5 rule
-  Message m = begin_message(std::move(frame), Protocol::modbus_ascii, direction);
+  begin_message(m, std::move(frame), Protocol::modbus_ascii, direction);
   m.text_encoded = true;
   const AsciiHex hex = decode_ascii_hex(m.bytes);
   const std::vector<std::uint8_t>& bin = hex.binary;
   for (const std::string& p : hex.problems) add_malformed(m, p);
   if (bin.size() < 3) {
-    m.info = fmt::format("{}-character fragment, too short for Modbus ASCII", m.bytes.size());
+    m.describe([&] {
+      return fmt::format("{}-character fragment, too short for Modbus ASCII", m.bytes.size());
+    });
     if (!bin.empty()) m.address = bin[0];
-    return m;
+    return;
   }
   m.address = bin[0];
   m.function = bin[1];
   m.is_exception = (bin[1] & 0x80) != 0;
   // Decode the binary PDU, then map every field onto its hex characters (2 per byte, after ':').
   std::vector<FieldNode> binary_fields;
-  FieldTreeBuilder binary_tree(binary_fields);
+  FieldTreeBuilder binary_tree(binary_fields, m.detail);
   binary_tree.add(kAddr, 0, 1, bin[0]);
   PduDecode pdu = dissect_pdu(bin, 1, bin.size() - 2, direction, binary_tree);
   binary_tree.add(kLrc, bin.size() - 1, 1, bin.back());
@@ -99,7 +107,6 @@ Message dissect_ascii(Frame frame, Direction direction, const FramingTiming& tim
   m.checksum.verdict = bin.back() == computed ? ChecksumVerdict::good : ChecksumVerdict::bad;
   add_checksum_anomaly(m);
   append_uart_anomalies(m.frame.events, 0, m.anomalies);
-  return m;
 }
 
 std::unique_ptr<Framer> AsciiDecoder::make_framer(ChannelId channel,

@@ -25,6 +25,8 @@ struct AsciiHex {
 };
 AsciiHex decode_ascii_hex(std::span<const std::uint8_t> frame);
 
+// Decodes into `m`, reusing its storage (begin_message); the other form returns a new Message.
+void dissect_ascii(Message& m, Frame&& frame, Direction direction, const FramingTiming& timing);
 Message dissect_ascii(Frame frame, Direction direction, const FramingTiming& timing);
 
 class AsciiDecoder final : public ProtocolDecoder {
@@ -36,10 +38,10 @@ class AsciiDecoder final : public ProtocolDecoder {
   [[nodiscard]] bool always_response(std::span<const std::uint8_t> frame) const override;
   [[nodiscard]] bool recognisable(std::span<const std::uint8_t> frame) const override;
   [[nodiscard]] PairingKeys pairing_keys(std::span<const std::uint8_t> frame) const override;
-  Message dissect(Frame frame, Direction direction, const FramingTiming& timing,
-                  std::span<const std::uint8_t> request = {}) const override {
+  void dissect_into(Message& out, Frame&& frame, Direction direction, const FramingTiming& timing,
+                    std::span<const std::uint8_t> request = {}) const override {
     (void)request;  // replies of this protocol stand on their own
-    return dissect_ascii(std::move(frame), direction, timing);
+    dissect_ascii(out, std::move(frame), direction, timing);
   }
 };
 

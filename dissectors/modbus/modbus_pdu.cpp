@@ -258,7 +258,7 @@ void dissect_read_request(PduReader& r, std::uint8_t fc, PduDecode& d) {
   if (!start || !qty) return;
   const bool bits = fc == 0x01 || fc == 0x02;
   check_quantity(r, *qty, bits ? 2000 : 125, bits ? "bits" : "registers");
-  d.info = fmt::format("{} {}", function_name(fc), range_text(*start, *qty));
+  d.describe([&] { return fmt::format("{} {}", function_name(fc), range_text(*start, *qty)); });
 }
 
 void dissect_read_response(PduReader& r, std::uint8_t fc, PduDecode& d) {
@@ -270,8 +270,10 @@ void dissect_read_response(PduReader& r, std::uint8_t fc, PduDecode& d) {
     auto data = r.bytes(kData, *count);
     r.tree().add_text(kBitValues, at, data.size(), bit_list(data, data.size() * 8));
     r.expect_end();
-    d.info = fmt::format("{} reply: {} byte{} {}", function_name(fc), data.size(),
+    d.describe([&] {
+      return fmt::format("{} reply: {} byte{} {}", function_name(fc), data.size(),
                          data.size() == 1 ? "" : "s", hex_list(data));
+    });
     return;
   }
   if (*count % 2 != 0) r.problem(fmt::format("byte count {} is odd for 16-bit registers", *count));
@@ -280,8 +282,10 @@ void dissect_read_response(PduReader& r, std::uint8_t fc, PduDecode& d) {
     r.problem(fmt::format("byte count says {} bytes, {} present", *count, present));
   auto values = read_registers(r, present / 2);
   r.expect_end();
-  d.info = fmt::format("{} reply: {} register{} = {}", function_name(fc), values.size(),
+  d.describe([&] {
+    return fmt::format("{} reply: {} register{} = {}", function_name(fc), values.size(),
                        values.size() == 1 ? "" : "s", register_list(values));
+  });
 }
 
 void dissect_write_single_coil(PduReader& r, Direction dir, PduDecode& d) {
@@ -292,9 +296,11 @@ void dissect_write_single_coil(PduReader& r, Direction dir, PduDecode& d) {
   if (*value != 0x0000 && *value != 0xFF00)
     r.problem(fmt::format("coil value 0x{:04X} is neither 0x0000 (OFF) nor 0xFF00 (ON)", *value));
   const std::string_view state = kCoilValue.name_of(*value);
-  d.info = fmt::format("{}{} 0x{:04X} = {}", function_name(0x05),
+  d.describe([&] {
+    return fmt::format("{}{} 0x{:04X} = {}", function_name(0x05),
                        dir == Direction::response ? " reply" : "", *addr,
                        state.empty() ? fmt::format("0x{:04X}", *value) : std::string(state));
+  });
 }
 
 void dissect_write_single_register(PduReader& r, Direction dir, PduDecode& d) {
@@ -302,8 +308,10 @@ void dissect_write_single_register(PduReader& r, Direction dir, PduDecode& d) {
   auto value = r.u16(kWriteValue);
   r.expect_end();
   if (!addr || !value) return;
-  d.info = fmt::format("{}{} 0x{:04X} = {} (0x{:04X})", function_name(0x06),
+  d.describe([&] {
+    return fmt::format("{}{} 0x{:04X} = {} (0x{:04X})", function_name(0x06),
                        dir == Direction::response ? " reply" : "", *addr, *value, *value);
+  });
 }
 
 void dissect_write_multiple_request(PduReader& r, std::uint8_t fc, PduDecode& d) {
@@ -324,15 +332,19 @@ void dissect_write_multiple_request(PduReader& r, std::uint8_t fc, PduDecode& d)
     const std::size_t at = r.frame_offset();
     auto data = r.bytes(kData, *count);
     r.tree().add_text(kBitValues, at, data.size(), bit_list(data, *qty));
-    d.info = fmt::format("{} {} = {}", function_name(fc), range_text(*start, *qty),
+    d.describe([&] {
+      return fmt::format("{} {} = {}", function_name(fc), range_text(*start, *qty),
                          bit_list(data, *qty));
+    });
   } else {
     const std::size_t present = r.cursor().remaining();
     if (present < *count)
       r.problem(fmt::format("byte count says {} bytes, {} present", *count, present));
     auto values = read_registers(r, std::min<std::size_t>(*count, present) / 2);
-    d.info = fmt::format("{} {} = {}", function_name(fc), range_text(*start, *qty),
+    d.describe([&] {
+      return fmt::format("{} {} = {}", function_name(fc), range_text(*start, *qty),
                          register_list(values));
+    });
   }
   r.expect_end();
 }
@@ -342,7 +354,9 @@ void dissect_write_multiple_response(PduReader& r, std::uint8_t fc, PduDecode& d
   auto qty = r.u16(kQuantity);
   r.expect_end();
   if (!start || !qty) return;
-  d.info = fmt::format("{} reply: {} written", function_name(fc), range_text(*start, *qty));
+  d.describe([&] {
+    return fmt::format("{} reply: {} written", function_name(fc), range_text(*start, *qty));
+  });
 }
 
 void dissect_diagnostics(PduReader& r, Direction dir, PduDecode& d) {
@@ -350,10 +364,12 @@ void dissect_diagnostics(PduReader& r, Direction dir, PduDecode& d) {
   if (!sub) return;
   auto data = r.bytes(kDiagData, r.cursor().remaining());
   const std::string_view sub_name = kSubFunction.name_of(*sub);
-  d.info =
-      fmt::format("Diagnostics{}: {} ({:02X}), data {}", dir == Direction::response ? " reply" : "",
-                  sub_name.empty() ? "reserved sub-function" : sub_name, *sub,
-                  data.empty() ? std::string("none") : hex_list(data));
+  d.describe([&] {
+    return fmt::format("Diagnostics{}: {} ({:02X}), data {}",
+                       dir == Direction::response ? " reply" : "",
+                       sub_name.empty() ? "reserved sub-function" : sub_name, *sub,
+                       data.empty() ? std::string("none") : hex_list(data));
+  });
 }
 
 void dissect_file_record(PduReader& r, std::uint8_t fc, Direction dir, PduDecode& d) {
@@ -391,8 +407,10 @@ void dissect_file_record(PduReader& r, std::uint8_t fc, Direction dir, PduDecode
     r.tree().close();
   }
   r.expect_end();
-  d.info = fmt::format("{}{}: {} sub-request{}", function_name(fc),
+  d.describe([&] {
+    return fmt::format("{}{}: {} sub-request{}", function_name(fc),
                        dir == Direction::response ? " reply" : "", groups, groups == 1 ? "" : "s");
+  });
 }
 
 void dissect_device_id(PduReader& r, Direction dir, PduDecode& d) {
@@ -400,7 +418,9 @@ void dissect_device_id(PduReader& r, Direction dir, PduDecode& d) {
   if (!mei) return;
   if (*mei != 0x0E) {
     auto data = r.bytes(kData, r.cursor().remaining());
-    d.info = fmt::format("Encapsulated Interface Transport MEI 0x{:02X}: {}", *mei, hex_list(data));
+    d.describe([&] {
+      return fmt::format("Encapsulated Interface Transport MEI 0x{:02X}: {}", *mei, hex_list(data));
+    });
     return;
   }
   auto code = r.u8(kMeiDeviceIdCode);
@@ -408,11 +428,13 @@ void dissect_device_id(PduReader& r, Direction dir, PduDecode& d) {
     auto object = r.u8(kMeiObjectId);
     r.expect_end();
     if (code && object)
-      d.info = fmt::format("Read Device Identification ({}), from object {}",
+      d.describe([&] {
+        return fmt::format("Read Device Identification ({}), from object {}",
                            kMeiDeviceIdCode.name_of(*code).empty()
                                ? std::string("code ?")
                                : std::string(kMeiDeviceIdCode.name_of(*code)),
                            *object);
+      });
     return;
   }
   r.u8(kMeiConformity);
@@ -445,7 +467,7 @@ void dissect_device_id(PduReader& r, Direction dir, PduDecode& d) {
   if (objects && present < *objects)
     r.problem(fmt::format("{} objects announced, {} present", *objects, present));
   r.expect_end();
-  d.info = fmt::format("Read Device Identification reply: {}", values);
+  d.describe([&] { return fmt::format("Read Device Identification reply: {}", values); });
 }
 
 }  // namespace
@@ -453,6 +475,7 @@ void dissect_device_id(PduReader& r, Direction dir, PduDecode& d) {
 PduDecode dissect_pdu(std::span<const std::uint8_t> frame, std::size_t pdu_offset,
                       std::size_t pdu_length, Direction dir, FieldTreeBuilder& tree) {
   PduDecode d;
+  d.detail = tree.enabled();
   PduReader r(frame, pdu_offset, pdu_length, tree, d);
   auto fc_opt = r.u8(kFunction);
   if (!fc_opt) return d;
@@ -466,12 +489,14 @@ PduDecode dissect_pdu(std::span<const std::uint8_t> frame, std::size_t pdu_offse
     d.exception_code = code ? *code : -1;
     const std::string_view name = kExceptionCode.name_of(d.exception_code);
     if (!code) {
-      d.info = fmt::format("{} exception (code missing)", function_name(fc));
+      d.describe([&] { return fmt::format("{} exception (code missing)", function_name(fc)); });
       return d;
     }
-    d.info =
-        fmt::format("{} exception 0x{:02X}: {}", function_name(fc), *code,
-                    name.empty() ? std::string("non-standard (vendor) code") : std::string(name));
+    d.describe([&] {
+      return fmt::format(
+          "{} exception 0x{:02X}: {}", function_name(fc), *code,
+          name.empty() ? std::string("non-standard (vendor) code") : std::string(name));
+    });
     return d;
   }
   const bool req = dir != Direction::response;
@@ -491,9 +516,10 @@ PduDecode dissect_pdu(std::span<const std::uint8_t> frame, std::size_t pdu_offse
     case 0x07:
       if (!req) {
         auto status = r.u8(kExceptionStatus);
-        if (status) d.info = fmt::format("Read Exception Status reply: 0x{:02X}", *status);
+        if (status)
+          d.describe([&] { return fmt::format("Read Exception Status reply: 0x{:02X}", *status); });
       } else {
-        d.info = "Read Exception Status";
+        d.describe([] { return std::string("Read Exception Status"); });
       }
       r.expect_end();
       break;
@@ -505,10 +531,12 @@ PduDecode dissect_pdu(std::span<const std::uint8_t> frame, std::size_t pdu_offse
         auto status = r.u16(kCommStatus);
         auto count = r.u16(kEventCount);
         if (status && count)
-          d.info = fmt::format("Get Comm Event Counter reply: status 0x{:04X}, {} events", *status,
+          d.describe([&] {
+            return fmt::format("Get Comm Event Counter reply: status 0x{:04X}, {} events", *status,
                                *count);
+          });
       } else {
-        d.info = "Get Comm Event Counter";
+        d.describe([] { return std::string("Get Comm Event Counter"); });
       }
       r.expect_end();
       break;
@@ -521,11 +549,13 @@ PduDecode dissect_pdu(std::span<const std::uint8_t> frame, std::size_t pdu_offse
         if (count && status && events && messages) {
           if (*count < 6) r.problem(fmt::format("byte count {} below the minimum 6", *count));
           auto log = r.bytes(kEvents, *count >= 6 ? *count - 6u : 0u);
-          d.info = fmt::format("Get Comm Event Log reply: {} events, {} messages, log {}", *events,
+          d.describe([&] {
+            return fmt::format("Get Comm Event Log reply: {} events, {} messages, log {}", *events,
                                *messages, hex_list(log));
+          });
         }
       } else {
-        d.info = "Get Comm Event Log";
+        d.describe([] { return std::string("Get Comm Event Log"); });
       }
       r.expect_end();
       break;
@@ -538,10 +568,10 @@ PduDecode dissect_pdu(std::span<const std::uint8_t> frame, std::size_t pdu_offse
         auto count = r.u8(kByteCount);
         if (count) {
           auto id = r.bytes(kServerId, *count);
-          d.info = fmt::format("Report Server ID reply: {}", hex_list(id));
+          d.describe([&] { return fmt::format("Report Server ID reply: {}", hex_list(id)); });
         }
       } else {
-        d.info = "Report Server ID";
+        d.describe([] { return std::string("Report Server ID"); });
       }
       r.expect_end();
       break;
@@ -555,8 +585,10 @@ PduDecode dissect_pdu(std::span<const std::uint8_t> frame, std::size_t pdu_offse
       auto or_mask = r.u16(kOrMask);
       r.expect_end();
       if (addr && and_mask && or_mask)
-        d.info = fmt::format("Mask Write Register{} 0x{:04X} AND 0x{:04X} OR 0x{:04X}",
+        d.describe([&] {
+          return fmt::format("Mask Write Register{} 0x{:04X} AND 0x{:04X} OR 0x{:04X}",
                              req ? "" : " reply", *addr, *and_mask, *or_mask);
+        });
       break;
     }
     case 0x17:
@@ -573,8 +605,10 @@ PduDecode dissect_pdu(std::span<const std::uint8_t> frame, std::size_t pdu_offse
             r.problem(fmt::format("byte count {} does not match write quantity {}", *count, *wq));
           auto values =
               read_registers(r, std::min<std::size_t>(*count, r.cursor().remaining()) / 2);
-          d.info = fmt::format("Read/Write Multiple Registers: read {}, write {} = {}",
+          d.describe([&] {
+            return fmt::format("Read/Write Multiple Registers: read {}, write {} = {}",
                                range_text(*rs, *rq), range_text(*ws, *wq), register_list(values));
+          });
         }
         r.expect_end();
       } else {
@@ -584,7 +618,7 @@ PduDecode dissect_pdu(std::span<const std::uint8_t> frame, std::size_t pdu_offse
     case 0x18:
       if (req) {
         auto ptr = r.u16(kFifoPointer);
-        if (ptr) d.info = fmt::format("Read FIFO Queue 0x{:04X}", *ptr);
+        if (ptr) d.describe([&] { return fmt::format("Read FIFO Queue 0x{:04X}", *ptr); });
         r.expect_end();
       } else {
         auto bytes = r.u16(kFifoByteCount);
@@ -594,8 +628,10 @@ PduDecode dissect_pdu(std::span<const std::uint8_t> frame, std::size_t pdu_offse
             r.problem(
                 fmt::format("FIFO byte count {} does not match FIFO count {}", *bytes, *count));
           auto values = read_registers(r, r.cursor().remaining() / 2);
-          d.info = fmt::format("Read FIFO Queue reply: {} values = {}", values.size(),
+          d.describe([&] {
+            return fmt::format("Read FIFO Queue reply: {} values = {}", values.size(),
                                register_list(values));
+          });
         }
         r.expect_end();
       }
@@ -605,13 +641,16 @@ PduDecode dissect_pdu(std::span<const std::uint8_t> frame, std::size_t pdu_offse
       break;
     default: {
       auto data = r.bytes(kData, r.cursor().remaining());
-      d.info =
-          fmt::format("Function 0x{:02X} (not a public code): {} data byte{}{}{}", fc, data.size(),
-                      data.size() == 1 ? "" : "s", data.empty() ? "" : " ", hex_list(data));
+      d.describe([&] {
+        return fmt::format("Function 0x{:02X} (not a public code): {} data byte{}{}{}", fc,
+                           data.size(), data.size() == 1 ? "" : "s", data.empty() ? "" : " ",
+                           hex_list(data));
+      });
       break;
     }
   }
-  if (d.info.empty()) d.info = function_name(fc) + (req ? "" : " reply") + " (truncated)";
+  if (d.info.empty())
+    d.describe([&] { return function_name(fc) + (req ? "" : " reply") + " (truncated)"; });
   return d;
 }
 

@@ -36,9 +36,16 @@ bool pdu_fits(std::span<const std::uint8_t> pdu, Direction direction);
 bool is_public_function(std::uint8_t fc);
 
 struct PduDecode {
-  std::string info;                   // one-line decode
+  std::string info;                   // one-line decode (empty when not `detail`)
   std::vector<std::string> problems;  // protocol-rule breaks: each becomes a `malformed` anomaly
   int exception_code = -1;
+  bool detail = true;  // the tree builder keeps fields: the info line is wanted too
+
+  // Sets `info` to make() when decoding in detail; make() is not called otherwise.
+  template <class MakeText>
+  void describe(MakeText&& make) {
+    if (detail) info = make();
+  }
 };
 
 // Decodes the PDU occupying frame[pdu_offset, pdu_offset + pdu_length) into field nodes whose

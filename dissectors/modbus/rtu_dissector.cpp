@@ -26,11 +26,17 @@ DirectionFit rtu_direction_fit(std::span<const std::uint8_t> frame) {
 }
 
 Message dissect_rtu(Frame frame, Direction direction, const FramingTiming& timing) {
-  Message m = begin_message(std::move(frame), Protocol::modbus_rtu, direction);
+  Message m;
+  dissect_rtu(m, std::move(frame), direction, timing);
+  return m;
+}
+
+void dissect_rtu(Message& m, Frame&& frame, Direction direction, const FramingTiming& timing) {
+  begin_message(m, std::move(frame), Protocol::modbus_rtu, direction);
   const std::span<const std::uint8_t> bytes(m.bytes);
   const TimeNs t0 = m.frame.start();
   const ChannelId ch = m.frame.channel;
-  FieldTreeBuilder tree(m.fields);
+  FieldTreeBuilder tree(m.fields, m.detail);
 
   if (!bytes.empty()) {
     tree.add(kAddr, 0, 1, bytes[0]);
@@ -49,7 +55,8 @@ Message dissect_rtu(Frame frame, Direction direction, const FramingTiming& timin
     m.checksum = check_rtu_crc(bytes);
     tree.add(kCrc, bytes.size() - 2, 2, m.checksum.stated_wire);
   } else {
-    m.info = fmt::format("{}-byte fragment, too short for Modbus RTU", bytes.size());
+    m.describe(
+        [&] { return fmt::format("{}-byte fragment, too short for Modbus RTU", bytes.size()); });
     add_malformed(m, fmt::format("{} bytes: shorter than the minimum 4", bytes.size()));
   }
 
@@ -70,7 +77,6 @@ Message dissect_rtu(Frame frame, Direction direction, const FramingTiming& timin
                      in_characters(timing.t35, timing.character_time))});
   }
   append_uart_anomalies(m.frame.events, 0, m.anomalies);
-  return m;
 }
 
 std::unique_ptr<Framer> RtuDecoder::make_framer(ChannelId channel, const FramerSettings& s) const {

@@ -22,6 +22,8 @@ DirectionFit rtu_direction_fit(std::span<const std::uint8_t> frame);
 // Decodes `frame` as a Modbus RTU telegram travelling in `direction`. Checksum, malformed
 // content, gaps > t1.5 inside the frame, a short silence before it and UART-flagged bytes all
 // become anomalies of the message.
+// Decodes into `m`, reusing its storage (begin_message); the other form returns a new Message.
+void dissect_rtu(Message& m, Frame&& frame, Direction direction, const FramingTiming& timing);
 Message dissect_rtu(Frame frame, Direction direction, const FramingTiming& timing);
 
 // Modbus RTU as a ProtocolDecoder for the pipeline.
@@ -38,10 +40,10 @@ class RtuDecoder final : public ProtocolDecoder {
   [[nodiscard]] PairingKeys pairing_keys(std::span<const std::uint8_t> frame) const override {
     return {frame.empty() ? -1 : frame[0], frame.size() < 2 ? -1 : frame[1]};
   }
-  Message dissect(Frame frame, Direction direction, const FramingTiming& timing,
-                  std::span<const std::uint8_t> request = {}) const override {
+  void dissect_into(Message& out, Frame&& frame, Direction direction, const FramingTiming& timing,
+                    std::span<const std::uint8_t> request = {}) const override {
     (void)request;  // replies of this protocol stand on their own
-    return dissect_rtu(std::move(frame), direction, timing);
+    dissect_rtu(out, std::move(frame), direction, timing);
   }
 };
 

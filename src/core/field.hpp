@@ -55,20 +55,26 @@ struct FieldNode {
 };
 
 // Builds a pre-order field tree. Dissectors add nodes; open()/close() nest them.
+// A builder made with `enabled` false keeps nothing: a run that prints no per-frame decode
+// (`read --stats`) pays for no tree, as Wireshark dissects with a null tree when none is shown.
+// add() then hands back a scratch node, so dissector code runs the same either way.
 class FieldTreeBuilder {
  public:
-  explicit FieldTreeBuilder(std::vector<FieldNode>& out) : out_(out) {}
+  explicit FieldTreeBuilder(std::vector<FieldNode>& out, bool enabled = true)
+      : out_(out), enabled_(enabled) {}
+
+  [[nodiscard]] bool enabled() const { return enabled_; }
 
   FieldNode& add(const FieldDesc& desc, std::size_t offset, std::size_t length,
                  std::int64_t value = 0) {
-    FieldNode n;
+    FieldNode& n = enabled_ ? out_.emplace_back() : scratch_;
     n.desc = &desc;
     n.depth = depth_;
     n.offset = static_cast<std::uint32_t>(offset);
     n.length = static_cast<std::uint32_t>(length);
     n.value = value;
-    out_.push_back(std::move(n));
-    return out_.back();
+    if (!enabled_) n.text.clear();
+    return n;
   }
   FieldNode& add_text(const FieldDesc& desc, std::size_t offset, std::size_t length,
                       std::string text) {
@@ -80,6 +86,7 @@ class FieldTreeBuilder {
   // group's span over its children.
   void open(const FieldDesc& desc, std::size_t offset, std::size_t length, std::int64_t value = 0) {
     add(desc, offset, length, value);
+    if (!enabled_) return;
     open_.push_back(out_.size() - 1);
     ++depth_;
   }
@@ -96,6 +103,8 @@ class FieldTreeBuilder {
 
  private:
   std::vector<FieldNode>& out_;
+  bool enabled_;
+  FieldNode scratch_;              // what add() fills when the builder keeps nothing
   std::vector<std::size_t> open_;  // indices of open group nodes
   std::uint16_t depth_ = 0;
 };

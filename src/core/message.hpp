@@ -43,19 +43,42 @@ struct Message {
   // unpaired or not measurable (no silence visible before the reply).
   TimeNs latency = -1;
   std::uint64_t request_number = 0;  // frame number of the paired request
+  // False when the run prints no per-frame decode (`read --stats`): `fields` and `info` stay
+  // empty; keys, direction, checksum verdict and anomalies are those of a full decode.
+  bool detail = true;
+
+  // Sets `info` to make() when the message is decoded in detail; make() is not called
+  // otherwise (formatting is most of the cost of a decode).
+  template <class MakeText>
+  void describe(MakeText&& make) {
+    if (detail) info = make();
+  }
 };
 
 inline constexpr std::size_t kTypicalFieldCount = 16;
 
-// What every dissector starts from: the frame, its bytes, protocol and direction.
-inline Message begin_message(Frame frame, Protocol protocol, Direction direction) {
-  Message m;
-  m.frame = std::move(frame);
-  m.bytes = m.frame.bytes();
-  m.fields.reserve(kTypicalFieldCount);  // one allocation instead of a doubling series
-  m.protocol = protocol;
-  m.direction = direction;
-  return m;
+// What every dissector starts from: `m` reset to the frame, its bytes, protocol and direction.
+// The vectors and strings `m` held keep their storage (the pipeline decodes every frame of a run
+// into one Message, so the hot path does not allocate); `m.detail` is kept.
+inline void begin_message(Message& m, Frame&& frame, Protocol protocol, Direction direction) {
+  Message fresh;
+  fresh.detail = m.detail;
+  fresh.bytes = std::move(m.bytes);
+  fresh.fields = std::move(m.fields);
+  fresh.info = std::move(m.info);
+  fresh.drive_info = std::move(m.drive_info);
+  fresh.anomalies = std::move(m.anomalies);
+  fresh.bytes.clear();
+  fresh.fields.clear();
+  fresh.info.clear();
+  fresh.drive_info.clear();
+  fresh.anomalies.clear();
+  fresh.frame = std::move(frame);
+  for (const ByteEvent& e : fresh.frame.events) fresh.bytes.push_back(e.byte);
+  if (fresh.detail) fresh.fields.reserve(kTypicalFieldCount);  // one allocation, not a series
+  fresh.protocol = protocol;
+  fresh.direction = direction;
+  m = std::move(fresh);
 }
 
 // A finding that the frame's length or content breaks its protocol's rules.

@@ -44,11 +44,20 @@ class ProtocolDecoder {
     int function = -1;
   };
   [[nodiscard]] virtual PairingKeys pairing_keys(std::span<const std::uint8_t> frame) const = 0;
-  // Decodes the frame; Message::address/function are the pairing keys (function -1: none).
-  // `request`: for a reply, the bytes of the request it answers (empty when unknown), for
-  // protocols whose replies mean nothing without it.
-  virtual Message dissect(Frame frame, Direction direction, const FramingTiming& timing,
-                          std::span<const std::uint8_t> request = {}) const = 0;
+  // Decodes the frame into `out` (reusing its storage, honouring out.detail);
+  // Message::address/function are the pairing keys (function -1: none). `request`: for a
+  // reply, the bytes of the request it answers (empty when unknown), for protocols whose
+  // replies mean nothing without it.
+  virtual void dissect_into(Message& out, Frame&& frame, Direction direction,
+                            const FramingTiming& timing,
+                            std::span<const std::uint8_t> request = {}) const = 0;
+  // The same into a new Message, decoded in detail.
+  [[nodiscard]] Message dissect(Frame frame, Direction direction, const FramingTiming& timing,
+                                std::span<const std::uint8_t> request = {}) const {
+    Message m;
+    dissect_into(m, std::move(frame), direction, timing, request);
+    return m;
+  }
 };
 
 // The decoder of `protocol`, from the explicit table; nullptr for Protocol::unknown.

@@ -32,7 +32,9 @@ Pipeline::Pipeline(PipelineOptions options, const ChannelTable& channels, Sink& 
       sink_(sink),
       pairer_(PairerOptions{options.reply_timeout, options.timing.character_time, 64}),
       earliest_deadline_(std::numeric_limits<TimeNs>::max()),
-      binder_(options.auto_candidates) {}
+      binder_(options.auto_candidates) {
+  message_.detail = sink.wants_detail();
+}
 
 Pipeline::~Pipeline() = default;
 
@@ -319,7 +321,8 @@ void Pipeline::handle_frame(Frame& frame) {
     const auto r = pairer_.awaited_request(link, keys.address, keys.function, frame.start());
     request.assign(r.begin(), r.end());
   }
-  Message m = decoder.dissect(std::move(frame), dir, options_.timing, request);
+  Message& m = message_;
+  decoder.dissect_into(m, std::move(frame), dir, options_.timing, request);
   // Drive level: the station's profile (bound on the command line or guessed from its traffic),
   // what the frame means to it, and the state changes it shows.
   const DriveProfile* profile = nullptr;

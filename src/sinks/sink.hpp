@@ -28,6 +28,9 @@ class Sink {
   virtual void on_event(const BusEvent& event) { (void)event; }
   // Pushes buffered output to its file; returns false when the write failed.
   virtual bool flush() = 0;
+  // Whether the sink shows messages' field trees and info lines; when no sink of a run does,
+  // dissectors skip building them (Message::detail). Fixed for the sink's lifetime.
+  [[nodiscard]] virtual bool wants_detail() const { return true; }
 };
 
 // Sends every record to several sinks.
@@ -57,6 +60,11 @@ class TeeSink final : public Sink {
     for (Sink* s : sinks_) ok = s->flush() && ok;
     return ok;
   }
+  [[nodiscard]] bool wants_detail() const override {
+    for (const Sink* s : sinks_)
+      if (s->wants_detail()) return true;
+    return false;
+  }
 
  private:
   std::vector<Sink*> sinks_;
@@ -73,6 +81,7 @@ class SummaryOnlySink final : public Sink {
   void on_transaction(const Transaction&) override {}
   void on_summary(const Stats& s) override { inner_.on_summary(s); }
   bool flush() override { return inner_.flush(); }
+  [[nodiscard]] bool wants_detail() const override { return false; }
 
  private:
   Sink& inner_;
