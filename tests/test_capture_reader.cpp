@@ -10,6 +10,7 @@
 
 #include "core/checksum.hpp"
 #include "formats/pcapng.hpp"
+#include "sinks/capture_sink.hpp"
 #include "sources/capture_reader.hpp"
 #include "test_support.hpp"
 
@@ -314,4 +315,119 @@ TEST(CaptureReader, LargePacketWithExactTimesIsDecodedInChunks) {
   }
   EXPECT_FALSE(reader->next(e));
   EXPECT_EQ(reader->error(), "");
+}
+
+TEST(CaptureReader, EvenlySpacedFramesAreWrittenCompactlyAndReadBackExactly) {
+  // drivetap's pcapng gives the bytes of a frame that are evenly spaced, unflagged and of one
+  // source packet as one step (option version 2); others byte by byte (version 1). Either way
+  // reading the file back gives every byte's time, marks and packet as written.
+  const SerialConfig serial;
+  const TimeNs ct = serial.character_time();
+  const std::string path = ::testing::TempDir() + "even-and-exact.pcapng";
+  std::vector<ByteEvent> written;
+  {
+    std::FILE* f = std::fopen(path.c_str(), "wb");
+    ASSERT_NE(f, nullptr);
+    ChannelTable channels;
+    channels.intern("bus");
+    CaptureSinkOptions o;
+    o.serial = serial;
+    o.character_time = ct;
+    o.settings =
+        encode_settings(ct * 3 / 2, ct * 7 / 2, kNsPerSecond, 100 * kNsPerMs, Protocol::modbus_rtu);
+    CaptureSink sink(f, channels, o);
+    PipelineOptions p;
+    p.serial = serial;
+    p.timing = FramingTiming::from(serial);
+    p.protocol = Protocol::modbus_rtu;
+    Pipeline pipeline(p, channels, sink);
+    TimeNs t = kNsPerSecond;
+    auto send = [&](const std::vector<std::uint8_t>& bytes, TimeNs spacing, std::size_t flag_at) {
+      for (std::size_t i = 0; i < bytes.size(); ++i) {
+        const ByteEvent e{t, bytes[i], std::uint8_t(i == flag_at ? kUartParityError : 0), 0, 0};
+        written.push_back(e);
+        pipeline.push(e);
+        t += spacing;
+      }
+      t += 20 * kNsPerMs;
+    };
+    const auto frame = with_crc({0x01, 0x03, 0x00, 0x10, 0x00, 0x02});
+    send(frame, ct, 99);            // back to back: compact
+    send(frame, ct + 1000, 99);     // evenly spaced, slower: compact with its own step
+    send(frame, ct, 3);             // a parity mark: byte by byte
+    send({0x01, 0x03}, ct, 99);     // a fragment
+    send(frame, ct * 11 / 10, 99);  // compact again
+    pipeline.finish();
+    ASSERT_TRUE(sink.flush());
+    std::fclose(f);
+  }
+  // The options as written.
+  std::vector<int> versions;
+  {
+    std::FILE* f = std::fopen(path.c_str(), "rb");
+    ASSERT_NE(f, nullptr);
+    pcapng::Reader r(f, path);
+    pcapng::PacketRecord rec;
+    while (r.next(rec))
+      versions.push_back(rec.drivetap_option.size() > 2 ? rec.drivetap_option[2] : 0);
+    EXPECT_EQ(r.error(), "");
+    std::fclose(f);
+  }
+  EXPECT_EQ(versions, (std::vector<int>{2, 2, 1, 2, 2}));
+  OpenReader reader(path, ct * 5);  // the character time plays no part for drivetap's packets
+  ASSERT_TRUE(reader.ok());
+  ByteEvent e;
+  for (std::size_t i = 0; i < written.size(); ++i) {
+    ASSERT_TRUE(reader->next(e)) << i << ": " << reader->error();
+    EXPECT_EQ(e.time, written[i].time) << i;
+    EXPECT_EQ(e.byte, written[i].byte) << i;
+    EXPECT_EQ(e.flags, written[i].flags) << i;
+  }
+  EXPECT_FALSE(reader->next(e));
+  EXPECT_EQ(reader->error(), "");
+}
+
+TEST(CaptureReader, BrokenCompactOptionFallsBackToEvenSpacingBeforeTheTimestamp) {
+  const std::vector<std::uint8_t> data = {1, 2, 3};
+  auto compact = [](std::uint64_t count, std::uint64_t step, std::uint64_t source) {
+    std::vector<std::uint8_t> o = {'D', 'T', 2, 0};
+    pcapng::put_varint(o, count);
+    pcapng::put_varint(o, step);
+    pcapng::put_varint(o, source);
+    return o;
+  };
+  std::vector<std::vector<std::uint8_t>> options = {
+      compact(3, 1000, 0),                       // good
+      compact(4, 1000, 0),                       // count differs from the packet's
+      compact(3, std::uint64_t{1} << 61, 0),     // step beyond any interval
+      compact(3, 1000, std::uint64_t{1} << 33),  // source packet beyond 32 bits
+  };
+  options.push_back(compact(3, 1000, 0));
+  options.back().push_back(0);             // trailing byte
+  options.push_back({'D', 'T', 2, 0, 3});  // cut short
+  const TimeNs stamp = 10 * kNsPerSecond;
+  const std::string path = write_pcapng("compact.pcapng", "drivetap test", [&](pcapng::Writer& w) {
+    w.interface(147, "bus", "", "");
+    for (const auto& option : options) {
+      pcapng::Writer::Packet p;
+      p.timestamp = stamp;
+      p.data = data;
+      p.drivetap_option = option;
+      w.packet(p);
+    }
+  });
+  const TimeNs character = 500'000;
+  OpenReader reader(path, character);
+  ASSERT_TRUE(reader.ok());
+  ByteEvent e;
+  for (std::size_t packet = 0; packet < options.size(); ++packet) {
+    for (std::size_t i = 0; i < data.size(); ++i) {
+      ASSERT_TRUE(reader->next(e)) << packet << ": " << reader->error();
+      const TimeNs expected = packet == 0 ? stamp + static_cast<TimeNs>(i) * 1000
+                                          : stamp - static_cast<TimeNs>(3 - i) * character;
+      EXPECT_EQ(e.time, expected) << "packet " << packet << " byte " << i;
+      EXPECT_EQ(e.origin, packet == 0 ? 0u : packet + 1) << "packet " << packet;
+    }
+  }
+  EXPECT_FALSE(reader->next(e));
 }

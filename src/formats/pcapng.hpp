@@ -16,6 +16,10 @@
 //              the first from the packet timestamp), UART flags (1 byte), and source packet
 //              delta (zigzag varint from the previous byte's; the first from 0): the packet of
 //              the original capture the byte came from, 0 when it had none
+//         or:  "DT" version(1)=2 kind(1) count(varint) step(varint, ns) source packet(varint)
+//              when the bytes are evenly spaced (byte i starts at timestamp + i * step, nearly
+//              always back to back at the character time), carry no UART flags and share one
+//              source packet: 5 to 12 bytes instead of 3 or more per byte
 #pragma once
 
 #include <cstdint>

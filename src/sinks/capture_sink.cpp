@@ -144,18 +144,36 @@ void CaptureSink::write_pending() {
     h.caplen = h.len = static_cast<bpf_u_int32>(data.size());
     pcap_dump(reinterpret_cast<u_char*>(dumper_), &h, data.data());
   } else {
-    std::vector<std::uint8_t> option = {'D', 'T', 1,
-                                        static_cast<std::uint8_t>(p.kind == FrameKind::noise)};
-    pcapng::put_varint(option, p.events.size());
-    TimeNs previous = timestamp;
-    std::int64_t previous_origin = 0;
-    for (const ByteEvent& e : p.events) {
-      pcapng::put_varint(option, pcapng::zigzag(e.time - previous));
-      option.push_back(e.flags);
-      pcapng::put_varint(option,
-                         pcapng::zigzag(static_cast<std::int64_t>(e.origin) - previous_origin));
-      previous = e.time;
-      previous_origin = e.origin;
+    std::vector<std::uint8_t>& option = option_;
+    const std::uint8_t kind = p.kind == FrameKind::noise ? 1 : 0;
+    // Evenly spaced, unflagged bytes of one source packet (nearly every frame) need no entry
+    // per byte: version 2 gives the spacing once.
+    const TimeNs step =
+        p.events.size() >= 2 ? p.events[1].time - p.events[0].time : options_.character_time;
+    bool even = step >= 0;
+    for (std::size_t i = 0; even && i < p.events.size(); ++i) {
+      const ByteEvent& e = p.events[i];
+      even = e.flags == 0 && e.origin == p.events.front().origin &&
+             e.time - timestamp == static_cast<TimeNs>(i) * step;
+    }
+    if (even) {
+      option.assign({'D', 'T', 2, kind});
+      pcapng::put_varint(option, p.events.size());
+      pcapng::put_varint(option, static_cast<std::uint64_t>(step));
+      pcapng::put_varint(option, p.events.empty() ? 0 : p.events.front().origin);
+    } else {
+      option.assign({'D', 'T', 1, kind});
+      pcapng::put_varint(option, p.events.size());
+      TimeNs previous = timestamp;
+      std::int64_t previous_origin = 0;
+      for (const ByteEvent& e : p.events) {
+        pcapng::put_varint(option, pcapng::zigzag(e.time - previous));
+        option.push_back(e.flags);
+        pcapng::put_varint(option,
+                           pcapng::zigzag(static_cast<std::int64_t>(e.origin) - previous_origin));
+        previous = e.time;
+        previous_origin = e.origin;
+      }
     }
     pcapng::Writer::Packet pkt;
     pkt.interface = interface_for(p.channel);

@@ -182,6 +182,27 @@ void CaptureReader::lay_out() {
       decoded_.clear();
     }
   }
+  // drivetap's compact form: evenly spaced bytes without UART marks, of one source packet.
+  // n * step is checked against kTimeLimit before it is added to the timestamp: no overflow.
+  if (option.size() >= 4 && option[0] == 'D' && option[1] == 'T' && option[2] == 2) {
+    std::size_t pos = 4;
+    const auto count = pcapng::get_varint(option, &pos);
+    const auto step = pcapng::get_varint(option, &pos);
+    const auto source_packet = pcapng::get_varint(option, &pos);
+    const TimeNs n = static_cast<TimeNs>(held_.bytes.size());
+    if (count && *count == held_.bytes.size() && step &&
+        *step <= static_cast<std::uint64_t>(kMaxInterval) &&
+        (n == 0 || static_cast<TimeNs>(*step) <= kTimeLimit / n) && source_packet &&
+        *source_packet <= UINT32_MAX && pos == option.size() &&
+        time_in_range(held_.timestamp + n * static_cast<TimeNs>(*step))) {
+      layout_.even = true;
+      layout_.count = held_.bytes.size();
+      layout_.time = held_.timestamp;
+      layout_.step = static_cast<TimeNs>(*step);
+      layout_.source_packet = static_cast<std::int64_t>(*source_packet);
+      return;
+    }
+  }
   // Other tools: the packet was stamped when its last byte had arrived. Times and the character
   // time are bounded (kTimeLimit, kMaxInterval) and a packet holds < 2^24 bytes: no overflow.
   const TimeNs n = static_cast<TimeNs>(held_.bytes.size());
@@ -308,7 +329,10 @@ bool CaptureReader::next(ByteEvent& out) {
     lay_out();
   }
   const std::size_t i = layout_.index++;
-  if (layout_.exact) {
+  if (layout_.even) {
+    out = {layout_.time + static_cast<TimeNs>(i) * layout_.step, held_.bytes[i], 0, held_.channel,
+           static_cast<std::uint32_t>(layout_.source_packet)};
+  } else if (layout_.exact) {
     if (i - layout_.chunk_start >= decoded_.size()) decode_chunk(i);
     const Decoded& d = decoded_[i - layout_.chunk_start];
     // The byte keeps the packet number of the capture it was first read from.

@@ -93,12 +93,15 @@ class CaptureReader final : public ByteSource {
     std::uint32_t origin = 0;
   } held_;
   struct Layout {        // where next() is in the held packet
-    bool exact = false;  // per-byte times from drivetap's option; else evenly spaced
+    bool exact = false;  // per-byte times from drivetap's option (version 1)
     std::size_t index = 0, count = 0;
     std::size_t option_pos = 0;  // exact: the entry after the decoded ones in held_.option
-    TimeNs time = 0;             // exact: the last decoded byte's time (first: the packet's)
-    std::int64_t source_packet = 0;
-    std::size_t chunk_start = 0;  // exact: packet index of decoded_[0]
+    TimeNs time = 0;  // exact: the last decoded byte's time (first: the packet's); even: first's
+    std::int64_t source_packet = 0;  // exact: the last decoded byte's; even: every byte's
+    std::size_t chunk_start = 0;     // exact: packet index of decoded_[0]
+    bool even = false;  // drivetap's compact option (version 2): byte i at time + i*step
+    TimeNs step = 0;
+    // Neither: another tool's packet, its bytes back to back ending at the packet's timestamp.
   } layout_;
   // exact: the option's entries decoded ahead, at most kDecodedChunk at a time (a packet that
   // fits, nearly all, is decoded and checked in one pass; a larger one is checked whole first).
