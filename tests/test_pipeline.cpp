@@ -202,8 +202,10 @@ struct TranscriptSink final : Sink {
   [[nodiscard]] bool wants_detail() const override { return detail; }
 };
 
-// The generator's mixed bus (four protocols, errors, noise, timeouts) through one pipeline.
-void run_generated(TranscriptSink& sink) {
+// The generator's mixed bus (four protocols, errors, noise, timeouts) through one pipeline:
+// byte by byte (`chunk` 0) or with push_batch() over runs of `chunk` bytes that cut across
+// records and channels.
+void run_generated(TranscriptSink& sink, std::size_t chunk = 0) {
   generate::Options go;
   go.frames = 20000;
   go.seed = 7;
@@ -215,12 +217,24 @@ void run_generated(TranscriptSink& sink) {
   Pipeline pipeline(options, channels, sink);
   std::vector<int> channel_of(gen.links().size(), -1);
   generate::Record r;
+  std::vector<ByteEvent> pending;
   while (gen.next(r)) {
     if (channel_of[r.link] < 0) channel_of[r.link] = channels.intern(gen.links()[r.link].channel);
-    for (std::size_t i = 0; i < r.bytes.size(); ++i)
-      pipeline.push({r.start + static_cast<TimeNs>(i) * options.timing.character_time, r.bytes[i],
-                     r.flags[i], static_cast<ChannelId>(channel_of[r.link])});
+    for (std::size_t i = 0; i < r.bytes.size(); ++i) {
+      const ByteEvent e{r.start + static_cast<TimeNs>(i) * options.timing.character_time,
+                        r.bytes[i], r.flags[i], static_cast<ChannelId>(channel_of[r.link]), 0};
+      if (chunk == 0) {
+        pipeline.push(e);
+        continue;
+      }
+      pending.push_back(e);
+      if (pending.size() == chunk) {
+        pipeline.push_batch(pending);
+        pending.clear();
+      }
+    }
   }
+  pipeline.push_batch(pending);
   pipeline.finish();
 }
 
@@ -240,4 +254,70 @@ TEST(Pipeline, SummaryOnlyRunFindsWhatADetailedRunFinds) {
   ASSERT_EQ(detailed.records.size(), summary_only.records.size());
   for (std::size_t i = 0; i < detailed.records.size(); ++i)
     ASSERT_EQ(detailed.records[i], summary_only.records[i]) << "record " << i;
+}
+
+// push_batch() hands runs of bytes to the framer at once; what comes out must be exactly what
+// push() of each byte gives, wherever the runs start and end.
+TEST(Pipeline, PushBatchFindsWhatPushFinds) {
+  TranscriptSink one_by_one(true);
+  run_generated(one_by_one);
+  ASSERT_GT(one_by_one.messages, 10000u);
+  for (const std::size_t chunk : {1u, 7u, 64u, 4096u}) {
+    TranscriptSink batched(true);
+    run_generated(batched, chunk);
+    ASSERT_EQ(one_by_one.records.size(), batched.records.size()) << "chunk " << chunk;
+    for (std::size_t i = 0; i < one_by_one.records.size(); ++i)
+      ASSERT_EQ(one_by_one.records[i], batched.records[i]) << "chunk " << chunk << " record " << i;
+  }
+}
+
+// The pipeline decodes every frame into one Message: begin_message() must leave nothing of the
+// previous frame behind, only storage.
+TEST(Pipeline, BeginMessageResetsEveryMember) {
+  Frame frame;
+  frame.events = {{100, 0x01, 0, 0, 0}, {200, 0x03, 0, 0, 0}};
+  Message dirty;
+  begin_message(dirty, Frame(frame), Protocol::danfoss_fc, Direction::response);
+  dirty.bytes.push_back(9);
+  dirty.address = 7;
+  dirty.function = 0x83;
+  dirty.is_exception = true;
+  dirty.exception_code = 2;
+  dirty.checksum.verdict = ChecksumVerdict::bad;
+  dirty.checksum.name = "LRC";
+  dirty.checksum.width = 1;
+  dirty.checksum.stated_wire = 5;
+  dirty.checksum.computed_wire = 6;
+  dirty.checksum.text = true;
+  dirty.text_encoded = true;
+  dirty.fields.emplace_back();
+  dirty.info = "old";
+  dirty.drive_info = "old drive";
+  dirty.anomalies.push_back({AnomalyKind::noise, 1, 0, 1, "old"});
+  dirty.latency = 5;
+  dirty.request_number = 3;
+  Message fresh;
+  begin_message(fresh, Frame(frame), Protocol::modbus_rtu, Direction::request);
+  begin_message(dirty, Frame(frame), Protocol::modbus_rtu, Direction::request);
+  EXPECT_EQ(dirty.frame.events.size(), 2u);
+  EXPECT_EQ(dirty.bytes, fresh.bytes);
+  EXPECT_EQ(dirty.protocol, Protocol::modbus_rtu);
+  EXPECT_EQ(dirty.direction, Direction::request);
+  EXPECT_EQ(dirty.address, fresh.address);
+  EXPECT_EQ(dirty.function, fresh.function);
+  EXPECT_EQ(dirty.is_exception, fresh.is_exception);
+  EXPECT_EQ(dirty.exception_code, fresh.exception_code);
+  EXPECT_EQ(dirty.checksum.verdict, fresh.checksum.verdict);
+  EXPECT_STREQ(dirty.checksum.name, fresh.checksum.name);
+  EXPECT_EQ(dirty.checksum.width, fresh.checksum.width);
+  EXPECT_EQ(dirty.checksum.stated_wire, fresh.checksum.stated_wire);
+  EXPECT_EQ(dirty.checksum.computed_wire, fresh.checksum.computed_wire);
+  EXPECT_EQ(dirty.checksum.text, fresh.checksum.text);
+  EXPECT_EQ(dirty.text_encoded, fresh.text_encoded);
+  EXPECT_TRUE(dirty.fields.empty());
+  EXPECT_TRUE(dirty.info.empty());
+  EXPECT_TRUE(dirty.drive_info.empty());
+  EXPECT_TRUE(dirty.anomalies.empty());
+  EXPECT_EQ(dirty.latency, fresh.latency);
+  EXPECT_EQ(dirty.request_number, fresh.request_number);
 }

@@ -88,6 +88,12 @@ class HybridFramer final : public Framer {
   void finish(std::vector<Frame>& out) override;
   // Earliest time at which advance() can produce something; max() when nothing is pending.
   [[nodiscard]] TimeNs next_deadline() const override;
+  // Bytes before the pressure mark: push() closes nothing else without silence.
+  [[nodiscard]] std::size_t quiet_room() const override {
+    return pending_.size() + 1 < options_.pressure_bytes
+               ? options_.pressure_bytes - 1 - pending_.size()
+               : 0;
+  }
 
  private:
   enum class Mode { silence, pressure, flush, end_of_input };

@@ -41,6 +41,7 @@ class RtuFramer final : public Framer {
   void advance(TimeNs now, std::vector<Frame>& out) override { framer_.advance(now, out); }
   void finish(std::vector<Frame>& out) override { framer_.finish(out); }
   [[nodiscard]] TimeNs next_deadline() const override { return framer_.next_deadline(); }
+  [[nodiscard]] std::size_t quiet_room() const override { return framer_.quiet_room(); }
   static const RtuRules& rules();
 
  private:

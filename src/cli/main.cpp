@@ -503,11 +503,11 @@ int run_read(const CommonOptions& o, const std::string& path) {
 
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
-  ByteEvent e;
+  std::vector<ByteEvent> batch;
   bool interrupted = false;
-  while (source->next(e)) {
+  while (source->next_batch(batch)) {
     for (const Anomaly& a : source->take_findings()) pipeline.report(a);
-    pipeline.push(e);
+    pipeline.push_batch(batch);
     if (g_stop) {
       interrupted = true;
       break;
@@ -904,19 +904,17 @@ int run_generate(const GenerateOptions& g) {
   const TimeNs character = serial.character_time();
   generate::Record r;
   TimeNs last = 0;
+  std::vector<ByteEvent> events;
   while (gen.next(r)) {
     const std::string& name = gen.links()[r.link].channel;
     if (log) log->line(r.start, name, r.bytes, r.flags, r.note);
     if (pipeline) {
       if (channel_of[r.link] < 0) channel_of[r.link] = channels.intern(name);
-      ByteEvent e;
-      e.channel = static_cast<ChannelId>(channel_of[r.link]);
-      for (std::size_t i = 0; i < r.bytes.size(); ++i) {
-        e.time = r.start + static_cast<TimeNs>(i) * character;
-        e.byte = r.bytes[i];
-        e.flags = r.flags[i];
-        pipeline->push(e);
-      }
+      events.clear();
+      for (std::size_t i = 0; i < r.bytes.size(); ++i)
+        events.push_back({r.start + static_cast<TimeNs>(i) * character, r.bytes[i], r.flags[i],
+                          static_cast<ChannelId>(channel_of[r.link]), 0});
+      pipeline->push_batch(events);
     }
     last = r.start + static_cast<TimeNs>(r.bytes.size()) * character;
   }

@@ -30,6 +30,10 @@ class Framer {
   virtual void finish(std::vector<Frame>& out) = 0;
   // Earliest time at which advance() can produce something; max() when nothing is pending.
   [[nodiscard]] virtual TimeNs next_deadline() const = 0;
+  // How many more bytes with no silence > t3.5 before them push() surely takes without closing
+  // anything (it holds them until silence, the hold limit or finish()). The pipeline appends
+  // such runs with push_all() in one go. 0 (the default): no promise, byte by byte.
+  [[nodiscard]] virtual std::size_t quiet_room() const { return 0; }
 };
 
 }  // namespace drivetap

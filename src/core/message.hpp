@@ -61,24 +61,25 @@ inline constexpr std::size_t kTypicalFieldCount = 16;
 // The vectors and strings `m` held keep their storage (the pipeline decodes every frame of a run
 // into one Message, so the hot path does not allocate); `m.detail` is kept.
 inline void begin_message(Message& m, Frame&& frame, Protocol protocol, Direction direction) {
-  Message fresh;
-  fresh.detail = m.detail;
-  fresh.bytes = std::move(m.bytes);
-  fresh.fields = std::move(m.fields);
-  fresh.info = std::move(m.info);
-  fresh.drive_info = std::move(m.drive_info);
-  fresh.anomalies = std::move(m.anomalies);
-  fresh.bytes.clear();
-  fresh.fields.clear();
-  fresh.info.clear();
-  fresh.drive_info.clear();
-  fresh.anomalies.clear();
-  fresh.frame = std::move(frame);
-  for (const ByteEvent& e : fresh.frame.events) fresh.bytes.push_back(e.byte);
-  if (fresh.detail) fresh.fields.reserve(kTypicalFieldCount);  // one allocation, not a series
-  fresh.protocol = protocol;
-  fresh.direction = direction;
-  m = std::move(fresh);
+  // Every member of Message is set here (tests/test_pipeline.cpp BeginMessageResetsEveryMember).
+  m.frame = std::move(frame);
+  m.bytes.resize(m.frame.events.size());
+  for (std::size_t i = 0; i < m.bytes.size(); ++i) m.bytes[i] = m.frame.events[i].byte;
+  m.protocol = protocol;
+  m.direction = direction;
+  m.address = -1;
+  m.function = -1;
+  m.is_exception = false;
+  m.exception_code = -1;
+  m.checksum = ChecksumResult{};
+  m.text_encoded = false;
+  m.fields.clear();
+  if (m.detail) m.fields.reserve(kTypicalFieldCount);  // one allocation, not a doubling series
+  m.info.clear();
+  m.drive_info.clear();
+  m.anomalies.clear();
+  m.latency = -1;
+  m.request_number = 0;
 }
 
 // A finding that the frame's length or content breaks its protocol's rules.

@@ -87,6 +87,47 @@ void Pipeline::push(const ByteEvent& in) {
   if (!ready_.empty()) handle_frames();
 }
 
+TimeNs Pipeline::deadline_of_others(ChannelId channel) const {
+  TimeNs earliest = std::numeric_limits<TimeNs>::max();
+  for (std::size_t i = 0; i < states_.size(); ++i)
+    if (i != channel && states_[i]->framer)
+      earliest = std::min(earliest, states_[i]->framer->next_deadline());
+  return earliest;
+}
+
+void Pipeline::push_batch(std::span<const ByteEvent> events) {
+  const TimeNs character_time = options_.timing.character_time;
+  std::size_t i = 0;
+  // Each pass pushes at least events[i].
+  while (i < events.size()) {
+    const ChannelId channel = events[i].channel;
+    push(events[i++]);  // the byte-by-byte way: it may close frames, detect, re-detect
+    ChannelState& st = *states_[channel];
+    if (i == events.size() || !st.framer || st.redetect || !ready_.empty()) continue;
+    // What follows on the same channel with no silence > t3.5 before it, before any other
+    // channel's deadline and within the framer's quiet room, closes nothing: push() of each
+    // would only append it (advance_all() has nothing due, the framer holds it).
+    const std::size_t room = st.framer->quiet_room();
+    const TimeNs others = deadline_of_others(channel);
+    run_.clear();
+    // Each pass takes one byte into the run, or stops.
+    while (i < events.size() && run_.size() < room && events[i].channel == channel) {
+      ByteEvent e = events[i];
+      if (options_.serial.data_bits == 7) e.byte &= 0x7F;
+      if (e.time < st.last_end) e.time = st.last_end;
+      if (e.time - st.last_end > options_.timing.t35 || e.time >= others) break;
+      st.last_end = e.time + character_time;
+      latest_time_ = std::max(latest_time_, e.time);
+      run_.push_back(e);
+      ++i;
+    }
+    if (run_.empty()) continue;
+    st.framer->push_all(run_, ready_);
+    earliest_deadline_ = std::min(earliest_deadline_, st.framer->next_deadline());
+    if (!ready_.empty()) handle_frames();
+  }
+}
+
 namespace {
 
 constexpr std::size_t kDetectBytes = 2048;  // most bytes held before deciding anyway

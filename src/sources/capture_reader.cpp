@@ -345,4 +345,23 @@ bool CaptureReader::next(ByteEvent& out) {
   return true;
 }
 
+bool CaptureReader::next_batch(std::vector<ByteEvent>& out) {
+  out.clear();
+  ByteEvent e;
+  if (!next(e)) return false;  // lays the next packet out when the held one is used up
+  out.push_back(e);
+  const std::size_t end = std::min(layout_.count, layout_.index + (kBatch - 1));
+  if (layout_.even) {  // nearly every packet drivetap wrote: no per-byte decision
+    const auto origin = static_cast<std::uint32_t>(layout_.source_packet);
+    for (std::size_t i = layout_.index; i < end; ++i)
+      out.push_back({layout_.time + static_cast<TimeNs>(i) * layout_.step, held_.bytes[i], 0,
+                     held_.channel, origin});
+    layout_.index = end;
+    return true;
+  }
+  // Each pass takes one byte of the held packet.
+  while (layout_.index < end && next(e)) out.push_back(e);
+  return true;
+}
+
 }  // namespace drivetap

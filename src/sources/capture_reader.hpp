@@ -47,6 +47,9 @@ class CaptureReader final : public ByteSource {
   void set_character_time(TimeNs t) override { character_time_ = t; }
 
   bool next(ByteEvent& out) override;
+  // The rest of the current packet (the next one when it is used up), at most kBatch bytes.
+  bool next_batch(std::vector<ByteEvent>& out) override;
+  static constexpr std::size_t kBatch = 4096;
   [[nodiscard]] const std::string& error() const override { return error_; }
   // One line per kind of packet that carried no serial bytes, with a count and where first seen.
   [[nodiscard]] std::vector<std::string> notes() const override;

@@ -30,6 +30,16 @@ class ByteSource {
   virtual void set_character_time(TimeNs t) = 0;
   // Next byte; false at the end or on error (then error() is non-empty).
   virtual bool next(ByteEvent& out) = 0;
+  // The next bytes into `out` (cleared first), exactly those next() would give one at a time,
+  // at most a packet's worth; false at the end or on error. Findings taken after a batch belong
+  // before its first byte. The default gives one byte per batch; sources with packets override.
+  virtual bool next_batch(std::vector<ByteEvent>& out) {
+    out.clear();
+    ByteEvent e;
+    if (!next(e)) return false;
+    out.push_back(e);
+    return true;
+  }
   [[nodiscard]] virtual const std::string& error() const = 0;
   // Findings about the capture itself (e.g. timestamps going backwards), for the pipeline.
   virtual std::vector<Anomaly> take_findings() { return {}; }
