@@ -4,6 +4,7 @@
 #include <fmt/format.h>
 #include <pcap/pcap.h>
 
+#include <algorithm>
 #include <cstring>
 #include <sstream>
 
@@ -228,12 +229,28 @@ bool CaptureReader::load_pcapng_packet() {
            packets_);
       continue;
     }
-    std::string why;
-    bool fatal = false;
-    auto payload = extract_serial_payload(itf.link_type, rec.data, &why, &fatal);
-    if (!payload) {
-      skip(fatal ? fmt::format("malformed: {}", why) : why, packets_);
-      continue;
+    std::optional<SerialPayload> payload;
+    const std::size_t tags = same_tags_.size();
+    if (itf.link_type == kLinkTypeUpperPdu && tags > 0 && rec.data.size() >= tags &&
+        std::equal(same_tags_.begin(), same_tags_.end(), rec.data.begin())) {
+      // The exported-PDU tags of the previous packet, byte for byte: the same parse.
+      payload = SerialPayload{
+          std::span<const std::uint8_t>(rec.data).subspan(tags), same_tags_outbound_, {}, {}};
+    } else {
+      std::string why;
+      bool fatal = false;
+      payload = extract_serial_payload(itf.link_type, rec.data, &why, &fatal);
+      if (!payload) {
+        skip(fatal ? fmt::format("malformed: {}", why) : why, packets_);
+        continue;
+      }
+      same_tags_.clear();
+      if (itf.link_type == kLinkTypeUpperPdu) {  // the payload is what follows the tags
+        same_tags_.assign(rec.data.begin(),
+                          rec.data.begin() +
+                              static_cast<std::ptrdiff_t>(rec.data.size() - payload->bytes.size()));
+        same_tags_outbound_ = payload->outbound;
+      }
     }
     const bool ours = ng_->written_by_drivetap() && !rec.drivetap_option.empty();
     if (!ours && rec.flags && (*rec.flags & 3) != 0 && !payload->outbound && payload->flow.empty())

@@ -79,6 +79,10 @@ class CaptureReader final : public ByteSource {
   ChannelTable& channels_;
   std::unique_ptr<pcapng::Reader> ng_;
   pcapng::PacketRecord record_;  // reused for every packet
+  // The exported-PDU tags of the last upper-PDU packet and their parse (drivetap writes a few
+  // kinds of tag block over and over: a packet that starts with the same bytes is not parsed).
+  std::vector<std::uint8_t> same_tags_;
+  std::optional<bool> same_tags_outbound_;
   // Channel of each interface of the current section, by direction (none stated, outbound,
   // inbound); kNoChannel until its first packet. Indexed, so a file with many interfaces or
   // sections costs no search per packet.
