@@ -59,9 +59,23 @@ inline std::string format_seconds(TimeNs t, int decimals) {
   return s;
 }
 
+// Milliseconds with 3 decimals, as "{:.3f}" of the double t / 1e6 prints them. Digits come from
+// integers where that rounding is certain: t >= 0, not a tie (t % 1000 == 500, where the
+// double's last bit decides) and below 2^50 ns (13 days; the double's error stays far below the
+// 1 ns that separates t from a tie). Elsewhere the double is formatted.
 inline void append_ms(std::string& out, TimeNs t) {
-  fmt::format_to(std::back_inserter(out), "{:.3f}",
-                 static_cast<double>(t) / static_cast<double>(kNsPerMs));
+  if (t < 0 || t >= (TimeNs{1} << 50) || t % 1000 == 500) {
+    fmt::format_to(std::back_inserter(out), "{:.3f}",
+                   static_cast<double>(t) / static_cast<double>(kNsPerMs));
+    return;
+  }
+  const auto us = static_cast<std::uint64_t>((t + 500) / 1000);
+  append_uint(out, us / 1000);
+  const auto frac = static_cast<unsigned>(us % 1000);
+  const char digits[4] = {'.', static_cast<char>('0' + frac / 100),
+                          static_cast<char>('0' + frac / 10 % 10),
+                          static_cast<char>('0' + frac % 10)};
+  out.append(digits, 4);
 }
 
 inline std::string format_ms(TimeNs t) {

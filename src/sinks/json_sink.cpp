@@ -4,17 +4,31 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 
 #include "sinks/format.hpp"
 #include "sinks/text_sink.hpp"
 
 namespace drivetap {
 
+namespace {
+
+// Characters a JSON string cannot hold as they are: '"', '\\' and the controls below 0x20.
+constexpr std::array<bool, 256> kNeedsEscape = [] {
+  std::array<bool, 256> table{};
+  for (int c = 0; c < 0x20; ++c) table[static_cast<std::size_t>(c)] = true;
+  table['"'] = table['\\'] = true;
+  return table;
+}();
+
+}  // namespace
+
 void append_json_quoted(std::string& out, std::string_view s) {
   out += '"';
   std::size_t plain = 0;  // start of the run of characters that need no escape
   for (std::size_t i = 0; i < s.size(); ++i) {
     const char c = s[i];
+    if (!kNeedsEscape[static_cast<unsigned char>(c)]) continue;  // nearly every character
     const char* escape = nullptr;
     switch (c) {
       case '"':
@@ -239,21 +253,52 @@ void JsonSink::on_event(const BusEvent& e) {
 }
 
 void JsonSink::on_transaction(const Transaction& t) {
-  auto opt_time = [](TimeNs v) { return v < 0 ? std::string("null") : seconds(v); };
-  auto opt_num = [](std::uint64_t v) {
-    return v == 0 ? std::string("null") : fmt::format("{}", v);
+  std::string& line = line_;
+  line.clear();
+  auto number_or_null = [&line](std::uint64_t v) {
+    if (v == 0)
+      line += "null";
+    else
+      append_uint(line, v);
   };
-  std::string line = fmt::format(
-      "{{\"type\":\"transaction\",\"outcome\":\"{}\",\"channel\":{},\"protocol\":\"{}\","
-      "\"addr\":{},\"fc\":{},\"request_n\":{},\"response_n\":{},\"request_t\":{},"
-      "\"response_t\":{},\"latency_ms\":{}",
-      outcome_id(t.outcome), json_quote(channels_.at(t.channel).name), protocol_id(t.protocol),
-      t.address, t.function, opt_num(t.request_number), opt_num(t.response_number),
-      opt_time(t.request_time), opt_time(t.response_time),
-      t.latency < 0 || !show_latency_ ? std::string("null") : format_ms(t.latency));
-  if (t.exception_code >= 0) line += fmt::format(",\"exception\":{}", t.exception_code);
-  if (!t.detail.empty()) line += fmt::format(",\"detail\":{}", json_quote(t.detail));
-  line += "}";
+  auto time_or_null = [&line](TimeNs v) {
+    if (v < 0)
+      line += "null";
+    else
+      append_seconds(line, v, 9);
+  };
+  line += "{\"type\":\"transaction\",\"outcome\":\"";
+  line += outcome_id(t.outcome);
+  line += "\",\"channel\":";
+  append_json_quoted(line, channels_.at(t.channel).name);
+  line += ",\"protocol\":\"";
+  line += protocol_id(t.protocol);
+  line += "\",\"addr\":";
+  append_int(line, t.address);
+  line += ",\"fc\":";
+  append_int(line, t.function);
+  line += ",\"request_n\":";
+  number_or_null(t.request_number);
+  line += ",\"response_n\":";
+  number_or_null(t.response_number);
+  line += ",\"request_t\":";
+  time_or_null(t.request_time);
+  line += ",\"response_t\":";
+  time_or_null(t.response_time);
+  line += ",\"latency_ms\":";
+  if (t.latency < 0 || !show_latency_)
+    line += "null";
+  else
+    append_ms(line, t.latency);
+  if (t.exception_code >= 0) {
+    line += ",\"exception\":";
+    append_int(line, t.exception_code);
+  }
+  if (!t.detail.empty()) {
+    line += ",\"detail\":";
+    append_json_quoted(line, t.detail);
+  }
+  line += '}';
   write(line);
 }
 

@@ -1,0 +1,57 @@
+// Unit tests: the sinks' hand-written number and string formatting (src/sinks/format.hpp,
+// json_sink) against what fmt prints.
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+
+#include <cstdint>
+#include <random>
+#include <string>
+
+#include "sinks/format.hpp"
+#include "sinks/json_sink.hpp"
+
+using namespace drivetap;
+
+namespace {
+
+std::string ms_of(TimeNs t) {
+  std::string s;
+  append_ms(s, t);
+  return s;
+}
+
+std::string fmt_ms(TimeNs t) {
+  return fmt::format("{:.3f}", static_cast<double>(t) / static_cast<double>(kNsPerMs));
+}
+
+}  // namespace
+
+TEST(SinkFormat, MillisecondsAreWhatFmtPrints) {
+  // Edges: zero, rounding up into the next millisecond and second, ties (formatted as the
+  // double has them), negatives, the integer path's limit and beyond.
+  for (const TimeNs t :
+       {TimeNs{0}, TimeNs{1}, TimeNs{499}, TimeNs{500}, TimeNs{501}, TimeNs{999'499},
+        TimeNs{999'500}, TimeNs{999'501}, TimeNs{1'500}, TimeNs{2'500}, TimeNs{15'940'123},
+        TimeNs{-1}, TimeNs{-500}, TimeNs{-1'500'000}, (TimeNs{1} << 50) - 1, TimeNs{1} << 50,
+        (TimeNs{1} << 50) + 1, TimeNs{1} << 61})
+    EXPECT_EQ(ms_of(t), fmt_ms(t)) << t;
+  std::mt19937_64 random(42);
+  for (int i = 0; i < 200000; ++i) {
+    const int bits = static_cast<int>(random() % 51);
+    const TimeNs t = static_cast<TimeNs>(random() >> (64 - std::max(bits, 1)));
+    ASSERT_EQ(ms_of(t), fmt_ms(t)) << t;
+  }
+}
+
+TEST(SinkFormat, JsonStringsEscapeQuotesBackslashesAndControls) {
+  EXPECT_EQ(json_quote("plain text 123"), "\"plain text 123\"");
+  EXPECT_EQ(json_quote("say \"hi\" \\ there"), "\"say \\\"hi\\\" \\\\ there\"");
+  EXPECT_EQ(json_quote("a\nb\rc\td"), "\"a\\nb\\rc\\td\"");
+  EXPECT_EQ(json_quote(std::string("x\x01y\x1f", 4)), "\"x\\u0001y\\u001f\"");
+  EXPECT_EQ(json_quote(std::string("nul\0end", 7)), "\"nul\\u0000end\"");
+  EXPECT_EQ(json_quote("\xC2\xB0"
+                       "C"),
+            "\"\xC2\xB0"
+            "C\"");  // UTF-8 passes as it is
+  EXPECT_EQ(json_quote(""), "\"\"");
+}
