@@ -9,7 +9,9 @@
 #include <string_view>
 
 #include "core/checksum.hpp"
+#include "formats/link_layer.hpp"
 #include "formats/pcapng.hpp"
+#include "formats/upper_pdu.hpp"
 #include "sinks/capture_sink.hpp"
 #include "sources/capture_reader.hpp"
 #include "test_support.hpp"
@@ -430,4 +432,48 @@ TEST(CaptureReader, BrokenCompactOptionFallsBackToEvenSpacingBeforeTheTimestamp)
     }
   }
   EXPECT_FALSE(reader->next(e));
+}
+
+TEST(CaptureReader, RepeatedExportedPduTagsGiveTheSameDirectionAsParsing) {
+  // Another tool's upper-PDU packets: six kinds of tag block (more than the reader remembers)
+  // in a repeating order; each packet's direction tag must decide its channel every time.
+  std::vector<upper_pdu::Tags> kinds(6);
+  for (std::size_t k = 0; k < kinds.size(); ++k) {
+    kinds[k].dissector = k % 3 == 2 ? "data" : "mbrtu";
+    kinds[k].protocol_column = fmt::format("kind {}", k);
+    if (k % 3 != 1)
+      kinds[k].direction = k % 2 == 0 ? upper_pdu::kDirectionSent : upper_pdu::kDirectionReceived;
+  }
+  const std::vector<std::size_t> order = {0, 1, 0, 1, 2, 3, 4, 5, 0, 5, 4, 3, 2, 1, 0, 0, 1};
+  const std::string path = write_pcapng("upper-pdu-tags.pcapng", "test", [&](pcapng::Writer& w) {
+    w.interface(kLinkTypeUpperPdu, "eth0", "", "");
+    for (std::size_t i = 0; i < order.size(); ++i) {
+      std::vector<std::uint8_t> data;
+      upper_pdu::append_tags(kinds[order[i]], data);
+      data.push_back(static_cast<std::uint8_t>(i));
+      pcapng::Writer::Packet p;
+      p.timestamp = static_cast<TimeNs>(i + 1) * kNsPerSecond;
+      p.data = data;
+      w.packet(p);
+    }
+  });
+  ChannelTable channels;
+  std::unique_ptr<std::FILE, int (*)(std::FILE*)> file(std::fopen(path.c_str(), "rb"),
+                                                       &std::fclose);
+  ASSERT_TRUE(file);
+  CaptureReader reader(file.get(), path, true, channels);
+  ASSERT_TRUE(reader.read_header()) << reader.error();
+  reader.set_character_time(1000);
+  ByteEvent e;
+  for (std::size_t i = 0; i < order.size(); ++i) {
+    ASSERT_TRUE(reader.next(e)) << i << ": " << reader.error();
+    EXPECT_EQ(e.byte, i);
+    const upper_pdu::Tags& tags = kinds[order[i]];
+    const std::string expected = !tags.direction                                ? "eth0"
+                                 : *tags.direction == upper_pdu::kDirectionSent ? "eth0.tx"
+                                                                                : "eth0.rx";
+    EXPECT_EQ(channels.at(e.channel).name, expected) << "packet " << i;
+  }
+  EXPECT_FALSE(reader.next(e));
+  EXPECT_EQ(reader.error(), "");
 }

@@ -230,13 +230,19 @@ bool CaptureReader::load_pcapng_packet() {
       continue;
     }
     std::optional<SerialPayload> payload;
-    const std::size_t tags = same_tags_.size();
-    if (itf.link_type == kLinkTypeUpperPdu && tags > 0 && rec.data.size() >= tags &&
-        std::equal(same_tags_.begin(), same_tags_.end(), rec.data.begin())) {
-      // The exported-PDU tags of the previous packet, byte for byte: the same parse.
-      payload = SerialPayload{
-          std::span<const std::uint8_t>(rec.data).subspan(tags), same_tags_outbound_, {}, {}};
-    } else {
+    if (itf.link_type == kLinkTypeUpperPdu) {
+      for (const KnownTags& known : known_tags_) {
+        const std::size_t tags = known.bytes.size();
+        if (tags == 0 || rec.data.size() < tags ||
+            !std::equal(known.bytes.begin(), known.bytes.end(), rec.data.begin()))
+          continue;
+        // A tag block seen before, byte for byte: the same parse.
+        payload = SerialPayload{
+            std::span<const std::uint8_t>(rec.data).subspan(tags), known.outbound, {}, {}};
+        break;
+      }
+    }
+    if (!payload) {
       std::string why;
       bool fatal = false;
       payload = extract_serial_payload(itf.link_type, rec.data, &why, &fatal);
@@ -244,12 +250,12 @@ bool CaptureReader::load_pcapng_packet() {
         skip(fatal ? fmt::format("malformed: {}", why) : why, packets_);
         continue;
       }
-      same_tags_.clear();
       if (itf.link_type == kLinkTypeUpperPdu) {  // the payload is what follows the tags
-        same_tags_.assign(rec.data.begin(),
-                          rec.data.begin() +
-                              static_cast<std::ptrdiff_t>(rec.data.size() - payload->bytes.size()));
-        same_tags_outbound_ = payload->outbound;
+        KnownTags& known = known_tags_[known_tags_next_];
+        known_tags_next_ = (known_tags_next_ + 1) % known_tags_.size();
+        const std::size_t tags = rec.data.size() - payload->bytes.size();
+        known.bytes.assign(rec.data.begin(), rec.data.begin() + static_cast<std::ptrdiff_t>(tags));
+        known.outbound = payload->outbound;
       }
     }
     const bool ours = ng_->written_by_drivetap() && !rec.drivetap_option.empty();

@@ -8,6 +8,7 @@
 // each byte keeps its packet number (ByteEvent::origin) so such packets can be reported.
 #pragma once
 
+#include <array>
 #include <cstdio>
 #include <map>
 #include <memory>
@@ -79,10 +80,15 @@ class CaptureReader final : public ByteSource {
   ChannelTable& channels_;
   std::unique_ptr<pcapng::Reader> ng_;
   pcapng::PacketRecord record_;  // reused for every packet
-  // The exported-PDU tags of the last upper-PDU packet and their parse (drivetap writes a few
-  // kinds of tag block over and over: a packet that starts with the same bytes is not parsed).
-  std::vector<std::uint8_t> same_tags_;
-  std::optional<bool> same_tags_outbound_;
+  // The exported-PDU tag blocks of the last upper-PDU packets and their parse: drivetap writes
+  // a few kinds over and over (requests and replies alternate), so a packet that starts with
+  // the bytes of one of them is not parsed again.
+  struct KnownTags {
+    std::vector<std::uint8_t> bytes;
+    std::optional<bool> outbound;
+  };
+  std::array<KnownTags, 4> known_tags_;
+  std::size_t known_tags_next_ = 0;  // the entry the next new tag block replaces
   // Channel of each interface of the current section, by direction (none stated, outbound,
   // inbound); kNoChannel until its first packet. Indexed, so a file with many interfaces or
   // sections costs no search per packet.
