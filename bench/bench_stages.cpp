@@ -671,11 +671,8 @@ void run_text_sink(benchmark::State& state, const char* name, MakeSink make) {
 }
 
 ChannelTable& bus_channels() {
-  static ChannelTable channels = [] {
-    ChannelTable c;
-    c.intern("bus");
-    return c;
-  }();
+  static ChannelTable channels;
+  if (channels.size() == 0) channels.intern("bus");
   return channels;
 }
 

@@ -3,6 +3,7 @@
 #include <CLI/CLI.hpp>
 
 #include <poll.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -38,6 +39,7 @@
 #include "sources/hex_text.hpp"
 #include "sources/input_file.hpp"
 #include "sources/logic_source.hpp"
+#include "sources/read_ahead.hpp"
 #include "sources/serial_port.hpp"
 #include "sources/sigrok_file.hpp"
 #include "sources/vcd_file.hpp"
@@ -493,6 +495,12 @@ PipelineOptions start_source(const CommonOptions& o, ByteSource& source) {
   return p;
 }
 
+// A file named on the command line that is a regular file (not "-", a FIFO or a device).
+bool is_regular_file(const std::string& path) {
+  struct stat st {};
+  return path != "-" && ::stat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode);
+}
+
 int run_read(const CommonOptions& o, const std::string& path) {
   InputFile in;
   ChannelTable channels;
@@ -505,14 +513,21 @@ int run_read(const CommonOptions& o, const std::string& path) {
   std::signal(SIGTERM, on_signal);
   std::vector<ByteEvent> batch;
   bool interrupted = false;
-  while (source->next_batch(batch)) {
-    for (const Anomaly& a : source->take_findings()) pipeline.report(a);
+  // pcap/pcapng files are read a few chunks ahead on a second thread (no findings; a regular
+  // file cannot block the reader for ever); other sources batch by batch on this one.
+  std::optional<ReadAhead> ahead;
+  if ((in.format == InputFormat::pcapng || in.format == InputFormat::pcap) && is_regular_file(path))
+    ahead.emplace(*source);
+  while (ahead ? ahead->next_chunk(batch) : source->next_batch(batch)) {
+    if (!ahead)
+      for (const Anomaly& a : source->take_findings()) pipeline.report(a);
     pipeline.push_batch(batch);
     if (g_stop) {
       interrupted = true;
       break;
     }
   }
+  ahead.reset();  // the reader thread has stopped: the source is the caller's alone again
   // Whatever happened, what was read so far is decoded, summarised, written and flushed.
   pipeline.finish();
   out.close();

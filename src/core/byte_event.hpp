@@ -5,7 +5,9 @@
 // character time later (SerialConfig::character_time()).
 #pragma once
 
+#include <atomic>
 #include <cstdint>
+#include <stdexcept>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -63,21 +65,43 @@ class ChannelTable {
   // linear name lookup) without end. A real tap has a handful.
   static constexpr std::size_t kMaxChannels = 256;
 
+  // One thread may intern (a source reading ahead on a thread of its own) while another looks
+  // up the channels of the bytes it was handed: the storage is reserved once and never moves,
+  // and a channel is published (size()) only once it is complete.
+  ChannelTable() {
+    channels_.reserve(kMaxChannels);
+    link_of_.reserve(kMaxChannels);
+    links_.reserve(kMaxChannels);
+  }
+  ChannelTable(const ChannelTable&) = delete;
+  ChannelTable& operator=(const ChannelTable&) = delete;
+
   // Returns the id of `name`, adding the channel on first use (link and role from the name);
   // kNoChannel when the name is new and the table already holds kMaxChannels.
   ChannelId intern(std::string_view name);
   // Same, with the link and role given explicitly (sources that know them, e.g. IP flows).
   ChannelId intern(std::string_view name, std::string_view link, ChannelRole role);
-  [[nodiscard]] const Channel& at(ChannelId id) const { return channels_.at(id); }
-  [[nodiscard]] std::size_t size() const { return channels_.size(); }
+  [[nodiscard]] const Channel& at(ChannelId id) const { return channels_[checked(id)]; }
+  [[nodiscard]] std::size_t size() const { return size_.load(std::memory_order_acquire); }
   // Index of the link a channel belongs to (dense, 0..link_count()-1).
-  [[nodiscard]] std::size_t link_index(ChannelId id) const { return link_of_.at(id); }
-  [[nodiscard]] std::size_t link_count() const { return links_.size(); }
+  [[nodiscard]] std::size_t link_index(ChannelId id) const { return link_of_[checked(id)]; }
+  [[nodiscard]] std::size_t link_count() const {
+    return link_count_.load(std::memory_order_acquire);
+  }
 
  private:
+  [[nodiscard]] std::size_t checked(ChannelId id) const {
+    if (id >= size()) throw std::out_of_range("ChannelTable: no channel " + std::to_string(id));
+    return id;
+  }
+
+  // Only intern() changes these, by push_back within the reserved capacity; readers index the
+  // published part (below size_ / link_count_).
   std::vector<Channel> channels_;
   std::vector<std::size_t> link_of_;
   std::vector<std::string> links_;
+  std::atomic<std::size_t> size_{0};
+  std::atomic<std::size_t> link_count_{0};
 };
 
 inline ChannelId ChannelTable::intern(std::string_view name, std::string_view link,
@@ -89,9 +113,13 @@ inline ChannelId ChannelTable::intern(std::string_view name, std::string_view li
   std::size_t link_index = links_.size();
   for (std::size_t i = 0; i < links_.size(); ++i)
     if (links_[i] == ch.link) link_index = i;
-  if (link_index == links_.size()) links_.push_back(ch.link);
+  if (link_index == links_.size()) {
+    links_.push_back(ch.link);
+    link_count_.store(links_.size(), std::memory_order_release);
+  }
   channels_.push_back(std::move(ch));
   link_of_.push_back(link_index);
+  size_.store(channels_.size(), std::memory_order_release);
   return static_cast<ChannelId>(channels_.size() - 1);
 }
 

@@ -1,0 +1,61 @@
+// Read-ahead of a ByteSource on a thread of its own (read_ahead.hpp).
+#include "sources/read_ahead.hpp"
+
+#include <utility>
+
+namespace drivetap {
+
+ReadAhead::ReadAhead(ByteSource& source) : source_(source), thread_([this] { run(); }) {}
+
+ReadAhead::~ReadAhead() {
+  {
+    const std::lock_guard lock(mutex_);
+    stop_ = true;
+  }
+  changed_.notify_all();
+  thread_.join();
+}
+
+void ReadAhead::run() {
+  std::vector<ByteEvent> chunk, batch;
+  // Each pass reads one chunk and queues it, or ends.
+  while (true) {
+    {
+      std::unique_lock lock(mutex_);
+      changed_.wait(lock, [this] { return stop_ || full_.size() < kDepth; });
+      if (stop_) break;
+      if (!spare_.empty()) {
+        chunk = std::move(spare_.back());
+        spare_.pop_back();
+      }
+    }
+    chunk.clear();
+    bool more = true;
+    // Each pass appends one batch of the source.
+    while (chunk.size() < kChunkEvents && (more = source_.next_batch(batch)))
+      chunk.insert(chunk.end(), batch.begin(), batch.end());
+    {
+      const std::lock_guard lock(mutex_);
+      if (!chunk.empty()) full_.push_back(std::move(chunk));
+      if (!more) ended_ = true;
+    }
+    changed_.notify_all();
+    if (!more) return;
+  }
+  const std::lock_guard lock(mutex_);
+  ended_ = true;
+}
+
+bool ReadAhead::next_chunk(std::vector<ByteEvent>& out) {
+  std::unique_lock lock(mutex_);
+  changed_.wait(lock, [this] { return !full_.empty() || ended_; });
+  if (full_.empty()) return false;
+  if (out.capacity() > 0 && spare_.size() < kDepth) spare_.push_back(std::move(out));
+  out = std::move(full_.front());
+  full_.pop_front();
+  lock.unlock();
+  changed_.notify_all();
+  return true;
+}
+
+}  // namespace drivetap

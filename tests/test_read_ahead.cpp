@@ -1,0 +1,89 @@
+// Unit tests: ReadAhead — a source's batches read on a thread of their own come out whole, in
+// order, and the reader stops when asked or when the source ends or fails.
+#include <gtest/gtest.h>
+
+#include <string>
+#include <vector>
+
+#include "sources/read_ahead.hpp"
+
+using namespace drivetap;
+
+namespace {
+
+// Gives `total` bytes in batches of 1..37, interning a new channel every 1000 bytes (as a
+// capture reader meets new interfaces), then ends, with an error when told to.
+class CountingSource final : public ByteSource {
+ public:
+  CountingSource(ChannelTable& channels, std::size_t total, bool fail)
+      : channels_(channels), total_(total), fail_(fail) {}
+  bool read_header() override { return true; }
+  [[nodiscard]] RunSettings settings() const override { return {}; }
+  void set_character_time(TimeNs) override {}
+  bool next(ByteEvent& out) override {
+    if (given_ == total_) {
+      if (fail_) error_ = "test: offset 123: damaged";
+      return false;
+    }
+    if (given_ % 1000 == 0) channel_ = channels_.intern("ch" + std::to_string(given_ / 1000 % 300));
+    out = {static_cast<TimeNs>(given_) * 1000, static_cast<std::uint8_t>(given_), 0, channel_,
+           static_cast<std::uint32_t>(given_)};
+    ++given_;
+    return true;
+  }
+  bool next_batch(std::vector<ByteEvent>& out) override {
+    out.clear();
+    const std::size_t want = 1 + batches_++ % 37;
+    ByteEvent e;
+    while (out.size() < want && next(e)) out.push_back(e);
+    return !out.empty();
+  }
+  [[nodiscard]] const std::string& error() const override { return error_; }
+
+ private:
+  ChannelTable& channels_;
+  std::size_t total_, given_ = 0, batches_ = 0;
+  bool fail_;
+  ChannelId channel_ = 0;
+  std::string error_;
+};
+
+}  // namespace
+
+TEST(ReadAhead, ChunksHoldEveryByteInOrder) {
+  for (const bool fail : {false, true}) {
+    ChannelTable channels;
+    CountingSource source(channels, 200'000, fail);
+    std::size_t next = 0;
+    {
+      ReadAhead ahead(source);
+      std::vector<ByteEvent> chunk;
+      while (ahead.next_chunk(chunk)) {
+        ASSERT_FALSE(chunk.empty());
+        for (const ByteEvent& e : chunk) {
+          ASSERT_EQ(e.origin, next);
+          // The channel the reader interned is there for this thread to look up.
+          ASSERT_EQ(channels.at(e.channel).name, "ch" + std::to_string(next / 1000 % 300));
+          ++next;
+        }
+      }
+    }
+    EXPECT_EQ(next, 200'000u);
+    EXPECT_EQ(source.error(), fail ? "test: offset 123: damaged" : "");
+    EXPECT_EQ(channels.size(), 200u);
+  }
+}
+
+TEST(ReadAhead, StopsWhenTheCallerTakesNoMore) {
+  ChannelTable channels;
+  CountingSource source(channels, 10'000'000, false);
+  {
+    ReadAhead ahead(source);
+    std::vector<ByteEvent> chunk;
+    ASSERT_TRUE(ahead.next_chunk(chunk));
+    EXPECT_EQ(chunk.front().origin, 0u);
+  }  // the destructor stops the reader a few chunks ahead, not at the end of the source
+  ByteEvent e;
+  ASSERT_TRUE(source.next(e));
+  EXPECT_LT(e.origin, 10u * ReadAhead::kChunkEvents);
+}
