@@ -88,6 +88,9 @@ class HybridFramer final : public Framer {
   void finish(std::vector<Frame>& out) override;
   // Earliest time at which advance() can produce something; max() when nothing is pending.
   [[nodiscard]] TimeNs next_deadline() const override;
+  void recycle(std::vector<ByteEvent>&& events) override {
+    if (spare_.size() < kSpares && events.capacity() > 0) spare_.push_back(std::move(events));
+  }
   // Bytes before the pressure mark: push() closes nothing else without silence.
   [[nodiscard]] std::size_t quiet_room() const override {
     return pending_.size() + 1 < options_.pressure_bytes
@@ -121,6 +124,8 @@ class HybridFramer final : public Framer {
   TimeNs emitted_end_ = -1;  // end of the last byte of the last emitted frame; -1 none yet
   bool have_emitted_ = false;
   bool processed_since_last_byte_ = false;
+  static constexpr std::size_t kSpares = 8;
+  std::vector<std::vector<ByteEvent>> spare_;  // recycle()d frame storage for emit()
 };
 
 }  // namespace drivetap

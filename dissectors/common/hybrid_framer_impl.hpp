@@ -157,6 +157,10 @@ template <class Rules>
 void HybridFramer<Rules>::emit(std::size_t p, std::size_t len, FrameKind kind, FrameClose close,
                                std::vector<Frame>& out) {
   Frame f;
+  if (!spare_.empty()) {
+    f.events = std::move(spare_.back());
+    spare_.pop_back();
+  }
   f.kind = kind;
   f.channel = channel_;
   f.close = close;

@@ -42,6 +42,7 @@ class RtuFramer final : public Framer {
   void finish(std::vector<Frame>& out) override { framer_.finish(out); }
   [[nodiscard]] TimeNs next_deadline() const override { return framer_.next_deadline(); }
   [[nodiscard]] std::size_t quiet_room() const override { return framer_.quiet_room(); }
+  void recycle(std::vector<ByteEvent>&& events) override { framer_.recycle(std::move(events)); }
   static const RtuRules& rules();
 
  private:

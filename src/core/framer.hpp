@@ -34,6 +34,9 @@ class Framer {
   // anything (it holds them until silence, the hold limit or finish()). The pipeline appends
   // such runs with push_all() in one go. 0 (the default): no promise, byte by byte.
   [[nodiscard]] virtual std::size_t quiet_room() const { return 0; }
+  // Gives back the storage of a frame's `events` the caller is done with; the framer may build a
+  // later frame in it (one allocation fewer per frame). The default drops it.
+  virtual void recycle(std::vector<ByteEvent>&& events) { (void)events; }
 };
 
 }  // namespace drivetap

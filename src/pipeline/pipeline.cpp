@@ -54,6 +54,13 @@ Pipeline::ChannelState& Pipeline::state_for(ChannelId id) {
   return *states_[id];
 }
 
+void Pipeline::recycle(Frame& frame) {
+  if (frame.events.capacity() == 0 || frame.channel >= states_.size()) return;
+  if (Framer* framer = states_[frame.channel]->framer.get())
+    framer->recycle(std::move(frame.events));
+  frame.events.clear();
+}
+
 void Pipeline::advance_all(TimeNs now) {
   if (now < earliest_deadline_) return;
   earliest_deadline_ = std::numeric_limits<TimeNs>::max();
@@ -242,6 +249,8 @@ void Pipeline::handle_frames() {
     if (options_.max_frames > 0 && stats_.frames >= options_.max_frames) break;
     handle_frame(f);
   }
+  // Storage of frames done with (noise; telegrams left theirs in message_) back to the framers.
+  for (Frame& f : batch) recycle(f);
   batch.clear();
   if (outer) in_batch_ = false;
 }
@@ -363,6 +372,7 @@ void Pipeline::handle_frame(Frame& frame) {
     request.assign(r.begin(), r.end());
   }
   Message& m = message_;
+  recycle(m.frame);  // the previous frame's storage
   decoder.dissect_into(m, std::move(frame), dir, options_.timing, request);
   // Drive level: the station's profile (bound on the command line or guessed from its traffic),
   // what the frame means to it, and the state changes it shows.

@@ -67,6 +67,9 @@ class Pipeline {
   struct ChannelState;
   ChannelState& state_for(ChannelId id);
   void advance_all(TimeNs now);
+  // Hands the storage of a frame's events back to its channel's framer (frame.events is left
+  // empty).
+  void recycle(Frame& frame);
   // The earliest next_deadline() of the framers of channels other than `channel`.
   [[nodiscard]] TimeNs deadline_of_others(ChannelId channel) const;
   void handle_frames();
