@@ -13,6 +13,8 @@
 //   BM_DriveAnnotate                 read_for_drive with the E-9 profile on the RTU traffic
 //   BM_Pipeline_RtuNoDrives          the whole pipeline (framer, dissector, pairing), no profiles
 //   BM_Pipeline_RtuAutoDrives        the same with every built-in profile as --drive auto candidate
+//   BM_Pipeline_RtuBatched           no profiles, push_batch() on runs of 16384 events (as `read`)
+//   BM_Pipeline_RtuBatchedSummaryOnly  the same into a sink that shows no decode (`read --stats`)
 //   BM_TextSink / BM_JsonSink / BM_PcapngSink   the sinks on the pipeline's records, to /dev/null
 //
 // Every benchmark checks its result once (frames found == frames sent, checksums good, the
@@ -491,6 +493,8 @@ void BM_Pairer(benchmark::State& state) {
 
 struct CountingSink final : Sink {
   std::uint64_t frames = 0, noise = 0, anomalies = 0, transactions = 0, ok = 0;
+  bool detail = true;  // false: like `read --stats`, no field trees or info lines are built
+  [[nodiscard]] bool wants_detail() const override { return detail; }
   void on_frame(const Message&) override { ++frames; }
   void on_noise(const Frame&) override { ++noise; }
   void on_anomaly(const Anomaly&) override { ++anomalies; }
@@ -522,7 +526,10 @@ PipelineOptions rtu_options(const Traffic& t, bool auto_drives) {
   return p;
 }
 
-void run_pipeline(benchmark::State& state, bool auto_drives) {
+// `batch` 0: push() per byte event; else push_batch() on runs of `batch` events (what `read`
+// does with the chunks its read-ahead thread hands over).
+void run_pipeline(benchmark::State& state, bool auto_drives, std::size_t batch = 0,
+                  bool detail = true) {
   const Traffic& t = rtu_traffic();
   ChannelTable channels;
   channels.intern("bus");
@@ -530,8 +537,15 @@ void run_pipeline(benchmark::State& state, bool auto_drives) {
   CountingSink sink;
   for (auto _ : state) {
     sink = CountingSink();
+    sink.detail = detail;
     Pipeline pipeline(options, channels, sink);
-    for (const ByteEvent& e : t.events) pipeline.push(e);
+    if (batch == 0) {
+      for (const ByteEvent& e : t.events) pipeline.push(e);
+    } else {
+      const std::span<const ByteEvent> events(t.events);
+      for (std::size_t i = 0; i < events.size(); i += batch)
+        pipeline.push_batch(events.subspan(i, std::min(batch, events.size() - i)));
+    }
     pipeline.finish();
   }
   if (sink.frames != t.frames.size() || sink.noise != 0 || sink.ok != t.frames.size() / 2)
@@ -546,6 +560,12 @@ void BM_Pipeline_RtuNoDrives(benchmark::State& state) {
 }
 void BM_Pipeline_RtuAutoDrives(benchmark::State& state) {
   run_pipeline(state, true);
+}
+void BM_Pipeline_RtuBatched(benchmark::State& state) {
+  run_pipeline(state, false, 16384);
+}
+void BM_Pipeline_RtuBatchedSummaryOnly(benchmark::State& state) {
+  run_pipeline(state, false, 16384, false);
 }
 
 // ---- Drive profiles ---------------------------------------------------------------------------
@@ -727,6 +747,8 @@ BENCHMARK(BM_Pairer)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_DriveAnnotate)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_Pipeline_RtuNoDrives)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_Pipeline_RtuAutoDrives)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_Pipeline_RtuBatched)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_Pipeline_RtuBatchedSummaryOnly)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_TextSink)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_JsonSink)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_PcapngSink)->Unit(benchmark::kMicrosecond);
