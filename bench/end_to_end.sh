@@ -9,7 +9,7 @@
 #
 # The captures come from `drivetap generate` (README "drivetap generate"): --mix modbus-rtu for
 # the comparison, --mix all for the mix, seed 1, written to pcapng by drivetap itself. A 10 M
-# capture is about 4 GB (5 GB for the mix) in $TMPDIR; tshark needs about 3 GB of memory for it.
+# capture is about 3.5 GB (4.6 GB for the mix) in $TMPDIR; tshark needs about 1.5 GB of memory for it.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 build=${1:-$root/build}
