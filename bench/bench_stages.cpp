@@ -217,15 +217,17 @@ struct Reframed {
 
 // A fresh framer from `decoder` re-frames `events`: a push per event with run 1 (what the
 // pipeline does), else Framer::push_all on runs of `run` events (as a reader's buffer would);
-// frames are counted as they come out and dropped.
+// frames are counted as they come out, and their storage goes back to the framer
+// (Framer::recycle), as the pipeline hands it back.
 Reframed reframe(const ProtocolDecoder& decoder, const FramerSettings& settings,
                  std::span<const ByteEvent> events, std::size_t run, std::vector<Frame>& out) {
   Reframed r;
   auto framer = decoder.make_framer(0, settings);
   auto drain = [&] {
-    for (const Frame& f : out) {
+    for (Frame& f : out) {
       (f.kind == FrameKind::telegram ? r.telegrams : r.noise) += 1;
       r.bytes += f.size();
+      framer->recycle(std::move(f.events));
     }
     out.clear();
   };

@@ -124,7 +124,7 @@ class HybridFramer final : public Framer {
   TimeNs emitted_end_ = -1;  // end of the last byte of the last emitted frame; -1 none yet
   bool have_emitted_ = false;
   bool processed_since_last_byte_ = false;
-  static constexpr std::size_t kSpares = 8;
+  static constexpr std::size_t kSpares = 64;
   std::vector<std::vector<ByteEvent>> spare_;  // recycle()d frame storage for emit()
 };
 
