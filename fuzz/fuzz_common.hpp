@@ -54,6 +54,10 @@ class CheckedRun {
  public:
   CheckedRun(const PipelineOptions& options, const ChannelTable& channels)
       : pipeline_(options, channels, sink_) {}
+  void push_batch(std::span<const ByteEvent> events) {
+    pushed_ += events.size();
+    pipeline_.push_batch(events);
+  }
   void push(const ByteEvent& e) {
     ++pushed_;
     pipeline_.push(e);
@@ -100,10 +104,11 @@ inline void run_source(ByteSource& source, ChannelTable& channels) {
   p.auto_candidates = builtin_candidates();
   source.set_character_time(p.timing.character_time);
   CheckedRun run(p, channels);
-  ByteEvent e;
-  while (source.next(e)) {
+  // Batches as `read` takes them (its read-ahead thread only regroups them into chunks).
+  std::vector<ByteEvent> batch;
+  while (source.next_batch(batch)) {
     for (const Anomaly& a : source.take_findings()) run.report(a);
-    run.push(e);
+    run.push_batch(batch);
   }
   run.finish();
   (void)source.notes();
