@@ -353,8 +353,7 @@ bool CaptureReader::next(ByteEvent& out) {
   }
   const std::size_t i = layout_.index++;
   if (layout_.even) {
-    out = {layout_.time + static_cast<TimeNs>(i) * layout_.step, held_.bytes[i], 0, held_.channel,
-           static_cast<std::uint32_t>(layout_.source_packet)};
+    out = even_event(i);
   } else if (layout_.exact) {
     if (i - layout_.chunk_start >= decoded_.size()) decode_chunk(i);
     const Decoded& d = decoded_[i - layout_.chunk_start];
@@ -375,10 +374,7 @@ bool CaptureReader::next_batch(std::vector<ByteEvent>& out) {
   out.push_back(e);
   const std::size_t end = std::min(layout_.count, layout_.index + (kBatch - 1));
   if (layout_.even) {  // nearly every packet drivetap wrote: no per-byte decision
-    const auto origin = static_cast<std::uint32_t>(layout_.source_packet);
-    for (std::size_t i = layout_.index; i < end; ++i)
-      out.push_back({layout_.time + static_cast<TimeNs>(i) * layout_.step, held_.bytes[i], 0,
-                     held_.channel, origin});
+    for (std::size_t i = layout_.index; i < end; ++i) out.push_back(even_event(i));
     layout_.index = end;
     return true;
   }

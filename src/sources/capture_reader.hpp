@@ -125,6 +125,11 @@ class CaptureReader final : public ByteSource {
   };
   static constexpr std::size_t kDecodedChunk = 4096;
   std::vector<Decoded> decoded_;
+  // Byte i of a held packet laid out by drivetap's compact option (layout_.even).
+  [[nodiscard]] ByteEvent even_event(std::size_t i) const {
+    return {layout_.time + static_cast<TimeNs>(i) * layout_.step, held_.bytes[i], 0, held_.channel,
+            static_cast<std::uint32_t>(layout_.source_packet)};
+  }
   // Entries `from`.. (at most kDecodedChunk, in order after the last decoded) into decoded_.
   void decode_chunk(std::size_t from);
   bool pending_packet_ = false;  // read_header() loaded the first packet already
