@@ -37,7 +37,7 @@ run() {
 # check NAME: every frame sent was captured with a good CRC, garbage as noise, files valid.
 check() {
   local name=$1
-  local out="$tmp/$name.txt" sent garbage frames ok noise
+  local out="$tmp/$name.txt" sent garbage frames ok noise paused
   sent=$(truth_frames "$tmp/$name.truth")
   garbage=$(truth_garbage "$tmp/$name.truth")
   frames=$(summary_field "$out" frames)
@@ -45,11 +45,16 @@ check() {
   noise=$(sed -n 's/.*noise: \([0-9]*\) records\?.*/\1/p' "$out")
   [ "$(cat "$tmp/$name.rc")" = 1 ] || fail "$name: exit $(cat "$tmp/$name.rc"), expected 1 (pty gone)"
   grep -q "adapter unplugged or gone" "$tmp/$name.err" || fail "$name: no unplugged message"
-  [ "$frames" = "$sent" ] && [ "$ok" = "$sent" ] ||
+  # A simulator preempted inside a frame puts a real gap in it (the truth notes the pause): such
+  # a frame may be cut in two, a bad-CRC frame and a noise record. Every other frame must come.
+  paused=$(grep -c 'pause inside as written' "$tmp/$name.truth")
+  [ "$paused" -gt 0 ] && echo "note: $name: $paused frames written with a pause inside (late simulator)"
+  [ "${ok:-0}" -le "$sent" ] && [ "${ok:-0}" -ge $((sent - paused)) ] &&
+    [ "${frames:-0}" -ge $((sent - paused)) ] && [ "${frames:-0}" -le $((sent + paused)) ] ||
     fail "$name: $sent frames sent, captured $frames ($ok with a good CRC)"
   # Every garbage record is seen as noise; on a loaded machine the pty may deliver one in two
   # reads far apart, which makes two noise records of it.
-  [ "${noise:-0}" -ge "$garbage" ] && [ "${noise:-0}" -le $((2 * garbage)) ] ||
+  [ "${noise:-0}" -ge "$garbage" ] && [ "${noise:-0}" -le $((2 * garbage + 2 * paused)) ] ||
     fail "$name: $garbage garbage records sent, $noise noise records"
   check_pcapng "$name" $((frames + noise))
 }

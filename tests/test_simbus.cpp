@@ -173,7 +173,8 @@ TEST(Simbus, TruthFileReadsBackAsAByteLog) {
   RunOptions r;
   r.t0 = 12'345'678'901'234;
   write_truth_header(f, o, r);
-  for (const Record& rec : records) write_truth_record(f, rec, rec.start == records[3].start);
+  for (const Record& rec : records)
+    write_truth_record(f, rec, rec.start == records[3].start, o.serial.t15());
   std::fclose(f);
   const std::string log(text, size);
   std::free(text);
@@ -421,4 +422,63 @@ TEST(Simbus, StopCutsTheRunCleanly) {
   EXPECT_EQ(st.bytes, sent[0].bytes.size());
   EXPECT_EQ(n, static_cast<ssize_t>(st.bytes));
   EXPECT_EQ(st.frames, 1u);
+}
+
+// A writer preempted inside a frame leaves a real gap in it: the record says how long, as a
+// reader stamping each read back from its end would see it; in bursts there is none to report.
+TEST(Simbus, AWriterLateInsideAFrameReportsThePause) {
+  TrafficOptions o = options("9600 8N1");
+  o.gap_reply_chars = 40;  // the catch-up after the stall holds only the request's last bytes
+  const TimeNs c = o.serial.character_time();
+  Traffic schedule(o);
+  const Record request = take(schedule, 1)[0];
+  const std::size_t request_size = request.bytes.size();
+  constexpr TimeNs kStall = 15 * kNsPerMs;
+  for (const TimeNs burst : {TimeNs{0}, 4 * kNsPerMs}) {
+    int p[2];
+    ASSERT_EQ(pipe2(p, O_NONBLOCK), 0);
+    Traffic traffic(o);
+    RunOptions r;
+    r.t0 = monotonic_now();
+    r.frames = 1;
+    r.burst = burst;
+    r.progress_every = 1;  // a call after every write
+    std::vector<Record> sent;
+    RunHooks hooks;
+    hooks.sent = [&](const Record& rec, std::size_t) { sent.push_back(rec); };
+    bool stalled = false;
+    hooks.progress = [&](const RunStats& st) {
+      if (stalled || st.bytes != request_size - 2) return;
+      stalled = true;  // two bytes of the request to go: the writer loses the CPU
+      std::this_thread::sleep_for(std::chrono::nanoseconds(kStall));
+    };
+    run(p[1], traffic, r, nullptr, hooks);
+    ::close(p[0]);
+    ::close(p[1]);
+    ASSERT_EQ(sent.size(), 1u);
+    if (burst == 0 && !stalled) GTEST_SKIP() << "the writer was never at two bytes to go";
+    if (burst == 0) {
+      // The last two bytes are read at once, stamped back from the end of the stall.
+      EXPECT_GE(sent[0].pause, kStall - 2 * c);
+    } else {
+      EXPECT_EQ(sent[0].pause, 0);
+    }
+  }
+  std::string text;
+  {
+    Record rec = request;
+    char* buf = nullptr;
+    std::size_t size = 0;
+    std::FILE* f = open_memstream(&buf, &size);
+    write_truth_record(f, rec, 0, o.serial.t15());
+    rec.pause = 2 * kNsPerMs;
+    write_truth_record(f, rec, 0, o.serial.t15());
+    std::fclose(f);
+    text.assign(buf, size);
+    std::free(buf);
+  }
+  EXPECT_EQ(text.find("pause"), text.rfind("pause")) << text;
+  EXPECT_NE(text.find(", a 2000 us pause inside as written (the writer was late)\n"),
+            std::string::npos)
+      << text;
 }

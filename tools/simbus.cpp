@@ -211,8 +211,8 @@ int main(int argc, char** argv) {
   RunHooks hooks;
   if (truth != nullptr) {
     write_truth_header(truth, t, r);
-    hooks.sent = [truth](const Record& rec, std::size_t dropped) {
-      write_truth_record(truth, rec, dropped);
+    hooks.sent = [truth, t15 = t.serial.t15()](const Record& rec, std::size_t dropped) {
+      write_truth_record(truth, rec, dropped, t15);
     };
   }
   hooks.progress = [](const RunStats& s) {

@@ -304,6 +304,7 @@ RunStats run(int fd, Traffic& traffic, const RunOptions& o, const std::atomic<bo
     Record rec;
     std::size_t next = 0;  // bytes written (or dropped) so far
     std::size_t dropped = 0;
+    TimeNs last_end = -1;  // its last byte written: where a back-dating reader puts its end
   };
   std::deque<Pending> q;  // records not yet reported, in order
   bool exhausted = false;
@@ -370,7 +371,15 @@ RunStats run(int fd, Traffic& traffic, const RunOptions& o, const std::atomic<bo
     const auto written = static_cast<std::size_t>(std::max<ssize_t>(n, 0));
     const TimeNs after = monotonic_now();
     last_write = after;
-    for (std::size_t k = 0; k < written; ++k) st.late.add(after - due[k]);
+    for (std::size_t k = 0; k < written; ++k) {
+      st.late.add(after - due[k]);
+      if (o.burst > 0) continue;
+      // A reader stamps the bytes of one read back from its time, one character each.
+      Pending& p = q[owner[k]];
+      const TimeNs end = after - static_cast<TimeNs>(written - k - 1) * c;
+      if (p.last_end >= 0) p.rec.pause = std::max(p.rec.pause, end - c - p.last_end);
+      p.last_end = end;
+    }
     for (std::size_t k = written; k < buf.size(); ++k) ++q[owner[k]].dropped;
     st.bytes += written;
     st.dropped += buf.size() - written;
@@ -430,7 +439,7 @@ void write_truth_header(std::FILE* f, const TrafficOptions& t, const RunOptions&
   fmt::print(f, "#! serial {}\n", t.serial.to_string());
 }
 
-void write_truth_record(std::FILE* f, const Record& record, std::size_t dropped) {
+void write_truth_record(std::FILE* f, const Record& record, std::size_t dropped, TimeNs max_pause) {
   std::string line = seconds(record.start) + " bus";
   for (std::uint8_t b : record.bytes) line += fmt::format(" {:02X}", b);
   line += " # ";
@@ -438,6 +447,9 @@ void write_truth_record(std::FILE* f, const Record& record, std::size_t dropped)
   if (record.kind == RecordKind::request && !record.answered) line += ", no reply";
   if (record.cut) line += ", cut short by the stop";
   if (dropped > 0) line += fmt::format(", {} bytes dropped (pty buffer full)", dropped);
+  if (record.pause > max_pause)
+    line += fmt::format(", a {} us pause inside as written (the writer was late)",
+                        record.pause / kNsPerUs);
   line += '\n';
   std::fputs(line.c_str(), f);
 }

@@ -45,6 +45,10 @@ struct Record {
   bool cut = false;       // a stop ended the run inside it: `bytes` are those sent
   TimeNs start = 0;       // start bit of the first byte, from the start of the run
   std::vector<std::uint8_t> bytes;
+  // Written byte by byte: the longest silence between two of its bytes that a reader stamping
+  // each write() back from its end would see. The schedule has none; a writer preempted in the
+  // middle of a frame makes one, a real gap on the wire. 0 in bursts (their gaps are the point).
+  TimeNs pause = 0;
 
   [[nodiscard]] bool is_frame() const { return kind != RecordKind::garbage; }
 };
@@ -188,7 +192,8 @@ bool set_realtime(int priority, std::string* error);
 
 // "#! serial" header and comments naming the traffic and the run's t0.
 void write_truth_header(std::FILE* f, const TrafficOptions& options, const RunOptions& run);
-// One line per record: its start time, channel `bus`, the bytes, a comment saying what it is.
-void write_truth_record(std::FILE* f, const Record& record, std::size_t dropped);
+// One line per record: its start time, channel `bus`, the bytes, a comment saying what it is,
+// and its pause when that is longer than `max_pause` (t1.5: the frame is broken on the wire).
+void write_truth_record(std::FILE* f, const Record& record, std::size_t dropped, TimeNs max_pause);
 
 }  // namespace drivetap::simbus
