@@ -417,6 +417,38 @@ TEST(DriveReading, E9StatusReplyReadWithItsRequest) {
   EXPECT_EQ(f.observed.fault_text, "4 (output overcurrent)");
 }
 
+// Without the text (read --stats), a reading observes exactly what it observes with it.
+TEST(DriveReading, WithoutTextTheObservationIsTheSame) {
+  const DriveProfile e9 = builtin_profile("e9.toml");
+  const Message req = rtu({0x02, 0x03, 0x00, 0x00, 0x00, 0x05}, Direction::request);
+  const Message rsp =
+      rtu({0x02, 0x03, 0x0A, 0x00, 0x0A, 0x13, 0x88, 0x13, 0x7D, 0x01, 0x7C, 0x00, 0x64},
+          Direction::response);
+  const Message write =
+      rtu({0x02, 0x10, 0x00, 0x10, 0x00, 0x02, 0x04, 0x00, 0x01, 0x13, 0x88}, Direction::request);
+  auto text = [](const std::optional<Quantity>& q) { return q ? q->text : "-"; };
+  for (const auto& [m, request] :
+       {std::pair{req, std::vector<std::uint8_t>()}, std::pair{rsp, req.bytes},
+        std::pair{write, std::vector<std::uint8_t>()}}) {
+    const DriveReading full = read_for_drive(e9, m, request);
+    const DriveReading bare = read_for_drive(e9, m, request, false);
+    EXPECT_FALSE(full.text.empty());
+    EXPECT_EQ(bare.text, "");
+    const DriveObservation &a = full.observed, &b = bare.observed;
+    EXPECT_EQ(a.running, b.running);
+    EXPECT_EQ(a.reverse, b.reverse);
+    EXPECT_EQ(a.fault_active, b.fault_active);
+    EXPECT_EQ(text(a.setpoint), text(b.setpoint));
+    EXPECT_EQ(text(a.output_frequency), text(b.output_frequency));
+    EXPECT_EQ(text(a.current), text(b.current));
+    EXPECT_EQ(text(a.voltage), text(b.voltage));
+    EXPECT_EQ(text(a.setpoint_command), text(b.setpoint_command));
+    EXPECT_EQ(a.run_command, b.run_command);
+    EXPECT_EQ(a.reverse_command, b.reverse_command);
+    EXPECT_EQ(a.fault_code, b.fault_code);
+  }
+}
+
 TEST(DriveReading, DanfossFcProcessData) {
   const DriveProfile vlt = builtin_profile("vlt-aqua.toml");
   // CTW 0x047C (start), REF 0x2000 = 50 % (0x4000 = 100 %).

@@ -385,8 +385,8 @@ void Pipeline::handle_frame(Frame& frame) {
   }
   DriveReading reading;
   if (profile) {
-    reading = read_for_drive(*profile, m, request);
-    m.drive_info = reading.text;
+    reading = read_for_drive(*profile, m, request, m.detail);
+    m.drive_info = std::move(reading.text);
   }
   ChannelState& channel_state = state_for(m.frame.channel);
   if (channel_state.auto_protocol) {

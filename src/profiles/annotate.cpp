@@ -5,6 +5,8 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <iterator>
+#include <string_view>
 #include <vector>
 
 #include "dissectors/easydrive/eds_dissector.hpp"
@@ -37,6 +39,40 @@ bool any_bit(const std::vector<int>& bits, std::uint32_t raw) {
   for (int b : bits)
     if ((raw >> b) & 1) return true;
   return false;
+}
+
+// The "; "-separated parts of an annotation, appended in place. Off (nothing kept) when no sink
+// shows the text: the observation is still made.
+class Parts {
+ public:
+  explicit Parts(bool enabled) : enabled_(enabled) {}
+  [[nodiscard]] bool enabled() const { return enabled_; }
+  // The text with a separator appended when a part is already there: append the next part to it.
+  std::string& next() {
+    if (count_++ > 0) text_ += "; ";
+    return text_;
+  }
+  void add(std::string_view part) {
+    if (enabled_) next() += part;
+  }
+  template <typename... Args>
+  void add(fmt::format_string<Args...> format, Args&&... args) {
+    if (enabled_) fmt::format_to(std::back_inserter(next()), format, std::forward<Args>(args)...);
+  }
+  [[nodiscard]] std::string take() { return std::move(text_); }
+
+ private:
+  bool enabled_;
+  std::size_t count_ = 0;
+  std::string text_;
+};
+
+void append_display_name(std::string& out, const RegisterDef& r) {
+  if (r.kind == RegisterKind::parameter) {
+    out += r.number;
+    out += ' ';
+  }
+  out += r.name;
 }
 
 // Applies one value to the observation by the register's role. `written`: the master wrote it
@@ -88,8 +124,8 @@ void observe(const DriveProfile& p, const RegisterDef& r, std::uint32_t raw, boo
 // Reads consecutive 16-bit values starting at `start` in the register space of `kind` (holding
 // registers also reach parameters through the addressing rule); collects "name value" parts.
 void read_registers(const DriveProfile& p, RegisterKind kind, std::uint32_t start,
-                    std::span<const std::uint16_t> values, bool written,
-                    std::vector<std::string>& parts, DriveObservation& o) {
+                    std::span<const std::uint16_t> values, bool written, Parts& parts,
+                    DriveObservation& o) {
   for (std::size_t i = 0; i < values.size(); ++i) {
     const std::uint32_t address = start + static_cast<std::uint32_t>(i);
     const RegisterDef* r =
@@ -98,20 +134,24 @@ void read_registers(const DriveProfile& p, RegisterKind kind, std::uint32_t star
     std::uint32_t raw = values[i];
     const bool double_word = r->words == 2 && i + 1 < values.size();
     if (double_word) raw = raw << 16 | values[++i];
-    parts.push_back(
-        fmt::format("{} {}", display_name(*r), describe_value(p, *r, raw, double_word)));
+    if (parts.enabled()) {
+      std::string& text = parts.next();
+      append_display_name(text, *r);
+      text += ' ';
+      append_value(text, p, *r, raw, double_word);
+    }
     observe(p, *r, raw, double_word, written, o);
   }
 }
 
 void read_coils(const DriveProfile& p, std::uint32_t start, std::size_t count,
-                std::span<const std::uint8_t> packed, bool written, std::vector<std::string>& parts,
+                std::span<const std::uint8_t> packed, bool written, Parts& parts,
                 DriveObservation& o) {
   for (std::size_t i = 0; i < count && i / 8 < packed.size(); ++i) {
     const RegisterDef* r = p.find(RegisterKind::coil, start + static_cast<std::uint32_t>(i));
     if (!r) continue;
     const bool on = (packed[i / 8] >> (i % 8)) & 1;
-    parts.push_back(fmt::format("{} {}", r->name, on ? "ON" : "OFF"));
+    parts.add("{} {}", r->name, on ? "ON" : "OFF");
     observe(p, *r, on, false, written, o);
   }
 }
@@ -126,18 +166,15 @@ std::string name_at(const DriveProfile& p, RegisterKind kind, std::uint32_t addr
   return fmt::format("register 0x{:04X}", address);
 }
 
-std::string join(const std::vector<std::string>& parts) {
-  return fmt::format("{}", fmt::join(parts, "; "));
-}
-
 std::string read_modbus(const DriveProfile& p, const Message& m,
-                        std::span<const std::uint8_t> request, DriveObservation& o) {
+                        std::span<const std::uint8_t> request, bool want_text,
+                        DriveObservation& o) {
   std::vector<std::uint8_t> decoded;
   const std::span<const std::uint8_t> b = modbus_binary(m.protocol, m.bytes, decoded);
   if (b.size() < 4) return {};
   const std::uint8_t fc = b[1];
   const std::size_t end = b.size() - (m.protocol == Protocol::modbus_rtu ? 2 : 1);  // before check
-  std::vector<std::string> parts;
+  Parts parts(want_text);
   if (fc & 0x80) {
     const auto it = p.exceptions.find(b[2]);
     if (it != p.exceptions.end()) return fmt::format("error 0x{:02X}: {}", b[2], it->second);
@@ -147,6 +184,7 @@ std::string read_modbus(const DriveProfile& p, const Message& m,
     if ((fc == 0x03 || fc == 0x04) && end >= 6) {
       const RegisterKind kind = fc == 0x03 ? RegisterKind::holding : RegisterKind::input;
       const std::uint16_t start = be16(b, 2), count = be16(b, 4);
+      if (!want_text) return {};
       if (count <= 1) return fmt::format("read {}", name_at(p, kind, start));
       return fmt::format("read {} .. {}", name_at(p, kind, start),
                          name_at(p, kind, static_cast<std::uint32_t>(start) + count - 1));
@@ -164,7 +202,8 @@ std::string read_modbus(const DriveProfile& p, const Message& m,
     } else if (fc == 0x0F && end >= 7) {
       read_coils(p, be16(b, 2), be16(b, 4), std::span(b).subspan(7, end - 7), true, parts, o);
     }
-    return parts.empty() ? std::string() : "set " + join(parts);
+    std::string text = parts.take();
+    return text.empty() ? text : "set " + text;
   }
   if (m.direction != Direction::response || request.empty()) return {};
   std::vector<std::uint8_t> request_decoded;
@@ -178,20 +217,20 @@ std::string read_modbus(const DriveProfile& p, const Message& m,
   } else if ((fc == 0x01 || fc == 0x02) && end >= 3) {
     read_coils(p, be16(q, 2), be16(q, 4), std::span(b).subspan(3, end - 3), false, parts, o);
   }
-  return join(parts);
+  return parts.take();
 }
 
 // Danfoss FC protocol (PROTOCOLS.md §4):
 //   STX LGE ADR [PKE IND PWEhigh PWElow] PCD1 PCD2 BCC        (LGE 6: PCD only; 14: with PKE)
 //   PKE = AK(4 bits) PNU(12 bits); PCD1/PCD2 = CTW/REF to the drive, STW/MAV from it.
-std::string read_fc(const DriveProfile& p, const Message& m, DriveObservation& o) {
+std::string read_fc(const DriveProfile& p, const Message& m, bool want_text, DriveObservation& o) {
   const std::span<const std::uint8_t> b = m.bytes;
   if (b.size() < 4 || b[0] != 0x02) return {};
   const std::size_t lge = b[1];
   if (b.size() != lge + 2 || (lge != 6 && lge != 14)) return {};
   const bool to_drive = m.direction == Direction::request;
   if (m.direction == Direction::unknown) return {};
-  std::vector<std::string> parts;
+  Parts parts(want_text);
   if (lge == 14) {
     const std::uint16_t pke = be16(b, 3);
     const unsigned ak = pke >> 12;
@@ -207,20 +246,20 @@ std::string read_fc(const DriveProfile& p, const Message& m, DriveObservation& o
     if (to_drive) {
       switch (ak) {
         case 0x1:
-          parts.push_back("read " + name);
+          parts.add("read {}", name);
           break;
         case 0x2:
         case 0xE:
         case 0x3:
         case 0xD: {
           const bool dw = ak == 0x3 || ak == 0xD;
-          parts.push_back(
-              fmt::format("set {} = {}{}", name, value(dw), ak >= 0xD ? " (RAM and EEPROM)" : ""));
+          if (parts.enabled())
+            parts.add("set {} = {}{}", name, value(dw), ak >= 0xD ? " (RAM and EEPROM)" : "");
           if (r) observe(p, *r, dw ? pwe : (pwe & 0xFFFF), dw, true, o);
           break;
         }
         case 0xF:
-          parts.push_back("text of " + name);
+          parts.add("text of {}", name);
           break;
         default:
           break;
@@ -230,20 +269,19 @@ std::string read_fc(const DriveProfile& p, const Message& m, DriveObservation& o
         case 0x1:
         case 0x2: {
           const bool dw = ak == 0x2;
-          parts.push_back(fmt::format("{} {}", name, value(dw)));
+          if (parts.enabled()) parts.add("{} {}", name, value(dw));
           if (r) observe(p, *r, dw ? pwe : (pwe & 0xFFFF), dw, false, o);
           break;
         }
         case 0x7: {
           const std::uint32_t error = pwe & 0xFFFF;
           const auto it = p.parameter_errors.find(error);
-          parts.push_back(
-              fmt::format("cannot execute on {}: error {}{}", name, error,
-                          it == p.parameter_errors.end() ? "" : " (" + it->second + ")"));
+          parts.add("cannot execute on {}: error {}{}", name, error,
+                    it == p.parameter_errors.end() ? "" : " (" + it->second + ")");
           break;
         }
         case 0xF:
-          parts.push_back("text of " + name);
+          parts.add("text of {}", name);
           break;
         default:
           break;
@@ -256,10 +294,15 @@ std::string read_fc(const DriveProfile& p, const Message& m, DriveObservation& o
     const RegisterDef* r = p.find(RegisterKind::holding, pcd[i]);
     if (!r) continue;
     const std::uint16_t raw = be16(b, at + 2 * i);
-    parts.push_back(fmt::format("{} {}", r->name, describe_value(p, *r, raw)));
+    if (parts.enabled()) {
+      std::string& text = parts.next();
+      text += r->name;
+      text += ' ';
+      append_value(text, p, *r, raw, false);
+    }
     observe(p, *r, raw, false, to_drive, o);
   }
-  return join(parts);
+  return parts.take();
 }
 
 // Easydrive (PROTOCOLS.md §5), ASCII hex between '~' and CR:
@@ -286,12 +329,13 @@ constexpr RunAction kRunActions[] = {
 };
 
 std::string read_easydrive(const DriveProfile& p, const Message& m,
-                           std::span<const std::uint8_t> request, DriveObservation& o) {
+                           std::span<const std::uint8_t> request, bool want_text,
+                           DriveObservation& o) {
   const std::span<const std::uint8_t> f = m.bytes;
   if (f.size() != 14 && f.size() != 18) return {};
   const bool has_data = f.size() == 18;
   const long data = has_data ? easydrive::hex_field(f, 9, 4) : -1;
-  std::vector<std::string> parts;
+  Parts parts(want_text);
   const RegisterDef* setpoint = nullptr;
   for (const RegisterDef& r : p.registers)
     if (r.kind == RegisterKind::running && r.role == "setpoint") setpoint = &r;
@@ -304,16 +348,16 @@ std::string read_easydrive(const DriveProfile& p, const Message& m,
         par ? display_name(*par) : "function code " + p.parameter_label(u_index);
     switch (cmd) {
       case 0x0A:
-        parts.push_back("status query");
+        parts.add("status query");
         break;
       case 0x0B:
         if (const RegisterDef* r = p.find(RegisterKind::running, u_index))
-          parts.push_back("read " + r->name);
+          parts.add("read {}", r->name);
         break;
       case 0x0C:
         for (const RunAction& action : kRunActions) {
           if (action.index != index) continue;
-          if (*action.label) parts.push_back(action.label);
+          if (*action.label) parts.add(std::string_view(action.label));
           if (action.run) o.run_command = action.run;
           if (action.reverse) o.reverse_command = action.reverse;
           if (action.reset) o.reset_command = true;
@@ -321,26 +365,27 @@ std::string read_easydrive(const DriveProfile& p, const Message& m,
             o.setpoint_command =
                 Quantity{scaled(*setpoint, static_cast<std::uint32_t>(data), false),
                          describe_value(p, *setpoint, static_cast<std::uint32_t>(data))};
-            parts.push_back("setpoint " + o.setpoint_command->text);
+            parts.add("setpoint {}", o.setpoint_command->text);
           }
         }
         break;
       case 0x0D:
-        parts.push_back("read " + par_name);
+        parts.add("read {}", par_name);
         break;
       case 0x0E:
         if (data >= 0 && par) {
-          parts.push_back(fmt::format("set {} = {}", par_name,
-                                      describe_value(p, *par, static_cast<std::uint32_t>(data))));
+          if (parts.enabled())
+            parts.add("set {} = {}", par_name,
+                      describe_value(p, *par, static_cast<std::uint32_t>(data)));
           observe(p, *par, static_cast<std::uint32_t>(data), false, true, o);
         } else if (data >= 0) {
-          parts.push_back(fmt::format("set {} = {}", par_name, data));
+          parts.add("set {} = {}", par_name, data);
         }
         break;
       default:
         break;
     }
-    return join(parts);
+    return parts.take();
   }
   if (m.direction != Direction::response) return {};
   const long code = easydrive::hex_field(f, 3, 2), fault = easydrive::hex_field(f, 5, 2);
@@ -348,18 +393,19 @@ std::string read_easydrive(const DriveProfile& p, const Message& m,
   if (code == 0x20 || code == 0x30) return {};  // rejected: the frame line names the reason
   if (cmd == 0x0B && index >= 0 && data >= 0) {
     if (const RegisterDef* r = p.find(RegisterKind::running, static_cast<std::uint32_t>(index))) {
-      parts.push_back(
-          fmt::format("{} {}", r->name, describe_value(p, *r, static_cast<std::uint32_t>(data))));
+      if (parts.enabled())
+        parts.add("{} {}", r->name, describe_value(p, *r, static_cast<std::uint32_t>(data)));
       observe(p, *r, static_cast<std::uint32_t>(data), false, false, o);
     }
   } else if (cmd == 0x0D && index >= 0 && data >= 0) {
     if (const RegisterDef* r = p.find(RegisterKind::parameter, static_cast<std::uint32_t>(index))) {
-      parts.push_back(fmt::format("{} {}", display_name(*r),
-                                  describe_value(p, *r, static_cast<std::uint32_t>(data))));
+      if (parts.enabled())
+        parts.add("{} {}", display_name(*r),
+                  describe_value(p, *r, static_cast<std::uint32_t>(data)));
       observe(p, *r, static_cast<std::uint32_t>(data), false, false, o);
     }
   } else if (cmd == 0x0A && code >= 0x10 && code <= 0x14) {
-    parts.push_back(code == 0x10 ? "not ready" : "ready");
+    parts.add(std::string_view(code == 0x10 ? "not ready" : "ready"));
   }
   // Every accepted reply carries the drive's current fault code (001, AUX of the reply).
   if (fault >= 0) {
@@ -371,9 +417,9 @@ std::string read_easydrive(const DriveProfile& p, const Message& m,
       if (it != names->second.end()) name = it->second;
     }
     o.fault_text = name.empty() ? fmt::format("{}", fault) : fmt::format("{} ({})", fault, name);
-    if (fault > 0) parts.push_back("fault " + o.fault_text);
+    if (fault > 0) parts.add("fault {}", o.fault_text);
   }
-  return join(parts);
+  return parts.take();
 }
 
 }  // namespace
@@ -389,40 +435,60 @@ std::string display_name(const RegisterDef& r) {
   return r.kind == RegisterKind::parameter ? r.number + " " + r.name : r.name;
 }
 
-std::string describe_value(const DriveProfile& p, const RegisterDef& r, std::uint32_t raw,
-                           bool double_word) {
+void append_value(std::string& out, const DriveProfile& p, const RegisterDef& r, std::uint32_t raw,
+                  bool double_word) {
+  auto to = std::back_inserter(out);
   if (!r.enum_name.empty()) {
     const auto& names = p.enums.at(r.enum_name);
     const auto it = names.find(raw);
-    return it == names.end() ? fmt::format("{} (not in the manual's table)", raw)
-                             : fmt::format("{} ({})", raw, it->second);
+    if (it == names.end())
+      fmt::format_to(to, "{} (not in the manual's table)", raw);
+    else
+      fmt::format_to(to, "{} ({})", raw, it->second);
+    return;
   }
   if (!r.bits.empty()) {
-    std::vector<std::string> states;
+    fmt::format_to(to, "0x{:0{}X} [", raw, double_word ? 8 : 4);
+    bool first = true;
     for (const RegisterBit& b : r.bits) {
       const std::string& s = ((raw >> b.bit) & 1) ? b.when_set : b.when_clear;
-      if (!s.empty()) states.push_back(s);
+      if (s.empty()) continue;
+      if (!first) out += ", ";
+      out += s;
+      first = false;
     }
-    return fmt::format("0x{:0{}X} [{}]", raw, double_word ? 8 : 4, fmt::join(states, ", "));
+    out += ']';
+    return;
   }
   const double v = scaled(r, raw, double_word);
-  return fmt::format("{:.{}f}{}{}", v, decimals_of(r.scale), r.unit.empty() ? "" : " ", r.unit);
+  fmt::format_to(to, "{:.{}f}", v, decimals_of(r.scale));
+  if (!r.unit.empty()) {
+    out += ' ';
+    out += r.unit;
+  }
+}
+
+std::string describe_value(const DriveProfile& p, const RegisterDef& r, std::uint32_t raw,
+                           bool double_word) {
+  std::string out;
+  append_value(out, p, r, raw, double_word);
+  return out;
 }
 
 DriveReading read_for_drive(const DriveProfile& p, const Message& m,
-                            std::span<const std::uint8_t> request) {
+                            std::span<const std::uint8_t> request, bool want_text) {
   DriveReading out;
   std::string what;
   switch (m.protocol) {
     case Protocol::modbus_rtu:
     case Protocol::modbus_ascii:
-      what = read_modbus(p, m, request, out.observed);
+      what = read_modbus(p, m, request, want_text, out.observed);
       break;
     case Protocol::danfoss_fc:
-      what = read_fc(p, m, out.observed);
+      what = read_fc(p, m, want_text, out.observed);
       break;
     case Protocol::easydrive:
-      what = read_easydrive(p, m, request, out.observed);
+      what = read_easydrive(p, m, request, want_text, out.observed);
       break;
     case Protocol::unknown:
       break;

@@ -40,13 +40,17 @@ struct DriveReading {
 };
 
 // `request`: for a reply, the bytes of its request (as on the wire), empty when unknown.
+// `want_text` false: the observation only, no text (no sink shows it: `read --stats`).
 DriveReading read_for_drive(const DriveProfile& profile, const Message& message,
-                            std::span<const std::uint8_t> request);
+                            std::span<const std::uint8_t> request, bool want_text = true);
 
 // One value as the profile describes it: "50.00 Hz", "0x0003 [running, forward]", "4
 // (overcurrent)". `raw` holds 16 bits, or 32 for a two-word register or a double-word PWE.
 std::string describe_value(const DriveProfile& profile, const RegisterDef& reg, std::uint32_t raw,
                            bool double_word = false);
+// describe_value() appended to `out`.
+void append_value(std::string& out, const DriveProfile& profile, const RegisterDef& reg,
+                  std::uint32_t raw, bool double_word = false);
 
 // The binary Modbus frame (ADDR FC DATA ... check) of an RTU or ASCII message: an RTU frame's own
 // bytes, an ASCII frame's hex decoded into `storage`.

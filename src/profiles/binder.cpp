@@ -21,6 +21,9 @@ constexpr double kOwnProtocol = 2;
 // kBindMargin; rebinding needs a lead of kRebindMargin over the bound profile.
 constexpr double kBindScore = 2, kBindMargin = 2, kRebindMargin = 3;
 constexpr std::size_t kMaxAddressesPerRequest = 32;  // evidence from one request is bounded
+// Distinct (candidate, request) evidences kept; past it the memo starts again (a bound on memory
+// for a bus that never repeats a request).
+constexpr std::size_t kMaxRememberedRequests = 4096;
 
 bool speaks(const DriveProfile& p, Protocol protocol) {
   return std::find(p.protocols.begin(), p.protocols.end(), protocol) != p.protocols.end();
@@ -58,13 +61,13 @@ double register_evidence(const DriveProfile& p, RegisterKind kind, std::uint32_t
   return score;
 }
 
-double modbus_evidence(const DriveProfile& p, const Message& m) {
-  std::vector<std::uint8_t> decoded;
-  const std::span<const std::uint8_t> b = modbus_binary(m.protocol, m.bytes, decoded);
+// `b`: the message in binary (Modbus ASCII decoded).
+double modbus_evidence(const DriveProfile& p, Direction direction,
+                       std::span<const std::uint8_t> b) {
   if (b.size() < 4) return 0;
   const int fc = b[1] & 0x7F;
   double score = 0;
-  if (m.direction == Direction::response) {
+  if (direction == Direction::response) {
     if ((b[1] & 0x80) && b.size() >= 3) {
       if (p.exceptions.count(b[2]))
         score += kNamed;
@@ -73,7 +76,7 @@ double modbus_evidence(const DriveProfile& p, const Message& m) {
     }
     return score;
   }
-  if (m.direction != Direction::request) return 0;
+  if (direction != Direction::request) return 0;
   if (!p.functions.empty() &&
       std::find(p.functions.begin(), p.functions.end(), fc) == p.functions.end())
     score += kRefused;
@@ -125,22 +128,18 @@ double own_protocol_evidence(const DriveProfile& p, const Message& m) {
   return score;
 }
 
-double evidence_for(const DriveProfile& p, const Message& m) {
-  switch (m.protocol) {
-    case Protocol::modbus_rtu:
-    case Protocol::modbus_ascii:
-      // Every Modbus device speaks Modbus: only what it reads and writes tells the family.
-      return modbus_evidence(p, m);
-    case Protocol::danfoss_fc:
-    case Protocol::easydrive:
-      return own_protocol_evidence(p, m);
-    case Protocol::unknown:
-      break;
-  }
-  return 0;
-}
-
 }  // namespace
+
+double DriveBinder::request_evidence(std::size_t candidate, std::span<const std::uint8_t> b) {
+  // What modbus_evidence() reads of a request: function, start, count (bytes 1..5).
+  const std::uint64_t key =
+      static_cast<std::uint64_t>(candidate) << 40 | static_cast<std::uint64_t>(b[1]) << 32 |
+      static_cast<std::uint64_t>(b[2]) << 24 | static_cast<std::uint64_t>(b[3]) << 16 |
+      static_cast<std::uint64_t>(b[4]) << 8 | b[5];
+  const auto [it, fresh] = request_evidence_.try_emplace(key, 0.0);
+  if (fresh) it->second = modbus_evidence(*candidates_[candidate], Direction::request, b);
+  return it->second;
+}
 
 DriveBinder::DriveBinder(std::vector<const DriveProfile*> candidates)
     : candidates_(std::move(candidates)) {}
@@ -202,13 +201,25 @@ std::optional<BusEvent> DriveBinder::learn(std::size_t link, const Message& m) {
     st.excluded.assign(candidates_.size(), false);
   }
   ++st.frames;
+  const bool modbus = m.protocol == Protocol::modbus_rtu || m.protocol == Protocol::modbus_ascii;
+  std::vector<std::uint8_t> decoded;
+  const std::span<const std::uint8_t> binary =
+      modbus ? modbus_binary(m.protocol, m.bytes, decoded) : std::span<const std::uint8_t>();
+  // Every Modbus device speaks Modbus: only what it reads and writes tells the family.
+  const bool repeatable = modbus && m.direction == Direction::request && binary.size() >= 6;
+  if (repeatable && request_evidence_.size() >= kMaxRememberedRequests) request_evidence_.clear();
   for (std::size_t i = 0; i < candidates_.size(); ++i) {
     const DriveProfile& p = *candidates_[i];
     if (!speaks(p, m.protocol) || m.address < p.address_min || m.address > p.address_max) {
       st.excluded[i] = true;
       continue;
     }
-    st.score[i] += evidence_for(p, m);
+    if (repeatable)
+      st.score[i] += request_evidence(i, binary);
+    else if (modbus)
+      st.score[i] += modbus_evidence(p, m.direction, binary);
+    else if (m.protocol == Protocol::danfoss_fc || m.protocol == Protocol::easydrive)
+      st.score[i] += own_protocol_evidence(p, m);
   }
   const auto [best, second] = best_of(st);
   if (best < 0) return std::nullopt;

@@ -11,6 +11,7 @@
 #include <optional>
 #include <span>
 #include <string>
+#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -46,8 +47,13 @@ class DriveBinder {
   // Ranks the candidates of a station: best index and the runner-up's score.
   std::pair<int, std::optional<double>> best_of(const Station& station) const;
 
+  // Evidence of a Modbus request for one candidate: the same poll repeats all day, and the
+  // evidence depends only on the candidate, function, start and count (key built in learn()).
+  double request_evidence(std::size_t candidate, std::span<const std::uint8_t> binary);
+
   std::vector<const DriveProfile*> candidates_;
   std::map<Key, Station> stations_;
+  std::unordered_map<std::uint64_t, double> request_evidence_;  // bounded: see learn()
 };
 
 }  // namespace drivetap
