@@ -1,6 +1,7 @@
 // Danfoss FC protocol dissector (PROTOCOLS.md §4; 002 §7.2-7.5 telegram, §7.11 CTW/STW bits).
 #include "dissectors/danfoss_fc/fc_dissector.hpp"
 
+#include <fmt/compile.h>
 #include <fmt/format.h>
 
 #include "core/cursor.hpp"
@@ -28,7 +29,7 @@ std::uint8_t bcc(std::span<const std::uint8_t> bytes) {
 }
 
 std::string parameter_name(unsigned pnu) {
-  return fmt::format("{}-{:02}", pnu / 100, pnu % 100);
+  return fmt::format(FMT_COMPILE("{}-{:02}"), pnu / 100, pnu % 100);
 }
 
 namespace {
@@ -44,7 +45,7 @@ std::string join(const std::vector<std::string>& parts) {
 std::string ctw_meaning(std::uint16_t w) {
   std::vector<std::string> s;
   auto bit = [&](int n) { return ((w >> n) & 1) != 0; };
-  if ((w & 0x3) != 0) s.push_back(fmt::format("preset reference {}", w & 0x3));
+  if ((w & 0x3) != 0) s.push_back(fmt::format(FMT_COMPILE("preset reference {}"), w & 0x3));
   s.push_back(bit(2) ? "ramp" : "DC BRAKE");
   s.push_back(bit(3) ? "no coast" : "COAST");
   s.push_back(bit(4) ? "no quick stop" : "QUICK STOP");
@@ -56,7 +57,8 @@ std::string ctw_meaning(std::uint16_t w) {
   s.push_back(bit(10) ? "data valid" : "data not valid");
   if (bit(11)) s.push_back("relay 01 on");
   if (bit(12)) s.push_back("relay 02 on");
-  if (((w >> 13) & 0x3) != 0) s.push_back(fmt::format("set-up {}", ((w >> 13) & 0x3) + 1));
+  if (((w >> 13) & 0x3) != 0)
+    s.push_back(fmt::format(FMT_COMPILE("set-up {}"), ((w >> 13) & 0x3) + 1));
   if (bit(15)) s.push_back("reverse");
   return join(s);
 }
@@ -88,7 +90,7 @@ std::string stw_meaning(std::uint16_t w) {
 
 std::string percent(std::uint16_t raw) {
   const auto v = static_cast<std::int16_t>(raw);
-  return fmt::format("{:.2f} %", static_cast<double>(v) * 100.0 / 16384.0);
+  return fmt::format(FMT_COMPILE("{:.2f} %"), static_cast<double>(v) * 100.0 / 16384.0);
 }
 
 bool is_request_only_ak(unsigned ak) {
@@ -122,17 +124,19 @@ void dissect_fc(Message& m, Frame&& frame, Direction direction, const FramingTim
   auto lge = c.u8();
   auto adr = c.u8();
   if (!stx || !lge || !adr || bytes.size() < 4) {
-    std::string what = fmt::format("{}-byte fragment, too short for an FC telegram", bytes.size());
+    std::string what =
+        fmt::format(FMT_COMPILE("{}-byte fragment, too short for an FC telegram"), bytes.size());
     if (m.detail) m.info = what;
     add_malformed(m, std::move(what));
     return;
   }
   tree.add(kStx, 0, 1, *stx);
-  if (*stx != kStxByte) add_malformed(m, fmt::format("starts with 0x{:02X}, not STX 0x02", *stx));
+  if (*stx != kStxByte)
+    add_malformed(m, fmt::format(FMT_COMPILE("starts with 0x{:02X}, not STX 0x02"), *stx));
   tree.add(kLge, 1, 1, *lge);
   if (std::size_t{*lge} + 2 != bytes.size())
-    add_malformed(m, fmt::format("LGE {} announces {} bytes, the telegram has {}", *lge, *lge + 2,
-                                 bytes.size()));
+    add_malformed(m, fmt::format(FMT_COMPILE("LGE {} announces {} bytes, the telegram has {}"),
+                                 *lge, *lge + 2, bytes.size()));
   const Address a = decode_adr(*adr);
   tree.open(kAdr, 2, 1, *adr);
   tree.add(kAddress, 2, 1, a.number);
@@ -164,48 +168,51 @@ void dissect_fc(Message& m, Frame&& frame, Direction direction, const FramingTim
         text += (ch8 >= 0x20 && ch8 < 0x7F) ? static_cast<char>(ch8) : '.';
       tree.add_text(kText, 7, text_bytes.size(), text);
       const unsigned mode = *ind >> 8;
-      info.push_back(
-          fmt::format("{} text {} \"{}\"", mode == 0x05 ? "write" : "read", param, text));
+      info.push_back(fmt::format(FMT_COMPILE("{} text {} \"{}\""), mode == 0x05 ? "write" : "read",
+                                 param, text));
     } else {
       if (value_len != 4)
-        add_malformed(m, fmt::format("parameter value of {} bytes (4 expected)", value_len));
+        add_malformed(
+            m, fmt::format(FMT_COMPILE("parameter value of {} bytes (4 expected)"), value_len));
       auto hi = c.be16();
       auto lo = c.be16();
       const std::uint32_t pwe = (std::uint32_t{hi.value_or(0)} << 16) | lo.value_or(0);
       const bool dword = to_drive ? (ak == 0x3 || ak == 0xD) : ak == 0x2;
       const std::uint32_t value = dword ? pwe : lo.value_or(0);
       tree.add(kPwe, 7, 4, value);
-      const std::string index = (*ind & 0xFF) ? fmt::format("[{}]", *ind & 0xFF) : "";
+      const std::string index = (*ind & 0xFF) ? fmt::format(FMT_COMPILE("[{}]"), *ind & 0xFF) : "";
       if (to_drive) {
         if (ak == 0x1)
-          info.push_back(fmt::format("read {}{}", param, index));
+          info.push_back(fmt::format(FMT_COMPILE("read {}{}"), param, index));
         else if (ak == 0x2 || ak == 0x3 || ak == 0xD || ak == 0xE)
-          info.push_back(fmt::format("write {}{} = {} ({}, {})", param, index, value,
+          info.push_back(fmt::format(FMT_COMPILE("write {}{} = {} ({}, {})"), param, index, value,
                                      ak >= 0xD ? "RAM+EEPROM" : "RAM",
                                      dword ? "double word" : "word"));
         else if (ak != 0x0)
-          info.push_back(fmt::format("AK 0x{:X} on {}", ak, param));
+          info.push_back(fmt::format(FMT_COMPILE("AK 0x{:X} on {}"), ak, param));
       } else {
         if (ak == 0x7) {
           const unsigned error = lo.value_or(0);
           tree.add(kErrorNumber, 9, 2, error);
           const std::string_view meaning = kErrorNumber.name_of(error);
-          info.push_back(fmt::format("{}{}: cannot execute, error {} ({})", param, index, error,
+          info.push_back(fmt::format(FMT_COMPILE("{}{}: cannot execute, error {} ({})"), param,
+                                     index, error,
                                      meaning.empty() ? "unknown error number" : meaning));
         } else if (ak == 0x1 || ak == 0x2) {
-          info.push_back(fmt::format("{}{} = {}", param, index, value));
+          info.push_back(fmt::format(FMT_COMPILE("{}{} = {}"), param, index, value));
         } else if (ak != 0x0) {
-          info.push_back(fmt::format("AK 0x{:X} on {}", ak, param));
+          info.push_back(fmt::format(FMT_COMPILE("AK 0x{:X} on {}"), ak, param));
         }
       }
       if (!(to_drive ? is_request_ak(ak) : is_response_ak(ak)))
-        add_malformed(
-            m, fmt::format("AK 0x{:X} is not a {} command", ak, to_drive ? "request" : "response"));
+        add_malformed(m, fmt::format(FMT_COMPILE("AK 0x{:X} is not a {} command"), ak,
+                                     to_drive ? "request" : "response"));
     }
   } else if (data_len != 4) {
-    add_malformed(m,
-                  fmt::format("{} data bytes: neither process data (4) nor a parameter block (12)",
-                              data_len));
+    add_malformed(
+        m, fmt::format(
+               FMT_COMPILE("{} data bytes: neither process data (4) nor a parameter block (12)"),
+               data_len));
   }
   // Process data: the last 4 data bytes.
   if (data_len >= 4 && c.remaining() >= 5) {
@@ -215,17 +222,17 @@ void dissect_fc(Message& m, Frame&& frame, Direction direction, const FramingTim
     if (direction == Direction::response) {
       tree.add(kStw, at, 2, pcd1).text = stw_meaning(pcd1);
       tree.add_text(kMav, at + 2, 2, percent(pcd2));
-      info.push_back(
-          fmt::format("STW 0x{:04X} [{}], MAV {}", pcd1, stw_meaning(pcd1), percent(pcd2)));
+      info.push_back(fmt::format(FMT_COMPILE("STW 0x{:04X} [{}], MAV {}"), pcd1, stw_meaning(pcd1),
+                                 percent(pcd2)));
     } else if (direction == Direction::request) {
       tree.add(kCtw, at, 2, pcd1).text = ctw_meaning(pcd1);
       tree.add_text(kReference, at + 2, 2, percent(pcd2));
-      info.push_back(
-          fmt::format("CTW 0x{:04X} [{}], REF {}", pcd1, ctw_meaning(pcd1), percent(pcd2)));
+      info.push_back(fmt::format(FMT_COMPILE("CTW 0x{:04X} [{}], REF {}"), pcd1, ctw_meaning(pcd1),
+                                 percent(pcd2)));
     } else {
       tree.add(kPcd, at, 2, pcd1);
       tree.add(kPcd, at + 2, 2, pcd2);
-      info.push_back(fmt::format("PCD1 0x{:04X}, PCD2 0x{:04X}", pcd1, pcd2));
+      info.push_back(fmt::format(FMT_COMPILE("PCD1 0x{:04X}, PCD2 0x{:04X}"), pcd1, pcd2));
     }
   }
   m.describe([&] {

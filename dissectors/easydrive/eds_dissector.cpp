@@ -1,6 +1,7 @@
 // Easydrive ASCII protocol dissector (PROTOCOLS.md §5; errata §6; 001 ch. 11).
 #include "dissectors/easydrive/eds_dissector.hpp"
 
+#include <fmt/compile.h>
 #include <fmt/format.h>
 
 #include "dissectors/common/delimited_framer.hpp"
@@ -45,7 +46,7 @@ std::span<const std::uint8_t> body_of(std::span<const std::uint8_t> f) {
 }
 
 std::string frequency(long v) {
-  return fmt::format("{}.{:02} Hz", v / 100, v % 100);
+  return fmt::format(FMT_COMPILE("{}.{:02} Hz"), v / 100, v % 100);
 }
 
 // Status word bits (001 table 11-5; PROTOCOLS.md §5).
@@ -63,7 +64,7 @@ std::string status_word(long w) {
                                             "specified count reached"};
   std::string out;
   for (int b = 0; b < 11; ++b)
-    if ((w >> b) & 1) out += fmt::format("{}{}", out.empty() ? "" : ", ", kBits[b]);
+    if ((w >> b) & 1) out += fmt::format(FMT_COMPILE("{}{}"), out.empty() ? "" : ", ", kBits[b]);
   return out.empty() ? "stopped" : out;
 }
 
@@ -100,14 +101,15 @@ void dissect_eds(Message& m, Frame&& frame, Direction direction, const FramingTi
   for (std::size_t i = 1; i < f.size(); ++i) {
     const std::uint8_t c = f[i];
     if (hex_value(c) < 0 && !(c == '\r' && i + 1 == f.size())) {
-      add_malformed(m, fmt::format("invalid character 0x{:02X} ('{}') at {}", c,
+      add_malformed(m, fmt::format(FMT_COMPILE("invalid character 0x{:02X} ('{}') at {}"), c,
                                    c >= 0x20 && c < 0x7F ? static_cast<char>(c) : '?', i));
       break;
     }
   }
   const std::size_t len = f.size() - (f.back() == '\r' ? 1 : 0);  // without CR
   if (len != 13 && len != 17) {
-    add_malformed(m, fmt::format("{} characters before CR: a frame has 13 or 17", len));
+    add_malformed(m,
+                  fmt::format(FMT_COMPILE("{} characters before CR: a frame has 13 or 17"), len));
   }
   const long addr = hex_field(f, 1, 2);
   const long cmd = hex_field(f, 3, 2);
@@ -128,7 +130,8 @@ void dissect_eds(Message& m, Frame&& frame, Direction direction, const FramingTi
     tree.add(response ? kResponse : kCommand, 3, 2, cmd);
     const std::string_view name =
         (response ? kResponse : kCommand).name_of(static_cast<std::uint32_t>(cmd));
-    info.push_back(name.empty() ? fmt::format("{} 0x{:02X}", response ? "response" : "command", cmd)
+    info.push_back(name.empty() ? fmt::format(FMT_COMPILE("{} 0x{:02X}"),
+                                              response ? "response" : "command", cmd)
                                 : std::string(name));
   }
   long index = -1;
@@ -147,7 +150,7 @@ void dissect_eds(Message& m, Frame&& frame, Direction direction, const FramingTi
       for (const ValueName& v : kRunActions)
         if (v.value == static_cast<std::uint32_t>(index)) index_name = std::string(v.name);
     } else if (context_cmd == 0x0D || context_cmd == 0x0E) {
-      index_name = fmt::format("F{}.{:02}",
+      index_name = fmt::format(FMT_COMPILE("F{}.{:02}"),
                                index >> 8 == 0x0D   ? std::string("D")
                                : index >> 8 == 0x0F ? std::string("F")
                                                     : std::to_string(index >> 8),
@@ -158,7 +161,7 @@ void dissect_eds(Message& m, Frame&& frame, Direction direction, const FramingTi
     tree.add_text(kIndexName, response ? 7 : 5, response ? 2 : 4, index_name);
     info.push_back(index_name);
   } else if (index >= 0 && context_cmd != 0x0A && context_cmd != 0x0F && context_cmd >= 0) {
-    info.push_back(fmt::format("index 0x{:04X}", index));
+    info.push_back(fmt::format(FMT_COMPILE("index 0x{:04X}"), index));
   }
   if (has_data && data >= 0) {
     tree.add(kData, 9, 4, data);
@@ -168,14 +171,15 @@ void dissect_eds(Message& m, Frame&& frame, Direction direction, const FramingTi
         (context_cmd == 0x0B && (index == 0 || index == 1));
     const bool status = context_cmd == 0x0B && index == 0x0F;
     value = freq     ? frequency(data)
-            : status ? fmt::format("0x{:04X} [{}]", data, status_word(data))
-                     : fmt::format("{}", data);
+            : status ? fmt::format(FMT_COMPILE("0x{:04X} [{}]"), data, status_word(data))
+                     : fmt::format(FMT_COMPILE("{}"), data);
     tree.add_text(kValue, 9, 4, value);
-    info.push_back(context_cmd == 0x0E ? fmt::format("= {}", value) : value);
+    info.push_back(context_cmd == 0x0E ? fmt::format(FMT_COMPILE("= {}"), value) : value);
   }
-  if (response && aux > 0) info.push_back(fmt::format("drive fault code {}", aux));
+  if (response && aux > 0) info.push_back(fmt::format(FMT_COMPILE("drive fault code {}"), aux));
   m.describe([&] {
-    return info.empty() ? std::string("Easydrive frame") : fmt::format("{}", fmt::join(info, ", "));
+    return info.empty() ? std::string("Easydrive frame")
+                        : fmt::format(FMT_COMPILE("{}"), fmt::join(info, ", "));
   });
   // SUM: the 4 characters before CR.
   if (len >= 13) {
@@ -194,7 +198,8 @@ void dissect_eds(Message& m, Frame&& frame, Direction direction, const FramingTi
     add_checksum_anomaly(m, why);
   } else {
     m.describe([&] {
-      return fmt::format("{}-character fragment, too short for an Easydrive frame", f.size());
+      return fmt::format(FMT_COMPILE("{}-character fragment, too short for an Easydrive frame"),
+                         f.size());
     });
   }
   append_uart_anomalies(m.frame.events, 0, m.anomalies);

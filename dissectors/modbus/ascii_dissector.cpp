@@ -1,6 +1,7 @@
 // Modbus ASCII dissector (PROTOCOLS.md §3): hex text -> binary -> shared Modbus PDU layer.
 #include "dissectors/modbus/ascii_dissector.hpp"
 
+#include <fmt/compile.h>
 #include <fmt/format.h>
 
 #include "core/checksum.hpp"
@@ -42,8 +43,9 @@ AsciiHex decode_ascii_hex(std::span<const std::uint8_t> frame) {
   // Each pass consumes two characters.
   for (std::size_t i = 1; i + 1 < end + 1 && i < end; i += 2) {
     if (i + 1 >= end) {
-      out.problems.push_back(fmt::format("odd number of hex characters (stray '{}' at {})",
-                                         static_cast<char>(frame[i]), i));
+      out.problems.push_back(
+          fmt::format(FMT_COMPILE("odd number of hex characters (stray '{}' at {})"),
+                      static_cast<char>(frame[i]), i));
       break;
     }
     const int hi = hex_digit(frame[i], &out.lower_case);
@@ -51,7 +53,7 @@ AsciiHex decode_ascii_hex(std::span<const std::uint8_t> frame) {
     if (hi < 0 || lo < 0) {
       const std::size_t at = hi < 0 ? i : i + 1;
       out.problems.push_back(
-          fmt::format("character 0x{:02X} at {} is not a hex digit", frame[at], at));
+          fmt::format(FMT_COMPILE("character 0x{:02X} at {} is not a hex digit"), frame[at], at));
       break;
     }
     out.binary.push_back(static_cast<std::uint8_t>((hi << 4) | lo));
@@ -76,7 +78,8 @@ void dissect_ascii(Message& m, Frame&& frame, Direction direction, const Framing
   for (const std::string& p : hex.problems) add_malformed(m, p);
   if (bin.size() < 3) {
     m.describe([&] {
-      return fmt::format("{}-character fragment, too short for Modbus ASCII", m.bytes.size());
+      return fmt::format(FMT_COMPILE("{}-character fragment, too short for Modbus ASCII"),
+                         m.bytes.size());
     });
     if (!bin.empty()) m.address = bin[0];
     return;

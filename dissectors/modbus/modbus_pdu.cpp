@@ -2,6 +2,7 @@
 // PROTOCOLS.md §2).
 #include "dissectors/modbus/modbus_pdu.hpp"
 
+#include <fmt/compile.h>
 #include <fmt/format.h>
 
 #include <optional>
@@ -159,8 +160,8 @@ class PduReader {
   std::span<const std::uint8_t> bytes(const FieldDesc& desc, std::size_t n) {
     const std::size_t at = cursor_.offset();
     if (cursor_.remaining() < n) {
-      out_.problems.push_back(
-          fmt::format("{}: {} bytes announced, {} present", desc.name, n, cursor_.remaining()));
+      out_.problems.push_back(fmt::format(FMT_COMPILE("{}: {} bytes announced, {} present"),
+                                          desc.name, n, cursor_.remaining()));
       n = cursor_.remaining();
     }
     auto s = cursor_.take(n).value_or(std::span<const std::uint8_t>{});
@@ -180,14 +181,15 @@ class PduReader {
       cursor_.rest();
       tree_.add(kData, base_ + at, extra);
       // After a truncated field the leftover is its partial bytes, already reported.
-      if (!truncated_) problem(fmt::format("{} unexpected bytes after the PDU", extra));
+      if (!truncated_)
+        problem(fmt::format(FMT_COMPILE("{} unexpected bytes after the PDU"), extra));
     }
   }
 
  private:
   std::nullopt_t truncated(const FieldDesc& desc) {
     truncated_ = true;
-    out_.problems.push_back(fmt::format("frame ends before {}", desc.name));
+    out_.problems.push_back(fmt::format(FMT_COMPILE("frame ends before {}"), desc.name));
     return std::nullopt;
   }
 
@@ -201,20 +203,21 @@ class PduReader {
 std::string function_name(std::uint8_t fc) {
   const std::string_view name = kFunction.name_of(fc & 0x7F);
   if (!name.empty()) return std::string(name);
-  return fmt::format("Function 0x{:02X}", fc & 0x7F);
+  return fmt::format(FMT_COMPILE("Function 0x{:02X}"), fc & 0x7F);
 }
 
 std::string range_text(std::uint16_t start, unsigned count) {
-  if (count <= 1) return fmt::format("0x{:04X}", start);
-  return fmt::format("0x{:04X}..0x{:04X} ({})", start, (start + count - 1) & 0xFFFF, count);
+  if (count <= 1) return fmt::format(FMT_COMPILE("0x{:04X}"), start);
+  return fmt::format(FMT_COMPILE("0x{:04X}..0x{:04X} ({})"), start, (start + count - 1) & 0xFFFF,
+                     count);
 }
 
 // "3, 5000, 5000, 380" (at most `limit` values, then "...").
 std::string register_list(std::span<const std::uint16_t> values, std::size_t limit = 8) {
   std::string out;
   for (std::size_t i = 0; i < values.size() && i < limit; ++i)
-    out += fmt::format("{}{}", i ? ", " : "", values[i]);
-  if (values.size() > limit) out += fmt::format(", ... ({} values)", values.size());
+    out += fmt::format(FMT_COMPILE("{}{}"), i ? ", " : "", values[i]);
+  if (values.size() > limit) out += fmt::format(FMT_COMPILE(", ... ({} values)"), values.size());
   return out;
 }
 
@@ -231,7 +234,7 @@ std::string bit_list(std::span<const std::uint8_t> bytes, std::size_t count) {
 std::string hex_list(std::span<const std::uint8_t> bytes, std::size_t limit = 16) {
   std::string out;
   for (std::size_t i = 0; i < bytes.size() && i < limit; ++i)
-    out += fmt::format("{}{:02X}", i ? " " : "", bytes[i]);
+    out += fmt::format(FMT_COMPILE("{}{:02X}"), i ? " " : "", bytes[i]);
   if (bytes.size() > limit) out += " ...";
   return out;
 }
@@ -248,7 +251,7 @@ std::vector<std::uint16_t> read_registers(PduReader& r, std::size_t count) {
 
 void check_quantity(PduReader& r, unsigned quantity, unsigned max, const char* what) {
   if (quantity < 1 || quantity > max)
-    r.problem(fmt::format("quantity of {} {} outside 1..{}", what, quantity, max));
+    r.problem(fmt::format(FMT_COMPILE("quantity of {} {} outside 1..{}"), what, quantity, max));
 }
 
 void dissect_read_request(PduReader& r, std::uint8_t fc, PduDecode& d) {
@@ -258,7 +261,9 @@ void dissect_read_request(PduReader& r, std::uint8_t fc, PduDecode& d) {
   if (!start || !qty) return;
   const bool bits = fc == 0x01 || fc == 0x02;
   check_quantity(r, *qty, bits ? 2000 : 125, bits ? "bits" : "registers");
-  d.describe([&] { return fmt::format("{} {}", function_name(fc), range_text(*start, *qty)); });
+  d.describe([&] {
+    return fmt::format(FMT_COMPILE("{} {}"), function_name(fc), range_text(*start, *qty));
+  });
 }
 
 void dissect_read_response(PduReader& r, std::uint8_t fc, PduDecode& d) {
@@ -271,20 +276,21 @@ void dissect_read_response(PduReader& r, std::uint8_t fc, PduDecode& d) {
     r.tree().add_text(kBitValues, at, data.size(), bit_list(data, data.size() * 8));
     r.expect_end();
     d.describe([&] {
-      return fmt::format("{} reply: {} byte{} {}", function_name(fc), data.size(),
+      return fmt::format(FMT_COMPILE("{} reply: {} byte{} {}"), function_name(fc), data.size(),
                          data.size() == 1 ? "" : "s", hex_list(data));
     });
     return;
   }
-  if (*count % 2 != 0) r.problem(fmt::format("byte count {} is odd for 16-bit registers", *count));
+  if (*count % 2 != 0)
+    r.problem(fmt::format(FMT_COMPILE("byte count {} is odd for 16-bit registers"), *count));
   const std::size_t present = r.cursor().remaining();
   if (present != *count)
-    r.problem(fmt::format("byte count says {} bytes, {} present", *count, present));
+    r.problem(fmt::format(FMT_COMPILE("byte count says {} bytes, {} present"), *count, present));
   auto values = read_registers(r, present / 2);
   r.expect_end();
   d.describe([&] {
-    return fmt::format("{} reply: {} register{} = {}", function_name(fc), values.size(),
-                       values.size() == 1 ? "" : "s", register_list(values));
+    return fmt::format(FMT_COMPILE("{} reply: {} register{} = {}"), function_name(fc),
+                       values.size(), values.size() == 1 ? "" : "s", register_list(values));
   });
 }
 
@@ -294,12 +300,14 @@ void dissect_write_single_coil(PduReader& r, Direction dir, PduDecode& d) {
   r.expect_end();
   if (!addr || !value) return;
   if (*value != 0x0000 && *value != 0xFF00)
-    r.problem(fmt::format("coil value 0x{:04X} is neither 0x0000 (OFF) nor 0xFF00 (ON)", *value));
+    r.problem(fmt::format(
+        FMT_COMPILE("coil value 0x{:04X} is neither 0x0000 (OFF) nor 0xFF00 (ON)"), *value));
   const std::string_view state = kCoilValue.name_of(*value);
   d.describe([&] {
-    return fmt::format("{}{} 0x{:04X} = {}", function_name(0x05),
-                       dir == Direction::response ? " reply" : "", *addr,
-                       state.empty() ? fmt::format("0x{:04X}", *value) : std::string(state));
+    return fmt::format(
+        FMT_COMPILE("{}{} 0x{:04X} = {}"), function_name(0x05),
+        dir == Direction::response ? " reply" : "", *addr,
+        state.empty() ? fmt::format(FMT_COMPILE("0x{:04X}"), *value) : std::string(state));
   });
 }
 
@@ -309,7 +317,7 @@ void dissect_write_single_register(PduReader& r, Direction dir, PduDecode& d) {
   r.expect_end();
   if (!addr || !value) return;
   d.describe([&] {
-    return fmt::format("{}{} 0x{:04X} = {} (0x{:04X})", function_name(0x06),
+    return fmt::format(FMT_COMPILE("{}{} 0x{:04X} = {} (0x{:04X})"), function_name(0x06),
                        dir == Direction::response ? " reply" : "", *addr, *value, *value);
   });
 }
@@ -326,23 +334,23 @@ void dissect_write_multiple_request(PduReader& r, std::uint8_t fc, PduDecode& d)
   check_quantity(r, *qty, coils ? 1968 : 123, coils ? "coils" : "registers");
   const unsigned expected = coils ? (*qty + 7u) / 8u : *qty * 2u;
   if (*count != expected)
-    r.problem(fmt::format("byte count {} does not match quantity {} (expected {})", *count, *qty,
-                          expected));
+    r.problem(fmt::format(FMT_COMPILE("byte count {} does not match quantity {} (expected {})"),
+                          *count, *qty, expected));
   if (coils) {
     const std::size_t at = r.frame_offset();
     auto data = r.bytes(kData, *count);
     r.tree().add_text(kBitValues, at, data.size(), bit_list(data, *qty));
     d.describe([&] {
-      return fmt::format("{} {} = {}", function_name(fc), range_text(*start, *qty),
+      return fmt::format(FMT_COMPILE("{} {} = {}"), function_name(fc), range_text(*start, *qty),
                          bit_list(data, *qty));
     });
   } else {
     const std::size_t present = r.cursor().remaining();
     if (present < *count)
-      r.problem(fmt::format("byte count says {} bytes, {} present", *count, present));
+      r.problem(fmt::format(FMT_COMPILE("byte count says {} bytes, {} present"), *count, present));
     auto values = read_registers(r, std::min<std::size_t>(*count, present) / 2);
     d.describe([&] {
-      return fmt::format("{} {} = {}", function_name(fc), range_text(*start, *qty),
+      return fmt::format(FMT_COMPILE("{} {} = {}"), function_name(fc), range_text(*start, *qty),
                          register_list(values));
     });
   }
@@ -355,7 +363,8 @@ void dissect_write_multiple_response(PduReader& r, std::uint8_t fc, PduDecode& d
   r.expect_end();
   if (!start || !qty) return;
   d.describe([&] {
-    return fmt::format("{} reply: {} written", function_name(fc), range_text(*start, *qty));
+    return fmt::format(FMT_COMPILE("{} reply: {} written"), function_name(fc),
+                       range_text(*start, *qty));
   });
 }
 
@@ -365,7 +374,7 @@ void dissect_diagnostics(PduReader& r, Direction dir, PduDecode& d) {
   auto data = r.bytes(kDiagData, r.cursor().remaining());
   const std::string_view sub_name = kSubFunction.name_of(*sub);
   d.describe([&] {
-    return fmt::format("Diagnostics{}: {} ({:02X}), data {}",
+    return fmt::format(FMT_COMPILE("Diagnostics{}: {} ({:02X}), data {}"),
                        dir == Direction::response ? " reply" : "",
                        sub_name.empty() ? "reserved sub-function" : sub_name, *sub,
                        data.empty() ? std::string("none") : hex_list(data));
@@ -377,7 +386,8 @@ void dissect_file_record(PduReader& r, std::uint8_t fc, Direction dir, PduDecode
   if (!count) return;
   const std::size_t end = r.cursor().offset() + *count;
   if (r.cursor().remaining() != *count)
-    r.problem(fmt::format("byte count says {} bytes, {} present", *count, r.cursor().remaining()));
+    r.problem(fmt::format(FMT_COMPILE("byte count says {} bytes, {} present"), *count,
+                          r.cursor().remaining()));
   unsigned groups = 0;
   // Each pass consumes at least one byte or stops.
   while (r.cursor().offset() < end && !r.cursor().empty()) {
@@ -401,14 +411,14 @@ void dissect_file_record(PduReader& r, std::uint8_t fc, Direction dir, PduDecode
         r.tree().close();
         break;
       }
-      if (*ref != 6) r.problem(fmt::format("reference type {} (must be 6)", *ref));
+      if (*ref != 6) r.problem(fmt::format(FMT_COMPILE("reference type {} (must be 6)"), *ref));
       if (fc == 0x15) r.bytes(kFileData, *len * 2u);
     }
     r.tree().close();
   }
   r.expect_end();
   d.describe([&] {
-    return fmt::format("{}{}: {} sub-request{}", function_name(fc),
+    return fmt::format(FMT_COMPILE("{}{}: {} sub-request{}"), function_name(fc),
                        dir == Direction::response ? " reply" : "", groups, groups == 1 ? "" : "s");
   });
 }
@@ -419,7 +429,8 @@ void dissect_device_id(PduReader& r, Direction dir, PduDecode& d) {
   if (*mei != 0x0E) {
     auto data = r.bytes(kData, r.cursor().remaining());
     d.describe([&] {
-      return fmt::format("Encapsulated Interface Transport MEI 0x{:02X}: {}", *mei, hex_list(data));
+      return fmt::format(FMT_COMPILE("Encapsulated Interface Transport MEI 0x{:02X}: {}"), *mei,
+                         hex_list(data));
     });
     return;
   }
@@ -429,7 +440,7 @@ void dissect_device_id(PduReader& r, Direction dir, PduDecode& d) {
     r.expect_end();
     if (code && object)
       d.describe([&] {
-        return fmt::format("Read Device Identification ({}), from object {}",
+        return fmt::format(FMT_COMPILE("Read Device Identification ({}), from object {}"),
                            kMeiDeviceIdCode.name_of(*code).empty()
                                ? std::string("code ?")
                                : std::string(kMeiDeviceIdCode.name_of(*code)),
@@ -458,16 +469,17 @@ void dissect_device_id(PduReader& r, Direction dir, PduDecode& d) {
     r.tree().add_text(kMeiObjectValue, at, raw.size(), text);
     ++present;
     values +=
-        fmt::format("{}{}=\"{}\"", values.empty() ? "" : ", ",
-                    kMeiObjectId.name_of(*id).empty() ? fmt::format("obj{}", *id)
+        fmt::format(FMT_COMPILE("{}{}=\"{}\""), values.empty() ? "" : ", ",
+                    kMeiObjectId.name_of(*id).empty() ? fmt::format(FMT_COMPILE("obj{}"), *id)
                                                       : std::string(kMeiObjectId.name_of(*id)),
                     text);
     r.tree().close();
   }
   if (objects && present < *objects)
-    r.problem(fmt::format("{} objects announced, {} present", *objects, present));
+    r.problem(fmt::format(FMT_COMPILE("{} objects announced, {} present"), *objects, present));
   r.expect_end();
-  d.describe([&] { return fmt::format("Read Device Identification reply: {}", values); });
+  d.describe(
+      [&] { return fmt::format(FMT_COMPILE("Read Device Identification reply: {}"), values); });
 }
 
 }  // namespace
@@ -489,12 +501,14 @@ PduDecode dissect_pdu(std::span<const std::uint8_t> frame, std::size_t pdu_offse
     d.exception_code = code ? *code : -1;
     const std::string_view name = kExceptionCode.name_of(d.exception_code);
     if (!code) {
-      d.describe([&] { return fmt::format("{} exception (code missing)", function_name(fc)); });
+      d.describe([&] {
+        return fmt::format(FMT_COMPILE("{} exception (code missing)"), function_name(fc));
+      });
       return d;
     }
     d.describe([&] {
       return fmt::format(
-          "{} exception 0x{:02X}: {}", function_name(fc), *code,
+          FMT_COMPILE("{} exception 0x{:02X}: {}"), function_name(fc), *code,
           name.empty() ? std::string("non-standard (vendor) code") : std::string(name));
     });
     return d;
@@ -517,7 +531,9 @@ PduDecode dissect_pdu(std::span<const std::uint8_t> frame, std::size_t pdu_offse
       if (!req) {
         auto status = r.u8(kExceptionStatus);
         if (status)
-          d.describe([&] { return fmt::format("Read Exception Status reply: 0x{:02X}", *status); });
+          d.describe([&] {
+            return fmt::format(FMT_COMPILE("Read Exception Status reply: 0x{:02X}"), *status);
+          });
       } else {
         d.describe([] { return std::string("Read Exception Status"); });
       }
@@ -532,8 +548,9 @@ PduDecode dissect_pdu(std::span<const std::uint8_t> frame, std::size_t pdu_offse
         auto count = r.u16(kEventCount);
         if (status && count)
           d.describe([&] {
-            return fmt::format("Get Comm Event Counter reply: status 0x{:04X}, {} events", *status,
-                               *count);
+            return fmt::format(
+                FMT_COMPILE("Get Comm Event Counter reply: status 0x{:04X}, {} events"), *status,
+                *count);
           });
       } else {
         d.describe([] { return std::string("Get Comm Event Counter"); });
@@ -547,11 +564,13 @@ PduDecode dissect_pdu(std::span<const std::uint8_t> frame, std::size_t pdu_offse
         auto events = r.u16(kEventCount);
         auto messages = r.u16(kMessageCount);
         if (count && status && events && messages) {
-          if (*count < 6) r.problem(fmt::format("byte count {} below the minimum 6", *count));
+          if (*count < 6)
+            r.problem(fmt::format(FMT_COMPILE("byte count {} below the minimum 6"), *count));
           auto log = r.bytes(kEvents, *count >= 6 ? *count - 6u : 0u);
           d.describe([&] {
-            return fmt::format("Get Comm Event Log reply: {} events, {} messages, log {}", *events,
-                               *messages, hex_list(log));
+            return fmt::format(
+                FMT_COMPILE("Get Comm Event Log reply: {} events, {} messages, log {}"), *events,
+                *messages, hex_list(log));
           });
         }
       } else {
@@ -568,7 +587,8 @@ PduDecode dissect_pdu(std::span<const std::uint8_t> frame, std::size_t pdu_offse
         auto count = r.u8(kByteCount);
         if (count) {
           auto id = r.bytes(kServerId, *count);
-          d.describe([&] { return fmt::format("Report Server ID reply: {}", hex_list(id)); });
+          d.describe(
+              [&] { return fmt::format(FMT_COMPILE("Report Server ID reply: {}"), hex_list(id)); });
         }
       } else {
         d.describe([] { return std::string("Report Server ID"); });
@@ -586,7 +606,7 @@ PduDecode dissect_pdu(std::span<const std::uint8_t> frame, std::size_t pdu_offse
       r.expect_end();
       if (addr && and_mask && or_mask)
         d.describe([&] {
-          return fmt::format("Mask Write Register{} 0x{:04X} AND 0x{:04X} OR 0x{:04X}",
+          return fmt::format(FMT_COMPILE("Mask Write Register{} 0x{:04X} AND 0x{:04X} OR 0x{:04X}"),
                              req ? "" : " reply", *addr, *and_mask, *or_mask);
         });
       break;
@@ -602,11 +622,12 @@ PduDecode dissect_pdu(std::span<const std::uint8_t> frame, std::size_t pdu_offse
           check_quantity(r, *rq, 125, "registers to read");
           check_quantity(r, *wq, 121, "registers to write");
           if (*count != *wq * 2u)
-            r.problem(fmt::format("byte count {} does not match write quantity {}", *count, *wq));
+            r.problem(fmt::format(FMT_COMPILE("byte count {} does not match write quantity {}"),
+                                  *count, *wq));
           auto values =
               read_registers(r, std::min<std::size_t>(*count, r.cursor().remaining()) / 2);
           d.describe([&] {
-            return fmt::format("Read/Write Multiple Registers: read {}, write {} = {}",
+            return fmt::format(FMT_COMPILE("Read/Write Multiple Registers: read {}, write {} = {}"),
                                range_text(*rs, *rq), range_text(*ws, *wq), register_list(values));
           });
         }
@@ -618,18 +639,19 @@ PduDecode dissect_pdu(std::span<const std::uint8_t> frame, std::size_t pdu_offse
     case 0x18:
       if (req) {
         auto ptr = r.u16(kFifoPointer);
-        if (ptr) d.describe([&] { return fmt::format("Read FIFO Queue 0x{:04X}", *ptr); });
+        if (ptr)
+          d.describe([&] { return fmt::format(FMT_COMPILE("Read FIFO Queue 0x{:04X}"), *ptr); });
         r.expect_end();
       } else {
         auto bytes = r.u16(kFifoByteCount);
         auto count = r.u16(kFifoCount);
         if (bytes && count) {
           if (*bytes != 2u + *count * 2u)
-            r.problem(
-                fmt::format("FIFO byte count {} does not match FIFO count {}", *bytes, *count));
+            r.problem(fmt::format(FMT_COMPILE("FIFO byte count {} does not match FIFO count {}"),
+                                  *bytes, *count));
           auto values = read_registers(r, r.cursor().remaining() / 2);
           d.describe([&] {
-            return fmt::format("Read FIFO Queue reply: {} values = {}", values.size(),
+            return fmt::format(FMT_COMPILE("Read FIFO Queue reply: {} values = {}"), values.size(),
                                register_list(values));
           });
         }
@@ -642,8 +664,8 @@ PduDecode dissect_pdu(std::span<const std::uint8_t> frame, std::size_t pdu_offse
     default: {
       auto data = r.bytes(kData, r.cursor().remaining());
       d.describe([&] {
-        return fmt::format("Function 0x{:02X} (not a public code): {} data byte{}{}{}", fc,
-                           data.size(), data.size() == 1 ? "" : "s", data.empty() ? "" : " ",
+        return fmt::format(FMT_COMPILE("Function 0x{:02X} (not a public code): {} data byte{}{}{}"),
+                           fc, data.size(), data.size() == 1 ? "" : "s", data.empty() ? "" : " ",
                            hex_list(data));
       });
       break;

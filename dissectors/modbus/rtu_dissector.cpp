@@ -1,6 +1,7 @@
 // Modbus RTU dissector (PROTOCOLS.md §2; errata handling per §6: swapped vs bad CRC).
 #include "dissectors/modbus/rtu_dissector.hpp"
 
+#include <fmt/compile.h>
 #include <fmt/format.h>
 
 #include "dissectors/modbus/modbus_fields.hpp"
@@ -55,9 +56,11 @@ void dissect_rtu(Message& m, Frame&& frame, Direction direction, const FramingTi
     m.checksum = check_rtu_crc(bytes);
     tree.add(kCrc, bytes.size() - 2, 2, m.checksum.stated_wire);
   } else {
-    m.describe(
-        [&] { return fmt::format("{}-byte fragment, too short for Modbus RTU", bytes.size()); });
-    add_malformed(m, fmt::format("{} bytes: shorter than the minimum 4", bytes.size()));
+    m.describe([&] {
+      return fmt::format(FMT_COMPILE("{}-byte fragment, too short for Modbus RTU"), bytes.size());
+    });
+    add_malformed(m,
+                  fmt::format(FMT_COMPILE("{} bytes: shorter than the minimum 4"), bytes.size()));
   }
 
   add_checksum_anomaly(m);
@@ -65,14 +68,15 @@ void dissect_rtu(Message& m, Frame&& frame, Direction direction, const FramingTi
     const std::size_t at = m.frame.max_intra_gap_at;
     m.anomalies.push_back(
         {AnomalyKind::intra_frame_gap, m.frame.events[at].time, ch, 0,
-         fmt::format("silence of {:.1f} characters before byte {} (limit t1.5 = {:.1f})",
-                     in_characters(m.frame.max_intra_gap, timing.character_time), at,
-                     in_characters(timing.t15, timing.character_time))});
+         fmt::format(
+             FMT_COMPILE("silence of {:.1f} characters before byte {} (limit t1.5 = {:.1f})"),
+             in_characters(m.frame.max_intra_gap, timing.character_time), at,
+             in_characters(timing.t15, timing.character_time))});
   }
   if (m.frame.gap_before > 0 && m.frame.gap_before < timing.t35) {
     m.anomalies.push_back(
         {AnomalyKind::short_interframe_gap, t0, ch, 0,
-         fmt::format("silence before frame {:.1f} characters (minimum t3.5 = {:.1f})",
+         fmt::format(FMT_COMPILE("silence before frame {:.1f} characters (minimum t3.5 = {:.1f})"),
                      in_characters(m.frame.gap_before, timing.character_time),
                      in_characters(timing.t35, timing.character_time))});
   }

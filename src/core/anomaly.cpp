@@ -1,6 +1,7 @@
 // Names of anomaly kinds and protocol/direction ids (output contract of the JSON sink).
 #include "core/anomaly.hpp"
 
+#include <fmt/compile.h>
 #include <fmt/format.h>
 
 #include "core/message.hpp"
@@ -94,7 +95,7 @@ void append_uart_anomalies(std::span<const ByteEvent> events, std::uint64_t fram
     if (e.flags == 0) continue;
     auto add = [&](AnomalyKind kind, const char* what) {
       out.push_back({kind, e.time, e.channel, frame_number,
-                     fmt::format("{} on byte {} (0x{:02X})", what, i, e.byte)});
+                     fmt::format(FMT_COMPILE("{} on byte {} (0x{:02X})"), what, i, e.byte)});
     };
     if (e.flags & kUartFramingError) add(AnomalyKind::uart_framing, "framing error");
     if (e.flags & kUartParityError) add(AnomalyKind::uart_parity, "parity error");
@@ -111,11 +112,12 @@ void add_checksum_anomaly(Message& m, std::string_view hint) {
   const std::string computed = wire_hex(c.computed_wire, c.width, separator);
   Anomaly a{AnomalyKind::checksum_bad, m.frame.start(), m.frame.channel, 0, {}};
   if (c.verdict == ChecksumVerdict::bad) {
-    a.detail = fmt::format("{} on wire {}, computed {}{}", c.name, stated, computed, hint);
+    a.detail =
+        fmt::format(FMT_COMPILE("{} on wire {}, computed {}{}"), c.name, stated, computed, hint);
   } else if (c.verdict == ChecksumVerdict::swapped) {
     a.kind = AnomalyKind::checksum_swapped;
-    a.detail = fmt::format("{} sent high byte first: on wire {}, expected {}{}", c.name, stated,
-                           computed, hint);
+    a.detail = fmt::format(FMT_COMPILE("{} sent high byte first: on wire {}, expected {}{}"),
+                           c.name, stated, computed, hint);
   } else {
     return;
   }

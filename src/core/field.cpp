@@ -1,6 +1,7 @@
 // Formatting of generic field values for the text and JSON sinks.
 #include "core/field.hpp"
 
+#include <fmt/compile.h>
 #include <fmt/format.h>
 
 #include <cctype>
@@ -14,7 +15,7 @@ std::string field_bytes_hex(const FieldNode& node, std::span<const std::uint8_t>
     if (text_encoded)
       out += static_cast<char>(std::toupper(frame[i]));
     else
-      out += fmt::format("{:02X}", frame[i]);
+      out += fmt::format(FMT_COMPILE("{:02X}"), frame[i]);
   }
   return out;
 }
@@ -28,31 +29,31 @@ std::string format_field_value(const FieldNode& node, std::span<const std::uint8
       out = node.text;
       return out;
     case FieldType::uint:
-      out = fmt::format("{}", node.value);
+      out = fmt::format(FMT_COMPILE("{}"), node.value);
       break;
     case FieldType::hex:
-      out = fmt::format("0x{:0{}X} ({})", node.value, d.hex_digits, node.value);
+      out = fmt::format(FMT_COMPILE("0x{:0{}X} ({})"), node.value, d.hex_digits, node.value);
       break;
     case FieldType::boolean:
       out = node.value ? "1" : "0";
       break;
     case FieldType::enumerated: {
       const std::string_view name = d.name_of(static_cast<std::uint32_t>(node.value));
-      out = name.empty() ? fmt::format("{} (0x{:02X})", node.value, node.value)
-                         : fmt::format("{} ({})", node.value, name);
+      out = name.empty() ? fmt::format(FMT_COMPILE("{} (0x{:02X})"), node.value, node.value)
+                         : fmt::format(FMT_COMPILE("{} ({})"), node.value, name);
       break;
     }
     case FieldType::bytes: {
       const std::string hex = field_bytes_hex(node, frame, text_encoded);
       for (std::size_t i = 0; i < hex.size(); i += 2)
-        out += fmt::format("{}{}", i ? " " : "", hex.substr(i, 2));
+        out += fmt::format(FMT_COMPILE("{}{}"), i ? " " : "", hex.substr(i, 2));
       if (node.length == 0) out = "(none)";
       break;
     }
     case FieldType::text:
       return node.text;
   }
-  if (!node.text.empty()) out += fmt::format(" [{}]", node.text);
+  if (!node.text.empty()) out += fmt::format(FMT_COMPILE(" [{}]"), node.text);
   return out;
 }
 

@@ -1,6 +1,7 @@
 // Request/response pairing on a half-duplex link (PROTOCOLS.md §1-§2, §7 on FC 05/06/08 echoes).
 #include "pipeline/pairer.hpp"
 
+#include <fmt/compile.h>
 #include <fmt/format.h>
 
 namespace drivetap {
@@ -62,7 +63,8 @@ void Pairer::expire(TimeNs now, std::vector<Transaction>& out) {
   // pending_ is in request order; each pass removes the front or stops.
   while (!pending_.empty() && now - pending_.front().end > options_.timeout) {
     close_unanswered(pending_.front(),
-                     fmt::format("no reply within {} ms", options_.timeout / kNsPerMs), out);
+                     fmt::format(FMT_COMPILE("no reply within {} ms"), options_.timeout / kNsPerMs),
+                     out);
     pending_.pop_front();
   }
 }

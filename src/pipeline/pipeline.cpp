@@ -3,6 +3,7 @@
 
 #include "profiles/annotate.hpp"
 
+#include <fmt/compile.h>
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -188,8 +189,8 @@ void Pipeline::detect(ChannelState& st, ChannelId channel, bool final) {
   std::string evidence;
   for (Protocol p : kCandidates) {
     const Score s = score(*decoder_for(p), channel, st.held, options_);
-    evidence += fmt::format("{}{} {}/{}", evidence.empty() ? "" : ", ", protocol_label(p), s.good,
-                            s.telegrams);
+    evidence += fmt::format(FMT_COMPILE("{}{} {}/{}"), evidence.empty() ? "" : ", ",
+                            protocol_label(p), s.good, s.telegrams);
     if (!best.decoder || s.good > best.good) {
       second = best;
       best = s;
@@ -284,28 +285,32 @@ void Pipeline::check_drive_timing(Message& m, const DriveProfile& p) {
   const std::string where = p.timing_section.empty() ? p.name : p.name + ", " + p.timing_section;
   auto finding = [&](std::string text) {
     m.anomalies.push_back({AnomalyKind::timing_rule, m.frame.start(), m.frame.channel, 0,
-                           fmt::format("{} ({})", text, where)});
+                           fmt::format(FMT_COMPILE("{} ({})"), text, where)});
   };
   auto ms = [](TimeNs t) { return static_cast<double>(t) / static_cast<double>(kNsPerMs); };
   if (m.direction == Direction::request) {
     if (p.min_silence_chars && m.frame.gap_before >= 0 && char_time > 0 &&
         static_cast<double>(m.frame.gap_before) <
             *p.min_silence_chars * static_cast<double>(char_time))
-      finding(fmt::format("{:.1f} characters of silence before the request; the drive needs {:g}",
-                          static_cast<double>(m.frame.gap_before) / static_cast<double>(char_time),
-                          *p.min_silence_chars));
+      finding(fmt::format(
+          FMT_COMPILE("{:.1f} characters of silence before the request; the drive needs {:g}"),
+          static_cast<double>(m.frame.gap_before) / static_cast<double>(char_time),
+          *p.min_silence_chars));
     const auto last = last_reply_end_.find(m.address);
     if (p.min_reply_to_request_ms && last != last_reply_end_.end() &&
         ms(m.frame.start() - last->second) < *p.min_reply_to_request_ms)
-      finding(fmt::format("request {:.1f} ms after the drive's last reply; the drive needs {:g} ms",
-                          ms(m.frame.start() - last->second), *p.min_reply_to_request_ms));
+      finding(fmt::format(
+          FMT_COMPILE("request {:.1f} ms after the drive's last reply; the drive needs {:g} ms"),
+          ms(m.frame.start() - last->second), *p.min_reply_to_request_ms));
   } else if (m.direction == Direction::response) {
     if (m.latency >= 0 && p.min_reply_delay_ms && ms(m.latency) < *p.min_reply_delay_ms)
-      finding(fmt::format("reply {:.1f} ms after the request; the drive keeps at least {:g} ms",
-                          ms(m.latency), *p.min_reply_delay_ms));
+      finding(fmt::format(
+          FMT_COMPILE("reply {:.1f} ms after the request; the drive keeps at least {:g} ms"),
+          ms(m.latency), *p.min_reply_delay_ms));
     if (m.latency >= 0 && p.max_reply_delay_ms && ms(m.latency) > *p.max_reply_delay_ms)
-      finding(fmt::format("reply {:.1f} ms after the request; the drive answers within {:g} ms",
-                          ms(m.latency), *p.max_reply_delay_ms));
+      finding(fmt::format(
+          FMT_COMPILE("reply {:.1f} ms after the request; the drive answers within {:g} ms"),
+          ms(m.latency), *p.max_reply_delay_ms));
     last_reply_end_[m.address] = m.frame.events.back().time + char_time;
   }
 }
@@ -319,13 +324,14 @@ void Pipeline::check_packetization(const Frame& frame) {
   ChannelState& st = state_for(frame.channel);
   const char* what = frame.kind == FrameKind::noise ? "noise record" : "frame";
   if (first != last) {
-    emit_anomaly({AnomalyKind::packet_split_frame, frame.start(), frame.channel, frame.number,
-                  fmt::format("{} #{} spans packets {}..{}", what, frame.number, first, last)});
+    emit_anomaly(
+        {AnomalyKind::packet_split_frame, frame.start(), frame.channel, frame.number,
+         fmt::format(FMT_COMPILE("{} #{} spans packets {}..{}"), what, frame.number, first, last)});
   }
   if (first == st.last_frame_origin && st.reported_merged_origin != first) {
     emit_anomaly({AnomalyKind::packet_merged_frames, frame.start(), frame.channel, frame.number,
-                  fmt::format("packet {} holds more than one frame (#{} and #{})", first,
-                              st.last_frame_number, frame.number)});
+                  fmt::format(FMT_COMPILE("packet {} holds more than one frame (#{} and #{})"),
+                              first, st.last_frame_number, frame.number)});
     st.reported_merged_origin = first;
   }
   st.last_frame_origin = last;
@@ -342,10 +348,10 @@ void Pipeline::handle_frame(Frame& frame) {
     sink_.on_noise(frame);
     std::string hex;
     for (std::size_t i = 0; i < frame.events.size() && i < 16; ++i)
-      hex += fmt::format("{}{:02X}", i ? " " : "", frame.events[i].byte);
+      hex += fmt::format(FMT_COMPILE("{}{:02X}"), i ? " " : "", frame.events[i].byte);
     if (frame.events.size() > 16) hex += " ...";
     emit_anomaly({AnomalyKind::noise, frame.start(), frame.channel, frame.number,
-                  fmt::format("{} byte{} outside any frame: {}", frame.size(),
+                  fmt::format(FMT_COMPILE("{} byte{} outside any frame: {}"), frame.size(),
                               frame.size() == 1 ? "" : "s", hex)});
     ChannelState& noisy = state_for(frame.channel);
     if (noisy.auto_protocol && ++noisy.failures >= kRedetectFailures) noisy.redetect = true;
@@ -439,16 +445,19 @@ void Pipeline::emit_transactions(std::vector<Transaction>& transactions) {
     stats_.count_transaction(t);
     sink_.on_transaction(t);
     if (t.outcome == Outcome::timeout) {
-      emit_anomaly({AnomalyKind::unanswered_request, t.request_time, t.channel, t.request_number,
-                    fmt::format("request #{} to address {}{}: {}", t.request_number, t.address,
-                                t.function < 0 ? "" : fmt::format(" function {:02X}", t.function),
-                                t.detail)});
+      emit_anomaly(
+          {AnomalyKind::unanswered_request, t.request_time, t.channel, t.request_number,
+           fmt::format(
+               FMT_COMPILE("request #{} to address {}{}: {}"), t.request_number, t.address,
+               t.function < 0 ? "" : fmt::format(FMT_COMPILE(" function {:02X}"), t.function),
+               t.detail)});
     } else if (t.outcome == Outcome::unsolicited) {
-      emit_anomaly({AnomalyKind::unsolicited_response, t.response_time, t.channel,
-                    t.response_number,
-                    fmt::format("reply #{} from address {}{}: {}", t.response_number, t.address,
-                                t.function < 0 ? "" : fmt::format(" function {:02X}", t.function),
-                                t.detail)});
+      emit_anomaly(
+          {AnomalyKind::unsolicited_response, t.response_time, t.channel, t.response_number,
+           fmt::format(
+               FMT_COMPILE("reply #{} from address {}{}: {}"), t.response_number, t.address,
+               t.function < 0 ? "" : fmt::format(FMT_COMPILE(" function {:02X}"), t.function),
+               t.detail)});
     }
   }
   transactions.clear();

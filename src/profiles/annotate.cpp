@@ -2,6 +2,7 @@
 // (dissectors/profiles/README.md; frame layouts PROTOCOLS.md §2-§5).
 #include "profiles/annotate.hpp"
 
+#include <fmt/compile.h>
 #include <fmt/format.h>
 
 #include <cmath>
@@ -163,7 +164,7 @@ std::string name_at(const DriveProfile& p, RegisterKind kind, std::uint32_t addr
       kind == RegisterKind::holding ? p.find_holding(address, &label) : p.find(kind, address);
   if (r) return display_name(*r);
   if (!label.empty()) return "parameter " + label;
-  return fmt::format("register 0x{:04X}", address);
+  return fmt::format(FMT_COMPILE("register 0x{:04X}"), address);
 }
 
 std::string read_modbus(const DriveProfile& p, const Message& m,
@@ -177,7 +178,8 @@ std::string read_modbus(const DriveProfile& p, const Message& m,
   Parts parts(want_text);
   if (fc & 0x80) {
     const auto it = p.exceptions.find(b[2]);
-    if (it != p.exceptions.end()) return fmt::format("error 0x{:02X}: {}", b[2], it->second);
+    if (it != p.exceptions.end())
+      return fmt::format(FMT_COMPILE("error 0x{:02X}: {}"), b[2], it->second);
     return {};
   }
   if (m.direction == Direction::request) {
@@ -185,8 +187,8 @@ std::string read_modbus(const DriveProfile& p, const Message& m,
       const RegisterKind kind = fc == 0x03 ? RegisterKind::holding : RegisterKind::input;
       const std::uint16_t start = be16(b, 2), count = be16(b, 4);
       if (!want_text) return {};
-      if (count <= 1) return fmt::format("read {}", name_at(p, kind, start));
-      return fmt::format("read {} .. {}", name_at(p, kind, start),
+      if (count <= 1) return fmt::format(FMT_COMPILE("read {}"), name_at(p, kind, start));
+      return fmt::format(FMT_COMPILE("read {} .. {}"), name_at(p, kind, start),
                          name_at(p, kind, static_cast<std::uint32_t>(start) + count - 1));
     }
     if (fc == 0x06 && end >= 6) {
@@ -240,7 +242,7 @@ std::string read_fc(const DriveProfile& p, const Message& m, bool want_text, Dri
     const std::string name = r ? display_name(*r) : "parameter " + p.parameter_label(pnu);
     auto value = [&](bool double_word) {
       const std::uint32_t raw = double_word ? pwe : (pwe & 0xFFFF);
-      if (!r) return fmt::format("{}", raw);
+      if (!r) return fmt::format(FMT_COMPILE("{}"), raw);
       return describe_value(p, *r, raw, double_word);
     };
     if (to_drive) {
@@ -416,7 +418,8 @@ std::string read_easydrive(const DriveProfile& p, const Message& m,
       const auto it = names->second.find(static_cast<std::uint32_t>(fault));
       if (it != names->second.end()) name = it->second;
     }
-    o.fault_text = name.empty() ? fmt::format("{}", fault) : fmt::format("{} ({})", fault, name);
+    o.fault_text = name.empty() ? fmt::format(FMT_COMPILE("{}"), fault)
+                                : fmt::format(FMT_COMPILE("{} ({})"), fault, name);
     if (fault > 0) parts.add("fault {}", o.fault_text);
   }
   return parts.take();
@@ -442,13 +445,13 @@ void append_value(std::string& out, const DriveProfile& p, const RegisterDef& r,
     const auto& names = p.enums.at(r.enum_name);
     const auto it = names.find(raw);
     if (it == names.end())
-      fmt::format_to(to, "{} (not in the manual's table)", raw);
+      fmt::format_to(to, FMT_COMPILE("{} (not in the manual's table)"), raw);
     else
-      fmt::format_to(to, "{} ({})", raw, it->second);
+      fmt::format_to(to, FMT_COMPILE("{} ({})"), raw, it->second);
     return;
   }
   if (!r.bits.empty()) {
-    fmt::format_to(to, "0x{:0{}X} [", raw, double_word ? 8 : 4);
+    fmt::format_to(to, FMT_COMPILE("0x{:0{}X} ["), raw, double_word ? 8 : 4);
     bool first = true;
     for (const RegisterBit& b : r.bits) {
       const std::string& s = ((raw >> b.bit) & 1) ? b.when_set : b.when_clear;
@@ -461,7 +464,7 @@ void append_value(std::string& out, const DriveProfile& p, const RegisterDef& r,
     return;
   }
   const double v = scaled(r, raw, double_word);
-  fmt::format_to(to, "{:.{}f}", v, decimals_of(r.scale));
+  fmt::format_to(to, FMT_COMPILE("{:.{}f}"), v, decimals_of(r.scale));
   if (!r.unit.empty()) {
     out += ' ';
     out += r.unit;
@@ -493,7 +496,8 @@ DriveReading read_for_drive(const DriveProfile& p, const Message& m,
     case Protocol::unknown:
       break;
   }
-  if (!what.empty()) out.text = fmt::format("drive {} ({}): {}", m.address, p.name, what);
+  if (!what.empty())
+    out.text = fmt::format(FMT_COMPILE("drive {} ({}): {}"), m.address, p.name, what);
   return out;
 }
 

@@ -1,6 +1,7 @@
 // Drive-state timeline (src/profiles/timeline.hpp): state changes become events.
 #include "profiles/timeline.hpp"
 
+#include <fmt/compile.h>
 #include <fmt/format.h>
 
 namespace drivetap {
@@ -19,7 +20,7 @@ std::string DriveState::summary() const {
     parts.push_back(*fault_active ? "fault" : "no fault");
   if (warning && *warning) parts.push_back("warning");
   if (parts.empty()) return "state not seen";
-  return fmt::format("{}", fmt::join(parts, ", "));
+  return fmt::format(FMT_COMPILE("{}"), fmt::join(parts, ", "));
 }
 
 std::vector<BusEvent> DriveTimeline::observe(std::size_t link, const Message& m,
@@ -40,7 +41,7 @@ std::vector<BusEvent> DriveTimeline::observe(std::size_t link, const Message& m,
     e.address = m.address;
     e.profile = profile.id;
     e.frame = m.frame.number;
-    e.detail = fmt::format("drive {} ({}): {}", m.address, profile.name, what);
+    e.detail = fmt::format(FMT_COMPILE("drive {} ({}): {}"), m.address, profile.name, what);
     e.from = std::move(from);
     e.to = std::move(to);
     ++s.events;
@@ -55,8 +56,9 @@ std::vector<BusEvent> DriveTimeline::observe(std::size_t link, const Message& m,
   auto setpoint_change = [&](const Quantity& to, const char* suffix) {
     if (s.setpoint && s.setpoint->text == to.text) return;
     emit("setpoint",
-         s.setpoint ? fmt::format("setpoint {} -> {}{}", s.setpoint->text, to.text, suffix)
-                    : fmt::format("setpoint {}{}", to.text, suffix),
+         s.setpoint
+             ? fmt::format(FMT_COMPILE("setpoint {} -> {}{}"), s.setpoint->text, to.text, suffix)
+             : fmt::format(FMT_COMPILE("setpoint {}{}"), to.text, suffix),
          s.setpoint ? s.setpoint->text : "", to.text);
     s.setpoint = to;
   };
@@ -90,7 +92,7 @@ std::vector<BusEvent> DriveTimeline::observe(std::size_t link, const Message& m,
     if (s.reverse) {
       const std::string from = word(s.reverse, "reverse", "forward");
       const std::string to = word(o.reverse, "reverse", "forward");
-      emit("direction", fmt::format("direction {} -> {}", from, to), from, to);
+      emit("direction", fmt::format(FMT_COMPILE("direction {} -> {}"), from, to), from, to);
     }
     s.reverse = o.reverse;
   }
@@ -98,12 +100,12 @@ std::vector<BusEvent> DriveTimeline::observe(std::size_t link, const Message& m,
   if (o.fault_code && o.fault_code != s.fault_code) {
     const std::uint32_t was = s.fault_code.value_or(0);
     if (*o.fault_code != 0 && was == 0)
-      emit("fault", fmt::format("fault {} appeared", o.fault_text), "", o.fault_text);
+      emit("fault", fmt::format(FMT_COMPILE("fault {} appeared"), o.fault_text), "", o.fault_text);
     else if (*o.fault_code == 0 && was != 0)
-      emit("fault", fmt::format("fault {} cleared", s.fault_text), s.fault_text, "");
+      emit("fault", fmt::format(FMT_COMPILE("fault {} cleared"), s.fault_text), s.fault_text, "");
     else if (*o.fault_code != 0)
-      emit("fault", fmt::format("fault {} -> {}", s.fault_text, o.fault_text), s.fault_text,
-           o.fault_text);
+      emit("fault", fmt::format(FMT_COMPILE("fault {} -> {}"), s.fault_text, o.fault_text),
+           s.fault_text, o.fault_text);
     s.fault_code = o.fault_code;
     s.fault_text = o.fault_text;
   }

@@ -9,6 +9,7 @@
 #include <cstring>
 #include <optional>
 
+#include <fmt/compile.h>
 #include <fmt/format.h>
 #include <pcap/pcap.h>
 
@@ -91,7 +92,7 @@ void CaptureSink::on_noise(const Frame& f) {
   p.events = f.events;
   p.bytes = f.bytes();
   p.protocol_column = "noise";
-  p.comment = fmt::format("noise: {} byte{} outside any frame", p.bytes.size(),
+  p.comment = fmt::format(FMT_COMPILE("noise: {} byte{} outside any frame"), p.bytes.size(),
                           p.bytes.size() == 1 ? "" : "s");
 }
 
@@ -100,7 +101,7 @@ void CaptureSink::on_anomaly(const Anomaly& a) {
   if (a.kind == AnomalyKind::checksum_bad || a.kind == AnomalyKind::checksum_swapped ||
       a.kind == AnomalyKind::noise)
     return;  // already in the comment's decode
-  pending_->comment += fmt::format("; {}: {}", anomaly_label(a.kind), a.detail);
+  pending_->comment += fmt::format(FMT_COMPILE("; {}: {}"), anomaly_label(a.kind), a.detail);
 }
 
 void CaptureSink::write_pending() {

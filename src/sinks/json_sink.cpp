@@ -1,6 +1,7 @@
 // JSON-lines sink (contract: README "JSON lines"; keys stable, more may be added).
 #include "sinks/json_sink.hpp"
 
+#include <fmt/compile.h>
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -54,7 +55,8 @@ void append_json_quoted(std::string& out, std::string_view s) {
     if (escape)
       out += escape;
     else
-      fmt::format_to(std::back_inserter(out), "\\u{:04x}", static_cast<unsigned char>(c));
+      fmt::format_to(std::back_inserter(out), FMT_COMPILE("\\u{:04x}"),
+                     static_cast<unsigned char>(c));
     plain = i + 1;
   }
   out.append(s.substr(plain));
@@ -224,7 +226,8 @@ void JsonSink::on_noise(const Frame& f) {
   const std::vector<std::uint8_t> bytes = f.bytes();
   const TimeNs t_end = f.events.empty() ? 0 : f.events.back().time + character_time_;
   std::string line = fmt::format(
-      "{{\"type\":\"noise\",\"n\":{},\"t\":{},\"t_end\":{},\"channel\":{},\"hex\":\"{}\"}}",
+      FMT_COMPILE(
+          "{{\"type\":\"noise\",\"n\":{},\"t\":{},\"t_end\":{},\"channel\":{},\"hex\":\"{}\"}}"),
       f.number, seconds(f.start()), seconds(t_end), json_quote(channels_.at(f.channel).name),
       hex_bytes(bytes, ""));
   write(line);
@@ -232,23 +235,26 @@ void JsonSink::on_noise(const Frame& f) {
 
 void JsonSink::on_anomaly(const Anomaly& a) {
   std::string line = fmt::format(
-      "{{\"type\":\"anomaly\",\"t\":{},\"kind\":\"{}\",\"channel\":{},\"frame\":{},\"detail\":{}}}",
+      FMT_COMPILE("{{\"type\":\"anomaly\",\"t\":{},\"kind\":\"{}\",\"channel\":{},\"frame\":{},"
+                  "\"detail\":{}}}"),
       seconds(a.time), anomaly_id(a.kind), json_quote(channels_.at(a.channel).name),
-      a.frame_number == 0 ? std::string("null") : fmt::format("{}", a.frame_number),
+      a.frame_number == 0 ? std::string("null") : fmt::format(FMT_COMPILE("{}"), a.frame_number),
       json_quote(a.detail));
   write(line);
 }
 
 void JsonSink::on_event(const BusEvent& e) {
   std::string line = fmt::format(
-      "{{\"type\":\"event\",\"t\":{},\"channel\":{},\"kind\":\"{}\",\"protocol\":\"{}\"",
+      FMT_COMPILE(
+          "{{\"type\":\"event\",\"t\":{},\"channel\":{},\"kind\":\"{}\",\"protocol\":\"{}\""),
       seconds(e.time), json_quote(channels_.at(e.channel).name), e.kind, protocol_id(e.protocol));
-  if (!e.confidence.empty()) line += fmt::format(",\"confidence\":\"{}\"", e.confidence);
+  if (!e.confidence.empty())
+    line += fmt::format(FMT_COMPILE(",\"confidence\":\"{}\""), e.confidence);
   if (e.address >= 0)
-    line +=
-        fmt::format(",\"address\":{},\"profile\":{},\"frame\":{},\"from\":{},\"to\":{}", e.address,
-                    json_quote(e.profile), e.frame, json_quote(e.from), json_quote(e.to));
-  line += fmt::format(",\"detail\":{}}}", json_quote(e.detail));
+    line += fmt::format(
+        FMT_COMPILE(",\"address\":{},\"profile\":{},\"frame\":{},\"from\":{},\"to\":{}"), e.address,
+        json_quote(e.profile), e.frame, json_quote(e.from), json_quote(e.to));
+  line += fmt::format(FMT_COMPILE(",\"detail\":{}}}"), json_quote(e.detail));
   write(line);
 }
 
@@ -307,13 +313,13 @@ void JsonSink::on_summary(const Stats& s) {
   const auto& o = s.outcomes;
   std::string anomalies;
   for (std::size_t k = 0; k < kAnomalyKindCount; ++k)
-    anomalies += fmt::format("{}\"{}\":{}", k ? "," : "", anomaly_id(static_cast<AnomalyKind>(k)),
-                             s.anomalies[k]);
+    anomalies += fmt::format(FMT_COMPILE("{}\"{}\":{}"), k ? "," : "",
+                             anomaly_id(static_cast<AnomalyKind>(k)), s.anomalies[k]);
   std::string latency = "null";
   if (s.latency_count > 0 && show_latency_)
-    latency = fmt::format("{{\"min\":{},\"avg\":{},\"max\":{}}}", format_ms(s.latency_min),
-                          format_ms(s.latency_sum / static_cast<TimeNs>(s.latency_count)),
-                          format_ms(s.latency_max));
+    latency = fmt::format(
+        FMT_COMPILE("{{\"min\":{},\"avg\":{},\"max\":{}}}"), format_ms(s.latency_min),
+        format_ms(s.latency_sum / static_cast<TimeNs>(s.latency_count)), format_ms(s.latency_max));
   std::string line = fmt::format(
       "{{\"type\":\"summary\",\"bytes\":{},\"frames\":{},\"noise_records\":{},\"noise_bytes\":{},"
       "\"checksum\":{{\"good\":{},\"bad\":{},\"swapped\":{},\"none\":{}}},"

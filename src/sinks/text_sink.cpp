@@ -1,6 +1,7 @@
 // Text sink: annotated lines for a field engineer (format documented in README "Text output").
 #include "sinks/text_sink.hpp"
 
+#include <fmt/compile.h>
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -34,12 +35,12 @@ void append_checksum_text(std::string& out, const ChecksumResult& c) {
       out += " ok";
       return;
     case ChecksumVerdict::bad:
-      fmt::format_to(std::back_inserter(out), "{} BAD (wire {}, computed {})", c.name,
+      fmt::format_to(std::back_inserter(out), FMT_COMPILE("{} BAD (wire {}, computed {})"), c.name,
                      wire(c.stated_wire), wire(c.computed_wire));
       return;
     case ChecksumVerdict::swapped:
       fmt::format_to(std::back_inserter(out),
-                     "{} SWAPPED (wire {}, expected {}: sent high byte first)", c.name,
+                     FMT_COMPILE("{} SWAPPED (wire {}, expected {}: sent high byte first)"), c.name,
                      wire(c.stated_wire), wire(c.computed_wire));
       return;
     case ChecksumVerdict::none:
@@ -129,7 +130,7 @@ void TextSink::on_frame(const Message& m) {
   line += "  ";
   append_frame_summary(line, m, options_.show_time);
   write(line);
-  if (!m.drive_info.empty()) write(fmt::format("{:>8}= {}", "", m.drive_info));
+  if (!m.drive_info.empty()) write(fmt::format(FMT_COMPILE("{:>8}= {}"), "", m.drive_info));
   if (!options_.verbose) return;
   if (m.text_encoded) {
     std::string text;
@@ -141,18 +142,19 @@ void TextSink::on_frame(const Message& m) {
       else if (b >= 0x20 && b < 0x7F)
         text += static_cast<char>(b);
       else
-        text += fmt::format("\\x{:02X}", b);
+        text += fmt::format(FMT_COMPILE("\\x{:02X}"), b);
     }
-    write(fmt::format("{:>8}text: \"{}\"", "", text));
+    write(fmt::format(FMT_COMPILE("{:>8}text: \"{}\""), "", text));
   } else {
-    write(fmt::format("{:>8}bytes: {}", "", hex_bytes(m.bytes)));
+    write(fmt::format(FMT_COMPILE("{:>8}bytes: {}"), "", hex_bytes(m.bytes)));
   }
   for (const FieldNode& node : m.fields) {
-    const std::string span =
-        node.length <= 1 ? fmt::format("[{}]", node.offset)
-                         : fmt::format("[{}-{}]", node.offset, node.offset + node.length - 1);
-    write(fmt::format("{:>8}{:<9} {:{}}{:<26} {}: {}", "", span, "", node.depth * 2u, node.desc->id,
-                      node.desc->name, format_field_value(node, m.bytes, m.text_encoded)));
+    const std::string span = node.length <= 1 ? fmt::format(FMT_COMPILE("[{}]"), node.offset)
+                                              : fmt::format(FMT_COMPILE("[{}-{}]"), node.offset,
+                                                            node.offset + node.length - 1);
+    write(fmt::format(FMT_COMPILE("{:>8}{:<9} {:{}}{:<26} {}: {}"), "", span, "", node.depth * 2u,
+                      node.desc->id, node.desc->name,
+                      format_field_value(node, m.bytes, m.text_encoded)));
   }
 }
 
@@ -161,8 +163,8 @@ void TextSink::on_noise(const Frame& f) {
   if (!options_.frames) return;
   std::vector<std::uint8_t> bytes = f.bytes();
   write(prefix(f.number, f.start(), f.channel) +
-        fmt::format("---  noise: {} byte{} {}", bytes.size(), bytes.size() == 1 ? "" : "s",
-                    hex_bytes(bytes)));
+        fmt::format(FMT_COMPILE("---  noise: {} byte{} {}"), bytes.size(),
+                    bytes.size() == 1 ? "" : "s", hex_bytes(bytes)));
 }
 
 void TextSink::on_anomaly(const Anomaly& a) {
@@ -173,15 +175,16 @@ void TextSink::on_anomaly(const Anomaly& a) {
     return;
   if (a.frame_number != 0 && a.frame_number == last_frame_number_ &&
       a.kind != AnomalyKind::unanswered_request && a.kind != AnomalyKind::unsolicited_response) {
-    write(fmt::format("{:>8}! {}: {}", "", anomaly_label(a.kind), a.detail));
+    write(fmt::format(FMT_COMPILE("{:>8}! {}: {}"), "", anomaly_label(a.kind), a.detail));
     return;
   }
-  write(prefix(0, a.time, a.channel) + fmt::format("!!!  {}: {}", anomaly_label(a.kind), a.detail));
+  write(prefix(0, a.time, a.channel) +
+        fmt::format(FMT_COMPILE("!!!  {}: {}"), anomaly_label(a.kind), a.detail));
 }
 
 void TextSink::on_event(const BusEvent& e) {
   if (!options_.frames) return;
-  write(prefix(0, e.time, e.channel) + fmt::format("***  {}", e.detail));
+  write(prefix(0, e.time, e.channel) + fmt::format(FMT_COMPILE("***  {}"), e.detail));
 }
 
 void TextSink::on_transaction(const Transaction&) {
@@ -194,46 +197,49 @@ void TextSink::on_summary(const Stats& s) {
   write("");
   write("--- summary ---");
   if (s.frames + s.noise_records > 0 && options_.show_time) {
-    write(fmt::format("capture:      {} .. {} s, {} bytes", format_seconds(s.first_time, 6),
-                      format_seconds(s.last_time, 6), s.bytes));
+    write(fmt::format(FMT_COMPILE("capture:      {} .. {} s, {} bytes"),
+                      format_seconds(s.first_time, 6), format_seconds(s.last_time, 6), s.bytes));
   } else {
-    write(fmt::format("capture:      {} bytes", s.bytes));
+    write(fmt::format(FMT_COMPILE("capture:      {} bytes"), s.bytes));
   }
   const auto& c = s.checksum;
   write(fmt::format(
-      "frames:       {} (checksum ok {}, bad {}, swapped {}); noise: {} record{}, {} byte{}",
+      FMT_COMPILE(
+          "frames:       {} (checksum ok {}, bad {}, swapped {}); noise: {} record{}, {} byte{}"),
       s.frames, c[static_cast<int>(ChecksumVerdict::good)],
       c[static_cast<int>(ChecksumVerdict::bad)], c[static_cast<int>(ChecksumVerdict::swapped)],
       s.noise_records, s.noise_records == 1 ? "" : "s", s.noise_bytes,
       s.noise_bytes == 1 ? "" : "s"));
   const auto& o = s.outcomes;
   std::string tx = fmt::format(
-      "transactions: {} (ok {}, exception {}, timeout {}, broadcast {}, unsolicited {})",
+      FMT_COMPILE(
+          "transactions: {} (ok {}, exception {}, timeout {}, broadcast {}, unsolicited {})"),
       s.transactions, o[static_cast<int>(Outcome::ok)], o[static_cast<int>(Outcome::exception)],
       o[static_cast<int>(Outcome::timeout)], o[static_cast<int>(Outcome::broadcast)],
       o[static_cast<int>(Outcome::unsolicited)]);
   if (s.latency_count > 0 && options_.show_time)
-    tx += fmt::format("; reply latency min {} / avg {} / max {} ms", format_ms(s.latency_min),
-                      format_ms(s.latency_sum / static_cast<TimeNs>(s.latency_count)),
-                      format_ms(s.latency_max));
+    tx += fmt::format(
+        FMT_COMPILE("; reply latency min {} / avg {} / max {} ms"), format_ms(s.latency_min),
+        format_ms(s.latency_sum / static_cast<TimeNs>(s.latency_count)), format_ms(s.latency_max));
   write(tx);
-  std::string an = fmt::format("anomalies:    {}", s.anomaly_total);
+  std::string an = fmt::format(FMT_COMPILE("anomalies:    {}"), s.anomaly_total);
   bool first = true;
   for (std::size_t k = 0; k < kAnomalyKindCount; ++k) {
     if (s.anomalies[k] == 0) continue;
-    an += fmt::format("{}{} {}", first ? " (" : ", ", anomaly_id(static_cast<AnomalyKind>(k)),
-                      s.anomalies[k]);
+    an += fmt::format(FMT_COMPILE("{}{} {}"), first ? " (" : ", ",
+                      anomaly_id(static_cast<AnomalyKind>(k)), s.anomalies[k]);
     first = false;
   }
   if (!first) an += ")";
   write(an);
-  for (const std::string& note : s.source_notes) write(fmt::format("source:       {}", note));
+  for (const std::string& note : s.source_notes)
+    write(fmt::format(FMT_COMPILE("source:       {}"), note));
   for (const DriveSummary& d : s.drives) {
-    write(fmt::format("drive {:<7} {}{}{}", d.address, d.profile_name,
+    write(fmt::format(FMT_COMPILE("drive {:<7} {}{}{}"), d.address, d.profile_name,
                       d.binding.empty() ? "" : " (" + d.binding + ")",
-                      d.link ? fmt::format(" on link {}", d.link) : std::string()));
+                      d.link ? fmt::format(FMT_COMPILE(" on link {}"), d.link) : std::string()));
     if (!d.state.empty())
-      write(fmt::format("{:14}last state: {}; {} event{}", "", d.state, d.events,
+      write(fmt::format(FMT_COMPILE("{:14}last state: {}; {} event{}"), "", d.state, d.events,
                         d.events == 1 ? "" : "s"));
   }
 }
