@@ -4,6 +4,7 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -355,6 +356,38 @@ TEST(ProfileSchema, BitsComeOutSortedByBitNumber) {
   // Meanings are shown in bit order too.
   EXPECT_EQ(describe_value(*p, *r, 0x0404), "0x0404 [off, two, ten]");
   EXPECT_EQ(describe_value(*p, *r, 0x0006), "0x0006 [one, two]");
+}
+
+// Scaled values printed from integers (decimal and whole scales) read exactly as the double
+// printed with fmt's "{:.Nf}", as they always were; other scales still go through the double.
+TEST(ProfileSchema, ScaledValuesReadAsTheDoublePrinted) {
+  const DriveProfile profile;
+  const double scales[] = {1,   0.1,  0.01,          0.001, 0.0001, 0.00001, 10, 100,
+                           0.5, 0.25, 100.0 / 16384, 0.02,  -1,     -0.1,    2.5};
+  const std::uint32_t raws[] = {0,     1,     5,          9,          10,         99,
+                                100,   4989,  5000,       32767,      32768,      0x8001,
+                                65535, 65536, 0x7FFFFFFF, 0x80000000, 0xFFFFFFFF, 123456789};
+  for (const double scale : scales)
+    for (const bool is_signed : {false, true})
+      for (const bool double_word : {false, true})
+        for (const std::uint32_t raw32 : raws) {
+          const std::uint32_t raw = double_word ? raw32 : (raw32 & 0xFFFF);
+          RegisterDef r;
+          r.scale = scale;
+          r.is_signed = is_signed;
+          r.unit = "Hz";
+          double v = raw;
+          if (is_signed)
+            v = double_word ? static_cast<double>(static_cast<std::int32_t>(raw))
+                            : static_cast<double>(static_cast<std::int16_t>(raw));
+          int decimals = 0;
+          for (double s = scale; decimals < 6 && std::fabs(s - std::round(s)) > 1e-9; s *= 10)
+            ++decimals;
+          if (decimals >= 6) decimals = 2;
+          EXPECT_EQ(describe_value(profile, r, raw, double_word),
+                    fmt::format("{:.{}f} Hz", v * scale, decimals))
+              << "scale " << scale << " raw " << raw << " signed " << is_signed;
+        }
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -36,6 +36,36 @@ double scaled(const RegisterDef& r, std::uint32_t raw, bool double_word) {
   return v * r.scale;
 }
 
+// The scaled value as "{:.Nf}" prints it, N = decimals_of(scale). A scale of 1, 0.1, 0.01 ...
+// or a whole one makes it an exact decimal, printed from integers: the double's rounding error
+// is far below half the last digit for any 32-bit raw value, so the text is the same.
+void append_scaled(std::string& out, const RegisterDef& r, std::uint32_t raw, bool double_word) {
+  static constexpr double kDecimalScales[] = {1, 0.1, 0.01, 0.001, 0.0001, 0.00001};
+  static constexpr std::int64_t kPowersOfTen[] = {1, 10, 100, 1000, 10000, 100000};
+  const int decimals = decimals_of(r.scale);
+  const std::int64_t value =
+      !r.is_signed  ? static_cast<std::int64_t>(raw)
+      : double_word ? static_cast<std::int64_t>(static_cast<std::int32_t>(raw))
+                    : static_cast<std::int64_t>(static_cast<std::int16_t>(raw & 0xFFFF));
+  auto to = std::back_inserter(out);
+  if (decimals < 6 && r.scale == kDecimalScales[decimals]) {
+    const std::int64_t unit = kPowersOfTen[decimals];
+    const std::uint64_t magnitude =
+        static_cast<std::uint64_t>(value < 0 ? -value : value);  // |value| < 2^32
+    if (value < 0) out += '-';
+    fmt::format_to(to, FMT_COMPILE("{}"), magnitude / static_cast<std::uint64_t>(unit));
+    if (decimals > 0)
+      fmt::format_to(to, FMT_COMPILE(".{:0{}}"), magnitude % static_cast<std::uint64_t>(unit),
+                     decimals);
+    return;
+  }
+  if (decimals == 0 && r.scale > 0 && r.scale <= 1e6 && r.scale == std::round(r.scale)) {
+    fmt::format_to(to, FMT_COMPILE("{}"), value * static_cast<std::int64_t>(r.scale));
+    return;
+  }
+  fmt::format_to(to, FMT_COMPILE("{:.{}f}"), scaled(r, raw, double_word), decimals);
+}
+
 bool any_bit(const std::vector<int>& bits, std::uint32_t raw) {
   for (int b : bits)
     if ((raw >> b) & 1) return true;
@@ -463,8 +493,7 @@ void append_value(std::string& out, const DriveProfile& p, const RegisterDef& r,
     out += ']';
     return;
   }
-  const double v = scaled(r, raw, double_word);
-  fmt::format_to(to, FMT_COMPILE("{:.{}f}"), v, decimals_of(r.scale));
+  append_scaled(out, r, raw, double_word);
   if (!r.unit.empty()) {
     out += ' ';
     out += r.unit;
