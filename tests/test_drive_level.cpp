@@ -356,6 +356,8 @@ TEST(ProfileSchema, BitsComeOutSortedByBitNumber) {
   // Meanings are shown in bit order too.
   EXPECT_EQ(describe_value(*p, *r, 0x0404), "0x0404 [off, two, ten]");
   EXPECT_EQ(describe_value(*p, *r, 0x0006), "0x0006 [one, two]");
+  EXPECT_EQ(describe_value(*p, *r, 0x00ABCDEF, true), "0x00ABCDEF [one, two, ten]");
+  EXPECT_EQ(describe_value(*p, *r, 0), "0x0000 [off]");
 }
 
 // Scaled values printed from integers (decimal and whole scales) read exactly as the double

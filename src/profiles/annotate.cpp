@@ -36,6 +36,23 @@ double scaled(const RegisterDef& r, std::uint32_t raw, bool double_word) {
   return v * r.scale;
 }
 
+// Appending through fmt::format_int: fmt::format_to into a std::string grows and zero-fills it
+// for every call.
+template <class Integer>
+void append_integer(std::string& out, Integer value) {
+  const fmt::format_int digits(value);
+  out.append(digits.data(), digits.size());
+}
+
+// "0x" and `raw` in upper-case hex, at least `width` digits.
+void append_hex(std::string& out, std::uint32_t raw, int width) {
+  static constexpr char kDigits[] = "0123456789ABCDEF";
+  int digits = width;
+  while (digits < 8 && (raw >> (4 * digits)) != 0) ++digits;
+  out += "0x";
+  for (int i = digits - 1; i >= 0; --i) out += kDigits[(raw >> (4 * i)) & 0xF];
+}
+
 // The scaled value as "{:.Nf}" prints it, N = decimals_of(scale). A scale of 1, 0.1, 0.01 ...
 // or a whole one makes it an exact decimal, printed from integers: the double's rounding error
 // is far below half the last digit for any 32-bit raw value, so the text is the same.
@@ -47,23 +64,30 @@ void append_scaled(std::string& out, const RegisterDef& r, std::uint32_t raw, bo
       !r.is_signed  ? static_cast<std::int64_t>(raw)
       : double_word ? static_cast<std::int64_t>(static_cast<std::int32_t>(raw))
                     : static_cast<std::int64_t>(static_cast<std::int16_t>(raw & 0xFFFF));
-  auto to = std::back_inserter(out);
   if (decimals < 6 && r.scale == kDecimalScales[decimals]) {
-    const std::int64_t unit = kPowersOfTen[decimals];
+    const auto unit = static_cast<std::uint64_t>(kPowersOfTen[decimals]);
     const std::uint64_t magnitude =
         static_cast<std::uint64_t>(value < 0 ? -value : value);  // |value| < 2^32
     if (value < 0) out += '-';
-    fmt::format_to(to, FMT_COMPILE("{}"), magnitude / static_cast<std::uint64_t>(unit));
-    if (decimals > 0)
-      fmt::format_to(to, FMT_COMPILE(".{:0{}}"), magnitude % static_cast<std::uint64_t>(unit),
-                     decimals);
+    append_integer(out, magnitude / unit);
+    if (decimals > 0) {
+      char digits[6];
+      std::uint64_t fraction = magnitude % unit;
+      for (int i = decimals - 1; i >= 0; --i) {
+        digits[i] = static_cast<char>('0' + fraction % 10);
+        fraction /= 10;
+      }
+      out += '.';
+      out.append(digits, static_cast<std::size_t>(decimals));
+    }
     return;
   }
   if (decimals == 0 && r.scale > 0 && r.scale <= 1e6 && r.scale == std::round(r.scale)) {
-    fmt::format_to(to, FMT_COMPILE("{}"), value * static_cast<std::int64_t>(r.scale));
+    append_integer(out, value * static_cast<std::int64_t>(r.scale));
     return;
   }
-  fmt::format_to(to, FMT_COMPILE("{:.{}f}"), scaled(r, raw, double_word), decimals);
+  fmt::format_to(std::back_inserter(out), FMT_COMPILE("{:.{}f}"), scaled(r, raw, double_word),
+                 decimals);
 }
 
 bool any_bit(const std::vector<int>& bits, std::uint32_t raw) {
@@ -470,18 +494,22 @@ std::string display_name(const RegisterDef& r) {
 
 void append_value(std::string& out, const DriveProfile& p, const RegisterDef& r, std::uint32_t raw,
                   bool double_word) {
-  auto to = std::back_inserter(out);
   if (!r.enum_name.empty()) {
     const auto& names = p.enums.at(r.enum_name);
     const auto it = names.find(raw);
-    if (it == names.end())
-      fmt::format_to(to, FMT_COMPILE("{} (not in the manual's table)"), raw);
-    else
-      fmt::format_to(to, FMT_COMPILE("{} ({})"), raw, it->second);
+    append_integer(out, raw);
+    if (it == names.end()) {
+      out += " (not in the manual's table)";
+    } else {
+      out += " (";
+      out += it->second;
+      out += ')';
+    }
     return;
   }
   if (!r.bits.empty()) {
-    fmt::format_to(to, FMT_COMPILE("0x{:0{}X} ["), raw, double_word ? 8 : 4);
+    append_hex(out, raw, double_word ? 8 : 4);
+    out += " [";
     bool first = true;
     for (const RegisterBit& b : r.bits) {
       const std::string& s = ((raw >> b.bit) & 1) ? b.when_set : b.when_clear;
