@@ -282,10 +282,13 @@ Direction Pipeline::decide_direction(const ProtocolDecoder& decoder, const Frame
 void Pipeline::check_drive_timing(Message& m, const DriveProfile& p) {
   if (m.frame.events.empty()) return;
   const TimeNs char_time = options_.timing.character_time;
-  const std::string where = p.timing_section.empty() ? p.name : p.name + ", " + p.timing_section;
-  auto finding = [&](std::string text) {
-    m.anomalies.push_back({AnomalyKind::timing_rule, m.frame.start(), m.frame.channel, 0,
-                           fmt::format(FMT_COMPILE("{} ({})"), text, where)});
+  // The rule's source ("ERMAN E-9P/9G, 000 §5.2"), formatted only for a finding.
+  auto finding = [&](const std::string& text) {
+    std::string detail = fmt::format(FMT_COMPILE("{} ({}"), text, p.name);
+    if (!p.timing_section.empty()) detail += ", " + p.timing_section;
+    detail += ')';
+    m.anomalies.push_back(
+        {AnomalyKind::timing_rule, m.frame.start(), m.frame.channel, 0, std::move(detail)});
   };
   auto ms = [](TimeNs t) { return static_cast<double>(t) / static_cast<double>(kNsPerMs); };
   if (m.direction == Direction::request) {
