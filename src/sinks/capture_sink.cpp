@@ -42,7 +42,7 @@ CaptureSink::CaptureSink(std::FILE* out, const ChannelTable& channels, CaptureSi
   const int dlt = options_.link_type == CaptureLinkType::user0 ? DLT_USER0 : kLinkTypeUpperPdu;
   pcap_ = pcap_open_dead_with_tstamp_precision(dlt, 65535, PCAP_TSTAMP_PRECISION_NANO);
   if (pcap_) dumper_ = pcap_dump_fopen(pcap_, out_);
-  if (!dumper_) failed_ = true;
+  if (!dumper_) note_write_failure(failed_, write_errno_);
 }
 
 CaptureSink::~CaptureSink() {
@@ -186,7 +186,7 @@ void CaptureSink::write_pending() {
     pkt.comment = p.comment;
     pkt.drivetap_option = option;
     ng_.packet(pkt);
-    if (!ng_.ok()) failed_ = true;
+    if (!ng_.ok()) note_write_failure(failed_, write_errno_);
   }
   ++packets_;
   pending_.reset();
@@ -278,8 +278,8 @@ void cut_back_to(std::FILE* file, long known_good, CaptureFormat format) {
 
 bool CaptureSink::flush() {
   write_pending();
-  if (dumper_ && pcap_dump_flush(dumper_) != 0) failed_ = true;
-  return std::fflush(out_) == 0 && !failed_ && !std::ferror(out_);
+  if (dumper_ && pcap_dump_flush(dumper_) != 0) note_write_failure(failed_, write_errno_);
+  return flush_result(std::fflush(out_) == 0 && !failed_ && !std::ferror(out_), write_errno_);
 }
 
 }  // namespace drivetap

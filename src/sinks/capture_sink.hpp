@@ -90,6 +90,7 @@ class CaptureSink final : public Sink {
   std::unique_ptr<Pending> pending_;  // a frame waits for its anomalies (they go in the comment)
   std::vector<std::uint8_t> option_;  // drivetap's EPB option, reused from packet to packet
   bool failed_ = false;
+  int write_errno_ = 0;  // why the first write failed
 };
 
 }  // namespace drivetap

@@ -148,7 +148,8 @@ JsonSink::JsonSink(std::FILE* out, const ChannelTable& channels, TimeNs characte
 
 void JsonSink::write(std::string& line) {
   line += '\n';
-  if (std::fwrite(line.data(), 1, line.size(), out_) != line.size()) write_failed_ = true;
+  if (std::fwrite(line.data(), 1, line.size(), out_) != line.size())
+    note_write_failure(write_failed_, write_errno_);
 }
 
 void JsonSink::on_frame(const Message& m) {
@@ -349,7 +350,7 @@ void JsonSink::on_summary(const Stats& s) {
 }
 
 bool JsonSink::flush() {
-  return std::fflush(out_) == 0 && !write_failed_ && !std::ferror(out_);
+  return flush_result(std::fflush(out_) == 0 && !write_failed_ && !std::ferror(out_), write_errno_);
 }
 
 }  // namespace drivetap

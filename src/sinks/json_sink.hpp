@@ -29,6 +29,7 @@ class JsonSink final : public Sink {
   TimeNs character_time_;
   bool show_latency_;
   bool write_failed_ = false;
+  int write_errno_ = 0;  // why the first write failed
   std::string line_;     // reused for every frame line
   std::string summary_;  // scratch: the frame's one-line decode
 };

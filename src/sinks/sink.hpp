@@ -3,6 +3,7 @@
 // revealed, then the frame (or noise), then its anomalies, then the transaction it completed.
 #pragma once
 
+#include <cerrno>
 #include <vector>
 
 #include "core/anomaly.hpp"
@@ -15,6 +16,18 @@
 
 namespace drivetap {
 
+// A sink's failed write: marks it and keeps the first failure's errno. Records may be written
+// on another thread than the one that flushes (ThreadedSink), and errno is per thread.
+inline void note_write_failure(bool& failed, int& first_errno) {
+  failed = true;
+  if (first_errno == 0) first_errno = errno != 0 ? errno : EIO;
+}
+// What flush() returns: `ok`, with errno set to the first failure's when it is false.
+inline bool flush_result(bool ok, int first_errno) {
+  if (!ok && first_errno != 0) errno = first_errno;
+  return ok;
+}
+
 class Sink {
  public:
   virtual ~Sink() = default;
@@ -26,7 +39,7 @@ class Sink {
   virtual void on_summary(const Stats& stats) = 0;
   // Conclusions about the bus (protocol detected on a channel). Sinks without a use ignore them.
   virtual void on_event(const BusEvent& event) { (void)event; }
-  // Pushes buffered output to its file; returns false when the write failed.
+  // Pushes buffered output to its file; returns false when a write failed, with errno saying why.
   virtual bool flush() = 0;
   // Whether the sink shows messages' field trees and info lines; when no sink of a run does,
   // dissectors skip building them (Message::detail). Fixed for the sink's lifetime.
