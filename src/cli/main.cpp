@@ -34,6 +34,7 @@
 #include "sinks/json_sink.hpp"
 #include "sinks/ring_capture_sink.hpp"
 #include "sinks/text_sink.hpp"
+#include "sinks/threaded_sink.hpp"
 #include "sources/byte_log.hpp"
 #include "sources/capture_reader.hpp"
 #include "sources/hex_text.hpp"
@@ -270,11 +271,18 @@ class Outputs {
       tee_.add(text_.get());
     }
   }
-  Sink& sink() { return tee_; }
+  // From now on the records are formatted and written on a second thread (ThreadedSink) while
+  // this one decodes: `read`, when some sink shows every frame (not --stats or --events, whose
+  // sinks drop nearly every record: copying them would cost more than it saves).
+  void write_on_second_thread() {
+    if (!options_.stats_only && !options_.events_only)
+      threaded_ = std::make_unique<ThreadedSink>(tee_);
+  }
+  Sink& sink() { return threaded_ ? static_cast<Sink&>(*threaded_) : tee_; }
   // Live capture: everything written so far reaches its file (a text line per frame as it
   // completes; pcapng packets readable while the capture runs). False when a write failed.
   bool flush() {
-    const bool ok = tee_.flush();
+    const bool ok = threaded_ ? threaded_->flush() : tee_.flush();
     if (!ok && ring_ && !ring_->error().empty()) die(ring_->error(), 1);
     if (capture_file_ && capture_file_ != stdout) {
       if (ok) {
@@ -289,6 +297,7 @@ class Outputs {
 
   // Flushes and closes every output; a failed write (disk full, closed pipe) is an error.
   void close() {
+    if (threaded_) threaded_->finish();  // every record replayed; the sinks are this thread's
     // Each failure's errno is kept where it happens: cutting the file back and closing it
     // overwrite errno, and the message must give the write's own reason ("No space left").
     const bool text_ok = text_->flush();
@@ -334,6 +343,8 @@ class Outputs {
   TeeSink tee_;
   long capture_good_size_ = 0;  // the capture file up to its last packet flushed whole
   bool capture_failed_ = false;
+  // Last: destroyed first, its thread joined before the sinks it writes to go.
+  std::unique_ptr<ThreadedSink> threaded_;
 };
 
 // Reads one line of standard input into `line` (without its '\n'), at most kMaxDecodeLine bytes;
@@ -507,6 +518,7 @@ int run_read(const CommonOptions& o, const std::string& path) {
   std::unique_ptr<ByteSource> source = open_source(o, path, in, channels);
   const PipelineOptions p = start_source(o, *source);
   Outputs out(o, channels, p, /*timed=*/true);
+  out.write_on_second_thread();
   Pipeline pipeline(p, channels, out.sink());
 
   std::signal(SIGINT, on_signal);

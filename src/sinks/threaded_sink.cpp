@@ -1,0 +1,135 @@
+// Threaded sink (src/sinks/threaded_sink.hpp): records copied into batches, replayed in order
+// into the inner sink on a writer thread.
+#include "sinks/threaded_sink.hpp"
+
+namespace drivetap {
+
+ThreadedSink::ThreadedSink(Sink& inner)
+    : inner_(inner), wants_detail_(inner.wants_detail()), current_(std::make_unique<Batch>()) {
+  // kDepth batches besides the one being filled: the writer holds at most one of them.
+  for (std::size_t i = 0; i < kDepth; ++i) free_.push_back(std::make_unique<Batch>());
+  writer_ = std::thread([this] { run(); });
+}
+
+ThreadedSink::~ThreadedSink() {
+  finish();
+}
+
+ThreadedSink::Record& ThreadedSink::next_record() {
+  if (current_->used == current_->records.size()) publish();
+  return current_->records[current_->used++];
+}
+
+void ThreadedSink::publish() {
+  if (current_->used == 0) return;
+  std::unique_lock lock(mutex_);
+  full_.push_back(std::move(current_));
+  changed_.notify_all();
+  // Back-pressure: every other batch is queued or being replayed; wait for one to come back.
+  changed_.wait(lock, [this] { return !free_.empty(); });
+  current_ = std::move(free_.back());
+  free_.pop_back();
+}
+
+void ThreadedSink::wait_until_idle() {
+  publish();
+  std::unique_lock lock(mutex_);
+  changed_.wait(lock, [this] { return full_.empty() && replaying_ == 0; });
+}
+
+void ThreadedSink::run() {
+  for (;;) {
+    std::unique_ptr<Batch> batch;
+    {
+      std::unique_lock lock(mutex_);
+      changed_.wait(lock, [this] { return !full_.empty() || stopping_; });
+      if (full_.empty()) return;  // stopping, and everything replayed
+      batch = std::move(full_.front());
+      full_.pop_front();
+      ++replaying_;
+    }
+    for (std::size_t i = 0; i < batch->used; ++i) {
+      const Record& r = batch->records[i];
+      switch (r.kind) {
+        case Kind::frame:
+          inner_.on_frame(r.message);
+          break;
+        case Kind::noise:
+          inner_.on_noise(r.noise);
+          break;
+        case Kind::anomaly:
+          inner_.on_anomaly(r.anomaly);
+          break;
+        case Kind::transaction:
+          inner_.on_transaction(r.transaction);
+          break;
+        case Kind::summary:
+          inner_.on_summary(*r.stats);
+          break;
+        case Kind::event:
+          inner_.on_event(r.event);
+          break;
+      }
+    }
+    batch->used = 0;
+    std::lock_guard lock(mutex_);
+    free_.push_back(std::move(batch));
+    --replaying_;
+    changed_.notify_all();
+  }
+}
+
+void ThreadedSink::on_frame(const Message& message) {
+  Record& r = next_record();
+  r.kind = Kind::frame;
+  r.message = message;  // copy-assigned: the record's vectors and strings keep their storage
+}
+
+void ThreadedSink::on_noise(const Frame& noise) {
+  Record& r = next_record();
+  r.kind = Kind::noise;
+  r.noise = noise;
+}
+
+void ThreadedSink::on_anomaly(const Anomaly& anomaly) {
+  Record& r = next_record();
+  r.kind = Kind::anomaly;
+  r.anomaly = anomaly;
+}
+
+void ThreadedSink::on_transaction(const Transaction& transaction) {
+  Record& r = next_record();
+  r.kind = Kind::transaction;
+  r.transaction = transaction;
+}
+
+void ThreadedSink::on_summary(const Stats& stats) {
+  Record& r = next_record();
+  r.kind = Kind::summary;
+  r.stats = std::make_unique<Stats>(stats);
+}
+
+void ThreadedSink::on_event(const BusEvent& event) {
+  Record& r = next_record();
+  r.kind = Kind::event;
+  r.event = event;
+}
+
+bool ThreadedSink::flush() {
+  if (!writer_.joinable()) return inner_.flush();
+  wait_until_idle();
+  return inner_.flush();
+}
+
+void ThreadedSink::finish() {
+  if (!writer_.joinable()) return;
+  wait_until_idle();
+  {
+    std::lock_guard lock(mutex_);
+    stopping_ = true;
+    changed_.notify_all();
+  }
+  writer_.join();
+}
+
+}  // namespace drivetap

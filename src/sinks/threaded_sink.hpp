@@ -1,0 +1,87 @@
+// Threaded sink: the records of a run written on a thread of their own, so that formatting and
+// writing (text, JSON, pcapng) use the second core while the first decodes (issue 8,
+// bench/README.md). Contract of src/sinks/sink.hpp: the inner sink gets every record, in order.
+//
+//   pipeline thread:  on_frame(m) ... -> copied into a batch (kBatchRecords) -> queue (kDepth)
+//   writer thread:    batch -> inner.on_frame(copy) ... ; the batch goes back for reuse
+//
+// Records are copied: the pipeline reuses its Message for the next frame at once. A batch's
+// records keep their storage from one use to the next, so the copies do not allocate once the
+// run is under way. At most kDepth batches wait: memory stays bounded however far the writer
+// falls behind. flush() and finish() wait until the writer has replayed everything given so far;
+// finish() (or the destructor) then stops the thread. The inner sink and everything its records
+// name (the ChannelTable) must outlive this one; only the writer thread calls the inner sink
+// between construction and finish(), except wants_detail(), read once here.
+#pragma once
+
+#include <condition_variable>
+#include <cstddef>
+#include <deque>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <thread>
+#include <vector>
+
+#include "sinks/sink.hpp"
+
+namespace drivetap {
+
+class ThreadedSink final : public Sink {
+ public:
+  static constexpr std::size_t kBatchRecords = 256;
+  static constexpr std::size_t kDepth = 4;  // batches queued for the writer at most
+
+  explicit ThreadedSink(Sink& inner);
+  ~ThreadedSink() override;
+  ThreadedSink(const ThreadedSink&) = delete;
+  ThreadedSink& operator=(const ThreadedSink&) = delete;
+
+  void on_frame(const Message& message) override;
+  void on_noise(const Frame& noise) override;
+  void on_anomaly(const Anomaly& anomaly) override;
+  void on_transaction(const Transaction& transaction) override;
+  void on_summary(const Stats& stats) override;
+  void on_event(const BusEvent& event) override;
+  // Waits for the writer to replay everything, then flushes the inner sink (on this thread).
+  bool flush() override;
+  [[nodiscard]] bool wants_detail() const override { return wants_detail_; }
+  // Replays what is left and stops the writer thread; the inner sink is the caller's again.
+  void finish();
+
+ private:
+  enum class Kind : unsigned char { frame, noise, anomaly, transaction, summary, event };
+  // One record; only the member of its kind is meaningful. The others keep their storage.
+  struct Record {
+    Kind kind = Kind::frame;
+    Message message;
+    Frame noise;
+    Anomaly anomaly;
+    Transaction transaction;
+    BusEvent event;
+    std::unique_ptr<Stats> stats;  // rare: the closing summary
+  };
+  struct Batch {
+    std::vector<Record> records = std::vector<Record>(kBatchRecords);
+    std::size_t used = 0;
+  };
+
+  Record& next_record();   // the current batch's next free record (publishing a full batch)
+  void publish();          // hands the current batch, if it holds records, to the writer
+  void wait_until_idle();  // until every published batch has been replayed
+  void run();              // the writer thread
+
+  Sink& inner_;
+  const bool wants_detail_;
+  std::unique_ptr<Batch> current_;  // being filled on the pipeline thread
+
+  std::mutex mutex_;
+  std::condition_variable changed_;
+  std::deque<std::unique_ptr<Batch>> full_;  // published, in order
+  std::vector<std::unique_ptr<Batch>> free_;
+  std::size_t replaying_ = 0;  // batches the writer has taken and not given back
+  bool stopping_ = false;
+  std::thread writer_;
+};
+
+}  // namespace drivetap
