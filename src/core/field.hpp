@@ -41,7 +41,7 @@ struct FieldDesc {
   [[nodiscard]] constexpr std::string_view name_of(std::uint32_t value) const {
     for (const ValueName& vn : names)
       if (vn.value == value) return vn.name;
-    return {};
+    return "";  // empty, not null: compiled fmt formats copy from data() even when empty
   }
 };
 

@@ -90,6 +90,6 @@ inline void add_malformed(Message& m, std::string detail) {
 
 // Puts the finding for a bad or byte-swapped checksum first among the message's anomalies:
 // "CRC on wire DA 27, computed DA 26" (+ `hint`); nothing for a good or absent checksum.
-void add_checksum_anomaly(Message& m, std::string_view hint = {});
+void add_checksum_anomaly(Message& m, std::string_view hint = "");
 
 }  // namespace drivetap
