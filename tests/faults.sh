@@ -37,6 +37,20 @@ expect "-o on a full disk" 1 '^drivetap: -o /dev/full: write failed: No space le
   "$drivetap" read "$log" -o /dev/full
 expect "-w on a full disk" 1 '^drivetap: -w /dev/full: write failed: No space left on device$' -- \
   "$drivetap" read "$log" -w /dev/full -o /dev/null
+expect "-w --pcap on a full disk" 1 '^drivetap: -w /dev/full: write failed: No space left on device$' -- \
+  "$drivetap" read "$log" --pcap -w /dev/full -o /dev/null
+# A capture that fills the limit long before its end: the failed write happens on the writer
+# thread, mid-run, and its reason must still be the one reported.
+"$drivetap" generate --frames 2000 --seed 1 --mix modbus-rtu -w "$work/big.pcapng" 2>/dev/null ||
+  fail "generate for the mid-run limit failed"
+for format in pcapng pcap; do
+  flag=()
+  [ "$format" = pcap ] && flag=(--pcap)
+  expect "-w $format past a file size limit mid-run" 1 \
+    "^drivetap: -w $work/mid.$format: write failed: File too large\$" -- \
+    bash -c 'ulimit -f 4; exec "$@"' _ "$drivetap" read "$work/big.pcapng" "${flag[@]}" \
+    -w "$work/mid.$format" -o /dev/null
+done
 expect "stdout on a full disk" 1 '^drivetap: standard output: write failed: No space left on device$' -- \
   sh -c '"$0" read "$1" > /dev/full' "$drivetap" "$log"
 expect "JSON to a full disk" 1 '^drivetap: standard output: write failed: No space left on device$' -- \

@@ -2,6 +2,10 @@
 // thread; flush() and finish() wait for it; wants_detail() is the inner sink's.
 #include <gtest/gtest.h>
 
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <mutex>
 #include <string>
 #include <thread>
 #include <vector>
@@ -21,8 +25,17 @@ class RecordingSink final : public Sink {
     for (const ByteEvent& e : m.frame.events) bytes += std::to_string(e.byte) + ",";
     std::string fields;
     for (const FieldNode& f : m.fields) fields += f.text + "=" + std::to_string(f.value) + ",";
-    note("frame " + std::to_string(m.frame.number) + " " + bytes + " " + fields + " " + m.info +
-         " " + m.drive_info + " " + std::to_string(m.anomalies.size()));
+    std::string raw;
+    for (const std::uint8_t b : m.bytes) raw += std::to_string(b) + ",";
+    for (const FieldNode& f : m.fields)
+      fields += std::to_string(f.depth) + "/" + std::to_string(f.offset) + "/" +
+                std::to_string(f.length) + std::string(f.desc ? f.desc->id : "-") + ",";
+    note("frame " + std::to_string(m.frame.number) + " " + bytes + " " + raw + " " + fields + " " +
+         m.info + " " + m.drive_info + " " + std::to_string(m.anomalies.size()) + " " +
+         std::to_string(static_cast<int>(m.direction)) + " " +
+         std::to_string(static_cast<int>(m.checksum.verdict)) + " " +
+         std::to_string(m.frame.channel) + " " + std::to_string(m.latency) + " " +
+         std::to_string(m.request_number) + " " + std::to_string(m.address));
   }
   void on_noise(const Frame& f) override {
     note("noise " + std::to_string(f.number) + " " + std::to_string(f.events.size()));
@@ -60,11 +73,21 @@ void play(Sink& sink, std::size_t frames) {
     m.frame.events.assign(i % 7, ByteEvent{});
     for (std::size_t k = 0; k < m.frame.events.size(); ++k)
       m.frame.events[k].byte = static_cast<std::uint8_t>(i + k);
+    m.bytes.assign(i % 5, static_cast<std::uint8_t>(i));
     m.fields.assign(i % 3, FieldNode{});
     for (FieldNode& f : m.fields) {
       f.value = static_cast<std::int64_t>(i);
       f.text = std::string(i % 40, 'x');
+      f.depth = static_cast<std::uint16_t>(i % 2);
+      f.offset = static_cast<std::uint32_t>(i % 9);
+      f.length = static_cast<std::uint32_t>(i % 4);
     }
+    m.direction = i % 3 ? Direction::request : Direction::response;
+    m.checksum.verdict = i % 4 ? ChecksumVerdict::good : ChecksumVerdict::bad;
+    m.frame.channel = static_cast<ChannelId>(i % 2);
+    m.latency = i % 2 ? -1 : static_cast<TimeNs>(i * 1000);
+    m.request_number = i % 2 ? 0 : i - 1;
+    m.address = static_cast<int>(i % 248);
     m.info = "info " + std::to_string(i);
     m.drive_info = i % 2 ? "drive " + std::to_string(i) : "";
     m.anomalies.assign(i % 2, Anomaly{});
@@ -141,4 +164,109 @@ TEST(ThreadedSink, DestructionReplaysWhatIsLeftAndKeepsTheInnerSinksDetail) {
   EXPECT_EQ(inner.lines, direct.lines);
   RecordingSink detailed;
   EXPECT_TRUE(ThreadedSink(detailed).wants_detail());
+}
+
+namespace {
+
+// Blocks the writer in on_frame for frame `gate_at` until opened.
+class GatedSink final : public Sink {
+ public:
+  explicit GatedSink(std::uint64_t gate_at) : gate_at_(gate_at) {}
+  void on_frame(const Message& m) override {
+    if (m.frame.number == gate_at_) {
+      std::unique_lock lock(mutex_);
+      waiting = true;
+      changed_.notify_all();
+      changed_.wait(lock, [this] { return open_; });
+    }
+    frames = m.frame.number;
+  }
+  void on_noise(const Frame&) override {}
+  void on_anomaly(const Anomaly&) override {}
+  void on_transaction(const Transaction&) override {}
+  void on_summary(const Stats&) override {}
+  bool flush() override {
+    ++flushes;
+    flushed_at = frames.load();
+    return true;
+  }
+  void wait_until_blocked() {
+    std::unique_lock lock(mutex_);
+    changed_.wait(lock, [this] { return waiting; });
+  }
+  void open() {
+    const std::lock_guard lock(mutex_);
+    open_ = true;
+    changed_.notify_all();
+  }
+
+  std::atomic<std::uint64_t> frames{0};
+  std::atomic<int> flushes{0};
+  std::atomic<std::uint64_t> flushed_at{0};
+  bool waiting = false;
+
+ private:
+  std::uint64_t gate_at_;
+  std::mutex mutex_;
+  std::condition_variable changed_;
+  bool open_ = false;
+};
+
+}  // namespace
+
+// The pipeline thread waits for a writer that falls behind (the queue is bounded), and flush()
+// waits until the writer has replayed the last record, not only taken it.
+TEST(ThreadedSink, APipelineAheadOfItsWriterWaitsAndFlushWaitsForTheReplay) {
+  constexpr std::size_t kFrames = ThreadedSink::kBatchRecords * (ThreadedSink::kDepth + 3);
+  {
+    GatedSink inner(/*gate_at=*/1);
+    ThreadedSink threaded(inner);
+    std::atomic<std::size_t> given{0};
+    std::thread pipeline([&] {
+      Message m;
+      for (std::size_t i = 1; i <= kFrames; ++i) {
+        m.frame.number = i;
+        threaded.on_frame(m);
+        given = i;
+      }
+      threaded.flush();
+    });
+    inner.wait_until_blocked();
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    // The batch being replayed, those queued and the one being filled: no more.
+    EXPECT_LE(given.load(), (ThreadedSink::kDepth + 1) * ThreadedSink::kBatchRecords);
+    EXPECT_EQ(inner.flushes.load(), 0);
+    inner.open();
+    pipeline.join();
+    EXPECT_EQ(inner.flushed_at.load(), kFrames);
+  }
+  {
+    GatedSink inner(/*gate_at=*/kFrames);  // the last record
+    ThreadedSink threaded(inner);
+    std::thread pipeline([&] {
+      Message m;
+      for (std::size_t i = 1; i <= kFrames; ++i) {
+        m.frame.number = i;
+        threaded.on_frame(m);
+      }
+      threaded.flush();
+    });
+    inner.wait_until_blocked();  // the writer holds the last batch, nothing else is queued
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    EXPECT_EQ(inner.flushes.load(), 0) << "flush() did not wait for the batch being replayed";
+    inner.open();
+    pipeline.join();
+    EXPECT_EQ(inner.flushed_at.load(), kFrames);
+  }
+}
+
+TEST(ThreadedSink, RecordsAfterFinishGoStraightToTheInnerSink) {
+  RecordingSink inner;
+  ThreadedSink threaded(inner);
+  play(threaded, 3);
+  threaded.finish();
+  threaded.on_anomaly({AnomalyKind::noise, 0, 0, 0, "late"});
+  ASSERT_FALSE(inner.lines.empty());
+  EXPECT_EQ(inner.lines.back(), "anomaly late");
+  EXPECT_EQ(inner.threads.back(), std::this_thread::get_id());
 }

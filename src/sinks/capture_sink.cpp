@@ -144,6 +144,8 @@ void CaptureSink::write_pending() {
     h.ts.tv_usec = static_cast<suseconds_t>(end % kNsPerSecond);  // ns precision
     h.caplen = h.len = static_cast<bpf_u_int32>(data.size());
     pcap_dump(reinterpret_cast<u_char*>(dumper_), &h, data.data());
+    // pcap_dump() says nothing of a failed write: its errno is kept here, on the writing thread.
+    if (std::ferror(out_)) note_write_failure(failed_, write_errno_);
   } else {
     std::vector<std::uint8_t>& option = option_;
     const std::uint8_t kind = p.kind == FrameKind::noise ? 1 : 0;

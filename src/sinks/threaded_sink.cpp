@@ -2,13 +2,15 @@
 // into the inner sink on a writer thread.
 #include "sinks/threaded_sink.hpp"
 
+#include "core/worker_thread.hpp"
+
 namespace drivetap {
 
 ThreadedSink::ThreadedSink(Sink& inner)
     : inner_(inner), wants_detail_(inner.wants_detail()), current_(std::make_unique<Batch>()) {
   // kDepth batches besides the one being filled: the writer holds at most one of them.
   for (std::size_t i = 0; i < kDepth; ++i) free_.push_back(std::make_unique<Batch>());
-  writer_ = std::thread([this] { run(); });
+  writer_ = start_worker_thread([this] { run(); });
 }
 
 ThreadedSink::~ThreadedSink() {
@@ -80,49 +82,55 @@ void ThreadedSink::run() {
 }
 
 void ThreadedSink::on_frame(const Message& message) {
+  if (finished_) return inner_.on_frame(message);
   Record& r = next_record();
   r.kind = Kind::frame;
   r.message = message;  // copy-assigned: the record's vectors and strings keep their storage
 }
 
 void ThreadedSink::on_noise(const Frame& noise) {
+  if (finished_) return inner_.on_noise(noise);
   Record& r = next_record();
   r.kind = Kind::noise;
   r.noise = noise;
 }
 
 void ThreadedSink::on_anomaly(const Anomaly& anomaly) {
+  if (finished_) return inner_.on_anomaly(anomaly);
   Record& r = next_record();
   r.kind = Kind::anomaly;
   r.anomaly = anomaly;
 }
 
 void ThreadedSink::on_transaction(const Transaction& transaction) {
+  if (finished_) return inner_.on_transaction(transaction);
   Record& r = next_record();
   r.kind = Kind::transaction;
   r.transaction = transaction;
 }
 
 void ThreadedSink::on_summary(const Stats& stats) {
+  if (finished_) return inner_.on_summary(stats);
   Record& r = next_record();
   r.kind = Kind::summary;
   r.stats = std::make_unique<Stats>(stats);
 }
 
 void ThreadedSink::on_event(const BusEvent& event) {
+  if (finished_) return inner_.on_event(event);
   Record& r = next_record();
   r.kind = Kind::event;
   r.event = event;
 }
 
 bool ThreadedSink::flush() {
-  if (!writer_.joinable()) return inner_.flush();
+  if (finished_) return inner_.flush();
   wait_until_idle();
   return inner_.flush();
 }
 
 void ThreadedSink::finish() {
-  if (!writer_.joinable()) return;
+  if (finished_) return;
   wait_until_idle();
   {
     std::lock_guard lock(mutex_);
@@ -130,6 +138,7 @@ void ThreadedSink::finish() {
     changed_.notify_all();
   }
   writer_.join();
+  finished_ = true;
 }
 
 }  // namespace drivetap

@@ -9,9 +9,10 @@
 // records keep their storage from one use to the next, so the copies do not allocate once the
 // run is under way. At most kDepth batches wait: memory stays bounded however far the writer
 // falls behind. flush() and finish() wait until the writer has replayed everything given so far;
-// finish() (or the destructor) then stops the thread. The inner sink and everything its records
-// name (the ChannelTable) must outlive this one; only the writer thread calls the inner sink
-// between construction and finish(), except wants_detail(), read once here.
+// finish() (or the destructor) then stops the thread; records after it go straight to the inner
+// sink. The worker thread runs with SIGINT and SIGTERM blocked. The inner sink and everything its
+// records name (the ChannelTable) must outlive this one; only the writer thread calls the inner
+// sink between construction and finish(), except wants_detail(), read once here.
 #pragma once
 
 #include <condition_variable>
@@ -81,6 +82,7 @@ class ThreadedSink final : public Sink {
   std::vector<std::unique_ptr<Batch>> free_;
   std::size_t replaying_ = 0;  // batches the writer has taken and not given back
   bool stopping_ = false;
+  bool finished_ = false;  // the writer thread has stopped (pipeline thread only)
   std::thread writer_;
 };
 

@@ -1,11 +1,14 @@
 // Read-ahead of a ByteSource on a thread of its own (read_ahead.hpp).
 #include "sources/read_ahead.hpp"
 
+#include "core/worker_thread.hpp"
+
 #include <utility>
 
 namespace drivetap {
 
-ReadAhead::ReadAhead(ByteSource& source) : source_(source), thread_([this] { run(); }) {}
+ReadAhead::ReadAhead(ByteSource& source)
+    : source_(source), thread_(start_worker_thread([this] { run(); })) {}
 
 ReadAhead::~ReadAhead() {
   {
