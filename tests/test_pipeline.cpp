@@ -165,14 +165,17 @@ namespace {
 
 // Writes down everything a sink is told, fields and info lines apart, as text lines.
 struct TranscriptSink final : Sink {
-  explicit TranscriptSink(bool detail) : detail(detail) {}
-  bool detail;
+  explicit TranscriptSink(bool detail) : detail(detail), fields(detail) {}
+  TranscriptSink(bool detail, bool fields) : detail(detail), fields(fields) {}
+  bool detail, fields;
   std::vector<std::string> records;
+  std::vector<std::string> infos;  // each message's info line
   std::size_t with_fields = 0, with_info = 0, messages = 0;
   void on_frame(const Message& m) override {
     ++messages;
     with_fields += !m.fields.empty();
     with_info += !m.info.empty();
+    infos.push_back(m.info);
     records.push_back(fmt::format(
         "frame #{} {} {} addr {} fc {} exc {} code {} crc {} lat {} req #{} drive '{}' anomalies "
         "{}",
@@ -200,6 +203,7 @@ struct TranscriptSink final : Sink {
   }
   bool flush() override { return true; }
   [[nodiscard]] bool wants_detail() const override { return detail; }
+  [[nodiscard]] bool wants_fields() const override { return fields; }
 };
 
 // The generator's mixed bus (four protocols, errors, noise, timeouts) through one pipeline:
@@ -254,6 +258,24 @@ TEST(Pipeline, SummaryOnlyRunFindsWhatADetailedRunFinds) {
   ASSERT_EQ(detailed.records.size(), summary_only.records.size());
   for (std::size_t i = 0; i < detailed.records.size(); ++i)
     ASSERT_EQ(detailed.records[i], summary_only.records[i]) << "record " << i;
+}
+
+// A sink that shows info lines but no field tree (text output without -V) lets dissectors skip
+// the tree: the info lines, and everything else, must be what a run with the tree finds.
+TEST(Pipeline, InfoWithoutTreeFindsWhatADetailedRunFinds) {
+  TranscriptSink detailed(true), info_only(true, /*fields=*/false);
+  run_generated(detailed);
+  run_generated(info_only);
+  ASSERT_GT(detailed.messages, 10000u);
+  EXPECT_GT(detailed.with_fields, detailed.messages * 9 / 10);
+  EXPECT_EQ(info_only.with_fields, 0u);
+  EXPECT_EQ(info_only.with_info, info_only.messages);
+  ASSERT_EQ(detailed.records.size(), info_only.records.size());
+  for (std::size_t i = 0; i < detailed.records.size(); ++i)
+    ASSERT_EQ(detailed.records[i], info_only.records[i]) << "record " << i;
+  ASSERT_EQ(detailed.infos.size(), info_only.infos.size());
+  for (std::size_t i = 0; i < detailed.infos.size(); ++i)
+    ASSERT_EQ(detailed.infos[i], info_only.infos[i]) << "message " << i;
 }
 
 // push_batch() hands runs of bytes to the framer at once; what comes out must be exactly what

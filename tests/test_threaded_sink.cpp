@@ -157,6 +157,7 @@ TEST(ThreadedSink, DestructionReplaysWhatIsLeftAndKeepsTheInnerSinksDetail) {
   {
     ThreadedSink threaded(inner);
     EXPECT_FALSE(threaded.wants_detail());
+    EXPECT_FALSE(threaded.wants_fields());
     play(threaded, 3 * ThreadedSink::kBatchRecords);
   }  // no finish(): the destructor does it
   RecordingSink direct;
@@ -164,6 +165,7 @@ TEST(ThreadedSink, DestructionReplaysWhatIsLeftAndKeepsTheInnerSinksDetail) {
   EXPECT_EQ(inner.lines, direct.lines);
   RecordingSink detailed;
   EXPECT_TRUE(ThreadedSink(detailed).wants_detail());
+  EXPECT_TRUE(ThreadedSink(detailed).wants_fields());
 }
 
 namespace {

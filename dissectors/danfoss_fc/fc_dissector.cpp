@@ -118,7 +118,7 @@ void dissect_fc(Message& m, Frame&& frame, Direction direction, const FramingTim
   (void)timing;
   begin_message(m, std::move(frame), Protocol::danfoss_fc, direction);
   const std::span<const std::uint8_t> bytes(m.bytes);
-  FieldTreeBuilder tree(m.fields, m.detail);
+  FieldTreeBuilder tree(m.fields, m.detail && m.tree);
   Cursor c(bytes);
   auto stx = c.u8();
   auto lge = c.u8();

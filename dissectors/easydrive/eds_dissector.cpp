@@ -89,7 +89,7 @@ void dissect_eds(Message& m, Frame&& frame, Direction direction, const FramingTi
   begin_message(m, std::move(frame), Protocol::easydrive, direction);
   m.text_encoded = true;
   const std::span<const std::uint8_t> f(m.bytes);
-  FieldTreeBuilder tree(m.fields, m.detail);
+  FieldTreeBuilder tree(m.fields, m.detail && m.tree);
   if (f.empty() || f[0] != '~') {
     add_malformed(m, "does not start with '~'");
     m.describe([] { return std::string("not an Easydrive frame"); });

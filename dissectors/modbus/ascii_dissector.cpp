@@ -89,9 +89,9 @@ void dissect_ascii(Message& m, Frame&& frame, Direction direction, const Framing
   m.is_exception = (bin[1] & 0x80) != 0;
   // Decode the binary PDU, then map every field onto its hex characters (2 per byte, after ':').
   std::vector<FieldNode> binary_fields;
-  FieldTreeBuilder binary_tree(binary_fields, m.detail);
+  FieldTreeBuilder binary_tree(binary_fields, m.detail && m.tree);
   binary_tree.add(kAddr, 0, 1, bin[0]);
-  PduDecode pdu = dissect_pdu(bin, 1, bin.size() - 2, direction, binary_tree);
+  PduDecode pdu = dissect_pdu(bin, 1, bin.size() - 2, direction, binary_tree, m.detail);
   binary_tree.add(kLrc, bin.size() - 1, 1, bin.back());
   for (FieldNode& n : binary_fields) {
     n.offset = 1 + 2 * n.offset;

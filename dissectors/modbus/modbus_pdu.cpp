@@ -486,8 +486,13 @@ void dissect_device_id(PduReader& r, Direction dir, PduDecode& d) {
 
 PduDecode dissect_pdu(std::span<const std::uint8_t> frame, std::size_t pdu_offset,
                       std::size_t pdu_length, Direction dir, FieldTreeBuilder& tree) {
+  return dissect_pdu(frame, pdu_offset, pdu_length, dir, tree, tree.enabled());
+}
+
+PduDecode dissect_pdu(std::span<const std::uint8_t> frame, std::size_t pdu_offset,
+                      std::size_t pdu_length, Direction dir, FieldTreeBuilder& tree, bool info) {
   PduDecode d;
-  d.detail = tree.enabled();
+  d.detail = info;
   PduReader r(frame, pdu_offset, pdu_length, tree, d);
   auto fc_opt = r.u8(kFunction);
   if (!fc_opt) return d;

@@ -39,7 +39,7 @@ struct PduDecode {
   std::string info;                   // one-line decode (empty when not `detail`)
   std::vector<std::string> problems;  // protocol-rule breaks: each becomes a `malformed` anomaly
   int exception_code = -1;
-  bool detail = true;  // the tree builder keeps fields: the info line is wanted too
+  bool detail = true;  // the info line is wanted
 
   // Sets `info` to make() when decoding in detail; make() is not called otherwise.
   template <class MakeText>
@@ -49,7 +49,12 @@ struct PduDecode {
 };
 
 // Decodes the PDU occupying frame[pdu_offset, pdu_offset + pdu_length) into field nodes whose
-// spans are frame offsets.
+// spans are frame offsets, and the info line when `info` (a tree that keeps nothing can still
+// come with an info line: text output without -V).
+PduDecode dissect_pdu(std::span<const std::uint8_t> frame, std::size_t pdu_offset,
+                      std::size_t pdu_length, Direction direction, FieldTreeBuilder& tree,
+                      bool info);
+// The same, with the info line when the tree keeps fields.
 PduDecode dissect_pdu(std::span<const std::uint8_t> frame, std::size_t pdu_offset,
                       std::size_t pdu_length, Direction direction, FieldTreeBuilder& tree);
 

@@ -37,7 +37,7 @@ void dissect_rtu(Message& m, Frame&& frame, Direction direction, const FramingTi
   const std::span<const std::uint8_t> bytes(m.bytes);
   const TimeNs t0 = m.frame.start();
   const ChannelId ch = m.frame.channel;
-  FieldTreeBuilder tree(m.fields, m.detail);
+  FieldTreeBuilder tree(m.fields, m.detail && m.tree);
 
   if (!bytes.empty()) {
     tree.add(kAddr, 0, 1, bytes[0]);
@@ -49,7 +49,7 @@ void dissect_rtu(Message& m, Frame&& frame, Direction direction, const FramingTi
   }
   if (bytes.size() >= 4) {
     const std::size_t pdu_len = bytes.size() - 3;
-    PduDecode pdu = dissect_pdu(bytes, 1, pdu_len, direction, tree);
+    PduDecode pdu = dissect_pdu(bytes, 1, pdu_len, direction, tree, m.detail);
     m.info = std::move(pdu.info);
     m.exception_code = pdu.exception_code;
     for (std::string& problem : pdu.problems) add_malformed(m, std::move(problem));

@@ -46,6 +46,9 @@ struct Message {
   // False when the run prints no per-frame decode (`read --stats`): `fields` and `info` stay
   // empty; keys, direction, checksum verdict and anomalies are those of a full decode.
   bool detail = true;
+  // False when no sink reads the field tree (text output without -V, pcapng): `fields` stay
+  // empty while `info` is still made when `detail`.
+  bool tree = true;
 
   // Sets `info` to make() when the message is decoded in detail; make() is not called
   // otherwise (formatting is most of the cost of a decode).
@@ -59,7 +62,7 @@ inline constexpr std::size_t kTypicalFieldCount = 16;
 
 // What every dissector starts from: `m` reset to the frame, its bytes, protocol and direction.
 // The vectors and strings `m` held keep their storage (the pipeline decodes every frame of a run
-// into one Message, so the hot path does not allocate); `m.detail` is kept.
+// into one Message, so the hot path does not allocate); `m.detail` and `m.tree` are kept.
 inline void begin_message(Message& m, Frame&& frame, Protocol protocol, Direction direction) {
   // Every member of Message is set here (tests/test_pipeline.cpp BeginMessageResetsEveryMember).
   m.frame = std::move(frame);
@@ -74,7 +77,8 @@ inline void begin_message(Message& m, Frame&& frame, Protocol protocol, Directio
   m.checksum = ChecksumResult{};
   m.text_encoded = false;
   m.fields.clear();
-  if (m.detail) m.fields.reserve(kTypicalFieldCount);  // one allocation, not a doubling series
+  if (m.detail && m.tree)
+    m.fields.reserve(kTypicalFieldCount);  // one allocation, not a doubling series
   m.info.clear();
   m.drive_info.clear();
   m.anomalies.clear();

@@ -35,6 +35,7 @@ Pipeline::Pipeline(PipelineOptions options, const ChannelTable& channels, Sink& 
       earliest_deadline_(std::numeric_limits<TimeNs>::max()),
       binder_(options.auto_candidates) {
   message_.detail = sink.wants_detail();
+  message_.tree = message_.detail && sink.wants_fields();
 }
 
 Pipeline::~Pipeline() = default;

@@ -71,6 +71,8 @@ class CaptureSink final : public Sink {
   void on_transaction(const Transaction&) override {}
   void on_summary(const Stats&) override {}
   bool flush() override;
+  // Packets carry the bytes and the info line as a comment, not the field tree.
+  [[nodiscard]] bool wants_fields() const override { return false; }
   [[nodiscard]] std::uint64_t packets() const { return packets_; }
 
  private:

@@ -40,6 +40,7 @@ class RingCaptureSink final : public Sink {
   void on_transaction(const Transaction&) override {}
   void on_summary(const Stats&) override {}
   bool flush() override;
+  [[nodiscard]] bool wants_fields() const override { return false; }  // as CaptureSink
   // Flushes and closes the current file; false when a write failed (disk full).
   bool close();
   [[nodiscard]] const std::string& error() const { return error_; }

@@ -44,6 +44,8 @@ class Sink {
   // Whether the sink shows messages' field trees and info lines; when no sink of a run does,
   // dissectors skip building them (Message::detail). Fixed for the sink's lifetime.
   [[nodiscard]] virtual bool wants_detail() const { return true; }
+  // Whether the sink reads messages' field trees (Message::tree); only with wants_detail().
+  [[nodiscard]] virtual bool wants_fields() const { return wants_detail(); }
 };
 
 // Sends every record to several sinks.
@@ -78,6 +80,11 @@ class TeeSink final : public Sink {
       if (s->wants_detail()) return true;
     return false;
   }
+  [[nodiscard]] bool wants_fields() const override {
+    for (const Sink* s : sinks_)
+      if (s->wants_fields()) return true;
+    return false;
+  }
 
  private:
   std::vector<Sink*> sinks_;
@@ -95,6 +102,7 @@ class SummaryOnlySink final : public Sink {
   void on_summary(const Stats& s) override { inner_.on_summary(s); }
   bool flush() override { return inner_.flush(); }
   [[nodiscard]] bool wants_detail() const override { return false; }
+  [[nodiscard]] bool wants_fields() const override { return false; }
 
  private:
   Sink& inner_;
@@ -112,6 +120,7 @@ class EventsOnlySink final : public Sink {
   void on_summary(const Stats&) override {}
   void on_event(const BusEvent& e) override { inner_.on_event(e); }
   bool flush() override { return inner_.flush(); }
+  [[nodiscard]] bool wants_fields() const override { return false; }
 
  private:
   Sink& inner_;

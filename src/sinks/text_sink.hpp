@@ -27,6 +27,8 @@ class TextSink final : public Sink {
   void on_summary(const Stats& stats) override;
   void on_event(const BusEvent& event) override;
   bool flush() override;
+  // The field tree is shown only with -V.
+  [[nodiscard]] bool wants_fields() const override { return options_.verbose; }
 
  private:
   void write(const std::string& line);
