@@ -74,15 +74,23 @@ void Pipeline::advance_all(TimeNs now) {
   handle_frames();
 }
 
-void Pipeline::push(const ByteEvent& in) {
-  ByteEvent e = in;
+ByteEvent Pipeline::as_on_the_wire(ByteEvent e, const ChannelState& st) const {
   // With 7 data bits the 8th bit a source may deliver is not data (Modbus ASCII allows 7E1).
   if (options_.serial.data_bits == 7) e.byte &= 0x7F;
-  ChannelState& st = state_for(e.channel);
   // Bytes on one wire cannot overlap: a byte stamped inside its predecessor starts after it.
   if (e.time < st.last_end) e.time = st.last_end;
+  return e;
+}
+
+void Pipeline::note_taken(ChannelState& st, const ByteEvent& e) {
   st.last_end = e.time + options_.timing.character_time;
   latest_time_ = std::max(latest_time_, e.time);
+}
+
+void Pipeline::push(const ByteEvent& in) {
+  ChannelState& st = state_for(in.channel);
+  const ByteEvent e = as_on_the_wire(in, st);
+  note_taken(st, e);
   advance_all(e.time);
   if (st.redetect) start_detection(st);
   if (!st.framer) {
@@ -105,7 +113,6 @@ TimeNs Pipeline::deadline_of_others(ChannelId channel) const {
 }
 
 void Pipeline::push_batch(std::span<const ByteEvent> events) {
-  const TimeNs character_time = options_.timing.character_time;
   std::size_t i = 0;
   // Each pass pushes at least events[i].
   while (i < events.size()) {
@@ -121,12 +128,9 @@ void Pipeline::push_batch(std::span<const ByteEvent> events) {
     run_.clear();
     // Each pass takes one byte into the run, or stops.
     while (i < events.size() && run_.size() < room && events[i].channel == channel) {
-      ByteEvent e = events[i];
-      if (options_.serial.data_bits == 7) e.byte &= 0x7F;
-      if (e.time < st.last_end) e.time = st.last_end;
+      const ByteEvent e = as_on_the_wire(events[i], st);
       if (e.time - st.last_end > options_.timing.t35 || e.time >= others) break;
-      st.last_end = e.time + character_time;
-      latest_time_ = std::max(latest_time_, e.time);
+      note_taken(st, e);
       run_.push_back(e);
       ++i;
     }

@@ -67,6 +67,11 @@ class Pipeline {
   struct ChannelState;
   ChannelState& state_for(ChannelId id);
   void advance_all(TimeNs now);
+  // A byte as the wire could have carried it: data bits only, not before the end of its
+  // channel's previous byte. push() and push_batch() both take bytes through these two.
+  [[nodiscard]] ByteEvent as_on_the_wire(ByteEvent e, const ChannelState& st) const;
+  // Records that the channel's latest byte is `e` (its end, the run's latest time).
+  void note_taken(ChannelState& st, const ByteEvent& e);
   // Hands the storage of a frame's events back to its channel's framer (frame.events is left
   // empty).
   void recycle(Frame& frame);
