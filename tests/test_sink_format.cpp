@@ -1,4 +1,4 @@
-// Unit tests: the sinks' hand-written number and string formatting (src/sinks/format.hpp,
+// Unit tests: the sinks' hand-written number and string formatting (src/core/format.hpp,
 // json_sink) against what fmt prints.
 #include <fmt/format.h>
 #include <gtest/gtest.h>
@@ -7,7 +7,7 @@
 #include <random>
 #include <string>
 
-#include "sinks/format.hpp"
+#include "core/format.hpp"
 #include "sinks/json_sink.hpp"
 
 using namespace drivetap;

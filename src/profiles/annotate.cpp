@@ -10,6 +10,7 @@
 #include <string_view>
 #include <vector>
 
+#include "core/format.hpp"
 #include "dissectors/easydrive/eds_dissector.hpp"
 #include "dissectors/modbus/ascii_dissector.hpp"
 
@@ -28,29 +29,24 @@ int decimals_of(double scale) {
   return d >= 6 ? 2 : d;
 }
 
+// The raw value as the register holds it: signed registers read as 16- or 32-bit two's
+// complement.
+std::int64_t raw_value(const RegisterDef& r, std::uint32_t raw, bool double_word) {
+  if (!r.is_signed) return raw;
+  return double_word ? static_cast<std::int32_t>(raw) : static_cast<std::int16_t>(raw & 0xFFFF);
+}
+
 double scaled(const RegisterDef& r, std::uint32_t raw, bool double_word) {
-  double v = raw;
-  if (r.is_signed)
-    v = double_word ? static_cast<double>(static_cast<std::int32_t>(raw))
-                    : static_cast<double>(static_cast<std::int16_t>(raw & 0xFFFF));
-  return v * r.scale;
+  return static_cast<double>(raw_value(r, raw, double_word)) * r.scale;
 }
 
-// Appending through fmt::format_int: fmt::format_to into a std::string grows and zero-fills it
-// for every call.
-template <class Integer>
-void append_integer(std::string& out, Integer value) {
-  const fmt::format_int digits(value);
-  out.append(digits.data(), digits.size());
-}
-
-// "0x" and `raw` in upper-case hex, at least `width` digits.
+// "0x" and `raw` in upper-case hex, at least `width` digits. (Values are appended through
+// core/format.hpp, not fmt::format_to, which grows and zero-fills a std::string per call.)
 void append_hex(std::string& out, std::uint32_t raw, int width) {
-  static constexpr char kDigits[] = "0123456789ABCDEF";
   int digits = width;
   while (digits < 8 && (raw >> (4 * digits)) != 0) ++digits;
   out += "0x";
-  for (int i = digits - 1; i >= 0; --i) out += kDigits[(raw >> (4 * i)) & 0xF];
+  for (int i = digits - 1; i >= 0; --i) out += kHexDigits[(raw >> (4 * i)) & 0xF];
 }
 
 // The scaled value as "{:.Nf}" prints it, N = decimals_of(scale). A scale of 1, 0.1, 0.01 ...
@@ -60,30 +56,18 @@ void append_scaled(std::string& out, const RegisterDef& r, std::uint32_t raw, bo
   static constexpr double kDecimalScales[] = {1, 0.1, 0.01, 0.001, 0.0001, 0.00001};
   static constexpr std::int64_t kPowersOfTen[] = {1, 10, 100, 1000, 10000, 100000};
   const int decimals = decimals_of(r.scale);
-  const std::int64_t value =
-      !r.is_signed  ? static_cast<std::int64_t>(raw)
-      : double_word ? static_cast<std::int64_t>(static_cast<std::int32_t>(raw))
-                    : static_cast<std::int64_t>(static_cast<std::int16_t>(raw & 0xFFFF));
+  const std::int64_t value = raw_value(r, raw, double_word);
   if (decimals < 6 && r.scale == kDecimalScales[decimals]) {
     const auto unit = static_cast<std::uint64_t>(kPowersOfTen[decimals]);
     const std::uint64_t magnitude =
         static_cast<std::uint64_t>(value < 0 ? -value : value);  // |value| < 2^32
     if (value < 0) out += '-';
-    append_integer(out, magnitude / unit);
-    if (decimals > 0) {
-      char digits[6];
-      std::uint64_t fraction = magnitude % unit;
-      for (int i = decimals - 1; i >= 0; --i) {
-        digits[i] = static_cast<char>('0' + fraction % 10);
-        fraction /= 10;
-      }
-      out += '.';
-      out.append(digits, static_cast<std::size_t>(decimals));
-    }
+    append_uint(out, magnitude / unit);
+    if (decimals > 0) append_fraction(out, magnitude % unit, decimals);
     return;
   }
   if (decimals == 0 && r.scale > 0 && r.scale <= 1e6 && r.scale == std::round(r.scale)) {
-    append_integer(out, value * static_cast<std::int64_t>(r.scale));
+    append_int(out, value * static_cast<std::int64_t>(r.scale));
     return;
   }
   fmt::format_to(std::back_inserter(out), FMT_COMPILE("{:.{}f}"), scaled(r, raw, double_word),
@@ -489,7 +473,9 @@ std::span<const std::uint8_t> modbus_binary(Protocol protocol, std::span<const s
 }
 
 std::string display_name(const RegisterDef& r) {
-  return r.kind == RegisterKind::parameter ? r.number + " " + r.name : r.name;
+  std::string name;
+  append_display_name(name, r);
+  return name;
 }
 
 void append_value(std::string& out, const DriveProfile& p, const RegisterDef& r, std::uint32_t raw,
@@ -497,7 +483,7 @@ void append_value(std::string& out, const DriveProfile& p, const RegisterDef& r,
   if (!r.enum_name.empty()) {
     const auto& names = p.enums.at(r.enum_name);
     const auto it = names.find(raw);
-    append_integer(out, raw);
+    append_uint(out, raw);
     if (it == names.end()) {
       out += " (not in the manual's table)";
     } else {

@@ -7,7 +7,7 @@
 #include <algorithm>
 #include <array>
 
-#include "sinks/format.hpp"
+#include "core/format.hpp"
 #include "sinks/text_sink.hpp"
 
 namespace drivetap {

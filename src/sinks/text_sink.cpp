@@ -8,7 +8,7 @@
 #include <cctype>
 #include <string_view>
 
-#include "sinks/format.hpp"
+#include "core/format.hpp"
 
 namespace drivetap {
 

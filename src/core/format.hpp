@@ -1,4 +1,4 @@
-// Small formatting helpers shared by the sinks.
+// Small formatting helpers shared by the sinks and the drive annotation.
 #pragma once
 
 #include <fmt/format.h>
@@ -14,6 +14,8 @@ namespace drivetap {
 
 // The sinks build each output line by appending to one reused string: no temporary strings and
 // no format-string parsing per frame on the paths taken for every frame.
+
+inline constexpr char kHexDigits[] = "0123456789ABCDEF";
 
 inline void append_uint(std::string& out, std::uint64_t v) {
   const fmt::format_int digits(v);
@@ -34,6 +36,16 @@ inline void append_padded(std::string& out, std::string_view text, std::size_t w
   if (!pad_left) out.append(pad, ' ');
 }
 
+// '.' and the `decimals` (1..9) lowest decimal digits of `fraction`, zero-padded: ".050".
+inline void append_fraction(std::string& out, std::uint64_t fraction, int decimals) {
+  char digits[10] = {'.'};
+  for (int i = decimals; i >= 1; --i) {
+    digits[i] = static_cast<char>('0' + fraction % 10);
+    fraction /= 10;
+  }
+  out.append(digits, static_cast<std::size_t>(decimals) + 1);
+}
+
 // Seconds with `decimals` (<= 9) digits, exact (no floating point): 1.500000.
 inline void append_seconds(std::string& out, TimeNs t, int decimals) {
   const bool negative = t < 0;
@@ -43,14 +55,7 @@ inline void append_seconds(std::string& out, TimeNs t, int decimals) {
   for (int i = decimals; i < 9; ++i) frac /= 10;
   if (negative) out += '-';
   append_uint(out, a / 1'000'000'000u);
-  if (decimals <= 0) return;
-  out += '.';
-  char digits[9];
-  for (int i = decimals - 1; i >= 0; --i) {
-    digits[i] = static_cast<char>('0' + frac % 10);
-    frac /= 10;
-  }
-  out.append(digits, static_cast<std::size_t>(decimals));
+  if (decimals > 0) append_fraction(out, frac, decimals);
 }
 
 inline std::string format_seconds(TimeNs t, int decimals) {
@@ -71,11 +76,7 @@ inline void append_ms(std::string& out, TimeNs t) {
   }
   const auto us = static_cast<std::uint64_t>((t + 500) / 1000);
   append_uint(out, us / 1000);
-  const auto frac = static_cast<unsigned>(us % 1000);
-  const char digits[4] = {'.', static_cast<char>('0' + frac / 100),
-                          static_cast<char>('0' + frac / 10 % 10),
-                          static_cast<char>('0' + frac % 10)};
-  out.append(digits, 4);
+  append_fraction(out, us % 1000, 3);
 }
 
 inline std::string format_ms(TimeNs t) {
@@ -86,11 +87,10 @@ inline std::string format_ms(TimeNs t) {
 
 inline void append_hex_bytes(std::string& out, std::span<const std::uint8_t> bytes,
                              std::string_view separator = " ") {
-  constexpr char kDigits[] = "0123456789ABCDEF";
   for (std::size_t i = 0; i < bytes.size(); ++i) {
     if (i) out.append(separator);
-    out += kDigits[bytes[i] >> 4];
-    out += kDigits[bytes[i] & 0x0F];
+    out += kHexDigits[bytes[i] >> 4];
+    out += kHexDigits[bytes[i] & 0x0F];
   }
 }
 
