@@ -42,7 +42,7 @@ CaptureSink::CaptureSink(std::FILE* out, const ChannelTable& channels, CaptureSi
   const int dlt = options_.link_type == CaptureLinkType::user0 ? DLT_USER0 : kLinkTypeUpperPdu;
   pcap_ = pcap_open_dead_with_tstamp_precision(dlt, 65535, PCAP_TSTAMP_PRECISION_NANO);
   if (pcap_) dumper_ = pcap_dump_fopen(pcap_, out_);
-  if (!dumper_) note_write_failure(failed_, write_errno_);
+  if (!dumper_) status_.note_failure();
 }
 
 CaptureSink::~CaptureSink() {
@@ -105,7 +105,7 @@ void CaptureSink::on_anomaly(const Anomaly& a) {
 }
 
 void CaptureSink::write_pending() {
-  if (!pending_ || failed_) {
+  if (!pending_ || status_.failed()) {
     pending_.reset();
     return;
   }
@@ -145,7 +145,7 @@ void CaptureSink::write_pending() {
     h.caplen = h.len = static_cast<bpf_u_int32>(data.size());
     pcap_dump(reinterpret_cast<u_char*>(dumper_), &h, data.data());
     // pcap_dump() says nothing of a failed write: its errno is kept here, on the writing thread.
-    if (std::ferror(out_)) note_write_failure(failed_, write_errno_);
+    if (std::ferror(out_)) status_.note_failure();
   } else {
     std::vector<std::uint8_t>& option = option_;
     const std::uint8_t kind = p.kind == FrameKind::noise ? 1 : 0;
@@ -188,7 +188,7 @@ void CaptureSink::write_pending() {
     pkt.comment = p.comment;
     pkt.drivetap_option = option;
     ng_.packet(pkt);
-    if (!ng_.ok()) note_write_failure(failed_, write_errno_);
+    if (!ng_.ok()) status_.note_failure();
   }
   ++packets_;
   pending_.reset();
@@ -280,8 +280,8 @@ void cut_back_to(std::FILE* file, long known_good, CaptureFormat format) {
 
 bool CaptureSink::flush() {
   write_pending();
-  if (dumper_ && pcap_dump_flush(dumper_) != 0) note_write_failure(failed_, write_errno_);
-  return flush_result(std::fflush(out_) == 0 && !failed_ && !std::ferror(out_), write_errno_);
+  if (dumper_ && pcap_dump_flush(dumper_) != 0) status_.note_failure();
+  return status_.flush(out_);
 }
 
 }  // namespace drivetap

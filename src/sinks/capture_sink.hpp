@@ -91,8 +91,7 @@ class CaptureSink final : public Sink {
   std::uint64_t packets_ = 0;
   std::unique_ptr<Pending> pending_;  // a frame waits for its anomalies (they go in the comment)
   std::vector<std::uint8_t> option_;  // drivetap's EPB option, reused from packet to packet
-  bool failed_ = false;
-  int write_errno_ = 0;  // why the first write failed
+  WriteStatus status_;
 };
 
 }  // namespace drivetap

@@ -148,8 +148,7 @@ JsonSink::JsonSink(std::FILE* out, const ChannelTable& channels, TimeNs characte
 
 void JsonSink::write(std::string& line) {
   line += '\n';
-  if (std::fwrite(line.data(), 1, line.size(), out_) != line.size())
-    note_write_failure(write_failed_, write_errno_);
+  if (std::fwrite(line.data(), 1, line.size(), out_) != line.size()) status_.note_failure();
 }
 
 void JsonSink::on_frame(const Message& m) {
@@ -350,7 +349,7 @@ void JsonSink::on_summary(const Stats& s) {
 }
 
 bool JsonSink::flush() {
-  return flush_result(std::fflush(out_) == 0 && !write_failed_ && !std::ferror(out_), write_errno_);
+  return status_.flush(out_);
 }
 
 }  // namespace drivetap

@@ -28,8 +28,7 @@ class JsonSink final : public Sink {
   const ChannelTable& channels_;
   TimeNs character_time_;
   bool show_latency_;
-  bool write_failed_ = false;
-  int write_errno_ = 0;  // why the first write failed
+  WriteStatus status_;
   std::string line_;     // reused for every frame line
   std::string summary_;  // scratch: the frame's one-line decode
 };

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cerrno>
+#include <cstdio>
 #include <vector>
 
 #include "core/anomaly.hpp"
@@ -16,17 +17,26 @@
 
 namespace drivetap {
 
-// A sink's failed write: marks it and keeps the first failure's errno. Records may be written
-// on another thread than the one that flushes (ThreadedSink), and errno is per thread.
-inline void note_write_failure(bool& failed, int& first_errno) {
-  failed = true;
-  if (first_errno == 0) first_errno = errno != 0 ? errno : EIO;
-}
-// What flush() returns: `ok`, with errno set to the first failure's when it is false.
-inline bool flush_result(bool ok, int first_errno) {
-  if (!ok && first_errno != 0) errno = first_errno;
-  return ok;
-}
+// Whether a sink's writes to its file failed, and the first failure's errno. Records may be
+// written on another thread than the one that flushes (ThreadedSink), and errno is per thread:
+// it is kept here when the write fails.
+class WriteStatus {
+ public:
+  void note_failure() {
+    if (errno_ == 0) errno_ = errno != 0 ? errno : EIO;
+  }
+  [[nodiscard]] bool failed() const { return errno_ != 0; }
+  // Flushes `file`; true when every write to it went through, else false with errno set to the
+  // first failure's (or to fflush's own, when that is the first).
+  bool flush(std::FILE* file) const {
+    const bool ok = std::fflush(file) == 0 && !failed() && !std::ferror(file);
+    if (!ok && failed()) errno = errno_;
+    return ok;
+  }
+
+ private:
+  int errno_ = 0;
+};
 
 class Sink {
  public:

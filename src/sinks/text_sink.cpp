@@ -92,7 +92,7 @@ TextSink::TextSink(std::FILE* out, const ChannelTable& channels, TextSinkOptions
 void TextSink::write(const std::string& line) {
   if (std::fwrite(line.data(), 1, line.size(), out_) != line.size() ||
       std::fputc('\n', out_) == EOF)
-    note_write_failure(write_failed_, write_errno_);
+    status_.note_failure();
 }
 
 void TextSink::append_prefix(std::string& s, std::uint64_t number, TimeNs time,
@@ -245,7 +245,7 @@ void TextSink::on_summary(const Stats& s) {
 }
 
 bool TextSink::flush() {
-  return flush_result(std::fflush(out_) == 0 && !write_failed_ && !std::ferror(out_), write_errno_);
+  return status_.flush(out_);
 }
 
 }  // namespace drivetap

@@ -40,8 +40,7 @@ class TextSink final : public Sink {
   const ChannelTable& channels_;
   TextSinkOptions options_;
   std::uint64_t last_frame_number_ = 0;
-  bool write_failed_ = false;
-  int write_errno_ = 0;          // why the first write failed
+  WriteStatus status_;
   std::string line_;             // reused for every frame line
   mutable std::string seconds_;  // scratch for the time column
 };
