@@ -85,31 +85,19 @@ void ThreadedSink::run() {
 }
 
 void ThreadedSink::on_frame(const Message& message) {
-  if (finished_) return inner_.on_frame(message);
-  Record& r = next_record();
-  r.kind = Kind::frame;
-  r.message = message;  // copy-assigned: the record's vectors and strings keep their storage
+  give(Kind::frame, &Record::message, message, &Sink::on_frame);
 }
-
 void ThreadedSink::on_noise(const Frame& noise) {
-  if (finished_) return inner_.on_noise(noise);
-  Record& r = next_record();
-  r.kind = Kind::noise;
-  r.noise = noise;
+  give(Kind::noise, &Record::noise, noise, &Sink::on_noise);
 }
-
 void ThreadedSink::on_anomaly(const Anomaly& anomaly) {
-  if (finished_) return inner_.on_anomaly(anomaly);
-  Record& r = next_record();
-  r.kind = Kind::anomaly;
-  r.anomaly = anomaly;
+  give(Kind::anomaly, &Record::anomaly, anomaly, &Sink::on_anomaly);
 }
-
 void ThreadedSink::on_transaction(const Transaction& transaction) {
-  if (finished_) return inner_.on_transaction(transaction);
-  Record& r = next_record();
-  r.kind = Kind::transaction;
-  r.transaction = transaction;
+  give(Kind::transaction, &Record::transaction, transaction, &Sink::on_transaction);
+}
+void ThreadedSink::on_event(const BusEvent& event) {
+  give(Kind::event, &Record::event, event, &Sink::on_event);
 }
 
 void ThreadedSink::on_summary(const Stats& stats) {
@@ -117,13 +105,6 @@ void ThreadedSink::on_summary(const Stats& stats) {
   Record& r = next_record();
   r.kind = Kind::summary;
   r.stats = std::make_unique<Stats>(stats);
-}
-
-void ThreadedSink::on_event(const BusEvent& event) {
-  if (finished_) return inner_.on_event(event);
-  Record& r = next_record();
-  r.kind = Kind::event;
-  r.event = event;
 }
 
 bool ThreadedSink::flush() {

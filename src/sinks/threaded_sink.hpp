@@ -69,7 +69,16 @@ class ThreadedSink final : public Sink {
     std::size_t used = 0;
   };
 
-  Record& next_record();   // the current batch's next free record (publishing a full batch)
+  Record& next_record();  // the current batch's next free record (publishing a full batch)
+  // A record of one kind: copied into `slot` of the next record, or after finish() given to the
+  // inner sink through `direct`.
+  template <class T>
+  void give(Kind kind, T Record::*slot, const T& value, void (Sink::*direct)(const T&)) {
+    if (finished_) return (inner_.*direct)(value);
+    Record& r = next_record();
+    r.kind = kind;
+    r.*slot = value;  // copy-assigned: the record's vectors and strings keep their storage
+  }
   void publish();          // hands the current batch, if it holds records, to the writer
   void wait_until_idle();  // until every published batch has been replayed
   void run();              // the writer thread
