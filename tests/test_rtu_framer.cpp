@@ -313,7 +313,28 @@ TEST(RtuFramer, PushAllGivesTheFramesOfPushingOneByOne) {
     EXPECT_EQ(got[i].close, expected[i].close);
     EXPECT_EQ(got[i].gap_before, expected[i].gap_before);
     EXPECT_EQ(got[i].max_intra_gap, expected[i].max_intra_gap);
+    EXPECT_EQ(got[i].max_intra_gap_at, expected[i].max_intra_gap_at);
     telegrams += got[i].kind == FrameKind::telegram;
+  }
+  // The framer keeps the timing of what it holds as bytes arrive (and takes it for a frame of all
+  // of them): it must be what the frames' own events say, one-stamp bursts and overlaps included.
+  TimeNs previous_end = 0;
+  for (std::size_t i = 0; i < got.size(); ++i) {
+    SCOPED_TRACE(i);
+    const std::vector<ByteEvent>& ev = got[i].events;
+    TimeNs end = ev.front().time + timing.character_time, max_gap = 0;
+    std::uint32_t max_gap_at = 0;
+    for (std::size_t k = 1; k < ev.size(); ++k) {
+      if (ev[k].time - end > max_gap) {
+        max_gap = ev[k].time - end;
+        max_gap_at = static_cast<std::uint32_t>(k);
+      }
+      end = std::max(end, ev[k].time + timing.character_time);
+    }
+    EXPECT_EQ(got[i].max_intra_gap, max_gap);
+    EXPECT_EQ(got[i].max_intra_gap_at, max_gap_at);
+    EXPECT_EQ(got[i].gap_before, i == 0 ? -1 : std::max<TimeNs>(0, ev.front().time - previous_end));
+    previous_end = i == 0 ? end : std::max(previous_end, end);
   }
   // The stream exercises every path: telegrams, noise, and closes by silence and by content.
   EXPECT_GT(telegrams, 1000u);

@@ -119,13 +119,19 @@ class HybridFramer final : public Framer {
   const Rules& rules_;
   std::vector<ByteEvent> pending_;
   std::vector<std::uint8_t> pending_bytes_;
+  // Timing of pending_'s bytes as they arrived; while pending_run_whole_, it is that of exactly
+  // the bytes in pending_ (none dropped since it started), so a frame of all of them needs no
+  // second look at their times.
+  ByteRunTiming pending_run_;
+  bool pending_run_whole_ = false;
   std::vector<std::size_t> hard_;  // indices in pending_ preceded by silence > t3.5
   TimeNs last_end_ = std::numeric_limits<TimeNs>::min();  // end of the latest byte pushed
   TimeNs emitted_end_ = -1;  // end of the last byte of the last emitted frame; -1 none yet
   bool have_emitted_ = false;
   bool processed_since_last_byte_ = false;
   static constexpr std::size_t kSpares = 64;
-  std::vector<std::vector<ByteEvent>> spare_;  // recycle()d frame storage for emit()
+  static constexpr std::size_t kPendingReserve = 64;  // events: 1 KiB
+  std::vector<std::vector<ByteEvent>> spare_;         // recycle()d frame storage for emit()
 };
 
 }  // namespace drivetap

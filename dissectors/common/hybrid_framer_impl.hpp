@@ -24,6 +24,12 @@ void HybridFramer<Rules>::push(const ByteEvent& event, std::vector<Frame>& out) 
       if (!pending_.empty()) hard_.push_back(pending_.size());
     }
   }
+  if (pending_.empty()) {
+    pending_run_.start(event.time, options_.timing.character_time);
+    pending_run_whole_ = true;
+  } else {
+    pending_run_.add(event.time, pending_.size(), options_.timing.character_time);
+  }
   pending_.push_back(event);
   pending_bytes_.push_back(event.byte);
   last_end_ = std::max(last_end_, event.time + options_.timing.character_time);
@@ -47,22 +53,17 @@ void HybridFramer<Rules>::push_all(std::span<const ByteEvent> events, std::vecto
     const std::size_t room = pending_.size() + 1 < options_.pressure_bytes
                                  ? options_.pressure_bytes - 1 - pending_.size()
                                  : 0;
-    const std::size_t run_begin = i;
+    const std::size_t limit = i + std::min(room, events.size() - i);
     TimeNs end = last_end_;
-    while (i < events.size() && i - run_begin < room && events[i].time - end <= t35) {
-      end = std::max(end, events[i].time + character_time);
+    // One pass: each byte is checked for silence before it and appended, or ends the run.
+    while (i < limit && events[i].time - end <= t35) {
+      const ByteEvent& e = events[i];
+      end = std::max(end, e.time + character_time);
+      pending_run_.add(e.time, pending_.size(), character_time);
+      pending_.push_back(e);
+      pending_bytes_.push_back(e.byte);
       ++i;
     }
-    if (i == run_begin) continue;
-    const auto first = events.begin() + static_cast<std::ptrdiff_t>(run_begin);
-    const auto last = events.begin() + static_cast<std::ptrdiff_t>(i);
-    pending_.insert(pending_.end(), first, last);
-    const std::size_t old_size = pending_bytes_.size();
-    pending_bytes_.resize(old_size + (i - run_begin));
-    // Through a local span: a byte store could alias the vector's own pointers, which would
-    // then be reloaded for every byte.
-    const std::span<std::uint8_t> to = std::span(pending_bytes_).subspan(old_size);
-    for (std::size_t k = 0; k < to.size(); ++k) to[k] = events[run_begin + k].byte;
     last_end_ = end;
   }
 }
@@ -156,7 +157,7 @@ bool HybridFramer<Rules>::looks_like_frame_start(std::size_t p) const {
 template <class Rules>
 void HybridFramer<Rules>::emit(std::size_t p, std::size_t len, FrameKind kind, FrameClose close,
                                std::vector<Frame>& out) {
-  Frame f;
+  Frame& f = out.emplace_back();
   if (!spare_.empty()) {
     f.events = std::move(spare_.back());
     spare_.pop_back();
@@ -164,10 +165,22 @@ void HybridFramer<Rules>::emit(std::size_t p, std::size_t len, FrameKind kind, F
   f.kind = kind;
   f.channel = channel_;
   f.close = close;
-  f.events.assign(pending_.begin() + static_cast<std::ptrdiff_t>(p),
-                  pending_.begin() + static_cast<std::ptrdiff_t>(p + len));
+  if (p == 0 && len == pending_.size()) {
+    // The frame is everything pending (the common case: one frame between two silences): it
+    // takes pending_'s storage, and pending_ continues in the spare's, saving a copy per byte.
+    f.events.clear();
+    f.events.swap(pending_);
+    // Without a spare of some size, room for a typical frame at once rather than a doubling
+    // series of allocations as its bytes arrive.
+    if (pending_.capacity() < kPendingReserve) pending_.reserve(kPendingReserve);
+    // pending_run_ is the timing of exactly these bytes unless some were dropped before them.
+    if (pending_run_whole_)
+      return stamp_frame_timing(f, pending_run_, &emitted_end_, &have_emitted_);
+  } else {
+    f.events.assign(pending_.begin() + static_cast<std::ptrdiff_t>(p),
+                    pending_.begin() + static_cast<std::ptrdiff_t>(p + len));
+  }
   stamp_frame_timing(f, options_.timing.character_time, &emitted_end_, &have_emitted_);
-  out.push_back(std::move(f));
 }
 
 template <class Rules>
@@ -268,13 +281,22 @@ void HybridFramer<Rules>::process(Mode mode, TimeNs now, std::vector<Frame>& out
 
   // Drop what was emitted; shift the boundary marks.
   if (p > 0) {
-    pending_.erase(pending_.begin(), pending_.begin() + static_cast<std::ptrdiff_t>(p));
-    pending_bytes_.erase(pending_bytes_.begin(),
-                         pending_bytes_.begin() + static_cast<std::ptrdiff_t>(p));
-    std::vector<std::size_t> kept;
-    for (std::size_t h : hard_)
-      if (h > p) kept.push_back(h - p);
-    hard_ = std::move(kept);
+    // emit() took all of pending_ when its last frame covered it (pending_ is then empty).
+    if (!pending_.empty()) {
+      pending_.erase(pending_.begin(), pending_.begin() + static_cast<std::ptrdiff_t>(p));
+      pending_run_whole_ = false;  // pending_run_ also covers the bytes just dropped
+    }
+    if (p == pending_bytes_.size()) {
+      pending_bytes_.clear();
+      hard_.clear();  // every mark is at or before p
+    } else {
+      pending_bytes_.erase(pending_bytes_.begin(),
+                           pending_bytes_.begin() + static_cast<std::ptrdiff_t>(p));
+      std::vector<std::size_t> kept;
+      for (std::size_t h : hard_)
+        if (h > p) kept.push_back(h - p);
+      hard_ = std::move(kept);
+    }
   }
 }
 

@@ -44,24 +44,50 @@ struct Frame {
   }
 };
 
-// Fills a frame's timing from its events: silence before it (from `*previous_end`, the end of
-// the previous record on its channel, when `*have_previous`) and the largest silence inside it.
-// Updates *previous_end / *have_previous for the next record. Shared by every framer.
-inline void stamp_frame_timing(Frame& f, TimeNs character_time, TimeNs* previous_end,
+// The timing of a run of bytes, kept as they arrive: the end of the latest byte (a byte ends one
+// character time after its start bit) and the largest silence between two consecutive bytes.
+struct ByteRunTiming {
+  TimeNs end = 0;
+  TimeNs max_gap = 0;
+  std::uint32_t max_gap_at = 0;  // index in the run of the byte the largest silence preceded
+
+  void start(TimeNs time, TimeNs character_time) {
+    end = time + character_time;
+    max_gap = 0;
+    max_gap_at = 0;
+  }
+  // Byte `index` (> 0) of the run, starting at `time`.
+  void add(TimeNs time, std::size_t index, TimeNs character_time) {
+    const TimeNs gap = time - end;
+    if (gap > max_gap) {
+      max_gap = gap;
+      max_gap_at = static_cast<std::uint32_t>(index);
+    }
+    end = std::max(end, time + character_time);
+  }
+};
+
+// Fills a frame's timing from `run`, the timing of its events: silence before it (from
+// `*previous_end`, the end of the previous record on its channel, when `*have_previous`) and the
+// largest silence inside it. Updates *previous_end / *have_previous for the next record.
+inline void stamp_frame_timing(Frame& f, const ByteRunTiming& run, TimeNs* previous_end,
                                bool* have_previous) {
   if (f.events.empty()) return;
   if (*have_previous) f.gap_before = std::max<TimeNs>(0, f.events.front().time - *previous_end);
-  TimeNs end = f.events.front().time + character_time;
-  for (std::size_t i = 1; i < f.events.size(); ++i) {
-    const TimeNs gap = f.events[i].time - end;
-    if (gap > f.max_intra_gap) {
-      f.max_intra_gap = gap;
-      f.max_intra_gap_at = static_cast<std::uint32_t>(i);
-    }
-    end = std::max(end, f.events[i].time + character_time);
-  }
-  *previous_end = *have_previous ? std::max(*previous_end, end) : end;
+  f.max_intra_gap = run.max_gap;
+  f.max_intra_gap_at = run.max_gap_at;
+  *previous_end = *have_previous ? std::max(*previous_end, run.end) : run.end;
   *have_previous = true;
+}
+
+// The same, the run's timing computed from the frame's events. Shared by every framer.
+inline void stamp_frame_timing(Frame& f, TimeNs character_time, TimeNs* previous_end,
+                               bool* have_previous) {
+  if (f.events.empty()) return;
+  ByteRunTiming run;
+  run.start(f.events.front().time, character_time);
+  for (std::size_t i = 1; i < f.events.size(); ++i) run.add(f.events[i].time, i, character_time);
+  stamp_frame_timing(f, run, previous_end, have_previous);
 }
 
 }  // namespace drivetap
