@@ -177,11 +177,12 @@ struct TranscriptSink final : Sink {
     with_info += !m.info.empty();
     infos.push_back(m.info);
     records.push_back(fmt::format(
-        "frame #{} {} {} addr {} fc {} exc {} code {} crc {} lat {} req #{} drive '{}' anomalies "
-        "{}",
-        m.frame.number, protocol_id(m.protocol), direction_id(m.direction), m.address, m.function,
-        m.is_exception, m.exception_code, static_cast<int>(m.checksum.verdict), m.latency,
-        m.request_number, m.drive_info, m.anomalies.size()));
+        "frame #{} t {} gap {} {} {} addr {} fc {} exc {} code {} crc {} lat {} req #{} drive '{}' "
+        "anomalies {}",
+        m.frame.number, m.frame.start(), m.frame.gap_before, protocol_id(m.protocol),
+        direction_id(m.direction), m.address, m.function, m.is_exception, m.exception_code,
+        static_cast<int>(m.checksum.verdict), m.latency, m.request_number, m.drive_info,
+        m.anomalies.size()));
   }
   void on_noise(const Frame& f) override {
     records.push_back(fmt::format("noise #{} {} bytes", f.number, f.size()));
@@ -206,10 +207,15 @@ struct TranscriptSink final : Sink {
   [[nodiscard]] bool wants_fields() const override { return fields; }
 };
 
+// What the pipeline must adjust before framing (Pipeline::as_on_the_wire): bytes stamped inside
+// their predecessor (an adapter that stamps a whole read at once: every third record's bytes get
+// the record's start time), or an 8th bit that is not data (the run set to 7 data bits).
+enum class Adjust { none, one_stamp_reads, seven_bits };
+
 // The generator's mixed bus (four protocols, errors, noise, timeouts) through one pipeline:
 // byte by byte (`chunk` 0) or with push_batch() over runs of `chunk` bytes that cut across
 // records and channels.
-void run_generated(TranscriptSink& sink, std::size_t chunk = 0) {
+void run_generated(TranscriptSink& sink, std::size_t chunk = 0, Adjust adjust = Adjust::none) {
   generate::Options go;
   go.frames = 20000;
   go.seed = 7;
@@ -218,15 +224,18 @@ void run_generated(TranscriptSink& sink, std::size_t chunk = 0) {
   PipelineOptions options;
   options.serial = generate::Generator::serial();
   options.timing = FramingTiming::from(options.serial);
+  if (adjust == Adjust::seven_bits) options.serial.data_bits = 7;
   Pipeline pipeline(options, channels, sink);
   std::vector<int> channel_of(gen.links().size(), -1);
   generate::Record r;
   std::vector<ByteEvent> pending;
-  while (gen.next(r)) {
+  for (std::size_t record = 0; gen.next(r); ++record) {
     if (channel_of[r.link] < 0) channel_of[r.link] = channels.intern(gen.links()[r.link].channel);
+    const bool one_stamp = adjust == Adjust::one_stamp_reads && record % 3 == 0;
     for (std::size_t i = 0; i < r.bytes.size(); ++i) {
-      const ByteEvent e{r.start + static_cast<TimeNs>(i) * options.timing.character_time,
-                        r.bytes[i], r.flags[i], static_cast<ChannelId>(channel_of[r.link]), 0};
+      const TimeNs offset = one_stamp ? 0 : static_cast<TimeNs>(i) * options.timing.character_time;
+      const ByteEvent e{r.start + offset, r.bytes[i], r.flags[i],
+                        static_cast<ChannelId>(channel_of[r.link]), 0};
       if (chunk == 0) {
         pipeline.push(e);
         continue;
@@ -280,16 +289,22 @@ TEST(Pipeline, InfoWithoutTreeFindsWhatADetailedRunFinds) {
 
 // push_batch() hands runs of bytes to the framer at once; what comes out must be exactly what
 // push() of each byte gives, wherever the runs start and end.
+// Also when bytes need adjusting first: push_batch() passes runs to the framer as given until a
+// byte needs it, and adjusted copies from there.
 TEST(Pipeline, PushBatchFindsWhatPushFinds) {
-  TranscriptSink one_by_one(true);
-  run_generated(one_by_one);
-  ASSERT_GT(one_by_one.messages, 10000u);
-  for (const std::size_t chunk : {1u, 7u, 64u, 4096u}) {
-    TranscriptSink batched(true);
-    run_generated(batched, chunk);
-    ASSERT_EQ(one_by_one.records.size(), batched.records.size()) << "chunk " << chunk;
-    for (std::size_t i = 0; i < one_by_one.records.size(); ++i)
-      ASSERT_EQ(one_by_one.records[i], batched.records[i]) << "chunk " << chunk << " record " << i;
+  for (const Adjust adjust : {Adjust::none, Adjust::one_stamp_reads, Adjust::seven_bits}) {
+    SCOPED_TRACE(static_cast<int>(adjust));
+    TranscriptSink one_by_one(true);
+    run_generated(one_by_one, 0, adjust);
+    ASSERT_GT(one_by_one.messages, 10000u);
+    for (const std::size_t chunk : {1u, 7u, 64u, 4096u}) {
+      TranscriptSink batched(true);
+      run_generated(batched, chunk, adjust);
+      ASSERT_EQ(one_by_one.records.size(), batched.records.size()) << "chunk " << chunk;
+      for (std::size_t i = 0; i < one_by_one.records.size(); ++i)
+        ASSERT_EQ(one_by_one.records[i], batched.records[i])
+            << "chunk " << chunk << " record " << i;
+    }
   }
 }
 

@@ -125,17 +125,26 @@ void Pipeline::push_batch(std::span<const ByteEvent> events) {
     // would only append it (advance_all() has nothing due, the framer holds it).
     const std::size_t room = st.framer->quiet_room();
     const TimeNs others = deadline_of_others(channel);
-    run_.clear();
+    const std::size_t run_begin = i;
+    // The run goes to the framer as given while as_on_the_wire() changes none of its bytes (the
+    // usual case); from the first it changes, the run is copied into run_ and adjusted there.
+    bool as_given = true;
     // Each pass takes one byte into the run, or stops.
-    while (i < events.size() && run_.size() < room && events[i].channel == channel) {
+    while (i < events.size() && i - run_begin < room && events[i].channel == channel) {
       const ByteEvent e = as_on_the_wire(events[i], st);
       if (e.time - st.last_end > options_.timing.t35 || e.time >= others) break;
       note_taken(st, e);
-      run_.push_back(e);
+      if (as_given && (e.time != events[i].time || e.byte != events[i].byte)) {
+        as_given = false;
+        run_.assign(events.begin() + static_cast<std::ptrdiff_t>(run_begin),
+                    events.begin() + static_cast<std::ptrdiff_t>(i));
+      }
+      if (!as_given) run_.push_back(e);
       ++i;
     }
-    if (run_.empty()) continue;
-    st.framer->push_all(run_, ready_);
+    if (i == run_begin) continue;
+    st.framer->push_all(as_given ? events.subspan(run_begin, i - run_begin) : std::span(run_),
+                        ready_);
     earliest_deadline_ = std::min(earliest_deadline_, st.framer->next_deadline());
     if (!ready_.empty()) handle_frames();
   }
