@@ -2,6 +2,7 @@
 #include "sources/input_file.hpp"
 
 #include <fmt/format.h>
+#include <stdio_ext.h>
 #include <sys/stat.h>
 
 #include <cerrno>
@@ -121,6 +122,9 @@ bool open_input(const std::string& path, InputFile* out, std::string* error) {
   }
   out->format = recognise(out->head, out->head_size);
   if (f != stdin && std::fseek(f, 0, SEEK_SET) == 0) {
+    // One thread reads an input at a time (the read-ahead thread, or the caller's): stdio need
+    // not lock the stream around each of the three reads of every pcapng block.
+    __fsetlocking(f, FSETLOCKING_BYCALLER);
     out->file = f;
     return true;
   }
