@@ -1,6 +1,8 @@
 // Unit tests: the pipeline stage wiring — direction, pairing outcomes, anomalies, time discipline.
 #include <gtest/gtest.h>
 
+#include <set>
+
 #include <fmt/format.h>
 
 #include "core/checksum.hpp"
@@ -171,8 +173,10 @@ struct TranscriptSink final : Sink {
   std::vector<std::string> records;
   std::vector<std::string> infos;  // each message's info line
   std::size_t with_fields = 0, with_info = 0, messages = 0;
+  std::set<const FieldDesc*> descriptors;  // of every field node seen
   void on_frame(const Message& m) override {
     ++messages;
+    for (const FieldNode& node : m.fields) descriptors.insert(node.desc);
     with_fields += !m.fields.empty();
     with_info += !m.info.empty();
     infos.push_back(m.info);
@@ -285,6 +289,18 @@ TEST(Pipeline, InfoWithoutTreeFindsWhatADetailedRunFinds) {
   ASSERT_EQ(detailed.infos.size(), info_only.infos.size());
   for (std::size_t i = 0; i < detailed.infos.size(); ++i)
     ASSERT_EQ(detailed.infos[i], info_only.infos[i]) << "message " << i;
+}
+
+// Every field a dissector emits has an id of the one field table (a descriptor of its own, or
+// one sharing a listed id: Danfoss FC's AK has a request and a response meaning).
+TEST(Pipeline, EveryFieldEmittedHasAnIdOfTheFieldTable) {
+  TranscriptSink sink(true);
+  run_generated(sink);
+  std::set<std::string_view> ids;
+  for (const FieldDesc* d : all_field_descriptors()) ids.insert(d->id);
+  EXPECT_GT(sink.descriptors.size(), 30u);  // the four protocols' fields, not a few
+  for (const FieldDesc* d : sink.descriptors)
+    EXPECT_TRUE(ids.count(d->id)) << "field " << d->id << " is not in the field table";
 }
 
 // push_batch() hands runs of bytes to the framer at once; what comes out must be exactly what

@@ -12,6 +12,8 @@
 
 namespace drivetap {
 
+using namespace std::string_view_literals;
+
 namespace {
 
 // Characters a JSON string cannot hold as they are: '"', '\\' and the controls below 0x20.
@@ -90,34 +92,42 @@ void append_field_value(std::string& out, const Message& m, const FieldNode& nod
   }
 }
 
-void append_fields_object(std::string& out, const Message& m) {
-  out += '{';
-  bool first_key = true;
+// The field tree as an object keyed by dotted id, in first-seen order; an id seen more than once
+// (registers) has an array of its values. `keys` is scratch storage. Ids are dotted lower-case
+// (tests/test_field_table.cpp): written without escaping. Nodes of one id nearly always share
+// a descriptor, so its address is compared before the id.
+void append_fields_object(std::string& out, const Message& m,
+                          std::vector<JsonSink::FieldKey>& keys) {
+  keys.clear();
   for (std::size_t i = 0; i < m.fields.size(); ++i) {
-    const FieldNode& node = m.fields[i];
-    if (node.desc->type == FieldType::group) continue;
-    const std::string_view id = node.desc->id;
-    bool seen = false;  // the id's values went out at its first occurrence
-    for (std::size_t j = 0; j < i && !seen; ++j)
-      seen = m.fields[j].desc->type != FieldType::group && m.fields[j].desc->id == id;
-    if (seen) continue;
-    std::size_t count = 0;
-    for (std::size_t j = i; j < m.fields.size(); ++j)
-      if (m.fields[j].desc->type != FieldType::group && m.fields[j].desc->id == id) ++count;
-    if (!first_key) out += ',';
-    first_key = false;
-    append_json_quoted(out, id);
-    out += ':';
-    if (count == 1) {
-      append_field_value(out, m, node);
+    const FieldDesc* desc = m.fields[i].desc;
+    if (desc->type == FieldType::group) continue;
+    auto key = std::find_if(keys.begin(), keys.end(), [desc](const JsonSink::FieldKey& k) {
+      return k.desc == desc || k.desc->id == desc->id;
+    });
+    if (key == keys.end())
+      keys.push_back({desc, i, 1});
+    else
+      ++key->count;
+  }
+  out += '{';
+  for (std::size_t k = 0; k < keys.size(); ++k) {
+    const JsonSink::FieldKey& key = keys[k];
+    if (k != 0) out += ',';
+    out += '"';
+    out += key.desc->id;
+    out += "\":"sv;
+    if (key.count == 1) {
+      append_field_value(out, m, m.fields[key.first]);
       continue;
     }
     out += '[';
-    bool first_value = true;
-    for (std::size_t j = i; j < m.fields.size(); ++j) {
-      if (m.fields[j].desc->type == FieldType::group || m.fields[j].desc->id != id) continue;
-      if (!first_value) out += ',';
-      first_value = false;
+    // Each pass looks at one node; the key's values are its nodes from `first` on.
+    for (std::size_t j = key.first, written = 0; written < key.count; ++j) {
+      const FieldDesc* desc = m.fields[j].desc;
+      if (desc->type == FieldType::group || (desc != key.desc && desc->id != key.desc->id))
+        continue;
+      if (written++ != 0) out += ',';
       append_field_value(out, m, m.fields[j]);
     }
     out += ']';
@@ -155,66 +165,66 @@ void JsonSink::on_frame(const Message& m) {
   const TimeNs t_end = m.frame.events.empty() ? 0 : m.frame.events.back().time + character_time_;
   std::string& line = line_;
   line.clear();
-  line += "{\"type\":\"frame\",\"n\":";
+  line += "{\"type\":\"frame\",\"n\":"sv;
   append_uint(line, m.frame.number);
-  line += ",\"t\":";
+  line += ",\"t\":"sv;
   append_seconds(line, m.frame.start(), 9);
-  line += ",\"t_end\":";
+  line += ",\"t_end\":"sv;
   append_seconds(line, t_end, 9);
-  line += ",\"channel\":";
+  line += ",\"channel\":"sv;
   append_json_quoted(line, channels_.at(m.frame.channel).name);
-  line += ",\"dir\":\"";
+  line += ",\"dir\":\""sv;
   line += direction_id(m.direction);
-  line += "\",\"protocol\":\"";
+  line += "\",\"protocol\":\""sv;
   line += protocol_id(m.protocol);
-  line += "\",\"addr\":";
+  line += "\",\"addr\":"sv;
   if (m.address < 0)
-    line += "null";
+    line += "null"sv;
   else
     append_int(line, m.address);
-  line += ",\"fc\":";
+  line += ",\"fc\":"sv;
   if (m.function < 0)
-    line += "null";
+    line += "null"sv;
   else
     append_int(line, m.function);
-  line += ",\"hex\":\"";
+  line += ",\"hex\":\""sv;
   append_hex_bytes(line, m.bytes, "");
-  line += "\",\"checksum\":\"";
+  line += "\",\"checksum\":\""sv;
   line += to_string(m.checksum.verdict);
   line += '"';
   if (m.checksum.verdict != ChecksumVerdict::none) {
-    line += ",\"checksum_stated\":\"";
+    line += ",\"checksum_stated\":\""sv;
     line += wire_hex(m.checksum.stated_wire, m.checksum.width, "");
-    line += "\",\"checksum_computed\":\"";
+    line += "\",\"checksum_computed\":\""sv;
     line += wire_hex(m.checksum.computed_wire, m.checksum.width, "");
     line += '"';
   }
   if (m.is_exception) {
-    line += ",\"exception\":";
+    line += ",\"exception\":"sv;
     append_int(line, m.exception_code);
   }
   if (!m.drive_info.empty()) {
-    line += ",\"drive\":";
+    line += ",\"drive\":"sv;
     append_json_quoted(line, m.drive_info);
   }
   if (m.request_number != 0) {
-    line += ",\"latency_ms\":";
+    line += ",\"latency_ms\":"sv;
     if (m.latency >= 0 && show_latency_)
       append_ms(line, m.latency);
     else
-      line += "null";
-    line += ",\"request_n\":";
+      line += "null"sv;
+    line += ",\"request_n\":"sv;
     append_uint(line, m.request_number);
   }
   if (m.frame.gap_before >= 0 && show_latency_) {
-    line += ",\"gap_before_ms\":";
+    line += ",\"gap_before_ms\":"sv;
     append_ms(line, m.frame.gap_before);
   }
-  line += ",\"close\":\"";
+  line += ",\"close\":\""sv;
   line += close_id(m.frame.close);
-  line += "\",\"fields\":";
-  append_fields_object(line, m);
-  line += ",\"summary\":";
+  line += "\",\"fields\":"sv;
+  append_fields_object(line, m, field_keys_);
+  line += ",\"summary\":"sv;
   summary_.clear();
   append_frame_summary(summary_, m, show_latency_);
   append_json_quoted(line, summary_);
@@ -263,45 +273,45 @@ void JsonSink::on_transaction(const Transaction& t) {
   line.clear();
   auto number_or_null = [&line](std::uint64_t v) {
     if (v == 0)
-      line += "null";
+      line += "null"sv;
     else
       append_uint(line, v);
   };
   auto time_or_null = [&line](TimeNs v) {
     if (v < 0)
-      line += "null";
+      line += "null"sv;
     else
       append_seconds(line, v, 9);
   };
-  line += "{\"type\":\"transaction\",\"outcome\":\"";
+  line += "{\"type\":\"transaction\",\"outcome\":\""sv;
   line += outcome_id(t.outcome);
-  line += "\",\"channel\":";
+  line += "\",\"channel\":"sv;
   append_json_quoted(line, channels_.at(t.channel).name);
-  line += ",\"protocol\":\"";
+  line += ",\"protocol\":\""sv;
   line += protocol_id(t.protocol);
-  line += "\",\"addr\":";
+  line += "\",\"addr\":"sv;
   append_int(line, t.address);
-  line += ",\"fc\":";
+  line += ",\"fc\":"sv;
   append_int(line, t.function);
-  line += ",\"request_n\":";
+  line += ",\"request_n\":"sv;
   number_or_null(t.request_number);
-  line += ",\"response_n\":";
+  line += ",\"response_n\":"sv;
   number_or_null(t.response_number);
-  line += ",\"request_t\":";
+  line += ",\"request_t\":"sv;
   time_or_null(t.request_time);
-  line += ",\"response_t\":";
+  line += ",\"response_t\":"sv;
   time_or_null(t.response_time);
-  line += ",\"latency_ms\":";
+  line += ",\"latency_ms\":"sv;
   if (t.latency < 0 || !show_latency_)
-    line += "null";
+    line += "null"sv;
   else
     append_ms(line, t.latency);
   if (t.exception_code >= 0) {
-    line += ",\"exception\":";
+    line += ",\"exception\":"sv;
     append_int(line, t.exception_code);
   }
   if (!t.detail.empty()) {
-    line += ",\"detail\":";
+    line += ",\"detail\":"sv;
     append_json_quoted(line, t.detail);
   }
   line += '}';
@@ -328,7 +338,7 @@ void JsonSink::on_summary(const Stats& s) {
       s.bytes, s.frames, s.noise_records, s.noise_bytes, c[1], c[2], c[3], c[0], s.transactions,
       o[0], o[1], o[2], o[3], o[4], latency, s.anomaly_total, anomalies);
   line.pop_back();  // the closing brace: drives follow
-  line += ",\"drives\":[";
+  line += ",\"drives\":["sv;
   for (std::size_t i = 0; i < s.drives.size(); ++i) {
     const DriveSummary& d = s.drives[i];
     line += fmt::format(
@@ -337,14 +347,14 @@ void JsonSink::on_summary(const Stats& s) {
         i ? "," : "", d.link, d.address, json_quote(d.profile), json_quote(d.profile_name),
         json_quote(d.binding), json_quote(d.state), d.events);
   }
-  line += "]";
+  line += "]"sv;
   if (!s.source_notes.empty()) {
-    line += ",\"source_notes\":[";
+    line += ",\"source_notes\":["sv;
     for (std::size_t i = 0; i < s.source_notes.size(); ++i)
       line += (i ? "," : "") + json_quote(s.source_notes[i]);
-    line += "]";
+    line += "]"sv;
   }
-  line += "}";
+  line += "}"sv;
   write(line);
 }
 

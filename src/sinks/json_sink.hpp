@@ -3,6 +3,7 @@
 
 #include <cstdio>
 #include <string>
+#include <vector>
 
 #include "core/byte_event.hpp"
 #include "core/serial_config.hpp"
@@ -22,6 +23,13 @@ class JsonSink final : public Sink {
   void on_event(const BusEvent& event) override;
   bool flush() override;
 
+  // One id of a frame's field tree: its descriptor, first node and number of nodes.
+  struct FieldKey {
+    const FieldDesc* desc;
+    std::size_t first;
+    std::size_t count;
+  };
+
  private:
   void write(std::string& line);
   std::FILE* out_;
@@ -29,8 +37,9 @@ class JsonSink final : public Sink {
   TimeNs character_time_;
   bool show_latency_;
   WriteStatus status_;
-  std::string line_;     // reused for every frame line
-  std::string summary_;  // scratch: the frame's one-line decode
+  std::string line_;                  // reused for every frame line
+  std::string summary_;               // scratch: the frame's one-line decode
+  std::vector<FieldKey> field_keys_;  // scratch: the ids of the frame's field tree
 };
 
 // JSON string literal with escapes.
