@@ -165,7 +165,8 @@ void HybridFramer<Rules>::emit(std::size_t p, std::size_t len, FrameKind kind, F
   f.kind = kind;
   f.channel = channel_;
   f.close = close;
-  if (p == 0 && len == pending_.size()) {
+  const bool all_pending = p == 0 && len == pending_.size();
+  if (all_pending) {
     // The frame is everything pending (the common case: one frame between two silences): it
     // takes pending_'s storage, and pending_ continues in the spare's, saving a copy per byte.
     f.events.clear();
@@ -173,14 +174,15 @@ void HybridFramer<Rules>::emit(std::size_t p, std::size_t len, FrameKind kind, F
     // Without a spare of some size, room for a typical frame at once rather than a doubling
     // series of allocations as its bytes arrive.
     if (pending_.capacity() < kPendingReserve) pending_.reserve(kPendingReserve);
-    // pending_run_ is the timing of exactly these bytes unless some were dropped before them.
-    if (pending_run_whole_)
-      return stamp_frame_timing(f, pending_run_, &emitted_end_, &have_emitted_);
   } else {
     f.events.assign(pending_.begin() + static_cast<std::ptrdiff_t>(p),
                     pending_.begin() + static_cast<std::ptrdiff_t>(p + len));
   }
-  stamp_frame_timing(f, options_.timing.character_time, &emitted_end_, &have_emitted_);
+  // pending_run_ is the timing of exactly these bytes unless some were dropped before them.
+  if (all_pending && pending_run_whole_)
+    stamp_frame_timing(f, pending_run_, &emitted_end_, &have_emitted_);
+  else
+    stamp_frame_timing(f, options_.timing.character_time, &emitted_end_, &have_emitted_);
 }
 
 template <class Rules>
