@@ -209,6 +209,8 @@ struct TranscriptSink final : Sink {
   bool flush() override { return true; }
   [[nodiscard]] bool wants_detail() const override { return detail; }
   [[nodiscard]] bool wants_fields() const override { return fields; }
+  [[nodiscard]] bool wants_transactions() const override { return transactions; }
+  bool transactions = true;
 };
 
 // What the pipeline must adjust before framing (Pipeline::as_on_the_wire): bytes stamped inside
@@ -289,6 +291,20 @@ TEST(Pipeline, InfoWithoutTreeFindsWhatADetailedRunFinds) {
   ASSERT_EQ(detailed.infos.size(), info_only.infos.size());
   for (std::size_t i = 0; i < detailed.infos.size(); ++i)
     ASSERT_EQ(detailed.infos[i], info_only.infos[i]) << "message " << i;
+}
+
+// A sink that does nothing with transactions is not handed them; the count and everything else
+// is as for one that takes them.
+TEST(Pipeline, TransactionsOnlyToSinksThatWantThem) {
+  TranscriptSink taking(true), not_taking(true);
+  not_taking.transactions = false;
+  run_generated(taking);
+  run_generated(not_taking);
+  std::vector<std::string> without;
+  for (const std::string& r : taking.records)
+    if (!r.starts_with("transaction ")) without.push_back(r);
+  ASSERT_LT(without.size(), taking.records.size() - 5000);  // many transactions were handed over
+  EXPECT_EQ(without, not_taking.records);                   // none here; the summary counts them
 }
 
 // Every field a dissector emits has an id of the one field table (a descriptor of its own, or

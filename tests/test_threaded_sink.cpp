@@ -166,6 +166,9 @@ TEST(ThreadedSink, DestructionReplaysWhatIsLeftAndKeepsTheInnerSinksDetail) {
   RecordingSink detailed;
   EXPECT_TRUE(ThreadedSink(detailed).wants_detail());
   EXPECT_TRUE(ThreadedSink(detailed).wants_fields());
+  EXPECT_TRUE(ThreadedSink(detailed).wants_transactions());
+  SummaryOnlySink summary_only(detailed);  // a sink that drops transactions
+  EXPECT_FALSE(ThreadedSink(summary_only).wants_transactions());
 }
 
 namespace {

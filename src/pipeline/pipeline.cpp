@@ -36,6 +36,7 @@ Pipeline::Pipeline(PipelineOptions options, const ChannelTable& channels, Sink& 
       binder_(options.auto_candidates) {
   message_.detail = sink.wants_detail();
   message_.tree = message_.detail && sink.wants_fields();
+  hand_over_transactions_ = sink.wants_transactions();
 }
 
 Pipeline::~Pipeline() = default;
@@ -460,7 +461,7 @@ void Pipeline::summarise_drives() {
 void Pipeline::emit_transactions(std::vector<Transaction>& transactions) {
   for (const Transaction& t : transactions) {
     stats_.count_transaction(t);
-    sink_.on_transaction(t);
+    if (hand_over_transactions_) sink_.on_transaction(t);
     if (t.outcome == Outcome::timeout) {
       emit_anomaly(
           {AnomalyKind::unanswered_request, t.request_time, t.channel, t.request_number,

@@ -73,6 +73,7 @@ class CaptureSink final : public Sink {
   bool flush() override;
   // Packets carry the bytes and the info line as a comment, not the field tree.
   [[nodiscard]] bool wants_fields() const override { return false; }
+  [[nodiscard]] bool wants_transactions() const override { return false; }
   [[nodiscard]] std::uint64_t packets() const { return packets_; }
 
  private:

@@ -56,6 +56,9 @@ class Sink {
   [[nodiscard]] virtual bool wants_detail() const { return true; }
   // Whether the sink reads messages' field trees (Message::tree); only with wants_detail().
   [[nodiscard]] virtual bool wants_fields() const { return wants_detail(); }
+  // Whether on_transaction() does anything; when not, the pipeline still counts transactions but
+  // does not hand them over (a writer thread would copy each). Fixed for the sink's lifetime.
+  [[nodiscard]] virtual bool wants_transactions() const { return true; }
 };
 
 // Sends every record to several sinks.
@@ -95,6 +98,11 @@ class TeeSink final : public Sink {
       if (s->wants_fields()) return true;
     return false;
   }
+  [[nodiscard]] bool wants_transactions() const override {
+    for (const Sink* s : sinks_)
+      if (s->wants_transactions()) return true;
+    return false;
+  }
 
  private:
   std::vector<Sink*> sinks_;
@@ -113,6 +121,7 @@ class SummaryOnlySink final : public Sink {
   bool flush() override { return inner_.flush(); }
   [[nodiscard]] bool wants_detail() const override { return false; }
   [[nodiscard]] bool wants_fields() const override { return false; }
+  [[nodiscard]] bool wants_transactions() const override { return false; }
 
  private:
   Sink& inner_;
@@ -131,6 +140,7 @@ class EventsOnlySink final : public Sink {
   void on_event(const BusEvent& e) override { inner_.on_event(e); }
   bool flush() override { return inner_.flush(); }
   [[nodiscard]] bool wants_fields() const override { return false; }
+  [[nodiscard]] bool wants_transactions() const override { return false; }
 
  private:
   Sink& inner_;

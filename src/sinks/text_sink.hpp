@@ -29,6 +29,7 @@ class TextSink final : public Sink {
   bool flush() override;
   // The field tree is shown only with -V.
   [[nodiscard]] bool wants_fields() const override { return options_.verbose; }
+  [[nodiscard]] bool wants_transactions() const override { return false; }  // see on_transaction
 
  private:
   void write(const std::string& line);

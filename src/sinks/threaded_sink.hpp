@@ -12,8 +12,8 @@
 // finish() (or the destructor) then stops the thread; records after it go straight to the inner
 // sink. The worker thread runs with SIGINT and SIGTERM blocked. The inner sink and everything its
 // records name (the ChannelTable) must outlive this one; only the writer thread calls the inner
-// sink between construction and finish(), except wants_detail() and wants_fields(), read once
-// here.
+// sink between construction and finish(), except wants_detail(), wants_fields() and
+// wants_transactions(), read once here.
 #pragma once
 
 #include <condition_variable>
@@ -49,6 +49,7 @@ class ThreadedSink final : public Sink {
   bool flush() override;
   [[nodiscard]] bool wants_detail() const override { return wants_detail_; }
   [[nodiscard]] bool wants_fields() const override { return wants_fields_; }
+  [[nodiscard]] bool wants_transactions() const override { return wants_transactions_; }
   // Replays what is left and stops the writer thread; the inner sink is the caller's again.
   void finish();
 
@@ -86,6 +87,7 @@ class ThreadedSink final : public Sink {
   Sink& inner_;
   const bool wants_detail_;
   const bool wants_fields_;
+  const bool wants_transactions_;
   std::unique_ptr<Batch> current_;  // being filled on the pipeline thread
 
   std::mutex mutex_;
