@@ -6,6 +6,8 @@
 # per size, and drivetap's peak RSS across the sizes. Writes bench/RESULTS.md.
 #
 #   bench/end_to_end.sh [BUILD_DIR] [FRAMES...]     default: build 1000000 10000000
+#   REPEAT=N bench/end_to_end.sh ...                  each tshark and drivetap row the best of N
+#                                                     runs (default 1; generation runs once)
 #
 # The captures come from `drivetap generate` (README "drivetap generate"): --mix modbus-rtu for
 # the comparison, --mix all for the mix, seed 1, written to pcapng by drivetap itself. A 10 M
@@ -20,18 +22,25 @@ drivetap="$build/drivetap"
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 
+repeat=${REPEAT:-1}
+[[ $repeat =~ ^[1-9][0-9]*$ ]] || { echo "REPEAT=$repeat: not a positive number of runs" >&2; exit 2; }
 rows=()
-# measure NAME COMMAND...: wall seconds and peak RSS of one run, output to /dev/null.
+# measure NAME COMMAND...: wall seconds (the best of $runs runs, default $repeat) and peak RSS
+# (the largest), output to /dev/null.
 measure() {
-  local name=$1
+  local name=$1 best="" peak=0 k
   shift
-  /usr/bin/time -f "%e %M" -o "$work/time" "$@" >/dev/null 2>"$work/stderr" || {
-    echo "$name failed: $(tail -1 "$work/stderr")" >&2
-    exit 1
-  }
-  read -r seconds rss <"$work/time"
-  rows+=("$name|$seconds|$rss|$*")
-  echo "$name: $seconds s, $((rss / 1024)) MB" >&2
+  for ((k = 0; k < ${runs:-$repeat}; k++)); do
+    /usr/bin/time -f "%e %M" -o "$work/time" "$@" >/dev/null 2>"$work/stderr" || {
+      echo "$name failed: $(tail -1 "$work/stderr")" >&2
+      exit 1
+    }
+    read -r seconds rss <"$work/time"
+    best=$(awk -v a="$best" -v b="$seconds" 'BEGIN { print (a == "" || b + 0 < a + 0) ? b : a }')
+    ((rss > peak)) && peak=$rss
+  done
+  rows+=("$name|$best|$peak|$*")
+  echo "$name: $best s (best of ${runs:-$repeat}), $((peak / 1024)) MB" >&2
 }
 seconds_of() { for r in "${rows[@]}"; do [ "${r%%|*}" != "$1" ] || cut -d'|' -f2 <<<"$r"; done; }
 rss_of() { for r in "${rows[@]}"; do [ "${r%%|*}" != "$1" ] || cut -d'|' -f3 <<<"$r"; done; }
@@ -50,13 +59,14 @@ report="$work/RESULTS.md"
   echo "Machine: $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //'), $(nproc) cores;"
   echo "$(date -u +%Y-%m-%d); drivetap $(git -C "$root" rev-parse --short HEAD); captures from"
   echo "\`drivetap generate --seed 1\` (Modbus RTU only for the comparison with tshark; all links for the mix)."
+  echo "Each tshark and drivetap row is the best of $repeat run(s) (REPEAT), its memory the largest."
 } >"$report"
 
 stats_rss=()
 for frames in "${sizes[@]}"; do
   rows=()
   echo "== $frames frames" >&2
-  measure "generate --mix modbus-rtu" "$drivetap" generate --mix modbus-rtu --frames "$frames" \
+  runs=1 measure "generate --mix modbus-rtu" "$drivetap" generate --mix modbus-rtu --frames "$frames" \
     -w "$work/bus.pcapng" --truth "$work/bus.json"
   packets=$(packets_of "$work/bus.json")
   size_mb=$(du -m "$work/bus.pcapng" | cut -f1)
@@ -68,7 +78,7 @@ for frames in "${sizes[@]}"; do
   measure "drivetap --stats" "$drivetap" read --drive none --stats "$work/bus.pcapng"
   measure "drivetap text, drives" "$drivetap" read "$work/bus.pcapng"
   rm -f "$work/bus.pcapng"
-  measure "generate --mix all" "$drivetap" generate --frames "$frames" -w "$work/mix.pcapng" \
+  runs=1 measure "generate --mix all" "$drivetap" generate --frames "$frames" -w "$work/mix.pcapng" \
     --truth "$work/mix.json"
   mix_packets=$(packets_of "$work/mix.json")
   mix_mb=$(du -m "$work/mix.pcapng" | cut -f1)
