@@ -261,6 +261,40 @@ TEST(RtuFramer, EveryByteAccountedForUnderRandomNoise) {
   EXPECT_EQ(intact, good_frames);
 }
 
+// A pressure close that emits everything the framer holds as one frame, inside push_all(): the
+// bytes appended in bulk after it start a new run, whose timing must not carry the old one's
+// (found in review: the second frame came out with the first one's 1 ms gap).
+TEST(RtuFramer, PressureCloseOfOneFrameStartsTheNextTimingAfresh) {
+  const FramingTiming timing = FramingTiming::from(k9600);
+  const std::vector<std::uint8_t> request = with_crc({0x01, 0x03, 0x00, 0x00, 0x00, 0x01});
+  ASSERT_EQ(request.size(), 8u);
+  std::vector<ByteEvent> events;
+  TimeNs clock = 0;
+  for (int frame = 0; frame < 2; ++frame)
+    for (std::size_t i = 0; i < request.size(); ++i) {
+      if (frame == 0 && i == 3) clock += kNsPerMs;  // under t3.5: inside the frame
+      events.push_back(ByteEvent{clock, request[i], 0, 0});
+      clock += kChar;
+    }
+  const RtuFramerOptions options{timing, 100 * kNsPerMs, 8};  // pressure at one frame
+  RtuFramer one_by_one(0, options), in_one_run(0, options);
+  std::vector<Frame> expected, got;
+  for (const ByteEvent& e : events) one_by_one.push(e, expected);
+  one_by_one.finish(expected);
+  in_one_run.push_all(events, got);
+  in_one_run.finish(got);
+  ASSERT_EQ(got.size(), 2u);
+  ASSERT_EQ(expected.size(), 2u);
+  for (std::size_t i = 0; i < 2; ++i) {
+    SCOPED_TRACE(i);
+    EXPECT_EQ(got[i].bytes(), request);
+    EXPECT_EQ(got[i].max_intra_gap, expected[i].max_intra_gap);
+    EXPECT_EQ(got[i].max_intra_gap_at, expected[i].max_intra_gap_at);
+  }
+  EXPECT_GT(got[0].max_intra_gap, 0);
+  EXPECT_EQ(got[1].max_intra_gap, 0);
+}
+
 TEST(RtuFramer, PushAllGivesTheFramesOfPushingOneByOne) {
   // Framer::push_all appends runs without silence in bulk; it must cut exactly where push()
   // does: silences of every length, one-stamp bursts, noise, UART marks, and the pressure mark

@@ -166,11 +166,16 @@ void HybridFramer<Rules>::emit(std::size_t p, std::size_t len, FrameKind kind, F
   f.channel = channel_;
   f.close = close;
   const bool all_pending = p == 0 && len == pending_.size();
+  // pending_run_ is the timing of exactly these bytes unless some were dropped before them.
+  const bool timing_kept = all_pending && pending_run_whole_;
   if (all_pending) {
     // The frame is everything pending (the common case: one frame between two silences): it
     // takes pending_'s storage, and pending_ continues in the spare's, saving a copy per byte.
     f.events.clear();
     f.events.swap(pending_);
+    // The run's timing goes with it; push() starts the next one (a byte appended in bulk to an
+    // emptied buffer, after a pressure close, leaves the timing to be computed from the events).
+    pending_run_whole_ = false;
     // Without a spare of some size, room for a typical frame at once rather than a doubling
     // series of allocations as its bytes arrive.
     if (pending_.capacity() < kPendingReserve) pending_.reserve(kPendingReserve);
@@ -178,8 +183,7 @@ void HybridFramer<Rules>::emit(std::size_t p, std::size_t len, FrameKind kind, F
     f.events.assign(pending_.begin() + static_cast<std::ptrdiff_t>(p),
                     pending_.begin() + static_cast<std::ptrdiff_t>(p + len));
   }
-  // pending_run_ is the timing of exactly these bytes unless some were dropped before them.
-  if (all_pending && pending_run_whole_)
+  if (timing_kept)
     stamp_frame_timing(f, pending_run_, &emitted_end_, &have_emitted_);
   else
     stamp_frame_timing(f, options_.timing.character_time, &emitted_end_, &have_emitted_);
