@@ -92,47 +92,10 @@ void append_field_value(std::string& out, const Message& m, const FieldNode& nod
   }
 }
 
-// The field tree as an object keyed by dotted id, in first-seen order; an id seen more than once
-// (registers) has an array of its values. `keys` is scratch storage. Ids are dotted lower-case
-// (tests/test_field_table.cpp): written without escaping. Nodes of one id nearly always share
-// a descriptor, so its address is compared before the id.
-void append_fields_object(std::string& out, const Message& m,
-                          std::vector<JsonSink::FieldKey>& keys) {
-  keys.clear();
-  for (std::size_t i = 0; i < m.fields.size(); ++i) {
-    const FieldDesc* desc = m.fields[i].desc;
-    if (desc->type == FieldType::group) continue;
-    auto key = std::find_if(keys.begin(), keys.end(), [desc](const JsonSink::FieldKey& k) {
-      return k.desc == desc || k.desc->id == desc->id;
-    });
-    if (key == keys.end())
-      keys.push_back({desc, i, 1});
-    else
-      ++key->count;
-  }
-  out += '{';
-  for (std::size_t k = 0; k < keys.size(); ++k) {
-    const JsonSink::FieldKey& key = keys[k];
-    if (k != 0) out += ',';
-    out += '"';
-    out += key.desc->id;
-    out += "\":"sv;
-    if (key.count == 1) {
-      append_field_value(out, m, m.fields[key.first]);
-      continue;
-    }
-    out += '[';
-    // Each pass looks at one node; the key's values are its nodes from `first` on.
-    for (std::size_t j = key.first, written = 0; written < key.count; ++j) {
-      const FieldDesc* desc = m.fields[j].desc;
-      if (desc->type == FieldType::group || (desc != key.desc && desc->id != key.desc->id))
-        continue;
-      if (written++ != 0) out += ',';
-      append_field_value(out, m, m.fields[j]);
-    }
-    out += ']';
-  }
-  out += '}';
+// Nodes of one id nearly always share a descriptor, so its address is compared before the id
+// (Danfoss FC's AK has two descriptors of one id: a request and a response meaning).
+bool same_id(const FieldDesc* a, const FieldDesc* b) {
+  return a == b || a->id == b->id;
 }
 
 const char* close_id(FrameClose c) {
@@ -148,6 +111,46 @@ const char* close_id(FrameClose c) {
 }
 
 }  // namespace
+
+// The field tree as an object keyed by dotted id, in first-seen order; an id seen more than once
+// (registers) has an array of its values. Ids are dotted lower-case (tests/test_field_table.cpp):
+// written without escaping.
+void JsonSink::append_fields_object(std::string& out, const Message& m) {
+  std::vector<FieldKey>& keys = field_keys_;
+  keys.clear();
+  for (std::size_t i = 0; i < m.fields.size(); ++i) {
+    const FieldDesc* desc = m.fields[i].desc;
+    if (desc->type == FieldType::group) continue;
+    auto key = std::find_if(keys.begin(), keys.end(),
+                            [desc](const FieldKey& k) { return same_id(k.desc, desc); });
+    if (key == keys.end())
+      keys.push_back({desc, i, 1});
+    else
+      ++key->count;
+  }
+  out += '{';
+  for (std::size_t k = 0; k < keys.size(); ++k) {
+    const FieldKey& key = keys[k];
+    if (k != 0) out += ',';
+    out += '"';
+    out += key.desc->id;
+    out += "\":"sv;
+    if (key.count == 1) {
+      append_field_value(out, m, m.fields[key.first]);
+      continue;
+    }
+    out += '[';
+    // Each pass looks at one node; the key's values are its nodes from `first` on.
+    for (std::size_t j = key.first, written = 0; written < key.count; ++j) {
+      const FieldDesc* desc = m.fields[j].desc;
+      if (desc->type == FieldType::group || !same_id(desc, key.desc)) continue;
+      if (written++ != 0) out += ',';
+      append_field_value(out, m, m.fields[j]);
+    }
+    out += ']';
+  }
+  out += '}';
+}
 
 JsonSink::JsonSink(std::FILE* out, const ChannelTable& channels, TimeNs character_time,
                    bool show_latency)
@@ -223,7 +226,7 @@ void JsonSink::on_frame(const Message& m) {
   line += ",\"close\":\""sv;
   line += close_id(m.frame.close);
   line += "\",\"fields\":"sv;
-  append_fields_object(line, m, field_keys_);
+  append_fields_object(line, m);
   line += ",\"summary\":"sv;
   summary_.clear();
   append_frame_summary(summary_, m, show_latency_);

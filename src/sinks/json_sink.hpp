@@ -23,14 +23,15 @@ class JsonSink final : public Sink {
   void on_event(const BusEvent& event) override;
   bool flush() override;
 
+ private:
   // One id of a frame's field tree: its descriptor, first node and number of nodes.
   struct FieldKey {
     const FieldDesc* desc;
     std::size_t first;
     std::size_t count;
   };
-
- private:
+  // Appends the frame's field tree as an object keyed by id (field_keys_ is its scratch).
+  void append_fields_object(std::string& out, const Message& m);
   void write(std::string& line);
   std::FILE* out_;
   const ChannelTable& channels_;
