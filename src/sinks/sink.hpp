@@ -88,23 +88,19 @@ class TeeSink final : public Sink {
     for (Sink* s : sinks_) ok = s->flush() && ok;
     return ok;
   }
-  [[nodiscard]] bool wants_detail() const override {
-    for (const Sink* s : sinks_)
-      if (s->wants_detail()) return true;
-    return false;
-  }
-  [[nodiscard]] bool wants_fields() const override {
-    for (const Sink* s : sinks_)
-      if (s->wants_fields()) return true;
-    return false;
-  }
+  [[nodiscard]] bool wants_detail() const override { return any_wants(&Sink::wants_detail); }
+  [[nodiscard]] bool wants_fields() const override { return any_wants(&Sink::wants_fields); }
   [[nodiscard]] bool wants_transactions() const override {
-    for (const Sink* s : sinks_)
-      if (s->wants_transactions()) return true;
-    return false;
+    return any_wants(&Sink::wants_transactions);
   }
 
  private:
+  // Whether any member sink answers yes to `wants`.
+  [[nodiscard]] bool any_wants(bool (Sink::*wants)() const) const {
+    for (const Sink* s : sinks_)
+      if ((s->*wants)()) return true;
+    return false;
+  }
   std::vector<Sink*> sinks_;
 };
 
