@@ -197,9 +197,11 @@ grep -q "reconnected" "$tmp/again.err" || fail "--reconnect: no reconnection: $(
 # Two ports at once (two buses, or the two pairs of a 4-wire link): merged in time order, each a
 # channel and a pcapng interface; the pcapng streamed to stdout (-w -) while the text summary
 # goes to stderr.
-"$simbus" --link "$tmp/a.tty" --serial "19200 8E1" --wait-ms 600 --frames 30 --seed 1 2>/dev/null &
+"$simbus" --link "$tmp/a.tty" --serial "19200 8E1" --wait-ms 600 --frames 30 --seed 1 \
+  --truth "$tmp/a.truth" 2>/dev/null &
 sim_a=$!
-"$simbus" --link "$tmp/b.tty" --serial "19200 8E1" --wait-ms 600 --frames 30 --seed 2 2>/dev/null &
+"$simbus" --link "$tmp/b.tty" --serial "19200 8E1" --wait-ms 600 --frames 30 --seed 2 \
+  --truth "$tmp/b.truth" 2>/dev/null &
 sim_b=$!
 for _ in $(seq 50); do [ -e "$tmp/a.tty" ] && [ -e "$tmp/b.tty" ] && break; sleep 0.02; done
 # (--reconnect: the first simulator to end must not stop the capture of the other.)
@@ -210,11 +212,21 @@ wait "$sim_a" "$sim_b"
 sleep 0.3
 kill -INT "$cap"
 wait "$cap"
-grep -q "^frames: *60 (checksum ok 60," "$tmp/two.err" || fail "two ports: $(grep '^frames' "$tmp/two.err")"
+# As for one port, a frame the simulator was preempted inside may come as a bad-CRC frame and a
+# noise record; every other frame must come with a good CRC.
+paused=$(cat "$tmp/a.truth" "$tmp/b.truth" | grep -c 'pause inside as written')
+[ "$paused" -gt 0 ] && echo "note: two: $paused frames written with a pause inside (late simulator)"
+frames=$(summary_field "$tmp/two.err" frames)
+ok=$(sed -n 's/^frames: *[0-9]* (checksum ok \([0-9]*\),.*/\1/p' "$tmp/two.err")
+noise=$(sed -n 's/.*noise: \([0-9]*\) records\?.*/\1/p' "$tmp/two.err")
+[ "${ok:-0}" -le 60 ] && [ "${ok:-0}" -ge $((60 - paused)) ] &&
+  [ "${frames:-0}" -ge $((60 - paused)) ] && [ "${frames:-0}" -le $((60 + paused)) ] &&
+  [ "${noise:-0}" -le $((2 * paused)) ] ||
+  fail "two ports: $(grep '^frames' "$tmp/two.err"); noise ${noise:-0}, $paused paused frames"
 if command -v tshark >/dev/null; then
   interfaces=$(tshark -r "$tmp/two.pcapng" -T fields -e frame.interface_name 2>/dev/null | sort -u | tr '\n' ' ')
   [ "$interfaces" = "busA busB " ] || fail "two ports: interfaces '$interfaces'"
-  check_pcapng two 60
+  check_pcapng two $((${frames:-0} + ${noise:-0}))
 fi
 
 # Bad ports: one line naming the port, exit 1.
