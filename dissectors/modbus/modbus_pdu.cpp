@@ -5,6 +5,8 @@
 #include <fmt/compile.h>
 #include <fmt/format.h>
 
+#include <array>
+#include <iterator>
 #include <optional>
 
 #include "core/cursor.hpp"
@@ -200,24 +202,54 @@ class PduReader {
   bool truncated_ = false;
 };
 
-std::string function_name(std::uint8_t fc) {
+void append_function_name(std::string& out, std::uint8_t fc) {
   const std::string_view name = kFunction.name_of(fc & 0x7F);
-  if (!name.empty()) return std::string(name);
-  return fmt::format(FMT_COMPILE("Function 0x{:02X}"), fc & 0x7F);
+  if (!name.empty())
+    out += name;
+  else
+    fmt::format_to(std::back_inserter(out), FMT_COMPILE("Function 0x{:02X}"), fc & 0x7F);
+}
+
+std::string function_name(std::uint8_t fc) {
+  std::string out;
+  append_function_name(out, fc);
+  return out;
+}
+
+void append_range(std::string& out, std::uint16_t start, unsigned count) {
+  if (count <= 1)
+    fmt::format_to(std::back_inserter(out), FMT_COMPILE("0x{:04X}"), start);
+  else
+    fmt::format_to(std::back_inserter(out), FMT_COMPILE("0x{:04X}..0x{:04X} ({})"), start,
+                   (start + count - 1) & 0xFFFF, count);
 }
 
 std::string range_text(std::uint16_t start, unsigned count) {
-  if (count <= 1) return fmt::format(FMT_COMPILE("0x{:04X}"), start);
-  return fmt::format(FMT_COMPILE("0x{:04X}..0x{:04X} ({})"), start, (start + count - 1) & 0xFFFF,
-                     count);
+  std::string out;
+  append_range(out, start, count);
+  return out;
 }
 
-// "3, 5000, 5000, 380" (at most `limit` values, then "...").
-std::string register_list(std::span<const std::uint16_t> values, std::size_t limit = 8) {
+// Register values read as fields; the first kListed are kept for the info line.
+struct RegisterValues {
+  static constexpr std::size_t kListed = 8;
+  std::array<std::uint16_t, kListed> first{};
+  std::size_t count = 0;
+};
+
+// "3, 5000, 5000, 380" (at most kListed values, then "...").
+void append_register_list(std::string& out, const RegisterValues& values) {
+  for (std::size_t i = 0; i < values.count && i < RegisterValues::kListed; ++i) {
+    if (i) out += ", ";
+    fmt::format_to(std::back_inserter(out), FMT_COMPILE("{}"), values.first[i]);
+  }
+  if (values.count > RegisterValues::kListed)
+    fmt::format_to(std::back_inserter(out), FMT_COMPILE(", ... ({} values)"), values.count);
+}
+
+std::string register_list(const RegisterValues& values) {
   std::string out;
-  for (std::size_t i = 0; i < values.size() && i < limit; ++i)
-    out += fmt::format(FMT_COMPILE("{}{}"), i ? ", " : "", values[i]);
-  if (values.size() > limit) out += fmt::format(FMT_COMPILE(", ... ({} values)"), values.size());
+  append_register_list(out, values);
   return out;
 }
 
@@ -239,12 +271,13 @@ std::string hex_list(std::span<const std::uint8_t> bytes, std::size_t limit = 16
   return out;
 }
 
-std::vector<std::uint16_t> read_registers(PduReader& r, std::size_t count) {
-  std::vector<std::uint16_t> values;
+RegisterValues read_registers(PduReader& r, std::size_t count) {
+  RegisterValues values;
   for (std::size_t i = 0; i < count; ++i) {
     auto v = r.u16(kRegisterValue);
     if (!v) break;
-    values.push_back(*v);
+    if (values.count < RegisterValues::kListed) values.first[values.count] = *v;
+    ++values.count;
   }
   return values;
 }
@@ -261,8 +294,10 @@ void dissect_read_request(PduReader& r, std::uint8_t fc, PduDecode& d) {
   if (!start || !qty) return;
   const bool bits = fc == 0x01 || fc == 0x02;
   check_quantity(r, *qty, bits ? 2000 : 125, bits ? "bits" : "registers");
-  d.describe([&] {
-    return fmt::format(FMT_COMPILE("{} {}"), function_name(fc), range_text(*start, *qty));
+  d.describe_in_place([&](std::string& out) {
+    append_function_name(out, fc);
+    out += ' ';
+    append_range(out, *start, *qty);
   });
 }
 
@@ -288,9 +323,11 @@ void dissect_read_response(PduReader& r, std::uint8_t fc, PduDecode& d) {
     r.problem(fmt::format(FMT_COMPILE("byte count says {} bytes, {} present"), *count, present));
   auto values = read_registers(r, present / 2);
   r.expect_end();
-  d.describe([&] {
-    return fmt::format(FMT_COMPILE("{} reply: {} register{} = {}"), function_name(fc),
-                       values.size(), values.size() == 1 ? "" : "s", register_list(values));
+  d.describe_in_place([&](std::string& out) {
+    append_function_name(out, fc);
+    fmt::format_to(std::back_inserter(out), FMT_COMPILE(" reply: {} register{} = "), values.count,
+                   values.count == 1 ? "" : "s");
+    append_register_list(out, values);
   });
 }
 
@@ -316,9 +353,10 @@ void dissect_write_single_register(PduReader& r, Direction dir, PduDecode& d) {
   auto value = r.u16(kWriteValue);
   r.expect_end();
   if (!addr || !value) return;
-  d.describe([&] {
-    return fmt::format(FMT_COMPILE("{}{} 0x{:04X} = {} (0x{:04X})"), function_name(0x06),
-                       dir == Direction::response ? " reply" : "", *addr, *value, *value);
+  d.describe_in_place([&](std::string& out) {
+    append_function_name(out, 0x06);
+    fmt::format_to(std::back_inserter(out), FMT_COMPILE("{} 0x{:04X} = {} (0x{:04X})"),
+                   dir == Direction::response ? " reply" : "", *addr, *value, *value);
   });
 }
 
@@ -349,9 +387,12 @@ void dissect_write_multiple_request(PduReader& r, std::uint8_t fc, PduDecode& d)
     if (present < *count)
       r.problem(fmt::format(FMT_COMPILE("byte count says {} bytes, {} present"), *count, present));
     auto values = read_registers(r, std::min<std::size_t>(*count, present) / 2);
-    d.describe([&] {
-      return fmt::format(FMT_COMPILE("{} {} = {}"), function_name(fc), range_text(*start, *qty),
-                         register_list(values));
+    d.describe_in_place([&](std::string& out) {
+      append_function_name(out, fc);
+      out += ' ';
+      append_range(out, *start, *qty);
+      out += " = ";
+      append_register_list(out, values);
     });
   }
   r.expect_end();
@@ -362,9 +403,11 @@ void dissect_write_multiple_response(PduReader& r, std::uint8_t fc, PduDecode& d
   auto qty = r.u16(kQuantity);
   r.expect_end();
   if (!start || !qty) return;
-  d.describe([&] {
-    return fmt::format(FMT_COMPILE("{} reply: {} written"), function_name(fc),
-                       range_text(*start, *qty));
+  d.describe_in_place([&](std::string& out) {
+    append_function_name(out, fc);
+    out += " reply: ";
+    append_range(out, *start, *qty);
+    out += " written";
   });
 }
 
@@ -493,9 +536,18 @@ PduDecode dissect_pdu(std::span<const std::uint8_t> frame, std::size_t pdu_offse
                       std::size_t pdu_length, Direction dir, FieldTreeBuilder& tree, bool info) {
   PduDecode d;
   d.detail = info;
+  dissect_pdu_into(d, frame, pdu_offset, pdu_length, dir, tree);
+  return d;
+}
+
+void dissect_pdu_into(PduDecode& d, std::span<const std::uint8_t> frame, std::size_t pdu_offset,
+                      std::size_t pdu_length, Direction dir, FieldTreeBuilder& tree) {
+  d.info.clear();
+  d.problems.clear();
+  d.exception_code = -1;
   PduReader r(frame, pdu_offset, pdu_length, tree, d);
   auto fc_opt = r.u8(kFunction);
-  if (!fc_opt) return d;
+  if (!fc_opt) return;
   const std::uint8_t fc = *fc_opt;
 
   if (fc & 0x80) {
@@ -509,14 +561,14 @@ PduDecode dissect_pdu(std::span<const std::uint8_t> frame, std::size_t pdu_offse
       d.describe([&] {
         return fmt::format(FMT_COMPILE("{} exception (code missing)"), function_name(fc));
       });
-      return d;
+      return;
     }
-    d.describe([&] {
-      return fmt::format(
-          FMT_COMPILE("{} exception 0x{:02X}: {}"), function_name(fc), *code,
-          name.empty() ? std::string("non-standard (vendor) code") : std::string(name));
+    d.describe_in_place([&](std::string& out) {
+      append_function_name(out, fc);
+      fmt::format_to(std::back_inserter(out), FMT_COMPILE(" exception 0x{:02X}: "), *code);
+      out += name.empty() ? std::string_view("non-standard (vendor) code") : name;
     });
-    return d;
+    return;
   }
   const bool req = dir != Direction::response;
   switch (fc) {
@@ -656,7 +708,7 @@ PduDecode dissect_pdu(std::span<const std::uint8_t> frame, std::size_t pdu_offse
                                   *bytes, *count));
           auto values = read_registers(r, r.cursor().remaining() / 2);
           d.describe([&] {
-            return fmt::format(FMT_COMPILE("Read FIFO Queue reply: {} values = {}"), values.size(),
+            return fmt::format(FMT_COMPILE("Read FIFO Queue reply: {} values = {}"), values.count,
                                register_list(values));
           });
         }
@@ -678,7 +730,6 @@ PduDecode dissect_pdu(std::span<const std::uint8_t> frame, std::size_t pdu_offse
   }
   if (d.info.empty())
     d.describe([&] { return function_name(fc) + (req ? "" : " reply") + " (truncated)"; });
-  return d;
 }
 
 }  // namespace drivetap::modbus

@@ -46,6 +46,14 @@ struct PduDecode {
   void describe(MakeText&& make) {
     if (detail) info = make();
   }
+  // The same for the replies and requests of every poll: append(info) writes the line into
+  // `info`'s own storage (which the caller may lend, see dissect_pdu_into), no temporaries.
+  template <class AppendText>
+  void describe_in_place(AppendText&& append) {
+    if (!detail) return;
+    info.clear();
+    append(info);
+  }
 };
 
 // Decodes the PDU occupying frame[pdu_offset, pdu_offset + pdu_length) into field nodes whose
@@ -54,6 +62,10 @@ struct PduDecode {
 PduDecode dissect_pdu(std::span<const std::uint8_t> frame, std::size_t pdu_offset,
                       std::size_t pdu_length, Direction direction, FieldTreeBuilder& tree,
                       bool info);
+// The same into `out`, whose `info` string keeps its storage (a decoder reusing one Message
+// lends its info string there and takes it back).
+void dissect_pdu_into(PduDecode& out, std::span<const std::uint8_t> frame, std::size_t pdu_offset,
+                      std::size_t pdu_length, Direction direction, FieldTreeBuilder& tree);
 // The same, with the info line when the tree keeps fields.
 PduDecode dissect_pdu(std::span<const std::uint8_t> frame, std::size_t pdu_offset,
                       std::size_t pdu_length, Direction direction, FieldTreeBuilder& tree);

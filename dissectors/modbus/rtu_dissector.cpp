@@ -49,7 +49,10 @@ void dissect_rtu(Message& m, Frame&& frame, Direction direction, const FramingTi
   }
   if (bytes.size() >= 4) {
     const std::size_t pdu_len = bytes.size() - 3;
-    PduDecode pdu = dissect_pdu(bytes, 1, pdu_len, direction, tree, m.detail);
+    PduDecode pdu;
+    pdu.detail = m.detail;
+    pdu.info = std::move(m.info);  // lent: the line is written into the storage m keeps
+    dissect_pdu_into(pdu, bytes, 1, pdu_len, direction, tree);
     m.info = std::move(pdu.info);
     m.exception_code = pdu.exception_code;
     for (std::string& problem : pdu.problems) add_malformed(m, std::move(problem));
