@@ -10,6 +10,7 @@
 #include <optional>
 
 #include "core/cursor.hpp"
+#include "core/format.hpp"
 #include "dissectors/modbus/modbus_fields.hpp"
 
 namespace drivetap::modbus {
@@ -216,12 +217,25 @@ std::string function_name(std::uint8_t fc) {
   return out;
 }
 
+// "0x000B": what "0x{:04X}" prints, without the formatter (every poll prints several).
+void append_hex16(std::string& out, unsigned value) {
+  const char text[6] = {'0',
+                        'x',
+                        kHexDigits[(value >> 12) & 0xF],
+                        kHexDigits[(value >> 8) & 0xF],
+                        kHexDigits[(value >> 4) & 0xF],
+                        kHexDigits[value & 0xF]};
+  out.append(text, sizeof text);
+}
+
 void append_range(std::string& out, std::uint16_t start, unsigned count) {
-  if (count <= 1)
-    fmt::format_to(std::back_inserter(out), FMT_COMPILE("0x{:04X}"), start);
-  else
-    fmt::format_to(std::back_inserter(out), FMT_COMPILE("0x{:04X}..0x{:04X} ({})"), start,
-                   (start + count - 1) & 0xFFFF, count);
+  append_hex16(out, start);
+  if (count <= 1) return;
+  out += "..";
+  append_hex16(out, (start + count - 1) & 0xFFFF);
+  out += " (";
+  append_uint(out, count);
+  out += ')';
 }
 
 std::string range_text(std::uint16_t start, unsigned count) {
@@ -241,7 +255,7 @@ struct RegisterValues {
 void append_register_list(std::string& out, const RegisterValues& values) {
   for (std::size_t i = 0; i < values.count && i < RegisterValues::kListed; ++i) {
     if (i) out += ", ";
-    fmt::format_to(std::back_inserter(out), FMT_COMPILE("{}"), values.first[i]);
+    append_uint(out, values.first[i]);
   }
   if (values.count > RegisterValues::kListed)
     fmt::format_to(std::back_inserter(out), FMT_COMPILE(", ... ({} values)"), values.count);
@@ -355,8 +369,13 @@ void dissect_write_single_register(PduReader& r, Direction dir, PduDecode& d) {
   if (!addr || !value) return;
   d.describe_in_place([&](std::string& out) {
     append_function_name(out, 0x06);
-    fmt::format_to(std::back_inserter(out), FMT_COMPILE("{} 0x{:04X} = {} (0x{:04X})"),
-                   dir == Direction::response ? " reply" : "", *addr, *value, *value);
+    out += dir == Direction::response ? " reply " : " ";
+    append_hex16(out, *addr);
+    out += " = ";
+    append_uint(out, *value);
+    out += " (";
+    append_hex16(out, *value);
+    out += ')';
   });
 }
 
