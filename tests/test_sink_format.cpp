@@ -55,3 +55,15 @@ TEST(SinkFormat, JsonStringsEscapeQuotesBackslashesAndControls) {
             "C\"");  // UTF-8 passes as it is
   EXPECT_EQ(json_quote(""), "\"\"");
 }
+
+TEST(SinkFormat, JsonTailEscapedInPlaceAsQuotingWouldEscapeIt) {
+  // The JSON sink writes a frame's summary straight into its line and escapes it there.
+  const std::string head = "{\"summary\":\"";
+  for (const std::string& tail : {std::string("Read Holding Registers reply: 2 registers = 0, 0"),
+                                  std::string("id 0x00=\"ACME\", 0x01=\"E-9\\x\"\n"),
+                                  std::string("x\x01y", 3), std::string()}) {
+    std::string line = head + tail;
+    escape_json_tail(line, head.size());
+    EXPECT_EQ(line, head + json_quote(tail).substr(1, json_quote(tail).size() - 2)) << tail;
+  }
+}

@@ -41,5 +41,7 @@ const char* to_string(ChecksumVerdict v);
 
 // A checksum value in wire order as hex bytes: (0x3A44, 2, " ") -> "3A 44"; "3A44" with "".
 std::string wire_hex(std::uint32_t packed, std::uint8_t width, const char* separator = " ");
+void append_wire_hex(std::string& out, std::uint32_t packed, std::uint8_t width,
+                     const char* separator = " ");
 
 }  // namespace drivetap

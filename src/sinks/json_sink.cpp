@@ -28,6 +28,20 @@ constexpr std::array<bool, 256> kNeedsEscape = [] {
 
 void append_json_quoted(std::string& out, std::string_view s) {
   out += '"';
+  append_json_escaped(out, s);
+  out += '"';
+}
+
+void escape_json_tail(std::string& out, std::size_t from) {
+  const auto needs_escape = [](char c) { return kNeedsEscape[static_cast<unsigned char>(c)]; };
+  if (std::none_of(out.begin() + static_cast<std::ptrdiff_t>(from), out.end(), needs_escape))
+    return;
+  const std::string tail = out.substr(from);
+  out.resize(from);
+  append_json_escaped(out, tail);
+}
+
+void append_json_escaped(std::string& out, std::string_view s) {
   std::size_t plain = 0;  // start of the run of characters that need no escape
   for (std::size_t i = 0; i < s.size(); ++i) {
     const char c = s[i];
@@ -62,7 +76,6 @@ void append_json_quoted(std::string& out, std::string_view s) {
     plain = i + 1;
   }
   out.append(s.substr(plain));
-  out += '"';
 }
 
 std::string json_quote(std::string_view s) {
@@ -197,9 +210,9 @@ void JsonSink::on_frame(const Message& m) {
   line += '"';
   if (m.checksum.verdict != ChecksumVerdict::none) {
     line += ",\"checksum_stated\":\""sv;
-    line += wire_hex(m.checksum.stated_wire, m.checksum.width, "");
+    append_wire_hex(line, m.checksum.stated_wire, m.checksum.width, "");
     line += "\",\"checksum_computed\":\""sv;
-    line += wire_hex(m.checksum.computed_wire, m.checksum.width, "");
+    append_wire_hex(line, m.checksum.computed_wire, m.checksum.width, "");
     line += '"';
   }
   if (m.is_exception) {
@@ -227,11 +240,12 @@ void JsonSink::on_frame(const Message& m) {
   line += close_id(m.frame.close);
   line += "\",\"fields\":"sv;
   append_fields_object(line, m);
-  line += ",\"summary\":"sv;
-  summary_.clear();
-  append_frame_summary(summary_, m, show_latency_);
-  append_json_quoted(line, summary_);
-  line += '}';
+  // The summary is written straight into the line, then escaped there if it needs it (rarely).
+  line += ",\"summary\":\""sv;
+  const std::size_t summary_at = line.size();
+  append_frame_summary(line, m, show_latency_);
+  escape_json_tail(line, summary_at);
+  line += "\"}"sv;
   write(line);
 }
 

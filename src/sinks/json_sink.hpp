@@ -39,12 +39,15 @@ class JsonSink final : public Sink {
   bool show_latency_;
   WriteStatus status_;
   std::string line_;                  // reused for every frame line
-  std::string summary_;               // scratch: the frame's one-line decode
   std::vector<FieldKey> field_keys_;  // scratch: the ids of the frame's field tree
 };
 
 // JSON string literal with escapes.
 std::string json_quote(std::string_view s);
 void append_json_quoted(std::string& out, std::string_view s);
+// `s` as the inside of a JSON string (escaped, no quotes).
+void append_json_escaped(std::string& out, std::string_view s);
+// Escapes out[from..] in place, as the inside of a JSON string.
+void escape_json_tail(std::string& out, std::size_t from);
 
 }  // namespace drivetap

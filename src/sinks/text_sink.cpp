@@ -5,7 +5,6 @@
 #include <fmt/format.h>
 
 #include <algorithm>
-#include <cctype>
 #include <string_view>
 
 #include "core/format.hpp"
@@ -30,8 +29,9 @@ void append_checksum_text(std::string& out, const ChecksumResult& c) {
   auto wire = [&](std::uint32_t v) { return wire_hex(v, c.width, c.text ? "" : " "); };
   switch (c.verdict) {
     case ChecksumVerdict::good:
+      // (the names are ASCII: no locale call per frame)
       for (const char ch : std::string_view(c.name))
-        out += static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+        out += ch >= 'A' && ch <= 'Z' ? static_cast<char>(ch - 'A' + 'a') : ch;
       out += " ok";
       return;
     case ChecksumVerdict::bad:
