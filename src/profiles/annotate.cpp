@@ -119,44 +119,60 @@ void append_display_name(std::string& out, const RegisterDef& r) {
 void observe(const DriveProfile& p, const RegisterDef& r, std::uint32_t raw, bool double_word,
              bool written, DriveObservation& o) {
   const StateBits& s = r.state;
-  const std::string& role = r.role;
   auto quantity = [&] {
     return Quantity{scaled(r, raw, double_word), describe_value(p, r, raw, double_word)};
   };
   if (written) {
-    if (role == "control") {
-      if (!s.run.empty()) o.run_command = any_bit(s.run, raw);
-      if (!s.reverse.empty()) o.reverse_command = any_bit(s.reverse, raw);
-      if (!s.forward.empty()) o.reverse_command = !any_bit(s.forward, raw);
-      if (any_bit(s.reset, raw)) o.reset_command = true;
-    } else if (role == "setpoint") {
-      o.setpoint_command = quantity();
-    } else if (role == "start" && raw) {
-      o.run_command = true;
-    } else if (role == "stop" && raw) {
-      o.run_command = false;
-    } else if (role == "reset" && raw) {
-      o.reset_command = true;
+    switch (r.role) {
+      case RegisterRole::control:
+        if (!s.run.empty()) o.run_command = any_bit(s.run, raw);
+        if (!s.reverse.empty()) o.reverse_command = any_bit(s.reverse, raw);
+        if (!s.forward.empty()) o.reverse_command = !any_bit(s.forward, raw);
+        if (any_bit(s.reset, raw)) o.reset_command = true;
+        break;
+      case RegisterRole::setpoint:
+        o.setpoint_command = quantity();
+        break;
+      case RegisterRole::start:
+        if (raw) o.run_command = true;
+        break;
+      case RegisterRole::stop:
+        if (raw) o.run_command = false;
+        break;
+      case RegisterRole::reset:
+        if (raw) o.reset_command = true;
+        break;
+      default:
+        break;
     }
     return;
   }
-  if (role == "status") {
-    if (!s.running.empty()) o.running = any_bit(s.running, raw);
-    if (!s.reverse.empty()) o.reverse = any_bit(s.reverse, raw);
-    if (!s.forward.empty()) o.reverse = !any_bit(s.forward, raw);
-    if (!s.fault.empty()) o.fault_active = any_bit(s.fault, raw);
-    if (!s.warning.empty()) o.warning = any_bit(s.warning, raw);
-  } else if (role == "setpoint") {
-    o.setpoint = quantity();
-  } else if (role == "output_frequency") {
-    o.output_frequency = quantity();
-  } else if (role == "current") {
-    o.current = quantity();
-  } else if (role == "voltage") {
-    o.voltage = quantity();
-  } else if (role == "fault") {
-    o.fault_code = raw;
-    o.fault_text = describe_value(p, r, raw, double_word);
+  switch (r.role) {
+    case RegisterRole::status:
+      if (!s.running.empty()) o.running = any_bit(s.running, raw);
+      if (!s.reverse.empty()) o.reverse = any_bit(s.reverse, raw);
+      if (!s.forward.empty()) o.reverse = !any_bit(s.forward, raw);
+      if (!s.fault.empty()) o.fault_active = any_bit(s.fault, raw);
+      if (!s.warning.empty()) o.warning = any_bit(s.warning, raw);
+      break;
+    case RegisterRole::setpoint:
+      o.setpoint = quantity();
+      break;
+    case RegisterRole::output_frequency:
+      o.output_frequency = quantity();
+      break;
+    case RegisterRole::current:
+      o.current = quantity();
+      break;
+    case RegisterRole::voltage:
+      o.voltage = quantity();
+      break;
+    case RegisterRole::fault:
+      o.fault_code = raw;
+      o.fault_text = describe_value(p, r, raw, double_word);
+      break;
+    default:
+      break;
   }
 }
 
@@ -378,7 +394,7 @@ std::string read_easydrive(const DriveProfile& p, const Message& m,
   Parts parts(want_text);
   const RegisterDef* setpoint = nullptr;
   for (const RegisterDef& r : p.registers)
-    if (r.kind == RegisterKind::running && r.role == "setpoint") setpoint = &r;
+    if (r.kind == RegisterKind::running && r.role == RegisterRole::setpoint) setpoint = &r;
   if (m.direction == Direction::request) {
     const long cmd = easydrive::hex_field(f, 3, 2), index = easydrive::hex_field(f, 5, 4);
     if (cmd < 0 || index < 0) return {};
@@ -539,8 +555,16 @@ DriveReading read_for_drive(const DriveProfile& p, const Message& m,
     case Protocol::unknown:
       break;
   }
-  if (!what.empty())
-    out.text = fmt::format(FMT_COMPILE("drive {} ({}): {}"), m.address, p.name, what);
+  if (!what.empty()) {
+    // "drive 2 (ERMAN E-9P/9G): ..."
+    out.text.reserve(what.size() + p.name.size() + 16);
+    out.text += "drive ";
+    append_int(out.text, m.address);
+    out.text += " (";
+    out.text += p.name;
+    out.text += "): ";
+    out.text += what;
+  }
   return out;
 }
 

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <set>
 #include <sstream>
 
@@ -296,14 +297,24 @@ RegisterDef parse_register(const toml::table& t, const std::string& path,
     r.is_signed = s->as_boolean()->get();
   }
   r.enum_name = string_at(t, "enum", path + ".enum", false);
-  r.role = string_at(t, "role", path + ".role", false);
-  static const std::set<std::string_view> kRoles = {
-      "",      "control", "status", "setpoint", "output_frequency", "current", "voltage",
-      "fault", "start",   "stop",   "reset"};
-  if (!kRoles.count(r.role))
+  static const std::map<std::string, RegisterRole, std::less<>> kRoles = {
+      {"", RegisterRole::none},
+      {"control", RegisterRole::control},
+      {"status", RegisterRole::status},
+      {"setpoint", RegisterRole::setpoint},
+      {"output_frequency", RegisterRole::output_frequency},
+      {"current", RegisterRole::current},
+      {"voltage", RegisterRole::voltage},
+      {"fault", RegisterRole::fault},
+      {"start", RegisterRole::start},
+      {"stop", RegisterRole::stop},
+      {"reset", RegisterRole::reset}};
+  const auto role = kRoles.find(string_at(t, "role", path + ".role", false));
+  if (role == kRoles.end())
     throw Bad{line_of(*t.get("role")), path + ".role",
               "must be control, status, setpoint, output_frequency, current, voltage, fault, "
               "start, stop or reset"};
+  r.role = role->second;
   if (auto w = int_at(t, "words", path + ".words", 1, 2)) r.words = static_cast<int>(*w);
   if (const toml::node* st = t.get("state")) {
     if (!st->is_table()) throw Bad{line_of(*st), path + ".state", "expected a table"};

@@ -40,6 +40,21 @@ struct StateBits {
   std::vector<int> run, reset, running, forward, reverse, fault, warning, ready;
 };
 
+// What a register means to the drive's state (the profile's `role`); none: only its value.
+enum class RegisterRole : std::uint8_t {
+  none,
+  control,
+  status,
+  setpoint,
+  output_frequency,
+  current,
+  voltage,
+  fault,
+  start,
+  stop,
+  reset,
+};
+
 struct RegisterDef {
   std::uint32_t address = 0;  // register address, running-value index, or parameter wire number
   std::string number;         // parameters: as the manual prints it ("4-14", "F0.05")
@@ -50,7 +65,7 @@ struct RegisterDef {
   double scale = 1.0;
   bool is_signed = false;
   std::string enum_name;
-  std::string role;
+  RegisterRole role = RegisterRole::none;
   int words = 1;  // 2: a 32-bit value over two registers, high word first
   std::vector<RegisterBit> bits;
   StateBits state;
