@@ -130,7 +130,12 @@ void TextSink::on_frame(const Message& m) {
   line += "  ";
   append_frame_summary(line, m, options_.show_time);
   write(line);
-  if (!m.drive_info.empty()) write(fmt::format(FMT_COMPILE("{:>8}= {}"), "", m.drive_info));
+  if (!m.drive_info.empty()) {
+    line.assign(8, ' ');
+    line += "= ";
+    line += m.drive_info;
+    write(line);
+  }
   if (!options_.verbose) return;
   if (m.text_encoded) {
     std::string text;
