@@ -34,33 +34,44 @@ std::string parameter_name(unsigned pnu) {
 
 namespace {
 
+// "a, b, c" (empty parts are kept as they are: none occur).
+void append_part(std::string& out, std::string_view part) {
+  if (!out.empty()) out += ", ";
+  out += part;
+}
+
 std::string join(const std::vector<std::string>& parts) {
   std::string out;
-  for (const std::string& p : parts) out += (out.empty() ? "" : ", ") + p;
+  for (const std::string& p : parts) append_part(out, p);
   return out;
 }
 
 // FC profile control word (002 §7.11.1): every bit that is set, by name, and the cleared bits
 // that command something (coast, quick stop, DC brake, freeze) in capitals.
 std::string ctw_meaning(std::uint16_t w) {
-  std::vector<std::string> s;
+  std::string s;
   auto bit = [&](int n) { return ((w >> n) & 1) != 0; };
-  if ((w & 0x3) != 0) s.push_back(fmt::format(FMT_COMPILE("preset reference {}"), w & 0x3));
-  s.push_back(bit(2) ? "ramp" : "DC BRAKE");
-  s.push_back(bit(3) ? "no coast" : "COAST");
-  s.push_back(bit(4) ? "no quick stop" : "QUICK STOP");
-  s.push_back(bit(5) ? "ramp enabled" : "FREEZE OUTPUT");
-  s.push_back(bit(6) ? "start" : "stop");
-  if (bit(7)) s.push_back("reset");
-  if (bit(8)) s.push_back("jog");
-  if (bit(9)) s.push_back("ramp 2");
-  s.push_back(bit(10) ? "data valid" : "data not valid");
-  if (bit(11)) s.push_back("relay 01 on");
-  if (bit(12)) s.push_back("relay 02 on");
-  if (((w >> 13) & 0x3) != 0)
-    s.push_back(fmt::format(FMT_COMPILE("set-up {}"), ((w >> 13) & 0x3) + 1));
-  if (bit(15)) s.push_back("reverse");
-  return join(s);
+  if ((w & 0x3) != 0) {
+    append_part(s, "preset reference ");
+    s += static_cast<char>('0' + (w & 0x3));
+  }
+  append_part(s, bit(2) ? "ramp" : "DC BRAKE");
+  append_part(s, bit(3) ? "no coast" : "COAST");
+  append_part(s, bit(4) ? "no quick stop" : "QUICK STOP");
+  append_part(s, bit(5) ? "ramp enabled" : "FREEZE OUTPUT");
+  append_part(s, bit(6) ? "start" : "stop");
+  if (bit(7)) append_part(s, "reset");
+  if (bit(8)) append_part(s, "jog");
+  if (bit(9)) append_part(s, "ramp 2");
+  append_part(s, bit(10) ? "data valid" : "data not valid");
+  if (bit(11)) append_part(s, "relay 01 on");
+  if (bit(12)) append_part(s, "relay 02 on");
+  if (((w >> 13) & 0x3) != 0) {
+    append_part(s, "set-up ");
+    s += static_cast<char>('0' + ((w >> 13) & 0x3) + 1);
+  }
+  if (bit(15)) append_part(s, "reverse");
+  return s;
 }
 
 // FC profile status word (002 §7.11.2): the bits that are set (and coasting when bit 2 is 0).
@@ -81,11 +92,11 @@ std::string stw_meaning(std::uint16_t w) {
                                              "VOLTAGE EXCEEDED",
                                              "TORQUE EXCEEDED",
                                              "THERMAL TIMER EXCEEDED"};
-  std::vector<std::string> s;
+  std::string s;
   for (int n = 0; n < 16; ++n)
-    if (((w >> n) & 1) && kNames[n]) s.push_back(kNames[n]);
-  if (!(w & 0x4)) s.push_back("coasting");
-  return s.empty() ? "none" : join(s);
+    if (((w >> n) & 1) && kNames[n]) append_part(s, kNames[n]);
+  if (!(w & 0x4)) append_part(s, "coasting");
+  return s.empty() ? "none" : s;
 }
 
 std::string percent(std::uint16_t raw) {
@@ -220,15 +231,18 @@ void dissect_fc(Message& m, Frame&& frame, Direction direction, const FramingTim
     const std::uint16_t pcd1 = c.be16().value_or(0);
     const std::uint16_t pcd2 = c.be16().value_or(0);
     if (direction == Direction::response) {
-      tree.add(kStw, at, 2, pcd1).text = stw_meaning(pcd1);
-      tree.add_text(kMav, at + 2, 2, percent(pcd2));
-      info.push_back(fmt::format(FMT_COMPILE("STW 0x{:04X} [{}], MAV {}"), pcd1, stw_meaning(pcd1),
-                                 percent(pcd2)));
+      const std::string meaning = stw_meaning(pcd1);
+      const std::string mav = percent(pcd2);
+      tree.add(kStw, at, 2, pcd1).text = meaning;
+      tree.add_text(kMav, at + 2, 2, mav);
+      info.push_back(fmt::format(FMT_COMPILE("STW 0x{:04X} [{}], MAV {}"), pcd1, meaning, mav));
     } else if (direction == Direction::request) {
-      tree.add(kCtw, at, 2, pcd1).text = ctw_meaning(pcd1);
-      tree.add_text(kReference, at + 2, 2, percent(pcd2));
-      info.push_back(fmt::format(FMT_COMPILE("CTW 0x{:04X} [{}], REF {}"), pcd1, ctw_meaning(pcd1),
-                                 percent(pcd2)));
+      const std::string meaning = ctw_meaning(pcd1);
+      const std::string reference = percent(pcd2);
+      tree.add(kCtw, at, 2, pcd1).text = meaning;
+      tree.add_text(kReference, at + 2, 2, reference);
+      info.push_back(
+          fmt::format(FMT_COMPILE("CTW 0x{:04X} [{}], REF {}"), pcd1, meaning, reference));
     } else {
       tree.add(kPcd, at, 2, pcd1);
       tree.add(kPcd, at + 2, 2, pcd2);
