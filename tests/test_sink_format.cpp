@@ -8,6 +8,7 @@
 #include <string>
 
 #include "core/format.hpp"
+#include "core/line_buffer.hpp"
 #include "sinks/json_sink.hpp"
 
 using namespace drivetap;
@@ -56,14 +57,46 @@ TEST(SinkFormat, JsonStringsEscapeQuotesBackslashesAndControls) {
   EXPECT_EQ(json_quote(""), "\"\"");
 }
 
+TEST(SinkFormat, LineBufferHoldsWhatAStringWouldHold) {
+  // The same appends into a LineBuffer and a std::string, past several growths of the buffer.
+  LineBuffer line;
+  std::string expected;
+  for (int i = 0; i < 300; ++i) {
+    line += "k\":";
+    expected += "k\":";
+    append_uint(line, static_cast<std::uint64_t>(i) * 7919u);
+    append_uint(expected, static_cast<std::uint64_t>(i) * 7919u);
+    append_ms(line, i * 1234567 + 500);  // a tie: the formatted (fmt) path
+    append_ms(expected, i * 1234567 + 500);
+    line.append(static_cast<std::size_t>(i % 3), ' ');
+    expected.append(static_cast<std::size_t>(i % 3), ' ');
+    line += std::string("x\n");
+    expected += std::string("x\n");
+    line += ',';
+    expected += ',';
+  }
+  EXPECT_EQ(line.view(), expected);
+  line.truncate(5);
+  EXPECT_EQ(line.view(), expected.substr(0, 5));
+  line.clear();
+  EXPECT_TRUE(line.empty());
+  append_json_quoted(line, "a\"b");
+  EXPECT_EQ(line.view(), "\"a\\\"b\"");
+}
+
 TEST(SinkFormat, JsonTailEscapedInPlaceAsQuotingWouldEscapeIt) {
   // The JSON sink writes a frame's summary straight into its line and escapes it there.
   const std::string head = "{\"summary\":\"";
   for (const std::string& tail : {std::string("Read Holding Registers reply: 2 registers = 0, 0"),
                                   std::string("id 0x00=\"ACME\", 0x01=\"E-9\\x\"\n"),
                                   std::string("x\x01y", 3), std::string()}) {
+    const std::string escaped = head + json_quote(tail).substr(1, json_quote(tail).size() - 2);
     std::string line = head + tail;
     escape_json_tail(line, head.size());
-    EXPECT_EQ(line, head + json_quote(tail).substr(1, json_quote(tail).size() - 2)) << tail;
+    EXPECT_EQ(line, escaped) << tail;
+    LineBuffer buffer;
+    buffer += head + tail;
+    escape_json_tail(buffer, head.size());
+    EXPECT_EQ(buffer.view(), escaped) << tail;
   }
 }

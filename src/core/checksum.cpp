@@ -98,17 +98,6 @@ ChecksumResult check_rtu_crc(std::span<const std::uint8_t> frame) {
   return r;
 }
 
-void append_wire_hex(std::string& out, std::uint32_t packed, std::uint8_t width,
-                     const char* separator) {
-  constexpr char kDigits[] = "0123456789ABCDEF";
-  for (int i = width - 1; i >= 0; --i) {
-    if (i != width - 1) out += separator;
-    const unsigned byte = (packed >> (8 * i)) & 0xFF;
-    out += kDigits[byte >> 4];
-    out += kDigits[byte & 0x0F];
-  }
-}
-
 std::string wire_hex(std::uint32_t packed, std::uint8_t width, const char* separator) {
   std::string out;
   append_wire_hex(out, packed, width, separator);

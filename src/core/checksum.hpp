@@ -41,7 +41,17 @@ const char* to_string(ChecksumVerdict v);
 
 // A checksum value in wire order as hex bytes: (0x3A44, 2, " ") -> "3A 44"; "3A44" with "".
 std::string wire_hex(std::uint32_t packed, std::uint8_t width, const char* separator = " ");
-void append_wire_hex(std::string& out, std::uint32_t packed, std::uint8_t width,
-                     const char* separator = " ");
+// The same appended to `out` (std::string or LineBuffer).
+template <class Out>
+void append_wire_hex(Out& out, std::uint32_t packed, std::uint8_t width,
+                     const char* separator = " ") {
+  constexpr char kDigits[] = "0123456789ABCDEF";
+  for (int i = width - 1; i >= 0; --i) {
+    if (i != width - 1) out += separator;
+    const unsigned byte = (packed >> (8 * i)) & 0xFF;
+    out += kDigits[byte >> 4];
+    out += kDigits[byte & 0x0F];
+  }
+}
 
 }  // namespace drivetap

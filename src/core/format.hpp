@@ -4,6 +4,7 @@
 #include <fmt/format.h>
 
 #include <cstdint>
+#include <iterator>
 #include <span>
 #include <string>
 #include <string_view>
@@ -13,23 +14,26 @@
 namespace drivetap {
 
 // The sinks build each output line by appending to one reused string: no temporary strings and
-// no format-string parsing per frame on the paths taken for every frame.
+// no format-string parsing per frame on the paths taken for every frame. `Out` is std::string or
+// core/line_buffer.hpp's LineBuffer (append(ptr, n), append(n, c), +=).
 
 inline constexpr char kHexDigits[] = "0123456789ABCDEF";
 
-inline void append_uint(std::string& out, std::uint64_t v) {
+template <class Out>
+inline void append_uint(Out& out, std::uint64_t v) {
   const fmt::format_int digits(v);
   out.append(digits.data(), digits.size());
 }
 
-inline void append_int(std::string& out, std::int64_t v) {
+template <class Out>
+inline void append_int(Out& out, std::int64_t v) {
   const fmt::format_int digits(v);
   out.append(digits.data(), digits.size());
 }
 
 // `text` right-aligned (pad_left) or left-aligned in `width` columns.
-inline void append_padded(std::string& out, std::string_view text, std::size_t width,
-                          bool pad_left) {
+template <class Out>
+inline void append_padded(Out& out, std::string_view text, std::size_t width, bool pad_left) {
   const std::size_t pad = text.size() < width ? width - text.size() : 0;
   if (pad_left) out.append(pad, ' ');
   out.append(text);
@@ -37,7 +41,8 @@ inline void append_padded(std::string& out, std::string_view text, std::size_t w
 }
 
 // '.' and the `decimals` (1..9) lowest decimal digits of `fraction`, zero-padded: ".050".
-inline void append_fraction(std::string& out, std::uint64_t fraction, int decimals) {
+template <class Out>
+inline void append_fraction(Out& out, std::uint64_t fraction, int decimals) {
   char digits[10] = {'.'};
   for (int i = decimals; i >= 1; --i) {
     digits[i] = static_cast<char>('0' + fraction % 10);
@@ -47,7 +52,8 @@ inline void append_fraction(std::string& out, std::uint64_t fraction, int decima
 }
 
 // Seconds with `decimals` (<= 9) digits, exact (no floating point): 1.500000.
-inline void append_seconds(std::string& out, TimeNs t, int decimals) {
+template <class Out>
+inline void append_seconds(Out& out, TimeNs t, int decimals) {
   const bool negative = t < 0;
   const std::uint64_t a =
       negative ? static_cast<std::uint64_t>(-(t + 1)) + 1u : static_cast<std::uint64_t>(t);
@@ -68,7 +74,8 @@ inline std::string format_seconds(TimeNs t, int decimals) {
 // integers where that rounding is certain: t >= 0, not a tie (t % 1000 == 500, where the
 // double's last bit decides) and below 2^50 ns (13 days; the double's error stays far below the
 // 1 ns that separates t from a tie). Elsewhere the double is formatted.
-inline void append_ms(std::string& out, TimeNs t) {
+template <class Out>
+inline void append_ms(Out& out, TimeNs t) {
   if (t < 0 || t >= (TimeNs{1} << 50) || t % 1000 == 500) {
     fmt::format_to(std::back_inserter(out), "{:.3f}",
                    static_cast<double>(t) / static_cast<double>(kNsPerMs));
@@ -85,7 +92,8 @@ inline std::string format_ms(TimeNs t) {
   return s;
 }
 
-inline void append_hex_bytes(std::string& out, std::span<const std::uint8_t> bytes,
+template <class Out>
+inline void append_hex_bytes(Out& out, std::span<const std::uint8_t> bytes,
                              std::string_view separator = " ") {
   for (std::size_t i = 0; i < bytes.size(); ++i) {
     if (i) out.append(separator);

@@ -26,22 +26,38 @@ constexpr std::array<bool, 256> kNeedsEscape = [] {
 
 }  // namespace
 
-void append_json_quoted(std::string& out, std::string_view s) {
+template <class Out>
+void append_json_quoted(Out& out, std::string_view s) {
   out += '"';
   append_json_escaped(out, s);
   out += '"';
 }
 
+namespace {
+
+bool any_needs_escape(std::string_view s) {
+  return std::any_of(s.begin(), s.end(),
+                     [](char c) { return kNeedsEscape[static_cast<unsigned char>(c)]; });
+}
+
+}  // namespace
+
 void escape_json_tail(std::string& out, std::size_t from) {
-  const auto needs_escape = [](char c) { return kNeedsEscape[static_cast<unsigned char>(c)]; };
-  if (std::none_of(out.begin() + static_cast<std::ptrdiff_t>(from), out.end(), needs_escape))
-    return;
+  if (!any_needs_escape(std::string_view(out).substr(from))) return;
   const std::string tail = out.substr(from);
   out.resize(from);
   append_json_escaped(out, tail);
 }
 
-void append_json_escaped(std::string& out, std::string_view s) {
+void escape_json_tail(LineBuffer& out, std::size_t from) {
+  if (!any_needs_escape(out.view().substr(from))) return;
+  const std::string tail(out.view().substr(from));
+  out.truncate(from);
+  append_json_escaped(out, tail);
+}
+
+template <class Out>
+void append_json_escaped(Out& out, std::string_view s) {
   std::size_t plain = 0;  // start of the run of characters that need no escape
   for (std::size_t i = 0; i < s.size(); ++i) {
     const char c = s[i];
@@ -78,6 +94,11 @@ void append_json_escaped(std::string& out, std::string_view s) {
   out.append(s.substr(plain));
 }
 
+template void append_json_quoted(std::string&, std::string_view);
+template void append_json_quoted(LineBuffer&, std::string_view);
+template void append_json_escaped(std::string&, std::string_view);
+template void append_json_escaped(LineBuffer&, std::string_view);
+
 std::string json_quote(std::string_view s) {
   std::string out;
   append_json_quoted(out, s);
@@ -91,7 +112,7 @@ std::string seconds(TimeNs t) {
 }
 
 // Field nodes keyed by dotted id, in first-seen order; repeated ids become arrays.
-void append_field_value(std::string& out, const Message& m, const FieldNode& node) {
+void append_field_value(LineBuffer& out, const Message& m, const FieldNode& node) {
   switch (node.desc->type) {
     case FieldType::bytes:
       append_json_quoted(out, field_bytes_hex(node, m.bytes, m.text_encoded));
@@ -128,7 +149,7 @@ const char* close_id(FrameClose c) {
 // The field tree as an object keyed by dotted id, in first-seen order; an id seen more than once
 // (registers) has an array of its values. Ids are dotted lower-case (tests/test_field_table.cpp):
 // written without escaping.
-void JsonSink::append_fields_object(std::string& out, const Message& m) {
+void JsonSink::append_fields_object(LineBuffer& out, const Message& m) {
   std::vector<FieldKey>& keys = field_keys_;
   keys.clear();
   for (std::size_t i = 0; i < m.fields.size(); ++i) {
@@ -177,9 +198,14 @@ void JsonSink::write(std::string& line) {
   if (std::fwrite(line.data(), 1, line.size(), out_) != line.size()) status_.note_failure();
 }
 
+void JsonSink::write(LineBuffer& line) {
+  line += '\n';
+  if (std::fwrite(line.data(), 1, line.size(), out_) != line.size()) status_.note_failure();
+}
+
 void JsonSink::on_frame(const Message& m) {
   const TimeNs t_end = m.frame.events.empty() ? 0 : m.frame.events.back().time + character_time_;
-  std::string& line = line_;
+  LineBuffer& line = line_;
   line.clear();
   line += "{\"type\":\"frame\",\"n\":"sv;
   append_uint(line, m.frame.number);
@@ -286,7 +312,7 @@ void JsonSink::on_event(const BusEvent& e) {
 }
 
 void JsonSink::on_transaction(const Transaction& t) {
-  std::string& line = line_;
+  LineBuffer& line = line_;
   line.clear();
   auto number_or_null = [&line](std::uint64_t v) {
     if (v == 0)

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "core/byte_event.hpp"
+#include "core/line_buffer.hpp"
 #include "core/serial_config.hpp"
 #include "sinks/sink.hpp"
 
@@ -31,23 +32,28 @@ class JsonSink final : public Sink {
     std::size_t count;
   };
   // Appends the frame's field tree as an object keyed by id (field_keys_ is its scratch).
-  void append_fields_object(std::string& out, const Message& m);
+  void append_fields_object(LineBuffer& out, const Message& m);
   void write(std::string& line);
+  void write(LineBuffer& line);
   std::FILE* out_;
   const ChannelTable& channels_;
   TimeNs character_time_;
   bool show_latency_;
   WriteStatus status_;
-  std::string line_;                  // reused for every frame line
+  LineBuffer line_;                   // reused for every frame and transaction line
   std::vector<FieldKey> field_keys_;  // scratch: the ids of the frame's field tree
 };
 
 // JSON string literal with escapes.
 std::string json_quote(std::string_view s);
-void append_json_quoted(std::string& out, std::string_view s);
+// The same appended to `out`: Out is std::string or LineBuffer (instantiated for both).
+template <class Out>
+void append_json_quoted(Out& out, std::string_view s);
 // `s` as the inside of a JSON string (escaped, no quotes).
-void append_json_escaped(std::string& out, std::string_view s);
+template <class Out>
+void append_json_escaped(Out& out, std::string_view s);
 // Escapes out[from..] in place, as the inside of a JSON string.
 void escape_json_tail(std::string& out, std::size_t from);
+void escape_json_tail(LineBuffer& out, std::size_t from);
 
 }  // namespace drivetap

@@ -25,7 +25,8 @@ const char* direction_tag(Direction d) {
   return "???";
 }
 
-void append_checksum_text(std::string& out, const ChecksumResult& c) {
+template <class Out>
+void append_checksum_text(Out& out, const ChecksumResult& c) {
   auto wire = [&](std::uint32_t v) { return wire_hex(v, c.width, c.text ? "" : " "); };
   switch (c.verdict) {
     case ChecksumVerdict::good:
@@ -51,7 +52,8 @@ void append_checksum_text(std::string& out, const ChecksumResult& c) {
 
 }  // namespace
 
-void append_frame_summary(std::string& out, const Message& m, bool with_latency) {
+template <class Out>
+void append_frame_summary(Out& out, const Message& m, bool with_latency) {
   out += protocol_label(m.protocol);
   out += "  ";
   if (m.address == 0) {
@@ -79,6 +81,9 @@ void append_frame_summary(std::string& out, const Message& m, bool with_latency)
     }
   }
 }
+
+template void append_frame_summary(std::string&, const Message&, bool);
+template void append_frame_summary(LineBuffer&, const Message&, bool);
 
 std::string frame_summary(const Message& m, bool with_latency) {
   std::string s;

@@ -5,6 +5,7 @@
 #include <string>
 
 #include "core/byte_event.hpp"
+#include "core/line_buffer.hpp"
 #include "core/serial_config.hpp"
 #include "sinks/sink.hpp"
 
@@ -49,6 +50,8 @@ class TextSink final : public Sink {
 // The decode of a frame in one line, without number/time/channel: shared with the JSON
 // `summary` key so both sinks say the same thing.
 std::string frame_summary(const Message& message, bool with_latency = true);
-void append_frame_summary(std::string& out, const Message& message, bool with_latency = true);
+// Out: std::string or LineBuffer (instantiated for both).
+template <class Out>
+void append_frame_summary(Out& out, const Message& message, bool with_latency = true);
 
 }  // namespace drivetap

@@ -1,0 +1,74 @@
+// An output line built by appends that stay inline: the JSON sink's per-frame line.
+// std::string's append is a call into libstdc++ (and a memcpy call) for every piece; a line of
+// some forty pieces per frame made those calls a large part of writing JSON. The helpers of
+// core/format.hpp and the JSON escaping take either type.
+#pragma once
+
+#include <cstddef>
+#include <cstring>
+#include <memory>
+#include <string_view>
+
+namespace drivetap {
+
+class LineBuffer {
+ public:
+  using value_type = char;  // for std::back_inserter (fmt on the rare paths)
+
+  void clear() { size_ = 0; }
+  [[nodiscard]] std::size_t size() const { return size_; }
+  [[nodiscard]] bool empty() const { return size_ == 0; }
+  [[nodiscard]] const char* data() const { return data_.get(); }
+  [[nodiscard]] std::string_view view() const { return {data_.get(), size_}; }
+  [[nodiscard]] const char* begin() const { return data_.get(); }
+  [[nodiscard]] const char* end() const { return data_.get() + size_; }
+
+  void append(const char* s, std::size_t n) {
+    if (n != 0) std::memcpy(extend(n), s, n);
+  }
+  void append(std::string_view s) { append(s.data(), s.size()); }
+  void append(std::size_t n, char c) {
+    if (n != 0) std::memset(extend(n), c, n);
+  }
+  void push_back(char c) { *extend(1) = c; }
+  LineBuffer& operator+=(std::string_view s) {
+    append(s);
+    return *this;
+  }
+  LineBuffer& operator+=(const char* s) {
+    append(std::string_view(s));
+    return *this;
+  }
+  LineBuffer& operator+=(char c) {
+    push_back(c);
+    return *this;
+  }
+  // Drops the characters from `n` on (n <= size()).
+  void truncate(std::size_t n) {
+    if (n < size_) size_ = n;
+  }
+  // `n` more characters at the end, for the caller to fill; they count in size() at once.
+  char* extend(std::size_t n) {
+    if (capacity_ - size_ < n) grow(n);
+    char* at = data_.get() + size_;
+    size_ += n;
+    return at;
+  }
+
+ private:
+  // Room for `more` characters past size(): at least doubles, so appends stay amortised O(1).
+  void grow(std::size_t more) {
+    std::size_t capacity = capacity_ < 256 ? 256 : capacity_;
+    while (capacity - size_ < more) capacity *= 2;
+    auto bigger = std::make_unique<char[]>(capacity);
+    if (size_ != 0) std::memcpy(bigger.get(), data_.get(), size_);
+    data_ = std::move(bigger);
+    capacity_ = capacity;
+  }
+
+  std::unique_ptr<char[]> data_;
+  std::size_t size_ = 0;
+  std::size_t capacity_ = 0;
+};
+
+}  // namespace drivetap
