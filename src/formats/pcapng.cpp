@@ -140,9 +140,9 @@ std::uint64_t Reader::u64(const std::uint8_t* p) const {
                      : (std::uint64_t{u32(p + 4)} << 32) | u32(p);
 }
 
-std::string Reader::walk_options(
-    const std::vector<std::uint8_t>& body, std::size_t pos,
-    const std::function<void(std::uint16_t, std::span<const std::uint8_t>)>& fn) const {
+template <class OptionFn>
+std::string Reader::walk_options(const std::vector<std::uint8_t>& body, std::size_t pos,
+                                 OptionFn&& fn) const {
   // Each pass consumes the 4-byte option header plus the padded value, or returns.
   while (pos + 4 <= body.size()) {
     const std::uint16_t code = u16(&body[pos]);

@@ -24,7 +24,6 @@
 
 #include <cstdint>
 #include <cstdio>
-#include <functional>
 #include <optional>
 #include <span>
 #include <string>
@@ -130,9 +129,11 @@ class Reader {
   std::uint16_t u16(const std::uint8_t* p) const;
   std::uint32_t u32(const std::uint8_t* p) const;
   std::uint64_t u64(const std::uint8_t* p) const;
-  std::string walk_options(
-      const std::vector<std::uint8_t>& body, std::size_t pos,
-      const std::function<void(std::uint16_t, std::span<const std::uint8_t>)>& fn) const;
+  // Calls fn(code, value) for each option from `pos`; an error text, or empty. (A template,
+  // defined and used only in pcapng.cpp: the per-option call is inlined on every packet.)
+  template <class OptionFn>
+  std::string walk_options(const std::vector<std::uint8_t>& body, std::size_t pos,
+                           OptionFn&& fn) const;
   std::optional<std::span<const std::uint8_t>> drivetap_payload(
       std::span<const std::uint8_t> value) const;
   bool parse_section(const std::vector<std::uint8_t>& body, std::uint64_t at);
