@@ -5,6 +5,7 @@
 #include <fmt/compile.h>
 #include <fmt/format.h>
 
+#include <array>
 #include <cmath>
 #include <iterator>
 #include <string_view>
@@ -221,6 +222,21 @@ std::string name_at(const DriveProfile& p, RegisterKind kind, std::uint32_t addr
   return fmt::format(FMT_COMPILE("register 0x{:04X}"), address);
 }
 
+// The big-endian 16-bit values of b[from, end): in `small` when they fit (any frame within
+// Modbus's 256 bytes), else in `large`. No allocation for the frames of a poll.
+std::span<const std::uint16_t> words_of(std::span<const std::uint8_t> b, std::size_t from,
+                                        std::size_t end, std::array<std::uint16_t, 128>& small,
+                                        std::vector<std::uint16_t>& large) {
+  const std::size_t n = end > from ? (end - from) / 2 : 0;
+  std::uint16_t* out = small.data();
+  if (n > small.size()) {
+    large.resize(n);
+    out = large.data();
+  }
+  for (std::size_t k = 0; k < n; ++k) out[k] = be16(b, from + 2 * k);
+  return {out, n};
+}
+
 std::string read_modbus(const DriveProfile& p, const Message& m,
                         std::span<const std::uint8_t> request, bool want_text,
                         DriveObservation& o) {
@@ -249,9 +265,10 @@ std::string read_modbus(const DriveProfile& p, const Message& m,
       const std::uint16_t values[] = {be16(b, 4)};
       read_registers(p, RegisterKind::holding, be16(b, 2), values, true, parts, o);
     } else if (fc == 0x10 && end >= 7) {
-      std::vector<std::uint16_t> values;
-      for (std::size_t i = 7; i + 1 < end; i += 2) values.push_back(be16(b, i));
-      read_registers(p, RegisterKind::holding, be16(b, 2), values, true, parts, o);
+      std::array<std::uint16_t, 128> small;
+      std::vector<std::uint16_t> large;
+      read_registers(p, RegisterKind::holding, be16(b, 2), words_of(b, 7, end, small, large), true,
+                     parts, o);
     } else if (fc == 0x05 && end >= 6) {
       const std::uint8_t on = b[4] == 0xFF ? 1 : 0;
       read_coils(p, be16(b, 2), 1, std::span(&on, 1), true, parts, o);
@@ -266,10 +283,10 @@ std::string read_modbus(const DriveProfile& p, const Message& m,
   const std::span<const std::uint8_t> q = modbus_binary(m.protocol, request, request_decoded);
   if (q.size() < 6 || q[1] != fc) return {};
   if ((fc == 0x03 || fc == 0x04) && end >= 3) {
-    std::vector<std::uint16_t> values;
-    for (std::size_t i = 3; i + 1 < end; i += 2) values.push_back(be16(b, i));
-    read_registers(p, fc == 0x03 ? RegisterKind::holding : RegisterKind::input, be16(q, 2), values,
-                   false, parts, o);
+    std::array<std::uint16_t, 128> small;
+    std::vector<std::uint16_t> large;
+    read_registers(p, fc == 0x03 ? RegisterKind::holding : RegisterKind::input, be16(q, 2),
+                   words_of(b, 3, end, small, large), false, parts, o);
   } else if ((fc == 0x01 || fc == 0x02) && end >= 3) {
     read_coils(p, be16(q, 2), be16(q, 4), std::span(b).subspan(3, end - 3), false, parts, o);
   }
