@@ -66,8 +66,10 @@ TEST(SinkFormat, LineBufferHoldsWhatAStringWouldHold) {
     expected += "k\":";
     append_uint(line, static_cast<std::uint64_t>(i) * 7919u);
     append_uint(expected, static_cast<std::uint64_t>(i) * 7919u);
-    append_ms(line, i * 1234567 + 500);  // a tie: the formatted (fmt) path
-    append_ms(expected, i * 1234567 + 500);
+    // Odd i: a tie (t % 1000 == 500), which append_ms formats through fmt; even i: integers.
+    const TimeNs t = i % 2 ? i * 1000 + 500 : i * 1234567;
+    append_ms(line, t);
+    append_ms(expected, t);
     line.append(static_cast<std::size_t>(i % 3), ' ');
     expected.append(static_cast<std::size_t>(i % 3), ' ');
     line += std::string("x\n");
@@ -82,6 +84,12 @@ TEST(SinkFormat, LineBufferHoldsWhatAStringWouldHold) {
   EXPECT_TRUE(line.empty());
   append_json_quoted(line, "a\"b");
   EXPECT_EQ(line.view(), "\"a\\\"b\"");
+  // A view of the buffer appended to it, across a growth (the old storage must outlive the copy).
+  LineBuffer twice;
+  twice.append(std::string(200, 'x') + "y");
+  for (int k = 0; k < 4; ++k) twice.append(twice.view());
+  EXPECT_EQ(twice.size(), 16u * 201u);
+  EXPECT_EQ(twice.view().substr(twice.size() - 201), std::string(200, 'x') + "y");
 }
 
 TEST(SinkFormat, JsonTailEscapedInPlaceAsQuotingWouldEscapeIt) {

@@ -15,6 +15,11 @@ class LineBuffer {
  public:
   using value_type = char;  // for std::back_inserter (fmt on the rare paths)
 
+  LineBuffer() = default;
+  // One owner per line: not copied or moved (a sink keeps its own).
+  LineBuffer(const LineBuffer&) = delete;
+  LineBuffer& operator=(const LineBuffer&) = delete;
+
   void clear() { size_ = 0; }
   [[nodiscard]] std::size_t size() const { return size_; }
   [[nodiscard]] bool empty() const { return size_ == 0; }
@@ -23,8 +28,12 @@ class LineBuffer {
   [[nodiscard]] const char* begin() const { return data_.get(); }
   [[nodiscard]] const char* end() const { return data_.get() + size_; }
 
+  // `s` may point into this buffer (its view()): the old storage outlives the copy.
   void append(const char* s, std::size_t n) {
-    if (n != 0) std::memcpy(extend(n), s, n);
+    if (n == 0) return;
+    if (capacity_ - size_ < n) return append_growing(s, n);
+    std::memcpy(data_.get() + size_, s, n);
+    size_ += n;
   }
   void append(std::string_view s) { append(s.data(), s.size()); }
   void append(std::size_t n, char c) {
@@ -57,13 +66,20 @@ class LineBuffer {
 
  private:
   // Room for `more` characters past size(): at least doubles, so appends stay amortised O(1).
-  void grow(std::size_t more) {
+  // Returns the old storage, for a caller still reading from it.
+  std::unique_ptr<char[]> grow(std::size_t more) {
     std::size_t capacity = capacity_ < 256 ? 256 : capacity_;
     while (capacity - size_ < more) capacity *= 2;
-    auto bigger = std::make_unique<char[]>(capacity);
+    std::unique_ptr<char[]> bigger(new char[capacity]);
     if (size_ != 0) std::memcpy(bigger.get(), data_.get(), size_);
-    data_ = std::move(bigger);
+    std::swap(data_, bigger);
     capacity_ = capacity;
+    return bigger;
+  }
+  void append_growing(const char* s, std::size_t n) {
+    const std::unique_ptr<char[]> old = grow(n);  // freed after the copy: `s` may be in it
+    std::memcpy(data_.get() + size_, s, n);
+    size_ += n;
   }
 
   std::unique_ptr<char[]> data_;
