@@ -217,22 +217,11 @@ std::string function_name(std::uint8_t fc) {
   return out;
 }
 
-// "0x000B": what "0x{:04X}" prints, without the formatter (every poll prints several).
-void append_hex16(std::string& out, unsigned value) {
-  const char text[6] = {'0',
-                        'x',
-                        kHexDigits[(value >> 12) & 0xF],
-                        kHexDigits[(value >> 8) & 0xF],
-                        kHexDigits[(value >> 4) & 0xF],
-                        kHexDigits[value & 0xF]};
-  out.append(text, sizeof text);
-}
-
 void append_range(std::string& out, std::uint16_t start, unsigned count) {
-  append_hex16(out, start);
+  append_hex(out, start, 4);
   if (count <= 1) return;
   out += "..";
-  append_hex16(out, (start + count - 1) & 0xFFFF);
+  append_hex(out, (start + count - 1) & 0xFFFF, 4);
   out += " (";
   append_uint(out, count);
   out += ')';
@@ -370,11 +359,11 @@ void dissect_write_single_register(PduReader& r, Direction dir, PduDecode& d) {
   d.describe_in_place([&](std::string& out) {
     append_function_name(out, 0x06);
     out += dir == Direction::response ? " reply " : " ";
-    append_hex16(out, *addr);
+    append_hex(out, *addr, 4);
     out += " = ";
     append_uint(out, *value);
     out += " (";
-    append_hex16(out, *value);
+    append_hex(out, *value, 4);
     out += ')';
   });
 }

@@ -92,6 +92,17 @@ inline std::string format_ms(TimeNs t) {
   return s;
 }
 
+// "0x" and `raw` in upper-case hex, at least `width` digits ("0x000B" for 11, width 4): what
+// "0x{:0NX}" prints with N = width, without the formatter (fmt::format_to grows and zero-fills
+// a std::string per call).
+template <class Out>
+inline void append_hex(Out& out, std::uint32_t raw, int width) {
+  int digits = width;
+  while (digits < 8 && (raw >> (4 * digits)) != 0) ++digits;
+  out += "0x";
+  for (int i = digits - 1; i >= 0; --i) out += kHexDigits[(raw >> (4 * i)) & 0xF];
+}
+
 template <class Out>
 inline void append_hex_bytes(Out& out, std::span<const std::uint8_t> bytes,
                              std::string_view separator = " ") {

@@ -41,15 +41,6 @@ double scaled(const RegisterDef& r, std::uint32_t raw, bool double_word) {
   return static_cast<double>(raw_value(r, raw, double_word)) * r.scale;
 }
 
-// "0x" and `raw` in upper-case hex, at least `width` digits. (Values are appended through
-// core/format.hpp, not fmt::format_to, which grows and zero-fills a std::string per call.)
-void append_hex(std::string& out, std::uint32_t raw, int width) {
-  int digits = width;
-  while (digits < 8 && (raw >> (4 * digits)) != 0) ++digits;
-  out += "0x";
-  for (int i = digits - 1; i >= 0; --i) out += kHexDigits[(raw >> (4 * i)) & 0xF];
-}
-
 // The scaled value as "{:.Nf}" prints it, N = decimals_of(scale). A scale of 1, 0.1, 0.01 ...
 // or a whole one makes it an exact decimal, printed from integers: the double's rounding error
 // is far below half the last digit for any 32-bit raw value, so the text is the same.
