@@ -78,8 +78,10 @@ TEST(SinkFormat, LineBufferHoldsWhatAStringWouldHold) {
     expected += ',';
   }
   EXPECT_EQ(line.view(), expected);
-  line.truncate(5);
+  line.resize(5);
   EXPECT_EQ(line.view(), expected.substr(0, 5));
+  line.resize(7);  // grows as std::string::resize does: with NULs
+  EXPECT_EQ(line.view(), expected.substr(0, 5) + std::string(2, '\0'));
   line.clear();
   EXPECT_TRUE(line.empty());
   append_json_quoted(line, "a\"b");

@@ -52,9 +52,12 @@ class LineBuffer {
     push_back(c);
     return *this;
   }
-  // Drops the characters from `n` on (n <= size()).
-  void truncate(std::size_t n) {
-    if (n < size_) size_ = n;
+  // As std::string::resize: drops the characters from `n` on, or adds `n - size()` NULs.
+  void resize(std::size_t n) {
+    if (n <= size_)
+      size_ = n;
+    else
+      append(n - size_, '\0');
   }
   // `n` more characters at the end, for the caller to fill; they count in size() at once.
   char* extend(std::size_t n) {

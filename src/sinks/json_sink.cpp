@@ -42,17 +42,12 @@ bool any_needs_escape(std::string_view s) {
 
 }  // namespace
 
-void escape_json_tail(std::string& out, std::size_t from) {
-  if (!any_needs_escape(std::string_view(out).substr(from))) return;
-  const std::string tail = out.substr(from);
+template <class Out>
+void escape_json_tail(Out& out, std::size_t from) {
+  const std::string_view written(out.data() + from, out.size() - from);
+  if (!any_needs_escape(written)) return;
+  const std::string tail(written);
   out.resize(from);
-  append_json_escaped(out, tail);
-}
-
-void escape_json_tail(LineBuffer& out, std::size_t from) {
-  if (!any_needs_escape(out.view().substr(from))) return;
-  const std::string tail(out.view().substr(from));
-  out.truncate(from);
   append_json_escaped(out, tail);
 }
 
@@ -98,6 +93,8 @@ template void append_json_quoted(std::string&, std::string_view);
 template void append_json_quoted(LineBuffer&, std::string_view);
 template void append_json_escaped(std::string&, std::string_view);
 template void append_json_escaped(LineBuffer&, std::string_view);
+template void escape_json_tail(std::string&, std::size_t);
+template void escape_json_tail(LineBuffer&, std::size_t);
 
 std::string json_quote(std::string_view s) {
   std::string out;
@@ -193,12 +190,8 @@ JsonSink::JsonSink(std::FILE* out, const ChannelTable& channels, TimeNs characte
       character_time_(character_time),
       show_latency_(show_latency) {}
 
-void JsonSink::write(std::string& line) {
-  line += '\n';
-  if (std::fwrite(line.data(), 1, line.size(), out_) != line.size()) status_.note_failure();
-}
-
-void JsonSink::write(LineBuffer& line) {
+template <class Line>
+void JsonSink::write(Line& line) {
   line += '\n';
   if (std::fwrite(line.data(), 1, line.size(), out_) != line.size()) status_.note_failure();
 }

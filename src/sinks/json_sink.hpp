@@ -33,8 +33,9 @@ class JsonSink final : public Sink {
   };
   // Appends the frame's field tree as an object keyed by id (field_keys_ is its scratch).
   void append_fields_object(LineBuffer& out, const Message& m);
-  void write(std::string& line);
-  void write(LineBuffer& line);
+  // Ends `line` (std::string or LineBuffer) with a newline and writes it.
+  template <class Line>
+  void write(Line& line);
   std::FILE* out_;
   const ChannelTable& channels_;
   TimeNs character_time_;
@@ -52,8 +53,8 @@ void append_json_quoted(Out& out, std::string_view s);
 // `s` as the inside of a JSON string (escaped, no quotes).
 template <class Out>
 void append_json_escaped(Out& out, std::string_view s);
-// Escapes out[from..] in place, as the inside of a JSON string.
-void escape_json_tail(std::string& out, std::size_t from);
-void escape_json_tail(LineBuffer& out, std::size_t from);
+// Escapes out[from..] in place, as the inside of a JSON string (std::string or LineBuffer).
+template <class Out>
+void escape_json_tail(Out& out, std::size_t from);
 
 }  // namespace drivetap
