@@ -425,7 +425,8 @@ TEST(Simbus, StopCutsTheRunCleanly) {
 }
 
 // A writer preempted inside a frame leaves a real gap in it: the record says how long, as a
-// reader stamping each read back from its end would see it; in bursts there is none to report.
+// reader stamping each read back from its end would see it, and how late its bytes left; in
+// bursts there is none to report.
 TEST(Simbus, AWriterLateInsideAFrameReportsThePause) {
   TrafficOptions o = options("9600 8N1");
   o.gap_reply_chars = 40;  // the catch-up after the stall holds only the request's last bytes
@@ -461,8 +462,11 @@ TEST(Simbus, AWriterLateInsideAFrameReportsThePause) {
     if (burst == 0) {
       // The last two bytes are read at once, stamped back from the end of the stall.
       EXPECT_GE(sent[0].pause, kStall - 2 * c);
+      // The bytes after the stall left that late (less the at most two characters still due).
+      EXPECT_GE(sent[0].late, kStall - 2 * c);
     } else {
       EXPECT_EQ(sent[0].pause, 0);
+      EXPECT_EQ(sent[0].late, 0);
     }
   }
   std::string text;
@@ -473,13 +477,15 @@ TEST(Simbus, AWriterLateInsideAFrameReportsThePause) {
     std::FILE* f = open_memstream(&buf, &size);
     write_truth_record(f, rec, 0, o.serial.t15());
     rec.pause = 2 * kNsPerMs;
+    rec.late = 3 * kNsPerMs;
     write_truth_record(f, rec, 0, o.serial.t15());
     std::fclose(f);
     text.assign(buf, size);
     std::free(buf);
   }
   EXPECT_EQ(text.find("pause"), text.rfind("pause")) << text;
-  EXPECT_NE(text.find(", a 2000 us pause inside as written (the writer was late)\n"),
+  EXPECT_NE(text.find(", a 2000 us pause inside as written (the writer was late), written up to "
+                      "3000 us behind its schedule\n"),
             std::string::npos)
       << text;
 }

@@ -376,6 +376,7 @@ RunStats run(int fd, Traffic& traffic, const RunOptions& o, const std::atomic<bo
       if (o.burst > 0) continue;
       // A reader stamps the bytes of one read back from its time, one character each.
       Pending& p = q[owner[k]];
+      p.rec.late = std::max(p.rec.late, after - due[k]);
       const TimeNs end = after - static_cast<TimeNs>(written - k - 1) * c;
       if (p.last_end >= 0) p.rec.pause = std::max(p.rec.pause, end - c - p.last_end);
       p.last_end = end;
@@ -450,6 +451,8 @@ void write_truth_record(std::FILE* f, const Record& record, std::size_t dropped,
   if (record.pause > max_pause)
     line += fmt::format(", a {} us pause inside as written (the writer was late)",
                         record.pause / kNsPerUs);
+  if (record.late > max_pause)
+    line += fmt::format(", written up to {} us behind its schedule", record.late / kNsPerUs);
   line += '\n';
   std::fputs(line.c_str(), f);
 }

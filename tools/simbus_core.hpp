@@ -49,6 +49,12 @@ struct Record {
   // each write() back from its end would see. The schedule has none; a writer preempted in the
   // middle of a frame makes one, a real gap on the wire. 0 in bursts (their gaps are the point).
   TimeNs pause = 0;
+  // Written byte by byte: how long after its scheduled end the write() carrying its latest byte
+  // returned. A writer preempted around a write() (before it, or between it and reading the
+  // clock) leaves the silence before or after the record uncertain by that much: a garbage
+  // record can run into the next frame, a frame come apart, although `pause` saw none. 0 in
+  // bursts (they are late on purpose).
+  TimeNs late = 0;
 
   [[nodiscard]] bool is_frame() const { return kind != RecordKind::garbage; }
 };
@@ -193,7 +199,8 @@ bool set_realtime(int priority, std::string* error);
 // "#! serial" header and comments naming the traffic and the run's t0.
 void write_truth_header(std::FILE* f, const TrafficOptions& options, const RunOptions& run);
 // One line per record: its start time, channel `bus`, the bytes, a comment saying what it is,
-// and its pause when that is longer than `max_pause` (t1.5: the frame is broken on the wire).
+// and its pause and lateness where longer than `max_pause` (t1.5: the frame may be broken on the
+// wire, or its silence from a neighbour gone).
 void write_truth_record(std::FILE* f, const Record& record, std::size_t dropped, TimeNs max_pause);
 
 }  // namespace drivetap::simbus
