@@ -129,7 +129,10 @@ class HybridFramer final : public Framer {
   TimeNs emitted_end_ = -1;  // end of the last byte of the last emitted frame; -1 none yet
   bool have_emitted_ = false;
   bool processed_since_last_byte_ = false;
-  static constexpr std::size_t kSpares = 64;
+  // Enough storage kept for the frames of one large push_all() (4096 bytes of short frames are
+  // some 300): with 64, a caller that drains after the call paid a malloc and a free per frame
+  // beyond the 64th, a quarter of the framer's time. At most 512 x 1 KiB kept.
+  static constexpr std::size_t kSpares = 512;
   static constexpr std::size_t kPendingReserve = 64;  // events: 1 KiB
   std::vector<std::vector<ByteEvent>> spare_;         // recycle()d frame storage for emit()
 };

@@ -119,6 +119,9 @@ std::size_t HybridFramer<Rules>::good_frame_at(std::size_t p, std::size_t limit)
   std::size_t lengths[2];
   bool needs_more = false;
   predicted_lengths(p, limit, lengths, &needs_more);
+  // A length that ends where the bytes end (a frame between two silences, the usual case) is
+  // tried first: a reply's checksum is otherwise computed over the request's length first.
+  if (lengths[1] != 0 && p + lengths[1] == limit) std::swap(lengths[0], lengths[1]);
   for (std::size_t len : lengths)
     if (len != 0 && p + len <= limit && checksum_matches(p, len)) return len;
   return 0;
