@@ -7,11 +7,14 @@
 //
 // Records are copied: the pipeline reuses its Message for the next frame at once. A batch's
 // records keep their storage from one use to the next, so the copies do not allocate once the
-// run is under way. At most kDepth batches wait: memory stays bounded however far the writer
-// falls behind. flush() and finish() wait until the writer has replayed everything given so far;
-// finish() (or the destructor) then stops the thread; records after it go straight to the inner
-// sink. The worker thread runs with SIGINT and SIGTERM blocked. The inner sink and everything its
-// records name (the ChannelTable) must outlive this one; only the writer thread calls the inner
+// run is under way. (Swapping a frame's Message with its record instead of copying it was
+// measured slower: text 0.49 -> 0.54 s, JSON 0.74 -> 0.88 s on 1 M frames, best of 9 interleaved
+// runs: the storage of some 1300 queued messages then goes round the decoding thread's caches,
+// where one Message stayed hot.) At most kDepth batches wait: memory stays bounded however far the
+// writer falls behind. flush() and finish() wait until the writer has replayed everything given so
+// far; finish() (or the destructor) then stops the thread; records after it go straight to the
+// inner sink. The worker thread runs with SIGINT and SIGTERM blocked. The inner sink and everything
+// its records name (the ChannelTable) must outlive this one; only the writer thread calls the inner
 // sink between construction and finish(), except wants_detail(), wants_fields() and
 // wants_transactions(), read once here.
 #pragma once
