@@ -32,11 +32,13 @@ void option(std::vector<std::uint8_t>& o, std::uint16_t code, std::string_view s
 }
 void custom_option(std::vector<std::uint8_t>& o, std::uint16_t code,
                    std::span<const std::uint8_t> payload) {
-  std::vector<std::uint8_t> v;
-  le32(v, kDrivetapPen);
-  v.insert(v.end(), payload.begin(), payload.end());
-  if (v.size() > 0xFFF0) return;  // cannot be represented; never happens for <= 256-byte frames
-  option(o, code, v);
+  const std::size_t length = 4 + payload.size();  // the PEN, then the payload
+  if (length > 0xFFF0) return;  // cannot be represented; never happens for <= 256-byte frames
+  le16(o, code);
+  le16(o, static_cast<std::uint16_t>(length));
+  le32(o, kDrivetapPen);
+  o.insert(o.end(), payload.begin(), payload.end());
+  pad4(o);
 }
 
 }  // namespace
@@ -51,18 +53,24 @@ void put_varint(std::vector<std::uint8_t>& out, std::uint64_t v) {
 
 // ---- writer ----
 
-void Writer::block(std::uint32_t type, const std::vector<std::uint8_t>& body) {
-  std::vector<std::uint8_t> b;
-  const auto total = static_cast<std::uint32_t>(12 + body.size());
-  le32(b, type);
-  le32(b, total);
-  b.insert(b.end(), body.begin(), body.end());
-  le32(b, total);
-  if (std::fwrite(b.data(), 1, b.size(), out_) != b.size()) ok_ = false;
+// A block is built whole in block_ (its storage reused from block to block): the type, the
+// total length (patched in by end_block), the body, the total length again.
+void Writer::begin_block(std::uint32_t type) {
+  block_.clear();
+  le32(block_, type);
+  le32(block_, 0);
+}
+
+void Writer::end_block() {
+  const auto total = static_cast<std::uint32_t>(block_.size() + 4);
+  for (int i = 0; i < 4; ++i) block_[4 + i] = static_cast<std::uint8_t>(total >> (8 * i));
+  le32(block_, total);
+  if (std::fwrite(block_.data(), 1, block_.size(), out_) != block_.size()) ok_ = false;
 }
 
 void Writer::section_header(std::string_view application) {
-  std::vector<std::uint8_t> body;
+  begin_block(kSectionHeader);
+  std::vector<std::uint8_t>& body = block_;
   le32(body, kByteOrderMagic);
   le16(body, 1);
   le16(body, 0);
@@ -70,12 +78,13 @@ void Writer::section_header(std::string_view application) {
   le32(body, 0xFFFFFFFF);
   option(body, kOptShbUserApplication, application);
   le32(body, 0);  // opt_endofopt
-  block(kSectionHeader, body);
+  end_block();
 }
 
 void Writer::interface(std::uint16_t link_type, std::string_view name, std::string_view description,
                        std::string_view drivetap_settings) {
-  std::vector<std::uint8_t> body;
+  begin_block(kInterfaceDescription);
+  std::vector<std::uint8_t>& body = block_;
   le16(body, link_type);
   le16(body, 0);
   le32(body, 0);  // snaplen: no limit
@@ -88,11 +97,12 @@ void Writer::interface(std::uint16_t link_type, std::string_view name, std::stri
                   std::span(reinterpret_cast<const std::uint8_t*>(drivetap_settings.data()),
                             drivetap_settings.size()));
   le32(body, 0);
-  block(kInterfaceDescription, body);
+  end_block();
 }
 
 void Writer::packet(const Packet& p) {
-  std::vector<std::uint8_t> body;
+  begin_block(kEnhancedPacket);
+  std::vector<std::uint8_t>& body = block_;
   le32(body, p.interface);
   const auto ts = static_cast<std::uint64_t>(p.timestamp);
   le32(body, static_cast<std::uint32_t>(ts >> 32));
@@ -103,13 +113,13 @@ void Writer::packet(const Packet& p) {
   pad4(body);
   option(body, kOptComment, p.comment);
   if (p.flags != 0) {
-    std::vector<std::uint8_t> f;
-    le32(f, p.flags);
-    option(body, kOptEpbFlags, f);
+    le16(body, kOptEpbFlags);
+    le16(body, 4);
+    le32(body, p.flags);
   }
   if (!p.drivetap_option.empty()) custom_option(body, kOptCustomBinary, p.drivetap_option);
   le32(body, 0);
-  block(kEnhancedPacket, body);
+  end_block();
 }
 
 // ---- reader ----

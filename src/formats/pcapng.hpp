@@ -81,9 +81,11 @@ class Writer {
   [[nodiscard]] bool ok() const { return ok_; }
 
  private:
-  void block(std::uint32_t type, const std::vector<std::uint8_t>& body);
+  void begin_block(std::uint32_t type);
+  void end_block();  // writes block_
   std::FILE* out_;
   bool ok_ = true;
+  std::vector<std::uint8_t> block_;  // the block being built
 };
 
 struct Interface {

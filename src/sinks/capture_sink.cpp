@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <iterator>
 #include <optional>
 
 #include <fmt/compile.h>
@@ -62,10 +63,17 @@ std::uint32_t CaptureSink::interface_for(ChannelId channel) {
   return static_cast<std::uint32_t>(interface_of_channel_[channel]);
 }
 
-void CaptureSink::on_frame(const Message& m) {
+// The one Pending is reused from packet to packet (its vectors and strings keep their storage);
+// every member is set for each frame or noise record.
+CaptureSink::Pending& CaptureSink::start_pending() {
   write_pending();
-  pending_ = std::make_unique<Pending>();
-  Pending& p = *pending_;
+  if (!pending_) pending_ = std::make_unique<Pending>();
+  has_pending_ = true;
+  return *pending_;
+}
+
+void CaptureSink::on_frame(const Message& m) {
+  Pending& p = start_pending();
   p.number = m.frame.number;
   p.channel = m.frame.channel;
   p.kind = FrameKind::telegram;
@@ -75,42 +83,52 @@ void CaptureSink::on_frame(const Message& m) {
   p.crc_error =
       m.checksum.verdict == ChecksumVerdict::bad || m.checksum.verdict == ChecksumVerdict::swapped;
   p.broadcast = m.address == 0;
-  p.protocol_column = p.broadcast ? std::string(protocol_label(m.protocol)) + " broadcast"
-                                  : std::string(protocol_label(m.protocol));
-  p.comment = frame_summary(m, true);
-  if (!m.drive_info.empty()) p.comment += "; " + m.drive_info;
+  p.protocol_column = protocol_label(m.protocol);
+  if (p.broadcast) p.protocol_column += " broadcast";
+  p.comment.clear();
+  append_frame_summary(p.comment, m, true);
+  if (!m.drive_info.empty()) {
+    p.comment += "; ";
+    p.comment += m.drive_info;
+  }
   p.wireshark_dissects = m.protocol == Protocol::modbus_rtu;
 }
 
 void CaptureSink::on_noise(const Frame& f) {
-  write_pending();
-  pending_ = std::make_unique<Pending>();
-  Pending& p = *pending_;
+  Pending& p = start_pending();
   p.number = f.number;
   p.channel = f.channel;
   p.kind = FrameKind::noise;
   p.events = f.events;
-  p.bytes = f.bytes();
+  p.bytes.clear();
+  for (const ByteEvent& e : f.events) p.bytes.push_back(e.byte);
+  p.direction = Direction::unknown;
+  p.crc_error = false;
+  p.broadcast = false;
   p.protocol_column = "noise";
-  p.comment = fmt::format(FMT_COMPILE("noise: {} byte{} outside any frame"), p.bytes.size(),
-                          p.bytes.size() == 1 ? "" : "s");
+  p.comment.clear();
+  fmt::format_to(std::back_inserter(p.comment), FMT_COMPILE("noise: {} byte{} outside any frame"),
+                 p.bytes.size(), p.bytes.size() == 1 ? "" : "s");
+  p.wireshark_dissects = false;
 }
 
 void CaptureSink::on_anomaly(const Anomaly& a) {
-  if (!pending_ || a.frame_number != pending_->number) return;
+  if (!has_pending_ || a.frame_number != pending_->number) return;
   if (a.kind == AnomalyKind::checksum_bad || a.kind == AnomalyKind::checksum_swapped ||
       a.kind == AnomalyKind::noise)
     return;  // already in the comment's decode
-  pending_->comment += fmt::format(FMT_COMPILE("; {}: {}"), anomaly_label(a.kind), a.detail);
+  fmt::format_to(std::back_inserter(pending_->comment), FMT_COMPILE("; {}: {}"),
+                 anomaly_label(a.kind), a.detail);
 }
 
 void CaptureSink::write_pending() {
-  if (!pending_ || status_.failed()) {
-    pending_.reset();
+  if (!has_pending_ || status_.failed()) {
+    has_pending_ = false;
     return;
   }
   const Pending& p = *pending_;
-  std::vector<std::uint8_t> data;
+  std::vector<std::uint8_t>& data = data_;
+  data.clear();
   if (options_.link_type == CaptureLinkType::upper_pdu) {
     upper_pdu::Tags tags;
     if (p.kind == FrameKind::telegram && p.wireshark_dissects) {
@@ -191,7 +209,7 @@ void CaptureSink::write_pending() {
     if (!ng_.ok()) status_.note_failure();
   }
   ++packets_;
-  pending_.reset();
+  has_pending_ = false;
 }
 
 long whole_capture_prefix(int fd, long from, long size, CaptureFormat format) {

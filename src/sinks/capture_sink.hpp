@@ -78,6 +78,7 @@ class CaptureSink final : public Sink {
 
  private:
   struct Pending;
+  Pending& start_pending();  // writes the pending packet, then gives its storage for the next
   void write_pending();
   std::uint32_t interface_for(ChannelId channel);
 
@@ -90,8 +91,11 @@ class CaptureSink final : public Sink {
   std::vector<std::int64_t> interface_of_channel_;  // -1: no IDB yet
   std::uint32_t interfaces_ = 0;
   std::uint64_t packets_ = 0;
-  std::unique_ptr<Pending> pending_;  // a frame waits for its anomalies (they go in the comment)
+  // A frame waits for its anomalies (they go in the comment); the storage stays for the next.
+  std::unique_ptr<Pending> pending_;
+  bool has_pending_ = false;
   std::vector<std::uint8_t> option_;  // drivetap's EPB option, reused from packet to packet
+  std::vector<std::uint8_t> data_;    // the packet's data (upper-PDU tags and bytes), reused
   WriteStatus status_;
 };
 
