@@ -51,6 +51,11 @@ for format in pcapng pcap; do
     bash -c 'ulimit -f 4; exec "$@"' _ "$drivetap" read "$work/big.pcapng" "${flag[@]}" \
     -w "$work/mid.$format" -o /dev/null
 done
+# The same with --stats (its -w file is also written on the writer thread).
+expect "-w past a file size limit mid-run, --stats" 1 \
+  "^drivetap: -w $work/mid-stats.pcapng: write failed: File too large\$" -- \
+  bash -c 'ulimit -f 4; exec "$@"' _ "$drivetap" read --stats "$work/big.pcapng" \
+  -w "$work/mid-stats.pcapng" -o /dev/null
 expect "stdout on a full disk" 1 '^drivetap: standard output: write failed: No space left on device$' -- \
   sh -c '"$0" read "$1" > /dev/full' "$drivetap" "$log"
 expect "JSON to a full disk" 1 '^drivetap: standard output: write failed: No space left on device$' -- \

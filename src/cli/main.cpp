@@ -272,10 +272,11 @@ class Outputs {
     }
   }
   // From now on the records are formatted and written on a second thread (ThreadedSink) while
-  // this one decodes: `read`, when some sink shows every frame (not --stats or --events, whose
-  // sinks drop nearly every record: copying them would cost more than it saves).
+  // this one decodes: `read`, when some sink shows or writes every frame (not --stats or
+  // --events without -w, whose sinks drop nearly every record: copying them would cost more
+  // than it saves).
   void write_on_second_thread() {
-    if (!options_.stats_only && !options_.events_only)
+    if ((!options_.stats_only && !options_.events_only) || capture_)
       threaded_ = std::make_unique<ThreadedSink>(tee_);
   }
   Sink& sink() { return threaded_ ? static_cast<Sink&>(*threaded_) : tee_; }
