@@ -100,8 +100,7 @@ void CaptureSink::on_noise(const Frame& f) {
   p.channel = f.channel;
   p.kind = FrameKind::noise;
   p.events = f.events;
-  p.bytes.clear();
-  for (const ByteEvent& e : f.events) p.bytes.push_back(e.byte);
+  p.bytes = f.bytes();
   p.direction = Direction::unknown;
   p.crc_error = false;
   p.broadcast = false;
