@@ -85,13 +85,41 @@ while read -r link; do
 done < <(grep '^{"channel"' <<<"$truth")
 [ "$(grep -c '^{"channel"' <<<"$truth")" = 4 ] || fail "truth: expected 4 links with --mix all"
 
+# --plain: the frames alone. The same as `read LOG -w FILE --plain`, a fraction of the size, and
+# read back to the same counts but for the UART marks it leaves out; tshark decodes its Modbus RTU.
+gen --seed 7 --plain -w "$work/p.pcapng" || fail "generate --plain exit $?"
+"$drivetap" read --stats --plain -w "$work/q.pcapng" "$work/a.log" >/dev/null || fail "read -w --plain exit $?"
+cmp -s "$work/p.pcapng" "$work/q.pcapng" || fail "generate --plain differs from read LOG -w --plain"
+[ $(($(stat -c %s "$work/p.pcapng") * 3)) -lt "$(stat -c %s "$work/a.pcapng")" ] ||
+  fail "--plain: $(stat -c %s "$work/p.pcapng") bytes, not under a third of $(stat -c %s "$work/a.pcapng")"
+rich=$("$drivetap" read --stats -T json "${bindings[@]}" "$work/a.pcapng" | grep -o '"summary".*')
+plain=$("$drivetap" read --stats -T json "${bindings[@]}" "$work/p.pcapng" | grep -o '"summary".*')
+for k in frames noise_records noise_bytes bytes good bad swapped total ok exception timeout \
+  checksum_bad checksum_swapped unanswered_request timing_rule; do
+  [ "$(value $k "$plain")" = "$(value $k "$rich")" ] ||
+    fail "--plain: $k read back $(value $k "$plain"), from the full pcapng $(value $k "$rich")"
+done
+latency() { grep -o '"latency_ms":{[^}]*}' <<<"$1"; }
+[ "$(latency "$plain")" = "$(latency "$rich")" ] ||
+  fail "--plain: latencies $(latency "$plain"), from the full pcapng $(latency "$rich")"
+expected=$(($(value anomalies_total "$rich") - $(value uart_parity "$rich")))
+[ "$(value anomalies_total "$plain")" = "$expected" ] ||
+  fail "--plain: $(value anomalies_total "$plain") findings, the full pcapng's less its UART marks: $expected"
+[ -z "$(value uart_parity "$plain")" ] || [ "$(value uart_parity "$plain")" = 0 ] ||
+  fail "--plain: UART marks read back from a file that has none"
+if command -v tshark >/dev/null; then
+  rtu_frames=$(grep '^{"channel":"rtu"' <<<"$truth" | grep -o '"frames":[0-9]*' | cut -d: -f2)
+  mbrtu=$(tshark -r "$work/p.pcapng" -Y mbrtu 2>/dev/null | wc -l)
+  [ "$mbrtu" = "$rtu_frames" ] || fail "--plain: tshark decodes $mbrtu Modbus RTU packets, $rtu_frames written"
+fi
+
 # --mix modbus-rtu: one link, Modbus RTU only.
 gen --mix modbus-rtu -o "$work/r.log" --truth "$work/r.json" || fail "generate --mix modbus-rtu exit $?"
 [ "$(grep -c '^{"channel"' "$work/r.json")" = 1 ] || fail "--mix modbus-rtu: more than one link"
 grep -v '^#' "$work/r.log" | grep -qv ' rtu ' && fail "--mix modbus-rtu: a line on another channel"
 
 # 3. Bad options: one line naming the option, exit 2.
-for args in "--frames 0" "--frames 12x" "--frames -5" "--seed abc" "--mix modbus" ""; do
+for args in "--frames 0" "--frames 12x" "--frames -5" "--seed abc" "--mix modbus" "--plain" ""; do
   err=$("$drivetap" generate $args -o "$work/x.log" 2>&1 >/dev/null); rc=$?
   [ -z "$args" ] && { err=$("$drivetap" generate 2>&1 >/dev/null); rc=$?; args="(no output)"; }
   opt=${args%% *}

@@ -66,6 +66,7 @@ struct CommonOptions {
   std::string output;
   std::string write;
   bool classic_pcap = false;
+  bool plain = false;  // --plain
   std::string dlt = "upper-pdu";
   std::string protocol;               // empty: rtu for captures; decode infers it from the text
   std::vector<std::string> drives;    // "2=e9", "auto", "none"
@@ -123,6 +124,9 @@ void add_common_options(CLI::App* cmd, CommonOptions& o) {
   cmd->add_option("-w,--write", o.write,
                   "Write every frame as a packet to a pcapng FILE ('-' for stdout)");
   cmd->add_flag("--pcap", o.classic_pcap, "With -w: classic pcap instead of pcapng");
+  cmd->add_flag("--plain", o.plain,
+                "With -w: pcapng of the frames alone (no comments, flags or per-byte times), "
+                "packets stamped at their last byte");
   cmd->add_option("--dlt", o.dlt,
                   "With -w: link type upper-pdu (252, Wireshark decodes it as is) or user0 (147)")
       ->check(CLI::IsMember({"upper-pdu", "user0"}));
@@ -212,9 +216,12 @@ PipelineOptions make_pipeline_options(const CommonOptions& o, const RunSettings&
 
 // The capture file's options for -w (format, link type, the run's settings in each interface).
 CaptureSinkOptions capture_options(const CommonOptions& o, const PipelineOptions& p) {
+  if (o.plain && o.classic_pcap)
+    die("--plain: only with pcapng (classic pcap has no comments or per-byte times to leave out)");
   CaptureSinkOptions c;
   c.format = o.classic_pcap ? CaptureFormat::pcap : CaptureFormat::pcapng;
   c.link_type = o.dlt == "user0" ? CaptureLinkType::user0 : CaptureLinkType::upper_pdu;
+  c.plain = o.plain;
   c.serial = p.serial;
   c.character_time = p.timing.character_time;
   c.settings = encode_settings(p.timing.t15, p.timing.t35, p.reply_timeout, p.max_hold, p.protocol);
@@ -228,6 +235,7 @@ class Outputs {
           bool timed, const RingOptions* ring = nullptr)
       : options_(o) {
     const bool capture_to_stdout = o.write == "-";
+    if (o.plain && o.write.empty()) die("--plain: only with -w FILE (it is a kind of pcapng)");
     if (capture_to_stdout && (o.output.empty() || o.output == "-") && o.format == "json")
       die("-w - and JSON output cannot share stdout: add -o FILE for the JSON");
     if (!o.output.empty() && o.output != "-") {
@@ -859,6 +867,7 @@ struct GenerateOptions {
   std::string output;  // -o: byte log
   std::string write;   // -w: pcapng
   std::string truth;   // --truth: what was injected, JSON
+  bool plain = false;  // --plain: the pcapng without comments, flags or per-byte times
 };
 
 // `drivetap generate`: a large, realistic, reproducible capture (src/generate/traffic.hpp) as a
@@ -887,6 +896,7 @@ int run_generate(const GenerateOptions& g) {
     die(fmt::format("--mix {}: expected all or modbus-rtu", g.mix));
   if (g.output.empty() && g.write.empty())
     die("generate: give -o FILE (byte log), -w FILE (pcapng) or both");
+  if (g.plain && g.write.empty()) die("--plain: only with -w FILE (it is a kind of pcapng)");
   if (g.output == "-" && g.write == "-") die("-o - and -w - cannot both be stdout");
   auto create = [](const char* option, const std::string& path, const char* mode) {
     if (path.empty()) return static_cast<std::FILE*>(nullptr);
@@ -916,6 +926,7 @@ int run_generate(const GenerateOptions& g) {
   // The pcapng: the pipeline with `drivetap read`'s default options, channels interned as the
   // byte log's reader meets them, so that the file equals `drivetap read LOG -w FILE`'s.
   CommonOptions read_defaults;
+  read_defaults.plain = g.plain;
   std::optional<PipelineOptions> p;
   ChannelTable channels;
   std::unique_ptr<CaptureSink> sink;
@@ -1075,6 +1086,8 @@ int main(int argc, char** argv) {
                            "links; modbus-rtu: the Modbus RTU link only");
   generate_cmd->add_option("-o,--output", generate_opts.output, "Write a byte log to FILE");
   generate_cmd->add_option("-w,--write", generate_opts.write, "Write a pcapng to FILE");
+  generate_cmd->add_flag("--plain", generate_opts.plain,
+                         "With -w: the frames alone, as `read -w FILE --plain` writes them");
   generate_cmd->add_option("--truth", generate_opts.truth,
                            "Write what was generated (counts per link, JSON) to FILE");
 

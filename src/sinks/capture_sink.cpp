@@ -144,11 +144,13 @@ void CaptureSink::write_pending() {
     } else {
       // Noise, and protocols Wireshark has no dissector for: labelled, decoded in the column.
       tags.dissector = "data";
-      tags.info_column = p.comment;
+      if (!options_.plain) tags.info_column = p.comment;
     }
-    tags.protocol_column = p.protocol_column;
-    if (p.direction == Direction::request) tags.direction = upper_pdu::kDirectionSent;
-    if (p.direction == Direction::response) tags.direction = upper_pdu::kDirectionReceived;
+    if (!options_.plain) {
+      tags.protocol_column = p.protocol_column;
+      if (p.direction == Direction::request) tags.direction = upper_pdu::kDirectionSent;
+      if (p.direction == Direction::response) tags.direction = upper_pdu::kDirectionReceived;
+    }
     upper_pdu::append_tags(tags, data);
   }
   data.insert(data.end(), p.bytes.begin(), p.bytes.end());
@@ -163,6 +165,13 @@ void CaptureSink::write_pending() {
     pcap_dump(reinterpret_cast<u_char*>(dumper_), &h, data.data());
     // pcap_dump() says nothing of a failed write: its errno is kept here, on the writing thread.
     if (std::ferror(out_)) status_.note_failure();
+  } else if (options_.plain) {
+    pcapng::Writer::Packet pkt;
+    pkt.interface = interface_for(p.channel);
+    pkt.timestamp = p.events.empty() ? 0 : p.events.back().time + options_.character_time;
+    pkt.data = data;
+    ng_.packet(pkt);
+    if (!ng_.ok()) status_.note_failure();
   } else {
     std::vector<std::uint8_t>& option = option_;
     const std::uint8_t kind = p.kind == FrameKind::noise ? 1 : 0;

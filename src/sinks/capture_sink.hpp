@@ -8,7 +8,7 @@
 // pcapng only: one interface per channel (name, line settings as description), EPB direction
 // flags (outbound = master -> slave), the CRC-error flag bit, drivetap's annotation as the packet
 // comment, and per-byte times and UART marks in a custom option, so that reading the file back
-// reproduces the run exactly. Classic pcap has no room for per-byte times: its packets are
+// reproduces the run exactly (`--plain` leaves all of that out but the interfaces). Classic pcap has no room for per-byte times: its packets are
 // stamped when their last byte ended, as capture tools stamp them, so reading one back lays the
 // bytes out where they were.
 #pragma once
@@ -37,6 +37,11 @@ struct CaptureSinkOptions {
   SerialConfig serial;
   TimeNs character_time = 0;  // classic pcap stamps a packet at the end of its last byte
   std::string settings;       // encode_settings(...) of the run, stored per interface
+  // pcapng with the frames only (`-w --plain`): per packet the dissector tag (and Modbus RTU's
+  // query/response ports) and the bytes, stamped at the end of the last byte as capture tools
+  // stamp; no comment, flags, direction tags or per-byte times. Read back like another tool's
+  // capture (bytes back to back before the timestamp), without UART marks.
+  bool plain = false;
 };
 
 // After a failed write (disk full, file size limit): drops what stdio still buffers and cuts the
