@@ -355,7 +355,7 @@ TEST(RtuFramer, PushAllGivesTheFramesOfPushingOneByOne) {
   TimeNs previous_end = 0;
   for (std::size_t i = 0; i < got.size(); ++i) {
     SCOPED_TRACE(i);
-    const std::vector<ByteEvent>& ev = got[i].events;
+    const ByteEvents& ev = got[i].events;
     TimeNs end = ev.front().time + timing.character_time, max_gap = 0;
     std::uint32_t max_gap_at = 0;
     for (std::size_t k = 1; k < ev.size(); ++k) {

@@ -70,9 +70,10 @@ void play(Sink& sink, std::size_t frames) {
   Message m;
   for (std::size_t i = 1; i <= frames; ++i) {
     m.frame.number = i;
-    m.frame.events.assign(i % 7, ByteEvent{});
-    for (std::size_t k = 0; k < m.frame.events.size(); ++k)
-      m.frame.events[k].byte = static_cast<std::uint8_t>(i + k);
+    m.frame.events.clear();
+    for (std::size_t k = 0; k < i % 7; ++k)
+      m.frame.events.push_back(
+          {static_cast<TimeNs>(k * (i % 3)), static_cast<std::uint8_t>(i + k), 0, 0, 0});
     m.bytes.assign(i % 5, static_cast<std::uint8_t>(i));
     m.fields.assign(i % 3, FieldNode{});
     for (FieldNode& f : m.fields) {
@@ -95,7 +96,7 @@ void play(Sink& sink, std::size_t frames) {
     if (i % 5 == 0) {
       Frame noise;
       noise.number = i;
-      noise.events.assign(3, ByteEvent{});
+      noise.events = {ByteEvent{}, ByteEvent{}, ByteEvent{}};
       sink.on_noise(noise);
     }
     if (i % 2 == 0) {

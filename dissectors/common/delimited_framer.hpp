@@ -47,7 +47,7 @@ class DelimitedFramer final : public Framer {
 
   ChannelId channel_;
   DelimitedFramerOptions options_;
-  std::vector<ByteEvent> pending_;
+  ByteEvents pending_;
   bool in_frame_ = false;
   TimeNs last_end_ = 0;
   TimeNs emitted_end_ = 0;

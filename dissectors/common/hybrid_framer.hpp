@@ -82,13 +82,16 @@ class HybridFramer final : public Framer {
   // The same, a run at a time: bytes that close nothing (no silence before them, no pressure)
   // are appended in bulk.
   void push_all(std::span<const ByteEvent> events, std::vector<Frame>& out) override;
+  // A run (a source packet): its first byte the single-byte way, the rest appended in bulk up to
+  // the pressure mark.
+  void push_run(const ByteRun& run, std::vector<Frame>& out) override;
   // Time has reached `now` on the bus; closes what silence or the hold limit has completed.
   void advance(TimeNs now, std::vector<Frame>& out) override;
   // End of input: everything pending becomes frames or noise.
   void finish(std::vector<Frame>& out) override;
   // Earliest time at which advance() can produce something; max() when nothing is pending.
   [[nodiscard]] TimeNs next_deadline() const override;
-  void recycle(std::vector<ByteEvent>&& events) override {
+  void recycle(ByteEvents&& events) override {
     if (spare_.size() < kSpares && events.capacity() > 0) spare_.push_back(std::move(events));
   }
   // Bytes before the pressure mark: push() closes nothing else without silence.
@@ -102,23 +105,25 @@ class HybridFramer final : public Framer {
   enum class Mode { silence, pressure, flush, end_of_input };
   void process(Mode mode, TimeNs now, std::vector<Frame>& out);
 
-  // Segmentation helpers over pending_bytes_[0, n).
+  // Segmentation helpers over pending_.bytes()[0, n).
   bool checksum_matches(std::size_t p, std::size_t len) const;
   std::size_t good_frame_at(std::size_t p, std::size_t limit) const;  // 0 when none
   std::size_t first_good_start(std::size_t from, std::size_t to) const;
   std::size_t next_hard_boundary(std::size_t p) const;
   bool is_hard_boundary(std::size_t index) const;
-  TimeNs silence_before(std::size_t index) const;  // silence before pending_[index], ns
+  TimeNs silence_before(std::size_t index) const;  // silence before byte `index`, ns
   bool looks_like_frame_start(std::size_t p) const;
   void predicted_lengths(std::size_t p, std::size_t n, std::size_t out[2], bool* needs_more) const;
   void emit(std::size_t p, std::size_t len, FrameKind kind, FrameClose close,
             std::vector<Frame>& out);
+  // Bytes [from, from + count) of `run` appended: none has a silence > t3.5 before it, and they
+  // stay below the pressure mark (push() of each would only append it).
+  void append_quietly(const ByteRun& run, std::size_t from, std::size_t count);
 
   ChannelId channel_;
   HybridFramerOptions options_;
   const Rules& rules_;
-  std::vector<ByteEvent> pending_;
-  std::vector<std::uint8_t> pending_bytes_;
+  ByteEvents pending_;  // its bytes() are what the rules read
   // Timing of pending_'s bytes as they arrived; while pending_run_whole_, it is that of exactly
   // the bytes in pending_ (none dropped since it started), so a frame of all of them needs no
   // second look at their times.
@@ -133,8 +138,8 @@ class HybridFramer final : public Framer {
   // some 300): with 64, a caller that drains after the call paid a malloc and a free per frame
   // beyond the 64th, a quarter of the framer's time. At most 512 x 1 KiB kept.
   static constexpr std::size_t kSpares = 512;
-  static constexpr std::size_t kPendingReserve = 64;  // events: 1 KiB
-  std::vector<std::vector<ByteEvent>> spare_;         // recycle()d frame storage for emit()
+  static constexpr std::size_t kPendingReserve = 64;  // bytes
+  std::vector<ByteEvents> spare_;                     // recycle()d frame storage for emit()
 };
 
 }  // namespace drivetap

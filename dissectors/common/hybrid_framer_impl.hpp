@@ -31,7 +31,6 @@ void HybridFramer<Rules>::push(const ByteEvent& event, std::vector<Frame>& out) 
     pending_run_.add(event.time, pending_.size(), options_.timing.character_time);
   }
   pending_.push_back(event);
-  pending_bytes_.push_back(event.byte);
   last_end_ = std::max(last_end_, event.time + options_.timing.character_time);
   processed_since_last_byte_ = false;
   if (pending_.size() >= options_.pressure_bytes) process(Mode::pressure, event.time, out);
@@ -61,7 +60,6 @@ void HybridFramer<Rules>::push_all(std::span<const ByteEvent> events, std::vecto
       end = std::max(end, e.time + character_time);
       pending_run_.add(e.time, pending_.size(), character_time);
       pending_.push_back(e);
-      pending_bytes_.push_back(e.byte);
       ++i;
     }
     last_end_ = end;
@@ -69,10 +67,53 @@ void HybridFramer<Rules>::push_all(std::span<const ByteEvent> events, std::vecto
 }
 
 template <class Rules>
+void HybridFramer<Rules>::push_run(const ByteRun& run, std::vector<Frame>& out) {
+  const std::size_t n = run.size();
+  if (n == 0) return;
+  // Bytes further apart than t3.5 are silences inside the run, and bytes going back in time are
+  // no run to append in bulk: those go byte by byte.
+  if (n > 1 && (run.step < 0 || run.step - options_.timing.character_time > options_.timing.t35)) {
+    for (std::size_t i = 0; i < n; ++i) push(run.event(i), out);
+    return;
+  }
+  push(run.event(0), out);  // the byte that may close something
+  std::size_t i = 1;
+  // Every pass takes at least one byte: in bulk up to the pressure mark, at the mark the
+  // single-byte way (it closes what pressure closes).
+  while (i < n) {
+    const std::size_t take = std::min(quiet_room(), n - i);
+    if (take == 0) {
+      push(run.event(i), out);
+      ++i;
+      continue;
+    }
+    append_quietly(run, i, take);
+    i += take;
+  }
+}
+
+template <class Rules>
+void HybridFramer<Rules>::append_quietly(const ByteRun& run, std::size_t from, std::size_t count) {
+  const TimeNs character_time = options_.timing.character_time;
+  const ByteRun part = run.part(from, count);
+  if (pending_.empty()) {
+    pending_run_.start(part.first, character_time);
+    pending_run_.add_stretch(part.first + part.step, part.step, 1, count - 1, character_time);
+    pending_run_whole_ = true;
+  } else {
+    pending_run_.add_stretch(part.first, part.step, pending_.size(), count, character_time);
+  }
+  pending_.append_run(part);
+  // step >= 0 (push_run): the last byte ends last.
+  last_end_ = std::max(last_end_, part.time(count - 1) + character_time);
+  processed_since_last_byte_ = false;
+}
+
+template <class Rules>
 TimeNs HybridFramer<Rules>::next_deadline() const {
   if (pending_.empty()) return std::numeric_limits<TimeNs>::max();
   if (!processed_since_last_byte_) return last_end_ + options_.timing.t35 + 1;
-  return pending_.front().time + options_.max_hold + 1;
+  return pending_.front_time() + options_.max_hold + 1;
 }
 
 template <class Rules>
@@ -85,7 +126,7 @@ void HybridFramer<Rules>::advance(TimeNs now, std::vector<Frame>& out) {
     }
     return;
   }
-  if (now - pending_.front().time > options_.max_hold) process(Mode::flush, now, out);
+  if (now - pending_.front_time() > options_.max_hold) process(Mode::flush, now, out);
 }
 
 template <class Rules>
@@ -95,8 +136,8 @@ void HybridFramer<Rules>::finish(std::vector<Frame>& out) {
 
 template <class Rules>
 bool HybridFramer<Rules>::checksum_matches(std::size_t p, std::size_t len) const {
-  if (len < rules_.min_frame() || p + len > pending_bytes_.size()) return false;
-  return rules_.checksum_matches(std::span(pending_bytes_).subspan(p, len));
+  if (len < rules_.min_frame() || p + len > pending_.size()) return false;
+  return rules_.checksum_matches(pending_.bytes().subspan(p, len));
 }
 
 template <class Rules>
@@ -105,7 +146,7 @@ void HybridFramer<Rules>::predicted_lengths(std::size_t p, std::size_t n, std::s
   out[0] = out[1] = 0;
   *needs_more = false;
   std::size_t candidates[2] = {0, 0};
-  rules_.predicted_lengths(std::span(pending_bytes_).subspan(p, n - p), candidates, needs_more);
+  rules_.predicted_lengths(pending_.bytes().subspan(p, n - p), candidates, needs_more);
   int i = 0;
   for (std::size_t len : candidates) {
     if (len == 0 || len > rules_.max_frame()) continue;
@@ -129,7 +170,7 @@ std::size_t HybridFramer<Rules>::good_frame_at(std::size_t p, std::size_t limit)
 
 template <class Rules>
 std::size_t HybridFramer<Rules>::first_good_start(std::size_t from, std::size_t to) const {
-  const std::size_t n = pending_bytes_.size();
+  const std::size_t n = pending_.size();
   for (std::size_t q = from; q < to; ++q)
     if (good_frame_at(q, n) != 0) return q;
   return to;
@@ -144,7 +185,7 @@ std::size_t HybridFramer<Rules>::next_hard_boundary(std::size_t p) const {
 template <class Rules>
 TimeNs HybridFramer<Rules>::silence_before(std::size_t index) const {
   if (index == 0 || index >= pending_.size()) return 0;
-  return pending_[index].time - (pending_[index - 1].time + options_.timing.character_time);
+  return pending_.time(index) - (pending_.time(index - 1) + options_.timing.character_time);
 }
 
 template <class Rules>
@@ -154,7 +195,7 @@ bool HybridFramer<Rules>::is_hard_boundary(std::size_t index) const {
 
 template <class Rules>
 bool HybridFramer<Rules>::looks_like_frame_start(std::size_t p) const {
-  return rules_.looks_like_frame_start(std::span(pending_bytes_).subspan(p));
+  return rules_.looks_like_frame_start(pending_.bytes().subspan(p));
 }
 
 template <class Rules>
@@ -183,8 +224,8 @@ void HybridFramer<Rules>::emit(std::size_t p, std::size_t len, FrameKind kind, F
     // series of allocations as its bytes arrive.
     if (pending_.capacity() < kPendingReserve) pending_.reserve(kPendingReserve);
   } else {
-    f.events.assign(pending_.begin() + static_cast<std::ptrdiff_t>(p),
-                    pending_.begin() + static_cast<std::ptrdiff_t>(p + len));
+    f.events.clear();
+    f.events.append_range(pending_, p, len);
   }
   if (timing_kept)
     stamp_frame_timing(f, pending_run_, &emitted_end_, &have_emitted_);
@@ -205,7 +246,7 @@ void HybridFramer<Rules>::process(Mode mode, TimeNs now, std::vector<Frame>& out
   };
   auto mostly_uart_errors = [&](std::size_t p, std::size_t end) {
     std::size_t flagged = 0;
-    for (std::size_t i = p; i < end; ++i) flagged += pending_[i].flags != 0;
+    for (std::size_t i = p; i < end; ++i) flagged += pending_.flags(i) != 0;
     return flagged * 2 > end - p;
   };
 
@@ -235,13 +276,13 @@ void HybridFramer<Rules>::process(Mode mode, TimeNs now, std::vector<Frame>& out
     // 3. An incomplete frame at the end: wait for the rest (split by adapter latency).
     if (may_hold && needs_more && chunk_end == n && !length_fits_chunk &&
         n - p < rules_.max_frame() && looks_like_frame_start(p) &&
-        now - pending_[p].time <= options_.max_hold && first_good_start(p + 1, n) == n) {
+        now - pending_.time(p) <= options_.max_hold && first_good_start(p + 1, n) == n) {
       break;
     }
     // 3b. Unknown layout inside a burst: the first checksum match that a good frame follows.
     if (lengths[0] == 0 && lengths[1] == 0 && !needs_more && looks_like_frame_start(p)) {
       const std::size_t found = rules_.scan_unknown_layout(
-          std::span(pending_bytes_).subspan(p, chunk_end - p),
+          pending_.bytes().subspan(p, chunk_end - p),
           [&](std::size_t len) { return p + len == chunk_end || good_frame_at(p + len, n) != 0; });
       if (found != 0 && (p + found < chunk_end || chunk_closed)) {
         emit(p, found, FrameKind::telegram, close_at(p + found), out);
@@ -291,16 +332,14 @@ void HybridFramer<Rules>::process(Mode mode, TimeNs now, std::vector<Frame>& out
   // Drop what was emitted; shift the boundary marks.
   if (p > 0) {
     // emit() took all of pending_ when its last frame covered it (pending_ is then empty).
+    const bool all = pending_.empty() || p == pending_.size();
     if (!pending_.empty()) {
-      pending_.erase(pending_.begin(), pending_.begin() + static_cast<std::ptrdiff_t>(p));
+      pending_.erase_front(p);
       pending_run_whole_ = false;  // pending_run_ also covers the bytes just dropped
     }
-    if (p == pending_bytes_.size()) {
-      pending_bytes_.clear();
+    if (all) {
       hard_.clear();  // every mark is at or before p
     } else {
-      pending_bytes_.erase(pending_bytes_.begin(),
-                           pending_bytes_.begin() + static_cast<std::ptrdiff_t>(p));
       std::vector<std::size_t> kept;
       for (std::size_t h : hard_)
         if (h > p) kept.push_back(h - p);

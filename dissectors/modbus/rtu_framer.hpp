@@ -38,11 +38,14 @@ class RtuFramer final : public Framer {
   void push_all(std::span<const ByteEvent> events, std::vector<Frame>& out) override {
     framer_.push_all(events, out);
   }
+  void push_run(const ByteRun& run, std::vector<Frame>& out) override {
+    framer_.push_run(run, out);
+  }
   void advance(TimeNs now, std::vector<Frame>& out) override { framer_.advance(now, out); }
   void finish(std::vector<Frame>& out) override { framer_.finish(out); }
   [[nodiscard]] TimeNs next_deadline() const override { return framer_.next_deadline(); }
   [[nodiscard]] std::size_t quiet_room() const override { return framer_.quiet_room(); }
-  void recycle(std::vector<ByteEvent>&& events) override { framer_.recycle(std::move(events)); }
+  void recycle(ByteEvents&& events) override { framer_.recycle(std::move(events)); }
   static const RtuRules& rules();
 
  private:

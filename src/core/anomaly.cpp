@@ -88,11 +88,12 @@ const char* anomaly_label(AnomalyKind k) {
   return "unknown";
 }
 
-void append_uart_anomalies(std::span<const ByteEvent> events, std::uint64_t frame_number,
+void append_uart_anomalies(const ByteEvents& events, std::uint64_t frame_number,
                            std::vector<Anomaly>& out) {
+  if (!events.any_flags()) return;  // the usual case: no look at each byte
   for (std::size_t i = 0; i < events.size(); ++i) {
-    const ByteEvent& e = events[i];
-    if (e.flags == 0) continue;
+    if (events.flags(i) == 0) continue;
+    const ByteEvent e = events[i];
     auto add = [&](AnomalyKind kind, const char* what) {
       out.push_back({kind, e.time, e.channel, frame_number,
                      fmt::format(FMT_COMPILE("{} on byte {} (0x{:02X})"), what, i, e.byte)});

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "core/byte_event.hpp"
+#include "core/byte_events.hpp"
 #include "core/time.hpp"
 
 namespace drivetap {
@@ -48,7 +49,7 @@ struct Anomaly {
 using AnomalyCounts = std::array<std::uint64_t, kAnomalyKindCount>;
 
 // One anomaly per UART mark on `events` (framing, parity, break, overrun), naming the byte.
-void append_uart_anomalies(std::span<const ByteEvent> events, std::uint64_t frame_number,
+void append_uart_anomalies(const ByteEvents& events, std::uint64_t frame_number,
                            std::vector<Anomaly>& out);
 
 }  // namespace drivetap

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "core/byte_event.hpp"
+#include "core/byte_events.hpp"
 
 namespace drivetap {
 
@@ -23,7 +24,7 @@ enum class FrameKind : std::uint8_t { telegram, noise };
 struct Frame {
   FrameKind kind = FrameKind::telegram;
   ChannelId channel = 0;
-  std::vector<ByteEvent> events;
+  ByteEvents events;
   // Silence before the first byte, ns (from the previous byte's end on this channel);
   // -1 when nothing came before it.
   TimeNs gap_before = -1;
@@ -34,13 +35,11 @@ struct Frame {
   // Sequence number in the capture (1-based, over telegrams and noise alike), set by the pipeline.
   std::uint64_t number = 0;
 
-  [[nodiscard]] TimeNs start() const { return events.empty() ? 0 : events.front().time; }
+  [[nodiscard]] TimeNs start() const { return events.empty() ? 0 : events.front_time(); }
   [[nodiscard]] std::size_t size() const { return events.size(); }
+  // A copy of the bytes (events.bytes() is the same without the copy).
   [[nodiscard]] std::vector<std::uint8_t> bytes() const {
-    std::vector<std::uint8_t> out;
-    out.reserve(events.size());
-    for (const ByteEvent& e : events) out.push_back(e.byte);
-    return out;
+    return {events.bytes().begin(), events.bytes().end()};
   }
 };
 
@@ -65,6 +64,25 @@ struct ByteRunTiming {
     }
     end = std::max(end, time + character_time);
   }
+  // Bytes index .. index + count - 1 (index > 0), byte index + j starting at first + j * step:
+  // the same as add() of each. Evenly spaced bytes that start after everything before them has
+  // ended (nearly all) take one step: each follows its predecessor's end by step - character time.
+  void add_stretch(TimeNs first, TimeNs step, std::size_t index, std::size_t count,
+                   TimeNs character_time) {
+    if (count == 0) return;
+    add(first, index, character_time);
+    if (count >= 2 && step >= 0 && end == first + character_time) {
+      const TimeNs gap = step - character_time;
+      if (gap > max_gap) {
+        max_gap = gap;
+        max_gap_at = static_cast<std::uint32_t>(index + 1);
+      }
+      end = first + static_cast<TimeNs>(count - 1) * step + character_time;
+      return;
+    }
+    for (std::size_t j = 1; j < count; ++j)
+      add(first + static_cast<TimeNs>(j) * step, index + j, character_time);
+  }
 };
 
 // Fills a frame's timing from `run`, the timing of its events: silence before it (from
@@ -73,21 +91,37 @@ struct ByteRunTiming {
 inline void stamp_frame_timing(Frame& f, const ByteRunTiming& run, TimeNs* previous_end,
                                bool* have_previous) {
   if (f.events.empty()) return;
-  if (*have_previous) f.gap_before = std::max<TimeNs>(0, f.events.front().time - *previous_end);
+  if (*have_previous) f.gap_before = std::max<TimeNs>(0, f.events.front_time() - *previous_end);
   f.max_intra_gap = run.max_gap;
   f.max_intra_gap_at = run.max_gap_at;
   *previous_end = *have_previous ? std::max(*previous_end, run.end) : run.end;
   *have_previous = true;
 }
 
+// The timing of `events` as ByteRunTiming would keep it if they arrived one by one; a stretch of
+// evenly spaced bytes that starts after everything before it has ended costs one step.
+inline ByteRunTiming timing_of(const ByteEvents& events, TimeNs character_time) {
+  ByteRunTiming run;
+  const std::span<const ByteEvents::Stretch> stretches = events.stretches();
+  for (std::size_t k = 0; k < stretches.size(); ++k) {
+    const ByteEvents::Stretch& s = stretches[k];
+    const std::size_t count =
+        (k + 1 < stretches.size() ? stretches[k + 1].index : events.size()) - s.index;
+    if (k == 0) {
+      run.start(s.first, character_time);
+      run.add_stretch(s.first + s.step, s.step, 1, count - 1, character_time);
+    } else {
+      run.add_stretch(s.first, s.step, s.index, count, character_time);
+    }
+  }
+  return run;
+}
+
 // The same, the run's timing computed from the frame's events. Shared by every framer.
 inline void stamp_frame_timing(Frame& f, TimeNs character_time, TimeNs* previous_end,
                                bool* have_previous) {
   if (f.events.empty()) return;
-  ByteRunTiming run;
-  run.start(f.events.front().time, character_time);
-  for (std::size_t i = 1; i < f.events.size(); ++i) run.add(f.events[i].time, i, character_time);
-  stamp_frame_timing(f, run, previous_end, have_previous);
+  stamp_frame_timing(f, timing_of(f.events, character_time), previous_end, have_previous);
 }
 
 }  // namespace drivetap

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "core/byte_event.hpp"
+#include "core/byte_events.hpp"
 #include "core/frame.hpp"
 #include "core/time.hpp"
 
@@ -24,6 +25,11 @@ class Framer {
   virtual void push_all(std::span<const ByteEvent> events, std::vector<Frame>& out) {
     for (const ByteEvent& e : events) push(e, out);
   }
+  // Adds a run of bytes (one source packet): exactly the frames of push() of each of its bytes
+  // in turn. Framers that can append a run without a decision per byte override it.
+  virtual void push_run(const ByteRun& run, std::vector<Frame>& out) {
+    for (std::size_t i = 0; i < run.size(); ++i) push(run.event(i), out);
+  }
   // Time has reached `now`; closes what silence or a hold limit has completed.
   virtual void advance(TimeNs now, std::vector<Frame>& out) = 0;
   // End of input: everything pending becomes frames or noise.
@@ -36,7 +42,7 @@ class Framer {
   [[nodiscard]] virtual std::size_t quiet_room() const { return 0; }
   // Gives back the storage of a frame's `events` the caller is done with; the framer may build a
   // later frame in it (one allocation fewer per frame). The default drops it.
-  virtual void recycle(std::vector<ByteEvent>&& events) { (void)events; }
+  virtual void recycle(ByteEvents&& events) { (void)events; }
 };
 
 }  // namespace drivetap

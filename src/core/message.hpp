@@ -66,8 +66,7 @@ inline constexpr std::size_t kTypicalFieldCount = 16;
 inline void begin_message(Message& m, Frame&& frame, Protocol protocol, Direction direction) {
   // Every member of Message is set here (tests/test_pipeline.cpp BeginMessageResetsEveryMember).
   m.frame = std::move(frame);
-  m.bytes.resize(m.frame.events.size());
-  for (std::size_t i = 0; i < m.bytes.size(); ++i) m.bytes[i] = m.frame.events[i].byte;
+  m.bytes.assign(m.frame.events.bytes().begin(), m.frame.events.bytes().end());
   m.protocol = protocol;
   m.direction = direction;
   m.address = -1;

@@ -386,8 +386,7 @@ void Pipeline::handle_frame(Frame& frame) {
 
   const ProtocolDecoder& decoder = *state_for(frame.channel).decoder;
   std::vector<std::uint8_t>& bytes = frame_bytes_;
-  bytes.clear();
-  for (const ByteEvent& e : frame.events) bytes.push_back(e.byte);
+  bytes.assign(frame.events.bytes().begin(), frame.events.bytes().end());
   const ProtocolDecoder::PairingKeys keys = decoder.pairing_keys(bytes);
   const Direction dir = decide_direction(decoder, frame, bytes, keys.address, keys.function, link);
   // A reply is dissected in the light of the request it answers (copied: pairing follows).

@@ -24,7 +24,7 @@ struct CaptureSink::Pending {
   std::uint64_t number = 0;
   ChannelId channel = 0;
   FrameKind kind = FrameKind::telegram;
-  std::vector<ByteEvent> events;
+  ByteEvents events;
   std::vector<std::uint8_t> bytes;
   Direction direction = Direction::unknown;
   bool crc_error = false;
@@ -100,7 +100,7 @@ void CaptureSink::on_noise(const Frame& f) {
   p.channel = f.channel;
   p.kind = FrameKind::noise;
   p.events = f.events;
-  p.bytes = f.bytes();
+  p.bytes.assign(f.events.bytes().begin(), f.events.bytes().end());
   p.direction = Direction::unknown;
   p.crc_error = false;
   p.broadcast = false;
@@ -154,10 +154,10 @@ void CaptureSink::write_pending() {
     upper_pdu::append_tags(tags, data);
   }
   data.insert(data.end(), p.bytes.begin(), p.bytes.end());
-  const TimeNs timestamp = p.events.empty() ? 0 : p.events.front().time;
+  const TimeNs timestamp = p.events.empty() ? 0 : p.events.front_time();
 
   if (options_.format == CaptureFormat::pcap) {
-    const TimeNs end = p.events.empty() ? 0 : p.events.back().time + options_.character_time;
+    const TimeNs end = p.events.empty() ? 0 : p.events.back_time() + options_.character_time;
     struct pcap_pkthdr h {};
     h.ts.tv_sec = static_cast<time_t>(end / kNsPerSecond);
     h.ts.tv_usec = static_cast<suseconds_t>(end % kNsPerSecond);  // ns precision
@@ -168,7 +168,7 @@ void CaptureSink::write_pending() {
   } else if (options_.plain) {
     pcapng::Writer::Packet pkt;
     pkt.interface = interface_for(p.channel);
-    pkt.timestamp = p.events.empty() ? 0 : p.events.back().time + options_.character_time;
+    pkt.timestamp = p.events.empty() ? 0 : p.events.back_time() + options_.character_time;
     pkt.data = data;
     ng_.packet(pkt);
     if (!ng_.ok()) status_.note_failure();
@@ -178,18 +178,24 @@ void CaptureSink::write_pending() {
     // Evenly spaced, unflagged bytes of one source packet (nearly every frame) need no entry
     // per byte: version 2 gives the spacing once.
     const TimeNs step =
-        p.events.size() >= 2 ? p.events[1].time - p.events[0].time : options_.character_time;
+        p.events.size() >= 2 ? p.events.time(1) - p.events.time(0) : options_.character_time;
     bool even = step >= 0;
-    for (std::size_t i = 0; even && i < p.events.size(); ++i) {
-      const ByteEvent& e = p.events[i];
-      even = e.flags == 0 && e.origin == p.events.front().origin &&
-             e.time - timestamp == static_cast<TimeNs>(i) * step;
+    // One stretch without UART marks is even by construction; otherwise each byte is looked at.
+    if (even && (p.events.stretches().size() > 1 || p.events.any_flags())) {
+      const std::uint32_t origin = p.events.empty() ? 0 : p.events.origin(0);
+      std::size_t i = 0;
+      for (const ByteEvent& e : p.events) {
+        even = e.flags == 0 && e.origin == origin &&
+               e.time - timestamp == static_cast<TimeNs>(i) * step;
+        if (!even) break;
+        ++i;
+      }
     }
     if (even) {
       option.assign({'D', 'T', 2, kind});
       pcapng::put_varint(option, p.events.size());
       pcapng::put_varint(option, static_cast<std::uint64_t>(step));
-      pcapng::put_varint(option, p.events.empty() ? 0 : p.events.front().origin);
+      pcapng::put_varint(option, p.events.empty() ? 0 : p.events.origin(0));
     } else {
       option.assign({'D', 'T', 1, kind});
       pcapng::put_varint(option, p.events.size());

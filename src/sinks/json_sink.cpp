@@ -269,7 +269,7 @@ void JsonSink::on_frame(const Message& m) {
 }
 
 void JsonSink::on_noise(const Frame& f) {
-  const std::vector<std::uint8_t> bytes = f.bytes();
+  const std::span<const std::uint8_t> bytes = f.events.bytes();
   const TimeNs t_end = f.events.empty() ? 0 : f.events.back().time + character_time_;
   std::string line = fmt::format(
       FMT_COMPILE(

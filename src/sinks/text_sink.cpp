@@ -171,7 +171,7 @@ void TextSink::on_frame(const Message& m) {
 void TextSink::on_noise(const Frame& f) {
   last_frame_number_ = f.number;
   if (!options_.frames) return;
-  std::vector<std::uint8_t> bytes = f.bytes();
+  const std::span<const std::uint8_t> bytes = f.events.bytes();
   write(prefix(f.number, f.start(), f.channel) +
         fmt::format(FMT_COMPILE("---  noise: {} byte{} {}"), bytes.size(),
                     bytes.size() == 1 ? "" : "s", hex_bytes(bytes)));

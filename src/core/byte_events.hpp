@@ -1,0 +1,329 @@
+// ByteEvents: a sequence of ByteEvents stored compactly — the storage of a Frame's events and of
+// a framer's pending bytes (PROTOCOLS.md §1; contract of ByteEvent in byte_event.hpp).
+//
+// It reads like a std::vector<ByteEvent> (size, [], front, back, iteration, push_back), but an
+// element is made on demand from three parts:
+//
+//   bytes_:     | b0 | b1 | b2 | b3 | b4 | ... |           one byte per event, contiguous
+//   stretches_: | {index 0, first t, step s, ch, origin} | {index 3, first u, ...} | ...
+//   flags_:     empty (no UART mark anywhere), or one UART flag byte per event
+//
+// Event i lies in the last stretch whose index <= i and starts at first + (i - index) * step:
+// bytes sent back to back (nearly all of them) take one stretch per run, not 16 bytes each, and
+// a frame's bytes are a span its dissector reads as they are. A source that knows each byte's
+// own time gives a stretch per byte at worst. Sequences are equal when their events are.
+#pragma once
+
+#include <algorithm>
+#include <cstddef>
+#include <cstdint>
+#include <initializer_list>
+#include <iterator>
+#include <span>
+#include <vector>
+
+#include "core/byte_event.hpp"
+
+namespace drivetap {
+
+// Bytes of one channel whose events are implied: byte i starts at first + i * step, comes from
+// source unit `origin` and carries UART flags flags[i] (`flags` empty: none). What a source with
+// packets hands on instead of a ByteEvent per byte (the ByteEvents are the same).
+struct ByteRun {
+  std::span<const std::uint8_t> bytes;
+  TimeNs first = 0;
+  TimeNs step = 0;
+  ChannelId channel = 0;
+  std::uint32_t origin = 0;
+  std::span<const std::uint8_t> flags;
+
+  [[nodiscard]] std::size_t size() const { return bytes.size(); }
+  [[nodiscard]] TimeNs time(std::size_t i) const { return first + static_cast<TimeNs>(i) * step; }
+  [[nodiscard]] ByteEvent event(std::size_t i) const {
+    return {time(i), bytes[i], flags.empty() ? std::uint8_t{0} : flags[i], channel, origin};
+  }
+  // Bytes [from, from + count) as a run of their own.
+  [[nodiscard]] ByteRun part(std::size_t from, std::size_t count) const {
+    return {bytes.subspan(from, count),
+            time(from),
+            step,
+            channel,
+            origin,
+            flags.empty() ? flags : flags.subspan(from, count)};
+  }
+};
+
+class ByteEvents {
+ public:
+  // Events [index, next stretch's index) start at first + (i - index) * step, on `channel`, from
+  // source unit `origin`.
+  struct Stretch {
+    std::uint32_t index = 0;
+    std::uint32_t origin = 0;
+    TimeNs first = 0;
+    TimeNs step = 0;
+    ChannelId channel = 0;
+  };
+
+  class const_iterator {
+   public:
+    using iterator_concept = std::random_access_iterator_tag;
+    using iterator_category = std::input_iterator_tag;  // elements are made, not referenced
+    using value_type = ByteEvent;
+    using difference_type = std::ptrdiff_t;
+    using reference = ByteEvent;
+    using pointer = void;
+
+    const_iterator() = default;
+    const_iterator(const ByteEvents* seq, std::size_t i) : seq_(seq), i_(i) {
+      if (seq_ && i_ < seq_->size()) k_ = seq_->stretch_of(i_);
+    }
+    ByteEvent operator*() const { return seq_->make(i_, k_); }
+    ByteEvent operator[](difference_type n) const { return *(*this + n); }
+    const_iterator& operator++() {
+      ++i_;
+      if (k_ + 1 < seq_->stretches_.size() && i_ >= seq_->stretches_[k_ + 1].index) ++k_;
+      return *this;
+    }
+    const_iterator operator++(int) {
+      const_iterator old = *this;
+      ++*this;
+      return old;
+    }
+    const_iterator& operator--() { return *this -= 1; }
+    const_iterator operator--(int) {
+      const_iterator old = *this;
+      --*this;
+      return old;
+    }
+    const_iterator& operator+=(difference_type n) {
+      i_ = static_cast<std::size_t>(static_cast<difference_type>(i_) + n);
+      if (i_ < seq_->size()) k_ = seq_->stretch_of(i_);
+      return *this;
+    }
+    const_iterator& operator-=(difference_type n) { return *this += -n; }
+    friend const_iterator operator+(const_iterator it, difference_type n) { return it += n; }
+    friend const_iterator operator+(difference_type n, const_iterator it) { return it += n; }
+    friend const_iterator operator-(const_iterator it, difference_type n) { return it -= n; }
+    friend difference_type operator-(const const_iterator& a, const const_iterator& b) {
+      return static_cast<difference_type>(a.i_) - static_cast<difference_type>(b.i_);
+    }
+    friend bool operator==(const const_iterator& a, const const_iterator& b) {
+      return a.i_ == b.i_;
+    }
+    friend auto operator<=>(const const_iterator& a, const const_iterator& b) {
+      return a.i_ <=> b.i_;
+    }
+
+   private:
+    const ByteEvents* seq_ = nullptr;
+    std::size_t i_ = 0;
+    std::size_t k_ = 0;  // the stretch of event i_
+  };
+  using iterator = const_iterator;
+  using value_type = ByteEvent;
+  using size_type = std::size_t;
+
+  ByteEvents() = default;
+  ByteEvents(std::initializer_list<ByteEvent> events) { append(events); }
+  explicit ByteEvents(std::span<const ByteEvent> events) { append(events); }
+  ByteEvents& operator=(std::initializer_list<ByteEvent> events) {
+    clear();
+    append(events);
+    return *this;
+  }
+
+  [[nodiscard]] std::size_t size() const { return bytes_.size(); }
+  [[nodiscard]] bool empty() const { return bytes_.empty(); }
+  // Room for this many bytes without growing (storage handed back to a framer is worth keeping).
+  [[nodiscard]] std::size_t capacity() const { return bytes_.capacity(); }
+  void reserve(std::size_t n) { bytes_.reserve(n); }
+
+  [[nodiscard]] ByteEvent operator[](std::size_t i) const { return make(i, stretch_of(i)); }
+  [[nodiscard]] ByteEvent front() const { return make(0, 0); }
+  [[nodiscard]] ByteEvent back() const { return make(size() - 1, stretches_.size() - 1); }
+  [[nodiscard]] const_iterator begin() const { return {this, 0}; }
+  [[nodiscard]] const_iterator end() const { return {this, size()}; }
+
+  // The parts of event i without making all of it.
+  [[nodiscard]] std::span<const std::uint8_t> bytes() const { return bytes_; }
+  [[nodiscard]] std::uint8_t byte(std::size_t i) const { return bytes_[i]; }
+  [[nodiscard]] TimeNs time(std::size_t i) const {
+    const Stretch& s = stretches_[stretch_of(i)];
+    return s.first + static_cast<TimeNs>(i - s.index) * s.step;
+  }
+  [[nodiscard]] TimeNs front_time() const { return stretches_.front().first; }
+  [[nodiscard]] TimeNs back_time() const { return time_in(size() - 1, stretches_.back()); }
+  [[nodiscard]] std::uint8_t flags(std::size_t i) const { return flags_.empty() ? 0 : flags_[i]; }
+  // False when no event carries a UART mark (the usual case: no per-event look needed).
+  [[nodiscard]] bool any_flags() const {
+    return std::any_of(flags_.begin(), flags_.end(), [](std::uint8_t f) { return f != 0; });
+  }
+  [[nodiscard]] std::uint32_t origin(std::size_t i) const {
+    return stretches_[stretch_of(i)].origin;
+  }
+  [[nodiscard]] std::span<const Stretch> stretches() const { return stretches_; }
+
+  void push_back(const ByteEvent& e) {
+    const std::size_t n = size();
+    bool extends = false;
+    if (n > 0) {
+      Stretch& s = stretches_.back();
+      if (s.channel == e.channel && s.origin == e.origin) {
+        const std::size_t count = n - s.index;
+        if (count == 1) {
+          // A second event sets the stretch's step; |times| < 2^62 keeps the difference exact.
+          s.step = e.time - s.first;
+          extends = true;
+        } else {
+          extends = follows(s, count, e.time);
+        }
+      }
+    }
+    if (!extends)
+      stretches_.push_back({static_cast<std::uint32_t>(n), e.origin, e.time, 0, e.channel});
+    push_flag(e.flags, n);
+    bytes_.push_back(e.byte);
+  }
+  template <class Events>
+  void append(const Events& events) {
+    for (const ByteEvent& e : events) push_back(e);
+  }
+  // `count` bytes from `bytes`, byte i starting at first + i * step, all on `channel` from unit
+  // `origin`, with `flags` (empty: unmarked; else one per byte). The caller keeps first +
+  // (count - 1) * step inside kTimeLimit.
+  void append_run(std::span<const std::uint8_t> bytes, TimeNs first, TimeNs step, ChannelId channel,
+                  std::uint32_t origin, std::span<const std::uint8_t> flags) {
+    if (bytes.empty()) return;
+    const std::size_t n = size();
+    // The run continues the last stretch when its first byte does and, beyond one byte, its
+    // spacing is the stretch's (as push_back() of each byte would find).
+    bool extends = false;
+    if (n > 0) {
+      Stretch& s = stretches_.back();
+      const std::size_t count = n - s.index;
+      if (s.channel == channel && s.origin == origin) {
+        if (count == 1) {
+          const TimeNs joined = first - s.first;
+          if (bytes.size() == 1 || joined == step) {
+            s.step = joined;
+            extends = true;
+          }
+        } else {
+          extends = (bytes.size() == 1 || step == s.step) && follows(s, count, first);
+        }
+      }
+    }
+    if (!extends)
+      stretches_.push_back(
+          {static_cast<std::uint32_t>(n), origin, first, bytes.size() > 1 ? step : 0, channel});
+    if (!flags.empty() || !flags_.empty()) {
+      if (flags_.empty()) flags_.assign(n, 0);
+      if (flags.empty())
+        flags_.resize(n + bytes.size(), 0);
+      else
+        flags_.insert(flags_.end(), flags.begin(), flags.end());
+    }
+    bytes_.insert(bytes_.end(), bytes.begin(), bytes.end());
+  }
+  void append_run(const ByteRun& run) {
+    append_run(run.bytes, run.first, run.step, run.channel, run.origin, run.flags);
+  }
+  // Events [from, from + count) of `other` (another sequence) appended.
+  void append_range(const ByteEvents& other, std::size_t from, std::size_t count) {
+    if (count == 0) return;
+    std::size_t k = other.stretch_of(from);
+    std::size_t i = from;
+    const std::size_t end = from + count;
+    const std::span<const std::uint8_t> flags =
+        other.flags_.empty() ? std::span<const std::uint8_t>() : std::span(other.flags_);
+    // Each pass appends the part of one stretch of `other` inside the range.
+    while (i < end) {
+      const Stretch& s = other.stretches_[k];
+      const std::size_t stop = std::min(
+          end, k + 1 < other.stretches_.size() ? other.stretches_[k + 1].index : other.size());
+      append_run(std::span(other.bytes_).subspan(i, stop - i), time_in(i, s), s.step, s.channel,
+                 s.origin, flags.empty() ? flags : flags.subspan(i, stop - i));
+      i = stop;
+      ++k;
+    }
+  }
+  void pop_back() {
+    bytes_.pop_back();
+    if (!flags_.empty()) flags_.pop_back();
+    if (stretches_.back().index == bytes_.size()) stretches_.pop_back();
+  }
+  // Drops the first n events.
+  void erase_front(std::size_t n) {
+    if (n == 0) return;
+    if (n >= size()) {
+      clear();
+      return;
+    }
+    const std::size_t k = stretch_of(n);
+    Stretch head = stretches_[k];
+    head.first = time_in(n, head);
+    head.index = static_cast<std::uint32_t>(n);
+    stretches_.erase(stretches_.begin(), stretches_.begin() + static_cast<std::ptrdiff_t>(k));
+    stretches_.front() = head;
+    for (Stretch& s : stretches_) s.index -= static_cast<std::uint32_t>(n);
+    bytes_.erase(bytes_.begin(), bytes_.begin() + static_cast<std::ptrdiff_t>(n));
+    if (!flags_.empty())
+      flags_.erase(flags_.begin(), flags_.begin() + static_cast<std::ptrdiff_t>(n));
+  }
+  void clear() {
+    bytes_.clear();
+    stretches_.clear();
+    flags_.clear();
+  }
+  void swap(ByteEvents& other) noexcept {
+    bytes_.swap(other.bytes_);
+    stretches_.swap(other.stretches_);
+    flags_.swap(other.flags_);
+  }
+
+  friend bool operator==(const ByteEvents& a, const ByteEvents& b) {
+    if (a.size() != b.size()) return false;
+    for (std::size_t i = 0; i < a.size(); ++i) {
+      const ByteEvent x = a[i], y = b[i];
+      if (x.time != y.time || x.byte != y.byte || x.flags != y.flags || x.channel != y.channel ||
+          x.origin != y.origin)
+        return false;
+    }
+    return true;
+  }
+
+ private:
+  [[nodiscard]] static TimeNs time_in(std::size_t i, const Stretch& s) {
+    return s.first + static_cast<TimeNs>(i - s.index) * s.step;
+  }
+  // Whether an event at `time` continues stretch `s` of `count` (>= 2) events. Checked without
+  // overflow: a step and count too large for the product cannot reach a time in range anyway.
+  [[nodiscard]] static bool follows(const Stretch& s, std::size_t count, TimeNs time) {
+    TimeNs offset = 0, expected = 0;
+    return !__builtin_mul_overflow(static_cast<TimeNs>(count), s.step, &offset) &&
+           !__builtin_add_overflow(s.first, offset, &expected) && expected == time;
+  }
+  [[nodiscard]] std::size_t stretch_of(std::size_t i) const {
+    if (stretches_.size() == 1) return 0;
+    // The last stretch starting at or before i.
+    const auto it = std::upper_bound(stretches_.begin(), stretches_.end(), i,
+                                     [](std::size_t v, const Stretch& s) { return v < s.index; });
+    return static_cast<std::size_t>(it - stretches_.begin()) - 1;
+  }
+  [[nodiscard]] ByteEvent make(std::size_t i, std::size_t k) const {
+    const Stretch& s = stretches_[k];
+    return {time_in(i, s), bytes_[i], flags(i), s.channel, s.origin};
+  }
+  void push_flag(std::uint8_t flag, std::size_t n) {
+    if (flag == 0 && flags_.empty()) return;
+    if (flags_.empty()) flags_.assign(n, 0);
+    flags_.push_back(flag);
+  }
+
+  std::vector<std::uint8_t> bytes_;
+  std::vector<Stretch> stretches_;
+  std::vector<std::uint8_t> flags_;
+};
+
+}  // namespace drivetap
