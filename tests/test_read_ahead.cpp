@@ -7,6 +7,8 @@
 
 #include "sources/read_ahead.hpp"
 
+#include "core/byte_events.hpp"
+
 using namespace drivetap;
 
 namespace {
@@ -57,14 +59,19 @@ TEST(ReadAhead, ChunksHoldEveryByteInOrder) {
     std::size_t next = 0;
     {
       ReadAhead ahead(source);
-      std::vector<ByteEvent> chunk;
+      RunBatch chunk;
       while (ahead.next_chunk(chunk)) {
         ASSERT_FALSE(chunk.empty());
-        for (const ByteEvent& e : chunk) {
-          ASSERT_EQ(e.origin, next);
-          // The channel the reader interned is there for this thread to look up.
-          ASSERT_EQ(channels.at(e.channel).name, "ch" + std::to_string(next / 1000 % 300));
-          ++next;
+        for (std::size_t k = 0; k < chunk.size(); ++k) {
+          for (std::size_t i = 0; i < chunk[k].size(); ++i) {
+            const ByteEvent e = chunk[k].event(i);
+            ASSERT_EQ(e.origin, next);
+            ASSERT_EQ(e.time, static_cast<TimeNs>(next) * 1000);
+            ASSERT_EQ(e.byte, static_cast<std::uint8_t>(next));
+            // The channel the reader interned is there for this thread to look up.
+            ASSERT_EQ(channels.at(e.channel).name, "ch" + std::to_string(next / 1000 % 300));
+            ++next;
+          }
         }
       }
     }
@@ -79,11 +86,11 @@ TEST(ReadAhead, StopsWhenTheCallerTakesNoMore) {
   CountingSource source(channels, 10'000'000, false);
   {
     ReadAhead ahead(source);
-    std::vector<ByteEvent> chunk;
+    RunBatch chunk;
     ASSERT_TRUE(ahead.next_chunk(chunk));
-    EXPECT_EQ(chunk.front().origin, 0u);
+    EXPECT_EQ(chunk[0].origin, 0u);
   }  // the destructor stops the reader a few chunks ahead, not at the end of the source
   ByteEvent e;
   ASSERT_TRUE(source.next(e));
-  EXPECT_LT(e.origin, 10u * ReadAhead::kChunkEvents);
+  EXPECT_LT(e.origin, 10u * ReadAhead::kChunkBytes);
 }

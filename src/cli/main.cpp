@@ -532,17 +532,18 @@ int run_read(const CommonOptions& o, const std::string& path) {
 
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
-  std::vector<ByteEvent> batch;
+  RunBatch batch;
   bool interrupted = false;
   // pcap/pcapng files are read a few chunks ahead on a second thread (no findings; a regular
   // file cannot block the reader for ever); other sources batch by batch on this one.
   std::optional<ReadAhead> ahead;
   if ((in.format == InputFormat::pcapng || in.format == InputFormat::pcap) && is_regular_file(path))
     ahead.emplace(*source);
-  while (ahead ? ahead->next_chunk(batch) : source->next_batch(batch)) {
+  // Each pass decodes one chunk or one batch of the source.
+  while (ahead ? ahead->next_chunk(batch) : (batch.clear(), source->append_runs(batch))) {
     if (!ahead)
       for (const Anomaly& a : source->take_findings()) pipeline.report(a);
-    pipeline.push_batch(batch);
+    pipeline.push_runs(batch);
     if (g_stop) {
       interrupted = true;
       break;

@@ -53,6 +53,63 @@ struct ByteRun {
   }
 };
 
+// Runs as a source hands them on, a packet or a read at a time: each run's bytes and flags
+// copied into two buffers the batch keeps from use to use.
+class RunBatch {
+ public:
+  [[nodiscard]] std::size_t size() const { return runs_.size(); }
+  [[nodiscard]] bool empty() const { return runs_.empty(); }
+  [[nodiscard]] std::size_t byte_count() const { return bytes_.size(); }
+  [[nodiscard]] ByteRun operator[](std::size_t k) const {
+    const Entry& e = runs_[k];
+    const std::span<const std::uint8_t> flags =
+        e.flagged ? std::span<const std::uint8_t>(flags_).subspan(e.offset, e.count)
+                  : std::span<const std::uint8_t>();
+    return {std::span<const std::uint8_t>(bytes_).subspan(e.offset, e.count),
+            e.first,
+            e.step,
+            e.channel,
+            e.origin,
+            flags};
+  }
+  void clear() {
+    bytes_.clear();
+    flags_.clear();
+    runs_.clear();
+  }
+  void add(const ByteRun& run) {
+    if (run.bytes.empty()) return;
+    const bool flagged = !run.flags.empty();
+    if (flagged || !flags_.empty()) flags_.resize(bytes_.size(), 0);
+    runs_.push_back({bytes_.size(), run.size(), run.first, run.size() > 1 ? run.step : 0,
+                     run.channel, run.origin, flagged});
+    bytes_.insert(bytes_.end(), run.bytes.begin(), run.bytes.end());
+    if (flagged) flags_.insert(flags_.end(), run.flags.begin(), run.flags.end());
+  }
+  // Events given one by one: each stretch of evenly spaced bytes of one channel and source unit
+  // becomes one run (the events read back are the same).
+  void add_events(std::span<const ByteEvent> events);
+  // The runs of `other` after these.
+  void append(const RunBatch& other) {
+    for (std::size_t k = 0; k < other.size(); ++k) add(other[k]);
+  }
+
+ private:
+  struct Entry {
+    std::size_t offset = 0;
+    std::size_t count = 0;
+    TimeNs first = 0;
+    TimeNs step = 0;
+    ChannelId channel = 0;
+    std::uint32_t origin = 0;
+    bool flagged = false;  // flags_[offset, offset + count) are this run's
+  };
+  std::vector<std::uint8_t> bytes_;
+  std::vector<std::uint8_t>
+      flags_;  // empty, or one per byte of bytes_ (up to the last flagged run)
+  std::vector<Entry> runs_;
+};
+
 class ByteEvents {
  public:
   // Events [index, next stretch's index) start at first + (i - index) * step, on `channel`, from
@@ -325,5 +382,36 @@ class ByteEvents {
   std::vector<Stretch> stretches_;
   std::vector<std::uint8_t> flags_;
 };
+
+inline void RunBatch::add_events(std::span<const ByteEvent> events) {
+  std::size_t i = 0;
+  // Each pass adds one run of at least one event.
+  while (i < events.size()) {
+    const ByteEvent& head = events[i];
+    std::size_t j = i + 1;
+    TimeNs step = 0;
+    bool flagged = head.flags != 0;
+    if (j < events.size() && events[j].channel == head.channel && events[j].origin == head.origin) {
+      step = events[j].time - head.time;
+      // Following events while they keep the spacing (no product of step and count that
+      // overflows can equal a time in range, so such a pair ends the run).
+      TimeNs expected = events[j].time;
+      while (j < events.size() && events[j].channel == head.channel &&
+             events[j].origin == head.origin && events[j].time == expected) {
+        flagged = flagged || events[j].flags != 0;
+        ++j;
+        if (__builtin_add_overflow(expected, step, &expected)) break;
+      }
+    }
+    const std::size_t count = j - i;
+    if (flagged || !flags_.empty()) flags_.resize(bytes_.size(), 0);
+    runs_.push_back({bytes_.size(), count, head.time, count > 1 ? step : 0, head.channel,
+                     head.origin, flagged});
+    for (std::size_t k = i; k < j; ++k) bytes_.push_back(events[k].byte);
+    if (flagged)
+      for (std::size_t k = i; k < j; ++k) flags_.push_back(events[k].flags);
+    i = j;
+  }
+}
 
 }  // namespace drivetap

@@ -151,6 +151,46 @@ void Pipeline::push_batch(std::span<const ByteEvent> events) {
   }
 }
 
+void Pipeline::push_runs(const RunBatch& runs) {
+  for (std::size_t k = 0; k < runs.size(); ++k) push_run(runs[k]);
+}
+
+void Pipeline::push_run(const ByteRun& run) {
+  const TimeNs character_time = options_.timing.character_time;
+  std::size_t i = 0;
+  // Each pass pushes at least run byte i.
+  while (i < run.size()) {
+    push(run.event(i++));  // the byte-by-byte way: it may close frames, detect, re-detect
+    ChannelState& st = *states_[run.channel];
+    if (i == run.size() || !st.framer || st.redetect || !ready_.empty()) continue;
+    // The bytes after it close nothing while (as push_batch() finds byte by byte) none follows a
+    // silence > t3.5, none reaches another channel's deadline or the framer's pressure mark, and
+    // as_on_the_wire() changes none: bytes at least a character apart (a run's bytes after the
+    // first then start after their predecessor's end) and, with 7 data bits, no 8th bit set.
+    if (run.step < character_time || run.step - character_time > options_.timing.t35) continue;
+    const ByteRun rest = run.part(i, run.size() - i);
+    if (rest.first < st.last_end || rest.first - st.last_end > options_.timing.t35) continue;
+    if (options_.serial.data_bits == 7 &&
+        std::any_of(rest.bytes.begin(), rest.bytes.end(), [](std::uint8_t b) { return b > 0x7F; }))
+      continue;
+    std::size_t take = std::min(rest.size(), st.framer->quiet_room());
+    const TimeNs others = deadline_of_others(run.channel);
+    if (others <= rest.first) continue;
+    if (others != std::numeric_limits<TimeNs>::max()) {
+      // Bytes starting before `others` (step > 0: at least a character time).
+      const TimeNs ahead = others - rest.first;
+      const TimeNs before = ahead / run.step + (ahead % run.step != 0 ? 1 : 0);
+      take = std::min<std::size_t>(take, static_cast<std::size_t>(before));
+    }
+    if (take == 0) continue;
+    st.framer->push_run(rest.part(0, take), ready_);
+    note_taken(st, rest.event(take - 1));
+    i += take;
+    earliest_deadline_ = std::min(earliest_deadline_, st.framer->next_deadline());
+    if (!ready_.empty()) handle_frames();
+  }
+}
+
 namespace {
 
 constexpr std::size_t kDetectBytes = 2048;  // most bytes held before deciding anyway

@@ -47,6 +47,10 @@ class Pipeline {
   // The same as push() of each in turn, cheaper: bytes that follow on one channel with no
   // silence and before anything else falls due go to the framer as one run.
   void push_batch(std::span<const ByteEvent> events);
+  // The same for runs (a source's packets): push() of each byte of each run in turn, with the
+  // bytes after a run's first that close nothing handed to the framer as one run.
+  void push_runs(const RunBatch& runs);
+  void push_run(const ByteRun& run);
   // A finding from the source itself (e.g. a timestamp going backwards in a file).
   void report(const Anomaly& anomaly);
   // Live capture: the clock reached `now` with no new byte, so frames whose closing silence has

@@ -340,7 +340,7 @@ bool CaptureReader::read_header() {
   return error_.empty();
 }
 
-bool CaptureReader::next(ByteEvent& out) {
+bool CaptureReader::hold_next() {
   // Each pass lays out one packet (its bytes are placed only now, once the character time that
   // spaces them is known), or returns.
   while (layout_.index >= layout_.count) {
@@ -351,6 +351,11 @@ bool CaptureReader::next(ByteEvent& out) {
     }
     lay_out();
   }
+  return true;
+}
+
+bool CaptureReader::next(ByteEvent& out) {
+  if (!hold_next()) return false;
   const std::size_t i = layout_.index++;
   if (layout_.even) {
     out = even_event(i);
@@ -380,6 +385,38 @@ bool CaptureReader::next_batch(std::vector<ByteEvent>& out) {
   }
   // Each pass takes one byte of the held packet.
   while (layout_.index < end && next(e)) out.push_back(e);
+  return true;
+}
+
+bool CaptureReader::append_runs(RunBatch& out) {
+  if (!hold_next()) return false;
+  const std::size_t from = layout_.index;
+  const std::size_t end = std::min(layout_.count, from + kBatch);
+  const std::span<const std::uint8_t> bytes =
+      std::span<const std::uint8_t>(held_.bytes).subspan(from, end - from);
+  if (layout_.even) {  // nearly every packet drivetap wrote
+    out.add({bytes,
+             layout_.time + static_cast<TimeNs>(from) * layout_.step,
+             layout_.step,
+             held_.channel,
+             static_cast<std::uint32_t>(layout_.source_packet),
+             {}});
+    layout_.index = end;
+  } else if (!layout_.exact) {  // another tool's packet: back to back, ending at its timestamp
+    const TimeNs n = static_cast<TimeNs>(layout_.count);
+    out.add({bytes,
+             held_.timestamp - (n - static_cast<TimeNs>(from)) * character_time_,
+             character_time_,
+             held_.channel,
+             held_.origin,
+             {}});
+    layout_.index = end;
+  } else {  // per-byte times: the events grouped into runs
+    exact_events_.clear();
+    ByteEvent e;
+    while (layout_.index < end && next(e)) exact_events_.push_back(e);
+    out.add_events(exact_events_);
+  }
   return true;
 }
 

@@ -51,6 +51,9 @@ class CaptureReader final : public ByteSource {
   // The rest of the current packet (the next one when it is used up), at most kBatch bytes.
   bool next_batch(std::vector<ByteEvent>& out) override;
   static constexpr std::size_t kBatch = 4096;
+  // The same as runs: a packet is one run (drivetap's per-byte option: one per stretch of evenly
+  // spaced bytes), at most kBatch bytes a call.
+  bool append_runs(RunBatch& out) override;
   [[nodiscard]] const std::string& error() const override { return error_; }
   // One line per kind of packet that carried no serial bytes, with a count and where first seen.
   [[nodiscard]] std::vector<std::string> notes() const override;
@@ -132,7 +135,10 @@ class CaptureReader final : public ByteSource {
   }
   // Entries `from`.. (at most kDecodedChunk, in order after the last decoded) into decoded_.
   void decode_chunk(std::size_t from);
-  bool pending_packet_ = false;  // read_header() loaded the first packet already
+  // Lays out the next packet when the held one is used up; false at the end or on error.
+  bool hold_next();
+  std::vector<ByteEvent> exact_events_;  // append_runs(): a packet with per-byte times
+  bool pending_packet_ = false;          // read_header() loaded the first packet already
   std::uint64_t packets_ = 0;
   std::string error_;
   struct Skipped {

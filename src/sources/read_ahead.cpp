@@ -20,7 +20,7 @@ ReadAhead::~ReadAhead() {
 }
 
 void ReadAhead::run() {
-  std::vector<ByteEvent> chunk, batch;
+  RunBatch chunk;
   // Each pass reads one chunk and queues it, or ends.
   while (true) {
     {
@@ -35,8 +35,8 @@ void ReadAhead::run() {
     chunk.clear();
     bool more = true;
     // Each pass appends one batch of the source.
-    while (chunk.size() < kChunkEvents && (more = source_.next_batch(batch)))
-      chunk.insert(chunk.end(), batch.begin(), batch.end());
+    while (chunk.byte_count() < kChunkBytes && (more = source_.append_runs(chunk))) {
+    }
     {
       const std::lock_guard lock(mutex_);
       if (!chunk.empty()) full_.push_back(std::move(chunk));
@@ -49,11 +49,11 @@ void ReadAhead::run() {
   ended_ = true;
 }
 
-bool ReadAhead::next_chunk(std::vector<ByteEvent>& out) {
+bool ReadAhead::next_chunk(RunBatch& out) {
   std::unique_lock lock(mutex_);
   changed_.wait(lock, [this] { return !full_.empty() || ended_; });
   if (full_.empty()) return false;
-  if (out.capacity() > 0 && spare_.size() < kDepth) spare_.push_back(std::move(out));
+  if (spare_.size() < kDepth) spare_.push_back(std::move(out));
   out = std::move(full_.front());
   full_.pop_front();
   lock.unlock();

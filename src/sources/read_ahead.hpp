@@ -2,8 +2,8 @@
 // pipeline, so that file reading and unpacking (pcapng blocks, exported-PDU tags, per-byte
 // options) use the second core while the first decodes (issue 8, bench/README.md).
 //
-//   reader thread:  source.next_batch() ... -> chunk (>= kChunkBytes events) -> queue (kDepth)
-//   caller:         next_chunk() <- queue; push_batch(chunk); the chunk goes back for reuse
+//   reader thread:  source.append_runs() ... -> chunk (>= kChunkBytes bytes) -> queue (kDepth)
+//   caller:         next_chunk() <- queue; push_runs(chunk); the chunk goes back for reuse
 //
 // Only for sources that report no findings (take_findings(): those belong before a given byte)
 // and read regular files (a read that can block without end, a pipe or a terminal, could not be
@@ -19,15 +19,15 @@
 #include <thread>
 #include <vector>
 
-#include "core/byte_event.hpp"
+#include "core/byte_events.hpp"
 #include "sources/source.hpp"
 
 namespace drivetap {
 
 class ReadAhead {
  public:
-  static constexpr std::size_t kChunkEvents = 16384;  // a chunk ends at the first batch past this
-  static constexpr std::size_t kDepth = 4;            // chunks read ahead at most
+  static constexpr std::size_t kChunkBytes = 16384;  // a chunk ends at the first batch past this
+  static constexpr std::size_t kDepth = 4;           // chunks read ahead at most
 
   explicit ReadAhead(ByteSource& source);
   // Stops the reader thread (at its next batch) and waits for it.
@@ -37,7 +37,7 @@ class ReadAhead {
 
   // The next chunk of bytes, in the source's order, into `out` (which goes back to the reader for
   // reuse); false once the source has ended (at its end or on error: see the source's error()).
-  bool next_chunk(std::vector<ByteEvent>& out);
+  bool next_chunk(RunBatch& out);
 
  private:
   void run();
@@ -45,10 +45,10 @@ class ReadAhead {
   ByteSource& source_;
   std::mutex mutex_;
   std::condition_variable changed_;
-  std::deque<std::vector<ByteEvent>> full_;    // read, in order
-  std::vector<std::vector<ByteEvent>> spare_;  // handed back, for the reader to fill again
-  bool ended_ = false;                         // the reader has read its last chunk
-  bool stop_ = false;                          // the caller wants no more
+  std::deque<RunBatch> full_;    // read, in order
+  std::vector<RunBatch> spare_;  // handed back, for the reader to fill again
+  bool ended_ = false;           // the reader has read its last chunk
+  bool stop_ = false;            // the caller wants no more
   std::thread thread_;
 };
 

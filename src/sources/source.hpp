@@ -8,6 +8,7 @@
 
 #include "core/anomaly.hpp"
 #include "core/byte_event.hpp"
+#include "core/byte_events.hpp"
 #include "core/message.hpp"
 #include "core/serial_config.hpp"
 
@@ -40,11 +41,22 @@ class ByteSource {
     out.push_back(e);
     return true;
   }
+  // The same bytes as next_batch() as runs (ByteRun: a packet's bytes with their first time and
+  // spacing), appended to `out`; false at the end or on error. Sources with packets give a run
+  // per packet without making an event per byte; the default groups next_batch()'s events.
+  virtual bool append_runs(RunBatch& out) {
+    if (!next_batch(run_events_)) return false;
+    out.add_events(run_events_);
+    return true;
+  }
   [[nodiscard]] virtual const std::string& error() const = 0;
   // Findings about the capture itself (e.g. timestamps going backwards), for the pipeline.
   virtual std::vector<Anomaly> take_findings() { return {}; }
   // Lines for stderr at the end (e.g. packets skipped because they carried no serial bytes).
   [[nodiscard]] virtual std::vector<std::string> notes() const { return {}; }
+
+ private:
+  std::vector<ByteEvent> run_events_;  // append_runs()' batch, its storage kept
 };
 
 }  // namespace drivetap
