@@ -28,8 +28,20 @@ std::vector<std::uint8_t> write_file(Fn fn) {
   return out;
 }
 
+// A packet read, its bytes copied out of the reader's buffer.
+struct ReadPacket {
+  std::uint32_t interface = 0;
+  TimeNs timestamp = 0;
+  bool has_timestamp = false;
+  std::vector<std::uint8_t> data;
+  std::optional<std::uint32_t> flags;
+  std::string comment;
+  std::vector<std::uint8_t> drivetap_option;
+  std::uint64_t offset = 0;
+};
+
 struct ReadResult {
-  std::vector<pcapng::PacketRecord> packets;
+  std::vector<ReadPacket> packets;
   std::vector<pcapng::Interface> interfaces;
   std::string error;
   bool by_drivetap = false;
@@ -40,7 +52,12 @@ ReadResult read_file(std::vector<std::uint8_t> bytes) {
   std::FILE* f = fmemopen(bytes.data(), bytes.size(), "rb");
   pcapng::Reader reader(f, "t.pcapng");
   pcapng::PacketRecord rec;
-  while (reader.next(rec)) r.packets.push_back(rec);
+  while (reader.next(rec))
+    r.packets.push_back(
+        {rec.interface, rec.timestamp, rec.has_timestamp,
+         std::vector<std::uint8_t>(rec.data.begin(), rec.data.end()), rec.flags, rec.comment,
+         std::vector<std::uint8_t>(rec.drivetap_option.begin(), rec.drivetap_option.end()),
+         rec.offset});
   r.error = reader.error();
   r.interfaces = reader.interfaces();
   r.by_drivetap = reader.written_by_drivetap();

@@ -54,15 +54,21 @@ void HybridFramer<Rules>::push_all(std::span<const ByteEvent> events, std::vecto
                                  : 0;
     const std::size_t limit = i + std::min(room, events.size() - i);
     TimeNs end = last_end_;
-    // One pass: each byte is checked for silence before it and appended, or ends the run.
-    while (i < limit && events[i].time - end <= t35) {
-      const ByteEvent& e = events[i];
-      end = std::max(end, e.time + character_time);
-      pending_run_.add(e.time, pending_.size(), character_time);
-      pending_.push_back(e);
-      ++i;
+    // One pass finds where the quiet run ends (silence before a byte) and keeps its timing; the
+    // run is then appended at once.
+    ByteRunTiming timing = pending_run_;
+    std::size_t j = i;
+    const std::size_t base = pending_.size() - i;  // pending index of events[j]: base + j
+    while (j < limit && events[j].time - end <= t35) {
+      const TimeNs t = events[j].time;
+      end = std::max(end, t + character_time);
+      timing.add(t, base + j, character_time);
+      ++j;
     }
+    pending_run_ = timing;
+    pending_.append_events(events.subspan(i, j - i));
     last_end_ = end;
+    i = j;
   }
 }
 

@@ -210,7 +210,7 @@ class ByteEvents {
     return s.first + static_cast<TimeNs>(i - s.index) * s.step;
   }
   [[nodiscard]] TimeNs front_time() const { return stretches_.front().first; }
-  [[nodiscard]] TimeNs back_time() const { return time_in(size() - 1, stretches_.back()); }
+  [[nodiscard]] TimeNs back_time() const { return back_time_; }
   [[nodiscard]] std::uint8_t flags(std::size_t i) const { return flags_.empty() ? 0 : flags_[i]; }
   // False when no event carries a UART mark (the usual case: no per-event look needed).
   [[nodiscard]] bool any_flags() const {
@@ -222,29 +222,60 @@ class ByteEvents {
   [[nodiscard]] std::span<const Stretch> stretches() const { return stretches_; }
 
   void push_back(const ByteEvent& e) {
-    const std::size_t n = size();
-    bool extends = false;
-    if (n > 0) {
+    // The usual case, a byte continuing the last stretch: its byte (and flag) appended.
+    if (!bytes_.empty()) {
       Stretch& s = stretches_.back();
       if (s.channel == e.channel && s.origin == e.origin) {
-        const std::size_t count = n - s.index;
-        if (count == 1) {
+        if (bytes_.size() - s.index == 1) {
           // A second event sets the stretch's step; |times| < 2^62 keeps the difference exact.
           s.step = e.time - s.first;
-          extends = true;
-        } else {
-          extends = follows(s, count, e.time);
+        } else if (e.time - back_time_ != s.step) {
+          start_stretch(e);
+          return;
         }
+        if (e.flags != 0 || !flags_.empty()) push_flag(e.flags, bytes_.size());
+        bytes_.push_back(e.byte);
+        back_time_ = e.time;
+        return;
       }
     }
-    if (!extends)
-      stretches_.push_back({static_cast<std::uint32_t>(n), e.origin, e.time, 0, e.channel});
-    push_flag(e.flags, n);
-    bytes_.push_back(e.byte);
+    start_stretch(e);
   }
   template <class Events>
   void append(const Events& events) {
     for (const ByteEvent& e : events) push_back(e);
+  }
+  // The same as push_back() of each, faster for events that continue one stretch: of those only
+  // the bytes are stored, in one pass.
+  void append_events(std::span<const ByteEvent> events) {
+    std::size_t k = 0;
+    // Each pass appends events[k] and the unmarked events after it that continue its stretch.
+    while (k < events.size()) {
+      push_back(events[k++]);
+      const Stretch& s = stretches_.back();
+      if (bytes_.size() - s.index < 2 || !flags_.empty()) continue;
+      const TimeNs step = s.step;
+      const ChannelId channel = s.channel;
+      const std::uint32_t origin = s.origin;
+      const ByteEvent* e = events.data();
+      // The time a continuing event has, summed modulo 2^64: a sum past the int64 range cannot
+      // wrap onto a time inside kTimeLimit, so no such event is taken for a continuation.
+      const auto ustep = static_cast<std::uint64_t>(step);
+      std::uint64_t next = static_cast<std::uint64_t>(back_time_) + ustep;
+      std::size_t m = k;
+      while (m < events.size() && static_cast<std::uint64_t>(e[m].time) == next &&
+             e[m].channel == channel && e[m].origin == origin && e[m].flags == 0) {
+        next += ustep;
+        ++m;
+      }
+      if (m == k) continue;
+      const std::size_t old = bytes_.size();
+      bytes_.resize(old + (m - k));
+      std::uint8_t* out = bytes_.data() + old;
+      for (std::size_t q = k; q < m; ++q) *out++ = e[q].byte;
+      back_time_ = e[m - 1].time;
+      k = m;
+    }
   }
   // `count` bytes from `bytes`, byte i starting at first + i * step, all on `channel` from unit
   // `origin`, with `flags` (empty: unmarked; else one per byte). The caller keeps first +
@@ -267,7 +298,7 @@ class ByteEvents {
             extends = true;
           }
         } else {
-          extends = (bytes.size() == 1 || step == s.step) && follows(s, count, first);
+          extends = (bytes.size() == 1 || step == s.step) && first - back_time_ == s.step;
         }
       }
     }
@@ -282,6 +313,7 @@ class ByteEvents {
         flags_.insert(flags_.end(), flags.begin(), flags.end());
     }
     bytes_.insert(bytes_.end(), bytes.begin(), bytes.end());
+    back_time_ = first + static_cast<TimeNs>(bytes.size() - 1) * step;
   }
   void append_run(const ByteRun& run) {
     append_run(run.bytes, run.first, run.step, run.channel, run.origin, run.flags);
@@ -309,6 +341,7 @@ class ByteEvents {
     bytes_.pop_back();
     if (!flags_.empty()) flags_.pop_back();
     if (stretches_.back().index == bytes_.size()) stretches_.pop_back();
+    if (!bytes_.empty()) back_time_ = time_in(bytes_.size() - 1, stretches_.back());
   }
   // Drops the first n events.
   void erase_front(std::size_t n) {
@@ -337,6 +370,7 @@ class ByteEvents {
     bytes_.swap(other.bytes_);
     stretches_.swap(other.stretches_);
     flags_.swap(other.flags_);
+    std::swap(back_time_, other.back_time_);
   }
 
   friend bool operator==(const ByteEvents& a, const ByteEvents& b) {
@@ -354,12 +388,13 @@ class ByteEvents {
   [[nodiscard]] static TimeNs time_in(std::size_t i, const Stretch& s) {
     return s.first + static_cast<TimeNs>(i - s.index) * s.step;
   }
-  // Whether an event at `time` continues stretch `s` of `count` (>= 2) events. Checked without
-  // overflow: a step and count too large for the product cannot reach a time in range anyway.
-  [[nodiscard]] static bool follows(const Stretch& s, std::size_t count, TimeNs time) {
-    TimeNs offset = 0, expected = 0;
-    return !__builtin_mul_overflow(static_cast<TimeNs>(count), s.step, &offset) &&
-           !__builtin_add_overflow(s.first, offset, &expected) && expected == time;
+  // A new stretch for `e` (the rare path of push_back(), kept out of line).
+  [[gnu::noinline]] void start_stretch(const ByteEvent& e) {
+    const std::size_t n = bytes_.size();
+    stretches_.push_back({static_cast<std::uint32_t>(n), e.origin, e.time, 0, e.channel});
+    push_flag(e.flags, n);
+    bytes_.push_back(e.byte);
+    back_time_ = e.time;
   }
   [[nodiscard]] std::size_t stretch_of(std::size_t i) const {
     if (stretches_.size() == 1) return 0;
@@ -381,6 +416,8 @@ class ByteEvents {
   std::vector<std::uint8_t> bytes_;
   std::vector<Stretch> stretches_;
   std::vector<std::uint8_t> flags_;
+  TimeNs back_time_ = 0;  // the last event's time: a byte continuing the last stretch is one
+                          // step after it (no product of step and count to form)
 };
 
 inline void RunBatch::add_events(std::span<const ByteEvent> events) {

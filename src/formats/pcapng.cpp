@@ -3,6 +3,8 @@
 
 #include <fmt/format.h>
 
+#include <sys/stat.h>
+
 #include <algorithm>
 #include <cstring>
 
@@ -129,10 +131,29 @@ bool Reader::fail(std::uint64_t at, const std::string& what) {
   return false;
 }
 
-bool Reader::read_exact(void* dst, std::size_t n) {
-  const std::size_t got = std::fread(dst, 1, n, in_);
-  offset_ += got;
-  return got == n;
+Reader::Reader(std::FILE* in, std::string name) : in_(in), name_(std::move(name)) {
+  struct stat st {};
+  whole_reads_ = in_ && ::fstat(::fileno(in_), &st) == 0 && S_ISREG(st.st_mode);
+}
+
+std::size_t Reader::fill(std::size_t need) {
+  if (end_ - pos_ >= need) return end_ - pos_;
+  // The unread bytes move to the front, the window grows to hold `need`, and reads append.
+  if (pos_ > 0) {
+    std::memmove(window_.data(), window_.data() + pos_, end_ - pos_);
+    end_ -= pos_;
+    pos_ = 0;
+  }
+  if (window_.size() < need) window_.resize(whole_reads_ ? std::max(need, kReadChunk) : need);
+  if (whole_reads_ && window_.size() < kReadChunk) window_.resize(kReadChunk);
+  // Each pass reads at least one byte or marks the end.
+  while (end_ < need && !at_end_) {
+    const std::size_t want = whole_reads_ ? window_.size() - end_ : need - end_;
+    const std::size_t got = std::fread(window_.data() + end_, 1, want, in_);
+    end_ += got;
+    if (got == 0) at_end_ = true;
+  }
+  return end_;
 }
 
 std::uint16_t Reader::u16(const std::uint8_t* p) const {
@@ -151,7 +172,7 @@ std::uint64_t Reader::u64(const std::uint8_t* p) const {
 }
 
 template <class OptionFn>
-std::string Reader::walk_options(const std::vector<std::uint8_t>& body, std::size_t pos,
+std::string Reader::walk_options(std::span<const std::uint8_t> body, std::size_t pos,
                                  OptionFn&& fn) const {
   // Each pass consumes the 4-byte option header plus the padded value, or returns.
   while (pos + 4 <= body.size()) {
@@ -175,7 +196,7 @@ std::optional<std::span<const std::uint8_t>> Reader::drivetap_payload(
   return value.subspan(4);
 }
 
-bool Reader::parse_section(const std::vector<std::uint8_t>& body, std::uint64_t at) {
+bool Reader::parse_section(std::span<const std::uint8_t> body, std::uint64_t at) {
   // body: magic(4) major(2) minor(2) section length(8) options
   if (body.size() < 16) return fail(at, "section header block too short");
   const std::uint32_t magic_le = std::uint32_t{body[0]} | (std::uint32_t{body[1]} << 8) |
@@ -204,7 +225,7 @@ bool Reader::parse_section(const std::vector<std::uint8_t>& body, std::uint64_t 
   return true;
 }
 
-bool Reader::parse_interface(const std::vector<std::uint8_t>& body, std::uint64_t at) {
+bool Reader::parse_interface(std::span<const std::uint8_t> body, std::uint64_t at) {
   if (body.size() < 8) return fail(at, "interface description block too short");
   Interface itf;
   itf.link_type = u16(&body[0]);
@@ -281,15 +302,15 @@ void reset(PacketRecord& out, std::uint64_t at) {
   out.interface = 0;
   out.timestamp = 0;
   out.has_timestamp = false;
-  out.data.clear();
+  out.data = {};
   out.flags.reset();
   out.comment.clear();
-  out.drivetap_option.clear();
+  out.drivetap_option = {};
   out.offset = at;
 }
 }  // namespace
 
-bool Reader::parse_enhanced(const std::vector<std::uint8_t>& body, std::uint64_t at,
+bool Reader::parse_enhanced(std::span<const std::uint8_t> body, std::uint64_t at,
                             PacketRecord& out) {
   // body: interface(4) ts high(4) ts low(4) captured(4) original(4) data options
   if (body.size() < 20) return fail(at, "enhanced packet block too short");
@@ -307,7 +328,7 @@ bool Reader::parse_enhanced(const std::vector<std::uint8_t>& body, std::uint64_t
   out.timestamp = scale_time(ts, interfaces_[out.interface], &overflow);
   if (overflow) return fail(at + 12, "timestamp out of range");
   out.has_timestamp = true;
-  out.data.assign(body.begin() + 20, body.begin() + 20 + captured);
+  out.data = body.subspan(20, captured);
   const std::size_t options_at = 20 + ((std::size_t{captured} + 3) & ~std::size_t{3});
   if (options_at >= body.size()) return true;
   const std::string err = walk_options(body, options_at, [&](std::uint16_t code, auto value) {
@@ -319,8 +340,7 @@ bool Reader::parse_enhanced(const std::vector<std::uint8_t>& body, std::uint64_t
         if (value.size() >= 4) out.flags = u32(value.data());
         break;
       case kOptCustomBinary:
-        if (auto payload = drivetap_payload(value))
-          out.drivetap_option.assign(payload->begin(), payload->end());
+        if (auto payload = drivetap_payload(value)) out.drivetap_option = *payload;
         break;
       default:
         break;
@@ -330,14 +350,13 @@ bool Reader::parse_enhanced(const std::vector<std::uint8_t>& body, std::uint64_t
   return true;
 }
 
-bool Reader::parse_simple(const std::vector<std::uint8_t>& body, std::uint64_t at,
-                          PacketRecord& out) {
+bool Reader::parse_simple(std::span<const std::uint8_t> body, std::uint64_t at, PacketRecord& out) {
   if (body.size() < 4) return fail(at, "simple packet block too short");
   if (interfaces_.empty()) return fail(at, "simple packet before any interface description");
   reset(out, at);
   const std::uint32_t original = u32(&body[0]);
   const std::size_t n = std::min<std::size_t>(original, body.size() - 4);
-  out.data.assign(body.begin() + 4, body.begin() + 4 + static_cast<std::ptrdiff_t>(n));
+  out.data = body.subspan(4, n);
   return true;
 }
 
@@ -345,26 +364,22 @@ bool Reader::next(PacketRecord& out) {
   // Each pass consumes one whole block, or returns.
   while (error_.empty()) {
     const std::uint64_t at = offset_;
-    std::uint8_t header[8];
-    const std::size_t got = std::fread(header, 1, 8, in_);
-    offset_ += got;
-    if (got == 0) {
+    // The header, and a section header's byte-order magic (a section's byte order is only known
+    // from it).
+    std::size_t have = fill(12);
+    if (have == 0) {
       if (std::ferror(in_)) return fail(at, std::string("read error: ") + std::strerror(errno));
       if (!in_section_) return fail(at, "empty file: no pcapng section header");
       return false;
     }
-    if (got < 8) return fail(at, fmt::format("truncated block header ({} of 8 bytes)", got));
-    std::uint32_t type = u32(header);
+    if (have < 8) return fail(at, fmt::format("truncated block header ({} of 8 bytes)", have));
+    const std::uint8_t* header = window_.data() + pos_;
+    const std::uint32_t type = u32(header);
     if (type == kSectionHeader) {
-      // The byte order of a section is only known from its magic: peek at it.
-      std::uint8_t magic[4];
-      if (!read_exact(magic, 4)) return fail(at + 8, "truncated section header");
-      big_endian_ = magic[0] == 0x1A;
-      body_.assign(magic, magic + 4);
+      if (have < 12) return fail(at + 8, "truncated section header");
+      big_endian_ = header[8] == 0x1A;
     } else if (!in_section_) {
       return fail(at, fmt::format("not a pcapng file: first block type 0x{:08X}", type));
-    } else {
-      body_.clear();
     }
     const std::uint32_t total = u32(header + 4);
     if (total < 12 || total % 4 != 0)
@@ -372,31 +387,29 @@ bool Reader::next(PacketRecord& out) {
     if (total > kMaxBlockLength)
       return fail(at + 4,
                   fmt::format("block length {} exceeds the {}-byte limit", total, kMaxBlockLength));
-    const std::size_t body_len = total - 12;
-    const std::size_t already = body_.size();
-    if (already > body_len) return fail(at + 4, "section header block too short");
-    body_.resize(body_len);
-    if (!read_exact(body_.data() + already, body_len - already))
+    if (type == kSectionHeader && total < 16) return fail(at + 4, "section header block too short");
+    have = fill(total);
+    if (have < total)
       return fail(at, fmt::format("truncated block: {} bytes announced, file ends at offset {}",
-                                  total, offset_));
-    std::uint8_t trailer[4];
-    if (!read_exact(trailer, 4))
-      return fail(at, fmt::format("truncated block: {} bytes announced, file ends at offset {}",
-                                  total, offset_));
-    if (u32(trailer) != total)
+                                  total, at + have));
+    const std::uint8_t* block = window_.data() + pos_;
+    pos_ += total;
+    offset_ += total;
+    if (u32(block + total - 4) != total)
       return fail(offset_ - 4, fmt::format("trailing block length {} differs from leading {}",
-                                           u32(trailer), total));
+                                           u32(block + total - 4), total));
+    const std::span<const std::uint8_t> body(block + 8, total - 12);
     switch (type) {
       case kSectionHeader:
-        if (!parse_section(body_, at)) return false;
+        if (!parse_section(body, at)) return false;
         break;
       case kInterfaceDescription:
-        if (!parse_interface(body_, at)) return false;
+        if (!parse_interface(body, at)) return false;
         break;
       case kEnhancedPacket:
-        return parse_enhanced(body_, at, out);
+        return parse_enhanced(body, at, out);
       case kSimplePacket:
-        return parse_simple(body_, at, out);
+        return parse_simple(body, at, out);
       default:
         break;  // other blocks carry nothing drivetap uses
     }

@@ -99,20 +99,25 @@ struct Interface {
   std::int64_t ts_offset_s = 0;
 };
 
+// A packet as read: `data` and `drivetap_option` view the reader's buffer and stay valid until
+// its next call of next() (copy what must outlive it).
 struct PacketRecord {
   std::uint32_t interface = 0;
   TimeNs timestamp = 0;
   bool has_timestamp = false;  // false for simple packet blocks
-  std::vector<std::uint8_t> data;
+  std::span<const std::uint8_t> data;
   std::optional<std::uint32_t> flags;
   std::string comment;
-  std::vector<std::uint8_t> drivetap_option;  // our EPB custom option payload, after the PEN
-  std::uint64_t offset = 0;                   // file offset of the block
+  std::span<const std::uint8_t> drivetap_option;  // our EPB custom option payload, after the PEN
+  std::uint64_t offset = 0;                       // file offset of the block
 };
 
+// Blocks are read into a window of the file and parsed where they lie: from a regular file in
+// reads of kReadChunk bytes, from a pipe exactly the bytes each block needs (a capture streamed
+// through a pipe is decoded as it arrives).
 class Reader {
  public:
-  Reader(std::FILE* in, std::string name) : in_(in), name_(std::move(name)) {}
+  Reader(std::FILE* in, std::string name);
   // Packet comments are copied into PacketRecord::comment unless turned off (a reader that
   // does not use them saves a copy per packet: drivetap's comments hold the annotation).
   void keep_comments(bool keep) { keep_comments_ = keep; }
@@ -127,21 +132,23 @@ class Reader {
 
  private:
   bool fail(std::uint64_t at, const std::string& what);
-  bool read_exact(void* dst, std::size_t n);
+  // Makes `need` bytes from the read position available in the window, reading more of the file;
+  // returns how many are (fewer at the end of the file).
+  std::size_t fill(std::size_t need);
   std::uint16_t u16(const std::uint8_t* p) const;
   std::uint32_t u32(const std::uint8_t* p) const;
   std::uint64_t u64(const std::uint8_t* p) const;
   // Calls fn(code, value) for each option from `pos`; an error text, or empty. (A template,
   // defined and used only in pcapng.cpp: the per-option call is inlined on every packet.)
   template <class OptionFn>
-  std::string walk_options(const std::vector<std::uint8_t>& body, std::size_t pos,
+  std::string walk_options(std::span<const std::uint8_t> body, std::size_t pos,
                            OptionFn&& fn) const;
   std::optional<std::span<const std::uint8_t>> drivetap_payload(
       std::span<const std::uint8_t> value) const;
-  bool parse_section(const std::vector<std::uint8_t>& body, std::uint64_t at);
-  bool parse_interface(const std::vector<std::uint8_t>& body, std::uint64_t at);
-  bool parse_enhanced(const std::vector<std::uint8_t>& body, std::uint64_t at, PacketRecord& out);
-  bool parse_simple(const std::vector<std::uint8_t>& body, std::uint64_t at, PacketRecord& out);
+  bool parse_section(std::span<const std::uint8_t> body, std::uint64_t at);
+  bool parse_interface(std::span<const std::uint8_t> body, std::uint64_t at);
+  bool parse_enhanced(std::span<const std::uint8_t> body, std::uint64_t at, PacketRecord& out);
+  bool parse_simple(std::span<const std::uint8_t> body, std::uint64_t at, PacketRecord& out);
 
   std::FILE* in_;
   std::string name_;
@@ -153,7 +160,12 @@ class Reader {
   std::uint64_t sections_ = 0;
   bool keep_comments_ = true;
   std::vector<Interface> interfaces_;
-  std::vector<std::uint8_t> body_;
+  static constexpr std::size_t kReadChunk = 256 * 1024;
+  bool whole_reads_ = false;          // a regular file: read kReadChunk bytes at a time
+  std::vector<std::uint8_t> window_;  // file bytes [offset_ - pos_, offset_ - pos_ + end_)
+  std::size_t pos_ = 0;               // the next unread byte of window_ (file offset offset_)
+  std::size_t end_ = 0;
+  bool at_end_ = false;  // a read returned nothing: the end of the file (or a read error)
 };
 
 // Varint helpers for the drivetap EPB option.

@@ -269,7 +269,7 @@ bool CaptureReader::load_pcapng_packet() {
     }
     hold(payload->bytes, rec.timestamp, ch);
     held_.option.clear();
-    if (ours) held_.option.swap(rec.drivetap_option);  // buffers trade places: no allocation
+    if (ours) held_.option.assign(rec.drivetap_option.begin(), rec.drivetap_option.end());
     return true;
   }
   if (!ng_->error().empty()) error_ = ng_->error();
