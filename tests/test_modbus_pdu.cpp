@@ -2,6 +2,8 @@
 // Protocol V1.1b3 §6-7). Frames come from /work/notes/rtu_examples.md where one fits.
 #include <gtest/gtest.h>
 
+#include <random>
+
 #include <cstdint>
 #include <span>
 #include <sstream>
@@ -721,6 +723,138 @@ TEST(DissectPdu, SpansStayInsideThePdu) {
     for (const FieldNode& n : r.fields) {
       EXPECT_GE(n.offset, 1u) << frame << " " << n.desc->id;
       EXPECT_LE(n.offset + n.length, r.frame.size() - 2) << frame << " " << n.desc->id;
+    }
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// The table of length rules against the function-by-function switch it replaced (kept here as
+// the reference): every function code, both directions and none, every length up to 12, with
+// count bytes of every size.
+
+namespace {
+
+LengthPrediction known(std::size_t n) {
+  return {Kind::known, n};
+}
+LengthPrediction need_more() {
+  return {Kind::need_more, 0};
+}
+LengthPrediction unknown() {
+  return {Kind::unknown, 0};
+}
+LengthPrediction counted(std::span<const std::uint8_t> pdu, std::size_t count_at,
+                         std::size_t fixed) {
+  if (pdu.size() <= count_at) return need_more();
+  return known(fixed + pdu[count_at]);
+}
+LengthPrediction device_id_response_length(std::span<const std::uint8_t> pdu) {
+  if (pdu.size() < 7) return need_more();
+  std::size_t pos = 7;
+  const unsigned objects = pdu[6];
+  for (unsigned i = 0; i < objects; ++i) {
+    if (pdu.size() < pos + 2) return need_more();
+    pos += 2 + pdu[pos + 1];
+  }
+  return known(pos);
+}
+
+LengthPrediction reference_length(std::span<const std::uint8_t> pdu, Direction direction) {
+  if (pdu.empty()) return need_more();
+  const std::uint8_t fc = pdu[0];
+  if (direction == Direction::response && (fc & 0x80)) return known(2);
+  if (fc & 0x80) return unknown();
+  if (direction == Direction::request) {
+    switch (fc) {
+      case 0x01:
+      case 0x02:
+      case 0x03:
+      case 0x04:
+      case 0x05:
+      case 0x06:
+        return known(5);
+      case 0x07:
+      case 0x0B:
+      case 0x0C:
+      case 0x11:
+        return known(1);
+      case 0x08:
+        return known(5);  // sub-function + one data word (sub 00 may carry more)
+      case 0x0F:
+      case 0x10:
+        return counted(pdu, 5, 6);
+      case 0x14:
+      case 0x15:
+        return counted(pdu, 1, 2);
+      case 0x16:
+        return known(7);
+      case 0x17:
+        return counted(pdu, 9, 10);
+      case 0x18:
+        return known(3);
+      case 0x2B:
+        if (pdu.size() < 2) return need_more();
+        return pdu[1] == 0x0E ? known(4) : unknown();
+      default:
+        return unknown();
+    }
+  }
+  if (direction == Direction::response) {
+    switch (fc) {
+      case 0x01:
+      case 0x02:
+      case 0x03:
+      case 0x04:
+      case 0x0C:
+      case 0x11:
+      case 0x14:
+      case 0x15:
+      case 0x17:
+        return counted(pdu, 1, 2);
+      case 0x05:
+      case 0x06:
+      case 0x08:
+      case 0x0B:
+      case 0x0F:
+      case 0x10:
+        return known(5);
+      case 0x07:
+        return known(2);
+      case 0x16:
+        return known(7);
+      case 0x18:
+        if (pdu.size() < 3) return need_more();
+        return known(3 + static_cast<std::size_t>((pdu[1] << 8) | pdu[2]));
+      case 0x2B:
+        if (pdu.size() < 2) return need_more();
+        return pdu[1] == 0x0E ? device_id_response_length(pdu) : unknown();
+      default:
+        return unknown();
+    }
+  }
+  return unknown();
+}
+
+}  // namespace
+
+TEST(PredictPduLength, TableGivesTheReferenceLengths) {
+  std::mt19937 rng(5);
+  for (int fc = 0; fc < 256; ++fc) {
+    for (const Direction dir : {Direction::request, Direction::response, Direction::unknown}) {
+      for (std::size_t n = 1; n <= 12; ++n) {
+        for (int round = 0; round < 20; ++round) {
+          std::vector<std::uint8_t> pdu(n);
+          for (auto& b : pdu) b = static_cast<std::uint8_t>(rng() % (round < 10 ? 4 : 256));
+          pdu[0] = static_cast<std::uint8_t>(fc);
+          if (n > 1 && round % 3 == 0) pdu[1] = 0x0E;
+          const LengthPrediction want = reference_length(pdu, dir);
+          const LengthPrediction got = predict_pdu_length(pdu, dir);
+          ASSERT_EQ(got.kind, want.kind) << "fc " << fc << " n " << n << " " << direction_id(dir);
+          if (want.kind == Kind::known) {
+            ASSERT_EQ(got.length, want.length) << "fc " << fc << " n " << n;
+          }
+        }
+      }
     }
   }
 }

@@ -28,13 +28,6 @@ LengthPrediction unknown() {
   return {Kind::unknown, 0};
 }
 
-// PDU length = fixed + the count byte found at pdu[count_at].
-LengthPrediction counted(std::span<const std::uint8_t> pdu, std::size_t count_at,
-                         std::size_t fixed) {
-  if (pdu.size() <= count_at) return need_more();
-  return known(fixed + pdu[count_at]);
-}
-
 // Read Device Identification response: walk the object list to find where it ends.
 //   FC 2B, MEI 0E, code, conformity, more, next id, count, {id, len, value[len]} x count
 LengthPrediction device_id_response_length(std::span<const std::uint8_t> pdu) {
@@ -55,85 +48,55 @@ bool is_public_function(std::uint8_t fc) {
   return !kFunction.name_of(base).empty();
 }
 
-LengthPrediction predict_pdu_length(std::span<const std::uint8_t> pdu, Direction direction) {
-  if (pdu.empty()) return need_more();
-  const std::uint8_t fc = pdu[0];
-  if (direction == Direction::response && (fc & 0x80)) return known(2);
-  if (fc & 0x80) return unknown();
-  if (direction == Direction::request) {
-    switch (fc) {
-      case 0x01:
-      case 0x02:
-      case 0x03:
-      case 0x04:
-      case 0x05:
-      case 0x06:
-        return known(5);
-      case 0x07:
-      case 0x0B:
-      case 0x0C:
-      case 0x11:
-        return known(1);
-      case 0x08:
-        return known(5);  // sub-function + one data word (sub 00 may carry more)
-      case 0x0F:
-      case 0x10:
-        return counted(pdu, 5, 6);
-      case 0x14:
-      case 0x15:
-        return counted(pdu, 1, 2);
-      case 0x16:
-        return known(7);
-      case 0x17:
-        return counted(pdu, 9, 10);
-      case 0x18:
-        return known(3);
-      case 0x2B:
-        if (pdu.size() < 2) return need_more();
-        return pdu[1] == 0x0E ? known(4) : unknown();
-      default:
-        return unknown();
-    }
-  }
-  if (direction == Direction::response) {
-    switch (fc) {
-      case 0x01:
-      case 0x02:
-      case 0x03:
-      case 0x04:
-      case 0x0C:
-      case 0x11:
-      case 0x14:
-      case 0x15:
-      case 0x17:
-        return counted(pdu, 1, 2);
-      case 0x05:
-      case 0x06:
-      case 0x08:
-      case 0x0B:
-      case 0x0F:
-      case 0x10:
-        return known(5);
-      case 0x07:
-        return known(2);
-      case 0x16:
-        return known(7);
-      case 0x18:
-        if (pdu.size() < 3) return need_more();
-        return known(3 + static_cast<std::size_t>((pdu[1] << 8) | pdu[2]));
-      case 0x2B:
-        if (pdu.size() < 2) return need_more();
-        return pdu[1] == 0x0E ? device_id_response_length(pdu) : unknown();
-      default:
-        return unknown();
-    }
-  }
-  return unknown();
+namespace {
+
+constexpr LengthRule fixed(std::uint8_t n) {
+  return {LengthRule::Kind::fixed, 0, n};
+}
+constexpr LengthRule counted(std::uint8_t count_at, std::uint8_t plus) {
+  return {LengthRule::Kind::counted, count_at, plus};
+}
+constexpr LengthRule special() {
+  return {LengthRule::Kind::special, 0, 0};
 }
 
-bool pdu_fits(std::span<const std::uint8_t> pdu, Direction direction) {
-  const LengthPrediction p = predict_pdu_length(pdu, direction);
-  return p.kind == Kind::known && p.length == pdu.size();
+constexpr std::array<FunctionLengths, 128> make_length_rules() {
+  std::array<FunctionLengths, 128> t{};
+  for (std::uint8_t fc : {0x01, 0x02, 0x03, 0x04}) t[fc] = {fixed(5), counted(1, 2)};
+  t[0x05] = {fixed(5), fixed(5)};
+  t[0x06] = {fixed(5), fixed(5)};
+  t[0x07] = {fixed(1), fixed(2)};
+  t[0x08] = {fixed(5), fixed(5)};  // sub-function + one data word (sub 00 may carry more)
+  t[0x0B] = {fixed(1), fixed(5)};
+  t[0x0C] = {fixed(1), counted(1, 2)};
+  t[0x0F] = {counted(5, 6), fixed(5)};
+  t[0x10] = {counted(5, 6), fixed(5)};
+  t[0x11] = {fixed(1), counted(1, 2)};
+  t[0x14] = {counted(1, 2), counted(1, 2)};
+  t[0x15] = {counted(1, 2), counted(1, 2)};
+  t[0x16] = {fixed(7), fixed(7)};
+  t[0x17] = {counted(9, 10), counted(1, 2)};
+  t[0x18] = {fixed(3), special()};
+  t[0x2B] = {special(), special()};
+  return t;
+}
+
+}  // namespace
+
+const std::array<FunctionLengths, 128> kLengthRules = make_length_rules();
+
+LengthPrediction predict_special_length(std::span<const std::uint8_t> pdu, Direction direction) {
+  const std::uint8_t fc = pdu[0];
+  if (fc == 0x18 && direction == Direction::response) {
+    if (pdu.size() < 3) return need_more();
+    return known(3 + static_cast<std::size_t>((pdu[1] << 8) | pdu[2]));
+  }
+  if (fc == 0x2B) {
+    if (pdu.size() < 2) return need_more();
+    if (pdu[1] != 0x0E) return unknown();
+    return direction == Direction::request ? known(4) : device_id_response_length(pdu);
+  }
+  return unknown();
 }
 
 namespace {

@@ -4,6 +4,7 @@
 //   PDU = FC(1) DATA(n)          exception: FC|0x80 (1) CODE(1)
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <span>
@@ -26,10 +27,53 @@ struct LengthPrediction {
   std::size_t length = 0;
 };
 
-LengthPrediction predict_pdu_length(std::span<const std::uint8_t> pdu, Direction direction);
+// The length rule of one function code in one direction (Modbus Application Protocol §6):
+// fixed, or `fixed` plus the count byte at pdu[count_at], or one walked by hand (`special`).
+struct LengthRule {
+  enum class Kind : std::uint8_t { unknown, fixed, counted, special };
+  Kind kind = Kind::unknown;
+  std::uint8_t count_at = 0;
+  std::uint8_t fixed = 0;
+};
+struct FunctionLengths {
+  LengthRule request;
+  LengthRule response;
+};
+// The rules of function codes 0x00..0x7F (an exception reply, FC | 0x80, is two bytes).
+extern const std::array<FunctionLengths, 128> kLengthRules;
+// The `special` rules: Read FIFO Queue's reply (0x18) and Read Device Identification (0x2B).
+LengthPrediction predict_special_length(std::span<const std::uint8_t> pdu, Direction direction);
+
+// Inline: the framer asks it for both directions at every candidate frame start.
+inline LengthPrediction predict_pdu_length(std::span<const std::uint8_t> pdu, Direction direction) {
+  using Kind = LengthPrediction::Kind;
+  if (pdu.empty()) return {Kind::need_more, 0};
+  const std::uint8_t fc = pdu[0];
+  if (fc & 0x80)
+    return direction == Direction::response ? LengthPrediction{Kind::known, 2}
+                                            : LengthPrediction{Kind::unknown, 0};
+  if (direction == Direction::unknown) return {Kind::unknown, 0};
+  const LengthRule& rule =
+      direction == Direction::request ? kLengthRules[fc].request : kLengthRules[fc].response;
+  switch (rule.kind) {
+    case LengthRule::Kind::fixed:
+      return {Kind::known, rule.fixed};
+    case LengthRule::Kind::counted:
+      if (pdu.size() <= rule.count_at) return {Kind::need_more, 0};
+      return {Kind::known, std::size_t{rule.fixed} + pdu[rule.count_at]};
+    case LengthRule::Kind::special:
+      return predict_special_length(pdu, direction);
+    case LengthRule::Kind::unknown:
+      break;
+  }
+  return {Kind::unknown, 0};
+}
 
 // True when `pdu` has exactly the length its function code implies in that direction.
-bool pdu_fits(std::span<const std::uint8_t> pdu, Direction direction);
+inline bool pdu_fits(std::span<const std::uint8_t> pdu, Direction direction) {
+  const LengthPrediction p = predict_pdu_length(pdu, direction);
+  return p.kind == LengthPrediction::Kind::known && p.length == pdu.size();
+}
 
 // True for the function codes of the public Modbus specification (01..18, 2B), with or without
 // the exception bit.

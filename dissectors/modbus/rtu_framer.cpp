@@ -32,8 +32,12 @@ void RtuRules::predicted_lengths(std::span<const std::uint8_t> from, std::size_t
 }
 
 bool RtuRules::checksum_matches(std::span<const std::uint8_t> frame) const {
-  const auto r = check_rtu_crc(frame);
-  return r.verdict == ChecksumVerdict::good || r.verdict == ChecksumVerdict::swapped;
+  // check_rtu_crc()'s good or swapped, without its verdict record.
+  if (frame.size() < 3) return false;
+  const std::uint16_t crc = crc16_modbus(frame.first(frame.size() - 2));
+  const std::uint8_t lo = frame[frame.size() - 2];
+  const std::uint8_t hi = frame[frame.size() - 1];
+  return crc == (lo | (hi << 8)) || crc == (hi | (lo << 8));
 }
 
 bool RtuRules::looks_like_frame_start(std::span<const std::uint8_t> from) const {

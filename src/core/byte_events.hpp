@@ -219,6 +219,8 @@ class ByteEvents {
   [[nodiscard]] std::uint32_t origin(std::size_t i) const {
     return stretches_[stretch_of(i)].origin;
   }
+  [[nodiscard]] std::uint32_t front_origin() const { return stretches_.front().origin; }
+  [[nodiscard]] std::uint32_t back_origin() const { return stretches_.back().origin; }
   [[nodiscard]] std::span<const Stretch> stretches() const { return stretches_; }
 
   void push_back(const ByteEvent& e) {

@@ -30,20 +30,35 @@ int function_key(int function) {
 }  // namespace
 
 bool Pairer::awaiting_reply(std::size_t link, int address, int function, TimeNs at) const {
-  for (const Pending& p : pending_)
+  for (std::size_t i = 0; i < live_; ++i) {
+    const Pending& p = slots_[i];
     if (p.link == link && p.address == address && p.function == function_key(function) &&
         at - p.end <= options_.timeout)
       return true;
+  }
   return false;
 }
 
 std::span<const std::uint8_t> Pairer::awaited_request(std::size_t link, int address, int function,
                                                       TimeNs at) const {
-  for (const Pending& p : pending_)
+  for (std::size_t i = 0; i < live_; ++i) {
+    const Pending& p = slots_[i];
     if (p.link == link && p.address == address && p.function == function_key(function) &&
         at - p.end <= options_.timeout)
       return p.bytes;
+  }
   return {};
+}
+
+template <class Drop>
+void Pairer::remove_pending(Drop&& drop) {
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < live_; ++i) {
+    if (drop(i, slots_[i])) continue;
+    if (kept != i) std::swap(slots_[kept], slots_[i]);
+    ++kept;
+  }
+  live_ = kept;
 }
 
 void Pairer::close_unanswered(const Pending& p, std::string detail, std::vector<Transaction>& out) {
@@ -60,13 +75,15 @@ void Pairer::close_unanswered(const Pending& p, std::string detail, std::vector<
 }
 
 void Pairer::expire(TimeNs now, std::vector<Transaction>& out) {
-  // pending_ is in request order; each pass removes the front or stops.
-  while (!pending_.empty() && now - pending_.front().end > options_.timeout) {
-    close_unanswered(pending_.front(),
+  // Requests are in request order: the expired ones are a prefix.
+  std::size_t expired = 0;
+  while (expired < live_ && now - slots_[expired].end > options_.timeout) {
+    close_unanswered(slots_[expired],
                      fmt::format(FMT_COMPILE("no reply within {} ms"), options_.timeout / kNsPerMs),
                      out);
-    pending_.pop_front();
+    ++expired;
   }
+  if (expired > 0) remove_pending([&](std::size_t i, const Pending&) { return i < expired; });
 }
 
 void Pairer::add(std::size_t link, Message& m, std::vector<Transaction>& out) {
@@ -74,14 +91,11 @@ void Pairer::add(std::size_t link, Message& m, std::vector<Transaction>& out) {
   expire(start, out);
   if (m.direction == Direction::request) {
     // A new request on a single-master link ends every request still open there.
-    for (auto it = pending_.begin(); it != pending_.end();) {
-      if (it->link == link) {
-        close_unanswered(*it, "no reply before the next request", out);
-        it = pending_.erase(it);
-      } else {
-        ++it;
-      }
-    }
+    remove_pending([&](std::size_t, const Pending& p) {
+      if (p.link != link) return false;
+      close_unanswered(p, "no reply before the next request", out);
+      return true;
+    });
     if (m.address == 0) {
       Transaction t;
       t.outcome = Outcome::broadcast;
@@ -94,13 +108,21 @@ void Pairer::add(std::size_t link, Message& m, std::vector<Transaction>& out) {
       out.push_back(std::move(t));
       return;
     }
-    if (pending_.size() >= options_.max_pending) {
-      close_unanswered(pending_.front(), "dropped: too many requests in flight", out);
-      pending_.pop_front();
+    if (live_ >= options_.max_pending) {
+      close_unanswered(slots_[0], "dropped: too many requests in flight", out);
+      remove_pending([](std::size_t i, const Pending&) { return i == 0; });
     }
-    const TimeNs end = m.frame.events.back().time + options_.character_time;
-    pending_.push_back({link, m.address, function_key(m.function), m.frame.number, m.frame.channel,
-                        start, end, m.protocol, m.bytes});
+    if (live_ == slots_.size()) slots_.emplace_back();
+    Pending& p = slots_[live_++];
+    p.link = link;
+    p.address = m.address;
+    p.function = function_key(m.function);
+    p.number = m.frame.number;
+    p.channel = m.frame.channel;
+    p.start = start;
+    p.end = m.frame.events.back_time() + options_.character_time;
+    p.protocol = m.protocol;
+    p.bytes.assign(m.bytes.begin(), m.bytes.end());
     return;
   }
   if (m.direction != Direction::response) return;
@@ -112,29 +134,16 @@ void Pairer::add(std::size_t link, Message& m, std::vector<Transaction>& out) {
   t.response_number = m.frame.number;
   t.response_time = start;
   t.exception_code = m.exception_code;
-  std::size_t match = pending_.size();
-  for (std::size_t i = 0; i < pending_.size(); ++i) {
-    const Pending& p = pending_[i];
+  std::size_t match = live_;
+  for (std::size_t i = 0; i < live_; ++i) {
+    const Pending& p = slots_[i];
     if (p.link == link && p.address == m.address && p.function == function_key(m.function)) {
       match = i;
       break;
     }
   }
-  if (match < pending_.size()) {
-    const Pending request = std::move(pending_[match]);
-    // Compacted in place, in order: the answered request leaves, and older requests on the same
-    // link were never answered.
-    std::size_t kept = 0;
-    for (std::size_t i = 0; i < pending_.size(); ++i) {
-      if (i == match) continue;
-      if (i < match && pending_[i].link == link) {
-        close_unanswered(pending_[i], "no reply before a later request was answered", out);
-        continue;
-      }
-      if (kept != i) pending_[kept] = std::move(pending_[i]);
-      ++kept;
-    }
-    pending_.resize(kept);
+  if (match < live_) {
+    const Pending& request = slots_[match];
     t.outcome = m.is_exception ? Outcome::exception : Outcome::ok;
     t.channel = request.channel;
     t.request_number = request.number;
@@ -145,6 +154,16 @@ void Pairer::add(std::size_t link, Message& m, std::vector<Transaction>& out) {
     if (t.latency < 0) t.detail = "latency hidden: no silence visible before the reply";
     m.latency = t.latency;
     m.request_number = request.number;
+    // The answered request leaves, and older requests on the same link were never answered
+    // (reported before the pairing, in request order).
+    remove_pending([&](std::size_t i, const Pending& p) {
+      if (i == match) return true;
+      if (i < match && p.link == link) {
+        close_unanswered(p, "no reply before a later request was answered", out);
+        return true;
+      }
+      return false;
+    });
     out.push_back(std::move(t));
     return;
   }
@@ -155,8 +174,9 @@ void Pairer::add(std::size_t link, Message& m, std::vector<Transaction>& out) {
 }
 
 void Pairer::finish(std::vector<Transaction>& out) {
-  for (const Pending& p : pending_) close_unanswered(p, "capture ended before a reply", out);
-  pending_.clear();
+  for (std::size_t i = 0; i < live_; ++i)
+    close_unanswered(slots_[i], "capture ended before a reply", out);
+  live_ = 0;
 }
 
 }  // namespace drivetap

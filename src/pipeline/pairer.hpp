@@ -9,7 +9,6 @@
 
 #include <cstddef>
 #include <cstdint>
-#include <deque>
 #include <span>
 #include <vector>
 
@@ -53,9 +52,15 @@ class Pairer {
     std::vector<std::uint8_t> bytes;  // the request itself: replies are read in its light
   };
   void close_unanswered(const Pending& p, std::string detail, std::vector<Transaction>& out);
+  // Drops the requests `drop` picks, keeping the order of the rest. A dropped request's slot (and
+  // its bytes' storage) waits past the live ones for the next request: pairing allocates nothing
+  // per request.
+  template <class Drop>
+  void remove_pending(Drop&& drop);
 
   PairerOptions options_;
-  std::deque<Pending> pending_;
+  std::vector<Pending> slots_;  // requests in flight, oldest first: slots_[0, live_)
+  std::size_t live_ = 0;
 };
 
 }  // namespace drivetap

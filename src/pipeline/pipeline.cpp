@@ -25,6 +25,8 @@ struct Pipeline::ChannelState {
   std::uint32_t last_frame_origin = 0;       // packet the previous frame ended in
   std::uint32_t reported_merged_origin = 0;  // packet already reported as holding several frames
   std::uint64_t last_frame_number = 0;
+  ChannelRole role = ChannelRole::bus;  // the channel's, looked up once
+  std::size_t link = 0;                 // the channel's link index, looked up once
 };
 
 Pipeline::Pipeline(PipelineOptions options, const ChannelTable& channels, Sink& sink)
@@ -51,6 +53,11 @@ Pipeline::ChannelState& Pipeline::state_for(ChannelId id) {
                                       {options_.timing, options_.max_hold});
     } else {
       st->auto_protocol = true;
+    }
+    const auto channel = static_cast<ChannelId>(states_.size());
+    if (channel < channels_.size()) {
+      st->role = channels_.at(channel).role;
+      st->link = channels_.link_index(channel);
     }
     states_.push_back(std::move(st));
   }
@@ -315,8 +322,8 @@ void Pipeline::handle_frames() {
 
 Direction Pipeline::decide_direction(const ProtocolDecoder& decoder, const Frame& frame,
                                      std::span<const std::uint8_t> bytes, int address, int function,
-                                     std::size_t link) const {
-  switch (channels_.at(frame.channel).role) {
+                                     std::size_t link, ChannelRole role) const {
+  switch (role) {
     case ChannelRole::master:
       return Direction::request;
     case ChannelRole::slave:
@@ -375,13 +382,12 @@ void Pipeline::check_drive_timing(Message& m, const DriveProfile& p) {
   }
 }
 
-void Pipeline::check_packetization(const Frame& frame) {
+void Pipeline::check_packetization(const Frame& frame, ChannelState& st) {
   // Only sources with packets (origin != 0) are checked: a good capture tool puts exactly one
   // frame in each packet; drivetap re-frames anyway and says where the tool did not.
-  const std::uint32_t first = frame.events.front().origin;
-  const std::uint32_t last = frame.events.back().origin;
+  const std::uint32_t first = frame.events.front_origin();
+  const std::uint32_t last = frame.events.back_origin();
   if (first == 0) return;
-  ChannelState& st = state_for(frame.channel);
   const char* what = frame.kind == FrameKind::noise ? "noise record" : "frame";
   if (first != last) {
     emit_anomaly(
@@ -400,7 +406,9 @@ void Pipeline::check_packetization(const Frame& frame) {
 
 void Pipeline::handle_frame(Frame& frame) {
   frame.number = ++frame_counter_;
-  const std::size_t link = channels_.link_index(frame.channel);
+  // The frame came out of its channel's framer: the channel's state exists.
+  ChannelState& st = *states_[frame.channel];
+  const std::size_t link = st.link;
   if (frame.kind == FrameKind::noise) {
     pairer_.expire(frame.start(), transactions_);
     emit_transactions(transactions_);
@@ -413,29 +421,26 @@ void Pipeline::handle_frame(Frame& frame) {
     emit_anomaly({AnomalyKind::noise, frame.start(), frame.channel, frame.number,
                   fmt::format(FMT_COMPILE("{} byte{} outside any frame: {}"), frame.size(),
                               frame.size() == 1 ? "" : "s", hex)});
-    ChannelState& noisy = state_for(frame.channel);
-    if (noisy.auto_protocol && ++noisy.failures >= kRedetectFailures) noisy.redetect = true;
+    if (st.auto_protocol && ++st.failures >= kRedetectFailures) st.redetect = true;
     std::vector<Anomaly> uart;
     append_uart_anomalies(frame.events, frame.number, uart);
     for (const Anomaly& a : uart) emit_anomaly(a);
-    check_packetization(frame);
+    check_packetization(frame, st);
     return;
   }
   pairer_.expire(frame.start(), transactions_);
   emit_transactions(transactions_);
 
-  const ProtocolDecoder& decoder = *state_for(frame.channel).decoder;
-  std::vector<std::uint8_t>& bytes = frame_bytes_;
-  bytes.assign(frame.events.bytes().begin(), frame.events.bytes().end());
+  const ProtocolDecoder& decoder = *st.decoder;
+  const std::span<const std::uint8_t> bytes = frame.events.bytes();
   const ProtocolDecoder::PairingKeys keys = decoder.pairing_keys(bytes);
-  const Direction dir = decide_direction(decoder, frame, bytes, keys.address, keys.function, link);
-  // A reply is dissected in the light of the request it answers (copied: pairing follows).
-  std::vector<std::uint8_t>& request = request_bytes_;
-  request.clear();
-  if (dir == Direction::response) {
-    const auto r = pairer_.awaited_request(link, keys.address, keys.function, frame.start());
-    request.assign(r.begin(), r.end());
-  }
+  const Direction dir =
+      decide_direction(decoder, frame, bytes, keys.address, keys.function, link, st.role);
+  // A reply is dissected in the light of the request it answers: the pairer's own copy, which
+  // stays as it is until pairer_.add() below.
+  std::span<const std::uint8_t> request;
+  if (dir == Direction::response)
+    request = pairer_.awaited_request(link, keys.address, keys.function, frame.start());
   Message& m = message_;
   recycle(m.frame);  // the previous frame's storage
   decoder.dissect_into(m, std::move(frame), dir, options_.timing, request);
@@ -453,12 +458,11 @@ void Pipeline::handle_frame(Frame& frame) {
     reading = read_for_drive(*profile, m, request, m.detail);
     m.drive_info = std::move(reading.text);
   }
-  ChannelState& channel_state = state_for(m.frame.channel);
-  if (channel_state.auto_protocol) {
+  if (st.auto_protocol) {
     if (m.checksum.verdict == ChecksumVerdict::good) {
-      channel_state.failures = 0;
-    } else if (++channel_state.failures >= kRedetectFailures) {
-      channel_state.redetect = true;
+      st.failures = 0;
+    } else if (++st.failures >= kRedetectFailures) {
+      st.redetect = true;
     }
   }
   pairer_.add(link, m, transactions_);
@@ -467,7 +471,7 @@ void Pipeline::handle_frame(Frame& frame) {
   stats_.count_frame(m);
   sink_.on_frame(m);
   for (const Anomaly& a : m.anomalies) emit_anomaly(a);
-  check_packetization(m.frame);
+  check_packetization(m.frame, st);
   // A corrupted frame says nothing reliable about the drive's state.
   if (profile && m.checksum.verdict == ChecksumVerdict::good)
     for (const BusEvent& e : timeline_.observe(link, m, *profile, reading.observed))

@@ -83,14 +83,14 @@ class Pipeline {
   [[nodiscard]] TimeNs deadline_of_others(ChannelId channel) const;
   void handle_frames();
   void handle_frame(Frame& frame);
-  void check_packetization(const Frame& frame);
+  void check_packetization(const Frame& frame, ChannelState& st);
   void check_drive_timing(Message& m, const DriveProfile& profile);
   void summarise_drives();
   void detect(ChannelState& st, ChannelId channel, bool final);
   void start_detection(ChannelState& st);
   Direction decide_direction(const ProtocolDecoder& decoder, const Frame& frame,
                              std::span<const std::uint8_t> bytes, int address, int function,
-                             std::size_t link) const;
+                             std::size_t link, ChannelRole role) const;
   void emit_transactions(std::vector<Transaction>& transactions);
   void emit_anomaly(const Anomaly& a);
 
@@ -102,12 +102,10 @@ class Pipeline {
   std::vector<std::unique_ptr<ChannelState>> states_;
   std::vector<Frame> ready_;
   // Reused from frame to frame so that the hot path does not allocate: the batch being handled
-  // (ready_ swaps with it), the bytes of the current frame, the request a reply answers.
+  // (ready_ swaps with it).
   std::vector<Frame> batch_;
   bool in_batch_ = false;
-  std::vector<std::uint8_t> frame_bytes_;
   std::vector<ByteEvent> run_;  // push_batch: the run going to a framer at once
-  std::vector<std::uint8_t> request_bytes_;
   std::vector<Transaction> transactions_;
   Message message_;  // every frame is decoded into this one (its storage is reused)
   bool hand_over_transactions_ = true;  // the sink's wants_transactions()
