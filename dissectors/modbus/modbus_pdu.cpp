@@ -108,14 +108,14 @@ class PduReader {
             FieldTreeBuilder& tree, PduDecode& out)
       : cursor_(frame.subspan(pdu_offset, pdu_length)), base_(pdu_offset), tree_(tree), out_(out) {}
 
-  std::optional<std::uint8_t> u8(const FieldDesc& desc) {
+  [[gnu::always_inline]] std::optional<std::uint8_t> u8(const FieldDesc& desc) {
     const std::size_t at = cursor_.offset();
     auto v = cursor_.u8();
     if (!v) return truncated(desc);
     tree_.add(desc, base_ + at, 1, *v);
     return v;
   }
-  std::optional<std::uint16_t> u16(const FieldDesc& desc) {
+  [[gnu::always_inline]] std::optional<std::uint16_t> u16(const FieldDesc& desc) {
     const std::size_t at = cursor_.offset();
     auto v = cursor_.be16();
     if (!v) return truncated(desc);
