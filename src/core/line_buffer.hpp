@@ -29,26 +29,54 @@ class LineBuffer {
   [[nodiscard]] const char* end() const { return data_.get() + size_; }
 
   // `s` may point into this buffer (its view()): the old storage outlives the copy.
-  void append(const char* s, std::size_t n) {
-    if (n == 0) return;
+  // (GCC's array-bounds check looks into the branches for other lengths where a literal's
+  // length is known, and warns about copies that never run.)
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Warray-bounds"
+#pragma GCC diagnostic ignored "-Wstringop-overread"
+  [[gnu::always_inline]] void append(const char* s, std::size_t n) {
     if (capacity_ - size_ < n) return append_growing(s, n);
-    std::memcpy(data_.get() + size_, s, n);
+    char* at = data_.get() + size_;
     size_ += n;
+    // A literal's length is known here: the compiler copies it with a few moves.
+    if (__builtin_constant_p(n)) {
+      std::memcpy(at, s, n);
+      return;
+    }
+    // Most other pieces are short: two fixed-size copies that overlap, not a call to memcpy.
+    // They read and write only inside [s, s + n) and [at, at + n).
+    if (n >= 8 && n <= 16) {
+      std::memcpy(at, s, 8);
+      std::memcpy(at + n - 8, s + n - 8, 8);
+    } else if (n >= 4 && n < 8) {
+      std::memcpy(at, s, 4);
+      std::memcpy(at + n - 4, s + n - 4, 4);
+    } else if (n < 4) {
+      for (std::size_t i = 0; i < n; ++i) at[i] = s[i];
+    } else {
+      std::memcpy(at, s, n);
+    }
   }
-  void append(std::string_view s) { append(s.data(), s.size()); }
+#pragma GCC diagnostic pop
+  [[gnu::always_inline]] void append(std::string_view s) {
+    append(s.data(), s.size());
+  }
   void append(std::size_t n, char c) {
     if (n != 0) std::memset(extend(n), c, n);
   }
-  void push_back(char c) { *extend(1) = c; }
-  LineBuffer& operator+=(std::string_view s) {
+  void push_back(char c) {
+    *extend(1) = c;
+  }
+  [[gnu::always_inline]] LineBuffer& operator+=(std::string_view s) {
     append(s);
     return *this;
   }
-  LineBuffer& operator+=(const char* s) {
+  // Inlined, so that the length of a literal is known where it is appended.
+  [[gnu::always_inline]] LineBuffer& operator+=(const char* s) {
     append(std::string_view(s));
     return *this;
   }
-  LineBuffer& operator+=(char c) {
+  [[gnu::always_inline]] LineBuffer& operator+=(char c) {
     push_back(c);
     return *this;
   }
@@ -79,7 +107,8 @@ class LineBuffer {
     capacity_ = capacity;
     return bigger;
   }
-  void append_growing(const char* s, std::size_t n) {
+  [[gnu::noinline]] void append_growing(const char* s, std::size_t n) {
+    if (n == 0) return;
     const std::unique_ptr<char[]> old = grow(n);  // freed after the copy: `s` may be in it
     std::memcpy(data_.get() + size_, s, n);
     size_ += n;

@@ -4,6 +4,8 @@
 #include <fmt/compile.h>
 #include <fmt/format.h>
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <string_view>
 
@@ -92,16 +94,30 @@ std::string frame_summary(const Message& m, bool with_latency) {
 }
 
 TextSink::TextSink(std::FILE* out, const ChannelTable& channels, TextSinkOptions options)
-    : out_(out), channels_(channels), options_(options) {}
+    : out_(out),
+      channels_(channels),
+      options_(options),
+      to_terminal_(out != nullptr && ::isatty(::fileno(out)) == 1) {}
 
-void TextSink::write(const std::string& line) {
-  if (std::fwrite(line.data(), 1, line.size(), out_) != line.size() ||
-      std::fputc('\n', out_) == EOF)
-    status_.note_failure();
+void TextSink::write(std::string_view line) {
+  buffer_ += line;
+  end_line();
 }
 
-void TextSink::append_prefix(std::string& s, std::uint64_t number, TimeNs time,
-                             ChannelId channel) const {
+void TextSink::end_line() {
+  buffer_ += '\n';
+  if (buffer_.size() >= kWriteAt || to_terminal_) write_out();
+}
+
+void TextSink::write_out() {
+  if (buffer_.empty()) return;
+  if (std::fwrite(buffer_.data(), 1, buffer_.size(), out_) != buffer_.size())
+    status_.note_failure();
+  buffer_.clear();
+}
+
+template <class Out>
+void TextSink::append_prefix(Out& s, std::uint64_t number, TimeNs time, ChannelId channel) const {
   if (number) {
     const fmt::format_int digits(number);
     append_padded(s, {digits.data(), digits.size()}, 5, true);
@@ -112,7 +128,7 @@ void TextSink::append_prefix(std::string& s, std::uint64_t number, TimeNs time,
   if (options_.show_time) {
     seconds_.clear();
     append_seconds(seconds_, time, 6);
-    append_padded(s, seconds_, 14, true);
+    append_padded(s, seconds_.view(), 14, true);
     s += ' ';
   }
   append_padded(s, channels_.at(channel).name, 3, false);
@@ -128,18 +144,17 @@ std::string TextSink::prefix(std::uint64_t number, TimeNs time, ChannelId channe
 void TextSink::on_frame(const Message& m) {
   last_frame_number_ = m.frame.number;
   if (!options_.frames) return;
-  std::string& line = line_;
-  line.clear();
+  LineBuffer& line = buffer_;  // the line is built where it will be written from
   append_prefix(line, m.frame.number, m.frame.start(), m.frame.channel);
   line += direction_tag(m.direction);
   line += "  ";
   append_frame_summary(line, m, options_.show_time);
-  write(line);
+  end_line();
   if (!m.drive_info.empty()) {
-    line.assign(8, ' ');
+    line.append(8, ' ');
     line += "= ";
     line += m.drive_info;
-    write(line);
+    end_line();
   }
   if (!options_.verbose) return;
   if (m.text_encoded) {
@@ -255,6 +270,7 @@ void TextSink::on_summary(const Stats& s) {
 }
 
 bool TextSink::flush() {
+  write_out();
   return status_.flush(out_);
 }
 

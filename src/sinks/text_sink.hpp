@@ -1,4 +1,6 @@
-// Text sink: one annotated line per frame, -V field trees, and the closing summary.
+// Text sink: one annotated line per frame, -V field trees, and the closing summary. Lines are
+// gathered in a buffer and written in blocks (to a terminal, line by line); flush() writes what
+// is buffered.
 #pragma once
 
 #include <cstdio>
@@ -33,18 +35,28 @@ class TextSink final : public Sink {
   [[nodiscard]] bool wants_transactions() const override { return false; }  // see on_transaction
 
  private:
-  void write(const std::string& line);
+  // Appends `line` and a newline to the output buffer.
+  void write(std::string_view line);
+  // Ends the line being built at the end of the output buffer; writes the buffer out once it
+  // holds kWriteAt bytes (one fwrite per some 600 frame lines, not one or two per line).
+  void end_line();
+  // Writes the buffered lines to the file.
+  void write_out();
   // "   12   1.234567 bus " (number, time, channel), appended to `s`.
-  void append_prefix(std::string& s, std::uint64_t number, TimeNs time, ChannelId channel) const;
+  template <class Out>
+  void append_prefix(Out& s, std::uint64_t number, TimeNs time, ChannelId channel) const;
   std::string prefix(std::uint64_t number, TimeNs time, ChannelId channel) const;
 
+  static constexpr std::size_t kWriteAt = 64 * 1024;
   std::FILE* out_;
   const ChannelTable& channels_;
   TextSinkOptions options_;
   std::uint64_t last_frame_number_ = 0;
   WriteStatus status_;
-  std::string line_;             // reused for every frame line
-  mutable std::string seconds_;  // scratch for the time column
+  // A terminal gets each line as it is made (someone is watching); files and pipes get blocks.
+  bool to_terminal_ = false;
+  LineBuffer buffer_;  // whole lines not written yet (flush() writes them)
+  mutable LineBuffer seconds_;  // scratch for the time column
 };
 
 // The decode of a frame in one line, without number/time/channel: shared with the JSON
