@@ -99,6 +99,13 @@ LengthPrediction predict_special_length(std::span<const std::uint8_t> pdu, Direc
   return unknown();
 }
 
+LineBuffer& PduDecode::scratch() {
+  // One per thread (decoding runs on one; tests and fuzzers may run others): the info line of
+  // every poll is built here with inline appends, then copied into `info` at once.
+  thread_local LineBuffer line;
+  return line;
+}
+
 namespace {
 
 // Reads PDU fields through a bounds-checked cursor and records them with frame offsets.
@@ -166,7 +173,8 @@ class PduReader {
   bool truncated_ = false;
 };
 
-void append_function_name(std::string& out, std::uint8_t fc) {
+template <class Out>
+void append_function_name(Out& out, std::uint8_t fc) {
   const std::string_view name = kFunction.name_of(fc & 0x7F);
   if (!name.empty())
     out += name;
@@ -180,7 +188,8 @@ std::string function_name(std::uint8_t fc) {
   return out;
 }
 
-void append_range(std::string& out, std::uint16_t start, unsigned count) {
+template <class Out>
+void append_range(Out& out, std::uint16_t start, unsigned count) {
   append_hex(out, start, 4);
   if (count <= 1) return;
   out += "..";
@@ -204,7 +213,8 @@ struct RegisterValues {
 };
 
 // "3, 5000, 5000, 380" (at most kListed values, then "...").
-void append_register_list(std::string& out, const RegisterValues& values) {
+template <class Out>
+void append_register_list(Out& out, const RegisterValues& values) {
   for (std::size_t i = 0; i < values.count && i < RegisterValues::kListed; ++i) {
     if (i) out += ", ";
     append_uint(out, values.first[i]);
@@ -260,7 +270,7 @@ void dissect_read_request(PduReader& r, std::uint8_t fc, PduDecode& d) {
   if (!start || !qty) return;
   const bool bits = fc == 0x01 || fc == 0x02;
   check_quantity(r, *qty, bits ? 2000 : 125, bits ? "bits" : "registers");
-  d.describe_in_place([&](std::string& out) {
+  d.describe_in_place([&](auto& out) {
     append_function_name(out, fc);
     out += ' ';
     append_range(out, *start, *qty);
@@ -289,10 +299,11 @@ void dissect_read_response(PduReader& r, std::uint8_t fc, PduDecode& d) {
     r.problem(fmt::format(FMT_COMPILE("byte count says {} bytes, {} present"), *count, present));
   auto values = read_registers(r, present / 2);
   r.expect_end();
-  d.describe_in_place([&](std::string& out) {
+  d.describe_in_place([&](auto& out) {
     append_function_name(out, fc);
-    fmt::format_to(std::back_inserter(out), FMT_COMPILE(" reply: {} register{} = "), values.count,
-                   values.count == 1 ? "" : "s");
+    out += " reply: ";
+    append_uint(out, values.count);
+    out += values.count == 1 ? " register = " : " registers = ";
     append_register_list(out, values);
   });
 }
@@ -319,7 +330,7 @@ void dissect_write_single_register(PduReader& r, Direction dir, PduDecode& d) {
   auto value = r.u16(kWriteValue);
   r.expect_end();
   if (!addr || !value) return;
-  d.describe_in_place([&](std::string& out) {
+  d.describe_in_place([&](auto& out) {
     append_function_name(out, 0x06);
     out += dir == Direction::response ? " reply " : " ";
     append_hex(out, *addr, 4);
@@ -358,7 +369,7 @@ void dissect_write_multiple_request(PduReader& r, std::uint8_t fc, PduDecode& d)
     if (present < *count)
       r.problem(fmt::format(FMT_COMPILE("byte count says {} bytes, {} present"), *count, present));
     auto values = read_registers(r, std::min<std::size_t>(*count, present) / 2);
-    d.describe_in_place([&](std::string& out) {
+    d.describe_in_place([&](auto& out) {
       append_function_name(out, fc);
       out += ' ';
       append_range(out, *start, *qty);
@@ -374,7 +385,7 @@ void dissect_write_multiple_response(PduReader& r, std::uint8_t fc, PduDecode& d
   auto qty = r.u16(kQuantity);
   r.expect_end();
   if (!start || !qty) return;
-  d.describe_in_place([&](std::string& out) {
+  d.describe_in_place([&](auto& out) {
     append_function_name(out, fc);
     out += " reply: ";
     append_range(out, *start, *qty);
@@ -534,7 +545,7 @@ void dissect_pdu_into(PduDecode& d, std::span<const std::uint8_t> frame, std::si
       });
       return;
     }
-    d.describe_in_place([&](std::string& out) {
+    d.describe_in_place([&](auto& out) {
       append_function_name(out, fc);
       fmt::format_to(std::back_inserter(out), FMT_COMPILE(" exception 0x{:02X}: "), *code);
       out += name.empty() ? std::string_view("non-standard (vendor) code") : name;

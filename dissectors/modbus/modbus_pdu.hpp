@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "core/field.hpp"
+#include "core/line_buffer.hpp"
 #include "core/message.hpp"
 
 namespace drivetap::modbus {
@@ -90,14 +91,18 @@ struct PduDecode {
   void describe(MakeText&& make) {
     if (detail) info = make();
   }
-  // The same for the replies and requests of every poll: append(info) writes the line into
-  // `info`'s own storage (which the caller may lend, see dissect_pdu_into), no temporaries.
+  // The same for the replies and requests of every poll: append(line) builds the line in a
+  // reused LineBuffer (appends inline, no temporaries), copied into `info`'s own storage (which
+  // the caller may lend, see dissect_pdu_into) at once.
   template <class AppendText>
   void describe_in_place(AppendText&& append) {
     if (!detail) return;
-    info.clear();
-    append(info);
+    LineBuffer& line = scratch();
+    line.clear();
+    append(line);
+    info.assign(line.data(), line.size());
   }
+  static LineBuffer& scratch();
 };
 
 // Decodes the PDU occupying frame[pdu_offset, pdu_offset + pdu_length) into field nodes whose
