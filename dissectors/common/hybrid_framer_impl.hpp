@@ -82,8 +82,13 @@ void HybridFramer<Rules>::push_run(const ByteRun& run, std::vector<Frame>& out) 
     for (std::size_t i = 0; i < n; ++i) push(run.event(i), out);
     return;
   }
-  push(run.event(0), out);  // the byte that may close something
-  std::size_t i = 1;
+  // The first byte goes the single-byte way when a silence > t3.5 comes before it (it may close
+  // something); otherwise push() would only append it, as the rest.
+  std::size_t i = 0;
+  if ((!pending_.empty() || have_emitted_) && run.first - last_end_ > options_.timing.t35) {
+    push(run.event(0), out);
+    i = 1;
+  }
   // Every pass takes at least one byte: in bulk up to the pressure mark, at the mark the
   // single-byte way (it closes what pressure closes).
   while (i < n) {

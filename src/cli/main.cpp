@@ -138,9 +138,9 @@ void add_common_options(CLI::App* cmd, CommonOptions& o) {
   std::exit(code);
 }
 
-// The built-in profiles, then --profile-dir and --profile files (a user profile with a built-in
-// id replaces it). A bad file ends the run with its file:line: key error.
-void load_profiles(const CommonOptions& o) {
+// The built-in profiles (when `builtins_wanted`), then --profile-dir and --profile files (a user profile
+// with a built-in id replaces it). A bad file ends the run with its file:line: key error.
+void load_profiles(const CommonOptions& o, bool builtins_wanted) {
   auto add = [](DriveProfile profile) {
     for (DriveProfile& known : g_profiles)
       if (known.id == profile.id) {
@@ -149,10 +149,12 @@ void load_profiles(const CommonOptions& o) {
       }
     g_profiles.push_back(std::move(profile));
   };
-  ProfileError builtin_error;
-  auto builtins = load_builtin_profiles(&builtin_error);
-  if (!builtins) die(fmt::format("built-in profile {}", builtin_error.text()), 1);
-  for (DriveProfile& profile : *builtins) add(std::move(profile));
+  if (builtins_wanted) {
+    ProfileError builtin_error;
+    auto builtins = load_builtin_profiles(&builtin_error);
+    if (!builtins) die(fmt::format("built-in profile {}", builtin_error.text()), 1);
+    for (DriveProfile& profile : *builtins) add(std::move(profile));
+  }
   std::vector<std::string> files;
   for (const std::string& dir : o.profile_dirs) {
     std::error_code ec;
@@ -178,7 +180,11 @@ PipelineOptions make_pipeline_options(const CommonOptions& o, const RunSettings&
   auto p = resolve_pipeline_options(capture, {o.serial, o.t15, o.t35, o.timeout, o.max_hold}, &err);
   if (!p) die(err);
   if (!o.protocol.empty()) p->protocol = protocol_from_option(o.protocol);
-  load_profiles(o);
+  // `--drive none` alone uses no profile: the built-in ones are not even parsed (a few ms).
+  const bool none_only =
+      !o.drives.empty() &&
+      std::all_of(o.drives.begin(), o.drives.end(), [](const std::string& b) { return b == "none"; });
+  load_profiles(o, !none_only);
   bool guess = true;
   for (const std::string& binding : o.drives) {
     if (binding == "auto") continue;
