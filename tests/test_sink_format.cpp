@@ -110,3 +110,22 @@ TEST(SinkFormat, JsonTailEscapedInPlaceAsQuotingWouldEscapeIt) {
     EXPECT_EQ(buffer.view(), escaped) << tail;
   }
 }
+
+TEST(SinkFormat, JsonTailFindsEveryCharacterToEscapeAtEveryPosition) {
+  // The tail is scanned eight characters at a time: every byte value at every place of a word
+  // (and of the rest after the last whole word) must be found exactly when it needs escaping.
+  for (int value = 0; value < 256; ++value) {
+    for (std::size_t at = 0; at < 19; ++at) {
+      std::string tail(19, 'a');
+      tail[at] = static_cast<char>(value);
+      if (at > 0) tail[at - 1] = static_cast<char>(0x80 | value);  // a high byte just before
+      const std::string quoted = json_quote(tail);
+      LineBuffer buffer;
+      buffer += "{\"s\":\"";
+      buffer += tail;
+      escape_json_tail(buffer, 6);
+      ASSERT_EQ(buffer.view().substr(6), quoted.substr(1, quoted.size() - 2))
+          << "byte " << value << " at " << at;
+    }
+  }
+}

@@ -19,14 +19,25 @@ namespace drivetap {
 
 inline constexpr char kHexDigits[] = "0123456789ABCDEF";
 
+// Numbers below 100 (addresses, function codes, counts, most register values) without fmt.
 template <class Out>
 inline void append_uint(Out& out, std::uint64_t v) {
+  if (v < 10) {
+    out += static_cast<char>('0' + v);
+    return;
+  }
+  if (v < 100) {
+    const char two[2] = {static_cast<char>('0' + v / 10), static_cast<char>('0' + v % 10)};
+    out.append(two, 2);
+    return;
+  }
   const fmt::format_int digits(v);
   out.append(digits.data(), digits.size());
 }
 
 template <class Out>
 inline void append_int(Out& out, std::int64_t v) {
+  if (v >= 0) return append_uint(out, static_cast<std::uint64_t>(v));
   const fmt::format_int digits(v);
   out.append(digits.data(), digits.size());
 }

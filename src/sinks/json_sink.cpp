@@ -4,8 +4,12 @@
 #include <fmt/compile.h>
 #include <fmt/format.h>
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <array>
+#include <cctype>
+#include <cstring>
 
 #include "core/format.hpp"
 #include "sinks/text_sink.hpp"
@@ -36,8 +40,24 @@ void append_json_quoted(Out& out, std::string_view s) {
 namespace {
 
 bool any_needs_escape(std::string_view s) {
-  return std::any_of(s.begin(), s.end(),
-                     [](char c) { return kNeedsEscape[static_cast<unsigned char>(c)]; });
+  // Eight characters at a time: a byte below 0x20, '"' or '\\' sets its high bit in `hit`
+  // (the classic zero-byte test; a borrow can only mark bytes above a true hit, so the answer,
+  // whether any is set, is exact).
+  constexpr std::uint64_t kOnes = 0x0101010101010101u, kHighs = 0x8080808080808080u;
+  std::size_t i = 0;
+  for (; i + 8 <= s.size(); i += 8) {
+    std::uint64_t x;
+    std::memcpy(&x, s.data() + i, 8);
+    const std::uint64_t quote = x ^ (kOnes * '"');
+    const std::uint64_t backslash = x ^ (kOnes * '\\');
+    const std::uint64_t control = (x - kOnes * 0x20) & ~x;
+    const std::uint64_t is_quote = (quote - kOnes) & ~quote;
+    const std::uint64_t is_backslash = (backslash - kOnes) & ~backslash;
+    if (((control | is_quote | is_backslash) & kHighs) != 0) return true;
+  }
+  for (; i < s.size(); ++i)
+    if (kNeedsEscape[static_cast<unsigned char>(s[i])]) return true;
+  return false;
 }
 
 }  // namespace
@@ -111,9 +131,24 @@ std::string seconds(TimeNs t) {
 // Field nodes keyed by dotted id, in first-seen order; repeated ids become arrays.
 void append_field_value(LineBuffer& out, const Message& m, const FieldNode& node) {
   switch (node.desc->type) {
-    case FieldType::bytes:
-      append_json_quoted(out, field_bytes_hex(node, m.bytes, m.text_encoded));
+    case FieldType::bytes: {
+      // As field_bytes_hex() spells them (hex digits, or a text frame's characters upper-cased,
+      // escaped where they must be), without a temporary string.
+      out += '"';
+      const std::size_t from = out.size();
+      const std::size_t end = std::min<std::size_t>(node.offset + node.length, m.bytes.size());
+      for (std::size_t i = node.offset; i < end; ++i) {
+        if (m.text_encoded) {
+          out += static_cast<char>(std::toupper(m.bytes[i]));
+        } else {
+          out += kHexDigits[m.bytes[i] >> 4];
+          out += kHexDigits[m.bytes[i] & 0x0F];
+        }
+      }
+      if (m.text_encoded) escape_json_tail(out, from);
+      out += '"';
       return;
+    }
     case FieldType::text:
       append_json_quoted(out, node.text);
       return;
@@ -188,18 +223,29 @@ JsonSink::JsonSink(std::FILE* out, const ChannelTable& channels, TimeNs characte
     : out_(out),
       channels_(channels),
       character_time_(character_time),
-      show_latency_(show_latency) {}
+      show_latency_(show_latency),
+      to_terminal_(out != nullptr && ::isatty(::fileno(out)) == 1) {}
 
-template <class Line>
-void JsonSink::write(Line& line) {
-  line += '\n';
-  if (std::fwrite(line.data(), 1, line.size(), out_) != line.size()) status_.note_failure();
+void JsonSink::write(std::string_view line) {
+  buffer_ += line;
+  end_line();
+}
+
+void JsonSink::end_line() {
+  buffer_ += '\n';
+  if (buffer_.size() >= kWriteAt || to_terminal_) write_out();
+}
+
+void JsonSink::write_out() {
+  if (buffer_.empty()) return;
+  if (std::fwrite(buffer_.data(), 1, buffer_.size(), out_) != buffer_.size())
+    status_.note_failure();
+  buffer_.clear();
 }
 
 void JsonSink::on_frame(const Message& m) {
   const TimeNs t_end = m.frame.events.empty() ? 0 : m.frame.events.back().time + character_time_;
-  LineBuffer& line = line_;
-  line.clear();
+  LineBuffer& line = buffer_;  // the record is built where it will be written from
   line += "{\"type\":\"frame\",\"n\":"sv;
   append_uint(line, m.frame.number);
   line += ",\"t\":"sv;
@@ -265,7 +311,7 @@ void JsonSink::on_frame(const Message& m) {
   append_frame_summary(line, m, show_latency_);
   escape_json_tail(line, summary_at);
   line += "\"}"sv;
-  write(line);
+  end_line();
 }
 
 void JsonSink::on_noise(const Frame& f) {
@@ -305,8 +351,7 @@ void JsonSink::on_event(const BusEvent& e) {
 }
 
 void JsonSink::on_transaction(const Transaction& t) {
-  LineBuffer& line = line_;
-  line.clear();
+  LineBuffer& line = buffer_;  // the record is built where it will be written from
   auto number_or_null = [&line](std::uint64_t v) {
     if (v == 0)
       line += "null"sv;
@@ -351,7 +396,7 @@ void JsonSink::on_transaction(const Transaction& t) {
     append_json_quoted(line, t.detail);
   }
   line += '}';
-  write(line);
+  end_line();
 }
 
 void JsonSink::on_summary(const Stats& s) {
@@ -395,6 +440,7 @@ void JsonSink::on_summary(const Stats& s) {
 }
 
 bool JsonSink::flush() {
+  write_out();
   return status_.flush(out_);
 }
 

@@ -1,4 +1,5 @@
 // JSON-lines sink: one object per record; keys are the output contract in README "JSON lines".
+// Records are gathered in a buffer and written in blocks; flush() writes what is buffered.
 #pragma once
 
 #include <cstdio>
@@ -33,15 +34,21 @@ class JsonSink final : public Sink {
   };
   // Appends the frame's field tree as an object keyed by id (field_keys_ is its scratch).
   void append_fields_object(LineBuffer& out, const Message& m);
-  // Ends `line` (std::string or LineBuffer) with a newline and writes it.
-  template <class Line>
-  void write(Line& line);
+  // Appends `line` (a record built elsewhere) and a newline to the output buffer.
+  void write(std::string_view line);
+  // Ends the record being built at the end of the output buffer; writes the buffer out once it
+  // holds kWriteAt bytes (to a terminal: every line).
+  void end_line();
+  void write_out();
+
+  static constexpr std::size_t kWriteAt = 64 * 1024;
   std::FILE* out_;
   const ChannelTable& channels_;
   TimeNs character_time_;
   bool show_latency_;
+  bool to_terminal_ = false;
   WriteStatus status_;
-  LineBuffer line_;                   // reused for every frame and transaction line
+  LineBuffer buffer_;  // whole records not written yet; frame and transaction lines are built here
   std::vector<FieldKey> field_keys_;  // scratch: the ids of the frame's field tree
 };
 
