@@ -118,7 +118,8 @@ class HybridFramer final : public Framer {
             std::vector<Frame>& out);
   // Bytes [from, from + count) of `run` appended: none has a silence > t3.5 before it, and they
   // stay below the pressure mark (push() of each would only append it).
-  void append_quietly(const ByteRun& run, std::size_t from, std::size_t count);
+  [[gnu::always_inline]] void append_quietly(const ByteRun& run, std::size_t from,
+                                             std::size_t count);
 
   ChannelId channel_;
   HybridFramerOptions options_;
@@ -129,7 +130,8 @@ class HybridFramer final : public Framer {
   // second look at their times.
   ByteRunTiming pending_run_;
   bool pending_run_whole_ = false;
-  std::vector<std::size_t> hard_;  // indices in pending_ preceded by silence > t3.5
+  std::vector<std::size_t> hard_;        // indices in pending_ preceded by silence > t3.5
+  std::vector<std::uint8_t> run_bytes_;  // push_all(): the bytes of the run being pushed
   TimeNs last_end_ = std::numeric_limits<TimeNs>::min();  // end of the latest byte pushed
   TimeNs emitted_end_ = -1;  // end of the last byte of the last emitted frame; -1 none yet
   bool have_emitted_ = false;

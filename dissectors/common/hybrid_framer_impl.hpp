@@ -38,37 +38,21 @@ void HybridFramer<Rules>::push(const ByteEvent& event, std::vector<Frame>& out) 
 
 template <class Rules>
 void HybridFramer<Rules>::push_all(std::span<const ByteEvent> events, std::vector<Frame>& out) {
-  const TimeNs t35 = options_.timing.t35;
-  const TimeNs character_time = options_.timing.character_time;
   std::size_t i = 0;
-  // Every pass pushes at least the byte at i.
+  // Every pass pushes at least the byte at i: evenly spaced, unmarked bytes (a byte log's line, a
+  // packet) as one run, which push_run() appends in bulk where push() of each would only append.
   while (i < events.size()) {
-    // The byte that may close something goes the single-byte way.
-    push(events[i], out);
-    ++i;
-    // After it, pending_ holds bytes or something was emitted, so push() would test the gap of
-    // every following byte: a run with no silence > t3.5 and below the pressure mark closes
-    // nothing and only needs appending.
-    const std::size_t room = pending_.size() + 1 < options_.pressure_bytes
-                                 ? options_.pressure_bytes - 1 - pending_.size()
-                                 : 0;
-    const std::size_t limit = i + std::min(room, events.size() - i);
-    TimeNs end = last_end_;
-    // One pass finds where the quiet run ends (silence before a byte) and keeps its timing; the
-    // run is then appended at once.
-    ByteRunTiming timing = pending_run_;
-    std::size_t j = i;
-    const std::size_t base = pending_.size() - i;  // pending index of events[j]: base + j
-    while (j < limit && events[j].time - end <= t35) {
-      const TimeNs t = events[j].time;
-      end = std::max(end, t + character_time);
-      timing.add(t, base + j, character_time);
-      ++j;
+    TimeNs step = 0;
+    const std::size_t n = uniform_run_length(events.subspan(i), &step);
+    if (n == 1) {
+      push(events[i++], out);
+      continue;
     }
-    pending_run_ = timing;
-    pending_.append_events(events.subspan(i, j - i));
-    last_end_ = end;
-    i = j;
+    run_bytes_.resize(n);
+    for (std::size_t k = 0; k < n; ++k) run_bytes_[k] = events[i + k].byte;
+    push_run(ByteRun{run_bytes_, events[i].time, step, events[i].channel, events[i].origin, {}},
+             out);
+    i += n;
   }
 }
 
@@ -104,7 +88,8 @@ void HybridFramer<Rules>::push_run(const ByteRun& run, std::vector<Frame>& out) 
 }
 
 template <class Rules>
-void HybridFramer<Rules>::append_quietly(const ByteRun& run, std::size_t from, std::size_t count) {
+inline void HybridFramer<Rules>::append_quietly(const ByteRun& run, std::size_t from,
+                                                std::size_t count) {
   const TimeNs character_time = options_.timing.character_time;
   const ByteRun part = run.part(from, count);
   if (pending_.empty()) {

@@ -17,6 +17,7 @@
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
 #include <initializer_list>
 #include <iterator>
 #include <span>
@@ -25,6 +26,37 @@
 #include "core/byte_event.hpp"
 
 namespace drivetap {
+
+// An event's UART flags, channel and source unit in one word (the 8 bytes after its time with the
+// data byte masked off): two events with the same word differ at most in time and byte.
+static_assert(sizeof(ByteEvent) == 16 && offsetof(ByteEvent, byte) == 8 &&
+              offsetof(ByteEvent, flags) == 9 && offsetof(ByteEvent, channel) == 10 &&
+              offsetof(ByteEvent, origin) == 12);
+inline std::uint64_t event_tail(const ByteEvent& e) {
+  std::uint64_t word;
+  std::memcpy(&word, &e.byte, 8);
+  return word & ~std::uint64_t{0xFF};
+}
+
+// How many events from events[0] one ByteRun can stand for: unmarked, of one channel and source
+// unit, evenly spaced (*step; 0 for a single event). A marked first event stands alone.
+inline std::size_t uniform_run_length(std::span<const ByteEvent> events, TimeNs* step) {
+  *step = 0;
+  if (events.size() < 2 || events[0].flags != 0) return events.empty() ? 0 : 1;
+  const std::uint64_t same = event_tail(events[0]);
+  if (event_tail(events[1]) != same) return 1;
+  *step = events[1].time - events[0].time;  // |times| < 2^62: exact
+  // Sums modulo 2^64: one past the int64 range cannot wrap onto a time inside kTimeLimit.
+  const auto ustep = static_cast<std::uint64_t>(*step);
+  std::uint64_t next = static_cast<std::uint64_t>(events[1].time) + ustep;
+  std::size_t n = 2;
+  while (n < events.size() && static_cast<std::uint64_t>(events[n].time) == next &&
+         event_tail(events[n]) == same) {
+    next += ustep;
+    ++n;
+  }
+  return n;
+}
 
 // Bytes of one channel whose events are implied: byte i starts at first + i * step, comes from
 // source unit `origin` and carries UART flags flags[i] (`flags` empty: none). What a source with
@@ -247,38 +279,6 @@ class ByteEvents {
   void append(const Events& events) {
     for (const ByteEvent& e : events) push_back(e);
   }
-  // The same as push_back() of each, faster for events that continue one stretch: of those only
-  // the bytes are stored, in one pass.
-  void append_events(std::span<const ByteEvent> events) {
-    std::size_t k = 0;
-    // Each pass appends events[k] and the unmarked events after it that continue its stretch.
-    while (k < events.size()) {
-      push_back(events[k++]);
-      const Stretch& s = stretches_.back();
-      if (bytes_.size() - s.index < 2 || !flags_.empty()) continue;
-      const TimeNs step = s.step;
-      const ChannelId channel = s.channel;
-      const std::uint32_t origin = s.origin;
-      const ByteEvent* e = events.data();
-      // The time a continuing event has, summed modulo 2^64: a sum past the int64 range cannot
-      // wrap onto a time inside kTimeLimit, so no such event is taken for a continuation.
-      const auto ustep = static_cast<std::uint64_t>(step);
-      std::uint64_t next = static_cast<std::uint64_t>(back_time_) + ustep;
-      std::size_t m = k;
-      while (m < events.size() && static_cast<std::uint64_t>(e[m].time) == next &&
-             e[m].channel == channel && e[m].origin == origin && e[m].flags == 0) {
-        next += ustep;
-        ++m;
-      }
-      if (m == k) continue;
-      const std::size_t old = bytes_.size();
-      bytes_.resize(old + (m - k));
-      std::uint8_t* out = bytes_.data() + old;
-      for (std::size_t q = k; q < m; ++q) *out++ = e[q].byte;
-      back_time_ = e[m - 1].time;
-      k = m;
-    }
-  }
   // `count` bytes from `bytes`, byte i starting at first + i * step, all on `channel` from unit
   // `origin`, with `flags` (empty: unmarked; else one per byte). The caller keeps first +
   // (count - 1) * step inside kTimeLimit.
@@ -390,8 +390,8 @@ class ByteEvents {
   [[nodiscard]] static TimeNs time_in(std::size_t i, const Stretch& s) {
     return s.first + static_cast<TimeNs>(i - s.index) * s.step;
   }
-  // A new stretch for `e` (the rare path of push_back(), kept out of line).
-  [[gnu::noinline]] void start_stretch(const ByteEvent& e) {
+  // A new stretch for `e` (the first byte of every frame).
+  void start_stretch(const ByteEvent& e) {
     const std::size_t n = bytes_.size();
     stretches_.push_back({static_cast<std::uint32_t>(n), e.origin, e.time, 0, e.channel});
     push_flag(e.flags, n);
