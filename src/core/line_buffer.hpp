@@ -33,7 +33,9 @@ class LineBuffer {
   // length is known, and warns about copies that never run.)
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Warray-bounds"
+#if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC diagnostic ignored "-Wstringop-overread"
+#endif
   [[gnu::always_inline]] void append(const char* s, std::size_t n) {
     if (capacity_ - size_ < n) return append_growing(s, n);
     char* at = data_.get() + size_;
