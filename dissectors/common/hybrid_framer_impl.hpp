@@ -38,19 +38,22 @@ void HybridFramer<Rules>::push(const ByteEvent& event, std::vector<Frame>& out) 
 
 template <class Rules>
 void HybridFramer<Rules>::push_all(std::span<const ByteEvent> events, std::vector<Frame>& out) {
+  // Room for the longest run at once (the buffer only grows), so the scan stores each byte as it
+  // passes it.
+  if (run_bytes_.size() < events.size()) run_bytes_.resize(events.size());
+  const std::span<std::uint8_t> bytes(run_bytes_);
   std::size_t i = 0;
   // Every pass pushes at least the byte at i: evenly spaced, unmarked bytes (a byte log's line, a
   // packet) as one run, which push_run() appends in bulk where push() of each would only append.
   while (i < events.size()) {
     TimeNs step = 0;
-    const std::size_t n = uniform_run_length(events.subspan(i), &step);
+    const std::size_t n = scan_uniform_run(
+        events.subspan(i), &step, [bytes](std::size_t k, std::uint8_t b) { bytes[k] = b; });
     if (n == 1) {
       push(events[i++], out);
       continue;
     }
-    run_bytes_.resize(n);
-    for (std::size_t k = 0; k < n; ++k) run_bytes_[k] = events[i + k].byte;
-    push_run(ByteRun{run_bytes_, events[i].time, step, events[i].channel, events[i].origin, {}},
+    push_run(ByteRun{bytes.first(n), events[i].time, step, events[i].channel, events[i].origin, {}},
              out);
     i += n;
   }

@@ -40,11 +40,18 @@ inline std::uint64_t event_tail(const ByteEvent& e) {
 
 // How many events from events[0] one ByteRun can stand for: unmarked, of one channel and source
 // unit, evenly spaced (*step; 0 for a single event). A marked first event stands alone.
-inline std::size_t uniform_run_length(std::span<const ByteEvent> events, TimeNs* step) {
+// on_byte(k, byte) is called with each of the run's bytes in order as the scan passes it (a
+// caller gathering them needs no second pass over the events).
+template <class OnByte>
+inline std::size_t scan_uniform_run(std::span<const ByteEvent> events, TimeNs* step,
+                                    OnByte&& on_byte) {
   *step = 0;
-  if (events.size() < 2 || events[0].flags != 0) return events.empty() ? 0 : 1;
+  if (events.empty()) return 0;
+  on_byte(std::size_t{0}, events[0].byte);
+  if (events.size() < 2 || events[0].flags != 0) return 1;
   const std::uint64_t same = event_tail(events[0]);
   if (event_tail(events[1]) != same) return 1;
+  on_byte(std::size_t{1}, events[1].byte);
   *step = events[1].time - events[0].time;  // |times| < 2^62: exact
   // Sums modulo 2^64: one past the int64 range cannot wrap onto a time inside kTimeLimit.
   const auto ustep = static_cast<std::uint64_t>(*step);
@@ -52,6 +59,7 @@ inline std::size_t uniform_run_length(std::span<const ByteEvent> events, TimeNs*
   std::size_t n = 2;
   while (n < events.size() && static_cast<std::uint64_t>(events[n].time) == next &&
          event_tail(events[n]) == same) {
+    on_byte(n, events[n].byte);
     next += ustep;
     ++n;
   }
