@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <random>
 #include <string>
+#include <vector>
 
 #include "core/format.hpp"
 #include "core/line_buffer.hpp"
@@ -126,6 +127,88 @@ TEST(SinkFormat, JsonTailFindsEveryCharacterToEscapeAtEveryPosition) {
       escape_json_tail(buffer, 6);
       ASSERT_EQ(buffer.view().substr(6), quoted.substr(1, quoted.size() - 2))
           << "byte " << value << " at " << at;
+    }
+  }
+}
+
+namespace {
+
+template <class Out>
+std::string uint_of(std::uint64_t v) {
+  Out out;
+  out += 'x';  // appended after something, as in a line
+  append_uint(out, v);
+  return std::string(out.data() + 1, out.size() - 1);
+}
+
+template <class Out>
+std::string int_of(std::int64_t v) {
+  Out out;
+  append_int(out, v);
+  return std::string(out.data(), out.size());
+}
+
+// Values of every decimal length: each power of ten and its neighbours, the limits, a range
+// counted through and random values of every bit width.
+std::vector<std::uint64_t> uint_cases() {
+  std::vector<std::uint64_t> cases;
+  for (std::uint64_t v = 0; v <= 120'000; ++v) cases.push_back(v);
+  std::uint64_t power = 1;
+  for (int i = 0; i < 20; ++i) {
+    cases.insert(cases.end(), {power - 1, power, power + 1});
+    if (i < 19) power *= 10;
+  }
+  cases.push_back(UINT64_MAX);
+  cases.push_back(UINT64_MAX - 1);
+  std::mt19937_64 random(7);
+  for (int bits = 1; bits <= 64; ++bits)
+    for (int k = 0; k < 2000; ++k)
+      cases.push_back(bits == 64 ? random() : random() & ((std::uint64_t{1} << bits) - 1));
+  return cases;
+}
+
+}  // namespace
+
+TEST(SinkFormat, UnsignedNumbersAreWhatFmtPrints) {
+  for (const std::uint64_t v : uint_cases()) {
+    const std::string expected = fmt::format("{}", v);
+    ASSERT_EQ(uint_of<std::string>(v), expected) << v;
+    ASSERT_EQ(uint_of<LineBuffer>(v), expected) << v;
+  }
+}
+
+TEST(SinkFormat, SignedNumbersAreWhatFmtPrints) {
+  for (const std::uint64_t u : uint_cases()) {
+    for (const std::int64_t v :
+         {static_cast<std::int64_t>(u), -static_cast<std::int64_t>(u >> 1)}) {
+      const std::string expected = fmt::format("{}", v);
+      ASSERT_EQ(int_of<std::string>(v), expected) << v;
+      ASSERT_EQ(int_of<LineBuffer>(v), expected) << v;
+    }
+  }
+  EXPECT_EQ(int_of<LineBuffer>(INT64_MIN), "-9223372036854775808");
+  EXPECT_EQ(int_of<std::string>(INT64_MIN), "-9223372036854775808");
+  EXPECT_EQ(int_of<LineBuffer>(INT64_MAX), "9223372036854775807");
+}
+
+TEST(SinkFormat, FractionsAreTheLowestDigitsZeroPadded) {
+  std::mt19937_64 random(11);
+  for (int decimals = 1; decimals <= 9; ++decimals) {
+    std::uint64_t modulus = 1;
+    for (int i = 0; i < decimals; ++i) modulus *= 10;
+    for (int k = 0; k < 20000; ++k) {
+      // Small values (leading zeros), values near the modulus and beyond it (digits dropped).
+      const std::uint64_t fraction =
+          k < 1000   ? static_cast<std::uint64_t>(k)
+          : k < 2000 ? modulus - 1 - static_cast<std::uint64_t>(k - 1000) % modulus
+                     : random() % 4'000'000'000u;
+      const std::string expected = fmt::format(".{:0{}}", fraction % modulus, decimals);
+      std::string s = "t=";
+      append_fraction(s, fraction, decimals);
+      ASSERT_EQ(s, "t=" + expected) << fraction << " " << decimals;
+      LineBuffer line;
+      append_fraction(line, fraction, decimals);
+      ASSERT_EQ(std::string(line.view()), expected) << fraction << " " << decimals;
     }
   }
 }

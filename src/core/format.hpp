@@ -3,6 +3,7 @@
 
 #include <fmt/format.h>
 
+#include <array>
 #include <cstdint>
 #include <iterator>
 #include <span>
@@ -18,6 +19,43 @@ namespace drivetap {
 // core/line_buffer.hpp's LineBuffer (append(ptr, n), append(n, c), +=).
 
 inline constexpr char kHexDigits[] = "0123456789ABCDEF";
+
+// Two decimal digits per entry: "00", "01", .., "99" (a division by 100 gives two digits).
+inline constexpr std::array<char, 200> kDigitPairs = [] {
+  std::array<char, 200> pairs{};
+  for (std::size_t i = 0; i < 100; ++i) {
+    pairs[2 * i] = static_cast<char>('0' + i / 10);
+    pairs[2 * i + 1] = static_cast<char>('0' + i % 10);
+  }
+  return pairs;
+}();
+
+// `n` more characters at the end of `out` for the caller to fill: LineBuffer's extend(), or a
+// std::string grown by n.
+template <class Out>
+inline char* append_room(Out& out, std::size_t n) {
+  if constexpr (requires { out.extend(n); }) {
+    return out.extend(n);
+  } else {
+    const std::size_t at = out.size();
+    out.resize(at + n);
+    return out.data() + at;
+  }
+}
+
+// The lowest digits.size() decimal digits of v, zero-padded, into `digits`.
+inline void write_decimal_digits(std::span<char> digits, std::uint64_t v) {
+  std::size_t left = digits.size();
+  // Every pass fills two places, right to left.
+  while (left >= 2) {
+    const std::size_t pair = static_cast<std::size_t>(v % 100) * 2;
+    v /= 100;
+    left -= 2;
+    digits[left] = kDigitPairs[pair];
+    digits[left + 1] = kDigitPairs[pair + 1];
+  }
+  if (left == 1) digits[0] = static_cast<char>('0' + v % 10);
+}
 
 // Numbers below 100 (addresses, function codes, counts, most register values) without fmt.
 template <class Out>
@@ -54,12 +92,10 @@ inline void append_padded(Out& out, std::string_view text, std::size_t width, bo
 // '.' and the `decimals` (1..9) lowest decimal digits of `fraction`, zero-padded: ".050".
 template <class Out>
 inline void append_fraction(Out& out, std::uint64_t fraction, int decimals) {
-  char digits[10] = {'.'};
-  for (int i = decimals; i >= 1; --i) {
-    digits[i] = static_cast<char>('0' + fraction % 10);
-    fraction /= 10;
-  }
-  out.append(digits, static_cast<std::size_t>(decimals) + 1);
+  const auto count = static_cast<std::size_t>(decimals);
+  const std::span<char> room(append_room(out, count + 1), count + 1);
+  room[0] = '.';
+  write_decimal_digits(room.subspan(1), fraction);
 }
 
 // Seconds with `decimals` (<= 9) digits, exact (no floating point): 1.500000.
