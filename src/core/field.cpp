@@ -4,19 +4,12 @@
 #include <fmt/compile.h>
 #include <fmt/format.h>
 
-#include <cctype>
-
 namespace drivetap {
 
 std::string field_bytes_hex(const FieldNode& node, std::span<const std::uint8_t> frame,
                             bool text_encoded) {
   std::string out;
-  for (std::size_t i = node.offset; i < node.offset + node.length && i < frame.size(); ++i) {
-    if (text_encoded)
-      out += static_cast<char>(std::toupper(frame[i]));
-    else
-      out += fmt::format(FMT_COMPILE("{:02X}"), frame[i]);
-  }
+  append_field_bytes_hex(out, node, frame, text_encoded);
   return out;
 }
 

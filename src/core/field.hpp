@@ -7,11 +7,15 @@
 // check that ids are unique and well formed.
 #pragma once
 
+#include <algorithm>
+#include <cctype>
 #include <cstdint>
 #include <span>
 #include <string>
 #include <string_view>
 #include <vector>
+
+#include "core/format.hpp"
 
 namespace drivetap {
 
@@ -115,7 +119,22 @@ class FieldTreeBuilder {
 // the characters of its span rather than their codes.
 std::string format_field_value(const FieldNode& node, std::span<const std::uint8_t> frame,
                                bool text_encoded = false);
-// A bytes field's value as compact upper-case hex ("A537"), for JSON.
+// A bytes field's value as compact upper-case hex ("A537"), for JSON; a text-encoded frame's
+// characters upper-cased instead. Appended to `out` (std::string or LineBuffer).
+template <class Out>
+void append_field_bytes_hex(Out& out, const FieldNode& node, std::span<const std::uint8_t> frame,
+                            bool text_encoded) {
+  const std::size_t end = std::min(std::size_t{node.offset} + node.length, frame.size());
+  for (std::size_t i = node.offset; i < end; ++i) {
+    if (text_encoded) {
+      out += static_cast<char>(std::toupper(frame[i]));
+    } else {
+      out += kHexDigits[frame[i] >> 4];
+      out += kHexDigits[frame[i] & 0x0F];
+    }
+  }
+}
+// The same as a string.
 std::string field_bytes_hex(const FieldNode& node, std::span<const std::uint8_t> frame,
                             bool text_encoded);
 

@@ -65,8 +65,7 @@ inline void append_uint(Out& out, std::uint64_t v) {
     return;
   }
   if (v < 100) {
-    const char two[2] = {static_cast<char>('0' + v / 10), static_cast<char>('0' + v % 10)};
-    out.append(two, 2);
+    out.append(&kDigitPairs[2 * v], 2);
     return;
   }
   const fmt::format_int digits(v);

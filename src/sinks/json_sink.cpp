@@ -4,11 +4,8 @@
 #include <fmt/compile.h>
 #include <fmt/format.h>
 
-#include <unistd.h>
-
 #include <algorithm>
 #include <array>
-#include <cctype>
 #include <cstring>
 
 #include "core/format.hpp"
@@ -132,19 +129,11 @@ std::string seconds(TimeNs t) {
 void append_field_value(LineBuffer& out, const Message& m, const FieldNode& node) {
   switch (node.desc->type) {
     case FieldType::bytes: {
-      // As field_bytes_hex() spells them (hex digits, or a text frame's characters upper-cased,
-      // escaped where they must be), without a temporary string.
+      // Written into the record (no temporary string); a text frame's characters escaped where
+      // they must be.
       out += '"';
       const std::size_t from = out.size();
-      const std::size_t end = std::min<std::size_t>(node.offset + node.length, m.bytes.size());
-      for (std::size_t i = node.offset; i < end; ++i) {
-        if (m.text_encoded) {
-          out += static_cast<char>(std::toupper(m.bytes[i]));
-        } else {
-          out += kHexDigits[m.bytes[i] >> 4];
-          out += kHexDigits[m.bytes[i] & 0x0F];
-        }
-      }
+      append_field_bytes_hex(out, node, m.bytes, m.text_encoded);
       if (m.text_encoded) escape_json_tail(out, from);
       out += '"';
       return;
@@ -220,32 +209,14 @@ void JsonSink::append_fields_object(LineBuffer& out, const Message& m) {
 
 JsonSink::JsonSink(std::FILE* out, const ChannelTable& channels, TimeNs character_time,
                    bool show_latency)
-    : out_(out),
-      channels_(channels),
+    : channels_(channels),
       character_time_(character_time),
       show_latency_(show_latency),
-      to_terminal_(out != nullptr && ::isatty(::fileno(out)) == 1) {}
-
-void JsonSink::write(std::string_view line) {
-  buffer_ += line;
-  end_line();
-}
-
-void JsonSink::end_line() {
-  buffer_ += '\n';
-  if (buffer_.size() >= kWriteAt || to_terminal_) write_out();
-}
-
-void JsonSink::write_out() {
-  if (buffer_.empty()) return;
-  if (std::fwrite(buffer_.data(), 1, buffer_.size(), out_) != buffer_.size())
-    status_.note_failure();
-  buffer_.clear();
-}
+      lines_(out) {}
 
 void JsonSink::on_frame(const Message& m) {
   const TimeNs t_end = m.frame.events.empty() ? 0 : m.frame.events.back().time + character_time_;
-  LineBuffer& line = buffer_;  // the record is built where it will be written from
+  LineBuffer& line = lines_.buffer();  // the record is built where it will be written from
   line += "{\"type\":\"frame\",\"n\":"sv;
   append_uint(line, m.frame.number);
   line += ",\"t\":"sv;
@@ -311,7 +282,7 @@ void JsonSink::on_frame(const Message& m) {
   append_frame_summary(line, m, show_latency_);
   escape_json_tail(line, summary_at);
   line += "\"}"sv;
-  end_line();
+  lines_.end_line();
 }
 
 void JsonSink::on_noise(const Frame& f) {
@@ -322,7 +293,7 @@ void JsonSink::on_noise(const Frame& f) {
           "{{\"type\":\"noise\",\"n\":{},\"t\":{},\"t_end\":{},\"channel\":{},\"hex\":\"{}\"}}"),
       f.number, seconds(f.start()), seconds(t_end), json_quote(channels_.at(f.channel).name),
       hex_bytes(bytes, ""));
-  write(line);
+  lines_.write(line);
 }
 
 void JsonSink::on_anomaly(const Anomaly& a) {
@@ -332,7 +303,7 @@ void JsonSink::on_anomaly(const Anomaly& a) {
       seconds(a.time), anomaly_id(a.kind), json_quote(channels_.at(a.channel).name),
       a.frame_number == 0 ? std::string("null") : fmt::format(FMT_COMPILE("{}"), a.frame_number),
       json_quote(a.detail));
-  write(line);
+  lines_.write(line);
 }
 
 void JsonSink::on_event(const BusEvent& e) {
@@ -347,11 +318,11 @@ void JsonSink::on_event(const BusEvent& e) {
         FMT_COMPILE(",\"address\":{},\"profile\":{},\"frame\":{},\"from\":{},\"to\":{}"), e.address,
         json_quote(e.profile), e.frame, json_quote(e.from), json_quote(e.to));
   line += fmt::format(FMT_COMPILE(",\"detail\":{}}}"), json_quote(e.detail));
-  write(line);
+  lines_.write(line);
 }
 
 void JsonSink::on_transaction(const Transaction& t) {
-  LineBuffer& line = buffer_;  // the record is built where it will be written from
+  LineBuffer& line = lines_.buffer();  // the record is built where it will be written from
   auto number_or_null = [&line](std::uint64_t v) {
     if (v == 0)
       line += "null"sv;
@@ -396,7 +367,7 @@ void JsonSink::on_transaction(const Transaction& t) {
     append_json_quoted(line, t.detail);
   }
   line += '}';
-  end_line();
+  lines_.end_line();
 }
 
 void JsonSink::on_summary(const Stats& s) {
@@ -436,12 +407,11 @@ void JsonSink::on_summary(const Stats& s) {
     line += "]"sv;
   }
   line += "}"sv;
-  write(line);
+  lines_.write(line);
 }
 
 bool JsonSink::flush() {
-  write_out();
-  return status_.flush(out_);
+  return lines_.flush();
 }
 
 }  // namespace drivetap

@@ -9,6 +9,7 @@
 #include "core/byte_event.hpp"
 #include "core/line_buffer.hpp"
 #include "core/serial_config.hpp"
+#include "sinks/line_writer.hpp"
 #include "sinks/sink.hpp"
 
 namespace drivetap {
@@ -34,21 +35,10 @@ class JsonSink final : public Sink {
   };
   // Appends the frame's field tree as an object keyed by id (field_keys_ is its scratch).
   void append_fields_object(LineBuffer& out, const Message& m);
-  // Appends `line` (a record built elsewhere) and a newline to the output buffer.
-  void write(std::string_view line);
-  // Ends the record being built at the end of the output buffer; writes the buffer out once it
-  // holds kWriteAt bytes (to a terminal: every line).
-  void end_line();
-  void write_out();
-
-  static constexpr std::size_t kWriteAt = 64 * 1024;
-  std::FILE* out_;
   const ChannelTable& channels_;
   TimeNs character_time_;
   bool show_latency_;
-  bool to_terminal_ = false;
-  WriteStatus status_;
-  LineBuffer buffer_;  // whole records not written yet; frame and transaction lines are built here
+  LineWriter lines_;  // records not written yet; frame and transaction records are built there
   std::vector<FieldKey> field_keys_;  // scratch: the ids of the frame's field tree
 };
 

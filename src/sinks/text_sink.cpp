@@ -4,8 +4,6 @@
 #include <fmt/compile.h>
 #include <fmt/format.h>
 
-#include <unistd.h>
-
 #include <algorithm>
 #include <string_view>
 
@@ -94,27 +92,7 @@ std::string frame_summary(const Message& m, bool with_latency) {
 }
 
 TextSink::TextSink(std::FILE* out, const ChannelTable& channels, TextSinkOptions options)
-    : out_(out),
-      channels_(channels),
-      options_(options),
-      to_terminal_(out != nullptr && ::isatty(::fileno(out)) == 1) {}
-
-void TextSink::write(std::string_view line) {
-  buffer_ += line;
-  end_line();
-}
-
-void TextSink::end_line() {
-  buffer_ += '\n';
-  if (buffer_.size() >= kWriteAt || to_terminal_) write_out();
-}
-
-void TextSink::write_out() {
-  if (buffer_.empty()) return;
-  if (std::fwrite(buffer_.data(), 1, buffer_.size(), out_) != buffer_.size())
-    status_.note_failure();
-  buffer_.clear();
-}
+    : channels_(channels), options_(options), lines_(out) {}
 
 template <class Out>
 void TextSink::append_prefix(Out& s, std::uint64_t number, TimeNs time, ChannelId channel) const {
@@ -144,17 +122,17 @@ std::string TextSink::prefix(std::uint64_t number, TimeNs time, ChannelId channe
 void TextSink::on_frame(const Message& m) {
   last_frame_number_ = m.frame.number;
   if (!options_.frames) return;
-  LineBuffer& line = buffer_;  // the line is built where it will be written from
+  LineBuffer& line = lines_.buffer();  // the line is built where it will be written from
   append_prefix(line, m.frame.number, m.frame.start(), m.frame.channel);
   line += direction_tag(m.direction);
   line += "  ";
   append_frame_summary(line, m, options_.show_time);
-  end_line();
+  lines_.end_line();
   if (!m.drive_info.empty()) {
     line.append(8, ' ');
     line += "= ";
     line += m.drive_info;
-    end_line();
+    lines_.end_line();
   }
   if (!options_.verbose) return;
   if (m.text_encoded) {
@@ -169,17 +147,17 @@ void TextSink::on_frame(const Message& m) {
       else
         text += fmt::format(FMT_COMPILE("\\x{:02X}"), b);
     }
-    write(fmt::format(FMT_COMPILE("{:>8}text: \"{}\""), "", text));
+    lines_.write(fmt::format(FMT_COMPILE("{:>8}text: \"{}\""), "", text));
   } else {
-    write(fmt::format(FMT_COMPILE("{:>8}bytes: {}"), "", hex_bytes(m.bytes)));
+    lines_.write(fmt::format(FMT_COMPILE("{:>8}bytes: {}"), "", hex_bytes(m.bytes)));
   }
   for (const FieldNode& node : m.fields) {
     const std::string span = node.length <= 1 ? fmt::format(FMT_COMPILE("[{}]"), node.offset)
                                               : fmt::format(FMT_COMPILE("[{}-{}]"), node.offset,
                                                             node.offset + node.length - 1);
-    write(fmt::format(FMT_COMPILE("{:>8}{:<9} {:{}}{:<26} {}: {}"), "", span, "", node.depth * 2u,
-                      node.desc->id, node.desc->name,
-                      format_field_value(node, m.bytes, m.text_encoded)));
+    lines_.write(fmt::format(FMT_COMPILE("{:>8}{:<9} {:{}}{:<26} {}: {}"), "", span, "",
+                             node.depth * 2u, node.desc->id, node.desc->name,
+                             format_field_value(node, m.bytes, m.text_encoded)));
   }
 }
 
@@ -187,9 +165,9 @@ void TextSink::on_noise(const Frame& f) {
   last_frame_number_ = f.number;
   if (!options_.frames) return;
   const std::span<const std::uint8_t> bytes = f.events.bytes();
-  write(prefix(f.number, f.start(), f.channel) +
-        fmt::format(FMT_COMPILE("---  noise: {} byte{} {}"), bytes.size(),
-                    bytes.size() == 1 ? "" : "s", hex_bytes(bytes)));
+  lines_.write(prefix(f.number, f.start(), f.channel) +
+               fmt::format(FMT_COMPILE("---  noise: {} byte{} {}"), bytes.size(),
+                           bytes.size() == 1 ? "" : "s", hex_bytes(bytes)));
 }
 
 void TextSink::on_anomaly(const Anomaly& a) {
@@ -200,16 +178,16 @@ void TextSink::on_anomaly(const Anomaly& a) {
     return;
   if (a.frame_number != 0 && a.frame_number == last_frame_number_ &&
       a.kind != AnomalyKind::unanswered_request && a.kind != AnomalyKind::unsolicited_response) {
-    write(fmt::format(FMT_COMPILE("{:>8}! {}: {}"), "", anomaly_label(a.kind), a.detail));
+    lines_.write(fmt::format(FMT_COMPILE("{:>8}! {}: {}"), "", anomaly_label(a.kind), a.detail));
     return;
   }
-  write(prefix(0, a.time, a.channel) +
-        fmt::format(FMT_COMPILE("!!!  {}: {}"), anomaly_label(a.kind), a.detail));
+  lines_.write(prefix(0, a.time, a.channel) +
+               fmt::format(FMT_COMPILE("!!!  {}: {}"), anomaly_label(a.kind), a.detail));
 }
 
 void TextSink::on_event(const BusEvent& e) {
   if (!options_.frames) return;
-  write(prefix(0, e.time, e.channel) + fmt::format(FMT_COMPILE("***  {}"), e.detail));
+  lines_.write(prefix(0, e.time, e.channel) + fmt::format(FMT_COMPILE("***  {}"), e.detail));
 }
 
 void TextSink::on_transaction(const Transaction&) {
@@ -219,16 +197,17 @@ void TextSink::on_transaction(const Transaction&) {
 
 void TextSink::on_summary(const Stats& s) {
   if (!options_.summary) return;
-  write("");
-  write("--- summary ---");
+  lines_.write("");
+  lines_.write("--- summary ---");
   if (s.frames + s.noise_records > 0 && options_.show_time) {
-    write(fmt::format(FMT_COMPILE("capture:      {} .. {} s, {} bytes"),
-                      format_seconds(s.first_time, 6), format_seconds(s.last_time, 6), s.bytes));
+    lines_.write(fmt::format(FMT_COMPILE("capture:      {} .. {} s, {} bytes"),
+                             format_seconds(s.first_time, 6), format_seconds(s.last_time, 6),
+                             s.bytes));
   } else {
-    write(fmt::format(FMT_COMPILE("capture:      {} bytes"), s.bytes));
+    lines_.write(fmt::format(FMT_COMPILE("capture:      {} bytes"), s.bytes));
   }
   const auto& c = s.checksum;
-  write(fmt::format(
+  lines_.write(fmt::format(
       FMT_COMPILE(
           "frames:       {} (checksum ok {}, bad {}, swapped {}); noise: {} record{}, {} byte{}"),
       s.frames, c[static_cast<int>(ChecksumVerdict::good)],
@@ -246,7 +225,7 @@ void TextSink::on_summary(const Stats& s) {
     tx += fmt::format(
         FMT_COMPILE("; reply latency min {} / avg {} / max {} ms"), format_ms(s.latency_min),
         format_ms(s.latency_sum / static_cast<TimeNs>(s.latency_count)), format_ms(s.latency_max));
-  write(tx);
+  lines_.write(tx);
   std::string an = fmt::format(FMT_COMPILE("anomalies:    {}"), s.anomaly_total);
   bool first = true;
   for (std::size_t k = 0; k < kAnomalyKindCount; ++k) {
@@ -256,22 +235,22 @@ void TextSink::on_summary(const Stats& s) {
     first = false;
   }
   if (!first) an += ")";
-  write(an);
+  lines_.write(an);
   for (const std::string& note : s.source_notes)
-    write(fmt::format(FMT_COMPILE("source:       {}"), note));
+    lines_.write(fmt::format(FMT_COMPILE("source:       {}"), note));
   for (const DriveSummary& d : s.drives) {
-    write(fmt::format(FMT_COMPILE("drive {:<7} {}{}{}"), d.address, d.profile_name,
-                      d.binding.empty() ? "" : " (" + d.binding + ")",
-                      d.link ? fmt::format(FMT_COMPILE(" on link {}"), d.link) : std::string()));
+    lines_.write(
+        fmt::format(FMT_COMPILE("drive {:<7} {}{}{}"), d.address, d.profile_name,
+                    d.binding.empty() ? "" : " (" + d.binding + ")",
+                    d.link ? fmt::format(FMT_COMPILE(" on link {}"), d.link) : std::string()));
     if (!d.state.empty())
-      write(fmt::format(FMT_COMPILE("{:14}last state: {}; {} event{}"), "", d.state, d.events,
-                        d.events == 1 ? "" : "s"));
+      lines_.write(fmt::format(FMT_COMPILE("{:14}last state: {}; {} event{}"), "", d.state,
+                               d.events, d.events == 1 ? "" : "s"));
   }
 }
 
 bool TextSink::flush() {
-  write_out();
-  return status_.flush(out_);
+  return lines_.flush();
 }
 
 }  // namespace drivetap

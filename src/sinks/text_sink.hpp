@@ -9,6 +9,7 @@
 #include "core/byte_event.hpp"
 #include "core/line_buffer.hpp"
 #include "core/serial_config.hpp"
+#include "sinks/line_writer.hpp"
 #include "sinks/sink.hpp"
 
 namespace drivetap {
@@ -35,27 +36,15 @@ class TextSink final : public Sink {
   [[nodiscard]] bool wants_transactions() const override { return false; }  // see on_transaction
 
  private:
-  // Appends `line` and a newline to the output buffer.
-  void write(std::string_view line);
-  // Ends the line being built at the end of the output buffer; writes the buffer out once it
-  // holds kWriteAt bytes (one fwrite per some 600 frame lines, not one or two per line).
-  void end_line();
-  // Writes the buffered lines to the file.
-  void write_out();
   // "   12   1.234567 bus " (number, time, channel), appended to `s`.
   template <class Out>
   void append_prefix(Out& s, std::uint64_t number, TimeNs time, ChannelId channel) const;
   std::string prefix(std::uint64_t number, TimeNs time, ChannelId channel) const;
 
-  static constexpr std::size_t kWriteAt = 64 * 1024;
-  std::FILE* out_;
   const ChannelTable& channels_;
   TextSinkOptions options_;
   std::uint64_t last_frame_number_ = 0;
-  WriteStatus status_;
-  // A terminal gets each line as it is made (someone is watching); files and pipes get blocks.
-  bool to_terminal_ = false;
-  LineBuffer buffer_;  // whole lines not written yet (flush() writes them)
+  LineWriter lines_;  // lines not written yet (flush() writes them); frame lines are built there
   mutable LineBuffer seconds_;  // scratch for the time column
 };
 

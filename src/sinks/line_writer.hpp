@@ -1,0 +1,58 @@
+// LineWriter: the text and JSON sinks' output — lines gathered in one buffer and written to the
+// file in blocks (to a terminal, line by line), with the first failed write's errno kept.
+#pragma once
+
+#include <unistd.h>
+
+#include <cstddef>
+#include <cstdio>
+#include <string_view>
+
+#include "core/line_buffer.hpp"
+#include "sinks/sink.hpp"
+
+namespace drivetap {
+
+class LineWriter {
+ public:
+  explicit LineWriter(std::FILE* out)
+      : out_(out), to_terminal_(out != nullptr && ::isatty(::fileno(out)) == 1) {}
+
+  // The buffer: a line may be built at its end in place, then ended with end_line().
+  LineBuffer& buffer() { return buffer_; }
+  // Appends `line` (built elsewhere) and a newline.
+  void write(std::string_view line) {
+    buffer_ += line;
+    end_line();
+  }
+  // Ends the line built at the end of the buffer; writes the buffer out once it holds kBlockBytes
+  // (one fwrite per some 600 frame lines, not one or two per line).
+  void end_line() {
+    buffer_ += '\n';
+    if (buffer_.size() >= kBlockBytes || to_terminal_) write_out();
+  }
+  // Writes what is buffered and flushes the file: true when every write went through (else
+  // errno is the first failure's).
+  bool flush() {
+    write_out();
+    return status_.flush(out_);
+  }
+
+ private:
+  // Once per block: kept out of the path every line takes.
+  [[gnu::noinline]] void write_out() {
+    if (buffer_.empty()) return;
+    if (std::fwrite(buffer_.data(), 1, buffer_.size(), out_) != buffer_.size())
+      status_.note_failure();
+    buffer_.clear();
+  }
+
+  static constexpr std::size_t kBlockBytes = 64 * 1024;
+  std::FILE* out_;
+  // A terminal gets each line as it is made (someone is watching); files and pipes get blocks.
+  bool to_terminal_;
+  WriteStatus status_;
+  LineBuffer buffer_;  // whole lines not written yet, and the line being built
+};
+
+}  // namespace drivetap
