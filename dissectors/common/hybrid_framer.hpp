@@ -85,6 +85,8 @@ class HybridFramer final : public Framer {
   // A run (a source packet): its first byte the single-byte way, the rest appended in bulk up to
   // the pressure mark.
   void push_run(const ByteRun& run, std::vector<Frame>& out) override;
+  // A run that is a whole frame between two silences, taken at once (see Framer::push_chunk).
+  bool push_chunk(const ByteRun& run, TimeNs next_time, std::vector<Frame>& out) override;
   // Time has reached `now` on the bus; closes what silence or the hold limit has completed.
   void advance(TimeNs now, std::vector<Frame>& out) override;
   // End of input: everything pending becomes frames or noise.
@@ -108,12 +110,16 @@ class HybridFramer final : public Framer {
   // Segmentation helpers over pending_.bytes()[0, n).
   bool checksum_matches(std::size_t p, std::size_t len) const;
   std::size_t good_frame_at(std::size_t p, std::size_t limit) const;  // 0 when none
+  // The same over any bytes: the good frame at from[0] ending inside `from`, or 0.
+  std::size_t good_frame_in(std::span<const std::uint8_t> from) const;
   std::size_t first_good_start(std::size_t from, std::size_t to) const;
   std::size_t next_hard_boundary(std::size_t p) const;
   bool is_hard_boundary(std::size_t index) const;
   TimeNs silence_before(std::size_t index) const;  // silence before byte `index`, ns
   bool looks_like_frame_start(std::size_t p) const;
   void predicted_lengths(std::size_t p, std::size_t n, std::size_t out[2], bool* needs_more) const;
+  void predicted_lengths_in(std::span<const std::uint8_t> from, std::size_t out[2],
+                            bool* needs_more) const;
   void emit(std::size_t p, std::size_t len, FrameKind kind, FrameClose close,
             std::vector<Frame>& out);
   // Bytes [from, from + count) of `run` appended: none has a silence > t3.5 before it, and they

@@ -53,10 +53,59 @@ void HybridFramer<Rules>::push_all(std::span<const ByteEvent> events, std::vecto
       push(events[i++], out);
       continue;
     }
-    push_run(ByteRun{bytes.first(n), events[i].time, step, events[i].channel, events[i].origin, {}},
-             out);
+    const ByteRun run{bytes.first(n),    events[i].time,   step,
+                      events[i].channel, events[i].origin, {}};
+    if (i + n < events.size()) {
+      // What push() of the run's first byte does before anything else: after a silence, close
+      // what is pending. Then the run may be a whole frame of its own.
+      if (!pending_.empty() && !processed_since_last_byte_ &&
+          run.first - last_end_ > options_.timing.t35) {
+        process(Mode::silence, run.first, out);
+        processed_since_last_byte_ = true;  // push() of the first byte must not process again
+      }
+      if (push_chunk(run, events[i + n].time, out)) {
+        i += n;
+        continue;
+      }
+    }
+    push_run(run, out);
     i += n;
   }
+}
+
+template <class Rules>
+bool HybridFramer<Rules>::push_chunk(const ByteRun& run, TimeNs next_time,
+                                     std::vector<Frame>& out) {
+  const TimeNs character_time = options_.timing.character_time;
+  const TimeNs t35 = options_.timing.t35;
+  const std::size_t n = run.size();
+  // Nothing pending, and a run that push_run() would append in bulk (evenly spaced, no silence
+  // inside, no UART marks, below the pressure mark) long enough to be a frame: pushing it and
+  // then the byte at next_time, after a silence, has process() find it all that is pending, and
+  // emit it whole when its predicted length is all of it with a good checksum (rule 1 at the
+  // first position), closed by that silence. Anything else takes the usual way.
+  if (!pending_.empty() || n < rules_.min_frame() || n + 1 >= options_.pressure_bytes ||
+      run.step < 0 || run.step - character_time > t35 || !run.flags.empty())
+    return false;
+  const TimeNs end = std::max(last_end_, run.time(n - 1) + character_time);
+  if (next_time - end <= t35 || good_frame_in(run.bytes) != n) return false;
+  Frame& f = out.emplace_back();
+  if (!spare_.empty()) {
+    f.events.swap(spare_.back());
+    spare_.pop_back();
+  }
+  f.kind = FrameKind::telegram;
+  f.channel = channel_;
+  f.close = FrameClose::silence;
+  f.events.clear();
+  f.events.append_run(run);
+  ByteRunTiming timing;
+  timing.start(run.first, character_time);
+  timing.add_stretch(run.first + run.step, run.step, 1, n - 1, character_time);
+  stamp_frame_timing(f, timing, &emitted_end_, &have_emitted_);
+  last_end_ = end;
+  processed_since_last_byte_ = true;  // nothing is pending: nothing to process at the silence
+  return true;
 }
 
 template <class Rules>
@@ -142,28 +191,40 @@ bool HybridFramer<Rules>::checksum_matches(std::size_t p, std::size_t len) const
 template <class Rules>
 void HybridFramer<Rules>::predicted_lengths(std::size_t p, std::size_t n, std::size_t out[2],
                                             bool* needs_more) const {
+  predicted_lengths_in(pending_.bytes().subspan(p, n - p), out, needs_more);
+}
+
+template <class Rules>
+void HybridFramer<Rules>::predicted_lengths_in(std::span<const std::uint8_t> from,
+                                               std::size_t out[2], bool* needs_more) const {
   out[0] = out[1] = 0;
   *needs_more = false;
   std::size_t candidates[2] = {0, 0};
-  rules_.predicted_lengths(pending_.bytes().subspan(p, n - p), candidates, needs_more);
+  rules_.predicted_lengths(from, candidates, needs_more);
   int i = 0;
   for (std::size_t len : candidates) {
     if (len == 0 || len > rules_.max_frame()) continue;
     if (i == 0 || len != out[0]) out[i++] = len;
-    if (p + len > n) *needs_more = true;
+    if (len > from.size()) *needs_more = true;
   }
 }
 
 template <class Rules>
 std::size_t HybridFramer<Rules>::good_frame_at(std::size_t p, std::size_t limit) const {
+  return good_frame_in(pending_.bytes().subspan(p, limit - p));
+}
+
+template <class Rules>
+std::size_t HybridFramer<Rules>::good_frame_in(std::span<const std::uint8_t> from) const {
   std::size_t lengths[2];
   bool needs_more = false;
-  predicted_lengths(p, limit, lengths, &needs_more);
+  predicted_lengths_in(from, lengths, &needs_more);
   // A length that ends where the bytes end (a frame between two silences, the usual case) is
   // tried first: a reply's checksum is otherwise computed over the request's length first.
-  if (lengths[1] != 0 && p + lengths[1] == limit) std::swap(lengths[0], lengths[1]);
+  if (lengths[1] != 0 && lengths[1] == from.size()) std::swap(lengths[0], lengths[1]);
   for (std::size_t len : lengths)
-    if (len != 0 && p + len <= limit && checksum_matches(p, len)) return len;
+    if (len >= rules_.min_frame() && len <= from.size() && rules_.checksum_matches(from.first(len)))
+      return len;
   return 0;
 }
 

@@ -41,6 +41,9 @@ class RtuFramer final : public Framer {
   void push_run(const ByteRun& run, std::vector<Frame>& out) override {
     framer_.push_run(run, out);
   }
+  bool push_chunk(const ByteRun& run, TimeNs next_time, std::vector<Frame>& out) override {
+    return framer_.push_chunk(run, next_time, out);
+  }
   void advance(TimeNs now, std::vector<Frame>& out) override { framer_.advance(now, out); }
   void finish(std::vector<Frame>& out) override { framer_.finish(out); }
   [[nodiscard]] TimeNs next_deadline() const override { return framer_.next_deadline(); }

@@ -30,6 +30,17 @@ class Framer {
   virtual void push_run(const ByteRun& run, std::vector<Frame>& out) {
     for (std::size_t i = 0; i < run.size(); ++i) push(run.event(i), out);
   }
+  // push_run(run), then a byte at next_time, when that byte would only make the framer emit the
+  // run as one frame (nothing else pending, a silence > t3.5 between, the run a good telegram):
+  // emits that frame now and returns true. Otherwise returns false and changes nothing; the
+  // caller pushes the run as usual. The byte at next_time is not pushed. (A caller that knows
+  // what comes next, a batch of runs or of events, saves holding and re-reading the bytes.)
+  virtual bool push_chunk(const ByteRun& run, TimeNs next_time, std::vector<Frame>& out) {
+    (void)run;
+    (void)next_time;
+    (void)out;
+    return false;
+  }
   // Time has reached `now`; closes what silence or a hold limit has completed.
   virtual void advance(TimeNs now, std::vector<Frame>& out) = 0;
   // End of input: everything pending becomes frames or noise.
