@@ -100,6 +100,10 @@ void Pipeline::push(const ByteEvent& in) {
   const ByteEvent e = as_on_the_wire(in, st);
   note_taken(st, e);
   advance_all(e.time);
+  frame_byte(st, e);
+}
+
+void Pipeline::frame_byte(ChannelState& st, const ByteEvent& e) {
   if (st.redetect) start_detection(st);
   if (!st.framer) {
     st.held.push_back(e);
@@ -159,43 +163,92 @@ void Pipeline::push_batch(std::span<const ByteEvent> events) {
 }
 
 void Pipeline::push_runs(const RunBatch& runs) {
-  for (std::size_t k = 0; k < runs.size(); ++k) push_run(runs[k]);
+  for (std::size_t k = 0; k < runs.size(); ++k) {
+    const ByteRun run = runs[k];
+    // The next run on the same channel, with nothing pushed in between, tells whether this one
+    // is followed by a silence.
+    if (k + 1 < runs.size()) {
+      const ByteRun next = runs[k + 1];
+      if (next.channel == run.channel && push_chunk(run, next.first)) continue;
+    }
+    push_run(run);
+  }
+}
+
+bool Pipeline::push_chunk(const ByteRun& run, TimeNs next_time) {
+  const TimeNs character_time = options_.timing.character_time;
+  // push() of each byte would take them as they are: as_on_the_wire() changes none (8 data bits;
+  // each starts after the end of the one before).
+  if (run.size() < 2 || !run.flags.empty() || options_.serial.data_bits == 7 ||
+      run.step < character_time || run.channel >= states_.size())
+    return false;
+  ChannelState& st = *states_[run.channel];
+  if (!st.framer || st.redetect || run.first < st.last_end) return false;
+  // The first byte as push() takes it, up to framing it: time moves on, which closes what its
+  // silence closed (on any channel).
+  const ByteEvent first = run.event(0);
+  note_taken(st, first);
+  advance_all(first.time);
+  // The framer may emit the run as the frame that the byte at next_time would close, when no
+  // other channel holds bytes (the next byte closes nothing of theirs, as it would not) and
+  // nothing asks for the byte-by-byte way.
+  if (!st.redetect && st.framer &&
+      deadline_of_others(run.channel) == std::numeric_limits<TimeNs>::max() &&
+      st.framer->push_chunk(run, next_time, ready_)) {
+    note_taken(st, run.event(run.size() - 1));
+    earliest_deadline_ = std::min(earliest_deadline_, st.framer->next_deadline());
+    handle_frames();
+    return true;
+  }
+  frame_byte(st, first);
+  push_rest(run, 1);
+  return true;
 }
 
 void Pipeline::push_run(const ByteRun& run) {
+  if (run.size() == 0) return;
+  push(run.event(0));
+  push_rest(run, 1);
+}
+
+void Pipeline::push_rest(const ByteRun& run, std::size_t i) {
   const TimeNs character_time = options_.timing.character_time;
-  std::size_t i = 0;
-  // Each pass pushes at least run byte i.
+  // Each pass takes the bytes from i on that close nothing in bulk (perhaps none), then pushes
+  // the next byte the byte-by-byte way (it may close frames, detect, re-detect).
   while (i < run.size()) {
-    push(run.event(i++));  // the byte-by-byte way: it may close frames, detect, re-detect
-    ChannelState& st = *states_[run.channel];
-    if (i == run.size() || !st.framer || st.redetect || !ready_.empty()) continue;
-    // The bytes after it close nothing while (as push_batch() finds byte by byte) none follows a
-    // silence > t3.5, none reaches another channel's deadline or the framer's pressure mark, and
-    // as_on_the_wire() changes none: bytes at least a character apart (a run's bytes after the
-    // first then start after their predecessor's end) and, with 7 data bits, no 8th bit set.
-    if (run.step < character_time || run.step - character_time > options_.timing.t35) continue;
-    const ByteRun rest = run.part(i, run.size() - i);
-    if (rest.first < st.last_end || rest.first - st.last_end > options_.timing.t35) continue;
-    if (options_.serial.data_bits == 7 &&
-        std::any_of(rest.bytes.begin(), rest.bytes.end(), [](std::uint8_t b) { return b > 0x7F; }))
-      continue;
-    std::size_t take = std::min(rest.size(), st.framer->quiet_room());
-    const TimeNs others = deadline_of_others(run.channel);
-    if (others <= rest.first) continue;
-    if (others != std::numeric_limits<TimeNs>::max()) {
-      // Bytes starting before `others` (step > 0: at least a character time).
-      const TimeNs ahead = others - rest.first;
-      const TimeNs before = ahead / run.step + (ahead % run.step != 0 ? 1 : 0);
-      take = std::min<std::size_t>(take, static_cast<std::size_t>(before));
-    }
-    if (take == 0) continue;
-    st.framer->push_run(rest.part(0, take), ready_);
-    note_taken(st, rest.event(take - 1));
-    i += take;
-    earliest_deadline_ = std::min(earliest_deadline_, st.framer->next_deadline());
-    if (!ready_.empty()) handle_frames();
+    i += take_quietly(run, i, character_time);
+    if (i < run.size()) push(run.event(i++));
   }
+}
+
+std::size_t Pipeline::take_quietly(const ByteRun& run, std::size_t i, TimeNs character_time) {
+  ChannelState& st = *states_[run.channel];
+  if (!st.framer || st.redetect || !ready_.empty()) return 0;
+  // The bytes from i close nothing while (as push_batch() finds byte by byte) none follows a
+  // silence > t3.5, none reaches another channel's deadline or the framer's pressure mark, and
+  // as_on_the_wire() changes none: bytes at least a character apart (a run's bytes after the
+  // first then start after their predecessor's end) and, with 7 data bits, no 8th bit set.
+  if (run.step < character_time || run.step - character_time > options_.timing.t35) return 0;
+  const ByteRun rest = run.part(i, run.size() - i);
+  if (rest.first < st.last_end || rest.first - st.last_end > options_.timing.t35) return 0;
+  if (options_.serial.data_bits == 7 &&
+      std::any_of(rest.bytes.begin(), rest.bytes.end(), [](std::uint8_t b) { return b > 0x7F; }))
+    return 0;
+  std::size_t take = std::min(rest.size(), st.framer->quiet_room());
+  const TimeNs others = deadline_of_others(run.channel);
+  if (others <= rest.first) return 0;
+  if (others != std::numeric_limits<TimeNs>::max()) {
+    // Bytes starting before `others` (step > 0: at least a character time).
+    const TimeNs ahead = others - rest.first;
+    const TimeNs before = ahead / run.step + (ahead % run.step != 0 ? 1 : 0);
+    take = std::min<std::size_t>(take, static_cast<std::size_t>(before));
+  }
+  if (take == 0) return 0;
+  st.framer->push_run(rest.part(0, take), ready_);
+  note_taken(st, rest.event(take - 1));
+  earliest_deadline_ = std::min(earliest_deadline_, st.framer->next_deadline());
+  if (!ready_.empty()) handle_frames();
+  return take;
 }
 
 namespace {

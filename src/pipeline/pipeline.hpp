@@ -71,6 +71,17 @@ class Pipeline {
   struct ChannelState;
   ChannelState& state_for(ChannelId id);
   void advance_all(TimeNs now);
+  // The part of push() after the clock has moved to e's time: e to its channel's framer (or
+  // detection).
+  void frame_byte(ChannelState& st, const ByteEvent& e);
+  // push_run() of `run` when the next byte on its channel, with nothing else pushed before it,
+  // starts at next_time: a whole frame between two silences goes to the framer at once
+  // (Framer::push_chunk). False when the run was not taken (push_run() it).
+  bool push_chunk(const ByteRun& run, TimeNs next_time);
+  // push_run() from byte i on, byte i - 1 having been pushed.
+  void push_rest(const ByteRun& run, std::size_t i);
+  // Bytes from run byte i on that close nothing, appended to the framer at once: how many.
+  std::size_t take_quietly(const ByteRun& run, std::size_t i, TimeNs character_time);
   // A byte as the wire could have carried it: data bits only, not before the end of its
   // channel's previous byte. push() and push_batch() both take bytes through these two.
   [[nodiscard]] ByteEvent as_on_the_wire(ByteEvent e, const ChannelState& st) const;
