@@ -13,7 +13,8 @@
 //   BM_DriveAnnotate                 read_for_drive with the E-9 profile on the RTU traffic
 //   BM_Pipeline_RtuNoDrives          the whole pipeline (framer, dissector, pairing), no profiles
 //   BM_Pipeline_RtuAutoDrives        the same with every built-in profile as --drive auto candidate
-//   BM_Pipeline_RtuBatched           no profiles, push_batch() on runs of 16384 events (as `read`)
+//   BM_Pipeline_RtuBatched           no profiles, push_runs() on the runs of 16384 events at a time
+//                                    (as `read`: a run per frame, whole frames taken at once)
 //   BM_Pipeline_RtuBatchedSummaryOnly  the same into a sink that shows no decode (`read --stats`)
 //   BM_TextSink / BM_JsonSink / BM_PcapngSink   the sinks on the pipeline's records, to /dev/null
 //
@@ -219,8 +220,9 @@ struct Reframed {
 // pipeline does), else Framer::push_all on runs of `run` events (as a reader's buffer would);
 // frames are counted as they come out, and their storage goes back to the framer
 // (Framer::recycle), as the pipeline hands it back.
-Reframed reframe(const ProtocolDecoder& decoder, const FramerSettings& settings,
-                 std::span<const ByteEvent> events, std::size_t run, std::vector<Frame>& out) {
+[[gnu::noinline]] Reframed reframe(const ProtocolDecoder& decoder, const FramerSettings& settings,
+                                   std::span<const ByteEvent> events, std::size_t run,
+                                   std::vector<Frame>& out) {
   Reframed r;
   auto framer = decoder.make_framer(0, settings);
   auto drain = [&] {
@@ -528,26 +530,38 @@ PipelineOptions rtu_options(const Traffic& t, bool auto_drives) {
   return p;
 }
 
-// `batch` 0: push() per byte event; else push_batch() on runs of `batch` events (what `read`
-// does with the chunks its read-ahead thread hands over).
+// The RTU traffic's events in batches of `batch`, each as the runs of evenly spaced bytes a source
+// hands on (RunBatch::add_events: a run per frame here), made once outside the timing: `read`
+// makes them on its reader thread.
+const std::vector<RunBatch>& rtu_run_batches(std::size_t batch) {
+  static const std::vector<RunBatch> batches = [batch] {
+    const std::span<const ByteEvent> events(rtu_traffic().events);
+    std::vector<RunBatch> out;
+    for (std::size_t i = 0; i < events.size(); i += batch)
+      out.emplace_back().add_events(events.subspan(i, std::min(batch, events.size() - i)));
+    return out;
+  }();
+  return batches;
+}
+
+// `batch` 0: push() per byte event; else push_runs() on batches of runs of `batch` events (what
+// `read`'s decoding thread does with the chunks its reader thread hands over).
 void run_pipeline(benchmark::State& state, bool auto_drives, std::size_t batch = 0,
                   bool detail = true) {
   const Traffic& t = rtu_traffic();
   ChannelTable channels;
   channels.intern("bus");
   const PipelineOptions options = rtu_options(t, auto_drives);
+  const std::vector<RunBatch>* batches = batch == 0 ? nullptr : &rtu_run_batches(batch);
   CountingSink sink;
   for (auto _ : state) {
     sink = CountingSink();
     sink.detail = detail;
     Pipeline pipeline(options, channels, sink);
-    if (batch == 0) {
+    if (!batches)
       for (const ByteEvent& e : t.events) pipeline.push(e);
-    } else {
-      const std::span<const ByteEvent> events(t.events);
-      for (std::size_t i = 0; i < events.size(); i += batch)
-        pipeline.push_batch(events.subspan(i, std::min(batch, events.size() - i)));
-    }
+    else
+      for (const RunBatch& runs : *batches) pipeline.push_runs(runs);
     pipeline.finish();
   }
   if (sink.frames != t.frames.size() || sink.noise != 0 || sink.ok != t.frames.size() / 2)
