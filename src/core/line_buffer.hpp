@@ -66,8 +66,10 @@ class LineBuffer {
   void append(std::size_t n, char c) {
     if (n != 0) std::memset(extend(n), c, n);
   }
-  void push_back(char c) {
-    *extend(1) = c;
+  // Inlined: a sink appends a separator or a quote between most pieces.
+  [[gnu::always_inline]] void push_back(char c) {
+    if (capacity_ == size_) grow(1);
+    data_[size_++] = c;
   }
   [[gnu::always_inline]] LineBuffer& operator+=(std::string_view s) {
     append(s);
