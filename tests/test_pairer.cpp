@@ -77,7 +77,7 @@ TEST(Pairer, OkPairingWithLatency) {
   ASSERT_EQ(out.size(), 1u);
   const Transaction& t = out[0];
   EXPECT_EQ(t.outcome, Outcome::ok);
-  EXPECT_STREQ(outcome_id(t.outcome), "ok");
+  EXPECT_EQ(outcome_id(t.outcome), "ok");
   EXPECT_EQ(t.protocol, Protocol::modbus_rtu);
   EXPECT_EQ(t.address, 1);
   EXPECT_EQ(t.function, 0x03);
@@ -149,7 +149,7 @@ TEST(Pairer, ExceptionOutcome) {
   p.add(0, r, out);
   ASSERT_EQ(out.size(), 1u);
   EXPECT_EQ(out[0].outcome, Outcome::exception);
-  EXPECT_STREQ(outcome_id(out[0].outcome), "exception");
+  EXPECT_EQ(outcome_id(out[0].outcome), "exception");
   EXPECT_EQ(out[0].function, 0x03);  // without the exception bit
   EXPECT_EQ(out[0].exception_code, 2);
   EXPECT_EQ(out[0].request_number, 1u);
@@ -173,7 +173,7 @@ TEST(Pairer, TimeoutViaExpire) {
   p.expire(end + 100 * kMs + 1, out);
   ASSERT_EQ(out.size(), 1u);
   EXPECT_EQ(out[0].outcome, Outcome::timeout);
-  EXPECT_STREQ(outcome_id(out[0].outcome), "timeout");
+  EXPECT_EQ(outcome_id(out[0].outcome), "timeout");
   EXPECT_EQ(out[0].address, 5);
   EXPECT_EQ(out[0].function, 0x04);
   EXPECT_EQ(out[0].channel, 3);
@@ -237,7 +237,7 @@ TEST(Pairer, Broadcast) {
   p.add(0, q, out);
   ASSERT_EQ(out.size(), 1u);
   EXPECT_EQ(out[0].outcome, Outcome::broadcast);
-  EXPECT_STREQ(outcome_id(out[0].outcome), "broadcast");
+  EXPECT_EQ(outcome_id(out[0].outcome), "broadcast");
   EXPECT_EQ(out[0].address, 0);
   EXPECT_EQ(out[0].function, 0x10);
   EXPECT_EQ(out[0].request_number, 4u);
@@ -272,7 +272,7 @@ TEST(Pairer, UnsolicitedResponse) {
   p.add(0, r, out);
   ASSERT_EQ(out.size(), 1u);
   EXPECT_EQ(out[0].outcome, Outcome::unsolicited);
-  EXPECT_STREQ(outcome_id(out[0].outcome), "unsolicited");
+  EXPECT_EQ(outcome_id(out[0].outcome), "unsolicited");
   EXPECT_EQ(out[0].address, 9);
   EXPECT_EQ(out[0].function, 0x03);
   EXPECT_EQ(out[0].response_number, 3u);

@@ -125,7 +125,7 @@ void add_checksum_anomaly(Message& m, std::string_view hint) {
   m.anomalies.insert(m.anomalies.begin(), std::move(a));
 }
 
-const char* protocol_id(Protocol p) {
+std::string_view protocol_id(Protocol p) {
   switch (p) {
     case Protocol::modbus_rtu:
       return "modbus-rtu";
@@ -141,7 +141,7 @@ const char* protocol_id(Protocol p) {
   return "unknown";
 }
 
-const char* protocol_label(Protocol p) {
+std::string_view protocol_label(Protocol p) {
   switch (p) {
     case Protocol::modbus_rtu:
       return "Modbus RTU";
@@ -157,7 +157,7 @@ const char* protocol_label(Protocol p) {
   return "unknown";
 }
 
-const char* direction_id(Direction d) {
+std::string_view direction_id(Direction d) {
   switch (d) {
     case Direction::request:
       return "request";

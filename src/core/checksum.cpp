@@ -98,13 +98,13 @@ ChecksumResult check_rtu_crc(std::span<const std::uint8_t> frame) {
   return r;
 }
 
-std::string wire_hex(std::uint32_t packed, std::uint8_t width, const char* separator) {
+std::string wire_hex(std::uint32_t packed, std::uint8_t width, std::string_view separator) {
   std::string out;
   append_wire_hex(out, packed, width, separator);
   return out;
 }
 
-const char* to_string(ChecksumVerdict v) {
+std::string_view to_string(ChecksumVerdict v) {
   switch (v) {
     case ChecksumVerdict::none:
       return "none";

@@ -37,20 +37,20 @@ std::uint8_t lrc8(std::span<const std::uint8_t> data);
 // Compares the two CRC bytes at the end of a Modbus RTU frame with the CRC of what precedes them.
 ChecksumResult check_rtu_crc(std::span<const std::uint8_t> frame);
 
-const char* to_string(ChecksumVerdict v);
+std::string_view to_string(ChecksumVerdict v);
 
 // A checksum value in wire order as hex bytes: (0x3A44, 2, " ") -> "3A 44"; "3A44" with "".
-std::string wire_hex(std::uint32_t packed, std::uint8_t width, const char* separator = " ");
+std::string wire_hex(std::uint32_t packed, std::uint8_t width, std::string_view separator = " ");
 // The same appended to `out` (std::string or LineBuffer).
 template <class Out>
 void append_wire_hex(Out& out, std::uint32_t packed, std::uint8_t width,
-                     const char* separator = " ") {
+                     std::string_view separator = " ") {
   constexpr char kDigits[] = "0123456789ABCDEF";
   for (int i = width - 1; i >= 0; --i) {
     if (i != width - 1) out += separator;
     const unsigned byte = (packed >> (8 * i)) & 0xFF;
-    out += kDigits[byte >> 4];
-    out += kDigits[byte & 0x0F];
+    const char pair[2] = {kDigits[byte >> 4], kDigits[byte & 0x0F]};
+    out.append(pair, 2);
   }
 }
 

@@ -16,9 +16,9 @@ namespace drivetap {
 enum class Protocol : std::uint8_t { unknown, modbus_rtu, modbus_ascii, danfoss_fc, easydrive };
 enum class Direction : std::uint8_t { unknown, request, response };
 
-const char* protocol_id(Protocol p);     // "modbus-rtu": JSON ids, stable
-const char* protocol_label(Protocol p);  // "Modbus RTU": column text
-const char* direction_id(Direction d);   // "request" / "response" / "unknown"
+std::string_view protocol_id(Protocol p);     // "modbus-rtu": JSON ids, stable
+std::string_view protocol_label(Protocol p);  // "Modbus RTU": column text
+std::string_view direction_id(Direction d);   // "request" / "response" / "unknown"
 
 struct Message {
   Frame frame;

@@ -18,7 +18,7 @@ enum class Outcome : std::uint8_t {
   unsolicited,  // a response with no request waiting for it
 };
 
-const char* outcome_id(Outcome o);
+std::string_view outcome_id(Outcome o);
 
 struct Transaction {
   Outcome outcome = Outcome::ok;

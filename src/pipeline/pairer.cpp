@@ -6,7 +6,7 @@
 
 namespace drivetap {
 
-const char* outcome_id(Outcome o) {
+std::string_view outcome_id(Outcome o) {
   switch (o) {
     case Outcome::ok:
       return "ok";

@@ -153,7 +153,7 @@ bool same_id(const FieldDesc* a, const FieldDesc* b) {
   return a == b || a->id == b->id;
 }
 
-const char* close_id(FrameClose c) {
+std::string_view close_id(FrameClose c) {
   switch (c) {
     case FrameClose::silence:
       return "silence";
