@@ -224,27 +224,38 @@ enum class Adjust { none, one_stamp_reads, seven_bits, early_starts };
 // The generator's mixed bus (four protocols, errors, noise, timeouts) through one pipeline:
 // byte by byte (`chunk` 0) or with push_batch() over runs of `chunk` bytes that cut across
 // records and channels.
-void run_generated(TranscriptSink& sink, std::size_t chunk = 0, Adjust adjust = Adjust::none) {
-  generate::Options go;
-  go.frames = 20000;
-  go.seed = 7;
-  generate::Generator gen(go);
+// The generator's traffic (seed 7) and what a pipeline over it needs: the channel table its
+// links are interned in on first use, and the options (7 data bits for Adjust::seven_bits).
+struct GeneratedBus {
+  GeneratedBus(std::uint64_t frames, generate::Mix mix, Adjust adjust)
+      : gen(generate::Options{frames, 7, mix}), channel_of(gen.links().size(), -1) {
+    options.serial = generate::Generator::serial();
+    options.timing = FramingTiming::from(options.serial);
+    if (adjust == Adjust::seven_bits) options.serial.data_bits = 7;
+  }
+  ChannelId channel(std::size_t link) {
+    if (channel_of[link] < 0) channel_of[link] = channels.intern(gen.links()[link].channel);
+    return static_cast<ChannelId>(channel_of[link]);
+  }
+
+  generate::Generator gen;
+  std::vector<int> channel_of;
   ChannelTable channels;
   PipelineOptions options;
-  options.serial = generate::Generator::serial();
-  options.timing = FramingTiming::from(options.serial);
-  if (adjust == Adjust::seven_bits) options.serial.data_bits = 7;
-  Pipeline pipeline(options, channels, sink);
-  std::vector<int> channel_of(gen.links().size(), -1);
+};
+
+void run_generated(TranscriptSink& sink, std::size_t chunk = 0, Adjust adjust = Adjust::none) {
+  GeneratedBus bus(20000, generate::Mix::all, adjust);
+  Pipeline pipeline(bus.options, bus.channels, sink);
+  const TimeNs character_time = bus.options.timing.character_time;
   generate::Record r;
   std::vector<ByteEvent> pending;
-  for (std::size_t record = 0; gen.next(r); ++record) {
-    if (channel_of[r.link] < 0) channel_of[r.link] = channels.intern(gen.links()[r.link].channel);
+  for (std::size_t record = 0; bus.gen.next(r); ++record) {
+    const ChannelId channel = bus.channel(r.link);
     const bool one_stamp = adjust == Adjust::one_stamp_reads && record % 3 == 0;
     for (std::size_t i = 0; i < r.bytes.size(); ++i) {
-      const TimeNs offset = one_stamp ? 0 : static_cast<TimeNs>(i) * options.timing.character_time;
-      const ByteEvent e{r.start + offset, r.bytes[i], r.flags[i],
-                        static_cast<ChannelId>(channel_of[r.link]), 0};
+      const TimeNs offset = one_stamp ? 0 : static_cast<TimeNs>(i) * character_time;
+      const ByteEvent e{r.start + offset, r.bytes[i], r.flags[i], channel, 0};
       if (chunk == 0) {
         pipeline.push(e);
         continue;
@@ -265,24 +276,15 @@ void run_generated(TranscriptSink& sink, std::size_t chunk = 0, Adjust adjust = 
 // framer at once when the next run of the batch shows the silence after it (Pipeline::push_chunk).
 // One-stamp reads, 7 data bits and early starts give runs that need the byte-by-byte way.
 void run_generated_runs(TranscriptSink& sink, std::size_t batch, Adjust adjust, generate::Mix mix) {
-  generate::Options go;
-  go.frames = 6000;  // fewer than run_generated(): 32 runs of it (slow under the sanitizers)
-  go.seed = 7;
-  go.mix = mix;
-  generate::Generator gen(go);
-  ChannelTable channels;
-  PipelineOptions options;
-  options.serial = generate::Generator::serial();
-  options.timing = FramingTiming::from(options.serial);
-  if (adjust == Adjust::seven_bits) options.serial.data_bits = 7;
-  Pipeline pipeline(options, channels, sink);
-  std::vector<int> channel_of(gen.links().size(), -1);
+  // Fewer records than run_generated(): the test makes 32 runs of it (slow under the sanitizers).
+  GeneratedBus bus(6000, mix, adjust);
+  Pipeline pipeline(bus.options, bus.channels, sink);
+  const TimeNs character_time = bus.options.timing.character_time;
   generate::Record r;
   RunBatch runs;
-  const TimeNs character_time = options.timing.character_time;
-  std::vector<TimeNs> end_of(gen.links().size(), -1);  // each channel's previous record's end
-  for (std::size_t record = 0; gen.next(r); ++record) {
-    if (channel_of[r.link] < 0) channel_of[r.link] = channels.intern(gen.links()[r.link].channel);
+  std::vector<TimeNs> end_of(bus.gen.links().size(), -1);  // each link's previous record's end
+  for (std::size_t record = 0; bus.gen.next(r); ++record) {
+    const ChannelId channel = bus.channel(r.link);
     const bool one_stamp = adjust == Adjust::one_stamp_reads && record % 3 == 0;
     const bool marked = std::any_of(r.flags.begin(), r.flags.end(), [](auto f) { return f != 0; });
     TimeNs start = r.start;
@@ -293,7 +295,7 @@ void run_generated_runs(TranscriptSink& sink, std::size_t batch, Adjust adjust, 
         r.bytes,
         start,
         one_stamp ? 0 : character_time,
-        static_cast<ChannelId>(channel_of[r.link]),
+        channel,
         0,
         marked ? std::span<const std::uint8_t>(r.flags) : std::span<const std::uint8_t>()};
     if (batch == 0) {

@@ -89,16 +89,9 @@ bool HybridFramer<Rules>::push_chunk(const ByteRun& run, TimeNs next_time,
     return false;
   const TimeNs end = std::max(last_end_, run.time(n - 1) + character_time);
   if (next_time - end <= t35 || good_frame_in(run.bytes) != n) return false;
-  Frame& f = out.emplace_back();
-  if (!spare_.empty()) {
-    f.events.swap(spare_.back());
-    spare_.pop_back();
-  }
-  f.kind = FrameKind::telegram;
-  f.channel = channel_;
-  f.close = FrameClose::silence;
-  f.events.clear();
+  Frame& f = new_frame(FrameKind::telegram, FrameClose::silence, out);
   f.events.append_run(run);
+  // The run's timing as push_run() would have kept it (not timing_of(): no second look).
   ByteRunTiming timing;
   timing.start(run.first, character_time);
   timing.add_stretch(run.first + run.step, run.step, 1, n - 1, character_time);
@@ -259,23 +252,30 @@ bool HybridFramer<Rules>::looks_like_frame_start(std::size_t p) const {
 }
 
 template <class Rules>
-void HybridFramer<Rules>::emit(std::size_t p, std::size_t len, FrameKind kind, FrameClose close,
-                               std::vector<Frame>& out) {
+inline Frame& HybridFramer<Rules>::new_frame(FrameKind kind, FrameClose close,
+                                             std::vector<Frame>& out) {
   Frame& f = out.emplace_back();
   if (!spare_.empty()) {
-    f.events = std::move(spare_.back());
+    f.events.swap(spare_.back());
     spare_.pop_back();
   }
   f.kind = kind;
   f.channel = channel_;
   f.close = close;
+  f.events.clear();  // a spare keeps only its storage
+  return f;
+}
+
+template <class Rules>
+void HybridFramer<Rules>::emit(std::size_t p, std::size_t len, FrameKind kind, FrameClose close,
+                               std::vector<Frame>& out) {
+  Frame& f = new_frame(kind, close, out);
   const bool all_pending = p == 0 && len == pending_.size();
   // pending_run_ is the timing of exactly these bytes unless some were dropped before them.
   const bool timing_kept = all_pending && pending_run_whole_;
   if (all_pending) {
     // The frame is everything pending (the common case: one frame between two silences): it
     // takes pending_'s storage, and pending_ continues in the spare's, saving a copy per byte.
-    f.events.clear();
     f.events.swap(pending_);
     // The run's timing goes with it; push() starts the next one (a byte appended in bulk to an
     // emptied buffer, after a pressure close, leaves the timing to be computed from the events).
@@ -284,7 +284,6 @@ void HybridFramer<Rules>::emit(std::size_t p, std::size_t len, FrameKind kind, F
     // series of allocations as its bytes arrive.
     if (pending_.capacity() < kPendingReserve) pending_.reserve(kPendingReserve);
   } else {
-    f.events.clear();
     f.events.append_range(pending_, p, len);
   }
   if (timing_kept)
