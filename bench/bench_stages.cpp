@@ -383,7 +383,7 @@ void run_dissect(benchmark::State& state, Protocol protocol, const DissectSet& s
       Message m = decoder->dissect(c.frame, c.direction, set.timing, request);
       good +=
           m.checksum.verdict == ChecksumVerdict::good && m.protocol == protocol && m.address >= 0;
-      benchmark::DoNotOptimize(m.fields.data());
+      benchmark::DoNotOptimize(&m.fields);
     }
   }
   if (good != set.cases.size())

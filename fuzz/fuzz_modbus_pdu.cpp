@@ -18,14 +18,14 @@ constexpr Direction kDirections[] = {Direction::unknown, Direction::request, Dir
 // Dissects frame[offset, offset + length) and checks the field tree stays inside the frame.
 void dissect(std::span<const std::uint8_t> frame, std::size_t offset, std::size_t length,
              Direction dir) {
-  std::vector<FieldNode> nodes;
+  FieldTree nodes;
   FieldTreeBuilder tree(nodes);
   const modbus::PduDecode d = modbus::dissect_pdu(frame, offset, length, dir, tree);
   (void)d;
   for (const FieldNode& n : nodes) {
     if (std::size_t{n.offset} + n.length > frame.size())
       fuzz::contract_broken("dissect_pdu: field span beyond the frame");
-    (void)format_field_value(n, frame);
+    (void)format_field_value(nodes, n, frame);
   }
 }
 
@@ -67,7 +67,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   for (Direction dir : kDirections) {
     const Message m = modbus::dissect_rtu(frame, dir, timing);
     fuzz::check_field_spans(m);
-    for (const FieldNode& n : m.fields) (void)format_field_value(n, m.bytes);
+    for (const FieldNode& n : m.fields) (void)format_field_value(m.fields, n, m.bytes);
   }
   return 0;
 }

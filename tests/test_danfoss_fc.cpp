@@ -18,7 +18,7 @@ Frame frame_of(std::vector<std::uint8_t> bytes) {
 
 std::string field_text(const Message& m, std::string_view id) {
   for (const FieldNode& n : m.fields)
-    if (n.desc->id == id) return format_field_value(n, m.bytes);
+    if (n.desc->id == id) return format_field_value(m.fields, n, m.bytes);
   return "(missing)";
 }
 

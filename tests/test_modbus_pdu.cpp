@@ -44,7 +44,7 @@ std::vector<std::uint8_t> hex(std::string_view text) {
 
 struct Decoded {
   std::vector<std::uint8_t> frame;
-  std::vector<FieldNode> fields;
+  FieldTree fields;
   PduDecode d;
 
   // The nth node with `id`, or nullptr.
@@ -229,8 +229,8 @@ TEST(DissectPdu, ReadHoldingRegistersRequest) {
   EXPECT_TRUE(r.d.problems.empty());
   EXPECT_EQ(r.d.exception_code, -1);
   // Generic formatting of the nodes.
-  EXPECT_EQ(format_field_value(*r.find("modbus.fc"), r.frame), "3 (Read Holding Registers)");
-  EXPECT_EQ(format_field_value(*r.find("modbus.start_addr"), r.frame), "0x0000 (0)");
+  EXPECT_EQ(format_field_value(r.fields, *r.find("modbus.fc"), r.frame), "3 (Read Holding Registers)");
+  EXPECT_EQ(format_field_value(r.fields, *r.find("modbus.start_addr"), r.frame), "0x0000 (0)");
 }
 
 TEST(DissectPdu, ReadSingleRegisterRangeText) {
@@ -291,10 +291,10 @@ TEST(DissectPdu, ReadCoilsRequestAndResponse) {
   ASSERT_NE(bits, nullptr);
   EXPECT_EQ(bits->offset, 3u);
   EXPECT_EQ(bits->length, 2u);
-  EXPECT_EQ(bits->text, "11100000 01100000");
+  EXPECT_EQ(r.fields.text(*bits), "11100000 01100000");
   EXPECT_EQ(r.d.info, "Read Coils reply: 2 bytes 07 06");
   EXPECT_TRUE(r.d.problems.empty());
-  EXPECT_EQ(format_field_value(*r.find("modbus.data"), r.frame), "07 06");
+  EXPECT_EQ(format_field_value(r.fields, *r.find("modbus.data"), r.frame), "07 06");
 }
 
 TEST(DissectPdu, ReadDiscreteInputsResponseShortData) {
@@ -311,7 +311,7 @@ TEST(DissectPdu, WriteSingleCoil) {
   EXPECT_TRUE(FieldIs(r, "modbus.coil_value", 4, 2, 0xFF00));
   EXPECT_EQ(r.d.info, "Write Single Coil 0x0000 = ON");
   EXPECT_TRUE(r.d.problems.empty());
-  EXPECT_EQ(format_field_value(*r.find("modbus.coil_value"), r.frame), "65280 (ON)");
+  EXPECT_EQ(format_field_value(r.fields, *r.find("modbus.coil_value"), r.frame), "65280 (ON)");
 
   const Decoded off = decode("01 05 00 40 00 00", kRsp, false);
   EXPECT_EQ(off.d.info, "Write Single Coil reply 0x0040 = OFF");
@@ -352,7 +352,7 @@ TEST(DissectPdu, WriteMultipleCoilsRequest) {
   ASSERT_NE(bits, nullptr);
   EXPECT_EQ(bits->offset, 7u);
   EXPECT_EQ(bits->length, 2u);
-  EXPECT_EQ(bits->text, "10000000 1");
+  EXPECT_EQ(r.fields.text(*bits), "10000000 1");
   EXPECT_EQ(r.d.info, "Write Multiple Coils 0x0000..0x0008 (9) = 10000000 1");
   EXPECT_TRUE(r.d.problems.empty());
 
@@ -445,7 +445,7 @@ TEST(DissectPdu, Diagnostics) {
   EXPECT_TRUE(FieldIs(q, "modbus.diag.data", 4, 2, 0));
   EXPECT_EQ(q.d.info, "Diagnostics: Return Query Data (00), data A5 37");
   EXPECT_TRUE(q.d.problems.empty());
-  EXPECT_EQ(format_field_value(*q.find("modbus.diag.sub"), q.frame), "0 (Return Query Data)");
+  EXPECT_EQ(format_field_value(q.fields, *q.find("modbus.diag.sub"), q.frame), "0 (Return Query Data)");
 
   const Decoded r = decode("01 08 00 00 A5 37 DA 8D", kRsp);
   EXPECT_EQ(r.d.info, "Diagnostics reply: Return Query Data (00), data A5 37");
@@ -468,7 +468,7 @@ TEST(DissectPdu, ExceptionResponse) {
   EXPECT_TRUE(HasSub(r.d.info, "Read Input Registers exception 0x03"));
   EXPECT_TRUE(HasSub(r.d.info, "Illegal Data Value"));
   EXPECT_TRUE(r.d.problems.empty());
-  EXPECT_EQ(format_field_value(*r.find("modbus.exception_code"), r.frame),
+  EXPECT_EQ(format_field_value(r.fields, *r.find("modbus.exception_code"), r.frame),
             "3 (Illegal Data Value)");
 }
 
@@ -675,10 +675,10 @@ TEST(DissectPdu, ReadDeviceIdentificationResponseTwoObjects) {
   const FieldNode* v1 = r.find("modbus.mei.object_value", 1);
   ASSERT_NE(v0, nullptr);
   ASSERT_NE(v1, nullptr);
-  EXPECT_EQ(v0->text, "ABC");
+  EXPECT_EQ(r.fields.text(*v0), "ABC");
   EXPECT_EQ(v0->offset, 10u);
   EXPECT_EQ(v0->length, 3u);
-  EXPECT_EQ(v1->text, "X1");
+  EXPECT_EQ(r.fields.text(*v1), "X1");
   EXPECT_EQ(v1->offset, 15u);
   EXPECT_EQ(v1->length, 2u);
   EXPECT_EQ(r.d.info, "Read Device Identification reply: VendorName=\"ABC\", ProductCode=\"X1\"");
@@ -709,7 +709,7 @@ TEST(DissectPdu, NonPublicFunction) {
   EXPECT_TRUE(FieldIs(r, "modbus.fc", 1, 1, 0x41));
   EXPECT_TRUE(FieldIs(r, "modbus.data", 2, 2, 0));
   EXPECT_EQ(r.d.info, "Function 0x41 (not a public code): 2 data bytes 01 02");
-  EXPECT_EQ(format_field_value(*r.find("modbus.fc"), r.frame), "65 (0x41)");
+  EXPECT_EQ(format_field_value(r.fields, *r.find("modbus.fc"), r.frame), "65 (0x41)");
 }
 
 TEST(DissectPdu, SpansStayInsideThePdu) {

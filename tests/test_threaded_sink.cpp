@@ -24,7 +24,7 @@ class RecordingSink final : public Sink {
     std::string bytes;
     for (const ByteEvent& e : m.frame.events) bytes += std::to_string(e.byte) + ",";
     std::string fields;
-    for (const FieldNode& f : m.fields) fields += f.text + "=" + std::to_string(f.value) + ",";
+    for (const FieldNode& f : m.fields) fields += std::string(m.fields.text(f)) + "=" + std::to_string(f.value) + ",";
     std::string raw;
     for (const std::uint8_t b : m.bytes) raw += std::to_string(b) + ",";
     for (const FieldNode& f : m.fields)
@@ -75,10 +75,11 @@ void play(Sink& sink, std::size_t frames) {
       m.frame.events.push_back(
           {static_cast<TimeNs>(k * (i % 3)), static_cast<std::uint8_t>(i + k), 0, 0, 0});
     m.bytes.assign(i % 5, static_cast<std::uint8_t>(i));
-    m.fields.assign(i % 3, FieldNode{});
-    for (FieldNode& f : m.fields) {
+    m.fields.clear();
+    for (std::size_t k = 0; k < i % 3; ++k) {
+      FieldNode& f = m.fields.emplace_back();
       f.value = static_cast<std::int64_t>(i);
-      f.text = std::string(i % 40, 'x');
+      m.fields.set_text(f, std::string(i % 40, 'x'));
       f.depth = static_cast<std::uint16_t>(i % 2);
       f.offset = static_cast<std::uint32_t>(i % 9);
       f.length = static_cast<std::uint32_t>(i % 4);

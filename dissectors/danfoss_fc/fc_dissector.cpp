@@ -233,13 +233,13 @@ void dissect_fc(Message& m, Frame&& frame, Direction direction, const FramingTim
     if (direction == Direction::response) {
       const std::string meaning = stw_meaning(pcd1);
       const std::string mav = percent(pcd2);
-      tree.add(kStw, at, 2, pcd1).text = meaning;
+      tree.add_text(kStw, at, 2, meaning, pcd1);
       tree.add_text(kMav, at + 2, 2, mav);
       info.push_back(fmt::format(FMT_COMPILE("STW 0x{:04X} [{}], MAV {}"), pcd1, meaning, mav));
     } else if (direction == Direction::request) {
       const std::string meaning = ctw_meaning(pcd1);
       const std::string reference = percent(pcd2);
-      tree.add(kCtw, at, 2, pcd1).text = meaning;
+      tree.add_text(kCtw, at, 2, meaning, pcd1);
       tree.add_text(kReference, at + 2, 2, reference);
       info.push_back(
           fmt::format(FMT_COMPILE("CTW 0x{:04X} [{}], REF {}"), pcd1, meaning, reference));

@@ -88,15 +88,15 @@ void dissect_ascii(Message& m, Frame&& frame, Direction direction, const Framing
   m.function = bin[1];
   m.is_exception = (bin[1] & 0x80) != 0;
   // Decode the binary PDU, then map every field onto its hex characters (2 per byte, after ':').
-  std::vector<FieldNode> binary_fields;
+  FieldTree binary_fields;
   FieldTreeBuilder binary_tree(binary_fields, m.detail && m.tree);
   binary_tree.add(kAddr, 0, 1, bin[0]);
   PduDecode pdu = dissect_pdu(bin, 1, bin.size() - 2, direction, binary_tree, m.detail);
   binary_tree.add(kLrc, bin.size() - 1, 1, bin.back());
-  for (FieldNode& n : binary_fields) {
-    n.offset = 1 + 2 * n.offset;
-    n.length = 2 * n.length;
-    m.fields.push_back(std::move(n));
+  for (const FieldNode& n : binary_fields) {
+    FieldNode& mapped = m.fields.push_back_from(binary_fields, n);
+    mapped.offset = 1 + 2 * n.offset;
+    mapped.length = 2 * n.length;
   }
   m.info = std::move(pdu.info);
   m.exception_code = pdu.exception_code;

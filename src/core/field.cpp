@@ -13,13 +13,14 @@ std::string field_bytes_hex(const FieldNode& node, std::span<const std::uint8_t>
   return out;
 }
 
-std::string format_field_value(const FieldNode& node, std::span<const std::uint8_t> frame,
-                               bool text_encoded) {
+std::string format_field_value(const FieldTree& tree, const FieldNode& node,
+                               std::span<const std::uint8_t> frame, bool text_encoded) {
   const FieldDesc& d = *node.desc;
+  const std::string_view text = tree.text(node);
   std::string out;
   switch (d.type) {
     case FieldType::group:
-      out = node.text;
+      out = text;
       return out;
     case FieldType::uint:
       out = fmt::format(FMT_COMPILE("{}"), node.value);
@@ -44,9 +45,9 @@ std::string format_field_value(const FieldNode& node, std::span<const std::uint8
       break;
     }
     case FieldType::text:
-      return node.text;
+      return std::string(text);
   }
-  if (!node.text.empty()) out += fmt::format(FMT_COMPILE(" [{}]"), node.text);
+  if (!text.empty()) out += fmt::format(FMT_COMPILE(" [{}]"), text);
   return out;
 }
 

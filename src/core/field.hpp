@@ -13,6 +13,7 @@
 #include <span>
 #include <string>
 #include <string_view>
+#include <type_traits>
 #include <vector>
 
 #include "core/format.hpp"
@@ -49,13 +50,83 @@ struct FieldDesc {
   }
 };
 
+// One occurrence of a field. Plain data (copied as bytes): its text, if any, is held by the tree
+// it belongs to (FieldTree::text), so a whole tree copies as two blocks, not a string per node.
 struct FieldNode {
   const FieldDesc* desc = nullptr;
-  std::uint16_t depth = 0;   // 0 = top level; children follow their parent in pre-order
+  std::int64_t value = 0;    // numeric value (uint/hex/boolean/enumerated)
   std::uint32_t offset = 0;  // byte span in the frame
   std::uint32_t length = 0;
-  std::int64_t value = 0;  // numeric value (uint/hex/boolean/enumerated)
-  std::string text;        // text fields; also an optional note for any field
+  std::uint32_t text_at = 0;  // the node's text in its tree's text storage: text fields, and an
+  std::uint32_t text_size = 0;  // optional note for any field (empty: none)
+  std::uint16_t depth = 0;  // 0 = top level; children follow their parent in pre-order
+};
+static_assert(std::is_trivially_copyable_v<FieldNode>);
+
+// The field tree of one frame: its nodes in pre-order, and the texts they name. Read like a
+// std::vector<FieldNode> (size, [], iteration); a node's text is text(node). The texts of all
+// nodes share one string, so copying a tree (a Message handed to the writer thread) costs two
+// copies, and clearing it frees nothing.
+class FieldTree {
+ public:
+  using value_type = FieldNode;
+  using iterator = std::vector<FieldNode>::iterator;
+  using const_iterator = std::vector<FieldNode>::const_iterator;
+
+  [[nodiscard]] std::size_t size() const { return nodes_.size(); }
+  [[nodiscard]] bool empty() const { return nodes_.empty(); }
+  [[nodiscard]] FieldNode& operator[](std::size_t i) { return nodes_[i]; }
+  [[nodiscard]] const FieldNode& operator[](std::size_t i) const { return nodes_[i]; }
+  [[nodiscard]] FieldNode& back() { return nodes_.back(); }
+  [[nodiscard]] const FieldNode& back() const { return nodes_.back(); }
+  [[nodiscard]] iterator begin() { return nodes_.begin(); }
+  [[nodiscard]] iterator end() { return nodes_.end(); }
+  [[nodiscard]] const_iterator begin() const { return nodes_.begin(); }
+  [[nodiscard]] const_iterator end() const { return nodes_.end(); }
+
+  void clear() {
+    nodes_.clear();
+    text_.clear();
+  }
+  void reserve(std::size_t nodes) { nodes_.reserve(nodes); }
+  // A new node with no text, for the caller to fill in.
+  FieldNode& emplace_back() { return nodes_.emplace_back(); }
+  // A node of another tree (or of this one), its text copied into this tree.
+  FieldNode& push_back_from(const FieldTree& from, const FieldNode& node) {
+    const std::string_view t = from.text(node);
+    FieldNode& n = nodes_.emplace_back(node);
+    n.text_size = 0;
+    set_text(n, t);
+    return n;
+  }
+
+  // Empty for a node with none, and for a node whose text is not in this tree.
+  [[nodiscard]] std::string_view text(const FieldNode& node) const {
+    if (node.text_size == 0 || node.text_at > text_.size()) return {};
+    return {text_.data() + node.text_at,
+            std::min<std::size_t>(node.text_size, text_.size() - node.text_at)};
+  }
+  // `node` (one of this tree's) has `text` from now on; a text it had before is left unused.
+  void set_text(FieldNode& node, std::string_view text) {
+    node.text_at = static_cast<std::uint32_t>(text_.size());
+    node.text_size = static_cast<std::uint32_t>(text.size());
+    text_.append(text);
+  }
+
+  friend bool operator==(const FieldTree& a, const FieldTree& b) {
+    if (a.size() != b.size()) return false;
+    for (std::size_t i = 0; i < a.size(); ++i) {
+      const FieldNode &x = a[i], &y = b[i];
+      if (x.desc != y.desc || x.value != y.value || x.offset != y.offset ||
+          x.length != y.length || x.depth != y.depth || a.text(x) != b.text(y))
+        return false;
+    }
+    return true;
+  }
+
+ private:
+  std::vector<FieldNode> nodes_;
+  std::string text_;
 };
 
 // Builds a pre-order field tree. Dissectors add nodes; open()/close() nest them.
@@ -64,8 +135,7 @@ struct FieldNode {
 // add() then hands back a scratch node, so dissector code runs the same either way.
 class FieldTreeBuilder {
  public:
-  explicit FieldTreeBuilder(std::vector<FieldNode>& out, bool enabled = true)
-      : out_(out), enabled_(enabled) {}
+  explicit FieldTreeBuilder(FieldTree& out, bool enabled = true) : out_(out), enabled_(enabled) {}
 
   [[nodiscard]] bool enabled() const { return enabled_; }
 
@@ -74,17 +144,18 @@ class FieldTreeBuilder {
                                         std::size_t length, std::int64_t value = 0) {
     FieldNode& n = enabled_ ? out_.emplace_back() : scratch_;
     n.desc = &desc;
-    n.depth = depth_;
+    n.value = value;
     n.offset = static_cast<std::uint32_t>(offset);
     n.length = static_cast<std::uint32_t>(length);
-    n.value = value;
-    if (!enabled_) n.text.clear();
+    n.text_size = 0;
+    n.depth = depth_;
     return n;
   }
+  // A node with a text: a text field's value, or a note on any field (its value `value`).
   FieldNode& add_text(const FieldDesc& desc, std::size_t offset, std::size_t length,
-                      std::string text) {
-    FieldNode& n = add(desc, offset, length);
-    n.text = std::move(text);
+                      std::string_view text, std::int64_t value = 0) {
+    FieldNode& n = add(desc, offset, length, value);
+    if (enabled_) out_.set_text(n, text);
     return n;
   }
   // Adds a group node and nests what follows under it until close(), which stretches the
@@ -107,7 +178,7 @@ class FieldTreeBuilder {
   }
 
  private:
-  std::vector<FieldNode>& out_;
+  FieldTree& out_;
   bool enabled_;
   FieldNode scratch_;              // what add() fills when the builder keeps nothing
   std::vector<std::size_t> open_;  // indices of open group nodes
@@ -117,8 +188,8 @@ class FieldTreeBuilder {
 // The value of a node as an engineer reads it: "3 (Read Holding Registers)", "0x0010 (16)".
 // `text_encoded`: the frame spells bytes as hex characters (Modbus ASCII), so a bytes field shows
 // the characters of its span rather than their codes.
-std::string format_field_value(const FieldNode& node, std::span<const std::uint8_t> frame,
-                               bool text_encoded = false);
+std::string format_field_value(const FieldTree& tree, const FieldNode& node,
+                               std::span<const std::uint8_t> frame, bool text_encoded = false);
 // A bytes field's value as compact upper-case hex ("A537"), for JSON; a text-encoded frame's
 // characters upper-cased instead. Appended to `out` (std::string or LineBuffer).
 template <class Out>

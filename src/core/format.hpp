@@ -145,8 +145,12 @@ template <class Out>
 inline void append_hex(Out& out, std::uint32_t raw, int width) {
   int digits = width;
   while (digits < 8 && (raw >> (4 * digits)) != 0) ++digits;
-  out += "0x";
-  for (int i = digits - 1; i >= 0; --i) out += kHexDigits[(raw >> (4 * i)) & 0xF];
+  const auto count = static_cast<std::size_t>(digits);
+  const std::span<char> room(append_room(out, count + 2), count + 2);  // one check, not one a digit
+  room[0] = '0';
+  room[1] = 'x';
+  for (std::size_t i = 0; i < count; ++i)
+    room[2 + i] = kHexDigits[(raw >> (4 * (count - 1 - i))) & 0xF];
 }
 
 template <class Out>

@@ -32,7 +32,7 @@ struct Message {
   ChecksumResult checksum;
   // The frame spells its bytes as hex text (Modbus ASCII): `bytes` fields show their characters.
   bool text_encoded = false;
-  std::vector<FieldNode> fields;
+  FieldTree fields;
   // The decode in one line, like Wireshark's Info column: "Read Holding Registers 0x0000 x4".
   std::string info;
   // What the frame means to its drive, from the bound drive profile; empty when none is bound.

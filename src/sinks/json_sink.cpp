@@ -125,26 +125,25 @@ std::string seconds(TimeNs t) {
   return format_seconds(t, 9);
 }
 
-// Field nodes keyed by dotted id, in first-seen order; repeated ids become arrays.
-void append_field_value(LineBuffer& out, const Message& m, const FieldNode& node) {
-  switch (node.desc->type) {
-    case FieldType::bytes: {
-      // Written into the record (no temporary string); a text frame's characters escaped where
-      // they must be.
-      out += '"';
-      const std::size_t from = out.size();
-      append_field_bytes_hex(out, node, m.bytes, m.text_encoded);
-      if (m.text_encoded) escape_json_tail(out, from);
-      out += '"';
-      return;
-    }
-    case FieldType::text:
-      append_json_quoted(out, node.text);
-      return;
-    default:
-      append_int(out, node.value);
-      return;
-  }
+// A bytes or text node's value.
+[[gnu::noinline]] void append_field_string(LineBuffer& out, const Message& m,
+                                           const FieldNode& node) {
+  if (node.desc->type == FieldType::text) return append_json_quoted(out, m.fields.text(node));
+  // Bytes, written into the record (no temporary string); a text frame's characters escaped
+  // where they must be.
+  out += '"';
+  const std::size_t from = out.size();
+  append_field_bytes_hex(out, node, m.bytes, m.text_encoded);
+  if (m.text_encoded) escape_json_tail(out, from);
+  out += '"';
+}
+
+// A node's value: a number, but for bytes and text nodes (rare: the call stays out of line).
+[[gnu::always_inline]] inline void append_field_value(LineBuffer& out, const Message& m,
+                                                      const FieldNode& node) {
+  const FieldType type = node.desc->type;
+  if (type == FieldType::bytes || type == FieldType::text) return append_field_string(out, m, node);
+  append_int(out, node.value);
 }
 
 // Nodes of one id nearly always share a descriptor, so its address is compared before the id

@@ -157,7 +157,7 @@ void TextSink::on_frame(const Message& m) {
                                                             node.offset + node.length - 1);
     lines_.write(fmt::format(FMT_COMPILE("{:>8}{:<9} {:{}}{:<26} {}: {}"), "", span, "",
                              node.depth * 2u, node.desc->id, node.desc->name,
-                             format_field_value(node, m.bytes, m.text_encoded)));
+                             format_field_value(m.fields, node, m.bytes, m.text_encoded)));
   }
 }
 
