@@ -34,7 +34,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     for (std::uint8_t b : bytes) f.events.push_back({t += timing.character_time, b, 0, 0, 0});
     const Message m = decoder.dissect(std::move(f), dir, timing);
     fuzz::check_field_spans(m);
-    for (const FieldNode& n : m.fields) (void)format_field_value(m.fields, n, m.bytes, m.text_encoded);
+    for (const FieldNode& n : m.fields)
+      (void)format_field_value(m.fields, n, m.bytes, m.text_encoded);
   }
 
   // As a stream: a byte 0xFE followed by another byte b means "b x 1 ms of silence".

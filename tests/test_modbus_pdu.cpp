@@ -229,7 +229,8 @@ TEST(DissectPdu, ReadHoldingRegistersRequest) {
   EXPECT_TRUE(r.d.problems.empty());
   EXPECT_EQ(r.d.exception_code, -1);
   // Generic formatting of the nodes.
-  EXPECT_EQ(format_field_value(r.fields, *r.find("modbus.fc"), r.frame), "3 (Read Holding Registers)");
+  EXPECT_EQ(format_field_value(r.fields, *r.find("modbus.fc"), r.frame),
+            "3 (Read Holding Registers)");
   EXPECT_EQ(format_field_value(r.fields, *r.find("modbus.start_addr"), r.frame), "0x0000 (0)");
 }
 
@@ -445,7 +446,8 @@ TEST(DissectPdu, Diagnostics) {
   EXPECT_TRUE(FieldIs(q, "modbus.diag.data", 4, 2, 0));
   EXPECT_EQ(q.d.info, "Diagnostics: Return Query Data (00), data A5 37");
   EXPECT_TRUE(q.d.problems.empty());
-  EXPECT_EQ(format_field_value(q.fields, *q.find("modbus.diag.sub"), q.frame), "0 (Return Query Data)");
+  EXPECT_EQ(format_field_value(q.fields, *q.find("modbus.diag.sub"), q.frame),
+            "0 (Return Query Data)");
 
   const Decoded r = decode("01 08 00 00 A5 37 DA 8D", kRsp);
   EXPECT_EQ(r.d.info, "Diagnostics reply: Return Query Data (00), data A5 37");

@@ -24,7 +24,8 @@ class RecordingSink final : public Sink {
     std::string bytes;
     for (const ByteEvent& e : m.frame.events) bytes += std::to_string(e.byte) + ",";
     std::string fields;
-    for (const FieldNode& f : m.fields) fields += std::string(m.fields.text(f)) + "=" + std::to_string(f.value) + ",";
+    for (const FieldNode& f : m.fields)
+      fields += std::string(m.fields.text(f)) + "=" + std::to_string(f.value) + ",";
     std::string raw;
     for (const std::uint8_t b : m.bytes) raw += std::to_string(b) + ",";
     for (const FieldNode& f : m.fields)

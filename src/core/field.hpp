@@ -57,8 +57,10 @@ struct FieldNode {
   std::int64_t value = 0;    // numeric value (uint/hex/boolean/enumerated)
   std::uint32_t offset = 0;  // byte span in the frame
   std::uint32_t length = 0;
-  std::uint32_t text_at = 0;  // the node's text in its tree's text storage: text fields, and an
-  std::uint32_t text_size = 0;  // optional note for any field (empty: none)
+  // The node's text, in its tree's text storage: a text field's value, or an optional note on
+  // any field (text_size 0: none).
+  std::uint32_t text_at = 0;
+  std::uint32_t text_size = 0;
   std::uint16_t depth = 0;  // 0 = top level; children follow their parent in pre-order
 };
 static_assert(std::is_trivially_copyable_v<FieldNode>);
@@ -117,8 +119,8 @@ class FieldTree {
     if (a.size() != b.size()) return false;
     for (std::size_t i = 0; i < a.size(); ++i) {
       const FieldNode &x = a[i], &y = b[i];
-      if (x.desc != y.desc || x.value != y.value || x.offset != y.offset ||
-          x.length != y.length || x.depth != y.depth || a.text(x) != b.text(y))
+      if (x.desc != y.desc || x.value != y.value || x.offset != y.offset || x.length != y.length ||
+          x.depth != y.depth || a.text(x) != b.text(y))
         return false;
     }
     return true;
