@@ -295,6 +295,49 @@ TEST(RtuFramer, PressureCloseOfOneFrameStartsTheNextTimingAfresh) {
   EXPECT_EQ(got[1].max_intra_gap, 0);
 }
 
+TEST(RtuFramer, RunOfARequestAndMoreIsNotTakenWholeForItsLength) {
+  // A request whose start address begins 0x0A also reads as the start of a 15-byte reply (byte
+  // count 10). Its 8 bytes and 7 more arrive as one evenly spaced run between silences, so the
+  // run's length is a predicted one, but its last two bytes are no CRC of it: push_all() must
+  // not take it as one frame, and cuts the request off as push() of each byte does.
+  const std::vector<std::uint8_t> request = with_crc({0x01, 0x03, 0x0A, 0x00, 0x00, 0x02});
+  std::vector<std::uint8_t> run = request;
+  for (const std::uint8_t b : {0x01, 0x03, 0x04, 0x00, 0x10, 0x00, 0x20}) run.push_back(b);
+  ASSERT_EQ(run.size(), 15u);
+  const std::uint16_t crc = crc16_modbus(std::span(run).first(13));
+  ASSERT_NE(run[13] | (run[14] << 8), crc);
+  ASSERT_NE(run[14] | (run[13] << 8), crc);
+  std::vector<ByteEvent> events;
+  TimeNs clock = 0;
+  for (int k = 0; k < 2; ++k) {
+    for (const std::uint8_t b : run) {
+      events.push_back(ByteEvent{clock, b, 0, 0});
+      clock += kChar;
+    }
+    clock += 5 * kNsPerMs;
+  }
+  for (const std::uint8_t b : kRequest) {  // a byte after the second run's silence, in the call
+    events.push_back(ByteEvent{clock, b, 0, 0});
+    clock += kChar;
+  }
+  RtuFramer one_by_one(0, RtuFramerOptions{FramingTiming::from(k9600)});
+  RtuFramer at_once(0, RtuFramerOptions{FramingTiming::from(k9600)});
+  std::vector<Frame> expected, got;
+  for (const ByteEvent& e : events) one_by_one.push(e, expected);
+  one_by_one.finish(expected);
+  at_once.push_all(events, got);
+  at_once.finish(got);
+  ASSERT_GE(expected.size(), 3u);
+  EXPECT_EQ(expected[0].bytes(), request);
+  ASSERT_EQ(got.size(), expected.size());
+  for (std::size_t i = 0; i < got.size(); ++i) {
+    SCOPED_TRACE(i);
+    EXPECT_EQ(got[i].events, expected[i].events);
+    EXPECT_EQ(got[i].kind, expected[i].kind);
+    EXPECT_EQ(got[i].close, expected[i].close);
+  }
+}
+
 TEST(RtuFramer, PushAllGivesTheFramesOfPushingOneByOne) {
   // Framer::push_all appends runs without silence in bulk; it must cut exactly where push()
   // does: silences of every length, one-stamp bursts, noise, UART marks, and the pressure mark

@@ -112,6 +112,9 @@ class HybridFramer final : public Framer {
   std::size_t good_frame_at(std::size_t p, std::size_t limit) const;  // 0 when none
   // The same over any bytes: the good frame at from[0] ending inside `from`, or 0.
   std::size_t good_frame_in(std::span<const std::uint8_t> from) const;
+  // good_frame_in(frame) == frame.size(): all of it is a frame of a predicted length with a good
+  // checksum (no other length tried).
+  bool is_good_frame(std::span<const std::uint8_t> frame) const;
   std::size_t first_good_start(std::size_t from, std::size_t to) const;
   std::size_t next_hard_boundary(std::size_t p) const;
   bool is_hard_boundary(std::size_t index) const;

@@ -88,7 +88,7 @@ bool HybridFramer<Rules>::push_chunk(const ByteRun& run, TimeNs next_time,
       run.step < 0 || run.step - character_time > t35 || !run.flags.empty())
     return false;
   const TimeNs end = std::max(last_end_, run.time(n - 1) + character_time);
-  if (next_time - end <= t35 || good_frame_in(run.bytes) != n) return false;
+  if (next_time - end <= t35 || !is_good_frame(run.bytes)) return false;
   Frame& f = new_frame(FrameKind::telegram, FrameClose::silence, out);
   f.events.append_run(run);
   // The run's timing as push_run() would have kept it (not timing_of(): no second look).
@@ -208,6 +208,19 @@ std::size_t HybridFramer<Rules>::good_frame_at(std::size_t p, std::size_t limit)
 }
 
 template <class Rules>
+bool HybridFramer<Rules>::is_good_frame(std::span<const std::uint8_t> frame) const {
+  // good_frame_in() returns frame.size() exactly when that is one of the predicted lengths (it is
+  // tried first then, or is the first of two) and its checksum matches: any other length it
+  // tries is shorter.
+  const std::size_t n = frame.size();
+  if (n < rules_.min_frame() || n > rules_.max_frame()) return false;
+  std::size_t candidates[2] = {0, 0};
+  bool needs_more = false;
+  rules_.predicted_lengths(frame, candidates, &needs_more);
+  return (candidates[0] == n || candidates[1] == n) && rules_.checksum_matches(frame);
+}
+
+template <class Rules>
 std::size_t HybridFramer<Rules>::good_frame_in(std::span<const std::uint8_t> from) const {
   std::size_t lengths[2];
   bool needs_more = false;
@@ -254,11 +267,10 @@ bool HybridFramer<Rules>::looks_like_frame_start(std::size_t p) const {
 template <class Rules>
 inline Frame& HybridFramer<Rules>::new_frame(FrameKind kind, FrameClose close,
                                              std::vector<Frame>& out) {
-  Frame& f = out.emplace_back();
-  if (!spare_.empty()) {
-    f.events.swap(spare_.back());
-    spare_.pop_back();
-  }
+  // Built on a spare's storage where there is one (moved in: no empty events made and swapped).
+  const bool from_spare = !spare_.empty();
+  Frame& f = from_spare ? out.emplace_back(std::move(spare_.back())) : out.emplace_back();
+  if (from_spare) spare_.pop_back();
   f.kind = kind;
   f.channel = channel_;
   f.close = close;

@@ -57,10 +57,20 @@ inline std::size_t scan_uniform_run(std::span<const ByteEvent> events, TimeNs* s
   const auto ustep = static_cast<std::uint64_t>(*step);
   std::uint64_t next = static_cast<std::uint64_t>(events[1].time) + ustep;
   std::size_t n = 2;
-  while (n < events.size() && static_cast<std::uint64_t>(events[n].time) == next &&
-         event_tail(events[n]) == same) {
+  // Two events a pass while two are left (one bound check for both), then the last one.
+  auto belongs = [&](std::size_t k, std::uint64_t time) {
+    return static_cast<std::uint64_t>(events[k].time) == time && event_tail(events[k]) == same;
+  };
+  while (events.size() - n >= 2) {
+    if (!belongs(n, next)) return n;
     on_byte(n, events[n].byte);
-    next += ustep;
+    if (!belongs(n + 1, next + ustep)) return n + 1;
+    on_byte(n + 1, events[n + 1].byte);
+    next += 2 * ustep;
+    n += 2;
+  }
+  if (n < events.size() && belongs(n, next)) {
+    on_byte(n, events[n].byte);
     ++n;
   }
   return n;

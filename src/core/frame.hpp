@@ -26,6 +26,8 @@ struct Frame {
   // value-initialising an implicitly constructible Frame zero-fills all of it first (a `rep stos`
   // that took a sixth of the framer's time) before the members' initialisers run anyway.
   Frame() noexcept {}  // NOLINT(modernize-use-equals-default)
+  // A frame whose events start as `storage` (a framer's recycled storage, see Framer::recycle).
+  explicit Frame(ByteEvents&& storage) noexcept : events(std::move(storage)) {}
 
   FrameKind kind = FrameKind::telegram;
   ChannelId channel = 0;
