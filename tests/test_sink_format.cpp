@@ -113,11 +113,12 @@ TEST(SinkFormat, JsonTailEscapedInPlaceAsQuotingWouldEscapeIt) {
 }
 
 TEST(SinkFormat, JsonTailFindsEveryCharacterToEscapeAtEveryPosition) {
-  // The tail is scanned eight characters at a time: every byte value at every place of a word
-  // (and of the rest after the last whole word) must be found exactly when it needs escaping.
+  // The tail is scanned sixteen characters at a time (SSE2), then eight: every byte value at
+  // every place of a block, of a word and of the rest after them (41 = 16 + 16 + 8 + 1) must be
+  // found exactly when it needs escaping.
   for (int value = 0; value < 256; ++value) {
-    for (std::size_t at = 0; at < 19; ++at) {
-      std::string tail(19, 'a');
+    for (std::size_t at = 0; at < 41; ++at) {
+      std::string tail(41, 'a');
       tail[at] = static_cast<char>(value);
       if (at > 0) tail[at - 1] = static_cast<char>(0x80 | value);  // a high byte just before
       const std::string quoted = json_quote(tail);
