@@ -22,6 +22,7 @@ TEST(FieldTable, IdsAreUniqueAndWellFormed) {
     EXPECT_TRUE(std::regex_match(id, form)) << id;
     EXPECT_TRUE(seen.insert(id).second) << "duplicate id " << id;
     EXPECT_FALSE(d->name.empty()) << id;
+    EXPECT_EQ(d->key(), d) << id << ": a listed descriptor is its id's own";
     if (d->type == FieldType::enumerated) {
       EXPECT_FALSE(d->names.empty()) << id;
     }

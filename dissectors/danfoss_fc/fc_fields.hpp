@@ -45,8 +45,12 @@ inline constexpr FieldDesc kBroadcast{"fc.broadcast", "Broadcast", FieldType::bo
 inline constexpr FieldDesc kPke{"fc.pke", "Parameter command (PKE)", FieldType::hex, 4};
 inline constexpr FieldDesc kAkRequest{"fc.pke.ak", "Request (AK)", FieldType::enumerated, 1,
                                       kRequestAk};
-inline constexpr FieldDesc kAkResponse{"fc.pke.ak", "Response (AK)", FieldType::enumerated, 1,
-                                       kResponseAk};
+inline constexpr FieldDesc kAkResponse{.id = "fc.pke.ak",
+                                       .name = "Response (AK)",
+                                       .type = FieldType::enumerated,
+                                       .hex_digits = 1,
+                                       .names = kResponseAk,
+                                       .shares_id_of = &kAkRequest};
 inline constexpr FieldDesc kPnu{"fc.pke.pnu", "Parameter number (PNU)", FieldType::uint};
 inline constexpr FieldDesc kParameter{"fc.param", "Parameter", FieldType::text};
 inline constexpr FieldDesc kInd{"fc.ind", "Index (IND)", FieldType::hex, 4};
@@ -69,6 +73,6 @@ inline constexpr const FieldDesc* kAllFields[] = {
     &kStw, &kCtwMeaning, &kStwMeaning, &kReference, &kMav,         &kPcd,  &kBcc,
 };
 // kAkResponse shares the id "fc.pke.ak" with kAkRequest (the meaning depends on the direction);
-// it is listed once, under kAkRequest.
+// it is listed once, under kAkRequest (kAkResponse.shares_id_of).
 
 }  // namespace drivetap::danfoss_fc

@@ -41,6 +41,15 @@ struct FieldDesc {
   FieldType type = FieldType::uint;
   std::uint8_t hex_digits = 2;
   std::span<const ValueName> names{};
+  // The descriptor listed in the field table under this id, for one that shares it (Danfoss FC's
+  // AK has a request and a response meaning); null for a listed one.
+  const FieldDesc* shares_id_of = nullptr;
+
+  // The listed descriptor of this id: two descriptors have the same id exactly when their keys
+  // are the same (tests/test_pipeline.cpp checks every descriptor a dissector emits).
+  [[nodiscard]] constexpr const FieldDesc* key() const {
+    return shares_id_of ? shares_id_of : this;
+  }
 
   // Name of `value` in `names`, or empty.
   [[nodiscard]] constexpr std::string_view name_of(std::uint32_t value) const {

@@ -163,12 +163,6 @@ std::string seconds(TimeNs t) {
   append_int(out, node.value);
 }
 
-// Nodes of one id nearly always share a descriptor, so its address is compared before the id
-// (Danfoss FC's AK has two descriptors of one id: a request and a response meaning).
-bool same_id(const FieldDesc* a, const FieldDesc* b) {
-  return a == b || a->id == b->id;
-}
-
 std::string_view close_id(FrameClose c) {
   switch (c) {
     case FrameClose::silence:
@@ -187,15 +181,22 @@ std::string_view close_id(FrameClose c) {
 // (registers) has an array of its values. Ids are dotted lower-case (tests/test_field_table.cpp):
 // written without escaping.
 void JsonSink::append_fields_object(LineBuffer& out, const Message& m) {
+  // Ids compare as their descriptors' keys (FieldDesc::key): a pointer each, no string.
   std::vector<FieldKey>& keys = field_keys_;
   keys.clear();
   for (std::size_t i = 0; i < m.fields.size(); ++i) {
     const FieldDesc* desc = m.fields[i].desc;
     if (desc->type == FieldType::group) continue;
-    auto key = std::find_if(keys.begin(), keys.end(),
-                            [desc](const FieldKey& k) { return same_id(k.desc, desc); });
+    const FieldDesc* id = desc->key();
+    // A repeat of the id just before (registers) is the usual one: no search for it.
+    if (!keys.empty() && keys.back().key == id) {
+      ++keys.back().count;
+      continue;
+    }
+    auto key =
+        std::find_if(keys.begin(), keys.end(), [id](const FieldKey& k) { return k.key == id; });
     if (key == keys.end())
-      keys.push_back({desc, i, 1});
+      keys.push_back({id, i, 1});
     else
       ++key->count;
   }
@@ -204,7 +205,7 @@ void JsonSink::append_fields_object(LineBuffer& out, const Message& m) {
     const FieldKey& key = keys[k];
     if (k != 0) out += ',';
     out += '"';
-    out += key.desc->id;
+    out += key.key->id;
     out += "\":"sv;
     if (key.count == 1) {
       append_field_value(out, m, m.fields[key.first]);
@@ -214,7 +215,7 @@ void JsonSink::append_fields_object(LineBuffer& out, const Message& m) {
     // Each pass looks at one node; the key's values are its nodes from `first` on.
     for (std::size_t j = key.first, written = 0; written < key.count; ++j) {
       const FieldDesc* desc = m.fields[j].desc;
-      if (desc->type == FieldType::group || !same_id(desc, key.desc)) continue;
+      if (desc->type == FieldType::group || desc->key() != key.key) continue;
       if (written++ != 0) out += ',';
       append_field_value(out, m, m.fields[j]);
     }

@@ -29,7 +29,7 @@ class JsonSink final : public Sink {
  private:
   // One id of a frame's field tree: its descriptor, first node and number of nodes.
   struct FieldKey {
-    const FieldDesc* desc;
+    const FieldDesc* key;  // FieldDesc::key() of the id's nodes
     std::size_t first;
     std::size_t count;
   };
