@@ -231,6 +231,13 @@ JsonSink::JsonSink(std::FILE* out, const ChannelTable& channels, TimeNs characte
       show_latency_(show_latency),
       lines_(out) {}
 
+std::string_view JsonSink::quoted_channel(ChannelId id) {
+  if (id >= quoted_channels_.size()) quoted_channels_.resize(std::size_t{id} + 1);
+  std::string& quoted = quoted_channels_[id];
+  if (quoted.empty()) quoted = json_quote(channels_.at(id).name);  // never empty once made
+  return quoted;
+}
+
 void JsonSink::on_frame(const Message& m) {
   const TimeNs t_end = m.frame.events.empty() ? 0 : m.frame.events.back().time + character_time_;
   LineBuffer& line = lines_.buffer();  // the record is built where it will be written from
@@ -241,7 +248,7 @@ void JsonSink::on_frame(const Message& m) {
   line += ",\"t_end\":"sv;
   append_seconds(line, t_end, 9);
   line += ",\"channel\":"sv;
-  append_json_quoted(line, channels_.at(m.frame.channel).name);
+  line += quoted_channel(m.frame.channel);
   line += ",\"dir\":\""sv;
   line += direction_id(m.direction);
   line += "\",\"protocol\":\""sv;
@@ -308,7 +315,7 @@ void JsonSink::on_noise(const Frame& f) {
   std::string line = fmt::format(
       FMT_COMPILE(
           "{{\"type\":\"noise\",\"n\":{},\"t\":{},\"t_end\":{},\"channel\":{},\"hex\":\"{}\"}}"),
-      f.number, seconds(f.start()), seconds(t_end), json_quote(channels_.at(f.channel).name),
+      f.number, seconds(f.start()), seconds(t_end), quoted_channel(f.channel),
       hex_bytes(bytes, ""));
   lines_.write(line);
 }
@@ -317,7 +324,7 @@ void JsonSink::on_anomaly(const Anomaly& a) {
   std::string line = fmt::format(
       FMT_COMPILE("{{\"type\":\"anomaly\",\"t\":{},\"kind\":\"{}\",\"channel\":{},\"frame\":{},"
                   "\"detail\":{}}}"),
-      seconds(a.time), anomaly_id(a.kind), json_quote(channels_.at(a.channel).name),
+      seconds(a.time), anomaly_id(a.kind), quoted_channel(a.channel),
       a.frame_number == 0 ? std::string("null") : fmt::format(FMT_COMPILE("{}"), a.frame_number),
       json_quote(a.detail));
   lines_.write(line);
@@ -327,7 +334,7 @@ void JsonSink::on_event(const BusEvent& e) {
   std::string line = fmt::format(
       FMT_COMPILE(
           "{{\"type\":\"event\",\"t\":{},\"channel\":{},\"kind\":\"{}\",\"protocol\":\"{}\""),
-      seconds(e.time), json_quote(channels_.at(e.channel).name), e.kind, protocol_id(e.protocol));
+      seconds(e.time), quoted_channel(e.channel), e.kind, protocol_id(e.protocol));
   if (!e.confidence.empty())
     line += fmt::format(FMT_COMPILE(",\"confidence\":\"{}\""), e.confidence);
   if (e.address >= 0)
@@ -355,7 +362,7 @@ void JsonSink::on_transaction(const Transaction& t) {
   line += "{\"type\":\"transaction\",\"outcome\":\""sv;
   line += outcome_id(t.outcome);
   line += "\",\"channel\":"sv;
-  append_json_quoted(line, channels_.at(t.channel).name);
+  line += quoted_channel(t.channel);
   line += ",\"protocol\":\""sv;
   line += protocol_id(t.protocol);
   line += "\",\"addr\":"sv;

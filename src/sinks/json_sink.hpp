@@ -4,6 +4,7 @@
 
 #include <cstdio>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "core/byte_event.hpp"
@@ -40,6 +41,9 @@ class JsonSink final : public Sink {
   bool show_latency_;
   LineWriter lines_;  // records not written yet; frame and transaction records are built there
   std::vector<FieldKey> field_keys_;  // scratch: the ids of the frame's field tree
+  // A channel's name as a JSON string (quoted at its first record: names never change).
+  std::string_view quoted_channel(ChannelId id);
+  std::vector<std::string> quoted_channels_;
 };
 
 // JSON string literal with escapes.
