@@ -111,7 +111,8 @@ class FieldTree {
     return n;
   }
 
-  // Empty for a node with none, and for a node whose text is not in this tree.
+  // Empty for a node with none. Never reads outside this tree's texts, but a node of another tree
+  // may name some other text here: take nodes across with push_back_from().
   [[nodiscard]] std::string_view text(const FieldNode& node) const {
     if (node.text_size == 0 || node.text_at > text_.size()) return {};
     return {text_.data() + node.text_at,

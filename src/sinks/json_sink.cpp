@@ -232,9 +232,10 @@ JsonSink::JsonSink(std::FILE* out, const ChannelTable& channels, TimeNs characte
       lines_(out) {}
 
 std::string_view JsonSink::quoted_channel(ChannelId id) {
+  const Channel& channel = channels_.at(id);  // throws for an id of no channel, as before
   if (id >= quoted_channels_.size()) quoted_channels_.resize(std::size_t{id} + 1);
   std::string& quoted = quoted_channels_[id];
-  if (quoted.empty()) quoted = json_quote(channels_.at(id).name);  // never empty once made
+  if (quoted.empty()) quoted = json_quote(channel.name);  // never empty once made
   return quoted;
 }
 
