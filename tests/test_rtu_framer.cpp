@@ -338,6 +338,43 @@ TEST(RtuFramer, RunOfARequestAndMoreIsNotTakenWholeForItsLength) {
   }
 }
 
+TEST(RtuFramer, RunLongerThanTheLongestFrameComesOutAsPushMakesIt) {
+  // A read reply of byte count 252 would be 257 bytes, one more than an RTU frame can be, so
+  // push_all() cannot take such a run whole for its predicted length; with a good CRC between
+  // silences it must still come out as push() of each byte makes it (one frame of all 257 bytes,
+  // closed by the silence).
+  std::vector<std::uint8_t> body = {0x01, 0x03, 252};
+  for (int k = 0; k < 252; ++k) body.push_back(static_cast<std::uint8_t>(k * 7));
+  const std::vector<std::uint8_t> run = with_crc(body);
+  ASSERT_EQ(run.size(), 257u);
+  std::vector<ByteEvent> events;
+  TimeNs clock = 0;
+  for (const std::uint8_t b : run) {
+    events.push_back(ByteEvent{clock, b, 0, 0});
+    clock += kChar;
+  }
+  clock += 5 * kNsPerMs;
+  for (const std::uint8_t b : kRequest) {
+    events.push_back(ByteEvent{clock, b, 0, 0});
+    clock += kChar;
+  }
+  RtuFramer one_by_one(0, RtuFramerOptions{FramingTiming::from(k9600)});
+  RtuFramer at_once(0, RtuFramerOptions{FramingTiming::from(k9600)});
+  std::vector<Frame> expected, got;
+  for (const ByteEvent& e : events) one_by_one.push(e, expected);
+  one_by_one.finish(expected);
+  at_once.push_all(events, got);
+  at_once.finish(got);
+  ASSERT_EQ(got.size(), expected.size());
+  for (std::size_t i = 0; i < got.size(); ++i) {
+    SCOPED_TRACE(i);
+    EXPECT_EQ(got[i].events, expected[i].events);
+    EXPECT_EQ(got[i].kind, expected[i].kind);
+    EXPECT_EQ(got[i].close, expected[i].close);
+  }
+  EXPECT_EQ(expected[0].size(), 257u);
+}
+
 TEST(RtuFramer, PushAllGivesTheFramesOfPushingOneByOne) {
   // Framer::push_all appends runs without silence in bulk; it must cut exactly where push()
   // does: silences of every length, one-stamp bursts, noise, UART marks, and the pressure mark
