@@ -88,8 +88,6 @@ class FieldTree {
   [[nodiscard]] bool empty() const { return nodes_.empty(); }
   [[nodiscard]] FieldNode& operator[](std::size_t i) { return nodes_[i]; }
   [[nodiscard]] const FieldNode& operator[](std::size_t i) const { return nodes_[i]; }
-  [[nodiscard]] FieldNode& back() { return nodes_.back(); }
-  [[nodiscard]] const FieldNode& back() const { return nodes_.back(); }
   [[nodiscard]] iterator begin() { return nodes_.begin(); }
   [[nodiscard]] iterator end() { return nodes_.end(); }
   [[nodiscard]] const_iterator begin() const { return nodes_.begin(); }
