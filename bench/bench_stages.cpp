@@ -218,18 +218,17 @@ struct Reframed {
 
 // A fresh framer from `decoder` re-frames `events`: a push per event with run 1 (what the
 // pipeline does), else Framer::push_all on runs of `run` events (as a reader's buffer would);
-// frames are counted as they come out, and their storage goes back to the framer
-// (Framer::recycle), as the pipeline hands it back.
+// frames are counted as they come out, and the batch is cleared (keeping their storage for the
+// next frames), as the pipeline does.
 [[gnu::noinline]] Reframed reframe(const ProtocolDecoder& decoder, const FramerSettings& settings,
                                    std::span<const ByteEvent> events, std::size_t run,
-                                   std::vector<Frame>& out) {
+                                   FrameBatch& out) {
   Reframed r;
   auto framer = decoder.make_framer(0, settings);
   auto drain = [&] {
     for (Frame& f : out) {
       (f.kind == FrameKind::telegram ? r.telegrams : r.noise) += 1;
       r.bytes += f.size();
-      framer->recycle(std::move(f.events));
     }
     out.clear();
   };
@@ -256,8 +255,7 @@ void BM_RtuFramer(benchmark::State& state) {
   const ProtocolDecoder* decoder = decoder_for(Protocol::modbus_rtu);
   FramerSettings settings;
   settings.timing = t.timing;
-  std::vector<Frame> out;
-  out.reserve(64);
+  FrameBatch out;
   Reframed r;
   for (auto _ : state) r = reframe(*decoder, settings, t.events, run, out);
   const auto [telegrams, noise, bytes] = r;
@@ -423,7 +421,7 @@ void run_framer(benchmark::State& state, Protocol protocol, const DissectSet& se
   }
   FramerSettings settings;
   settings.timing = set.timing;
-  std::vector<Frame> out;
+  FrameBatch out;
   Reframed r;
   for (auto _ : state) r = reframe(*decoder, settings, events, 1, out);
   const auto [telegrams, noise, bytes] = r;
@@ -448,7 +446,7 @@ void BM_Framer_Easydrive(benchmark::State& state) {
 void BM_Pairer(benchmark::State& state) {
   const Traffic& t = rtu_traffic();
   const ProtocolDecoder* decoder = decoder_for(Protocol::modbus_rtu);
-  std::vector<Frame> frames;
+  FrameBatch frames;
   {
     FramerSettings settings;
     settings.timing = t.timing;

@@ -78,7 +78,7 @@ TEST(DelimitedFramer, ResyncsOnStartAndKeepsNoise) {
   DelimitedFramerOptions o;
   o.character_time = 1000;
   DelimitedFramer f(0, o);
-  std::vector<Frame> out;
+  FrameBatch out;
   TimeNs t = 0;
   for (char c : std::string("xx:0103\r\n:01") + ":010325230001B3\r\n")
     f.push({t += 1000, static_cast<std::uint8_t>(c), 0, 0, 0}, out);
@@ -96,7 +96,7 @@ TEST(DelimitedFramer, SilenceLongerThanTheTimeoutCutsAFrame) {
   o.character_time = 1000;
   o.inter_character_timeout = 1'000'000;
   DelimitedFramer f(0, o);
-  std::vector<Frame> out;
+  FrameBatch out;
   f.push({0, ':', 0, 0, 0}, out);
   f.push({1000, '0', 0, 0, 0}, out);
   f.advance(5'000'000, out);

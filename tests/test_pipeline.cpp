@@ -476,3 +476,21 @@ TEST(Pipeline, BeginMessageResetsEveryMember) {
   EXPECT_EQ(dirty.latency, fresh.latency);
   EXPECT_EQ(dirty.request_number, fresh.request_number);
 }
+
+TEST(Pipeline, BeginMessageLeavesTheFrameHoldingThePreviousOne) {
+  // The pipeline's frame batch gets the message's previous frame back, storage and all, and
+  // builds a later frame in it.
+  Frame first;
+  first.events = {{100, 0x01, 0, 0, 0}, {200, 0x03, 0, 0, 0}, {300, 0x05, 0, 0, 0}};
+  first.number = 1;
+  Frame second;
+  second.events = {{400, 0x02, 0, 0, 0}};
+  second.number = 2;
+  Message m;
+  begin_message(m, std::move(first), Protocol::modbus_rtu, Direction::request);
+  begin_message(m, std::move(second), Protocol::modbus_rtu, Direction::response);
+  EXPECT_EQ(m.frame.number, 2u);
+  EXPECT_EQ(m.bytes, (std::vector<std::uint8_t>{0x02}));
+  EXPECT_EQ(second.number, 1u);
+  EXPECT_EQ(second.events.size(), 3u);
+}

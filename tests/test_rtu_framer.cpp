@@ -21,7 +21,7 @@ const std::vector<std::uint8_t> kReply = with_crc({0x01, 0x03, 0x04, 0x00, 0x0A,
 
 struct Feed {
   RtuFramer framer{0, RtuFramerOptions{FramingTiming::from(k9600), 100 * kNsPerMs, 4096}};
-  std::vector<Frame> out;
+  FrameBatch out;
   TimeNs clock = 0;
 
   // Bytes back to back from `at` (or from the clock), each stamped `stamp_each` or at its time.
@@ -59,7 +59,7 @@ void append_bytes(std::vector<ByteEvent>& events, TimeNs& clock,
 std::vector<Frame> frames_alike_by_push_and_push_all(const std::vector<ByteEvent>& events) {
   RtuFramer one_by_one(0, RtuFramerOptions{FramingTiming::from(k9600)});
   RtuFramer at_once(0, RtuFramerOptions{FramingTiming::from(k9600)});
-  std::vector<Frame> expected, got;
+  FrameBatch expected, got;
   for (const ByteEvent& e : events) one_by_one.push(e, expected);
   one_by_one.finish(expected);
   at_once.push_all(events, got);
@@ -71,7 +71,7 @@ std::vector<Frame> frames_alike_by_push_and_push_all(const std::vector<ByteEvent
     EXPECT_EQ(got[i].kind, expected[i].kind);
     EXPECT_EQ(got[i].close, expected[i].close);
   }
-  return expected;
+  return expected.take();
 }
 
 }  // namespace
@@ -308,7 +308,7 @@ TEST(RtuFramer, PressureCloseOfOneFrameStartsTheNextTimingAfresh) {
     }
   const RtuFramerOptions options{timing, 100 * kNsPerMs, 8};  // pressure at one frame
   RtuFramer one_by_one(0, options), in_one_run(0, options);
-  std::vector<Frame> expected, got;
+  FrameBatch expected, got;
   for (const ByteEvent& e : events) one_by_one.push(e, expected);
   one_by_one.finish(expected);
   in_one_run.push_all(events, got);
@@ -399,7 +399,7 @@ TEST(RtuFramer, PushAllGivesTheFramesOfPushingOneByOne) {
   }
   const RtuFramerOptions options{timing, 100 * kNsPerMs, 64};
   RtuFramer one_by_one(0, options), in_runs(0, options);
-  std::vector<Frame> expected, got;
+  FrameBatch expected, got;
   for (const ByteEvent& e : events) one_by_one.push(e, expected);
   one_by_one.finish(expected);
   for (std::size_t i = 0; i < events.size();) {

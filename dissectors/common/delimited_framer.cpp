@@ -18,21 +18,19 @@ std::unique_ptr<Framer> make_delimited_framer(ChannelId channel, const FramerSet
   return std::make_unique<DelimitedFramer>(channel, o);
 }
 
-void DelimitedFramer::close(FrameKind kind, FrameClose why, std::vector<Frame>& out) {
+void DelimitedFramer::close(FrameKind kind, FrameClose why, FrameBatch& out) {
   if (pending_.empty()) return;
   if (kind == FrameKind::telegram && pending_.size() < options_.min_length) kind = FrameKind::noise;
-  Frame f;
+  Frame& f = out.add();
   f.kind = kind;
   f.channel = channel_;
   f.close = why;
-  f.events.swap(pending_);
+  f.events.swap(pending_);  // pending_ continues in the storage of the frame that was there
   stamp_frame_timing(f, options_.character_time, &emitted_end_, &have_emitted_);
-  out.push_back(std::move(f));
-  pending_.clear();
   in_frame_ = false;
 }
 
-void DelimitedFramer::push(const ByteEvent& e, std::vector<Frame>& out) {
+void DelimitedFramer::push(const ByteEvent& e, FrameBatch& out) {
   if (!pending_.empty() && e.time - last_end_ > options_.inter_character_timeout)
     close(in_frame_ ? FrameKind::telegram : FrameKind::noise, FrameClose::silence, out);
   if (e.byte == options_.start) {
@@ -54,12 +52,12 @@ TimeNs DelimitedFramer::next_deadline() const {
   return last_end_ + options_.inter_character_timeout + 1;
 }
 
-void DelimitedFramer::advance(TimeNs now, std::vector<Frame>& out) {
+void DelimitedFramer::advance(TimeNs now, FrameBatch& out) {
   if (!pending_.empty() && now - last_end_ > options_.inter_character_timeout)
     close(in_frame_ ? FrameKind::telegram : FrameKind::noise, FrameClose::silence, out);
 }
 
-void DelimitedFramer::finish(std::vector<Frame>& out) {
+void DelimitedFramer::finish(FrameBatch& out) {
   close(in_frame_ ? FrameKind::telegram : FrameKind::noise, FrameClose::end_of_input, out);
 }
 

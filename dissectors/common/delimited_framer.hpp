@@ -37,13 +37,13 @@ class DelimitedFramer final : public Framer {
  public:
   DelimitedFramer(ChannelId channel, DelimitedFramerOptions options)
       : channel_(channel), options_(options) {}
-  void push(const ByteEvent& event, std::vector<Frame>& out) override;
-  void advance(TimeNs now, std::vector<Frame>& out) override;
-  void finish(std::vector<Frame>& out) override;
+  void push(const ByteEvent& event, FrameBatch& out) override;
+  void advance(TimeNs now, FrameBatch& out) override;
+  void finish(FrameBatch& out) override;
   [[nodiscard]] TimeNs next_deadline() const override;
 
  private:
-  void close(FrameKind kind, FrameClose why, std::vector<Frame>& out);
+  void close(FrameKind kind, FrameClose why, FrameBatch& out);
 
   ChannelId channel_;
   DelimitedFramerOptions options_;

@@ -78,24 +78,21 @@ class HybridFramer final : public Framer {
   HybridFramer(ChannelId channel, HybridFramerOptions options, const Rules& rules);
 
   // Adds one byte; frames that it completes are appended to `out`.
-  void push(const ByteEvent& event, std::vector<Frame>& out) override;
+  void push(const ByteEvent& event, FrameBatch& out) override;
   // The same, a run at a time: bytes that close nothing (no silence before them, no pressure)
   // are appended in bulk.
-  void push_all(std::span<const ByteEvent> events, std::vector<Frame>& out) override;
+  void push_all(std::span<const ByteEvent> events, FrameBatch& out) override;
   // A run (a source packet): its first byte the single-byte way, the rest appended in bulk up to
   // the pressure mark.
-  void push_run(const ByteRun& run, std::vector<Frame>& out) override;
+  void push_run(const ByteRun& run, FrameBatch& out) override;
   // A run that is a whole frame between two silences, taken at once (see Framer::push_chunk).
-  bool push_chunk(const ByteRun& run, TimeNs next_time, std::vector<Frame>& out) override;
+  bool push_chunk(const ByteRun& run, TimeNs next_time, FrameBatch& out) override;
   // Time has reached `now` on the bus; closes what silence or the hold limit has completed.
-  void advance(TimeNs now, std::vector<Frame>& out) override;
+  void advance(TimeNs now, FrameBatch& out) override;
   // End of input: everything pending becomes frames or noise.
-  void finish(std::vector<Frame>& out) override;
+  void finish(FrameBatch& out) override;
   // Earliest time at which advance() can produce something; max() when nothing is pending.
   [[nodiscard]] TimeNs next_deadline() const override;
-  void recycle(ByteEvents&& events) override {
-    if (spare_.size() < kSpares && events.capacity() > 0) spare_.push_back(std::move(events));
-  }
   // Bytes before the pressure mark: push() closes nothing else without silence.
   [[nodiscard]] std::size_t quiet_room() const override {
     return pending_.size() + 1 < options_.pressure_bytes
@@ -105,7 +102,7 @@ class HybridFramer final : public Framer {
 
  private:
   enum class Mode { silence, pressure, flush, end_of_input };
-  void process(Mode mode, TimeNs now, std::vector<Frame>& out);
+  void process(Mode mode, TimeNs now, FrameBatch& out);
 
   // Segmentation helpers over pending_.bytes()[0, n).
   bool checksum_matches(std::size_t p, std::size_t len) const;
@@ -123,11 +120,10 @@ class HybridFramer final : public Framer {
   void predicted_lengths(std::size_t p, std::size_t n, std::size_t out[2], bool* needs_more) const;
   void predicted_lengths_in(std::span<const std::uint8_t> from, std::size_t out[2],
                             bool* needs_more) const;
-  // A frame of this channel appended to `out`, its events empty (in spare storage if any).
-  [[gnu::always_inline]] Frame& new_frame(FrameKind kind, FrameClose close,
-                                          std::vector<Frame>& out);
-  void emit(std::size_t p, std::size_t len, FrameKind kind, FrameClose close,
-            std::vector<Frame>& out);
+  // A frame of this channel appended to `out`, its events empty (in the storage of the frame
+  // `out` held before in that place, if any).
+  [[gnu::always_inline]] Frame& new_frame(FrameKind kind, FrameClose close, FrameBatch& out);
+  void emit(std::size_t p, std::size_t len, FrameKind kind, FrameClose close, FrameBatch& out);
   // Bytes [from, from + count) of `run` appended: none has a silence > t3.5 before it, and they
   // stay below the pressure mark (push() of each would only append it).
   [[gnu::always_inline]] void append_quietly(const ByteRun& run, std::size_t from,
@@ -148,12 +144,7 @@ class HybridFramer final : public Framer {
   TimeNs emitted_end_ = -1;  // end of the last byte of the last emitted frame; -1 none yet
   bool have_emitted_ = false;
   bool processed_since_last_byte_ = false;
-  // Enough storage kept for the frames of one large push_all() (4096 bytes of short frames are
-  // some 300): with 64, a caller that drains after the call paid a malloc and a free per frame
-  // beyond the 64th, a quarter of the framer's time. At most 512 x 1 KiB kept.
-  static constexpr std::size_t kSpares = 512;
   static constexpr std::size_t kPendingReserve = 64;  // bytes
-  std::vector<ByteEvents> spare_;                     // recycle()d frame storage for emit()
 };
 
 }  // namespace drivetap

@@ -16,7 +16,7 @@ HybridFramer<Rules>::HybridFramer(ChannelId channel, HybridFramerOptions options
     : channel_(channel), options_(options), rules_(rules) {}
 
 template <class Rules>
-void HybridFramer<Rules>::push(const ByteEvent& event, std::vector<Frame>& out) {
+void HybridFramer<Rules>::push(const ByteEvent& event, FrameBatch& out) {
   if (!pending_.empty() || have_emitted_) {
     const TimeNs gap = event.time - last_end_;
     if (gap > options_.timing.t35) {
@@ -37,7 +37,7 @@ void HybridFramer<Rules>::push(const ByteEvent& event, std::vector<Frame>& out) 
 }
 
 template <class Rules>
-void HybridFramer<Rules>::push_all(std::span<const ByteEvent> events, std::vector<Frame>& out) {
+void HybridFramer<Rules>::push_all(std::span<const ByteEvent> events, FrameBatch& out) {
   // Room for the longest run at once (the buffer only grows), so the scan stores each byte as it
   // passes it.
   if (run_bytes_.size() < events.size()) run_bytes_.resize(events.size());
@@ -74,8 +74,7 @@ void HybridFramer<Rules>::push_all(std::span<const ByteEvent> events, std::vecto
 }
 
 template <class Rules>
-bool HybridFramer<Rules>::push_chunk(const ByteRun& run, TimeNs next_time,
-                                     std::vector<Frame>& out) {
+bool HybridFramer<Rules>::push_chunk(const ByteRun& run, TimeNs next_time, FrameBatch& out) {
   const TimeNs character_time = options_.timing.character_time;
   const TimeNs t35 = options_.timing.t35;
   const std::size_t n = run.size();
@@ -102,7 +101,7 @@ bool HybridFramer<Rules>::push_chunk(const ByteRun& run, TimeNs next_time,
 }
 
 template <class Rules>
-void HybridFramer<Rules>::push_run(const ByteRun& run, std::vector<Frame>& out) {
+void HybridFramer<Rules>::push_run(const ByteRun& run, FrameBatch& out) {
   const std::size_t n = run.size();
   if (n == 0) return;
   // Bytes further apart than t3.5 are silences inside the run, and bytes going back in time are
@@ -158,7 +157,7 @@ TimeNs HybridFramer<Rules>::next_deadline() const {
 }
 
 template <class Rules>
-void HybridFramer<Rules>::advance(TimeNs now, std::vector<Frame>& out) {
+void HybridFramer<Rules>::advance(TimeNs now, FrameBatch& out) {
   if (pending_.empty()) return;
   if (!processed_since_last_byte_) {
     if (now - last_end_ > options_.timing.t35) {
@@ -171,7 +170,7 @@ void HybridFramer<Rules>::advance(TimeNs now, std::vector<Frame>& out) {
 }
 
 template <class Rules>
-void HybridFramer<Rules>::finish(std::vector<Frame>& out) {
+void HybridFramer<Rules>::finish(FrameBatch& out) {
   if (!pending_.empty()) process(Mode::end_of_input, last_end_, out);
 }
 
@@ -265,34 +264,29 @@ bool HybridFramer<Rules>::looks_like_frame_start(std::size_t p) const {
 }
 
 template <class Rules>
-inline Frame& HybridFramer<Rules>::new_frame(FrameKind kind, FrameClose close,
-                                             std::vector<Frame>& out) {
-  // Built on a spare's storage where there is one (moved in: no empty events made and swapped).
-  const bool from_spare = !spare_.empty();
-  Frame& f = from_spare ? out.emplace_back(std::move(spare_.back())) : out.emplace_back();
-  if (from_spare) spare_.pop_back();
+inline Frame& HybridFramer<Rules>::new_frame(FrameKind kind, FrameClose close, FrameBatch& out) {
+  Frame& f = out.add();
   f.kind = kind;
   f.channel = channel_;
   f.close = close;
-  f.events.clear();  // a spare keeps only its storage
   return f;
 }
 
 template <class Rules>
 void HybridFramer<Rules>::emit(std::size_t p, std::size_t len, FrameKind kind, FrameClose close,
-                               std::vector<Frame>& out) {
+                               FrameBatch& out) {
   Frame& f = new_frame(kind, close, out);
   const bool all_pending = p == 0 && len == pending_.size();
   // pending_run_ is the timing of exactly these bytes unless some were dropped before them.
   const bool timing_kept = all_pending && pending_run_whole_;
   if (all_pending) {
     // The frame is everything pending (the common case: one frame between two silences): it
-    // takes pending_'s storage, and pending_ continues in the spare's, saving a copy per byte.
+    // takes pending_'s storage, and pending_ continues in the old frame's, saving a copy per byte.
     f.events.swap(pending_);
     // The run's timing goes with it; push() starts the next one (a byte appended in bulk to an
     // emptied buffer, after a pressure close, leaves the timing to be computed from the events).
     pending_run_whole_ = false;
-    // Without a spare of some size, room for a typical frame at once rather than a doubling
+    // Without old storage of some size, room for a typical frame at once rather than a doubling
     // series of allocations as its bytes arrive.
     if (pending_.capacity() < kPendingReserve) pending_.reserve(kPendingReserve);
   } else {
@@ -305,7 +299,7 @@ void HybridFramer<Rules>::emit(std::size_t p, std::size_t len, FrameKind kind, F
 }
 
 template <class Rules>
-void HybridFramer<Rules>::process(Mode mode, TimeNs now, std::vector<Frame>& out) {
+void HybridFramer<Rules>::process(Mode mode, TimeNs now, FrameBatch& out) {
   const std::size_t n = pending_.size();
   const bool end_is_boundary = mode != Mode::pressure;
   const bool may_hold = mode == Mode::silence || mode == Mode::pressure;

@@ -34,21 +34,18 @@ using RtuFramerOptions = HybridFramerOptions;
 class RtuFramer final : public Framer {
  public:
   RtuFramer(ChannelId channel, RtuFramerOptions options) : framer_(channel, options, rules()) {}
-  void push(const ByteEvent& e, std::vector<Frame>& out) override { framer_.push(e, out); }
-  void push_all(std::span<const ByteEvent> events, std::vector<Frame>& out) override {
+  void push(const ByteEvent& e, FrameBatch& out) override { framer_.push(e, out); }
+  void push_all(std::span<const ByteEvent> events, FrameBatch& out) override {
     framer_.push_all(events, out);
   }
-  void push_run(const ByteRun& run, std::vector<Frame>& out) override {
-    framer_.push_run(run, out);
-  }
-  bool push_chunk(const ByteRun& run, TimeNs next_time, std::vector<Frame>& out) override {
+  void push_run(const ByteRun& run, FrameBatch& out) override { framer_.push_run(run, out); }
+  bool push_chunk(const ByteRun& run, TimeNs next_time, FrameBatch& out) override {
     return framer_.push_chunk(run, next_time, out);
   }
-  void advance(TimeNs now, std::vector<Frame>& out) override { framer_.advance(now, out); }
-  void finish(std::vector<Frame>& out) override { framer_.finish(out); }
+  void advance(TimeNs now, FrameBatch& out) override { framer_.advance(now, out); }
+  void finish(FrameBatch& out) override { framer_.finish(out); }
   [[nodiscard]] TimeNs next_deadline() const override { return framer_.next_deadline(); }
   [[nodiscard]] std::size_t quiet_room() const override { return framer_.quiet_room(); }
-  void recycle(ByteEvents&& events) override { framer_.recycle(std::move(events)); }
   static const RtuRules& rules();
 
  private:

@@ -3,8 +3,11 @@
 #pragma once
 
 #include <algorithm>
+#include <cstddef>
 #include <cstdint>
 #include <span>
+#include <stdexcept>
+#include <utility>
 #include <vector>
 
 #include "core/byte_event.hpp"
@@ -22,12 +25,10 @@ enum class FrameClose : std::uint8_t {
 enum class FrameKind : std::uint8_t { telegram, noise };
 
 struct Frame {
-  // User-provided (not `= default`): a framer makes a Frame per telegram with emplace_back(), and
+  // User-provided (not `= default`): a FrameBatch makes a Frame with emplace_back(), and
   // value-initialising an implicitly constructible Frame zero-fills all of it first (a `rep stos`
   // that took a sixth of the framer's time) before the members' initialisers run anyway.
   Frame() noexcept {}  // NOLINT(modernize-use-equals-default)
-  // A frame whose events start as `storage` (a framer's recycled storage, see Framer::recycle).
-  explicit Frame(ByteEvents&& storage) noexcept : events(std::move(storage)) {}
 
   FrameKind kind = FrameKind::telegram;
   ChannelId channel = 0;
@@ -48,6 +49,84 @@ struct Frame {
   [[nodiscard]] std::vector<std::uint8_t> bytes() const {
     return {events.bytes().begin(), events.bytes().end()};
   }
+  // Every member as in a new Frame, the events emptied but keeping their storage.
+  void reset_keeping_storage() {
+    kind = FrameKind::telegram;
+    channel = 0;
+    events.clear();
+    gap_before = -1;
+    close = FrameClose::silence;
+    max_intra_gap = 0;
+    max_intra_gap_at = 0;
+    number = 0;
+  }
+};
+
+// The frames a framer hands on, a batch at a time. It reads like a std::vector<Frame>, but
+// clear() keeps the frames it held, each with its events' storage, and add() builds the next
+// frame in the place of an old one: a framer emitting a frame into a batch used before allocates
+// nothing and moves no storage. (A consumer that wants a frame's storage to stay in the batch
+// swaps with it rather than moving it out.)
+class FrameBatch {
+ public:
+  using iterator = std::vector<Frame>::iterator;
+  using const_iterator = std::vector<Frame>::const_iterator;
+
+  [[nodiscard]] std::size_t size() const { return size_; }
+  [[nodiscard]] bool empty() const { return size_ == 0; }
+  [[nodiscard]] Frame& operator[](std::size_t i) { return frames_[i]; }
+  [[nodiscard]] const Frame& operator[](std::size_t i) const { return frames_[i]; }
+  [[nodiscard]] const Frame& at(std::size_t i) const {
+    if (i >= size_) throw std::out_of_range("FrameBatch::at");
+    return frames_[i];
+  }
+  [[nodiscard]] Frame& front() { return frames_.front(); }
+  [[nodiscard]] Frame& back() { return frames_[size_ - 1]; }
+  [[nodiscard]] const Frame& back() const { return frames_[size_ - 1]; }
+  [[nodiscard]] iterator begin() { return frames_.begin(); }
+  [[nodiscard]] iterator end() { return frames_.begin() + static_cast<std::ptrdiff_t>(size_); }
+  [[nodiscard]] const_iterator begin() const { return frames_.begin(); }
+  [[nodiscard]] const_iterator end() const {
+    return frames_.begin() + static_cast<std::ptrdiff_t>(size_);
+  }
+
+  // A new frame at the end, as a new Frame but for its events' storage (an old frame's).
+  Frame& add() {
+    if (size_ == frames_.size()) {
+      ++size_;
+      return frames_.emplace_back();
+    }
+    Frame& f = frames_[size_++];
+    f.reset_keeping_storage();
+    return f;
+  }
+  // `frame` appended; `frame` is left with the storage of the old frame in its place.
+  void push_back(Frame&& frame) { std::swap(add(), frame); }
+  // Forgets the frames, keeping their storage (of the first kKeptFrames: a batch that once held
+  // many frames of a big read does not keep them all).
+  void clear() {
+    size_ = 0;
+    if (frames_.size() > kKeptFrames) frames_.resize(kKeptFrames);
+  }
+  void swap(FrameBatch& other) noexcept {
+    frames_.swap(other.frames_);
+    std::swap(size_, other.size_);
+  }
+  // The frames as a vector (moved out; the batch is left empty).
+  [[nodiscard]] std::vector<Frame> take() {
+    std::vector<Frame> frames;
+    frames.swap(frames_);
+    frames.resize(size_);
+    size_ = 0;
+    return frames;
+  }
+
+  // A push_all() of 4096 bytes of short telegrams makes some 300 frames.
+  static constexpr std::size_t kKeptFrames = 1024;
+
+ private:
+  std::vector<Frame> frames_;  // [0, size_) are the batch; the rest keep storage for add()
+  std::size_t size_ = 0;
 };
 
 // The timing of a run of bytes, kept as they arrive: the end of the latest byte (a byte ends one

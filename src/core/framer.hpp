@@ -2,7 +2,10 @@
 //
 // A framer sees the bytes of one channel in time order and emits Frames (telegrams and noise)
 // that cover every byte exactly once, in order. It may hold bytes while a frame is incomplete;
-// advance() tells it that time has passed with no byte, finish() that the input ended.
+// advance() tells it that time has passed with no byte, finish() that the input ended. Frames are
+// appended to a FrameBatch (frame.hpp) with FrameBatch::add(), in the storage of the frames the
+// batch held before: a caller that clears the batch and uses it again makes framing allocate
+// nothing in the steady state.
 #pragma once
 
 #include <span>
@@ -19,15 +22,15 @@ class Framer {
  public:
   virtual ~Framer() = default;
   // Adds one byte; frames it completes are appended to `out`.
-  virtual void push(const ByteEvent& event, std::vector<Frame>& out) = 0;
+  virtual void push(const ByteEvent& event, FrameBatch& out) = 0;
   // Adds bytes in order: exactly the frames of push() on each in turn. Framers that can take a
   // run of bytes at once (no virtual call, no decision per byte) override it.
-  virtual void push_all(std::span<const ByteEvent> events, std::vector<Frame>& out) {
+  virtual void push_all(std::span<const ByteEvent> events, FrameBatch& out) {
     for (const ByteEvent& e : events) push(e, out);
   }
   // Adds a run of bytes (one source packet): exactly the frames of push() of each of its bytes
   // in turn. Framers that can append a run without a decision per byte override it.
-  virtual void push_run(const ByteRun& run, std::vector<Frame>& out) {
+  virtual void push_run(const ByteRun& run, FrameBatch& out) {
     for (std::size_t i = 0; i < run.size(); ++i) push(run.event(i), out);
   }
   // push_run(run), then a byte at next_time, when that byte would only make the framer emit the
@@ -35,25 +38,22 @@ class Framer {
   // emits that frame now and returns true. Otherwise returns false and changes nothing; the
   // caller pushes the run as usual. The byte at next_time is not pushed. (A caller that knows
   // what comes next, a batch of runs or of events, saves holding and re-reading the bytes.)
-  virtual bool push_chunk(const ByteRun& run, TimeNs next_time, std::vector<Frame>& out) {
+  virtual bool push_chunk(const ByteRun& run, TimeNs next_time, FrameBatch& out) {
     (void)run;
     (void)next_time;
     (void)out;
     return false;
   }
   // Time has reached `now`; closes what silence or a hold limit has completed.
-  virtual void advance(TimeNs now, std::vector<Frame>& out) = 0;
+  virtual void advance(TimeNs now, FrameBatch& out) = 0;
   // End of input: everything pending becomes frames or noise.
-  virtual void finish(std::vector<Frame>& out) = 0;
+  virtual void finish(FrameBatch& out) = 0;
   // Earliest time at which advance() can produce something; max() when nothing is pending.
   [[nodiscard]] virtual TimeNs next_deadline() const = 0;
   // How many more bytes with no silence > t3.5 before them push() surely takes without closing
   // anything (it holds them until silence, the hold limit or finish()). The pipeline appends
   // such runs with push_all() in one go. 0 (the default): no promise, byte by byte.
   [[nodiscard]] virtual std::size_t quiet_room() const { return 0; }
-  // Gives back the storage of a frame's `events` the caller is done with; the framer may build a
-  // later frame in it (one allocation fewer per frame). The default drops it.
-  virtual void recycle(ByteEvents&& events) { (void)events; }
 };
 
 }  // namespace drivetap

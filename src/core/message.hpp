@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/anomaly.hpp"
@@ -62,10 +63,11 @@ inline constexpr std::size_t kTypicalFieldCount = 16;
 
 // What every dissector starts from: `m` reset to the frame, its bytes, protocol and direction.
 // The vectors and strings `m` held keep their storage (the pipeline decodes every frame of a run
-// into one Message, so the hot path does not allocate); `m.detail` and `m.tree` are kept.
+// into one Message, so the hot path does not allocate); `m.detail` and `m.tree` are kept. `frame`
+// is left holding m's previous frame, whose storage its batch builds a later frame in.
 inline void begin_message(Message& m, Frame&& frame, Protocol protocol, Direction direction) {
   // Every member of Message is set here (tests/test_pipeline.cpp BeginMessageResetsEveryMember).
-  m.frame = std::move(frame);
+  std::swap(m.frame, frame);
   m.bytes.assign(m.frame.events.bytes().begin(), m.frame.events.bytes().end());
   m.protocol = protocol;
   m.direction = direction;

@@ -44,7 +44,8 @@ class ProtocolDecoder {
     int function = -1;
   };
   [[nodiscard]] virtual PairingKeys pairing_keys(std::span<const std::uint8_t> frame) const = 0;
-  // Decodes the frame into `out` (reusing its storage, honouring out.detail);
+  // Decodes the frame into `out` (reusing its storage, honouring out.detail); `frame` is left
+  // holding out's previous frame, storage and all (so a FrameBatch keeps it for its next frame).
   // Message::address/function are the pairing keys (function -1: none). `request`: for a
   // reply, the bytes of the request it answers (empty when unknown), for protocols whose
   // replies mean nothing without it.

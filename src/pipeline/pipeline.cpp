@@ -64,13 +64,6 @@ Pipeline::ChannelState& Pipeline::state_for(ChannelId id) {
   return *states_[id];
 }
 
-void Pipeline::recycle(Frame& frame) {
-  if (frame.events.capacity() == 0 || frame.channel >= states_.size()) return;
-  if (Framer* framer = states_[frame.channel]->framer.get())
-    framer->recycle(std::move(frame.events));
-  frame.events.clear();
-}
-
 void Pipeline::advance_all(TimeNs now) {
   if (now < earliest_deadline_) return;
   earliest_deadline_ = std::numeric_limits<TimeNs>::max();
@@ -270,7 +263,7 @@ Score score(const ProtocolDecoder& d, ChannelId channel, const std::vector<ByteE
             const PipelineOptions& options) {
   Score s{&d, 0, 0};
   auto framer = d.make_framer(channel, {options.timing, options.max_hold});
-  std::vector<Frame> out;
+  FrameBatch out;
   framer->push_all(held, out);
   framer->finish(out);
   for (Frame& f : out) {
@@ -358,8 +351,8 @@ void Pipeline::handle_frames() {
   if (!std::is_sorted(ready_.begin(), ready_.end(), earlier))
     std::stable_sort(ready_.begin(), ready_.end(), earlier);
   // Nested calls (none today) would get a batch of their own rather than clobber this one.
-  std::vector<Frame> nested;
-  std::vector<Frame>& batch = in_batch_ ? nested : batch_;
+  FrameBatch nested;
+  FrameBatch& batch = in_batch_ ? nested : batch_;
   const bool outer = !in_batch_;
   in_batch_ = true;
   batch.swap(ready_);
@@ -367,8 +360,8 @@ void Pipeline::handle_frames() {
     if (options_.max_frames > 0 && stats_.frames >= options_.max_frames) break;
     handle_frame(f);
   }
-  // Storage of frames done with (noise; telegrams left theirs in message_) back to the framers.
-  for (Frame& f : batch) recycle(f);
+  // The frames keep their storage (a telegram's slot holds the previous one of message_) for
+  // the frames the framers build in them next.
   batch.clear();
   if (outer) in_batch_ = false;
 }
@@ -495,7 +488,6 @@ void Pipeline::handle_frame(Frame& frame) {
   if (dir == Direction::response)
     request = pairer_.awaited_request(link, keys.address, keys.function, frame.start());
   Message& m = message_;
-  recycle(m.frame);  // the previous frame's storage
   decoder.dissect_into(m, std::move(frame), dir, options_.timing, request);
   // Drive level: the station's profile (bound on the command line or guessed from its traffic),
   // what the frame means to it, and the state changes it shows.

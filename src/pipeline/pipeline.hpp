@@ -87,9 +87,6 @@ class Pipeline {
   [[nodiscard]] ByteEvent as_on_the_wire(ByteEvent e, const ChannelState& st) const;
   // Records that the channel's latest byte is `e` (its end, the run's latest time).
   void note_taken(ChannelState& st, const ByteEvent& e);
-  // Hands the storage of a frame's events back to its channel's framer (frame.events is left
-  // empty).
-  void recycle(Frame& frame);
   // The earliest next_deadline() of the framers of channels other than `channel`.
   [[nodiscard]] TimeNs deadline_of_others(ChannelId channel) const;
   void handle_frames();
@@ -111,10 +108,10 @@ class Pipeline {
   Pairer pairer_;
   Stats stats_;
   std::vector<std::unique_ptr<ChannelState>> states_;
-  std::vector<Frame> ready_;
+  FrameBatch ready_;
   // Reused from frame to frame so that the hot path does not allocate: the batch being handled
   // (ready_ swaps with it).
-  std::vector<Frame> batch_;
+  FrameBatch batch_;
   bool in_batch_ = false;
   std::vector<ByteEvent> run_;  // push_batch: the run going to a framer at once
   std::vector<Transaction> transactions_;
