@@ -100,6 +100,23 @@ TEST(FrameBatch, SwapExchangesFramesAndStorage) {
   EXPECT_EQ(b[1].events.byte(0), 0x02);
 }
 
+TEST(FrameBatch, AMovedFromBatchIsEmpty) {
+  FrameBatch a;
+  fill(a.add(), 0x01, 4);
+  fill(a.add(), 0x02, 4);
+  FrameBatch b(std::move(a));
+  EXPECT_EQ(b.size(), 2u);
+  EXPECT_TRUE(a.empty());  // NOLINT(bugprone-use-after-move): a moved-from batch is empty
+  EXPECT_EQ(a.begin(), a.end());
+  fill(a.add(), 0x03, 1);
+  EXPECT_EQ(a.size(), 1u);
+  FrameBatch c;
+  c = std::move(b);
+  EXPECT_EQ(c.size(), 2u);
+  EXPECT_TRUE(b.empty());  // NOLINT(bugprone-use-after-move)
+  EXPECT_EQ(c[1].events.byte(0), 0x02);
+}
+
 TEST(FrameBatch, ClearKeepsTheStorageOfAtMostKeptFrames) {
   const std::size_t many = FrameBatch::kKeptFrames + 10;
   FrameBatch batch;

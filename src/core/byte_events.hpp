@@ -242,7 +242,7 @@ class ByteEvents {
 
   [[nodiscard]] std::size_t size() const { return bytes_.size(); }
   [[nodiscard]] bool empty() const { return bytes_.empty(); }
-  // Room for this many bytes without growing (storage handed back to a framer is worth keeping).
+  // Room for this many bytes without growing (a FrameBatch keeps a frame's storage for the next).
   [[nodiscard]] std::size_t capacity() const { return bytes_.capacity(); }
   void reserve(std::size_t n) { bytes_.reserve(n); }
 
@@ -385,6 +385,7 @@ class ByteEvents {
     bytes_.clear();
     stretches_.clear();
     flags_.clear();
+    back_time_ = 0;
   }
   void swap(ByteEvents& other) noexcept {
     bytes_.swap(other.bytes_);

@@ -62,15 +62,30 @@ struct Frame {
   }
 };
 
+// reset_keeping_storage() sets each member: one added to Frame changes its size (on the 64-bit
+// targets built here) and must be reset there too.
+static_assert(sizeof(void*) != 8 || sizeof(Frame) == 128,
+              "Frame changed: update Frame::reset_keeping_storage() and this size");
+
 // The frames a framer hands on, a batch at a time. It reads like a std::vector<Frame>, but
 // clear() keeps the frames it held, each with its events' storage, and add() builds the next
 // frame in the place of an old one: a framer emitting a frame into a batch used before allocates
-// nothing and moves no storage. (A consumer that wants a frame's storage to stay in the batch
+// nothing. (A consumer that wants a frame's storage to stay in the batch
 // swaps with it rather than moving it out.)
 class FrameBatch {
  public:
   using iterator = std::vector<Frame>::iterator;
   using const_iterator = std::vector<Frame>::const_iterator;
+
+  FrameBatch() = default;
+  // Moved from, a batch is empty (not a size over no frames); copies are not made.
+  FrameBatch(FrameBatch&& other) noexcept
+      : frames_(std::move(other.frames_)), size_(std::exchange(other.size_, 0)) {}
+  FrameBatch& operator=(FrameBatch&& other) noexcept {
+    frames_ = std::move(other.frames_);
+    size_ = std::exchange(other.size_, 0);
+    return *this;
+  }
 
   [[nodiscard]] std::size_t size() const { return size_; }
   [[nodiscard]] bool empty() const { return size_ == 0; }
@@ -80,7 +95,7 @@ class FrameBatch {
     if (i >= size_) throw std::out_of_range("FrameBatch::at");
     return frames_[i];
   }
-  [[nodiscard]] Frame& front() { return frames_.front(); }
+  [[nodiscard]] Frame& front() { return frames_[0]; }
   [[nodiscard]] Frame& back() { return frames_[size_ - 1]; }
   [[nodiscard]] const Frame& back() const { return frames_[size_ - 1]; }
   [[nodiscard]] iterator begin() { return frames_.begin(); }
@@ -100,7 +115,8 @@ class FrameBatch {
     f.reset_keeping_storage();
     return f;
   }
-  // `frame` appended; `frame` is left with the storage of the old frame in its place.
+  // `frame` appended; `frame` is left with the storage of the old frame in its place. `frame`
+  // must not be one of this batch's frames (add() may move them).
   void push_back(Frame&& frame) { std::swap(add(), frame); }
   // Forgets the frames, keeping their storage (of the first kKeptFrames: a batch that once held
   // many frames of a big read does not keep them all).

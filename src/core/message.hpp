@@ -63,8 +63,9 @@ inline constexpr std::size_t kTypicalFieldCount = 16;
 
 // What every dissector starts from: `m` reset to the frame, its bytes, protocol and direction.
 // The vectors and strings `m` held keep their storage (the pipeline decodes every frame of a run
-// into one Message, so the hot path does not allocate); `m.detail` and `m.tree` are kept. `frame`
-// is left holding m's previous frame, whose storage its batch builds a later frame in.
+// into one Message, so the hot path does not allocate); `m.detail` and `m.tree` are kept. The
+// frame is swapped in: `frame` is left holding m's previous frame, whose storage its batch builds
+// a later frame in.
 inline void begin_message(Message& m, Frame&& frame, Protocol protocol, Direction direction) {
   // Every member of Message is set here (tests/test_pipeline.cpp BeginMessageResetsEveryMember).
   std::swap(m.frame, frame);
