@@ -72,20 +72,21 @@ TEST(FrameBatch, ReadsLikeAVectorOfItsFrames) {
   EXPECT_TRUE(batch.empty());
 }
 
-TEST(FrameBatch, PushBackSwapsTheFrameIn) {
+TEST(FrameBatch, AddWithKindChannelAndCloseSetsThoseAndResetsTheRest) {
   FrameBatch batch;
   fill(batch.add(), 0x11, 40);
   batch.clear();
-  Frame mine;
-  fill(mine, 0x22, 3);
-  batch.push_back(std::move(mine));
+  Frame& f = batch.add(FrameKind::noise, 5, FrameClose::content);
   ASSERT_EQ(batch.size(), 1u);
-  EXPECT_EQ(batch[0].events.size(), 3u);
-  EXPECT_EQ(batch[0].events.byte(0), 0x22);
-  EXPECT_EQ(batch[0].number, 99u);
-  // `mine` is left with the old frame's storage, emptied.
-  expect_like_a_new_frame(mine);
-  EXPECT_GE(mine.events.capacity(), 40u);
+  EXPECT_EQ(f.kind, FrameKind::noise);
+  EXPECT_EQ(f.channel, 5);
+  EXPECT_EQ(f.close, FrameClose::content);
+  EXPECT_GE(f.events.capacity(), 40u);
+  // Every other member as in a new frame.
+  f.kind = Frame().kind;
+  f.channel = Frame().channel;
+  f.close = Frame().close;
+  expect_like_a_new_frame(f);
 }
 
 TEST(FrameBatch, SwapExchangesFramesAndStorage) {

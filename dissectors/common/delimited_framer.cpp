@@ -21,10 +21,7 @@ std::unique_ptr<Framer> make_delimited_framer(ChannelId channel, const FramerSet
 void DelimitedFramer::close(FrameKind kind, FrameClose why, FrameBatch& out) {
   if (pending_.empty()) return;
   if (kind == FrameKind::telegram && pending_.size() < options_.min_length) kind = FrameKind::noise;
-  Frame& f = out.add();
-  f.kind = kind;
-  f.channel = channel_;
-  f.close = why;
+  Frame& f = out.add(kind, channel_, why);
   f.events.swap(pending_);  // pending_ continues in the storage of the frame that was there
   stamp_frame_timing(f, options_.character_time, &emitted_end_, &have_emitted_);
   in_frame_ = false;

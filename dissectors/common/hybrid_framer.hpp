@@ -120,9 +120,6 @@ class HybridFramer final : public Framer {
   void predicted_lengths(std::size_t p, std::size_t n, std::size_t out[2], bool* needs_more) const;
   void predicted_lengths_in(std::span<const std::uint8_t> from, std::size_t out[2],
                             bool* needs_more) const;
-  // A frame of this channel appended to `out`, its events empty (in the storage of the frame
-  // `out` held before in that place, if any).
-  [[gnu::always_inline]] Frame& new_frame(FrameKind kind, FrameClose close, FrameBatch& out);
   void emit(std::size_t p, std::size_t len, FrameKind kind, FrameClose close, FrameBatch& out);
   // Bytes [from, from + count) of `run` appended: none has a silence > t3.5 before it, and they
   // stay below the pressure mark (push() of each would only append it).

@@ -88,7 +88,7 @@ bool HybridFramer<Rules>::push_chunk(const ByteRun& run, TimeNs next_time, Frame
     return false;
   const TimeNs end = std::max(last_end_, run.time(n - 1) + character_time);
   if (next_time - end <= t35 || !is_good_frame(run.bytes)) return false;
-  Frame& f = new_frame(FrameKind::telegram, FrameClose::silence, out);
+  Frame& f = out.add(FrameKind::telegram, channel_, FrameClose::silence);
   f.events.append_run(run);
   // The run's timing as push_run() would have kept it (not timing_of(): no second look).
   ByteRunTiming timing;
@@ -264,18 +264,9 @@ bool HybridFramer<Rules>::looks_like_frame_start(std::size_t p) const {
 }
 
 template <class Rules>
-inline Frame& HybridFramer<Rules>::new_frame(FrameKind kind, FrameClose close, FrameBatch& out) {
-  Frame& f = out.add();
-  f.kind = kind;
-  f.channel = channel_;
-  f.close = close;
-  return f;
-}
-
-template <class Rules>
 void HybridFramer<Rules>::emit(std::size_t p, std::size_t len, FrameKind kind, FrameClose close,
                                FrameBatch& out) {
-  Frame& f = new_frame(kind, close, out);
+  Frame& f = out.add(kind, channel_, close);
   const bool all_pending = p == 0 && len == pending_.size();
   // pending_run_ is the timing of exactly these bytes unless some were dropped before them.
   const bool timing_kept = all_pending && pending_run_whole_;

@@ -70,8 +70,8 @@ static_assert(sizeof(void*) != 8 || sizeof(Frame) == 128,
 // The frames a framer hands on, a batch at a time. It reads like a std::vector<Frame>, but
 // clear() keeps the frames it held, each with its events' storage, and add() builds the next
 // frame in the place of an old one: a framer emitting a frame into a batch used before allocates
-// nothing. (A consumer that wants a frame's storage to stay in the batch
-// swaps with it rather than moving it out.)
+// nothing. (A consumer that wants a frame's storage to stay in the batch swaps with it rather
+// than moving it out.)
 class FrameBatch {
  public:
   using iterator = std::vector<Frame>::iterator;
@@ -95,7 +95,6 @@ class FrameBatch {
     if (i >= size_) throw std::out_of_range("FrameBatch::at");
     return frames_[i];
   }
-  [[nodiscard]] Frame& front() { return frames_[0]; }
   [[nodiscard]] Frame& back() { return frames_[size_ - 1]; }
   [[nodiscard]] const Frame& back() const { return frames_[size_ - 1]; }
   [[nodiscard]] iterator begin() { return frames_.begin(); }
@@ -115,9 +114,14 @@ class FrameBatch {
     f.reset_keeping_storage();
     return f;
   }
-  // `frame` appended; `frame` is left with the storage of the old frame in its place. `frame`
-  // must not be one of this batch's frames (add() may move them).
-  void push_back(Frame&& frame) { std::swap(add(), frame); }
+  // The same, a frame of `channel` of this kind, closed for this reason (what a framer emits).
+  Frame& add(FrameKind kind, ChannelId channel, FrameClose close) {
+    Frame& f = add();
+    f.kind = kind;
+    f.channel = channel;
+    f.close = close;
+    return f;
+  }
   // Forgets the frames, keeping their storage (of the first kKeptFrames: a batch that once held
   // many frames of a big read does not keep them all).
   void clear() {
