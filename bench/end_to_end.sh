@@ -4,11 +4,14 @@
 # seconds, packets/s, drivetap's ratio to tshark, peak RSS; `cat` of the file as the floor of any
 # reader (its ratio to io,stat bounds what --stats can reach); then drivetap alone on the realistic
 # mix of the five drive families (tshark decodes neither the FC nor the '~' protocol). One table
-# per size, and drivetap's peak RSS across the sizes. Writes bench/RESULTS.md.
+# per size, and drivetap's peak RSS across the sizes; then drivetap's peak RSS on a noisy bus seen
+# by a logic analyser (every byte stamped on its own: the frames whose storage is largest).
+# Writes bench/RESULTS.md.
 #
 #   bench/end_to_end.sh [BUILD_DIR] [FRAMES...]     default: build 1000000 10000000
 #   REPEAT=N bench/end_to_end.sh ...                  each tshark and drivetap row the best of N
 #                                                     runs (default 1; generation runs once)
+#   NOISE_BYTES=N bench/end_to_end.sh ...             bytes of the noisy capture (default 6000000)
 #
 # The captures come from `drivetap generate` (README "drivetap generate"), seed 1: the comparison
 # runs on `--mix modbus-rtu --plain` (the frames alone, 80 bytes a packet, as another capture tool
@@ -144,5 +147,41 @@ done
     echo "- $frames frames: $((a / 1024)) / $((b / 1024)) / $((c / 1024))"
   done
 } >>"$report"
+
+# A bus of noise only, as a logic analyser decodes it: one byte a line, each 1.0 to 1.4 character
+# times after the one before (no silence long enough to end a frame, no two gaps alike), so that
+# every frame is a noise record of the longest kind with a time stamp per byte (some 17 bytes of
+# storage a byte). A Park-Miller generator (exact in awk's doubles): the same file everywhere.
+noise_bytes=${NOISE_BYTES:-6000000}
+echo "== $noise_bytes noise bytes" >&2
+awk -v n="$noise_bytes" 'BEGIN {
+  print "#! serial 19200 8E1"; x = 1; t = 1; ct = 11 / 19200
+  for (i = 0; i < n; i++) {
+    x = (x * 16807) % 2147483647; t += ct * (1 + (x % 400) / 1000)
+    x = (x * 16807) % 2147483647; printf "%.9f rtu %02X\n", t, x % 256
+  }
+}' >"$work/noise.log"
+"$drivetap" read --stats -w "$work/noise.pcapng" "$work/noise.log" >/dev/null
+rows=()
+measure "drivetap --stats, noise log" "$drivetap" read --drive none --stats "$work/noise.log"
+measure "drivetap -T json, noise log" "$drivetap" read --drive none -T json "$work/noise.log"
+measure "drivetap --stats, noise pcapng" "$drivetap" read --drive none --stats "$work/noise.pcapng"
+measure "drivetap -T json, noise pcapng" "$drivetap" read --drive none -T json "$work/noise.pcapng"
+measure "drivetap text, noise pcapng" "$drivetap" read --drive none "$work/noise.pcapng"
+{
+  echo
+  echo "## Memory on a noisy bus, stamped byte by byte"
+  echo
+  echo "$noise_bytes bytes of noise, one a line of a byte log, 1.0 to 1.4 character times apart;"
+  echo "the same as drivetap's pcapng (per-byte times). Peak RSS:"
+  echo
+  echo "| run | seconds | peak RSS MB | command |"
+  echo "|---|---|---|---|"
+  for r in "${rows[@]}"; do
+    IFS='|' read -r name seconds rss cmd <<<"$r"
+    echo "| $name | $seconds | $((rss / 1024)) | \`${cmd//$work\//}\` |"
+  done
+} >>"$report"
+
 cp "$report" "$root/bench/RESULTS.md"
 cat "$root/bench/RESULTS.md"

@@ -133,5 +133,42 @@ TEST(FrameBatch, ClearKeepsTheStorageOfAtMostKeptFrames) {
   }
 }
 
+// A noisy bus as a logic analyser sees it: every byte stamped on its own, each gap longer than
+// the one before, so that each byte needs a stretch of its own.
+void fill_unevenly_stamped(Frame& f, std::size_t count) {
+  for (std::size_t i = 0; i < count; ++i)
+    f.events.push_back({static_cast<TimeNs>(1000 * i + i * (i + 1) / 2), 0x55, 0, 0, 0});
+}
+
+TEST(FrameBatch, AFrameStampedByteByByteHoldsStorageForEachByte) {
+  Frame f;
+  fill_unevenly_stamped(f, 4096);
+  EXPECT_GE(f.storage_bytes(), 4096u * (1 + sizeof(ByteEvents::Stretch) / 2));  // a stretch a pair
+  Frame even;
+  fill(even, 0x11, 4096);  // evenly spaced: one stretch
+  EXPECT_LT(even.storage_bytes(), 3 * 4096u);
+}
+
+TEST(FrameBatch, ClearFreesTheStorageOfAFrameHoldingMoreThanKept) {
+  FrameBatch batch;
+  fill(batch.add(), 0x22, 8);
+  fill_unevenly_stamped(batch.add(), 4096);  // some 70 KiB
+  fill(batch.add(), 0x22, 8);
+  ASSERT_GT(batch[1].storage_bytes(), kKeptStorageBytes);
+  batch.clear();
+  for (int k = 0; k < 3; ++k) (void)batch.add();
+  EXPECT_GE(batch[0].events.capacity(), 8u);
+  EXPECT_EQ(batch[1].storage_bytes(), 0u);
+  EXPECT_GE(batch[2].events.capacity(), 8u);
+  // A frame just under the bound keeps its storage.
+  batch.clear();
+  fill_unevenly_stamped(batch.add(), 64);
+  ASSERT_LE(batch[0].storage_bytes(), kKeptStorageBytes);
+  const std::size_t kept = batch[0].storage_bytes();
+  batch.clear();
+  (void)batch.add();
+  EXPECT_EQ(batch[0].storage_bytes(), kept);
+}
+
 }  // namespace
 }  // namespace drivetap

@@ -268,6 +268,68 @@ TEST(ThreadedSink, APipelineAheadOfItsWriterWaitsAndFlushWaitsForTheReplay) {
   }
 }
 
+// Records of large frames (a byte log of noise with a time stamp a byte) fill a batch by their
+// storage long before its count: it is handed on at kBatchBytes, so that a pipeline ahead of its
+// writer holds a few MiB of them, not kDepth + 1 batches of 256.
+TEST(ThreadedSink, ABatchOfLargeFramesIsHandedOnOnceItHoldsBatchBytes) {
+  Message m;
+  for (std::size_t i = 0; i < 4096; ++i)
+    m.frame.events.push_back({static_cast<TimeNs>(1000 * i + i * (i + 1) / 2), 0x55, 0, 0, 0});
+  const std::size_t frame_bytes = m.frame.storage_bytes();
+  ASSERT_GT(frame_bytes, 50'000u);
+  const std::size_t per_batch = ThreadedSink::kBatchBytes / frame_bytes + 1;
+  ASSERT_LT(per_batch, ThreadedSink::kBatchRecords);
+  constexpr std::size_t kFrames = ThreadedSink::kBatchRecords;
+  GatedSink inner(/*gate_at=*/1);
+  ThreadedSink threaded(inner);
+  std::atomic<std::size_t> given{0};
+  std::thread pipeline([&] {
+    for (std::size_t i = 1; i <= kFrames; ++i) {
+      m.frame.number = i;
+      threaded.on_frame(m);
+      given = i;
+    }
+    threaded.flush();
+  });
+  inner.wait_until_blocked();
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  // The batch being replayed, those queued and the one being filled, each of per_batch records.
+  EXPECT_LE(given.load(), (ThreadedSink::kDepth + 1) * per_batch);
+  inner.open();
+  pipeline.join();
+  EXPECT_EQ(inner.flushed_at.load(), kFrames);
+}
+
+// Once replayed, a record holding more than it keeps for reuse is freed: a run that met a few
+// hundred frames of 4 KiB of noise does not keep their storage in every record.
+TEST(ThreadedSink, RecordsKeepNoMoreStorageThanTheBound) {
+  Message m;
+  Frame noise;
+  for (std::size_t i = 0; i < 4096; ++i) {
+    const ByteEvent e{static_cast<TimeNs>(1000 * i + i * (i + 1) / 2), 0x55, 0, 0, 0};
+    m.frame.events.push_back(e);
+    noise.events.push_back(e);
+  }
+  ASSERT_GT(m.frame.storage_bytes(), kKeptStorageBytes);
+  ASSERT_GT(noise.storage_bytes(), kKeptStorageBytes);
+  RecordingSink inner;
+  ThreadedSink threaded(inner);
+  for (std::size_t i = 1; i <= ThreadedSink::kBatchRecords * 2; ++i) {
+    m.frame.number = i;
+    if (i % 2)
+      threaded.on_frame(m);
+    else
+      threaded.on_noise(noise);
+  }
+  EXPECT_EQ(threaded.kept_storage_bytes(), 0u);  // every record is as new
+  const std::size_t records = ThreadedSink::kBatchRecords * (ThreadedSink::kDepth + 1);
+  // Records of small frames keep theirs.
+  Message small;
+  small.frame.events.push_back({0, 0x01, 0, 0, 0});
+  for (std::size_t i = 1; i <= records; ++i) threaded.on_frame(small);
+  EXPECT_GT(threaded.kept_storage_bytes(), 0u);
+}
+
 TEST(ThreadedSink, RecordsAfterFinishGoStraightToTheInnerSink) {
   RecordingSink inner;
   ThreadedSink threaded(inner);

@@ -24,6 +24,13 @@ enum class FrameClose : std::uint8_t {
 
 enum class FrameKind : std::uint8_t { telegram, noise };
 
+// Storage kept for reuse (a FrameBatch's frames, a ThreadedSink's records) is kept only up to
+// this many bytes a frame (a message: ThreadedSink::kKeptMessageBytes); beyond, it is freed. A
+// telegram of a hundred bytes, each with a time stamp of its own, stays under it; 4 KiB of noise
+// so stamped holds some 70 KiB, which a thousand slots kept would make a run's memory grow far
+// past its frames' (issue 8: memory under 50 MB, flat).
+inline constexpr std::size_t kKeptStorageBytes = 4096;
+
 struct Frame {
   // User-provided (not `= default`): a FrameBatch makes a Frame with emplace_back(), and
   // value-initialising an implicitly constructible Frame zero-fills all of it first (a `rep stos`
@@ -45,6 +52,8 @@ struct Frame {
 
   [[nodiscard]] TimeNs start() const { return events.empty() ? 0 : events.front_time(); }
   [[nodiscard]] std::size_t size() const { return events.size(); }
+  // Heap bytes held, used or not (kKeptStorageBytes).
+  [[nodiscard]] std::size_t storage_bytes() const { return events.storage_bytes(); }
   // A copy of the bytes (events.bytes() is the same without the copy).
   [[nodiscard]] std::vector<std::uint8_t> bytes() const {
     return {events.bytes().begin(), events.bytes().end()};
@@ -122,9 +131,12 @@ class FrameBatch {
     f.close = close;
     return f;
   }
-  // Forgets the frames, keeping their storage (of the first kKeptFrames: a batch that once held
-  // many frames of a big read does not keep them all).
+  // Forgets the frames, keeping their storage: of the first kKeptFrames (a batch that once held
+  // many frames of a big read does not keep them all), and of those holding no more than
+  // kKeptStorageBytes (the frames past size() were looked at when they were last cleared).
   void clear() {
+    for (std::size_t i = 0; i < size_; ++i)
+      if (frames_[i].storage_bytes() > kKeptStorageBytes) frames_[i] = Frame{};
     size_ = 0;
     if (frames_.size() > kKeptFrames) frames_.resize(kKeptFrames);
   }

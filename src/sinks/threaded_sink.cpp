@@ -43,6 +43,19 @@ void ThreadedSink::wait_until_idle() {
   changed_.wait(lock, [this] { return full_.empty() && replaying_ == 0; });
 }
 
+std::size_t ThreadedSink::kept_storage_bytes() {
+  if (!finished_) wait_until_idle();
+  const std::lock_guard lock(mutex_);
+  std::size_t bytes = 0;
+  auto count = [&bytes](const Batch& batch) {
+    for (const Record& r : batch.records)
+      bytes += r.message.frame.storage_bytes() + r.noise.storage_bytes();
+  };
+  count(*current_);
+  for (const std::unique_ptr<Batch>& batch : free_) count(*batch);
+  return bytes;
+}
+
 void ThreadedSink::run() {
   for (;;) {
     std::unique_ptr<Batch> batch;
@@ -55,13 +68,15 @@ void ThreadedSink::run() {
       ++replaying_;
     }
     for (std::size_t i = 0; i < batch->used; ++i) {
-      const Record& r = batch->records[i];
+      Record& r = batch->records[i];  // not const: a record holding a large frame is freed
       switch (r.kind) {
         case Kind::frame:
           inner_.on_frame(r.message);
+          if (r.message.frame.storage_bytes() > kKeptStorageBytes) r.message = Message{};
           break;
         case Kind::noise:
           inner_.on_noise(r.noise);
+          if (r.noise.storage_bytes() > kKeptStorageBytes) r.noise = Frame{};
           break;
         case Kind::anomaly:
           inner_.on_anomaly(r.anomaly);
@@ -78,6 +93,7 @@ void ThreadedSink::run() {
       }
     }
     batch->used = 0;
+    batch->storage_bytes = 0;
     std::lock_guard lock(mutex_);
     free_.push_back(std::move(batch));
     --replaying_;
@@ -85,11 +101,18 @@ void ThreadedSink::run() {
   }
 }
 
+void ThreadedSink::weigh(std::size_t bytes) {
+  current_->storage_bytes += bytes;
+  if (current_->storage_bytes >= kBatchBytes) publish();
+}
+
 void ThreadedSink::on_frame(const Message& message) {
-  give(Kind::frame, &Record::message, message, &Sink::on_frame);
+  if (const Record* r = give(Kind::frame, &Record::message, message, &Sink::on_frame))
+    weigh(r->message.frame.storage_bytes());
 }
 void ThreadedSink::on_noise(const Frame& noise) {
-  give(Kind::noise, &Record::noise, noise, &Sink::on_noise);
+  if (const Record* r = give(Kind::noise, &Record::noise, noise, &Sink::on_noise))
+    weigh(r->noise.storage_bytes());
 }
 void ThreadedSink::on_anomaly(const Anomaly& anomaly) {
   give(Kind::anomaly, &Record::anomaly, anomaly, &Sink::on_anomaly);

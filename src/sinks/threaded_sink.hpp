@@ -10,13 +10,15 @@
 // run is under way. (Swapping a frame's Message with its record instead of copying it was
 // measured slower: text 0.49 -> 0.54 s, JSON 0.74 -> 0.88 s on 1 M frames, best of 9 interleaved
 // runs: the storage of some 1300 queued messages then goes round the decoding thread's caches,
-// where one Message stayed hot.) At most kDepth batches wait: memory stays bounded however far the
-// writer falls behind. flush() and finish() wait until the writer has replayed everything given so
-// far; finish() (or the destructor) then stops the thread; records after it go straight to the
-// inner sink. The worker thread runs with SIGINT and SIGTERM blocked. The inner sink and everything
-// its records name (the ChannelTable) must outlive this one; only the writer thread calls the inner
-// sink between construction and finish(), except wants_detail(), wants_fields() and
-// wants_transactions(), read once here.
+// where one Message stayed hot.) At most kDepth batches wait, and a batch is handed on early once
+// its records' frames hold kBatchBytes: memory stays bounded however far the writer falls behind,
+// and however large the frames. A record whose frame holds more than kKeptStorageBytes is freed
+// once replayed (the rest of a message is bounded by the longest telegram). flush() and finish()
+// wait until the writer has replayed everything given so far; finish() (or the destructor) then
+// stops the thread; records after it go straight to the inner sink. The worker thread runs with
+// SIGINT and SIGTERM blocked. The inner sink and everything its records name (the ChannelTable)
+// must outlive this one; only the writer thread calls the inner sink between construction and
+// finish(), except wants_detail(), wants_fields() and wants_transactions(), read once here.
 #pragma once
 
 #include <condition_variable>
@@ -36,6 +38,9 @@ class ThreadedSink final : public Sink {
  public:
   static constexpr std::size_t kBatchRecords = 256;
   static constexpr std::size_t kDepth = 4;  // batches queued for the writer at most
+  // A batch is published once its records' frames hold this many bytes of storage (4 KiB of
+  // noise with a time stamp a byte holds some 70 KiB), however few they are.
+  static constexpr std::size_t kBatchBytes = 1024 * 1024;
 
   explicit ThreadedSink(Sink& inner);
   ~ThreadedSink() override;
@@ -55,6 +60,9 @@ class ThreadedSink final : public Sink {
   [[nodiscard]] bool wants_transactions() const override { return wants_transactions_; }
   // Replays what is left and stops the writer thread; the inner sink is the caller's again.
   void finish();
+  // Waits until the writer is idle, then counts the storage its records' frames keep for reuse:
+  // what kKeptStorageBytes bounds.
+  [[nodiscard]] std::size_t kept_storage_bytes();
 
  private:
   enum class Kind : unsigned char { frame, noise, anomaly, transaction, summary, event };
@@ -71,18 +79,25 @@ class ThreadedSink final : public Sink {
   struct Batch {
     std::vector<Record> records = std::vector<Record>(kBatchRecords);
     std::size_t used = 0;
+    std::size_t storage_bytes = 0;  // of the frames of records [0, used)
   };
 
   Record& next_record();  // the current batch's next free record (publishing a full batch)
   // A record of one kind: copied into `slot` of the next record, or after finish() given to the
-  // inner sink through `direct`.
+  // inner sink through `direct` (then nullptr).
   template <class T>
-  void give(Kind kind, T Record::*slot, const T& value, void (Sink::*direct)(const T&)) {
-    if (finished_) return (inner_.*direct)(value);
+  Record* give(Kind kind, T Record::*slot, const T& value, void (Sink::*direct)(const T&)) {
+    if (finished_) {
+      (inner_.*direct)(value);
+      return nullptr;
+    }
     Record& r = next_record();
     r.kind = kind;
     r.*slot = value;  // copy-assigned: the record's vectors and strings keep their storage
+    return &r;
   }
+  // Counts `bytes` of storage in the current batch; publishes it once it holds kBatchBytes.
+  void weigh(std::size_t bytes);
   void publish();          // hands the current batch, if it holds records, to the writer
   void wait_until_idle();  // until every published batch has been replayed
   void run();              // the writer thread
