@@ -18,6 +18,8 @@ void fill(Frame& f, std::uint8_t tag, std::size_t count) {
     f.events.push_back({static_cast<TimeNs>(1000 * (i + 1)), tag, 0x04, 3, 7});
   f.gap_before = 12345;
   f.close = FrameClose::end_of_input;
+  f.checksum_kind = FrameChecksum::crc16_modbus;
+  f.checksum = 0xBEEF;
   f.max_intra_gap = 777;
   f.max_intra_gap_at = 5;
   f.number = 99;
@@ -31,6 +33,8 @@ void expect_like_a_new_frame(const Frame& f) {
   EXPECT_FALSE(f.events.any_flags());
   EXPECT_EQ(f.gap_before, fresh.gap_before);
   EXPECT_EQ(f.close, fresh.close);
+  EXPECT_EQ(f.checksum_kind, fresh.checksum_kind);
+  EXPECT_EQ(f.checksum, fresh.checksum);
   EXPECT_EQ(f.max_intra_gap, fresh.max_intra_gap);
   EXPECT_EQ(f.max_intra_gap_at, fresh.max_intra_gap_at);
   EXPECT_EQ(f.number, fresh.number);

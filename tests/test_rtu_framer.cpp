@@ -4,6 +4,7 @@
 #include <random>
 
 #include "core/checksum.hpp"
+#include "dissectors/modbus/rtu_dissector.hpp"
 #include "dissectors/modbus/rtu_framer.hpp"
 #include "test_support.hpp"
 
@@ -443,4 +444,58 @@ TEST(RtuFramer, PushAllGivesTheFramesOfPushingOneByOne) {
   // The stream exercises every path: telegrams, noise, and closes by silence and by content.
   EXPECT_GT(telegrams, 1000u);
   EXPECT_LT(telegrams, got.size());
+}
+
+// A frame push_all() takes whole between two silences carries the CRC-16 the framer computed over
+// exactly its bytes (also when the frame's own is byte-swapped); frames cut another way carry
+// none. The dissector's verdicts are the same either way.
+TEST(RtuFramer, AFrameTakenWholeCarriesTheCrcComputedOverIt) {
+  auto swapped = kReply;
+  std::swap(swapped[swapped.size() - 2], swapped[swapped.size() - 1]);
+  std::vector<ByteEvent> events;
+  TimeNs clock = 0;
+  append_bytes(events, clock, kRequest, 5 * kNsPerMs);
+  append_bytes(events, clock, swapped, 5 * kNsPerMs);
+  append_bytes(events, clock, kRequest);  // a byte after the silence shows it, in the same call
+  RtuFramer framer(0, RtuFramerOptions{FramingTiming::from(k9600)});
+  FrameBatch frames;
+  framer.push_all(events, frames);
+  framer.finish(frames);
+  ASSERT_EQ(frames.size(), 3u);
+  for (std::size_t i = 0; i < 2; ++i) {
+    SCOPED_TRACE(i);
+    const std::vector<std::uint8_t> bytes = frames[i].bytes();
+    EXPECT_EQ(frames[i].checksum_kind, FrameChecksum::crc16_modbus);
+    EXPECT_EQ(frames[i].checksum, crc16_modbus(std::span(bytes).first(bytes.size() - 2)));
+  }
+  EXPECT_EQ(frames[2].checksum_kind, FrameChecksum::none);  // closed by the end of the input
+  // Dissected with the framer's CRC and without it: the same verdicts, good and swapped.
+  const FramingTiming timing = FramingTiming::from(k9600);
+  for (std::size_t i = 0; i < 2; ++i) {
+    SCOPED_TRACE(i);
+    Frame without = frames[i];
+    without.checksum_kind = FrameChecksum::none;
+    const Message carried = modbus::dissect_rtu(frames[i], Direction::unknown, timing);
+    const Message computed = modbus::dissect_rtu(without, Direction::unknown, timing);
+    EXPECT_EQ(carried.checksum.verdict, i == 0 ? ChecksumVerdict::good : ChecksumVerdict::swapped);
+    EXPECT_EQ(carried.checksum.verdict, computed.checksum.verdict);
+    EXPECT_EQ(carried.checksum.stated_wire, computed.checksum.stated_wire);
+    EXPECT_EQ(carried.checksum.computed_wire, computed.checksum.computed_wire);
+  }
+}
+
+// The dissector takes the CRC the framer carried rather than computing it a second time (a
+// carried value that is not the frame's reads as a bad CRC), and only a CRC-16 of Modbus RTU.
+TEST(RtuFramer, TheDissectorReadsTheCarriedCrc) {
+  Frame f;
+  for (const std::uint8_t b : kRequest) f.events.push_back({0, b, 0, 0, 0});
+  const std::uint16_t crc = crc16_modbus(std::span(kRequest).first(kRequest.size() - 2));
+  const FramingTiming timing = FramingTiming::from(k9600);
+  f.checksum_kind = FrameChecksum::crc16_modbus;
+  f.checksum = crc ^ 0x0101u;
+  EXPECT_EQ(modbus::dissect_rtu(f, Direction::request, timing).checksum.verdict,
+            ChecksumVerdict::bad);
+  f.checksum_kind = FrameChecksum::none;  // no CRC carried: the dissector computes it
+  EXPECT_EQ(modbus::dissect_rtu(f, Direction::request, timing).checksum.verdict,
+            ChecksumVerdict::good);
 }

@@ -57,6 +57,16 @@ class HybridFrameRules {
                                  bool* needs_more) const = 0;
   // The frame's checksum holds (for Modbus RTU: also when its bytes are swapped).
   [[nodiscard]] virtual bool checksum_matches(std::span<const std::uint8_t> frame) const = 0;
+  // checksum_matches(), also giving the checksum computed over the frame, of checksum_kind(), for
+  // the frame to carry to its dissector (Frame::checksum). By default none is given.
+  struct ChecksumCheck {
+    bool matches = false;
+    std::uint32_t computed = 0;
+  };
+  [[nodiscard]] virtual ChecksumCheck check_checksum(std::span<const std::uint8_t> frame) const {
+    return {checksum_matches(frame), 0};
+  }
+  [[nodiscard]] virtual FrameChecksum checksum_kind() const { return FrameChecksum::none; }
   [[nodiscard]] virtual bool looks_like_frame_start(std::span<const std::uint8_t> from) const = 0;
   // For frames whose length rule is unknown: the shortest length with a valid checksum that
   // `accept` confirms, or 0. Protocols whose every frame has a length rule return 0.
@@ -110,8 +120,8 @@ class HybridFramer final : public Framer {
   // The same over any bytes: the good frame at from[0] ending inside `from`, or 0.
   std::size_t good_frame_in(std::span<const std::uint8_t> from) const;
   // good_frame_in(frame) == frame.size(): all of it is a frame of a predicted length with a good
-  // checksum (no other length tried).
-  bool is_good_frame(std::span<const std::uint8_t> frame) const;
+  // checksum (no other length tried); *computed is that checksum (Rules::check_checksum()).
+  bool is_good_frame(std::span<const std::uint8_t> frame, std::uint32_t* computed) const;
   std::size_t first_good_start(std::size_t from, std::size_t to) const;
   std::size_t next_hard_boundary(std::size_t p) const;
   bool is_hard_boundary(std::size_t index) const;

@@ -87,9 +87,12 @@ bool HybridFramer<Rules>::push_chunk(const ByteRun& run, TimeNs next_time, Frame
       run.step < 0 || run.step - character_time > t35 || !run.flags.empty())
     return false;
   const TimeNs end = std::max(last_end_, run.time(n - 1) + character_time);
-  if (next_time - end <= t35 || !is_good_frame(run.bytes)) return false;
+  std::uint32_t checksum = 0;
+  if (next_time - end <= t35 || !is_good_frame(run.bytes, &checksum)) return false;
   Frame& f = out.add(FrameKind::telegram, channel_, FrameClose::silence);
   f.events.append_run(run);
+  f.checksum_kind = rules_.checksum_kind();  // computed over exactly the frame's bytes
+  f.checksum = checksum;
   // The run's timing as push_run() would have kept it (not timing_of(): no second look).
   ByteRunTiming timing;
   timing.start(run.first, character_time);
@@ -207,7 +210,8 @@ std::size_t HybridFramer<Rules>::good_frame_at(std::size_t p, std::size_t limit)
 }
 
 template <class Rules>
-bool HybridFramer<Rules>::is_good_frame(std::span<const std::uint8_t> frame) const {
+bool HybridFramer<Rules>::is_good_frame(std::span<const std::uint8_t> frame,
+                                        std::uint32_t* computed) const {
   // good_frame_in() returns frame.size() exactly when that is one of the predicted lengths (it is
   // tried first then, or is the first of two) and its checksum matches: any other length it
   // tries is shorter.
@@ -216,7 +220,10 @@ bool HybridFramer<Rules>::is_good_frame(std::span<const std::uint8_t> frame) con
   std::size_t candidates[2] = {0, 0};
   bool needs_more = false;
   rules_.predicted_lengths(frame, candidates, &needs_more);
-  return (candidates[0] == n || candidates[1] == n) && rules_.checksum_matches(frame);
+  if (candidates[0] != n && candidates[1] != n) return false;
+  const HybridFrameRules::ChecksumCheck check = rules_.check_checksum(frame);
+  *computed = check.computed;
+  return check.matches;
 }
 
 template <class Rules>

@@ -56,7 +56,10 @@ void dissect_rtu(Message& m, Frame&& frame, Direction direction, const FramingTi
     m.info = std::move(pdu.info);
     m.exception_code = pdu.exception_code;
     for (std::string& problem : pdu.problems) add_malformed(m, std::move(problem));
-    m.checksum = check_rtu_crc(bytes);
+    // The framer's CRC when it computed one over these bytes (most frames): not a second time.
+    m.checksum = m.frame.checksum_kind == FrameChecksum::crc16_modbus
+                     ? check_rtu_crc(bytes, static_cast<std::uint16_t>(m.frame.checksum))
+                     : check_rtu_crc(bytes);
     tree.add(kCrc, bytes.size() - 2, 2, m.checksum.stated_wire);
   } else {
     m.describe([&] {

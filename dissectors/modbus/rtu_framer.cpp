@@ -32,12 +32,17 @@ void RtuRules::predicted_lengths(std::span<const std::uint8_t> from, std::size_t
 }
 
 bool RtuRules::checksum_matches(std::span<const std::uint8_t> frame) const {
+  return check_checksum(frame).matches;
+}
+
+HybridFrameRules::ChecksumCheck RtuRules::check_checksum(
+    std::span<const std::uint8_t> frame) const {
   // check_rtu_crc()'s good or swapped, without its verdict record.
-  if (frame.size() < 3) return false;
+  if (frame.size() < 3) return {};
   const std::uint16_t crc = crc16_modbus(frame.first(frame.size() - 2));
   const std::uint8_t lo = frame[frame.size() - 2];
   const std::uint8_t hi = frame[frame.size() - 1];
-  return crc == (lo | (hi << 8)) || crc == (hi | (lo << 8));
+  return {crc == (lo | (hi << 8)) || crc == (hi | (lo << 8)), crc};
 }
 
 bool RtuRules::looks_like_frame_start(std::span<const std::uint8_t> from) const {

@@ -22,6 +22,9 @@ class RtuRules final : public HybridFrameRules {
   void predicted_lengths(std::span<const std::uint8_t> from, std::size_t out[2],
                          bool* needs_more) const override;
   [[nodiscard]] bool checksum_matches(std::span<const std::uint8_t> frame) const override;
+  // The CRC-16 computed (crc16_modbus()), and whether the frame's holds, also swapped.
+  [[nodiscard]] ChecksumCheck check_checksum(std::span<const std::uint8_t> frame) const override;
+  [[nodiscard]] FrameChecksum checksum_kind() const override { return FrameChecksum::crc16_modbus; }
   [[nodiscard]] bool looks_like_frame_start(std::span<const std::uint8_t> from) const override;
   [[nodiscard]] std::size_t scan_unknown_layout(
       std::span<const std::uint8_t> from,

@@ -94,9 +94,13 @@ std::uint8_t lrc8(std::span<const std::uint8_t> data) {
 }
 
 ChecksumResult check_rtu_crc(std::span<const std::uint8_t> frame) {
+  if (frame.size() < 3) return {};
+  return check_rtu_crc(frame, crc16_modbus(frame.first(frame.size() - 2)));
+}
+
+ChecksumResult check_rtu_crc(std::span<const std::uint8_t> frame, std::uint16_t crc) {
   ChecksumResult r;
   if (frame.size() < 3) return r;
-  const std::uint16_t crc = crc16_modbus(frame.first(frame.size() - 2));
   const std::uint8_t lo = frame[frame.size() - 2];
   const std::uint8_t hi = frame[frame.size() - 1];
   r.width = 2;

@@ -36,6 +36,9 @@ std::uint8_t lrc8(std::span<const std::uint8_t> data);
 
 // Compares the two CRC bytes at the end of a Modbus RTU frame with the CRC of what precedes them.
 ChecksumResult check_rtu_crc(std::span<const std::uint8_t> frame);
+// The same with `crc`, crc16_modbus() of all but the last two bytes, computed already (by the
+// framer: Frame::checksum).
+ChecksumResult check_rtu_crc(std::span<const std::uint8_t> frame, std::uint16_t crc);
 
 std::string_view to_string(ChecksumVerdict v);
 

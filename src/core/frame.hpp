@@ -24,6 +24,12 @@ enum class FrameClose : std::uint8_t {
 
 enum class FrameKind : std::uint8_t { telegram, noise };
 
+// Which checksum a framer computed over a frame's bytes while cutting it (Frame::checksum).
+enum class FrameChecksum : std::uint8_t {
+  none,          // none computed: a dissector computes its own
+  crc16_modbus,  // crc16_modbus() over all bytes but the last two (Modbus RTU)
+};
+
 // Storage kept for reuse (a FrameBatch's frames, a ThreadedSink's records) is kept only up to
 // this many bytes a frame (a message: ThreadedSink::kKeptMessageBytes); beyond, it is freed. A
 // telegram of a hundred bytes, each with a time stamp of its own, stays under it; 4 KiB of noise
@@ -44,9 +50,13 @@ struct Frame {
   // -1 when nothing came before it.
   TimeNs gap_before = -1;
   FrameClose close = FrameClose::silence;
+  // The checksum the framer computed over exactly these bytes, of kind checksum_kind (none: it
+  // computed none), so that the dissector of that checksum need not compute it again.
+  FrameChecksum checksum_kind = FrameChecksum::none;
   // Largest silence between two consecutive bytes of this frame, and the byte it preceded.
   TimeNs max_intra_gap = 0;
   std::uint32_t max_intra_gap_at = 0;
+  std::uint32_t checksum = 0;  // of kind checksum_kind
   // Sequence number in the capture (1-based, over telegrams and noise alike), set by the pipeline.
   std::uint64_t number = 0;
 
@@ -65,8 +75,10 @@ struct Frame {
     events.clear();
     gap_before = -1;
     close = FrameClose::silence;
+    checksum_kind = FrameChecksum::none;
     max_intra_gap = 0;
     max_intra_gap_at = 0;
+    checksum = 0;
     number = 0;
   }
 };
