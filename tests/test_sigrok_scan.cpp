@@ -3,6 +3,7 @@
 // bytes compared at once for 1, 2, 4 and 8; one sample at a time for the others), changes sparse
 // and dense, at the first and last sample of a read and of a chunk, selections in any order.
 #include <gtest/gtest.h>
+#include <unistd.h>
 #include <zip.h>
 
 #include <cstdint>
@@ -23,7 +24,9 @@ namespace {
 std::string write_session(const std::string& name, int unit,
                           const std::vector<std::uint64_t>& words, std::size_t chunk_samples) {
   const std::string path =
-      (std::filesystem::temp_directory_path() / ("drivetap_SigrokScan_" + name + ".sr")).string();
+      (std::filesystem::temp_directory_path() /
+       ("drivetap_SigrokScan_" + name + "_" + std::to_string(::getpid()) + ".sr"))
+          .string();  // the process id: runs of the suite at the same time use files of their own
   std::vector<std::uint8_t> raw;
   for (std::uint64_t w : words)
     for (int b = 0; b < unit; ++b) raw.push_back(static_cast<std::uint8_t>(w >> (8 * b)));
@@ -165,7 +168,9 @@ TEST(SigrokScan, ChangesAtWordAndCaptureEdges) {
 TEST(SigrokFile, OversizedMetadataIsRefused) {
   // metadata is read whole: a claim past 1 MiB is refused before any allocation of its size.
   const std::string path =
-      (std::filesystem::temp_directory_path() / "drivetap_SigrokFile_big_metadata.sr").string();
+      (std::filesystem::temp_directory_path() /
+       ("drivetap_SigrokFile_big_metadata_" + std::to_string(::getpid()) + ".sr"))
+          .string();
   int code = 0;
   zip_t* z = zip_open(path.c_str(), ZIP_CREATE | ZIP_TRUNCATE, &code);
   ASSERT_NE(z, nullptr);

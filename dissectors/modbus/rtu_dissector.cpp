@@ -56,7 +56,8 @@ void dissect_rtu(Message& m, Frame&& frame, Direction direction, const FramingTi
     m.info = std::move(pdu.info);
     m.exception_code = pdu.exception_code;
     for (std::string& problem : pdu.problems) add_malformed(m, std::move(problem));
-    // The framer's CRC when it computed one over these bytes (most frames): not a second time.
+    // The framer's CRC when it computed one over these bytes (a frame it took whole between two
+    // silences: most of a capture's packets on one channel): not a second time.
     m.checksum = m.frame.checksum_kind == FrameChecksum::crc16_modbus
                      ? check_rtu_crc(bytes, static_cast<std::uint16_t>(m.frame.checksum))
                      : check_rtu_crc(bytes);

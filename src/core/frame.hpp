@@ -30,11 +30,12 @@ enum class FrameChecksum : std::uint8_t {
   crc16_modbus,  // crc16_modbus() over all bytes but the last two (Modbus RTU)
 };
 
-// Storage kept for reuse (a FrameBatch's frames, a ThreadedSink's records) is kept only up to
-// this many bytes a frame (a message: ThreadedSink::kKeptMessageBytes); beyond, it is freed. A
-// telegram of a hundred bytes, each with a time stamp of its own, stays under it; 4 KiB of noise
-// so stamped holds some 70 KiB, which a thousand slots kept would make a run's memory grow far
-// past its frames' (issue 8: memory under 50 MB, flat).
+// Storage kept for reuse (a FrameBatch's frames, the frames of a ThreadedSink's records) is kept
+// only up to this many bytes a frame; beyond, it is freed. The longest Modbus RTU telegram sent
+// back to back holds under 1 KiB, a hundred bytes stamped in pairs about 2 KiB (stamped one by
+// one, about 4 KiB: at the bound, maybe freed and made again at each reuse); 4 KiB of noise
+// stamped in pairs holds some 70 KiB, which a thousand slots kept would make a run's memory grow
+// far past its frames' (issue 8: memory under 50 MB, flat).
 inline constexpr std::size_t kKeptStorageBytes = 4096;
 
 struct Frame {
@@ -83,16 +84,18 @@ struct Frame {
   }
 };
 
-// reset_keeping_storage() sets each member: one added to Frame changes its size (on the 64-bit
-// targets built here) and must be reset there too.
+// reset_keeping_storage() sets each member (tests/test_frame_batch.cpp checks each one against a
+// new Frame's). This size check catches a new member that grows Frame on the 64-bit targets built
+// here, not one that fits in its padding (some 10 bytes are left): such a member must be added to
+// reset_keeping_storage() and to that test by hand.
 static_assert(sizeof(void*) != 8 || sizeof(Frame) == 128,
               "Frame changed: update Frame::reset_keeping_storage() and this size");
 
 // The frames a framer hands on, a batch at a time. It reads like a std::vector<Frame>, but
-// clear() keeps the frames it held, each with its events' storage, and add() builds the next
-// frame in the place of an old one: a framer emitting a frame into a batch used before allocates
-// nothing. (A consumer that wants a frame's storage to stay in the batch swaps with it rather
-// than moving it out.)
+// clear() keeps the frames it held, each with its events' storage (up to kKeptStorageBytes a
+// frame, of the first kKeptFrames frames), and add() builds the next frame in the place of an old
+// one: a framer emitting a frame into a batch used before allocates nothing. (A consumer that
+// wants a frame's storage to stay in the batch swaps with it rather than moving it out.)
 class FrameBatch {
  public:
   using iterator = std::vector<Frame>::iterator;

@@ -206,6 +206,7 @@ void DiagnosisSink::on_frame(const Message& m) {
   if (stray && decoder) {
     Frame trimmed = m.frame;
     trimmed.events.pop_back();
+    trimmed.checksum_kind = FrameChecksum::none;  // the framer's CRC was of the untrimmed bytes
     const Message again = decoder->dissect(std::move(trimmed), Direction::unknown, FramingTiming{});
     if (again.checksum.verdict == ChecksumVerdict::good) ++evidence_.release_artefacts;
   }

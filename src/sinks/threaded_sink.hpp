@@ -61,7 +61,9 @@ class ThreadedSink final : public Sink {
   // Replays what is left and stops the writer thread; the inner sink is the caller's again.
   void finish();
   // Waits until the writer is idle, then counts the storage its records' frames keep for reuse:
-  // what kKeptStorageBytes bounds.
+  // what kKeptStorageBytes bounds. On the thread that gives the records only (it publishes the
+  // batch being filled, and reads it). Messages' other members (bytes, fields, info) are not
+  // counted: they are bounded by the longest telegram.
   [[nodiscard]] std::size_t kept_storage_bytes();
 
  private:
