@@ -136,7 +136,12 @@ bool CaptureReader::option_step(const std::vector<std::uint8_t>& option, std::si
   // |time| and |step| below 2^62: the sum cannot overflow; out of range = a bad option.
   if (step >= kTimeLimit || step <= -kTimeLimit || !time_in_range(time + step)) return false;
   time += step;
-  source_packet += pcapng::unzigzag(*origin_delta);
+  // source_packet is in [0, 2^32) here: a step of 2^32 or more either way leaves that range (a
+  // bad option), and a smaller one cannot overflow the sum.
+  const std::int64_t origin_step = pcapng::unzigzag(*origin_delta);
+  if (origin_step > std::int64_t{UINT32_MAX} || origin_step < -std::int64_t{UINT32_MAX})
+    return false;
+  source_packet += origin_step;
   return source_packet >= 0 && source_packet <= UINT32_MAX;
 }
 
