@@ -220,6 +220,20 @@ class GatedSink final : public Sink {
   bool open_ = false;
 };
 
+// The pipeline's side: frames 1..count of `m` given on a thread of their own, `given` counting
+// them, then flush().
+std::thread give_frames(ThreadedSink& threaded, Message& m, std::size_t count,
+                        std::atomic<std::size_t>& given) {
+  return std::thread([&threaded, &m, count, &given] {
+    for (std::size_t i = 1; i <= count; ++i) {
+      m.frame.number = i;
+      threaded.on_frame(m);
+      given = i;
+    }
+    threaded.flush();
+  });
+}
+
 }  // namespace
 
 // The pipeline thread waits for a writer that falls behind (the queue is bounded), and flush()
@@ -229,16 +243,9 @@ TEST(ThreadedSink, APipelineAheadOfItsWriterWaitsAndFlushWaitsForTheReplay) {
   {
     GatedSink inner(/*gate_at=*/1);
     ThreadedSink threaded(inner);
+    Message m;
     std::atomic<std::size_t> given{0};
-    std::thread pipeline([&] {
-      Message m;
-      for (std::size_t i = 1; i <= kFrames; ++i) {
-        m.frame.number = i;
-        threaded.on_frame(m);
-        given = i;
-      }
-      threaded.flush();
-    });
+    std::thread pipeline = give_frames(threaded, m, kFrames, given);
     inner.wait_until_blocked();
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
     // The batch being replayed, those queued and the one being filled: no more.
@@ -251,14 +258,9 @@ TEST(ThreadedSink, APipelineAheadOfItsWriterWaitsAndFlushWaitsForTheReplay) {
   {
     GatedSink inner(/*gate_at=*/kFrames);  // the last record
     ThreadedSink threaded(inner);
-    std::thread pipeline([&] {
-      Message m;
-      for (std::size_t i = 1; i <= kFrames; ++i) {
-        m.frame.number = i;
-        threaded.on_frame(m);
-      }
-      threaded.flush();
-    });
+    Message m;
+    std::atomic<std::size_t> given{0};
+    std::thread pipeline = give_frames(threaded, m, kFrames, given);
     inner.wait_until_blocked();  // the writer holds the last batch, nothing else is queued
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
     EXPECT_EQ(inner.flushes.load(), 0) << "flush() did not wait for the batch being replayed";
@@ -283,14 +285,7 @@ TEST(ThreadedSink, ABatchOfLargeFramesIsHandedOnOnceItHoldsBatchBytes) {
   GatedSink inner(/*gate_at=*/1);
   ThreadedSink threaded(inner);
   std::atomic<std::size_t> given{0};
-  std::thread pipeline([&] {
-    for (std::size_t i = 1; i <= kFrames; ++i) {
-      m.frame.number = i;
-      threaded.on_frame(m);
-      given = i;
-    }
-    threaded.flush();
-  });
+  std::thread pipeline = give_frames(threaded, m, kFrames, given);
   inner.wait_until_blocked();
   std::this_thread::sleep_for(std::chrono::milliseconds(200));
   // The batch being replayed, those queued and the one being filled, each of per_batch records.
