@@ -124,7 +124,7 @@ TEST(Simbus, TrafficIsReproducibleModbusWithGoodCrcs) {
 TEST(Simbus, GarbageSitsInGapsAndLeavesTheFramesAlone) {
   TrafficOptions o = options("19200 8E1");
   const TimeNs c = o.serial.character_time();
-  const TimeNs guard = (7 * c + 1) / 2;
+  const TimeNs guard = (9 * c + 1) / 2;  // kGarbageClearChars
   Traffic clean(o);
   o.noise_rate = 0.3;
   Traffic noisy(o);

@@ -171,8 +171,8 @@ Record Traffic::make_request() {
 }
 
 Record Traffic::next() {
-  // Garbage goes into the gap after a frame, 3.5 characters clear of it and of the next frame;
-  // the next frame keeps its time when the gap has room, else the gap widens.
+  // Garbage goes into the gap after a frame, kGarbageClearChars clear of it and of the next
+  // frame; the next frame keeps its time when the gap has room, else the gap widens.
   if (!first_ && !garbage_done_ && o_.noise_rate > 0 &&
       static_cast<double>(splitmix64(noise_state_) >> 11) * 0x1.0p-53 < o_.noise_rate) {
     garbage_done_ = true;
@@ -181,7 +181,7 @@ Record Traffic::next() {
     const std::size_t n = 1 + splitmix64(noise_state_) % 3;
     for (std::size_t i = 0; i < n; ++i)
       g.bytes.push_back(static_cast<std::uint8_t>(splitmix64(noise_state_)));
-    const TimeNs guard = chars(3.5);
+    const TimeNs guard = chars(kGarbageClearChars);
     const TimeNs next_start = end_ + gap_;
     g.start = end_ + guard;
     end_ = g.start + static_cast<TimeNs>(n) * char_ns_;

@@ -68,6 +68,11 @@ inline constexpr int kRegisters = 64;  // holding registers 0x0000..0x003F per d
 // The master waits this long after the reply would have started before it gives up on a
 // station, then keeps its usual gap before the next request.
 inline constexpr double kTimeoutChars = 40;
+// Silence on either side of a garbage record: t3.5 and one character more. At exactly t3.5 the
+// capture's own jitter (a read stamped a few hundred microseconds late) decides whether the
+// silence shows as longer or shorter than t3.5, and the garbage could run into the next frame
+// (seen once in CI under the sanitizers: 80 frames, 79 with a good CRC).
+inline constexpr double kGarbageClearChars = 4.5;
 
 // An endless, reproducible sequence of records: the same options give the same records on any
 // platform (own generator, no std:: distributions, whose results the standard leaves open).
