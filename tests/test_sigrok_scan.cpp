@@ -21,12 +21,17 @@ using namespace drivetap;
 namespace {
 
 // A session of `unit`-byte samples, cut into chunks of `chunk_samples`.
+// A session file's path in the temporary directory, with the process id: runs of the suite at
+// the same time use files of their own.
+std::string session_path(const std::string& stem) {
+  return (std::filesystem::temp_directory_path() /
+          (stem + "_" + std::to_string(::getpid()) + ".sr"))
+      .string();
+}
+
 std::string write_session(const std::string& name, int unit,
                           const std::vector<std::uint64_t>& words, std::size_t chunk_samples) {
-  const std::string path =
-      (std::filesystem::temp_directory_path() /
-       ("drivetap_SigrokScan_" + name + "_" + std::to_string(::getpid()) + ".sr"))
-          .string();  // the process id: runs of the suite at the same time use files of their own
+  const std::string path = session_path("drivetap_SigrokScan_" + name);
   std::vector<std::uint8_t> raw;
   for (std::uint64_t w : words)
     for (int b = 0; b < unit; ++b) raw.push_back(static_cast<std::uint8_t>(w >> (8 * b)));
@@ -167,10 +172,7 @@ TEST(SigrokScan, ChangesAtWordAndCaptureEdges) {
 
 TEST(SigrokFile, OversizedMetadataIsRefused) {
   // metadata is read whole: a claim past 1 MiB is refused before any allocation of its size.
-  const std::string path =
-      (std::filesystem::temp_directory_path() /
-       ("drivetap_SigrokFile_big_metadata_" + std::to_string(::getpid()) + ".sr"))
-          .string();
+  const std::string path = session_path("drivetap_SigrokFile_big_metadata");
   int code = 0;
   zip_t* z = zip_open(path.c_str(), ZIP_CREATE | ZIP_TRUNCATE, &code);
   ASSERT_NE(z, nullptr);

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <memory>
@@ -124,7 +125,7 @@ TEST(Simbus, TrafficIsReproducibleModbusWithGoodCrcs) {
 TEST(Simbus, GarbageSitsInGapsAndLeavesTheFramesAlone) {
   TrafficOptions o = options("19200 8E1");
   const TimeNs c = o.serial.character_time();
-  const TimeNs guard = (9 * c + 1) / 2;  // kGarbageClearChars
+  const TimeNs guard = std::llround(kGarbageClearChars * static_cast<double>(c));
   Traffic clean(o);
   o.noise_rate = 0.3;
   Traffic noisy(o);
