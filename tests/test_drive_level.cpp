@@ -484,6 +484,61 @@ TEST(DriveReading, WithoutTextTheObservationIsTheSame) {
   }
 }
 
+// The pipeline reads every frame into one DriveReading, whose strings keep their storage: each
+// frame reads as it does into a new one, whatever the frame before left there.
+TEST(DriveReading, ReadingIntoOneReadingIsReadingAfresh) {
+  const DriveProfile e9 = builtin_profile("e9.toml");
+  const DriveProfile eds = builtin_profile("eds1000.toml");
+  const Message req = rtu({0x02, 0x03, 0x00, 0x00, 0x00, 0x05}, Direction::request);
+  const Message rsp =
+      rtu({0x02, 0x03, 0x0A, 0x00, 0x0A, 0x13, 0x88, 0x13, 0x7D, 0x01, 0x7C, 0x00, 0x64},
+          Direction::response);
+  const Message write =
+      rtu({0x02, 0x10, 0x00, 0x10, 0x00, 0x02, 0x04, 0x00, 0x01, 0x13, 0x88}, Direction::request);
+  const Message fault_req = rtu({0x02, 0x03, 0x00, 0x0B, 0x00, 0x01}, Direction::request);
+  const Message fault = rtu({0x02, 0x03, 0x02, 0x00, 0x04}, Direction::response);
+  const Message exception = rtu({0x02, 0x83, 0x02}, Direction::response);
+  const Message eds_q = decode(Protocol::easydrive, eds_frame("010B000F"), Direction::request);
+  const Message eds_a =
+      decode(Protocol::easydrive, eds_frame("0100030F0001"), Direction::response, eds_q.bytes);
+  const Message eds_run =
+      decode(Protocol::easydrive, eds_frame("010C00020FA0"), Direction::request);
+  struct Case {
+    const DriveProfile& profile;
+    const Message& message;
+    std::vector<std::uint8_t> request;
+  };
+  const Case cases[] = {{e9, req, {}},
+                        {e9, rsp, req.bytes},
+                        {e9, fault, fault_req.bytes},
+                        {e9, write, {}},
+                        {e9, rsp, {}},
+                        {e9, exception, req.bytes},
+                        {eds, eds_a, eds_q.bytes},
+                        {eds, eds_run, {}},
+                        {eds, eds_q, {}},
+                        {e9, fault, fault_req.bytes},
+                        {e9, req, {}}};
+  for (const bool want_text : {true, false}) {
+    DriveReading reused;
+    for (const Case& c : cases) {
+      read_for_drive_into(c.profile, c.message, c.request, want_text, reused);
+      const DriveReading fresh = read_for_drive(c.profile, c.message, c.request, want_text);
+      EXPECT_EQ(reused.text, fresh.text);
+      EXPECT_TRUE(reused.observed == fresh.observed) << fresh.text;
+    }
+  }
+  // Cleared, an observation is a new one; its fault text keeps its storage.
+  DriveReading r = read_for_drive(e9, fault, fault_req.bytes);
+  ASSERT_EQ(r.observed.fault_text, "4 (output overcurrent)");
+  r.observed.setpoint = Quantity{50, "50.00 Hz"};
+  r.observed.reset_command = true;
+  const std::size_t capacity = r.observed.fault_text.capacity();
+  r.observed.clear();
+  EXPECT_TRUE(r.observed == DriveObservation{});
+  EXPECT_EQ(r.observed.fault_text.capacity(), capacity);
+}
+
 TEST(DriveReading, DanfossFcProcessData) {
   const DriveProfile vlt = builtin_profile("vlt-aqua.toml");
   // CTW 0x047C (start), REF 0x2000 = 50 % (0x4000 = 100 %).

@@ -498,10 +498,9 @@ void Pipeline::handle_frame(Frame& frame) {
     if (auto bound = binder_.learn(link, m)) sink_.on_event(*bound);
     profile = binder_.bound(link, m.address);
   }
-  DriveReading reading;
   if (profile) {
-    reading = read_for_drive(*profile, m, request, m.detail);
-    m.drive_info = std::move(reading.text);
+    read_for_drive_into(*profile, m, request, m.detail, drive_reading_);
+    std::swap(m.drive_info, drive_reading_.text);  // both keep their storage for later frames
   }
   if (st.auto_protocol) {
     if (m.checksum.verdict == ChecksumVerdict::good) {
@@ -519,7 +518,7 @@ void Pipeline::handle_frame(Frame& frame) {
   check_packetization(m.frame, st);
   // A corrupted frame says nothing reliable about the drive's state.
   if (profile && m.checksum.verdict == ChecksumVerdict::good)
-    for (const BusEvent& e : timeline_.observe(link, m, *profile, reading.observed))
+    for (const BusEvent& e : timeline_.observe(link, m, *profile, drive_reading_.observed))
       sink_.on_event(e);
   emit_transactions(transactions_);
 }

@@ -123,6 +123,7 @@ class Pipeline {
   std::map<int, TimeNs> last_reply_end_;  // per station address, for profile timing rules
   DriveBinder binder_;
   DriveTimeline timeline_;
+  DriveReading drive_reading_;  // every frame's drive reading (its storage is reused)
   bool finished_ = false;
 };
 

@@ -72,16 +72,18 @@ bool any_bit(const std::vector<int>& bits, std::uint32_t raw) {
   return false;
 }
 
-// The "; "-separated parts of an annotation, appended in place. Off (nothing kept) when no sink
-// shows the text: the observation is still made.
+// The "; "-separated parts of an annotation, appended in place to the reading's text (whose
+// storage the pipeline reuses from frame to frame); `lead` goes before the first part ("set ").
+// Off (nothing written) when no sink shows the text: the observation is still made.
 class Parts {
  public:
-  explicit Parts(bool enabled) : enabled_(enabled) {}
+  Parts(std::string& out, bool enabled, std::string_view lead = {})
+      : out_(out), enabled_(enabled), lead_(lead) {}
   [[nodiscard]] bool enabled() const { return enabled_; }
-  // The text with a separator appended when a part is already there: append the next part to it.
+  // The text with the lead or a separator appended: append the next part to it.
   std::string& next() {
-    if (count_++ > 0) text_ += "; ";
-    return text_;
+    out_ += count_++ > 0 ? std::string_view("; ") : lead_;
+    return out_;
   }
   void add(std::string_view part) {
     if (enabled_) next() += part;
@@ -90,12 +92,12 @@ class Parts {
   void add(fmt::format_string<Args...> format, Args&&... args) {
     if (enabled_) fmt::format_to(std::back_inserter(next()), format, std::forward<Args>(args)...);
   }
-  [[nodiscard]] std::string take() { return std::move(text_); }
 
  private:
+  std::string& out_;
   bool enabled_;
+  std::string_view lead_;
   std::size_t count_ = 0;
-  std::string text_;
 };
 
 void append_display_name(std::string& out, const RegisterDef& r) {
@@ -111,8 +113,11 @@ void append_display_name(std::string& out, const RegisterDef& r) {
 void observe(const DriveProfile& p, const RegisterDef& r, std::uint32_t raw, bool double_word,
              bool written, DriveObservation& o) {
   const StateBits& s = r.state;
-  auto quantity = [&] {
-    return Quantity{scaled(r, raw, double_word), describe_value(p, r, raw, double_word)};
+  // The quantity's text is written in place: no temporary string.
+  auto set_quantity = [&](std::optional<Quantity>& q) {
+    q.emplace();
+    q->value = scaled(r, raw, double_word);
+    append_value(q->text, p, r, raw, double_word);
   };
   if (written) {
     switch (r.role) {
@@ -123,7 +128,7 @@ void observe(const DriveProfile& p, const RegisterDef& r, std::uint32_t raw, boo
         if (any_bit(s.reset, raw)) o.reset_command = true;
         break;
       case RegisterRole::setpoint:
-        o.setpoint_command = quantity();
+        set_quantity(o.setpoint_command);
         break;
       case RegisterRole::start:
         if (raw) o.run_command = true;
@@ -148,20 +153,21 @@ void observe(const DriveProfile& p, const RegisterDef& r, std::uint32_t raw, boo
       if (!s.warning.empty()) o.warning = any_bit(s.warning, raw);
       break;
     case RegisterRole::setpoint:
-      o.setpoint = quantity();
+      set_quantity(o.setpoint);
       break;
     case RegisterRole::output_frequency:
-      o.output_frequency = quantity();
+      set_quantity(o.output_frequency);
       break;
     case RegisterRole::current:
-      o.current = quantity();
+      set_quantity(o.current);
       break;
     case RegisterRole::voltage:
-      o.voltage = quantity();
+      set_quantity(o.voltage);
       break;
     case RegisterRole::fault:
       o.fault_code = raw;
-      o.fault_text = describe_value(p, r, raw, double_word);
+      o.fault_text.clear();  // keeps its storage
+      append_value(o.fault_text, p, r, raw, double_word);
       break;
     default:
       break;
@@ -203,14 +209,20 @@ void read_coils(const DriveProfile& p, std::uint32_t start, std::size_t count,
   }
 }
 
-// "frequency setpoint", "16-13 frequency", "parameter 4-14", "register 0x0123".
-std::string name_at(const DriveProfile& p, RegisterKind kind, std::uint32_t address) {
+// "frequency setpoint", "16-13 frequency", "parameter 4-14", "register 0x0123", appended.
+void append_name_at(std::string& out, const DriveProfile& p, RegisterKind kind,
+                    std::uint32_t address) {
   std::string label;
   const RegisterDef* r =
       kind == RegisterKind::holding ? p.find_holding(address, &label) : p.find(kind, address);
-  if (r) return display_name(*r);
-  if (!label.empty()) return "parameter " + label;
-  return fmt::format(FMT_COMPILE("register 0x{:04X}"), address);
+  if (r) {
+    append_display_name(out, *r);
+  } else if (!label.empty()) {
+    out += "parameter ";
+    out += label;
+  } else {
+    fmt::format_to(std::back_inserter(out), FMT_COMPILE("register 0x{:04X}"), address);
+  }
 }
 
 // The big-endian 16-bit values of b[from, end): in `small` when they fit (any frame within
@@ -228,29 +240,35 @@ std::span<const std::uint16_t> words_of(std::span<const std::uint8_t> b, std::si
   return {out, n};
 }
 
-std::string read_modbus(const DriveProfile& p, const Message& m,
-                        std::span<const std::uint8_t> request, bool want_text,
-                        DriveObservation& o) {
+// The readers below append the annotation to `out` (after the caller's "drive N (name): ") and
+// fill the observation.
+void read_modbus(const DriveProfile& p, const Message& m, std::span<const std::uint8_t> request,
+                 bool want_text, std::string& out, DriveObservation& o) {
   std::vector<std::uint8_t> decoded;
   const std::span<const std::uint8_t> b = modbus_binary(m.protocol, m.bytes, decoded);
-  if (b.size() < 4) return {};
+  if (b.size() < 4) return;
   const std::uint8_t fc = b[1];
   const std::size_t end = b.size() - (m.protocol == Protocol::modbus_rtu ? 2 : 1);  // before check
-  Parts parts(want_text);
   if (fc & 0x80) {
     const auto it = p.exceptions.find(b[2]);
     if (it != p.exceptions.end())
-      return fmt::format(FMT_COMPILE("error 0x{:02X}: {}"), b[2], it->second);
-    return {};
+      fmt::format_to(std::back_inserter(out), FMT_COMPILE("error 0x{:02X}: {}"), b[2], it->second);
+    return;
   }
+  // A request's parts say what the master sets.
+  Parts parts(out, want_text, m.direction == Direction::request ? "set " : "");
   if (m.direction == Direction::request) {
     if ((fc == 0x03 || fc == 0x04) && end >= 6) {
       const RegisterKind kind = fc == 0x03 ? RegisterKind::holding : RegisterKind::input;
       const std::uint16_t start = be16(b, 2), count = be16(b, 4);
-      if (!want_text) return {};
-      if (count <= 1) return fmt::format(FMT_COMPILE("read {}"), name_at(p, kind, start));
-      return fmt::format(FMT_COMPILE("read {} .. {}"), name_at(p, kind, start),
-                         name_at(p, kind, static_cast<std::uint32_t>(start) + count - 1));
+      if (!want_text) return;
+      out += "read ";
+      append_name_at(out, p, kind, start);
+      if (count > 1) {
+        out += " .. ";
+        append_name_at(out, p, kind, static_cast<std::uint32_t>(start) + count - 1);
+      }
+      return;
     }
     if (fc == 0x06 && end >= 6) {
       const std::uint16_t values[] = {be16(b, 4)};
@@ -266,13 +284,12 @@ std::string read_modbus(const DriveProfile& p, const Message& m,
     } else if (fc == 0x0F && end >= 7) {
       read_coils(p, be16(b, 2), be16(b, 4), std::span(b).subspan(7, end - 7), true, parts, o);
     }
-    std::string text = parts.take();
-    return text.empty() ? text : "set " + text;
+    return;
   }
-  if (m.direction != Direction::response || request.empty()) return {};
+  if (m.direction != Direction::response || request.empty()) return;
   std::vector<std::uint8_t> request_decoded;
   const std::span<const std::uint8_t> q = modbus_binary(m.protocol, request, request_decoded);
-  if (q.size() < 6 || q[1] != fc) return {};
+  if (q.size() < 6 || q[1] != fc) return;
   if ((fc == 0x03 || fc == 0x04) && end >= 3) {
     std::array<std::uint16_t, 128> small;
     std::vector<std::uint16_t> large;
@@ -281,20 +298,20 @@ std::string read_modbus(const DriveProfile& p, const Message& m,
   } else if ((fc == 0x01 || fc == 0x02) && end >= 3) {
     read_coils(p, be16(q, 2), be16(q, 4), std::span(b).subspan(3, end - 3), false, parts, o);
   }
-  return parts.take();
 }
 
 // Danfoss FC protocol (PROTOCOLS.md §4):
 //   STX LGE ADR [PKE IND PWEhigh PWElow] PCD1 PCD2 BCC        (LGE 6: PCD only; 14: with PKE)
 //   PKE = AK(4 bits) PNU(12 bits); PCD1/PCD2 = CTW/REF to the drive, STW/MAV from it.
-std::string read_fc(const DriveProfile& p, const Message& m, bool want_text, DriveObservation& o) {
+void read_fc(const DriveProfile& p, const Message& m, bool want_text, std::string& out,
+             DriveObservation& o) {
   const std::span<const std::uint8_t> b = m.bytes;
-  if (b.size() < 4 || b[0] != 0x02) return {};
+  if (b.size() < 4 || b[0] != 0x02) return;
   const std::size_t lge = b[1];
-  if (b.size() != lge + 2 || (lge != 6 && lge != 14)) return {};
+  if (b.size() != lge + 2 || (lge != 6 && lge != 14)) return;
   const bool to_drive = m.direction == Direction::request;
-  if (m.direction == Direction::unknown) return {};
-  Parts parts(want_text);
+  if (m.direction == Direction::unknown) return;
+  Parts parts(out, want_text);
   if (lge == 14) {
     const std::uint16_t pke = be16(b, 3);
     const unsigned ak = pke >> 12;
@@ -366,7 +383,6 @@ std::string read_fc(const DriveProfile& p, const Message& m, bool want_text, Dri
     }
     observe(p, *r, raw, false, to_drive, o);
   }
-  return parts.take();
 }
 
 // Easydrive (PROTOCOLS.md §5), ASCII hex between '~' and CR:
@@ -392,20 +408,19 @@ constexpr RunAction kRunActions[] = {
     {0xE, "emergency stop", false, std::nullopt, false, false},
 };
 
-std::string read_easydrive(const DriveProfile& p, const Message& m,
-                           std::span<const std::uint8_t> request, bool want_text,
-                           DriveObservation& o) {
+void read_easydrive(const DriveProfile& p, const Message& m, std::span<const std::uint8_t> request,
+                    bool want_text, std::string& out, DriveObservation& o) {
   const std::span<const std::uint8_t> f = m.bytes;
-  if (f.size() != 14 && f.size() != 18) return {};
+  if (f.size() != 14 && f.size() != 18) return;
   const bool has_data = f.size() == 18;
   const long data = has_data ? easydrive::hex_field(f, 9, 4) : -1;
-  Parts parts(want_text);
+  Parts parts(out, want_text);
   const RegisterDef* setpoint = nullptr;
   for (const RegisterDef& r : p.registers)
     if (r.kind == RegisterKind::running && r.role == RegisterRole::setpoint) setpoint = &r;
   if (m.direction == Direction::request) {
     const long cmd = easydrive::hex_field(f, 3, 2), index = easydrive::hex_field(f, 5, 4);
-    if (cmd < 0 || index < 0) return {};
+    if (cmd < 0 || index < 0) return;
     const auto u_index = static_cast<std::uint32_t>(index);
     const RegisterDef* par = p.find(RegisterKind::parameter, u_index);
     const std::string par_name =
@@ -449,12 +464,12 @@ std::string read_easydrive(const DriveProfile& p, const Message& m,
       default:
         break;
     }
-    return parts.take();
+    return;
   }
-  if (m.direction != Direction::response) return {};
+  if (m.direction != Direction::response) return;
   const long code = easydrive::hex_field(f, 3, 2), fault = easydrive::hex_field(f, 5, 2);
   const long cmd = easydrive::hex_field(request, 3, 2), index = easydrive::hex_field(request, 5, 4);
-  if (code == 0x20 || code == 0x30) return {};  // rejected: the frame line names the reason
+  if (code == 0x20 || code == 0x30) return;  // rejected: the frame line names the reason
   if (cmd == 0x0B && index >= 0 && data >= 0) {
     if (const RegisterDef* r = p.find(RegisterKind::running, static_cast<std::uint32_t>(index))) {
       if (parts.enabled())
@@ -475,16 +490,20 @@ std::string read_easydrive(const DriveProfile& p, const Message& m,
   if (fault >= 0) {
     o.fault_code = static_cast<std::uint32_t>(fault);
     const auto names = p.enums.find("fault");
-    std::string name;
+    const std::string* name = nullptr;
     if (names != p.enums.end()) {
       const auto it = names->second.find(static_cast<std::uint32_t>(fault));
-      if (it != names->second.end()) name = it->second;
+      if (it != names->second.end() && !it->second.empty()) name = &it->second;
     }
-    o.fault_text = name.empty() ? fmt::format(FMT_COMPILE("{}"), fault)
-                                : fmt::format(FMT_COMPILE("{} ({})"), fault, name);
+    o.fault_text.clear();  // keeps its storage
+    append_int(o.fault_text, fault);
+    if (name) {
+      o.fault_text += " (";
+      o.fault_text += *name;
+      o.fault_text += ')';
+    }
     if (fault > 0) parts.add("fault {}", o.fault_text);
   }
-  return parts.take();
 }
 
 }  // namespace
@@ -545,34 +564,39 @@ std::string describe_value(const DriveProfile& p, const RegisterDef& r, std::uin
   return out;
 }
 
-DriveReading read_for_drive(const DriveProfile& p, const Message& m,
-                            std::span<const std::uint8_t> request, bool want_text) {
-  DriveReading out;
-  std::string what;
+void read_for_drive_into(const DriveProfile& p, const Message& m,
+                         std::span<const std::uint8_t> request, bool want_text, DriveReading& out) {
+  out.observed.clear();
+  // "drive 2 (ERMAN E-9P/9G): ...", taken back when the profile says nothing of the frame.
+  std::string& text = out.text;
+  text.clear();  // keeps its storage
+  text += "drive ";
+  append_int(text, m.address);
+  text += " (";
+  text += p.name;
+  text += "): ";
+  const std::size_t lead = text.size();
   switch (m.protocol) {
     case Protocol::modbus_rtu:
     case Protocol::modbus_ascii:
-      what = read_modbus(p, m, request, want_text, out.observed);
+      read_modbus(p, m, request, want_text, text, out.observed);
       break;
     case Protocol::danfoss_fc:
-      what = read_fc(p, m, want_text, out.observed);
+      read_fc(p, m, want_text, text, out.observed);
       break;
     case Protocol::easydrive:
-      what = read_easydrive(p, m, request, want_text, out.observed);
+      read_easydrive(p, m, request, want_text, text, out.observed);
       break;
     case Protocol::unknown:
       break;
   }
-  if (!what.empty()) {
-    // "drive 2 (ERMAN E-9P/9G): ..."
-    out.text.reserve(what.size() + p.name.size() + 16);
-    out.text += "drive ";
-    append_int(out.text, m.address);
-    out.text += " (";
-    out.text += p.name;
-    out.text += "): ";
-    out.text += what;
-  }
+  if (text.size() == lead) text.clear();
+}
+
+DriveReading read_for_drive(const DriveProfile& p, const Message& m,
+                            std::span<const std::uint8_t> request, bool want_text) {
+  DriveReading out;
+  read_for_drive_into(p, m, request, want_text, out);
   return out;
 }
 

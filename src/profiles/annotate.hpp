@@ -20,6 +20,7 @@ namespace drivetap {
 struct Quantity {
   double value = 0;
   std::string text;  // "50.00 Hz"
+  bool operator==(const Quantity&) const = default;
 };
 
 // What one frame showed about its drive. Status fields come from the drive's replies; command
@@ -32,6 +33,16 @@ struct DriveObservation {
   std::optional<bool> run_command, reverse_command;
   bool reset_command = false;
   std::optional<Quantity> setpoint_command;
+
+  // Back to nothing observed (every member as a new observation has it); fault_text keeps its
+  // storage.
+  void clear() {
+    std::string storage = std::move(fault_text);
+    storage.clear();
+    *this = DriveObservation{};
+    fault_text = std::move(storage);
+  }
+  bool operator==(const DriveObservation&) const = default;
 };
 
 struct DriveReading {
@@ -43,6 +54,10 @@ struct DriveReading {
 // `want_text` false: the observation only, no text (no sink shows it: `read --stats`).
 DriveReading read_for_drive(const DriveProfile& profile, const Message& message,
                             std::span<const std::uint8_t> request, bool want_text = true);
+// The same into `out`, whose strings keep their storage from one frame to the next (the
+// pipeline reads every frame into one DriveReading).
+void read_for_drive_into(const DriveProfile& profile, const Message& message,
+                         std::span<const std::uint8_t> request, bool want_text, DriveReading& out);
 
 // One value as the profile describes it: "50.00 Hz", "0x0003 [running, forward]", "4
 // (overcurrent)". `raw` holds 16 bits, or 32 for a two-word register or a double-word PWE.
