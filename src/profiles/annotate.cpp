@@ -47,9 +47,12 @@ double scaled(const RegisterDef& r, std::uint32_t raw, bool double_word) {
 void append_scaled(std::string& out, const RegisterDef& r, std::uint32_t raw, bool double_word) {
   static constexpr double kDecimalScales[] = {1, 0.1, 0.01, 0.001, 0.0001, 0.00001};
   static constexpr std::int64_t kPowersOfTen[] = {1, 10, 100, 1000, 10000, 100000};
-  const int decimals = decimals_of(r.scale);
   const std::int64_t value = raw_value(r, raw, double_word);
-  if (decimals < 6 && r.scale == kDecimalScales[decimals]) {
+  // A decimal scale, the usual one, is looked up in the table: decimals_of() gives each entry
+  // its index (ProfileSchema.ScaledValuesReadAsTheDoublePrinted), and its loop of roundings costs
+  // more than the rest of the value.
+  for (int decimals = 0; decimals < 6; ++decimals) {
+    if (r.scale != kDecimalScales[decimals]) continue;
     const auto unit = static_cast<std::uint64_t>(kPowersOfTen[decimals]);
     const std::uint64_t magnitude =
         static_cast<std::uint64_t>(value < 0 ? -value : value);  // |value| < 2^32
@@ -58,6 +61,7 @@ void append_scaled(std::string& out, const RegisterDef& r, std::uint32_t raw, bo
     if (decimals > 0) append_fraction(out, magnitude % unit, decimals);
     return;
   }
+  const int decimals = decimals_of(r.scale);
   if (decimals == 0 && r.scale > 0 && r.scale <= 1e6 && r.scale == std::round(r.scale)) {
     append_int(out, value * static_cast<std::int64_t>(r.scale));
     return;

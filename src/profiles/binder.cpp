@@ -198,7 +198,7 @@ std::optional<BusEvent> DriveBinder::learn(std::size_t link, const Message& m) {
   Station& st = stations_[{link, m.address}];
   if (st.score.empty()) {
     st.score.assign(candidates_.size(), 0);
-    st.excluded.assign(candidates_.size(), false);
+    st.excluded.assign(candidates_.size(), 0);
   }
   ++st.frames;
   const bool modbus = m.protocol == Protocol::modbus_rtu || m.protocol == Protocol::modbus_ascii;
@@ -211,7 +211,7 @@ std::optional<BusEvent> DriveBinder::learn(std::size_t link, const Message& m) {
   for (std::size_t i = 0; i < candidates_.size(); ++i) {
     const DriveProfile& p = *candidates_[i];
     if (!speaks(p, m.protocol) || m.address < p.address_min || m.address > p.address_max) {
-      st.excluded[i] = true;
+      st.excluded[i] = 1;
       continue;
     }
     if (repeatable)

@@ -11,6 +11,7 @@
 #include <optional>
 #include <span>
 #include <string>
+#include <string_view>
 #include <unordered_map>
 #include <utility>
 #include <vector>
@@ -30,10 +31,13 @@ class DriveBinder {
   std::optional<BusEvent> learn(std::size_t link, const Message& message);
 
   struct Station {
-    std::vector<double> score;   // per candidate: fitting minus contradicting observations
-    std::vector<bool> excluded;  // protocol or address range rule the candidate out
-    int bound = -1;              // candidate index, -1 = generic
-    std::string confidence;      // of the current binding: "high", "medium", "low"
+    std::vector<double> score;  // per candidate: fitting minus contradicting observations
+    // Per candidate: protocol or address range rule it out (bytes, not std::vector<bool>'s
+    // bits: read for every candidate of every frame).
+    std::vector<std::uint8_t> excluded;
+    int bound = -1;  // candidate index, -1 = generic
+    // Of the current binding: "high", "medium", "low" (static text: set on every frame).
+    std::string_view confidence;
     std::uint64_t frames = 0;
   };
   using Key = std::pair<std::size_t, int>;  // link, station address
