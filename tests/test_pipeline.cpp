@@ -448,6 +448,9 @@ TEST(Pipeline, BeginMessageResetsEveryMember) {
   dirty.fields.emplace_back();
   dirty.info = "old";
   dirty.drive_info = "old drive";
+  static const DriveProfile profile;
+  dirty.drive_profile = &profile;
+  dirty.drive_request = {1, 3};
   dirty.anomalies.push_back({AnomalyKind::noise, 1, 0, 1, "old"});
   dirty.latency = 5;
   dirty.request_number = 3;
@@ -472,6 +475,8 @@ TEST(Pipeline, BeginMessageResetsEveryMember) {
   EXPECT_TRUE(dirty.fields.empty());
   EXPECT_TRUE(dirty.info.empty());
   EXPECT_TRUE(dirty.drive_info.empty());
+  EXPECT_EQ(dirty.drive_profile, nullptr);
+  EXPECT_TRUE(dirty.drive_request.empty());
   EXPECT_TRUE(dirty.anomalies.empty());
   EXPECT_EQ(dirty.latency, fresh.latency);
   EXPECT_EQ(dirty.request_number, fresh.request_number);

@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include "profiles/profile.hpp"
+#include "sinks/threaded_sink.hpp"
 #include "test_support.hpp"
 
 using namespace drivetap;
@@ -105,6 +106,83 @@ TEST(DriveAnnotation, E9ReadReplyWriteAndVendorError) {
       << sink.frames[3].drive_info;
   EXPECT_NE(sink.frames[4].drive_info.find("error 0x04:"), std::string::npos)
       << sink.frames[4].drive_info;
+}
+
+namespace {
+
+// A sink that says it writes the drive annotation itself, and does not: what the pipeline hands
+// such a sink.
+struct DeferringSink final : Sink {
+  drivetap::testing::RecordingSink inner;
+  void on_frame(const Message& m) override { inner.on_frame(m); }
+  void on_noise(const Frame& f) override { inner.on_noise(f); }
+  void on_anomaly(const Anomaly& a) override { inner.on_anomaly(a); }
+  void on_transaction(const Transaction& t) override { inner.on_transaction(t); }
+  void on_summary(const Stats& s) override { inner.on_summary(s); }
+  bool flush() override { return true; }
+  [[nodiscard]] bool completes_drive_info() const override { return true; }
+};
+
+// The E-9 traffic of E9ReadReplyWriteAndVendorError (read, reply, write, write, vendor error)
+// through `sink`.
+void run_e9_traffic(const DriveProfile& e9, Sink& sink, ThreadedSink* finish_first = nullptr) {
+  ChannelTable channels;
+  channels.intern("bus");
+  PipelineOptions p;
+  p.protocol = Protocol::modbus_rtu;
+  p.timing = FramingTiming::from(p.serial);
+  p.drives[2] = &e9;
+  Pipeline pipeline(p, channels, sink);
+  TimeNs t = 0;
+  using drivetap::testing::with_crc;
+  for (const auto& f : {with_crc({0x02, 0x03, 0x00, 0x01, 0x00, 0x02}),
+                        with_crc({0x02, 0x03, 0x04, 0x13, 0x88, 0x13, 0x7D}),
+                        with_crc({0x02, 0x06, 0x00, 0x11, 0x0F, 0xA0}),
+                        with_crc({0x02, 0x10, 0x00, 0x10, 0x00, 0x01, 0x02, 0x00, 0x03}),
+                        with_crc({0x02, 0x90, 0x04})}) {
+    for (std::uint8_t b : f) pipeline.push({t += p.timing.character_time, b, 0, 0, 0});
+    t += 20 * kNsPerMs;
+  }
+  // With the writer stopped, the last frame (still held by the framer) goes straight through.
+  if (finish_first) finish_first->finish();
+  pipeline.finish();
+}
+
+}  // namespace
+
+// A sink that writes the annotation on its own thread (the ThreadedSink) gets the profile and the
+// request's bytes instead of the text, and writes the text the pipeline writes for other sinks.
+TEST(DriveAnnotation, WrittenOnTheWriterThreadAsOnTheDecodingOne) {
+  const DriveProfile e9 = builtin("e9.toml");
+  drivetap::testing::RecordingSink direct;
+  run_e9_traffic(e9, direct);
+  ASSERT_EQ(direct.frames.size(), 5u);
+  EXPECT_FALSE(direct.frames[1].drive_info.empty());
+
+  DeferringSink deferring;
+  run_e9_traffic(e9, deferring);
+  ASSERT_EQ(deferring.inner.frames.size(), 5u);
+  for (const Message& m : deferring.inner.frames) {
+    EXPECT_EQ(m.drive_info, "");
+    EXPECT_EQ(m.drive_profile, &e9);
+  }
+  EXPECT_EQ(deferring.inner.frames[1].drive_request,
+            direct.frames[0].bytes);  // the reply's request
+  EXPECT_TRUE(deferring.inner.frames[0].drive_request.empty());
+
+  for (const bool finish_first : {false, true}) {
+    drivetap::testing::RecordingSink replayed;
+    {
+      ThreadedSink threaded(replayed);
+      EXPECT_TRUE(threaded.completes_drive_info());
+      run_e9_traffic(e9, threaded, finish_first ? &threaded : nullptr);
+    }
+    ASSERT_EQ(replayed.frames.size(), 5u);
+    for (std::size_t i = 0; i < 5; ++i) {
+      EXPECT_EQ(replayed.frames[i].drive_info, direct.frames[i].drive_info) << i;
+      EXPECT_EQ(replayed.frames[i].drive_profile, nullptr);
+    }
+  }
 }
 
 TEST(DriveTimingRules, E9SilenceAndReplyToRequestE5Guard) {

@@ -39,6 +39,11 @@ Pipeline::Pipeline(PipelineOptions options, const ChannelTable& channels, Sink& 
   message_.detail = sink.wants_detail();
   message_.tree = message_.detail && sink.wants_fields();
   hand_over_transactions_ = sink.wants_transactions();
+  defer_drive_info_ = message_.detail && sink.completes_drive_info();
+  // The sink may read the profiles on its own thread: their lookup tables are built here, before
+  // it gets any message (after this they are only read).
+  for (const auto& [address, profile] : options_.drives) profile->build_index();
+  for (const DriveProfile* profile : options_.auto_candidates) profile->build_index();
 }
 
 Pipeline::~Pipeline() = default;
@@ -499,8 +504,15 @@ void Pipeline::handle_frame(Frame& frame) {
     profile = binder_.bound(link, m.address);
   }
   if (profile) {
-    read_for_drive_into(*profile, m, request, m.detail, drive_reading_);
-    std::swap(m.drive_info, drive_reading_.text);  // both keep their storage for later frames
+    // The annotation's text is written here, or by the sink on its own thread (then only the
+    // observation is made here: the timeline needs it now).
+    read_for_drive_into(*profile, m, request, m.detail && !defer_drive_info_, drive_reading_);
+    if (defer_drive_info_) {
+      m.drive_profile = profile;
+      m.drive_request.assign(request.begin(), request.end());
+    } else {
+      std::swap(m.drive_info, drive_reading_.text);  // both keep their storage for later frames
+    }
   }
   if (st.auto_protocol) {
     if (m.checksum.verdict == ChecksumVerdict::good) {

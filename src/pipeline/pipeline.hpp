@@ -117,6 +117,7 @@ class Pipeline {
   std::vector<Transaction> transactions_;
   Message message_;  // every frame is decoded into this one (its storage is reused)
   bool hand_over_transactions_ = true;  // the sink's wants_transactions()
+  bool defer_drive_info_ = false;       // the sink's completes_drive_info(), with detail
   TimeNs earliest_deadline_;
   std::uint64_t frame_counter_ = 0;
   TimeNs latest_time_ = std::numeric_limits<TimeNs>::min();

@@ -597,6 +597,13 @@ void read_for_drive_into(const DriveProfile& p, const Message& m,
   if (text.size() == lead) text.clear();
 }
 
+void complete_drive_info(Message& m, DriveReading& scratch) {
+  if (!m.drive_profile) return;
+  read_for_drive_into(*m.drive_profile, m, m.drive_request, true, scratch);
+  std::swap(m.drive_info, scratch.text);  // both keep their storage
+  m.drive_profile = nullptr;
+}
+
 DriveReading read_for_drive(const DriveProfile& p, const Message& m,
                             std::span<const std::uint8_t> request, bool want_text) {
   DriveReading out;

@@ -59,6 +59,12 @@ DriveReading read_for_drive(const DriveProfile& profile, const Message& message,
 void read_for_drive_into(const DriveProfile& profile, const Message& message,
                          std::span<const std::uint8_t> request, bool want_text, DriveReading& out);
 
+// Writes the annotation a pipeline left to its sink (Message::drive_profile): drive_info as
+// read_for_drive() gives its text, from the message and its request's bytes; drive_profile is
+// cleared. `scratch` lends its storage (the caller keeps one for every message). Nothing for a
+// message without drive_profile.
+void complete_drive_info(Message& message, DriveReading& scratch);
+
 // One value as the profile describes it: "50.00 Hz", "0x0003 [running, forward]", "4
 // (overcurrent)". `raw` holds 16 bits, or 32 for a two-word register or a double-word PWE.
 std::string describe_value(const DriveProfile& profile, const RegisterDef& reg, std::uint32_t raw,

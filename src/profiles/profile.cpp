@@ -29,7 +29,7 @@ std::uint64_t register_key(RegisterKind kind, std::uint32_t address) {
 }
 }  // namespace
 
-const RegisterDef* DriveProfile::find(RegisterKind kind, std::uint32_t address) const {
+void DriveProfile::build_index() const {
   if (indexed_count_ != registers.size()) {
     registers_index_.clear();
     for (std::size_t i = 0; i < registers.size(); ++i)
@@ -40,6 +40,10 @@ const RegisterDef* DriveProfile::find(RegisterKind kind, std::uint32_t address) 
                      [](const auto& a, const auto& b) { return a.first < b.first; });
     indexed_count_ = registers.size();
   }
+}
+
+const RegisterDef* DriveProfile::find(RegisterKind kind, std::uint32_t address) const {
+  build_index();
   const std::uint64_t key = register_key(kind, address);
   const auto it = std::lower_bound(registers_index_.begin(), registers_index_.end(), key,
                                    [](const auto& e, std::uint64_t k) { return e.first < k; });
@@ -499,6 +503,7 @@ DriveProfile parse_tables(const toml::table& root) {
     if (!p.find(RegisterKind::holding, address))
       throw Bad{line_of(*root.get("process_data")), "process_data.from_drive",
                 fmt::format("no [[register]] with address {}", address)};
+  p.build_index();
   return p;
 }
 

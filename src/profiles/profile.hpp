@@ -96,6 +96,11 @@ struct DriveProfile {
   std::map<std::uint32_t, std::string> parameter_errors;  // Danfoss FC protocol AK 7 numbers
 
   [[nodiscard]] const RegisterDef* find(RegisterKind kind, std::uint32_t address) const;
+  // Builds find()'s table now if `registers` changed since it was built. Afterwards, as long as
+  // nobody edits the profile, find() only reads and may run on several threads at once (the
+  // ThreadedSink's writer annotates frames while the pipeline decodes). parse_profile() and the
+  // pipeline's constructor call it.
+  void build_index() const;
   // What a Modbus holding register address means: a register of the map, else the parameter the
   // addressing rule puts there. `parameter_label` gets the manual's number for an address the
   // rule maps but the profile does not name; empty when the address is no parameter.

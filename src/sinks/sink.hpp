@@ -59,6 +59,10 @@ class Sink {
   // Whether on_transaction() does anything; when not, the pipeline still counts transactions but
   // does not hand them over (a writer thread would copy each). Fixed for the sink's lifetime.
   [[nodiscard]] virtual bool wants_transactions() const { return true; }
+  // Whether the sink writes the drive annotation of the messages it gets (Message::drive_profile
+  // -> drive_info) before anything reads them; the pipeline then leaves that to it (the
+  // ThreadedSink does it on its writer thread, off the decoding one). Fixed for its lifetime.
+  [[nodiscard]] virtual bool completes_drive_info() const { return false; }
 };
 
 // Sends every record to several sinks.

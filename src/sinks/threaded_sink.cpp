@@ -71,6 +71,7 @@ void ThreadedSink::run() {
       Record& r = batch->records[i];  // not const: a record holding a large frame is freed
       switch (r.kind) {
         case Kind::frame:
+          complete_drive_info(r.message, drive_scratch_);
           inner_.on_frame(r.message);
           if (r.message.frame.storage_bytes() > kKeptStorageBytes) r.message = Message{};
           break;
@@ -107,6 +108,12 @@ void ThreadedSink::weigh(std::size_t bytes) {
 }
 
 void ThreadedSink::on_frame(const Message& message) {
+  if (finished_ && message.drive_profile) {
+    // The writer thread has stopped: the annotation is written here, on a copy.
+    Message completed = message;
+    complete_drive_info(completed, drive_scratch_);
+    return inner_.on_frame(completed);
+  }
   if (const Record* r = give(Kind::frame, &Record::message, message, &Sink::on_frame))
     weigh(r->message.frame.storage_bytes());
 }

@@ -3,8 +3,12 @@
 // bench/README.md). Contract of src/sinks/sink.hpp: the inner sink gets every record, in order.
 //
 //   pipeline thread:  on_frame(m) ... -> copied into a batch (kBatchRecords) -> queue (kDepth)
-//   writer thread:    batch -> inner.on_frame(copy) ... ; the batch goes back for reuse
+//   writer thread:    batch -> [drive annotation written] -> inner.on_frame(copy) ... ; the batch
+//                     goes back for reuse
 //
+// With drive profiles the writer also writes each frame's drive annotation (Message::drive_profile
+// -> drive_info, completes_drive_info()): the profiles, which the pipeline indexed before the first
+// frame, are then read on both threads and changed on neither.
 // Records are copied: the pipeline reuses its Message for the next frame at once. A batch's
 // records keep their storage from one use to the next, so the copies do not allocate once the
 // run is under way. (Swapping a frame's Message with its record instead of copying it was
@@ -17,8 +21,9 @@
 // wait until the writer has replayed everything given so far; finish() (or the destructor) then
 // stops the thread; records after it go straight to the inner sink. The worker thread runs with
 // SIGINT and SIGTERM blocked. The inner sink and everything its records name (the ChannelTable)
-// must outlive this one; only the writer thread calls the inner sink between construction and
-// finish(), except wants_detail(), wants_fields() and wants_transactions(), read once here.
+// must outlive this one, and so must the drive profiles its messages name; only the writer thread
+// calls the inner sink between construction and finish(), except wants_detail(), wants_fields() and
+// wants_transactions(), read once here.
 #pragma once
 
 #include <condition_variable>
@@ -30,6 +35,7 @@
 #include <thread>
 #include <vector>
 
+#include "profiles/annotate.hpp"
 #include "sinks/sink.hpp"
 
 namespace drivetap {
@@ -58,6 +64,10 @@ class ThreadedSink final : public Sink {
   [[nodiscard]] bool wants_detail() const override { return wants_detail_; }
   [[nodiscard]] bool wants_fields() const override { return wants_fields_; }
   [[nodiscard]] bool wants_transactions() const override { return wants_transactions_; }
+  // The drive annotation (Message::drive_profile) is written on the writer thread, before the
+  // inner sink gets the message: formatting it is a third of the decoding thread's work with
+  // drive profiles (bench/README.md).
+  [[nodiscard]] bool completes_drive_info() const override { return true; }
   // Replays what is left and stops the writer thread; the inner sink is the caller's again.
   void finish();
   // Waits until the writer is idle, then counts the storage its records' frames keep for reuse:
@@ -109,6 +119,7 @@ class ThreadedSink final : public Sink {
   const bool wants_fields_;
   const bool wants_transactions_;
   std::unique_ptr<Batch> current_;  // being filled on the pipeline thread
+  DriveReading drive_scratch_;      // the writer's (or, after finish(), the caller's)
 
   std::mutex mutex_;
   std::condition_variable changed_;
