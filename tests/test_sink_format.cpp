@@ -58,6 +58,46 @@ TEST(SinkFormat, JsonStringsEscapeQuotesBackslashesAndControls) {
   EXPECT_EQ(json_quote(""), "\"\"");
 }
 
+// Long strings go through the sixteen- and eight-character scans before any escaping: a
+// character that needs escaping is found at every place of them, and none is found where there
+// is none (bytes 0x7F and above included).
+TEST(SinkFormat, JsonEscapingOfLongStringsFindsEveryPlace) {
+  auto reference = [](std::string_view s) {
+    std::string out = "\"";
+    for (const char c : s) {
+      const auto u = static_cast<unsigned char>(c);
+      if (c == '"')
+        out += "\\\"";
+      else if (c == '\\')
+        out += "\\\\";
+      else if (c == '\n')
+        out += "\\n";
+      else if (c == '\r')
+        out += "\\r";
+      else if (c == '\t')
+        out += "\\t";
+      else if (u < 0x20)
+        out += fmt::format("\\u{:04x}", u);
+      else
+        out += c;
+    }
+    return out + "\"";
+  };
+  for (const std::size_t length : {16u, 17u, 31u, 40u, 48u, 300u}) {
+    std::string plain;
+    for (std::size_t i = 0; i < length; ++i) plain += static_cast<char>(0x20 + (i * 37) % 0xE0);
+    for (char& c : plain)
+      if (c == '"' || c == '\\') c = 'x';
+    EXPECT_EQ(json_quote(plain), reference(plain)) << length;
+    for (std::size_t at = 0; at<length; at += length> 48 ? 13 : 1)
+      for (const char special : {'"', '\\', '\n', '\x01', '\x1f', '\0'}) {
+        std::string s = plain;
+        s[at] = special;
+        EXPECT_EQ(json_quote(s), reference(s)) << length << " " << at << " " << int{special};
+      }
+  }
+}
+
 TEST(SinkFormat, LineBufferHoldsWhatAStringWouldHold) {
   // The same appends into a LineBuffer and a std::string, past several growths of the buffer.
   LineBuffer line;
