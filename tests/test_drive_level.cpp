@@ -112,6 +112,16 @@ std::string load_error(std::string_view toml) {
   return e.text();
 }
 
+// An E-9 poll of station 2: read of registers 0..4 (status .. current), its reply, and a write of
+// control word and setpoint.
+struct E9Poll {
+  Message req = rtu({0x02, 0x03, 0x00, 0x00, 0x00, 0x05}, Direction::request);
+  Message rsp = rtu({0x02, 0x03, 0x0A, 0x00, 0x0A, 0x13, 0x88, 0x13, 0x7D, 0x01, 0x7C, 0x00, 0x64},
+                    Direction::response);
+  Message write =
+      rtu({0x02, 0x10, 0x00, 0x10, 0x00, 0x02, 0x04, 0x00, 0x01, 0x13, 0x88}, Direction::request);
+};
+
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
@@ -455,12 +465,8 @@ TEST(DriveReading, E9StatusReplyReadWithItsRequest) {
 // Without the text (read --stats), a reading observes exactly what it observes with it.
 TEST(DriveReading, WithoutTextTheObservationIsTheSame) {
   const DriveProfile e9 = builtin_profile("e9.toml");
-  const Message req = rtu({0x02, 0x03, 0x00, 0x00, 0x00, 0x05}, Direction::request);
-  const Message rsp =
-      rtu({0x02, 0x03, 0x0A, 0x00, 0x0A, 0x13, 0x88, 0x13, 0x7D, 0x01, 0x7C, 0x00, 0x64},
-          Direction::response);
-  const Message write =
-      rtu({0x02, 0x10, 0x00, 0x10, 0x00, 0x02, 0x04, 0x00, 0x01, 0x13, 0x88}, Direction::request);
+  const E9Poll poll;
+  const Message &req = poll.req, &rsp = poll.rsp, &write = poll.write;
   auto text = [](const std::optional<Quantity>& q) { return q ? q->text : "-"; };
   for (const auto& [m, request] :
        {std::pair{req, std::vector<std::uint8_t>()}, std::pair{rsp, req.bytes},
@@ -489,12 +495,8 @@ TEST(DriveReading, WithoutTextTheObservationIsTheSame) {
 TEST(DriveReading, ReadingIntoOneReadingIsReadingAfresh) {
   const DriveProfile e9 = builtin_profile("e9.toml");
   const DriveProfile eds = builtin_profile("eds1000.toml");
-  const Message req = rtu({0x02, 0x03, 0x00, 0x00, 0x00, 0x05}, Direction::request);
-  const Message rsp =
-      rtu({0x02, 0x03, 0x0A, 0x00, 0x0A, 0x13, 0x88, 0x13, 0x7D, 0x01, 0x7C, 0x00, 0x64},
-          Direction::response);
-  const Message write =
-      rtu({0x02, 0x10, 0x00, 0x10, 0x00, 0x02, 0x04, 0x00, 0x01, 0x13, 0x88}, Direction::request);
+  const E9Poll poll;
+  const Message &req = poll.req, &rsp = poll.rsp, &write = poll.write;
   const Message fault_req = rtu({0x02, 0x03, 0x00, 0x0B, 0x00, 0x01}, Direction::request);
   const Message fault = rtu({0x02, 0x03, 0x02, 0x00, 0x04}, Direction::response);
   const Message exception = rtu({0x02, 0x83, 0x02}, Direction::response);

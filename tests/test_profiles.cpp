@@ -75,41 +75,6 @@ DriveProfile builtin(std::string_view file) {
   return {};
 }
 
-}  // namespace
-
-TEST(DriveAnnotation, E9ReadReplyWriteAndVendorError) {
-  const DriveProfile e9 = builtin("e9.toml");
-  ChannelTable channels;
-  channels.intern("bus");
-  drivetap::testing::RecordingSink sink;
-  PipelineOptions p;
-  p.protocol = Protocol::modbus_rtu;
-  p.timing = FramingTiming::from(p.serial);
-  p.drives[2] = &e9;
-  Pipeline pipeline(p, channels, sink);
-  TimeNs t = 0;
-  using drivetap::testing::with_crc;
-  for (const auto& f : {with_crc({0x02, 0x03, 0x00, 0x01, 0x00, 0x02}),
-                        with_crc({0x02, 0x03, 0x04, 0x13, 0x88, 0x13, 0x7D}),
-                        with_crc({0x02, 0x06, 0x00, 0x11, 0x0F, 0xA0}),
-                        with_crc({0x02, 0x10, 0x00, 0x10, 0x00, 0x01, 0x02, 0x00, 0x03}),
-                        with_crc({0x02, 0x90, 0x04})}) {
-    for (std::uint8_t b : f) pipeline.push({t += p.timing.character_time, b, 0, 0, 0});
-    t += 20 * kNsPerMs;
-  }
-  pipeline.finish();
-  ASSERT_EQ(sink.frames.size(), 5u);
-  EXPECT_EQ(sink.frames[1].drive_info,
-            "drive 2 (ERMAN E-9P/9G): frequency setpoint 50.00 Hz; output frequency 49.89 Hz");
-  EXPECT_EQ(sink.frames[2].drive_info, "drive 2 (ERMAN E-9P/9G): set frequency setpoint 40.00 Hz");
-  EXPECT_NE(sink.frames[3].drive_info.find("control word 0x0003 [run, reverse"), std::string::npos)
-      << sink.frames[3].drive_info;
-  EXPECT_NE(sink.frames[4].drive_info.find("error 0x04:"), std::string::npos)
-      << sink.frames[4].drive_info;
-}
-
-namespace {
-
 // A sink that says it writes the drive annotation itself, and does not: what the pipeline hands
 // such a sink.
 struct DeferringSink final : Sink {
@@ -123,8 +88,8 @@ struct DeferringSink final : Sink {
   [[nodiscard]] bool completes_drive_info() const override { return true; }
 };
 
-// The E-9 traffic of E9ReadReplyWriteAndVendorError (read, reply, write, write, vendor error)
-// through `sink`.
+// E-9 traffic for station 2 (read, reply, write, write, vendor error) through `sink`, the
+// station bound to `e9`.
 void run_e9_traffic(const DriveProfile& e9, Sink& sink, ThreadedSink* finish_first = nullptr) {
   ChannelTable channels;
   channels.intern("bus");
@@ -149,6 +114,20 @@ void run_e9_traffic(const DriveProfile& e9, Sink& sink, ThreadedSink* finish_fir
 }
 
 }  // namespace
+
+TEST(DriveAnnotation, E9ReadReplyWriteAndVendorError) {
+  const DriveProfile e9 = builtin("e9.toml");
+  drivetap::testing::RecordingSink sink;
+  run_e9_traffic(e9, sink);
+  ASSERT_EQ(sink.frames.size(), 5u);
+  EXPECT_EQ(sink.frames[1].drive_info,
+            "drive 2 (ERMAN E-9P/9G): frequency setpoint 50.00 Hz; output frequency 49.89 Hz");
+  EXPECT_EQ(sink.frames[2].drive_info, "drive 2 (ERMAN E-9P/9G): set frequency setpoint 40.00 Hz");
+  EXPECT_NE(sink.frames[3].drive_info.find("control word 0x0003 [run, reverse"), std::string::npos)
+      << sink.frames[3].drive_info;
+  EXPECT_NE(sink.frames[4].drive_info.find("error 0x04:"), std::string::npos)
+      << sink.frames[4].drive_info;
+}
 
 // A sink that writes the annotation on its own thread (the ThreadedSink) gets the profile and the
 // request's bytes instead of the text, and writes the text the pipeline writes for other sinks.
