@@ -643,7 +643,8 @@ void BM_DriveAnnotate(benchmark::State& state) {
       const std::span<const std::uint8_t> request =
           i % 2 == 1 ? std::span<const std::uint8_t>(r.messages[i - 1].bytes)
                      : std::span<const std::uint8_t>();
-      read_for_drive_into(*e9, r.messages[i], request, true, reading);
+      read_for_drive_into(*e9, r.messages[i], request, DriveReadingWants::text_and_observation,
+                          reading);
       annotated += !reading.text.empty();
       benchmark::DoNotOptimize(reading.text.data());
     }

@@ -524,21 +524,69 @@ TEST(DriveReading, ReadingIntoOneReadingIsReadingAfresh) {
   for (const bool want_text : {true, false}) {
     DriveReading reused;
     for (const Case& c : cases) {
-      read_for_drive_into(c.profile, c.message, c.request, want_text, reused);
+      read_for_drive_into(
+          c.profile, c.message, c.request,
+          want_text ? DriveReadingWants::text_and_observation : DriveReadingWants::observation,
+          reused);
       const DriveReading fresh = read_for_drive(c.profile, c.message, c.request, want_text);
       EXPECT_EQ(reused.text, fresh.text);
       EXPECT_TRUE(reused.observed == fresh.observed) << fresh.text;
     }
   }
-  // Cleared, an observation is a new one; its fault text keeps its storage.
+  // Cleared, an observation is a new one (every member set first); its fault text keeps its
+  // storage.
   DriveReading r = read_for_drive(e9, fault, fault_req.bytes);
   ASSERT_EQ(r.observed.fault_text, "4 (output overcurrent)");
-  r.observed.setpoint = Quantity{50, "50.00 Hz"};
-  r.observed.reset_command = true;
-  const std::size_t capacity = r.observed.fault_text.capacity();
-  r.observed.clear();
-  EXPECT_TRUE(r.observed == DriveObservation{});
-  EXPECT_EQ(r.observed.fault_text.capacity(), capacity);
+  DriveObservation& o = r.observed;
+  o.running = o.reverse = o.fault_active = o.warning = true;
+  o.setpoint = o.output_frequency = o.current = o.voltage = Quantity{50, "50.00 Hz"};
+  o.fault_code = 4;
+  o.run_command = o.reverse_command = true;
+  o.reset_command = true;
+  o.setpoint_command = Quantity{25, "25.00 Hz, a text too long for a short string"};
+  const std::size_t capacity = o.fault_text.capacity();
+  o.clear();
+  EXPECT_TRUE(o == DriveObservation{});
+  EXPECT_EQ(o.fault_text.capacity(), capacity);
+}
+
+// The writer thread of a ThreadedSink reads a frame for its text alone (the pipeline made the
+// observation): the same text as a full reading, from one reused reading, without applying the
+// register roles.
+TEST(DriveReading, TheTextAloneIsTheTextOfAFullReading) {
+  const DriveProfile e9 = builtin_profile("e9.toml");
+  const DriveProfile eds = builtin_profile("eds1000.toml");
+  const DriveProfile vlt = builtin_profile("vlt-aqua.toml");
+  const E9Poll poll;
+  const Message eds_q = decode(Protocol::easydrive, eds_frame("010B000F"), Direction::request);
+  const Message eds_a =
+      decode(Protocol::easydrive, eds_frame("0100030F0001"), Direction::response, eds_q.bytes);
+  const Message eds_run =
+      decode(Protocol::easydrive, eds_frame("010C00020FA0"), Direction::request);
+  const Message fc_start =
+      decode(Protocol::danfoss_fc, with_bcc({0x02, 0x06, 0x01, 0x04, 0x7C, 0x20, 0x00}),
+             Direction::request);
+  struct Case {
+    const DriveProfile& profile;
+    const Message& message;
+    std::vector<std::uint8_t> request;
+  };
+  const Case cases[] = {{e9, poll.req, {}},   {e9, poll.rsp, poll.req.bytes},
+                        {e9, poll.write, {}}, {eds, eds_a, eds_q.bytes},
+                        {eds, eds_run, {}},   {vlt, fc_start, {}}};
+  DriveReading reused;
+  for (const Case& c : cases) {
+    read_for_drive_into(c.profile, c.message, c.request, DriveReadingWants::text, reused);
+    const DriveReading full = read_for_drive(c.profile, c.message, c.request);
+    EXPECT_FALSE(full.text.empty());
+    EXPECT_EQ(reused.text, full.text);
+  }
+  // The E-9 reply's registers are its status, setpoint and output frequency: a full reading
+  // observes them, the text alone does not.
+  read_for_drive_into(e9, poll.rsp, poll.req.bytes, DriveReadingWants::text, reused);
+  EXPECT_TRUE(read_for_drive(e9, poll.rsp, poll.req.bytes).observed.output_frequency);
+  EXPECT_FALSE(reused.observed.output_frequency);
+  EXPECT_FALSE(reused.observed.running);
 }
 
 TEST(DriveReading, DanfossFcProcessData) {

@@ -506,7 +506,10 @@ void Pipeline::handle_frame(Frame& frame) {
   if (profile) {
     // The annotation's text is written here, or by the sink on its own thread (then only the
     // observation is made here: the timeline needs it now).
-    read_for_drive_into(*profile, m, request, m.detail && !defer_drive_info_, drive_reading_);
+    read_for_drive_into(*profile, m, request,
+                        m.detail && !defer_drive_info_ ? DriveReadingWants::text_and_observation
+                                                       : DriveReadingWants::observation,
+                        drive_reading_);
     if (defer_drive_info_) {
       m.drive_profile = profile;
       m.drive_request.assign(request.begin(), request.end());

@@ -78,12 +78,18 @@ bool any_bit(const std::vector<int>& bits, std::uint32_t raw) {
 
 // The "; "-separated parts of an annotation, appended in place to the reading's text (whose
 // storage the pipeline reuses from frame to frame); `lead` goes before the first part ("set ").
-// Off (nothing written) when no sink shows the text: the observation is still made.
+// Off (nothing written) when no sink shows the text: the observation is still made. It also
+// carries whether the observation is wanted (observing(): the readers apply the register roles
+// only then; the text never depends on them).
 class Parts {
  public:
-  Parts(std::string& out, bool enabled, std::string_view lead = {})
-      : out_(out), enabled_(enabled), lead_(lead) {}
+  Parts(std::string& out, DriveReadingWants wants, std::string_view lead = {})
+      : out_(out),
+        enabled_(wants != DriveReadingWants::observation),
+        observing_(wants != DriveReadingWants::text),
+        lead_(lead) {}
   [[nodiscard]] bool enabled() const { return enabled_; }
+  [[nodiscard]] bool observing() const { return observing_; }
   // The text with the lead or a separator appended: append the next part to it.
   std::string& next() {
     out_ += count_++ > 0 ? std::string_view("; ") : lead_;
@@ -100,6 +106,7 @@ class Parts {
  private:
   std::string& out_;
   bool enabled_;
+  bool observing_;
   std::string_view lead_;
   std::size_t count_ = 0;
 };
@@ -197,7 +204,7 @@ void read_registers(const DriveProfile& p, RegisterKind kind, std::uint32_t star
       text += ' ';
       append_value(text, p, *r, raw, double_word);
     }
-    observe(p, *r, raw, double_word, written, o);
+    if (parts.observing()) observe(p, *r, raw, double_word, written, o);
   }
 }
 
@@ -209,7 +216,7 @@ void read_coils(const DriveProfile& p, std::uint32_t start, std::size_t count,
     if (!r) continue;
     const bool on = (packed[i / 8] >> (i % 8)) & 1;
     parts.add("{} {}", r->name, on ? "ON" : "OFF");
-    observe(p, *r, on, false, written, o);
+    if (parts.observing()) observe(p, *r, on, false, written, o);
   }
 }
 
@@ -247,7 +254,7 @@ std::span<const std::uint16_t> words_of(std::span<const std::uint8_t> b, std::si
 // The readers below append the annotation to `out` (after the caller's "drive N (name): ") and
 // fill the observation.
 void read_modbus(const DriveProfile& p, const Message& m, std::span<const std::uint8_t> request,
-                 bool want_text, std::string& out, DriveObservation& o) {
+                 DriveReadingWants wants, std::string& out, DriveObservation& o) {
   std::vector<std::uint8_t> decoded;
   const std::span<const std::uint8_t> b = modbus_binary(m.protocol, m.bytes, decoded);
   if (b.size() < 4) return;
@@ -260,12 +267,12 @@ void read_modbus(const DriveProfile& p, const Message& m, std::span<const std::u
     return;
   }
   // A request's parts say what the master sets.
-  Parts parts(out, want_text, m.direction == Direction::request ? "set " : "");
+  Parts parts(out, wants, m.direction == Direction::request ? "set " : "");
   if (m.direction == Direction::request) {
     if ((fc == 0x03 || fc == 0x04) && end >= 6) {
       const RegisterKind kind = fc == 0x03 ? RegisterKind::holding : RegisterKind::input;
       const std::uint16_t start = be16(b, 2), count = be16(b, 4);
-      if (!want_text) return;
+      if (!parts.enabled()) return;
       out += "read ";
       append_name_at(out, p, kind, start);
       if (count > 1) {
@@ -307,7 +314,7 @@ void read_modbus(const DriveProfile& p, const Message& m, std::span<const std::u
 // Danfoss FC protocol (PROTOCOLS.md §4):
 //   STX LGE ADR [PKE IND PWEhigh PWElow] PCD1 PCD2 BCC        (LGE 6: PCD only; 14: with PKE)
 //   PKE = AK(4 bits) PNU(12 bits); PCD1/PCD2 = CTW/REF to the drive, STW/MAV from it.
-void read_fc(const DriveProfile& p, const Message& m, bool want_text, std::string& out,
+void read_fc(const DriveProfile& p, const Message& m, DriveReadingWants wants, std::string& out,
              DriveObservation& o) {
   const std::span<const std::uint8_t> b = m.bytes;
   if (b.size() < 4 || b[0] != 0x02) return;
@@ -315,7 +322,7 @@ void read_fc(const DriveProfile& p, const Message& m, bool want_text, std::strin
   if (b.size() != lge + 2 || (lge != 6 && lge != 14)) return;
   const bool to_drive = m.direction == Direction::request;
   if (m.direction == Direction::unknown) return;
-  Parts parts(out, want_text);
+  Parts parts(out, wants);
   if (lge == 14) {
     const std::uint16_t pke = be16(b, 3);
     const unsigned ak = pke >> 12;
@@ -340,7 +347,7 @@ void read_fc(const DriveProfile& p, const Message& m, bool want_text, std::strin
           const bool dw = ak == 0x3 || ak == 0xD;
           if (parts.enabled())
             parts.add("set {} = {}{}", name, value(dw), ak >= 0xD ? " (RAM and EEPROM)" : "");
-          if (r) observe(p, *r, dw ? pwe : (pwe & 0xFFFF), dw, true, o);
+          if (r && parts.observing()) observe(p, *r, dw ? pwe : (pwe & 0xFFFF), dw, true, o);
           break;
         }
         case 0xF:
@@ -355,7 +362,7 @@ void read_fc(const DriveProfile& p, const Message& m, bool want_text, std::strin
         case 0x2: {
           const bool dw = ak == 0x2;
           if (parts.enabled()) parts.add("{} {}", name, value(dw));
-          if (r) observe(p, *r, dw ? pwe : (pwe & 0xFFFF), dw, false, o);
+          if (r && parts.observing()) observe(p, *r, dw ? pwe : (pwe & 0xFFFF), dw, false, o);
           break;
         }
         case 0x7: {
@@ -385,7 +392,7 @@ void read_fc(const DriveProfile& p, const Message& m, bool want_text, std::strin
       text += ' ';
       append_value(text, p, *r, raw, false);
     }
-    observe(p, *r, raw, false, to_drive, o);
+    if (parts.observing()) observe(p, *r, raw, false, to_drive, o);
   }
 }
 
@@ -413,12 +420,12 @@ constexpr RunAction kRunActions[] = {
 };
 
 void read_easydrive(const DriveProfile& p, const Message& m, std::span<const std::uint8_t> request,
-                    bool want_text, std::string& out, DriveObservation& o) {
+                    DriveReadingWants wants, std::string& out, DriveObservation& o) {
   const std::span<const std::uint8_t> f = m.bytes;
   if (f.size() != 14 && f.size() != 18) return;
   const bool has_data = f.size() == 18;
   const long data = has_data ? easydrive::hex_field(f, 9, 4) : -1;
-  Parts parts(out, want_text);
+  Parts parts(out, wants);
   const RegisterDef* setpoint = nullptr;
   for (const RegisterDef& r : p.registers)
     if (r.kind == RegisterKind::running && r.role == RegisterRole::setpoint) setpoint = &r;
@@ -460,7 +467,7 @@ void read_easydrive(const DriveProfile& p, const Message& m, std::span<const std
           if (parts.enabled())
             parts.add("set {} = {}", par_name,
                       describe_value(p, *par, static_cast<std::uint32_t>(data)));
-          observe(p, *par, static_cast<std::uint32_t>(data), false, true, o);
+          if (parts.observing()) observe(p, *par, static_cast<std::uint32_t>(data), false, true, o);
         } else if (data >= 0) {
           parts.add("set {} = {}", par_name, data);
         }
@@ -478,14 +485,14 @@ void read_easydrive(const DriveProfile& p, const Message& m, std::span<const std
     if (const RegisterDef* r = p.find(RegisterKind::running, static_cast<std::uint32_t>(index))) {
       if (parts.enabled())
         parts.add("{} {}", r->name, describe_value(p, *r, static_cast<std::uint32_t>(data)));
-      observe(p, *r, static_cast<std::uint32_t>(data), false, false, o);
+      if (parts.observing()) observe(p, *r, static_cast<std::uint32_t>(data), false, false, o);
     }
   } else if (cmd == 0x0D && index >= 0 && data >= 0) {
     if (const RegisterDef* r = p.find(RegisterKind::parameter, static_cast<std::uint32_t>(index))) {
       if (parts.enabled())
         parts.add("{} {}", display_name(*r),
                   describe_value(p, *r, static_cast<std::uint32_t>(data)));
-      observe(p, *r, static_cast<std::uint32_t>(data), false, false, o);
+      if (parts.observing()) observe(p, *r, static_cast<std::uint32_t>(data), false, false, o);
     }
   } else if (cmd == 0x0A && code >= 0x10 && code <= 0x14) {
     parts.add(std::string_view(code == 0x10 ? "not ready" : "ready"));
@@ -569,7 +576,8 @@ std::string describe_value(const DriveProfile& p, const RegisterDef& r, std::uin
 }
 
 void read_for_drive_into(const DriveProfile& p, const Message& m,
-                         std::span<const std::uint8_t> request, bool want_text, DriveReading& out) {
+                         std::span<const std::uint8_t> request, DriveReadingWants wants,
+                         DriveReading& out) {
   out.observed.clear();
   // "drive 2 (ERMAN E-9P/9G): ...", taken back when the profile says nothing of the frame.
   std::string& text = out.text;
@@ -583,13 +591,13 @@ void read_for_drive_into(const DriveProfile& p, const Message& m,
   switch (m.protocol) {
     case Protocol::modbus_rtu:
     case Protocol::modbus_ascii:
-      read_modbus(p, m, request, want_text, text, out.observed);
+      read_modbus(p, m, request, wants, text, out.observed);
       break;
     case Protocol::danfoss_fc:
-      read_fc(p, m, want_text, text, out.observed);
+      read_fc(p, m, wants, text, out.observed);
       break;
     case Protocol::easydrive:
-      read_easydrive(p, m, request, want_text, text, out.observed);
+      read_easydrive(p, m, request, wants, text, out.observed);
       break;
     case Protocol::unknown:
       break;
@@ -599,7 +607,7 @@ void read_for_drive_into(const DriveProfile& p, const Message& m,
 
 void complete_drive_info(Message& m, DriveReading& scratch) {
   if (!m.drive_profile) return;
-  read_for_drive_into(*m.drive_profile, m, m.drive_request, true, scratch);
+  read_for_drive_into(*m.drive_profile, m, m.drive_request, DriveReadingWants::text, scratch);
   std::swap(m.drive_info, scratch.text);  // both keep their storage
   m.drive_profile = nullptr;
 }
@@ -607,7 +615,9 @@ void complete_drive_info(Message& m, DriveReading& scratch) {
 DriveReading read_for_drive(const DriveProfile& p, const Message& m,
                             std::span<const std::uint8_t> request, bool want_text) {
   DriveReading out;
-  read_for_drive_into(p, m, request, want_text, out);
+  read_for_drive_into(
+      p, m, request,
+      want_text ? DriveReadingWants::text_and_observation : DriveReadingWants::observation, out);
   return out;
 }
 
