@@ -32,28 +32,31 @@ trap 'rm -rf "$work"' EXIT
 repeat=${REPEAT:-1}
 [[ $repeat =~ ^[1-9][0-9]*$ ]] || { echo "REPEAT=$repeat: not a positive number of runs" >&2; exit 2; }
 rows=()
-# measure NAME COMMAND...: wall seconds (the best of $runs runs, default $repeat) and peak RSS
-# (the largest), output to /dev/null.
+# measure NAME COMMAND...: wall seconds (the best of $runs runs, default $repeat), CPU seconds
+# (user + system, all threads; the least of the runs) and peak RSS (the largest), output to
+# /dev/null.
 measure() {
-  local name=$1 best="" peak=0 k seconds rss
+  local name=$1 best="" least="" peak=0 k seconds rss user sys cpu
   shift
   for ((k = 0; k < ${runs:-$repeat}; k++)); do
     # (the wall clock from bash's EPOCHREALTIME, in us, read without a fork: /usr/bin/time's %e
     # has 10 ms steps, too coarse for `cat`)
     local start end
     start=${EPOCHREALTIME/[.,]/}
-    /usr/bin/time -f "%M" -o "$work/time" "$@" >/dev/null 2>"$work/stderr" || {
+    /usr/bin/time -f "%M %U %S" -o "$work/time" "$@" >/dev/null 2>"$work/stderr" || {
       echo "$name failed: $(tail -1 "$work/stderr")" >&2
       exit 1
     }
     end=${EPOCHREALTIME/[.,]/}
     seconds=$(awk -v us=$((end - start)) 'BEGIN { printf "%.3f", us / 1e6 }')
-    read -r rss <"$work/time"
+    read -r rss user sys <"$work/time"
+    cpu=$(awk -v u="$user" -v s="$sys" 'BEGIN { printf "%.2f", u + s }')
     best=$(awk -v a="$best" -v b="$seconds" 'BEGIN { print (a == "" || b + 0 < a + 0) ? b : a }')
+    least=$(awk -v a="$least" -v b="$cpu" 'BEGIN { print (a == "" || b + 0 < a + 0) ? b : a }')
     ((rss > peak)) && peak=$rss
   done
-  rows+=("$name|$best|$peak|$*")
-  echo "$name: $best s (best of ${runs:-$repeat}), $((peak / 1024)) MB" >&2
+  rows+=("$name|$best|$peak|$least|$*")
+  echo "$name: $best s (best of ${runs:-$repeat}), CPU $least s, $((peak / 1024)) MB" >&2
 }
 seconds_of() { for r in "${rows[@]}"; do [ "${r%%|*}" != "$1" ] || cut -d'|' -f2 <<<"$r"; done; }
 rss_of() { for r in "${rows[@]}"; do [ "${r%%|*}" != "$1" ] || cut -d'|' -f3 <<<"$r"; done; }
@@ -74,6 +77,9 @@ report="$work/RESULTS.md"
   echo "\`drivetap generate --seed 1\`: Modbus RTU as --plain pcapng for the comparison with tshark (and as drivetap's"
   echo "full pcapng, drivetap alone); all links for the mix."
   echo "Each tshark and drivetap row is the best of $repeat run(s) (REPEAT), its memory the largest."
+  echo "CPU s: user + system seconds of all the run's threads (drivetap reads ahead, decodes and"
+  echo "writes on three; tshark decodes on one), the least of the runs, in /usr/bin/time's 10 ms"
+  echo "steps: the work done, which this VM's neighbours disturb less than the wall clock."
 } >"$report"
 
 stats_rss=()
@@ -117,10 +123,10 @@ for frames in "${sizes[@]}"; do
     echo "read it), $full_mb MB as drivetap's full pcapng; the mix: $mix_packets packets, $mix_mb MB"
     echo "(generation seconds and memory in the \`generate\` rows)."
     echo
-    echo "| run | seconds | packets/s | peak RSS MB | vs tshark | command |"
-    echo "|---|---|---|---|---|---|"
+    echo "| run | seconds | CPU s | packets/s | peak RSS MB | vs tshark | command |"
+    echo "|---|---|---|---|---|---|---|"
     for r in "${rows[@]}"; do
-      IFS='|' read -r name seconds rss cmd <<<"$r"
+      IFS='|' read -r name seconds rss cpu cmd <<<"$r"
       p=$packets
       case $name in *mix*) p=$mix_packets ;; esac
       rate=$(awk -v p="$p" -v s="$seconds" 'BEGIN { printf "%.0f", (s > 0 ? p / s : 0) }')
@@ -131,7 +137,7 @@ for frames in "${sizes[@]}"; do
         "drivetap --stats" | "cat (no decoding)") ratio=$(awk -v a="$(seconds_of 'tshark io,stat')" -v b="$seconds" 'BEGIN { printf "%.1fx io,stat", a / b }') ;;
         *"full pcapng") ratio="(another file)" ;;
       esac
-      echo "| $name | $seconds | $rate | $((rss / 1024)) | $ratio | \`${cmd//$work\//}\` |"
+      echo "| $name | $seconds | $cpu | $rate | $((rss / 1024)) | $ratio | \`${cmd//$work\//}\` |"
     done
   } >>"$report"
 done
@@ -175,11 +181,11 @@ measure "drivetap text, noise pcapng" "$drivetap" read --drive none "$work/noise
   echo "$noise_bytes bytes of noise, one a line of a byte log, 1.0 to 1.4 character times apart;"
   echo "the same as drivetap's pcapng (per-byte times). Peak RSS:"
   echo
-  echo "| run | seconds | peak RSS MB | command |"
-  echo "|---|---|---|---|"
+  echo "| run | seconds | CPU s | peak RSS MB | command |"
+  echo "|---|---|---|---|---|"
   for r in "${rows[@]}"; do
-    IFS='|' read -r name seconds rss cmd <<<"$r"
-    echo "| $name | $seconds | $((rss / 1024)) | \`${cmd//$work\//}\` |"
+    IFS='|' read -r name seconds rss cpu cmd <<<"$r"
+    echo "| $name | $seconds | $cpu | $((rss / 1024)) | \`${cmd//$work\//}\` |"
   done
 } >>"$report"
 
