@@ -32,6 +32,8 @@ trap 'rm -rf "$work"' EXIT
 repeat=${REPEAT:-1}
 [[ $repeat =~ ^[1-9][0-9]*$ ]] || { echo "REPEAT=$repeat: not a positive number of runs" >&2; exit 2; }
 rows=()
+# min_of A B: the smaller of two decimal numbers, B when A is empty.
+min_of() { awk -v a="$1" -v b="$2" 'BEGIN { print (a == "" || b + 0 < a + 0) ? b : a }'; }
 # measure NAME COMMAND...: wall seconds (the best of $runs runs, default $repeat), CPU seconds
 # (user + system, all threads; the least of the runs) and peak RSS (the largest), output to
 # /dev/null.
@@ -51,8 +53,8 @@ measure() {
     seconds=$(awk -v us=$((end - start)) 'BEGIN { printf "%.3f", us / 1e6 }')
     read -r rss user sys <"$work/time"
     cpu=$(awk -v u="$user" -v s="$sys" 'BEGIN { printf "%.2f", u + s }')
-    best=$(awk -v a="$best" -v b="$seconds" 'BEGIN { print (a == "" || b + 0 < a + 0) ? b : a }')
-    least=$(awk -v a="$least" -v b="$cpu" 'BEGIN { print (a == "" || b + 0 < a + 0) ? b : a }')
+    best=$(min_of "$best" "$seconds")
+    least=$(min_of "$least" "$cpu")
     ((rss > peak)) && peak=$rss
   done
   rows+=("$name|$best|$peak|$least|$*")
