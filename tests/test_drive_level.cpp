@@ -122,6 +122,15 @@ struct E9Poll {
       rtu({0x02, 0x10, 0x00, 0x10, 0x00, 0x02, 0x04, 0x00, 0x01, 0x13, 0x88}, Direction::request);
 };
 
+// An Easydrive poll of station 1: a read of running value 000F, its reply (value 0001, current
+// fault 03), and a run command with frequency (index 0002, data 0FA0).
+struct EdsPoll {
+  Message query = decode(Protocol::easydrive, eds_frame("010B000F"), Direction::request);
+  Message answer =
+      decode(Protocol::easydrive, eds_frame("0100030F0001"), Direction::response, query.bytes);
+  Message run = decode(Protocol::easydrive, eds_frame("010C00020FA0"), Direction::request);
+};
+
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
@@ -500,11 +509,8 @@ TEST(DriveReading, ReadingIntoOneReadingIsReadingAfresh) {
   const Message fault_req = rtu({0x02, 0x03, 0x00, 0x0B, 0x00, 0x01}, Direction::request);
   const Message fault = rtu({0x02, 0x03, 0x02, 0x00, 0x04}, Direction::response);
   const Message exception = rtu({0x02, 0x83, 0x02}, Direction::response);
-  const Message eds_q = decode(Protocol::easydrive, eds_frame("010B000F"), Direction::request);
-  const Message eds_a =
-      decode(Protocol::easydrive, eds_frame("0100030F0001"), Direction::response, eds_q.bytes);
-  const Message eds_run =
-      decode(Protocol::easydrive, eds_frame("010C00020FA0"), Direction::request);
+  const EdsPoll eds_poll;
+  const Message &eds_q = eds_poll.query, &eds_a = eds_poll.answer, &eds_run = eds_poll.run;
   struct Case {
     const DriveProfile& profile;
     const Message& message;
@@ -558,11 +564,8 @@ TEST(DriveReading, TheTextAloneIsTheTextOfAFullReading) {
   const DriveProfile eds = builtin_profile("eds1000.toml");
   const DriveProfile vlt = builtin_profile("vlt-aqua.toml");
   const E9Poll poll;
-  const Message eds_q = decode(Protocol::easydrive, eds_frame("010B000F"), Direction::request);
-  const Message eds_a =
-      decode(Protocol::easydrive, eds_frame("0100030F0001"), Direction::response, eds_q.bytes);
-  const Message eds_run =
-      decode(Protocol::easydrive, eds_frame("010C00020FA0"), Direction::request);
+  const EdsPoll eds_poll;
+  const Message &eds_q = eds_poll.query, &eds_a = eds_poll.answer, &eds_run = eds_poll.run;
   const Message fc_start =
       decode(Protocol::danfoss_fc, with_bcc({0x02, 0x06, 0x01, 0x04, 0x7C, 0x20, 0x00}),
              Direction::request);

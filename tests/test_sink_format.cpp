@@ -89,7 +89,8 @@ TEST(SinkFormat, JsonEscapingOfLongStringsFindsEveryPlace) {
     for (char& c : plain)
       if (c == '"' || c == '\\') c = 'x';
     EXPECT_EQ(json_quote(plain), reference(plain)) << length;
-    for (std::size_t at = 0; at<length; at += length> 48 ? 13 : 1)
+    const std::size_t step = length > 48 ? 13 : 1;  // every place of the short ones
+    for (std::size_t at = 0; at < length; at += step)
       for (const char special : {'"', '\\', '\n', '\x01', '\x1f', '\0'}) {
         std::string s = plain;
         s[at] = special;
