@@ -290,3 +290,87 @@ TEST(LinkLayer, ModbusTcpIsNotMistakenForRtu) {
   EXPECT_FALSE(extract_serial_payload(101, pkt, &why, &fatal));
   EXPECT_NE(why.find("MBAP"), std::string::npos) << why;
 }
+
+TEST(Pcapng, PeekPlainGivesWhatNextGivesAndLeavesTheRestToIt) {
+  // Packets without options (peek_plain's), with a comment or flags (next()'s), on interfaces of
+  // nanosecond and microsecond resolution; then, in two more files, a block whose trailer is wrong
+  // and a microsecond timestamp out of range. Read taking every block peek_plain() gives and the
+  // rest with next(), and read with next() alone, the packets and the error must be the same.
+  std::vector<std::uint8_t> file = write_file([](pcapng::Writer& w) {
+    w.section_header("test");
+    w.interface(252, "ns", "", "drivetap t15=1 t35=2 timeout=3 max_hold=4");
+    w.interface(147, "ns too", "", "");
+  });
+  // Interface 2: no if_tsresol, microseconds.
+  const std::uint8_t idb[] = {1, 0, 0, 0, 20, 0, 0, 0, 147, 0, 0, 0, 0, 0, 0, 0, 20, 0, 0, 0};
+  file.insert(file.end(), idb, idb + sizeof idb);
+  const std::vector<std::uint8_t> packets = write_file([](pcapng::Writer& w) {
+    for (std::uint8_t i = 0; i < 30; ++i) {
+      std::vector<std::uint8_t> data(i % 7, i);
+      pcapng::Writer::Packet p;
+      p.interface = i % 3;
+      p.timestamp = 1'000'000'000 + i * 1'234'567;
+      p.data = data;
+      if (i % 5 == 3) p.comment = "with a comment";
+      if (i % 8 == 6) p.flags = pcapng::kFlagInbound;
+      w.packet(p);
+    }
+  });
+  file.insert(file.end(), packets.begin(), packets.end());
+  // The last packet: 1 byte, and the end of options (pcapng::Writer writes it always).
+  const std::vector<std::uint8_t> last_block(file.end() - 40, file.end());
+  ASSERT_EQ(last_block[0], pcapng::kEnhancedPacket);
+  std::vector<std::uint8_t> broken = file;
+  broken.insert(broken.end(), last_block.begin(), last_block.end());
+  broken.back() ^= 0x04;  // the copy's trailing length differs from its leading one
+  std::vector<std::uint8_t> late = file;
+  late.insert(late.end(), last_block.begin(), last_block.end());
+  late[late.size() - 40 + 8] = 2;      // interface 2: microseconds
+  late[late.size() - 40 + 15] = 0x7F;  // high word 0x7F000000: times 1000 is past the range
+  for (const std::vector<std::uint8_t>* bytes : {&file, &broken, &late}) {
+    const ReadResult expected = read_file(*bytes);
+    std::vector<std::uint8_t> copy = *bytes;
+    std::FILE* f = fmemopen(copy.data(), copy.size(), "rb");
+    pcapng::Reader reader(f, "t.pcapng");
+    std::vector<ReadPacket> read;
+    std::size_t peeked = 0;
+    pcapng::PacketRecord rec;
+    pcapng::PlainPacket plain;
+    // Each pass takes one packet, or ends.
+    while (true) {
+      if (reader.peek_plain(plain)) {
+        read.push_back({plain.interface,
+                        plain.timestamp,
+                        true,
+                        std::vector<std::uint8_t>(plain.data.begin(), plain.data.end()),
+                        std::nullopt,
+                        "",
+                        {},
+                        0});
+        reader.take_peeked();
+        ++peeked;
+        continue;
+      }
+      if (!reader.next(rec)) break;
+      read.push_back({rec.interface,
+                      rec.timestamp,
+                      rec.has_timestamp,
+                      std::vector<std::uint8_t>(rec.data.begin(), rec.data.end()),
+                      rec.flags,
+                      rec.comment,
+                      {},
+                      0});
+    }
+    std::fclose(f);
+    EXPECT_EQ(reader.error(), expected.error);
+    EXPECT_EQ(peeked, 20u);  // 30 packets less 6 with a comment and 4 with flags
+    ASSERT_EQ(read.size(), expected.packets.size());
+    for (std::size_t i = 0; i < read.size(); ++i) {
+      EXPECT_EQ(read[i].interface, expected.packets[i].interface) << i;
+      EXPECT_EQ(read[i].timestamp, expected.packets[i].timestamp) << i;
+      EXPECT_EQ(read[i].data, expected.packets[i].data) << i;
+      EXPECT_EQ(read[i].flags, expected.packets[i].flags) << i;
+      EXPECT_EQ(read[i].comment, expected.packets[i].comment) << i;
+    }
+  }
+}

@@ -350,6 +350,44 @@ bool Reader::parse_enhanced(std::span<const std::uint8_t> body, std::uint64_t at
   return true;
 }
 
+bool Reader::peek_plain(PlainPacket& out) {
+  // The checks of next() and parse_enhanced() in the same order, each failure leaving the block to
+  // next(), which reports it.
+  if (!error_.empty() || !in_section_) return false;
+  if (end_ - pos_ < 8 && fill(8) < 8) return false;
+  if (u32(window_.data() + pos_) != kEnhancedPacket) return false;
+  const std::uint32_t total = u32(window_.data() + pos_ + 4);
+  if (total < 32 || total % 4 != 0 || total > kMaxBlockLength) return false;
+  if (end_ - pos_ < total && fill(total) < total) return false;
+  const std::uint8_t* block = window_.data() + pos_;  // (fill() may have moved the window)
+  if (u32(block + total - 4) != total) return false;
+  const std::span<const std::uint8_t> body(block + 8, total - 12);
+  const std::uint32_t interface = u32(&body[0]);
+  if (interface >= interfaces_.size()) return false;
+  const std::uint32_t captured = u32(&body[12]);
+  if (captured > body.size() - 20) return false;
+  // No options: none at all, or the end-of-options first (walk_options() reads no further).
+  const std::size_t options_at = 20 + ((std::size_t{captured} + 3) & ~std::size_t{3});
+  if (options_at + 4 <= body.size() && u16(&body[options_at]) != kOptEnd) return false;
+  const Interface& itf = interfaces_[interface];
+  const std::uint64_t ts = (std::uint64_t{u32(&body[4])} << 32) | u32(&body[8]);
+  if (itf.ts_den == 1 && itf.ts_offset_s == 0) {
+    // scale_time() without its 128-bit division: a product past 64 bits is past kTimeLimit too.
+    std::uint64_t ns = 0;
+    if (__builtin_mul_overflow(ts, itf.ts_num, &ns) || ns >= static_cast<std::uint64_t>(kTimeLimit))
+      return false;
+    out.timestamp = static_cast<TimeNs>(ns);
+  } else {
+    bool overflow = false;
+    out.timestamp = scale_time(ts, itf, &overflow);
+    if (overflow) return false;
+  }
+  out.interface = interface;
+  out.data = body.subspan(20, captured);
+  peeked_ = total;
+  return true;
+}
+
 bool Reader::parse_simple(std::span<const std::uint8_t> body, std::uint64_t at, PacketRecord& out) {
   if (body.size() < 4) return fail(at, "simple packet block too short");
   if (interfaces_.empty()) return fail(at, "simple packet before any interface description");

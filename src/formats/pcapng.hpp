@@ -112,6 +112,14 @@ struct PacketRecord {
   std::uint64_t offset = 0;                       // file offset of the block
 };
 
+// An enhanced packet block with no options (PacketRecord with no flags, comment or drivetap
+// option): what Reader::peek_plain() gives. `data` views the reader's window until its next call.
+struct PlainPacket {
+  std::uint32_t interface = 0;
+  TimeNs timestamp = 0;
+  std::span<const std::uint8_t> data;
+};
+
 // Blocks are read into a window of the file and parsed where they lie: from a regular file in
 // reads of kReadChunk bytes, from a pipe exactly the bytes each block needs (a capture streamed
 // through a pipe is decoded as it arrives).
@@ -123,6 +131,18 @@ class Reader {
   void keep_comments(bool keep) { keep_comments_ = keep; }
   // Next packet block; false at a clean end of file or on error (error() non-empty).
   bool next(PacketRecord& out);
+  // The next block, when it is a well-formed enhanced packet block without options (what other
+  // capture tools write for every packet): parsed as next() would parse it, but not consumed
+  // until take_peeked(). False for anything else, with nothing consumed and nothing reported:
+  // next() then reads that block, with its findings. (The fast lane of a reader that takes most
+  // packets without a PacketRecord; issue 8.)
+  bool peek_plain(PlainPacket& out);
+  // Consumes the block peek_plain() gave (call before the next peek or read).
+  void take_peeked() {
+    pos_ += peeked_;
+    offset_ += peeked_;
+    peeked_ = 0;
+  }
   [[nodiscard]] const std::string& error() const { return error_; }
   [[nodiscard]] const std::vector<Interface>& interfaces() const { return interfaces_; }
   [[nodiscard]] bool written_by_drivetap() const { return by_drivetap_; }
@@ -165,7 +185,8 @@ class Reader {
   std::vector<std::uint8_t> window_;  // file bytes [offset_ - pos_, offset_ - pos_ + end_)
   std::size_t pos_ = 0;               // the next unread byte of window_ (file offset offset_)
   std::size_t end_ = 0;
-  bool at_end_ = false;  // a read returned nothing: the end of the file (or a read error)
+  bool at_end_ = false;     // a read returned nothing: the end of the file (or a read error)
+  std::size_t peeked_ = 0;  // the length of the block peek_plain() gave
 };
 
 // Varint helpers for the drivetap EPB option.

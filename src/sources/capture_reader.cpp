@@ -393,7 +393,56 @@ bool CaptureReader::next_batch(std::vector<ByteEvent>& out) {
   return true;
 }
 
+std::size_t CaptureReader::append_plain_packets(RunBatch& out) {
+  // Before the first packet the settings are not known; while a drivetap capture's are not, each
+  // packet reads them again (load_pcapng_packet()).
+  if (!ng_ || packets_ == 0 || (ng_->written_by_drivetap() && !settings_.serial) ||
+      cache_section_ != ng_->sections())
+    return 0;
+  const std::size_t bytes_before = out.byte_count();
+  std::size_t taken = 0;
+  pcapng::PlainPacket packet;
+  // Each pass takes one packet, or stops.
+  while (out.byte_count() - bytes_before < kPlainBytes && ng_->peek_plain(packet)) {
+    const pcapng::Interface& itf = ng_->interfaces()[packet.interface];
+    if (itf.link_type != kLinkTypeUpperPdu || packet.interface >= channel_cache_.size()) break;
+    // The tags of one of the last blocks, byte for byte (as load_pcapng_packet() looks them up).
+    const KnownTags* known = nullptr;
+    for (const KnownTags& k : known_tags_) {
+      const std::size_t tags = k.bytes.size();
+      if (tags != 0 && packet.data.size() >= tags &&
+          std::equal(k.bytes.begin(), k.bytes.end(), packet.data.begin())) {
+        known = &k;
+        break;
+      }
+    }
+    if (!known) break;
+    const int direction = known->outbound ? (*known->outbound ? 1 : 2) : 0;
+    const ChannelId channel = channel_cache_[packet.interface][direction];
+    if (channel == kNoChannel) break;
+    const std::span<const std::uint8_t> bytes = packet.data.subspan(known->bytes.size());
+    const TimeNs n = static_cast<TimeNs>(bytes.size());
+    // Larger packets are cut into kBatch pieces, and a first byte out of range is skipped with a
+    // note: both the usual way. (Bounded times and < 2^24 bytes: no overflow, as in lay_out().)
+    if (bytes.size() > kBatch || !time_in_range(packet.timestamp - n * character_time_)) break;
+    ng_->take_peeked();
+    ++packets_;
+    ++taken;
+    out.add({bytes,
+             packet.timestamp - n * character_time_,
+             character_time_,
+             channel,
+             static_cast<std::uint32_t>(packets_),
+             {}});
+  }
+  return taken;
+}
+
 bool CaptureReader::append_runs(RunBatch& out) {
+  // Once the held packet is used up, the packets that follow the plain way go in bulk.
+  if (pcapng_ && !pending_packet_ && layout_.index >= layout_.count && error_.empty() &&
+      append_plain_packets(out) > 0)
+    return true;
   if (!hold_next()) return false;
   const std::size_t from = layout_.index;
   const std::size_t end = std::min(layout_.count, from + kBatch);

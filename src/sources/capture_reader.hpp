@@ -61,6 +61,14 @@ class CaptureReader final : public ByteSource {
 
  private:
   bool read_packet();  // next packet into held_; false at end or error
+  // The fast lane of append_runs(): the pcapng packets that follow, while each is one that
+  // load_pcapng_packet(), lay_out() and append_runs() would make one run of, the way another
+  // tool's packet is laid out (an enhanced packet block without options, on an interface and
+  // direction whose channel is known, its exported-PDU tags a block seen before), each appended to
+  // `out` as that run straight from the reader's window, up to kPlainBytes bytes. How many
+  // packets were taken; 0 when the next is any other (it takes the usual way).
+  std::size_t append_plain_packets(RunBatch& out);
+  static constexpr std::size_t kPlainBytes = 4096;
   bool load_pcapng_packet();
   bool load_pcap_packet();
   // Places the held packet's bytes in time: sets layout_ up (a byte event is made only when
