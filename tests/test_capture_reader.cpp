@@ -477,3 +477,59 @@ TEST(CaptureReader, RepeatedExportedPduTagsGiveTheSameDirectionAsParsing) {
   EXPECT_FALSE(reader.next(e));
   EXPECT_EQ(reader.error(), "");
 }
+
+TEST(CaptureReader, PacketsTakenInBulkGiveTheEventsOfOneByOne) {
+  // Another tool's upper-PDU packets, which append_runs() takes in bulk once their tag block is
+  // known (append_plain_packets), among packets it leaves to the usual way: tag blocks it does not
+  // remember (six kinds, four remembered), a packet larger than a batch, empty ones, a comment,
+  // a second interface. The events of the runs must be those next() gives one by one.
+  std::vector<upper_pdu::Tags> kinds(6);
+  for (std::size_t k = 0; k < kinds.size(); ++k) {
+    kinds[k].dissector = "mbrtu";
+    kinds[k].protocol_column = fmt::format("kind {}", k);
+    if (k % 3 != 1)
+      kinds[k].direction = k % 2 == 0 ? upper_pdu::kDirectionSent : upper_pdu::kDirectionReceived;
+  }
+  const std::string path = write_pcapng("bulk.pcapng", "test", [&](pcapng::Writer& w) {
+    w.interface(kLinkTypeUpperPdu, "a", "", "");
+    w.interface(kLinkTypeUpperPdu, "b", "", "");
+    for (std::size_t i = 0; i < 600; ++i) {
+      std::vector<std::uint8_t> data;
+      upper_pdu::append_tags(kinds[i < 300 ? i % 2 : (i * 7) % kinds.size()], data);
+      const std::size_t n = i == 250 ? CaptureReader::kBatch + 100 : i % 23 == 0 ? 0 : i % 13 + 1;
+      for (std::size_t b = 0; b < n; ++b) data.push_back(static_cast<std::uint8_t>(i + b));
+      pcapng::Writer::Packet p;
+      p.interface = i % 5 == 4 ? 1 : 0;
+      p.timestamp = static_cast<TimeNs>(i + 1) * 10 * kNsPerMs;
+      p.data = data;
+      if (i % 97 == 5) p.comment = "a comment";
+      w.packet(p);
+    }
+  });
+  std::vector<ByteEvent> one_by_one;
+  std::vector<std::string> names;
+  {
+    OpenReader reader(path, 520 * kNsPerUs);
+    ASSERT_TRUE(reader.ok());
+    ByteEvent e;
+    while (reader->next(e)) one_by_one.push_back(e);
+    EXPECT_EQ(reader->error(), "");
+  }
+  std::vector<ByteEvent> bulk;
+  OpenReader reader(path, 520 * kNsPerUs);
+  ASSERT_TRUE(reader.ok());
+  RunBatch batch;
+  while (reader->append_runs(batch)) {
+  }
+  for (std::size_t k = 0; k < batch.size(); ++k)
+    for (std::size_t i = 0; i < batch[k].size(); ++i) bulk.push_back(batch[k].event(i));
+  EXPECT_EQ(reader->error(), "");
+  ASSERT_EQ(bulk.size(), one_by_one.size());
+  for (std::size_t i = 0; i < bulk.size(); ++i) {
+    EXPECT_EQ(bulk[i].time, one_by_one[i].time) << i;
+    EXPECT_EQ(bulk[i].byte, one_by_one[i].byte) << i;
+    EXPECT_EQ(bulk[i].channel, one_by_one[i].channel) << i;
+    EXPECT_EQ(bulk[i].origin, one_by_one[i].origin) << i;
+    EXPECT_EQ(bulk[i].flags, one_by_one[i].flags) << i;
+  }
+}
