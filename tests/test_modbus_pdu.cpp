@@ -860,3 +860,49 @@ TEST(PredictPduLength, TableGivesTheReferenceLengths) {
     }
   }
 }
+
+// pdu_findings() works the counts out directly for the function codes of every poll; they must
+// be dissect_pdu_into()'s on every function code, length and direction, with contents that reach
+// each rule's edges (counts that match or miss by one, quantities 0, 1 and at the limits, coil
+// values ON, OFF and neither).
+TEST(ModbusPdu, FindingsAreWhatTheDissectorFinds) {
+  std::mt19937 rng(11);
+  const std::uint8_t edges[] = {0x00, 0x01, 0x02, 0x04, 0x07, 0x08, 0x79, 0x7B, 0x7C,
+                                0x7D, 0x7E, 0xD0, 0xFF, 0x03, 0x06, 0x0A, 0x10, 0xFA};
+  std::size_t with_problems = 0, checked = 0;
+  for (unsigned fc = 0; fc < 256; ++fc) {
+    for (std::size_t length = 1; length <= 24; ++length) {
+      for (const Direction dir : {Direction::request, Direction::response, Direction::unknown}) {
+        for (int round = 0; round < 24; ++round) {
+          std::vector<std::uint8_t> pdu(length);
+          pdu[0] = static_cast<std::uint8_t>(fc);
+          for (std::size_t i = 1; i < length; ++i)
+            pdu[i] =
+                round % 3 == 0 ? static_cast<std::uint8_t>(rng()) : edges[rng() % std::size(edges)];
+          // A count byte that fits what follows (read replies, multiple writes), now and then.
+          if (round % 4 == 1 && length >= 2) pdu[1] = static_cast<std::uint8_t>(length - 2);
+          if (round % 4 == 2 && length >= 6) pdu[5] = static_cast<std::uint8_t>(length - 6);
+          if (round % 8 == 3 && length >= 5) {
+            pdu[3] = 0;
+            pdu[4] = static_cast<std::uint8_t>((length - 6) / 2);  // registers for the byte count
+          }
+          FieldTree fields;
+          FieldTreeBuilder tree(fields, false);
+          PduDecode d;
+          d.detail = false;
+          dissect_pdu_into(d, pdu, 0, pdu.size(), dir, tree);
+          const PduFindings found = pdu_findings(pdu, dir);
+          ASSERT_EQ(found.problems, d.problems.size())
+              << "fc " << fc << " length " << length << " direction " << static_cast<int>(dir)
+              << " round " << round;
+          ASSERT_EQ(found.exception_code, d.exception_code) << "fc " << fc << " length " << length;
+          with_problems += found.problems > 0;
+          ++checked;
+        }
+      }
+    }
+  }
+  // Both outcomes are common: the comparison is not of empty lists only.
+  EXPECT_GT(with_problems, checked / 10);
+  EXPECT_LT(with_problems, checked * 9 / 10);
+}

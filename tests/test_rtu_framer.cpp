@@ -499,3 +499,68 @@ TEST(RtuFramer, TheDissectorReadsTheCarriedCrc) {
   EXPECT_EQ(modbus::dissect_rtu(f, Direction::request, timing).checksum.verdict,
             ChecksumVerdict::good);
 }
+
+// take_chunk() is push_chunk() without the frame: on a stream of whole frames, cut ones, noise,
+// one-stamp bursts, short and long silences, a framer taking chunks must agree with one pushing
+// them on every run (taken or not), and the frame add_chunk_frame() makes of what it took must be
+// the one push_chunk() emitted, timing and carried CRC included; what follows is then the same.
+TEST(RtuFramer, TakeChunkIsPushChunkWithoutTheFrame) {
+  std::mt19937 rng(77);
+  const FramingTiming timing = FramingTiming::from(k9600);
+  const TimeNs gaps[] = {0, timing.t15 + 1, timing.t35 - 1, timing.t35 + 1, 10 * kNsPerMs};
+  auto swapped = kReply;
+  std::swap(swapped[swapped.size() - 2], swapped[swapped.size() - 1]);
+  struct Run {
+    std::vector<std::uint8_t> bytes;
+    TimeNs first, step;
+  };
+  std::vector<Run> runs;
+  TimeNs clock = 0;
+  for (int i = 0; i < 4000; ++i) {
+    std::vector<std::uint8_t> bytes = i % 7 == 3 ? swapped : (i % 2) ? kReply : kRequest;
+    // (A cut frame is held up to max_hold for the rest: no run is taken whole meanwhile.)
+    if (rng() % 40 == 0) bytes.resize(1 + rng() % bytes.size());
+    if (rng() % 20 == 0) bytes.push_back(static_cast<std::uint8_t>(rng()));
+    const TimeNs step = rng() % 20 == 0 ? 0 : kChar + (rng() % 10 == 0 ? gaps[rng() % 3] : 0);
+    runs.push_back({bytes, clock, step});
+    // Mostly a silence that ends a frame; now and then one that may not.
+    clock += static_cast<TimeNs>(bytes.size()) * std::max(step, kChar) +
+             (rng() % 2 == 0 ? 10 * kNsPerMs : gaps[rng() % 5]);
+  }
+  const RtuFramerOptions options{timing, 100 * kNsPerMs, 4096};
+  RtuFramer pushing(0, options), taking(0, options);
+  FrameBatch pushed, taken_frames;
+  std::size_t taken = 0;
+  for (std::size_t k = 0; k < runs.size(); ++k) {
+    SCOPED_TRACE(k);
+    const ByteRun run{runs[k].bytes, runs[k].first, runs[k].step, 0, 0, {}};
+    const TimeNs next = k + 1 < runs.size() ? runs[k + 1].first : clock + kNsPerSecond;
+    pushing.advance(run.first, pushed);
+    taking.advance(run.first, taken_frames);
+    Framer::ChunkFrame chunk;
+    const bool took = taking.take_chunk(run, next, &chunk);
+    ASSERT_EQ(pushing.push_chunk(run, next, pushed), took);
+    if (took) {
+      ++taken;
+      add_chunk_frame(taken_frames, 0, run, chunk);
+      continue;
+    }
+    pushing.push_run(run, pushed);
+    taking.push_run(run, taken_frames);
+  }
+  pushing.finish(pushed);
+  taking.finish(taken_frames);
+  EXPECT_GT(taken, 1000u);
+  ASSERT_EQ(pushed.size(), taken_frames.size());
+  for (std::size_t i = 0; i < pushed.size(); ++i) {
+    SCOPED_TRACE(i);
+    EXPECT_EQ(pushed[i].events, taken_frames[i].events);
+    EXPECT_EQ(pushed[i].kind, taken_frames[i].kind);
+    EXPECT_EQ(pushed[i].close, taken_frames[i].close);
+    EXPECT_EQ(pushed[i].gap_before, taken_frames[i].gap_before);
+    EXPECT_EQ(pushed[i].max_intra_gap, taken_frames[i].max_intra_gap);
+    EXPECT_EQ(pushed[i].max_intra_gap_at, taken_frames[i].max_intra_gap_at);
+    EXPECT_EQ(pushed[i].checksum_kind, taken_frames[i].checksum_kind);
+    EXPECT_EQ(pushed[i].checksum, taken_frames[i].checksum);
+  }
+}

@@ -97,6 +97,8 @@ class HybridFramer final : public Framer {
   void push_run(const ByteRun& run, FrameBatch& out) override;
   // A run that is a whole frame between two silences, taken at once (see Framer::push_chunk).
   bool push_chunk(const ByteRun& run, TimeNs next_time, FrameBatch& out) override;
+  // The same without the frame (see Framer::take_chunk).
+  bool take_chunk(const ByteRun& run, TimeNs next_time, ChunkFrame* taken) override;
   // Time has reached `now` on the bus; closes what silence or the hold limit has completed.
   void advance(TimeNs now, FrameBatch& out) override;
   // End of input: everything pending becomes frames or noise.

@@ -74,7 +74,7 @@ void HybridFramer<Rules>::push_all(std::span<const ByteEvent> events, FrameBatch
 }
 
 template <class Rules>
-bool HybridFramer<Rules>::push_chunk(const ByteRun& run, TimeNs next_time, FrameBatch& out) {
+bool HybridFramer<Rules>::take_chunk(const ByteRun& run, TimeNs next_time, ChunkFrame* taken) {
   const TimeNs character_time = options_.timing.character_time;
   const TimeNs t35 = options_.timing.t35;
   const std::size_t n = run.size();
@@ -89,17 +89,23 @@ bool HybridFramer<Rules>::push_chunk(const ByteRun& run, TimeNs next_time, Frame
   const TimeNs end = std::max(last_end_, run.time(n - 1) + character_time);
   std::uint32_t checksum = 0;
   if (next_time - end <= t35 || !is_good_frame(run.bytes, &checksum)) return false;
-  Frame& f = out.add(FrameKind::telegram, channel_, FrameClose::silence);
-  f.events.append_run(run);
-  f.checksum_kind = rules_.checksum_kind();  // computed over exactly the frame's bytes
-  f.checksum = checksum;
+  taken->checksum_kind = rules_.checksum_kind();  // computed over exactly the frame's bytes
+  taken->checksum = checksum;
   // The run's timing as push_run() would have kept it (not timing_of(): no second look).
   ByteRunTiming timing;
   timing.start(run.first, character_time);
   timing.add_stretch(run.first + run.step, run.step, 1, n - 1, character_time);
-  stamp_frame_timing(f, timing, &emitted_end_, &have_emitted_);
+  taken->timing = stamp_timing(run.first, timing, &emitted_end_, &have_emitted_);
   last_end_ = end;
   processed_since_last_byte_ = true;  // nothing is pending: nothing to process at the silence
+  return true;
+}
+
+template <class Rules>
+bool HybridFramer<Rules>::push_chunk(const ByteRun& run, TimeNs next_time, FrameBatch& out) {
+  ChunkFrame taken;
+  if (!take_chunk(run, next_time, &taken)) return false;
+  add_chunk_frame(out, channel_, run, taken);
   return true;
 }
 

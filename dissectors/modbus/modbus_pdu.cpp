@@ -715,3 +715,123 @@ void dissect_pdu_into(PduDecode& d, std::span<const std::uint8_t> frame, std::si
 }
 
 }  // namespace drivetap::modbus
+
+namespace drivetap::modbus {
+
+PduFindings pdu_findings(std::span<const std::uint8_t> pdu, Direction direction) {
+  // Each count is what the PduReader of dissect_pdu_into() reports: a field the frame ends
+  // before ("frame ends before ..."), one per field read; leftover bytes after the layout
+  // ("unexpected bytes"), unless a field was cut short; and the checks of each function.
+  // tests/test_modbus_pdu.cpp compares the two on every function code, length and direction.
+  PduFindings f;
+  if (pdu.empty()) {
+    f.problems = 1;  // the function code itself
+    return f;
+  }
+  const std::uint8_t fc = pdu[0];
+  const std::size_t rest = pdu.size() - 1;  // bytes after the function code
+  auto be16 = [&](std::size_t at) { return static_cast<unsigned>((pdu[at] << 8) | pdu[at + 1]); };
+  // Fields of 2 + 2 bytes and nothing after (read requests, single writes, multiple-write
+  // replies): the two values when both are there.
+  auto two_words = [&](unsigned* first, unsigned* second) {
+    if (rest < 2) {
+      f.problems += 2;
+      return false;
+    }
+    if (rest < 4) {
+      f.problems += 1;
+      return false;
+    }
+    if (rest > 4) f.problems += 1;
+    *first = be16(1);
+    *second = be16(3);
+    return true;
+  };
+  auto quantity = [&](unsigned q, unsigned max) {
+    if (q < 1 || q > max) f.problems += 1;
+  };
+  if (fc & 0x80) {
+    if (rest == 0) {
+      f.problems = 1;
+    } else {
+      f.exception_code = pdu[1];
+      if (rest > 1) f.problems = 1;
+    }
+    return f;
+  }
+  const bool request = direction != Direction::response;
+  unsigned a = 0;
+  unsigned b = 0;
+  switch (fc) {
+    case 0x01:
+    case 0x02:
+    case 0x03:
+    case 0x04: {
+      const bool bits = fc <= 0x02;
+      if (request) {
+        if (two_words(&a, &b)) quantity(b, bits ? 2000 : 125);
+        return f;
+      }
+      if (rest == 0) {
+        f.problems = 1;
+        return f;
+      }
+      const std::size_t count = pdu[1];
+      const std::size_t present = rest - 1;
+      if (bits) {
+        if (present != count) f.problems = 1;  // fewer: announced vs present; more: unexpected
+        return f;
+      }
+      if (count % 2 != 0) f.problems += 1;
+      if (present != count) f.problems += 1;
+      if (present % 2 != 0) f.problems += 1;  // the odd byte after the registers
+      return f;
+    }
+    case 0x05:
+      if (two_words(&a, &b) && b != 0x0000 && b != 0xFF00) f.problems += 1;
+      return f;
+    case 0x06:
+      two_words(&a, &b);
+      return f;
+    case 0x0F:
+    case 0x10: {
+      if (!request) {
+        two_words(&a, &b);
+        return f;
+      }
+      if (rest < 5) {
+        // Start and quantity (2 bytes each) and byte count (1): a field that does not fit is
+        // reported and the next read where it was, so a lone byte is still a byte count.
+        static constexpr std::size_t kCut[5] = {3, 2, 2, 1, 1};
+        f.problems = kCut[rest];
+        return f;
+      }
+      const bool coils = fc == 0x0F;
+      const unsigned q = be16(3);
+      const std::size_t count = pdu[5];
+      const std::size_t present = rest - 5;
+      quantity(q, coils ? 1968 : 123);
+      if (count != (coils ? (q + 7u) / 8u : q * 2u)) f.problems += 1;
+      if (coils) {
+        if (present != count) f.problems += 1;
+      } else {
+        if (present < count) f.problems += 1;
+        if (present - std::min(count, present) / 2 * 2 > 0) f.problems += 1;  // left after them
+      }
+      return f;
+    }
+    default:
+      break;
+  }
+  // The other function codes: the dissector itself, with neither tree nor text.
+  FieldTree no_fields;
+  FieldTreeBuilder no_tree(no_fields, false);
+  PduDecode d;
+  d.detail = false;
+  dissect_pdu_into(d, pdu, 0, pdu.size(), direction, no_tree);
+  f.problems = d.problems.size();
+  f.exception_code = d.exception_code;
+  return f;
+}
+
+}  // namespace drivetap::modbus

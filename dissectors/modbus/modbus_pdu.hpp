@@ -105,6 +105,17 @@ struct PduDecode {
   static LineBuffer& scratch();
 };
 
+// What dissect_pdu_into() finds in a PDU besides fields and text: how many protocol-rule breaks
+// (PduDecode::problems) and the exception code.
+struct PduFindings {
+  std::size_t problems = 0;
+  int exception_code = -1;
+};
+// The same as dissect_pdu_into() of `pdu` (from its function code on) would find, without the
+// tree and the texts: worked out directly for the function codes of every poll (01-06, 0F, 10,
+// exception replies), by dissect_pdu_into() for the others.
+PduFindings pdu_findings(std::span<const std::uint8_t> pdu, Direction direction);
+
 // Decodes the PDU occupying frame[pdu_offset, pdu_offset + pdu_length) into field nodes whose
 // spans are frame offsets, and the info line when `info` (a tree that keeps nothing can still
 // come with an info line: text output without -V).

@@ -90,6 +90,32 @@ void dissect_rtu(Message& m, Frame&& frame, Direction direction, const FramingTi
   append_uart_anomalies(m.frame.events, 0, m.anomalies);
 }
 
+bool RtuDecoder::summarise(std::span<const std::uint8_t> bytes, Direction direction,
+                           const Framer::ChunkFrame& taken, const FramingTiming& timing,
+                           TelegramSummary* out) const {
+  // dissect_rtu()'s members and findings for a frame of 4 bytes or more (the framer's shortest
+  // telegram; the shorter fragment's finding is left to it), in the same order.
+  if (bytes.size() < 4) return false;
+  out->address = bytes[0];
+  out->function = bytes[1];
+  out->is_exception = (bytes[1] & 0x80) != 0;
+  const PduFindings found = pdu_findings(bytes.subspan(1, bytes.size() - 3), direction);
+  out->exception_code = found.exception_code;
+  out->malformed = found.problems;
+  out->verdict = (taken.checksum_kind == FrameChecksum::crc16_modbus
+                      ? check_rtu_crc(bytes, static_cast<std::uint16_t>(taken.checksum))
+                      : check_rtu_crc(bytes))
+                     .verdict;
+  auto found_one = [&](AnomalyKind kind) { out->other_kinds |= 1u << static_cast<unsigned>(kind); };
+  out->other_kinds = 0;
+  if (out->verdict == ChecksumVerdict::bad) found_one(AnomalyKind::checksum_bad);
+  if (out->verdict == ChecksumVerdict::swapped) found_one(AnomalyKind::checksum_swapped);
+  if (taken.timing.max_intra_gap > timing.t15) found_one(AnomalyKind::intra_frame_gap);
+  if (taken.timing.gap_before > 0 && taken.timing.gap_before < timing.t35)
+    found_one(AnomalyKind::short_interframe_gap);
+  return true;
+}
+
 std::unique_ptr<Framer> RtuDecoder::make_framer(ChannelId channel, const FramerSettings& s) const {
   RtuFramerOptions o;
   o.timing = s.timing;

@@ -45,6 +45,9 @@ class RtuDecoder final : public ProtocolDecoder {
     (void)request;  // replies of this protocol stand on their own
     dissect_rtu(out, std::move(frame), direction, timing);
   }
+  bool summarise(std::span<const std::uint8_t> bytes, Direction direction,
+                 const Framer::ChunkFrame& taken, const FramingTiming& timing,
+                 TelegramSummary* out) const override;
 };
 
 }  // namespace drivetap::modbus

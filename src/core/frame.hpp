@@ -218,17 +218,36 @@ struct ByteRunTiming {
   }
 };
 
-// Fills a frame's timing from `run`, the timing of its events: silence before it (from
-// `*previous_end`, the end of the previous record on its channel, when `*have_previous`) and the
-// largest silence inside it. Updates *previous_end / *have_previous for the next record.
+// A frame's timing members (Frame::gap_before, max_intra_gap, max_intra_gap_at).
+struct FrameTiming {
+  TimeNs gap_before = -1;
+  TimeNs max_intra_gap = 0;
+  std::uint32_t max_intra_gap_at = 0;
+};
+
+// The timing of a record whose first byte starts at `first` and whose bytes' timing is `run`:
+// silence before it (from `*previous_end`, the end of the previous record on its channel, when
+// `*have_previous`) and the largest silence inside it. Updates *previous_end / *have_previous
+// for the next record.
+inline FrameTiming stamp_timing(TimeNs first, const ByteRunTiming& run, TimeNs* previous_end,
+                                bool* have_previous) {
+  FrameTiming t;
+  if (*have_previous) t.gap_before = std::max<TimeNs>(0, first - *previous_end);
+  t.max_intra_gap = run.max_gap;
+  t.max_intra_gap_at = run.max_gap_at;
+  *previous_end = *have_previous ? std::max(*previous_end, run.end) : run.end;
+  *have_previous = true;
+  return t;
+}
+
+// The same into a frame, from `run`, the timing of its events.
 inline void stamp_frame_timing(Frame& f, const ByteRunTiming& run, TimeNs* previous_end,
                                bool* have_previous) {
   if (f.events.empty()) return;
-  if (*have_previous) f.gap_before = std::max<TimeNs>(0, f.events.front_time() - *previous_end);
-  f.max_intra_gap = run.max_gap;
-  f.max_intra_gap_at = run.max_gap_at;
-  *previous_end = *have_previous ? std::max(*previous_end, run.end) : run.end;
-  *have_previous = true;
+  const FrameTiming t = stamp_timing(f.events.front_time(), run, previous_end, have_previous);
+  if (t.gap_before >= 0) f.gap_before = t.gap_before;
+  f.max_intra_gap = t.max_intra_gap;
+  f.max_intra_gap_at = t.max_intra_gap_at;
 }
 
 // The timing of `events` as ByteRunTiming would keep it if they arrived one by one; a stretch of

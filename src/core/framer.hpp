@@ -44,6 +44,23 @@ class Framer {
     (void)out;
     return false;
   }
+  // What push_chunk() would write into the frame it emits besides the run's events (the frame
+  // is a telegram of the run's channel, closed by silence).
+  struct ChunkFrame {
+    FrameTiming timing;
+    FrameChecksum checksum_kind = FrameChecksum::none;
+    std::uint32_t checksum = 0;
+  };
+  // push_chunk() without the frame: when push_chunk() would emit the run as one frame, changes
+  // the framer's state as it would, fills *taken and returns true; otherwise returns false and
+  // changes nothing. For a caller that needs no Frame of the run (the pipeline's summary lane).
+  // A framer that overrides push_chunk() overrides this too (the caller does not try both).
+  virtual bool take_chunk(const ByteRun& run, TimeNs next_time, ChunkFrame* taken) {
+    (void)run;
+    (void)next_time;
+    (void)taken;
+    return false;
+  }
   // Time has reached `now`; closes what silence or a hold limit has completed.
   virtual void advance(TimeNs now, FrameBatch& out) = 0;
   // End of input: everything pending becomes frames or noise.
@@ -55,5 +72,19 @@ class Framer {
   // such runs with push_all() in one go. 0 (the default): no promise, byte by byte.
   [[nodiscard]] virtual std::size_t quiet_room() const { return 0; }
 };
+
+// The frame push_chunk() of the framer of `channel` emits for `run` when take_chunk() gave
+// `taken`: a telegram closed by silence, its events the run's.
+inline Frame& add_chunk_frame(FrameBatch& out, ChannelId channel, const ByteRun& run,
+                              const Framer::ChunkFrame& taken) {
+  Frame& f = out.add(FrameKind::telegram, channel, FrameClose::silence);
+  f.events.append_run(run);
+  f.checksum_kind = taken.checksum_kind;
+  f.checksum = taken.checksum;
+  f.gap_before = taken.timing.gap_before;
+  f.max_intra_gap = taken.timing.max_intra_gap;
+  f.max_intra_gap_at = taken.timing.max_intra_gap_at;
+  return f;
+}
 
 }  // namespace drivetap

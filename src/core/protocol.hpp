@@ -59,6 +59,32 @@ class ProtocolDecoder {
     dissect_into(m, std::move(frame), direction, timing, request);
     return m;
   }
+  // What the closing summary takes of a telegram that its framer took whole (Framer::take_chunk)
+  // and that nobody reads in detail (the pipeline's summary lane): what dissect_into() would give
+  // the Message (its checksum verdict, pairing members and anomalies), without building one.
+  struct TelegramSummary {
+    ChecksumVerdict verdict = ChecksumVerdict::none;
+    int address = -1;
+    int function = -1;
+    bool is_exception = false;
+    int exception_code = -1;
+    std::size_t malformed = 0;      // `malformed` anomalies (a telegram may break several rules)
+    std::uint32_t other_kinds = 0;  // bit k: one anomaly of AnomalyKind k, besides those
+  };
+  static_assert(kAnomalyKindCount <= 32, "TelegramSummary::other_kinds has a bit per kind");
+  // Fills *out for `bytes`, a telegram travelling in `direction` that its framer took whole as
+  // `taken` (so with no UART marks); false when the protocol has no such summary (its telegrams
+  // are then dissected as usual).
+  virtual bool summarise(std::span<const std::uint8_t> bytes, Direction direction,
+                         const Framer::ChunkFrame& taken, const FramingTiming& timing,
+                         TelegramSummary* out) const {
+    (void)bytes;
+    (void)direction;
+    (void)taken;
+    (void)timing;
+    (void)out;
+    return false;
+  }
 };
 
 // The decoder of `protocol`, from the explicit table; nullptr for Protocol::unknown.

@@ -86,8 +86,33 @@ void Pairer::expire(TimeNs now, std::vector<Transaction>& out) {
   if (expired > 0) remove_pending([&](std::size_t i, const Pending&) { return i < expired; });
 }
 
+PairingInput pairing_input(const Message& m) {
+  PairingInput in;
+  in.direction = m.direction;
+  in.protocol = m.protocol;
+  in.address = m.address;
+  in.function = m.function;
+  in.is_exception = m.is_exception;
+  in.exception_code = m.exception_code;
+  in.number = m.frame.number;
+  in.channel = m.frame.channel;
+  in.start = m.frame.start();
+  in.last_byte_time = m.frame.events.back_time();
+  in.gap_before = m.frame.gap_before;
+  in.bytes = m.bytes;
+  return in;
+}
+
 void Pairer::add(std::size_t link, Message& m, std::vector<Transaction>& out) {
-  const TimeNs start = m.frame.start();
+  const PairingResult r = add(link, pairing_input(m), out);
+  if (r.paired) {
+    m.latency = r.latency;
+    m.request_number = r.request_number;
+  }
+}
+
+PairingResult Pairer::add(std::size_t link, const PairingInput& m, std::vector<Transaction>& out) {
+  const TimeNs start = m.start;
   expire(start, out);
   if (m.direction == Direction::request) {
     // A new request on a single-master link ends every request still open there.
@@ -100,13 +125,13 @@ void Pairer::add(std::size_t link, Message& m, std::vector<Transaction>& out) {
       Transaction t;
       t.outcome = Outcome::broadcast;
       t.protocol = m.protocol;
-      t.channel = m.frame.channel;
+      t.channel = m.channel;
       t.address = 0;
       t.function = m.function;
-      t.request_number = m.frame.number;
+      t.request_number = m.number;
       t.request_time = start;
       out.push_back(std::move(t));
-      return;
+      return {};
     }
     if (live_ >= options_.max_pending) {
       close_unanswered(slots_[0], "dropped: too many requests in flight", out);
@@ -117,21 +142,21 @@ void Pairer::add(std::size_t link, Message& m, std::vector<Transaction>& out) {
     p.link = link;
     p.address = m.address;
     p.function = function_key(m.function);
-    p.number = m.frame.number;
-    p.channel = m.frame.channel;
+    p.number = m.number;
+    p.channel = m.channel;
     p.start = start;
-    p.end = m.frame.events.back_time() + options_.character_time;
+    p.end = m.last_byte_time + options_.character_time;
     p.protocol = m.protocol;
     p.bytes.assign(m.bytes.begin(), m.bytes.end());
-    return;
+    return {};
   }
-  if (m.direction != Direction::response) return;
+  if (m.direction != Direction::response) return {};
 
   Transaction t;
   t.protocol = m.protocol;
   t.address = m.address;
   t.function = function_key(m.function);
-  t.response_number = m.frame.number;
+  t.response_number = m.number;
   t.response_time = start;
   t.exception_code = m.exception_code;
   std::size_t match = live_;
@@ -150,10 +175,9 @@ void Pairer::add(std::size_t link, Message& m, std::vector<Transaction>& out) {
     t.request_time = request.start;
     // With no silence visible before the reply (bytes stamped per adapter read), the latency is
     // not measurable: report the pairing without a number rather than a false 0 ms.
-    t.latency = (m.frame.gap_before == 0 || start < request.end) ? -1 : start - request.end;
+    t.latency = (m.gap_before == 0 || start < request.end) ? -1 : start - request.end;
     if (t.latency < 0) t.detail = "latency hidden: no silence visible before the reply";
-    m.latency = t.latency;
-    m.request_number = request.number;
+    const PairingResult found{true, request.number, t.latency};
     // The answered request leaves, and older requests on the same link were never answered
     // (reported before the pairing, in request order).
     remove_pending([&](std::size_t i, const Pending& p) {
@@ -165,12 +189,13 @@ void Pairer::add(std::size_t link, Message& m, std::vector<Transaction>& out) {
       return false;
     });
     out.push_back(std::move(t));
-    return;
+    return found;
   }
   t.outcome = Outcome::unsolicited;
-  t.channel = m.frame.channel;
+  t.channel = m.channel;
   t.detail = "no request waiting for this reply";
   out.push_back(std::move(t));
+  return {};
 }
 
 void Pairer::finish(std::vector<Transaction>& out) {

@@ -23,6 +23,31 @@ struct PairerOptions {
   std::size_t max_pending = 64;  // bound on requests in flight per link (hostile input)
 };
 
+// What pairing reads of a decoded telegram: a Message holds it all (pairing_input()); the
+// pipeline's summary lane, which makes no Message, fills it from the frame it took whole.
+struct PairingInput {
+  Direction direction = Direction::unknown;
+  Protocol protocol = Protocol::modbus_rtu;
+  int address = -1;
+  int function = -1;
+  bool is_exception = false;
+  int exception_code = -1;
+  std::uint64_t number = 0;  // the frame's
+  ChannelId channel = 0;
+  TimeNs start = 0;           // the first byte's time
+  TimeNs last_byte_time = 0;  // the last byte's (start) time
+  TimeNs gap_before = -1;     // Frame::gap_before
+  std::span<const std::uint8_t> bytes;
+};
+PairingInput pairing_input(const Message& m);
+
+// What pairing found for a response: the request it answers and the latency (-1 when hidden).
+struct PairingResult {
+  bool paired = false;
+  std::uint64_t request_number = 0;
+  TimeNs latency = -1;
+};
+
 class Pairer {
  public:
   explicit Pairer(PairerOptions options) : options_(options) {}
@@ -36,6 +61,8 @@ class Pairer {
   void expire(TimeNs now, std::vector<Transaction>& out);
   // Pairs a decoded message. On a paired response sets message.latency and request_number.
   void add(std::size_t link, Message& message, std::vector<Transaction>& out);
+  // The same for a telegram given by what pairing reads of it; what it found for a response.
+  PairingResult add(std::size_t link, const PairingInput& in, std::vector<Transaction>& out);
   // End of input: every open request is unanswered.
   void finish(std::vector<Transaction>& out);
 

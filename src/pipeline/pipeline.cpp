@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <bit>
 #include <limits>
 
 namespace drivetap {
@@ -40,6 +41,8 @@ Pipeline::Pipeline(PipelineOptions options, const ChannelTable& channels, Sink& 
   message_.tree = message_.detail && sink.wants_fields();
   hand_over_transactions_ = sink.wants_transactions();
   defer_drive_info_ = message_.detail && sink.completes_drive_info();
+  summary_lane_ = !sink.wants_records() && options_.drives.empty() &&
+                  options_.auto_candidates.empty() && options_.max_frames == 0;
   // The sink may read the profiles on its own thread: their lookup tables are built here, before
   // it gets any message (after this they are only read).
   for (const auto& [address, profile] : options_.drives) profile->build_index();
@@ -191,12 +194,23 @@ bool Pipeline::push_chunk(const ByteRun& run, TimeNs next_time) {
   // other channel holds bytes (the next byte closes nothing of theirs, as it would not) and
   // nothing asks for the byte-by-byte way.
   if (!st.redetect && st.framer &&
-      deadline_of_others(run.channel) == std::numeric_limits<TimeNs>::max() &&
-      st.framer->push_chunk(run, next_time, ready_)) {
-    note_taken(st, run.event(run.size() - 1));
-    earliest_deadline_ = std::min(earliest_deadline_, st.framer->next_deadline());
-    handle_frames();
-    return true;
+      deadline_of_others(run.channel) == std::numeric_limits<TimeNs>::max()) {
+    // A sink that takes no records has the frame counted, not decoded (ready_ is empty: the frame
+    // would be handled alone).
+    if (summary_lane_ && ready_.empty()) {
+      Framer::ChunkFrame taken;
+      if (st.framer->take_chunk(run, next_time, &taken)) {
+        note_taken(st, run.event(run.size() - 1));
+        earliest_deadline_ = std::min(earliest_deadline_, st.framer->next_deadline());
+        count_whole_telegram(st, run, taken);
+        return true;
+      }
+    } else if (st.framer->push_chunk(run, next_time, ready_)) {
+      note_taken(st, run.event(run.size() - 1));
+      earliest_deadline_ = std::min(earliest_deadline_, st.framer->next_deadline());
+      handle_frames();
+      return true;
+    }
   }
   frame_byte(st, first);
   push_rest(run, 1);
@@ -371,7 +385,7 @@ void Pipeline::handle_frames() {
   if (outer) in_batch_ = false;
 }
 
-Direction Pipeline::decide_direction(const ProtocolDecoder& decoder, const Frame& frame,
+Direction Pipeline::decide_direction(const ProtocolDecoder& decoder, TimeNs start,
                                      std::span<const std::uint8_t> bytes, int address, int function,
                                      std::size_t link, ChannelRole role) const {
   switch (role) {
@@ -388,7 +402,7 @@ Direction Pipeline::decide_direction(const ProtocolDecoder& decoder, const Frame
   if (fit.request != fit.response) return fit.request ? Direction::request : Direction::response;
   // Both layouts fit (echo replies, acknowledgements of the same size) or neither does: order
   // decides — a reply is what a pending request of the same station and function awaits.
-  if (pairer_.awaiting_reply(link, address, function, frame.start())) return Direction::response;
+  if (pairer_.awaiting_reply(link, address, function, start)) return Direction::response;
   if (fit.request) return Direction::request;
   if (!decoder.recognisable(bytes)) return Direction::unknown;
   return Direction::request;
@@ -434,25 +448,30 @@ void Pipeline::check_drive_timing(Message& m, const DriveProfile& p) {
 }
 
 void Pipeline::check_packetization(const Frame& frame, ChannelState& st) {
+  check_packetization(frame.kind, frame.events.front_origin(), frame.events.back_origin(),
+                      frame.number, frame.start(), frame.channel, st);
+}
+
+void Pipeline::check_packetization(FrameKind kind, std::uint32_t first, std::uint32_t last,
+                                   std::uint64_t number, TimeNs start, ChannelId channel,
+                                   ChannelState& st) {
   // Only sources with packets (origin != 0) are checked: a good capture tool puts exactly one
   // frame in each packet; drivetap re-frames anyway and says where the tool did not.
-  const std::uint32_t first = frame.events.front_origin();
-  const std::uint32_t last = frame.events.back_origin();
   if (first == 0) return;
-  const char* what = frame.kind == FrameKind::noise ? "noise record" : "frame";
+  const char* what = kind == FrameKind::noise ? "noise record" : "frame";
   if (first != last) {
     emit_anomaly(
-        {AnomalyKind::packet_split_frame, frame.start(), frame.channel, frame.number,
-         fmt::format(FMT_COMPILE("{} #{} spans packets {}..{}"), what, frame.number, first, last)});
+        {AnomalyKind::packet_split_frame, start, channel, number,
+         fmt::format(FMT_COMPILE("{} #{} spans packets {}..{}"), what, number, first, last)});
   }
   if (first == st.last_frame_origin && st.reported_merged_origin != first) {
-    emit_anomaly({AnomalyKind::packet_merged_frames, frame.start(), frame.channel, frame.number,
+    emit_anomaly({AnomalyKind::packet_merged_frames, start, channel, number,
                   fmt::format(FMT_COMPILE("packet {} holds more than one frame (#{} and #{})"),
-                              first, st.last_frame_number, frame.number)});
+                              first, st.last_frame_number, number)});
     st.reported_merged_origin = first;
   }
   st.last_frame_origin = last;
-  st.last_frame_number = frame.number;
+  st.last_frame_number = number;
 }
 
 void Pipeline::handle_frame(Frame& frame) {
@@ -486,7 +505,7 @@ void Pipeline::handle_frame(Frame& frame) {
   const std::span<const std::uint8_t> bytes = frame.events.bytes();
   const ProtocolDecoder::PairingKeys keys = decoder.pairing_keys(bytes);
   const Direction dir =
-      decide_direction(decoder, frame, bytes, keys.address, keys.function, link, st.role);
+      decide_direction(decoder, frame.start(), bytes, keys.address, keys.function, link, st.role);
   // A reply is dissected in the light of the request it answers: the pairer's own copy, which
   // stays as it is until pairer_.add() below.
   std::span<const std::uint8_t> request;
@@ -535,6 +554,59 @@ void Pipeline::handle_frame(Frame& frame) {
   if (profile && m.checksum.verdict == ChecksumVerdict::good)
     for (const BusEvent& e : timeline_.observe(link, m, *profile, drive_reading_.observed))
       sink_.on_event(e);
+  emit_transactions(transactions_);
+}
+
+void Pipeline::count_whole_telegram(ChannelState& st, const ByteRun& run,
+                                    const Framer::ChunkFrame& taken) {
+  // handle_frame()'s steps for this frame, in its order, as far as they change what is counted:
+  // the sink takes no records (so nothing is handed to it), and no profile reads the frame.
+  const ProtocolDecoder& decoder = *st.decoder;
+  const TimeNs start = run.first;
+  const TimeNs last_byte = run.time(run.size() - 1);
+  const std::span<const std::uint8_t> bytes = run.bytes;
+  pairer_.expire(start, transactions_);
+  emit_transactions(transactions_);
+  const ProtocolDecoder::PairingKeys keys = decoder.pairing_keys(bytes);
+  const Direction dir =
+      decide_direction(decoder, start, bytes, keys.address, keys.function, st.link, st.role);
+  ProtocolDecoder::TelegramSummary summary;
+  if (!decoder.summarise(bytes, dir, taken, options_.timing, &summary)) {
+    // No summary for this telegram: the frame, decoded as usual (expiring and handing over
+    // transactions again at the same time changes nothing).
+    add_chunk_frame(ready_, run.channel, run, taken);
+    handle_frames();
+    return;
+  }
+  const std::uint64_t number = ++frame_counter_;
+  if (st.auto_protocol) {
+    if (summary.verdict == ChecksumVerdict::good) {
+      st.failures = 0;
+    } else if (++st.failures >= kRedetectFailures) {
+      st.redetect = true;
+    }
+  }
+  PairingInput in;
+  in.direction = dir;
+  in.protocol = decoder.protocol();
+  in.address = summary.address;
+  in.function = summary.function;
+  in.is_exception = summary.is_exception;
+  in.exception_code = summary.exception_code;
+  in.number = number;
+  in.channel = run.channel;
+  in.start = start;
+  in.last_byte_time = last_byte;
+  in.gap_before = taken.timing.gap_before;
+  in.bytes = bytes;
+  pairer_.add(st.link, in, transactions_);
+  stats_.count_telegram(run.size(), summary.verdict, start, last_byte);
+  // The message's anomalies, counted (emit_anomaly() would hand them to a sink that drops them).
+  for (std::size_t i = 0; i < summary.malformed; ++i) stats_.count_anomaly(AnomalyKind::malformed);
+  // Each pass counts the lowest kind left.
+  for (std::uint32_t kinds = summary.other_kinds; kinds != 0; kinds &= kinds - 1)
+    stats_.count_anomaly(static_cast<AnomalyKind>(std::countr_zero(kinds)));
+  check_packetization(FrameKind::telegram, run.origin, run.origin, number, start, run.channel, st);
   emit_transactions(transactions_);
 }
 

@@ -91,12 +91,20 @@ class Pipeline {
   [[nodiscard]] TimeNs deadline_of_others(ChannelId channel) const;
   void handle_frames();
   void handle_frame(Frame& frame);
+  // The summary lane: handle_frame() of the frame the framer took whole as `taken` from `run`
+  // (Framer::take_chunk), for a sink that takes no records: only what the summary counts, from
+  // the decoder's TelegramSummary, with no Frame or Message made.
+  void count_whole_telegram(ChannelState& st, const ByteRun& run, const Framer::ChunkFrame& taken);
   void check_packetization(const Frame& frame, ChannelState& st);
+  // The same for a record of `kind` whose bytes came from source packets first..last.
+  void check_packetization(FrameKind kind, std::uint32_t first, std::uint32_t last,
+                           std::uint64_t number, TimeNs start, ChannelId channel, ChannelState& st);
   void check_drive_timing(Message& m, const DriveProfile& profile);
   void summarise_drives();
   void detect(ChannelState& st, ChannelId channel, bool final);
   void start_detection(ChannelState& st);
-  Direction decide_direction(const ProtocolDecoder& decoder, const Frame& frame,
+  // The direction of a frame starting at `start`.
+  Direction decide_direction(const ProtocolDecoder& decoder, TimeNs start,
                              std::span<const std::uint8_t> bytes, int address, int function,
                              std::size_t link, ChannelRole role) const;
   void emit_transactions(std::vector<Transaction>& transactions);
@@ -118,6 +126,9 @@ class Pipeline {
   Message message_;  // every frame is decoded into this one (its storage is reused)
   bool hand_over_transactions_ = true;  // the sink's wants_transactions()
   bool defer_drive_info_ = false;       // the sink's completes_drive_info(), with detail
+  // Telegrams taken whole are counted, not decoded (count_whole_telegram): the sink takes no
+  // records, no drive profile reads any frame, and no frame limit stops the run.
+  bool summary_lane_ = false;
   TimeNs earliest_deadline_;
   std::uint64_t frame_counter_ = 0;
   TimeNs latest_time_ = std::numeric_limits<TimeNs>::min();

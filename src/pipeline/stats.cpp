@@ -14,10 +14,13 @@ void widen_window(Stats& s, const Frame& f) {
 }  // namespace
 
 void Stats::count_frame(const Message& m) {
-  ++frames;
-  bytes += m.frame.size();
-  ++checksum[static_cast<std::size_t>(m.checksum.verdict)];
-  widen_window(*this, m.frame);
+  if (m.frame.events.empty()) {  // (a frame of no bytes widens no window)
+    ++frames;
+    ++checksum[static_cast<std::size_t>(m.checksum.verdict)];
+    return;
+  }
+  count_telegram(m.frame.size(), m.checksum.verdict, m.frame.events.front().time,
+                 m.frame.events.back().time);
 }
 
 void Stats::count_noise(const Frame& f) {
@@ -36,11 +39,6 @@ void Stats::count_transaction(const Transaction& t) {
     latency_min = std::min(latency_min, t.latency);
     latency_max = std::max(latency_max, t.latency);
   }
-}
-
-void Stats::count_anomaly(const Anomaly& a) {
-  ++anomalies[static_cast<std::size_t>(a.kind)];
-  ++anomaly_total;
 }
 
 }  // namespace drivetap

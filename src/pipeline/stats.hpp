@@ -1,6 +1,7 @@
 // Stats: the closing summary — frames, checksum verdicts, transactions, latency, anomaly counts.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <limits>
@@ -46,9 +47,21 @@ struct Stats {
   std::vector<std::string> source_notes;
 
   void count_frame(const Message& m);
+  // The same for a telegram of `size` bytes, the first starting at `first`, the last at `last`.
+  void count_telegram(std::size_t size, ChecksumVerdict verdict, TimeNs first, TimeNs last) {
+    ++frames;
+    bytes += size;
+    ++checksum[static_cast<std::size_t>(verdict)];
+    first_time = std::min(first_time, first);
+    last_time = std::max(last_time, last);
+  }
   void count_noise(const Frame& f);
   void count_transaction(const Transaction& t);
-  void count_anomaly(const Anomaly& a);
+  void count_anomaly(const Anomaly& a) { count_anomaly(a.kind); }
+  void count_anomaly(AnomalyKind kind) {
+    ++anomalies[static_cast<std::size_t>(kind)];
+    ++anomaly_total;
+  }
 };
 
 }  // namespace drivetap

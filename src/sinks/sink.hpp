@@ -63,6 +63,10 @@ class Sink {
   // -> drive_info) before anything reads them; the pipeline then leaves that to it (the
   // ThreadedSink does it on its writer thread, off the decoding one). Fixed for its lifetime.
   [[nodiscard]] virtual bool completes_drive_info() const { return false; }
+  // Whether on_frame(), on_noise(), on_anomaly() and on_transaction() do anything; when not, the
+  // pipeline may count what the summary needs of a telegram without decoding it into a Message
+  // (its summary lane: `read --stats`). Fixed for the sink's lifetime.
+  [[nodiscard]] virtual bool wants_records() const { return true; }
 };
 
 // Sends every record to several sinks.
@@ -97,6 +101,7 @@ class TeeSink final : public Sink {
   [[nodiscard]] bool wants_transactions() const override {
     return any_wants(&Sink::wants_transactions);
   }
+  [[nodiscard]] bool wants_records() const override { return any_wants(&Sink::wants_records); }
 
  private:
   // Whether any member sink answers yes to `wants`.
@@ -122,6 +127,7 @@ class SummaryOnlySink final : public Sink {
   [[nodiscard]] bool wants_detail() const override { return false; }
   [[nodiscard]] bool wants_fields() const override { return false; }
   [[nodiscard]] bool wants_transactions() const override { return false; }
+  [[nodiscard]] bool wants_records() const override { return false; }
 
  private:
   Sink& inner_;
@@ -141,6 +147,7 @@ class EventsOnlySink final : public Sink {
   bool flush() override { return inner_.flush(); }
   [[nodiscard]] bool wants_fields() const override { return false; }
   [[nodiscard]] bool wants_transactions() const override { return false; }
+  [[nodiscard]] bool wants_records() const override { return false; }
 
  private:
   Sink& inner_;

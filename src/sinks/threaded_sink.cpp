@@ -11,6 +11,7 @@ ThreadedSink::ThreadedSink(Sink& inner)
       wants_detail_(inner.wants_detail()),
       wants_fields_(inner.wants_fields()),
       wants_transactions_(inner.wants_transactions()),
+      wants_records_(inner.wants_records()),
       current_(std::make_unique<Batch>()) {
   // kDepth batches besides the one being filled: the writer holds at most one of them.
   for (std::size_t i = 0; i < kDepth; ++i) free_.push_back(std::make_unique<Batch>());

@@ -22,8 +22,8 @@
 // stops the thread; records after it go straight to the inner sink. The worker thread runs with
 // SIGINT and SIGTERM blocked. The inner sink and everything its records name (the ChannelTable)
 // must outlive this one, and so must the drive profiles its messages name; only the writer thread
-// calls the inner sink between construction and finish(), except wants_detail(), wants_fields() and
-// wants_transactions(), read once here.
+// calls the inner sink between construction and finish(), except wants_detail(), wants_fields(),
+// wants_transactions() and wants_records(), read once here.
 #pragma once
 
 #include <condition_variable>
@@ -64,6 +64,7 @@ class ThreadedSink final : public Sink {
   [[nodiscard]] bool wants_detail() const override { return wants_detail_; }
   [[nodiscard]] bool wants_fields() const override { return wants_fields_; }
   [[nodiscard]] bool wants_transactions() const override { return wants_transactions_; }
+  [[nodiscard]] bool wants_records() const override { return wants_records_; }
   // The drive annotation (Message::drive_profile) is written on the writer thread, before the
   // inner sink gets the message: formatting it is a third of the decoding thread's work with
   // drive profiles (bench/README.md).
@@ -118,6 +119,7 @@ class ThreadedSink final : public Sink {
   const bool wants_detail_;
   const bool wants_fields_;
   const bool wants_transactions_;
+  const bool wants_records_;
   std::unique_ptr<Batch> current_;  // being filled on the pipeline thread
   DriveReading drive_scratch_;      // the writer's (or, after finish(), the caller's)
 
