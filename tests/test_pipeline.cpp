@@ -9,6 +9,7 @@
 
 #include "core/checksum.hpp"
 #include "generate/traffic.hpp"
+#include "sinks/threaded_sink.hpp"
 #include "test_support.hpp"
 
 using namespace drivetap;
@@ -218,8 +219,10 @@ struct TranscriptSink final : Sink {
   [[nodiscard]] bool wants_fields() const override { return fields; }
   [[nodiscard]] bool wants_transactions() const override { return transactions; }
   [[nodiscard]] bool wants_records() const override { return records_wanted; }
+  [[nodiscard]] bool completes_decode() const override { return decodes; }
   bool transactions = true;
   bool records_wanted = true;
+  bool decodes = false;  // takes telegrams undissected (decoded by Sink::on_undissected())
 };
 
 // What the pipeline must adjust before framing (Pipeline::as_on_the_wire): bytes stamped inside
@@ -285,7 +288,7 @@ void run_generated(TranscriptSink& sink, std::size_t chunk = 0, Adjust adjust = 
 // of `batch` runs (0: each byte pushed on its own): a whole frame between two silences goes to the
 // framer at once when the next run of the batch shows the silence after it (Pipeline::push_chunk).
 // One-stamp reads, 7 data bits and early starts give runs that need the byte-by-byte way.
-void run_generated_runs(TranscriptSink& sink, std::size_t batch, Adjust adjust, generate::Mix mix) {
+void run_generated_runs(Sink& sink, std::size_t batch, Adjust adjust, generate::Mix mix) {
   // Fewer records than run_generated(): the test makes 32 runs of it (slow under the sanitizers).
   GeneratedBus bus(6000, mix, adjust);
   Pipeline pipeline(bus.options, bus.channels, sink);
@@ -385,6 +388,43 @@ TEST(Pipeline, SummaryLaneCountsWhatDecodingFinds) {
       EXPECT_EQ(decoded_events, counted_events);
       if (mix == generate::Mix::modbus_rtu && adjust == Adjust::none) {
         EXPECT_LT(counted.messages, decoded.messages / 10);
+      }
+    }
+  }
+}
+
+// A sink that decodes what the pipeline hands over undissected (the ThreadedSink on its writer
+// thread; Sink::on_undissected() on the caller's) must get every record exactly as the pipeline
+// decoding every frame hands them over: frames with their pairing and anomalies, in order.
+TEST(Pipeline, TelegramsHandedOverUndissectedAreWhatThePipelineHandsOver) {
+  for (const generate::Mix mix : {generate::Mix::modbus_rtu, generate::Mix::all}) {
+    for (const Adjust adjust :
+         {Adjust::none, Adjust::early_starts, Adjust::slow_bytes, Adjust::zero_quantities}) {
+      for (const bool detail : {true, false}) {
+        SCOPED_TRACE(fmt::format("mix {} adjust {} detail {}", static_cast<int>(mix),
+                                 static_cast<int>(adjust), detail));
+        TranscriptSink decoded(detail);
+        run_generated_runs(decoded, 300, adjust, mix);
+        TranscriptSink decoding(detail);
+        decoding.decodes = true;
+        run_generated_runs(decoding, 300, adjust, mix);
+        TranscriptSink replayed(detail);
+        {
+          ThreadedSink threaded(replayed);
+          run_generated_runs(threaded, 300, adjust, mix);
+          threaded.finish();
+        }
+        ASSERT_GT(decoded.messages, 5000u);
+        ASSERT_EQ(decoded.records.size(), decoding.records.size());
+        for (std::size_t i = 0; i < decoded.records.size(); ++i)
+          ASSERT_EQ(decoded.records[i], decoding.records[i]) << "record " << i;
+        EXPECT_EQ(decoded.infos, decoding.infos);
+        EXPECT_EQ(decoded.descriptors, decoding.descriptors);
+        ASSERT_EQ(decoded.records.size(), replayed.records.size());
+        for (std::size_t i = 0; i < decoded.records.size(); ++i)
+          ASSERT_EQ(decoded.records[i], replayed.records[i]) << "record " << i;
+        EXPECT_EQ(decoded.infos, replayed.infos);
+        EXPECT_EQ(decoded.descriptors, replayed.descriptors);
       }
     }
   }
@@ -501,7 +541,7 @@ TEST(Pipeline, BeginMessageResetsEveryMember) {
   dirty.drive_info = "old drive";
   static const DriveProfile profile;
   dirty.drive_profile = &profile;
-  dirty.drive_request = {1, 3};
+  dirty.request = {1, 3};
   dirty.anomalies.push_back({AnomalyKind::noise, 1, 0, 1, "old"});
   dirty.latency = 5;
   dirty.request_number = 3;
@@ -527,7 +567,7 @@ TEST(Pipeline, BeginMessageResetsEveryMember) {
   EXPECT_TRUE(dirty.info.empty());
   EXPECT_TRUE(dirty.drive_info.empty());
   EXPECT_EQ(dirty.drive_profile, nullptr);
-  EXPECT_TRUE(dirty.drive_request.empty());
+  EXPECT_TRUE(dirty.request.empty());
   EXPECT_TRUE(dirty.anomalies.empty());
   EXPECT_EQ(dirty.latency, fresh.latency);
   EXPECT_EQ(dirty.request_number, fresh.request_number);

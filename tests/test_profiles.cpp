@@ -145,9 +145,9 @@ TEST(DriveAnnotation, WrittenOnTheWriterThreadAsOnTheDecodingOne) {
     EXPECT_EQ(m.drive_info, "");
     EXPECT_EQ(m.drive_profile, &e9);
   }
-  EXPECT_EQ(deferring.inner.frames[1].drive_request,
+  EXPECT_EQ(deferring.inner.frames[1].request,
             direct.frames[0].bytes);  // the reply's request
-  EXPECT_TRUE(deferring.inner.frames[0].drive_request.empty());
+  EXPECT_TRUE(deferring.inner.frames[0].request.empty());
 
   for (const bool finish_first : {false, true}) {
     drivetap::testing::RecordingSink replayed;

@@ -73,17 +73,25 @@ class Framer {
   [[nodiscard]] virtual std::size_t quiet_room() const { return 0; }
 };
 
-// The frame push_chunk() of the framer of `channel` emits for `run` when take_chunk() gave
-// `taken`: a telegram closed by silence, its events the run's.
-inline Frame& add_chunk_frame(FrameBatch& out, ChannelId channel, const ByteRun& run,
-                              const Framer::ChunkFrame& taken) {
-  Frame& f = out.add(FrameKind::telegram, channel, FrameClose::silence);
+// `f` made the frame push_chunk() of the framer of `channel` emits for `run` when take_chunk()
+// gave `taken`: a telegram closed by silence, its events the run's (f's storage is kept).
+inline void add_chunk_frame_into(Frame& f, ChannelId channel, const ByteRun& run,
+                                 const Framer::ChunkFrame& taken) {
+  f.reset_keeping_storage();
+  f.channel = channel;
   f.events.append_run(run);
   f.checksum_kind = taken.checksum_kind;
   f.checksum = taken.checksum;
   f.gap_before = taken.timing.gap_before;
   f.max_intra_gap = taken.timing.max_intra_gap;
   f.max_intra_gap_at = taken.timing.max_intra_gap_at;
+}
+
+// The same appended to `out`.
+inline Frame& add_chunk_frame(FrameBatch& out, ChannelId channel, const ByteRun& run,
+                              const Framer::ChunkFrame& taken) {
+  Frame& f = out.add();
+  add_chunk_frame_into(f, channel, run, taken);
   return f;
 }
 

@@ -41,11 +41,11 @@ struct Message {
   // What the frame means to its drive, from the bound drive profile; empty when none is bound.
   std::string drive_info;
   // Set instead of drive_info when the sink writes the annotation on a thread of its own
-  // (Sink::completes_drive_info(): the ThreadedSink's writer): the profile that reads the frame
-  // and, for a reply, its request's bytes. complete_drive_info() (profiles/annotate.hpp) turns
-  // them into drive_info.
+  // (Sink::completes_drive_info(): the ThreadedSink's writer): the profile that reads the frame.
+  // complete_drive_info() (profiles/annotate.hpp) turns it into drive_info.
   const DriveProfile* drive_profile = nullptr;
-  std::vector<std::uint8_t> drive_request;
+  // With drive_profile, for a reply: the bytes of the request it answers, empty when none.
+  std::vector<std::uint8_t> request;
   // Findings about this frame (checksum, gaps, malformed content, UART errors), in byte order.
   std::vector<Anomaly> anomalies;
   // Filled by the pairing stage on responses: request end -> response start, ns; -1 when
@@ -92,7 +92,7 @@ inline void begin_message(Message& m, Frame&& frame, Protocol protocol, Directio
   m.info.clear();
   m.drive_info.clear();
   m.drive_profile = nullptr;
-  m.drive_request.clear();
+  m.request.clear();
   m.anomalies.clear();
   m.latency = -1;
   m.request_number = 0;

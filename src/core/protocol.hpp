@@ -87,6 +87,35 @@ class ProtocolDecoder {
   }
 };
 
+// A telegram the pipeline counted without decoding it (its summary lane: a run its framer took
+// whole, Framer::take_chunk), for a sink that decodes it itself (Sink::completes_decode()): what
+// only the pipeline knows of it. Spans are valid for the call that hands it over.
+struct UndissectedTelegram {
+  const ProtocolDecoder* decoder = nullptr;
+  FramingTiming timing;      // the run's, which the decoder judges gaps by
+  ByteRun run;               // the telegram's bytes and times (no UART marks)
+  Framer::ChunkFrame taken;  // its timing and carried checksum
+  std::uint64_t number = 0;  // the frame's number
+  Direction direction = Direction::unknown;
+  TimeNs latency = -1;  // pairing, for a reply
+  std::uint64_t request_number = 0;
+  std::span<const std::uint8_t> request;  // for a reply: the request it answers, if known
+};
+
+// What the pipeline would have handed over for `t` (handle_frame()): the Message its decoder
+// makes of its frame, with the pipeline's numbers and pairing, each anomaly numbered with the
+// frame. `out`'s storage is reused (begin_message()).
+inline void decode_undissected(const UndissectedTelegram& t, Message& out) {
+  Frame frame;
+  std::swap(frame, out.frame);  // (its storage, for dissect_into() to swap back in)
+  add_chunk_frame_into(frame, t.run.channel, t.run, t.taken);
+  frame.number = t.number;
+  t.decoder->dissect_into(out, std::move(frame), t.direction, t.timing, t.request);
+  out.latency = t.latency;
+  out.request_number = t.request_number;
+  for (Anomaly& a : out.anomalies) a.frame_number = t.number;
+}
+
 // The decoder of `protocol`, from the explicit table; nullptr for Protocol::unknown.
 const ProtocolDecoder* decoder_for(Protocol protocol);
 // "rtu", "ascii", "fc", "eds" (the --protocol names) -> Protocol; unknown for other text.

@@ -41,7 +41,8 @@ Pipeline::Pipeline(PipelineOptions options, const ChannelTable& channels, Sink& 
   message_.tree = message_.detail && sink.wants_fields();
   hand_over_transactions_ = sink.wants_transactions();
   defer_drive_info_ = message_.detail && sink.completes_drive_info();
-  summary_lane_ = !sink.wants_records() && options_.drives.empty() &&
+  hand_over_records_ = sink.wants_records();
+  summary_lane_ = (!hand_over_records_ || sink.completes_decode()) && options_.drives.empty() &&
                   options_.auto_candidates.empty() && options_.max_frames == 0;
   // The sink may read the profiles on its own thread: their lookup tables are built here, before
   // it gets any message (after this they are only read).
@@ -195,8 +196,8 @@ bool Pipeline::push_chunk(const ByteRun& run, TimeNs next_time) {
   // nothing asks for the byte-by-byte way.
   if (!st.redetect && st.framer &&
       deadline_of_others(run.channel) == std::numeric_limits<TimeNs>::max()) {
-    // A sink that takes no records has the frame counted, not decoded (ready_ is empty: the frame
-    // would be handled alone).
+    // A sink that takes no records, or decodes them itself, has the frame counted, not decoded
+    // here (ready_ is empty: the frame would be handled alone).
     if (summary_lane_ && ready_.empty()) {
       Framer::ChunkFrame taken;
       if (st.framer->take_chunk(run, next_time, &taken)) {
@@ -531,7 +532,7 @@ void Pipeline::handle_frame(Frame& frame) {
                         drive_reading_);
     if (defer_drive_info_) {
       m.drive_profile = profile;
-      m.drive_request.assign(request.begin(), request.end());
+      m.request.assign(request.begin(), request.end());
     } else {
       std::swap(m.drive_info, drive_reading_.text);  // both keep their storage for later frames
     }
@@ -570,6 +571,11 @@ void Pipeline::count_whole_telegram(ChannelState& st, const ByteRun& run,
   const ProtocolDecoder::PairingKeys keys = decoder.pairing_keys(bytes);
   const Direction dir =
       decide_direction(decoder, start, bytes, keys.address, keys.function, st.link, st.role);
+  // A reply is decoded in the light of the request it answers (the pairer's copy, as it is until
+  // pairer_.add() below): the sink that decodes it gets its bytes.
+  std::span<const std::uint8_t> request;
+  if (hand_over_records_ && dir == Direction::response)
+    request = pairer_.awaited_request(st.link, keys.address, keys.function, start);
   ProtocolDecoder::TelegramSummary summary;
   if (!decoder.summarise(bytes, dir, taken, options_.timing, &summary)) {
     // No summary for this telegram: the frame, decoded as usual (expiring and handing over
@@ -599,13 +605,33 @@ void Pipeline::count_whole_telegram(ChannelState& st, const ByteRun& run,
   in.last_byte_time = last_byte;
   in.gap_before = taken.timing.gap_before;
   in.bytes = bytes;
-  pairer_.add(st.link, in, transactions_);
+  // What the sink decodes, with what only the pipeline knows (the request's bytes copied: the
+  // pairer's storage may be reused once pairer_.add() below has dropped them).
+  UndissectedTelegram telegram;
+  if (hand_over_records_) {
+    telegram.decoder = &decoder;
+    telegram.timing = options_.timing;
+    telegram.run = run;
+    telegram.taken = taken;
+    telegram.number = number;
+    telegram.direction = dir;
+    request_.assign(request.begin(), request.end());
+    telegram.request = request_;
+  }
+  const PairingResult paired = pairer_.add(st.link, in, transactions_);
   stats_.count_telegram(run.size(), summary.verdict, start, last_byte);
-  // The message's anomalies, counted (emit_anomaly() would hand them to a sink that drops them).
+  // The message's anomalies, counted (the sink that decodes the message hands them on).
   for (std::size_t i = 0; i < summary.malformed; ++i) stats_.count_anomaly(AnomalyKind::malformed);
   // Each pass counts the lowest kind left.
   for (std::uint32_t kinds = summary.other_kinds; kinds != 0; kinds &= kinds - 1)
     stats_.count_anomaly(static_cast<AnomalyKind>(std::countr_zero(kinds)));
+  if (hand_over_records_) {
+    if (paired.paired) {
+      telegram.latency = paired.latency;
+      telegram.request_number = paired.request_number;
+    }
+    sink_.on_undissected(telegram);
+  }
   check_packetization(FrameKind::telegram, run.origin, run.origin, number, start, run.channel, st);
   emit_transactions(transactions_);
 }

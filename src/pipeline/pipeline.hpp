@@ -92,8 +92,9 @@ class Pipeline {
   void handle_frames();
   void handle_frame(Frame& frame);
   // The summary lane: handle_frame() of the frame the framer took whole as `taken` from `run`
-  // (Framer::take_chunk), for a sink that takes no records: only what the summary counts, from
-  // the decoder's TelegramSummary, with no Frame or Message made.
+  // (Framer::take_chunk), for a sink that takes no records or decodes them itself: what the
+  // summary counts, from the decoder's TelegramSummary, with no decode made here (the sink gets
+  // the message undissected, Message::undissected).
   void count_whole_telegram(ChannelState& st, const ByteRun& run, const Framer::ChunkFrame& taken);
   void check_packetization(const Frame& frame, ChannelState& st);
   // The same for a record of `kind` whose bytes came from source packets first..last.
@@ -124,11 +125,14 @@ class Pipeline {
   std::vector<ByteEvent> run_;  // push_batch: the run going to a framer at once
   std::vector<Transaction> transactions_;
   Message message_;  // every frame is decoded into this one (its storage is reused)
+  std::vector<std::uint8_t> request_;   // count_whole_telegram(): a reply's request, handed over
   bool hand_over_transactions_ = true;  // the sink's wants_transactions()
   bool defer_drive_info_ = false;       // the sink's completes_drive_info(), with detail
   // Telegrams taken whole are counted, not decoded (count_whole_telegram): the sink takes no
-  // records, no drive profile reads any frame, and no frame limit stops the run.
+  // records or decodes them itself, no drive profile reads any frame, and no frame limit stops
+  // the run.
   bool summary_lane_ = false;
+  bool hand_over_records_ = true;  // the sink's wants_records()
   TimeNs earliest_deadline_;
   std::uint64_t frame_counter_ = 0;
   TimeNs latest_time_ = std::numeric_limits<TimeNs>::min();

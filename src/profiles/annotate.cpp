@@ -607,7 +607,7 @@ void read_for_drive_into(const DriveProfile& p, const Message& m,
 
 void complete_drive_info(Message& m, DriveReading& scratch) {
   if (!m.drive_profile) return;
-  read_for_drive_into(*m.drive_profile, m, m.drive_request, DriveReadingWants::text, scratch);
+  read_for_drive_into(*m.drive_profile, m, m.request, DriveReadingWants::text, scratch);
   std::swap(m.drive_info, scratch.text);  // both keep their storage
   m.drive_profile = nullptr;
 }

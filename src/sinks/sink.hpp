@@ -12,6 +12,7 @@
 #include "core/byte_event.hpp"
 #include "core/frame.hpp"
 #include "core/message.hpp"
+#include "core/protocol.hpp"
 #include "core/transaction.hpp"
 #include "pipeline/stats.hpp"
 
@@ -63,6 +64,22 @@ class Sink {
   // -> drive_info) before anything reads them; the pipeline then leaves that to it (the
   // ThreadedSink does it on its writer thread, off the decoding one). Fixed for its lifetime.
   [[nodiscard]] virtual bool completes_drive_info() const { return false; }
+  // A telegram the pipeline counted without decoding it (only when completes_decode()): its
+  // Message (decode_undissected()) as on_frame() and that message's anomalies as on_anomaly(),
+  // which is what the pipeline would have handed over. This default decodes it here.
+  virtual void on_undissected(const UndissectedTelegram& telegram) {
+    Message m;
+    m.detail = wants_detail();
+    m.tree = m.detail && wants_fields();
+    decode_undissected(telegram, m);
+    on_frame(m);
+    for (const Anomaly& a : m.anomalies) on_anomaly(a);
+  }
+  // Whether the sink takes telegrams undissected (on_undissected()) where it can decode them
+  // more cheaply than the pipeline (the ThreadedSink, on its writer thread): the pipeline then
+  // counts the telegrams its framers take whole without decoding them (its summary lane) and
+  // hands them over so. Fixed for the sink's lifetime.
+  [[nodiscard]] virtual bool completes_decode() const { return false; }
   // Whether on_frame(), on_noise(), on_anomaly() and on_transaction() do anything; when not, the
   // pipeline may count what the summary needs of a telegram without decoding it into a Message
   // (its summary lane: `read --stats`). Fixed for the sink's lifetime.

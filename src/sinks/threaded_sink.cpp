@@ -2,6 +2,7 @@
 // into the inner sink on a writer thread.
 #include "sinks/threaded_sink.hpp"
 
+#include "core/protocol.hpp"
 #include "core/worker_thread.hpp"
 
 namespace drivetap {
@@ -76,6 +77,12 @@ void ThreadedSink::run() {
           inner_.on_frame(r.message);
           if (r.message.frame.storage_bytes() > kKeptStorageBytes) r.message = Message{};
           break;
+        case Kind::undissected:
+          r.undissected.telegram.run.bytes = r.undissected.bytes;
+          r.undissected.telegram.request = r.undissected.request;
+          replay_undissected(r.undissected.telegram);
+          if (decoded_.frame.storage_bytes() > kKeptStorageBytes) decoded_ = Message{};
+          break;
         case Kind::noise:
           inner_.on_noise(r.noise);
           if (r.noise.storage_bytes() > kKeptStorageBytes) r.noise = Frame{};
@@ -106,6 +113,25 @@ void ThreadedSink::run() {
 void ThreadedSink::weigh(std::size_t bytes) {
   current_->storage_bytes += bytes;
   if (current_->storage_bytes >= kBatchBytes) publish();
+}
+
+void ThreadedSink::replay_undissected(const UndissectedTelegram& telegram) {
+  decoded_.detail = wants_detail_;
+  decoded_.tree = wants_detail_ && wants_fields_;
+  decode_undissected(telegram, decoded_);
+  inner_.on_frame(decoded_);
+  // The message's anomalies follow it, as the pipeline hands them on.
+  for (const Anomaly& a : decoded_.anomalies) inner_.on_anomaly(a);
+}
+
+void ThreadedSink::on_undissected(const UndissectedTelegram& telegram) {
+  if (finished_) return replay_undissected(telegram);  // (the writer has stopped: decoded here)
+  Record& r = next_record();
+  r.kind = Kind::undissected;
+  r.undissected.telegram = telegram;
+  r.undissected.bytes.assign(telegram.run.bytes.begin(), telegram.run.bytes.end());
+  r.undissected.request.assign(telegram.request.begin(), telegram.request.end());
+  weigh(r.undissected.bytes.size());
 }
 
 void ThreadedSink::on_frame(const Message& message) {

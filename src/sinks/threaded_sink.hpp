@@ -3,8 +3,8 @@
 // bench/README.md). Contract of src/sinks/sink.hpp: the inner sink gets every record, in order.
 //
 //   pipeline thread:  on_frame(m) ... -> copied into a batch (kBatchRecords) -> queue (kDepth)
-//   writer thread:    batch -> [drive annotation written] -> inner.on_frame(copy) ... ; the batch
-//                     goes back for reuse
+//   writer thread:    batch -> [decoded, drive annotation written] -> inner.on_frame(copy) ... ;
+//                     the batch goes back for reuse
 //
 // With drive profiles the writer also writes each frame's drive annotation (Message::drive_profile
 // -> drive_info, completes_drive_info()): the profiles, which the pipeline indexed before the first
@@ -69,6 +69,10 @@ class ThreadedSink final : public Sink {
   // inner sink gets the message: formatting it is a third of the decoding thread's work with
   // drive profiles (bench/README.md).
   [[nodiscard]] bool completes_drive_info() const override { return true; }
+  // Telegrams the pipeline counted without decoding them are copied as they come and decoded on
+  // the writer thread, before the inner sink gets them and their anomalies.
+  void on_undissected(const UndissectedTelegram& telegram) override;
+  [[nodiscard]] bool completes_decode() const override { return true; }
   // Replays what is left and stops the writer thread; the inner sink is the caller's again.
   void finish();
   // Waits until the writer is idle, then counts the storage its records' frames keep for reuse:
@@ -78,11 +82,26 @@ class ThreadedSink final : public Sink {
   [[nodiscard]] std::size_t kept_storage_bytes();
 
  private:
-  enum class Kind : unsigned char { frame, noise, anomaly, transaction, summary, event };
+  enum class Kind : unsigned char {
+    frame,
+    undissected,
+    noise,
+    anomaly,
+    transaction,
+    summary,
+    event
+  };
+  // An UndissectedTelegram, its spans' bytes copied (storage kept from use to use).
+  struct Undissected {
+    UndissectedTelegram telegram;  // spans set to the vectors below when replayed
+    std::vector<std::uint8_t> bytes;
+    std::vector<std::uint8_t> request;
+  };
   // One record; only the member of its kind is meaningful. The others keep their storage.
   struct Record {
     Kind kind = Kind::frame;
     Message message;
+    Undissected undissected;
     Frame noise;
     Anomaly anomaly;
     Transaction transaction;
@@ -111,6 +130,8 @@ class ThreadedSink final : public Sink {
   }
   // Counts `bytes` of storage in the current batch; publishes it once it holds kBatchBytes.
   void weigh(std::size_t bytes);
+  // An undissected telegram to the inner sink: decoded into decoded_, then it and its anomalies.
+  void replay_undissected(const UndissectedTelegram& telegram);
   void publish();          // hands the current batch, if it holds records, to the writer
   void wait_until_idle();  // until every published batch has been replayed
   void run();              // the writer thread
@@ -122,6 +143,7 @@ class ThreadedSink final : public Sink {
   const bool wants_records_;
   std::unique_ptr<Batch> current_;  // being filled on the pipeline thread
   DriveReading drive_scratch_;      // the writer's (or, after finish(), the caller's)
+  Message decoded_;  // the writer's (or, after finish(), the caller's): undissected telegrams
 
   std::mutex mutex_;
   std::condition_variable changed_;
