@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # ThreadSanitizer pass of the README's test command (scripts/test.sh): builds drivetap and its unit
-# tests with -DDRIVETAP_TSAN=ON, runs the suites of the threaded parts (ThreadedSink, ReadAhead,
-# the drive annotation written on the writer thread), then `drivetap read` of generated captures
+# tests with -DDRIVETAP_TSAN=ON, runs the suites of the threaded parts (ThreadedSink with and
+# without helpers formatting on several threads, ReadAhead, the drive annotation written on the
+# writer thread, telegrams decoded on the writer thread), then `drivetap read` of generated captures
 # (all five drive families as pcapng and byte log; plain Modbus RTU) in every mode that runs the
 # read-ahead and writer threads. Captures of 20 000 records keep both threads busy at once: the
 # golden captures are too small for that (a race planted in ThreadedSink::run() passes them and
@@ -19,7 +20,7 @@ cmake --build "$build" -j "$jobs" --target drivetap drivetap_tests
 export TSAN_OPTIONS="halt_on_error=1 exitcode=66 second_deadlock_stack=1"
 
 "$build/tests/drivetap_tests" --gtest_brief=1 \
-  --gtest_filter='ThreadedSink.*:ReadAhead.*:DriveAnnotation.*'
+  --gtest_filter='ThreadedSink.*:ReadAhead.*:DriveAnnotation.*:Pipeline.TelegramsHandedOver*:Pipeline.FormattedOnSeveralThreads*'
 
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT

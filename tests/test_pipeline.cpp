@@ -9,6 +9,8 @@
 
 #include "core/checksum.hpp"
 #include "generate/traffic.hpp"
+#include "sinks/json_sink.hpp"
+#include "sinks/text_sink.hpp"
 #include "sinks/threaded_sink.hpp"
 #include "test_support.hpp"
 
@@ -240,8 +242,12 @@ enum class Adjust { none, one_stamp_reads, seven_bits, early_starts, slow_bytes,
 // The generator's traffic (seed 7) and what a pipeline over it needs: the channel table its
 // links are interned in on first use, and the options (7 data bits for Adjust::seven_bits).
 struct GeneratedBus {
-  GeneratedBus(std::uint64_t frames, generate::Mix mix, Adjust adjust)
-      : gen(generate::Options{frames, 7, mix}), channel_of(gen.links().size(), -1) {
+  // The links are interned into `table` when given (a sink's), else into the bus's own.
+  GeneratedBus(std::uint64_t frames, generate::Mix mix, Adjust adjust,
+               ChannelTable* table = nullptr)
+      : gen(generate::Options{frames, 7, mix}),
+        channel_of(gen.links().size(), -1),
+        channels(table ? *table : own_channels) {
     options.serial = generate::Generator::serial();
     options.timing = FramingTiming::from(options.serial);
     if (adjust == Adjust::seven_bits) options.serial.data_bits = 7;
@@ -253,7 +259,8 @@ struct GeneratedBus {
 
   generate::Generator gen;
   std::vector<int> channel_of;
-  ChannelTable channels;
+  ChannelTable own_channels;
+  ChannelTable& channels;
   PipelineOptions options;
 };
 
@@ -288,9 +295,10 @@ void run_generated(TranscriptSink& sink, std::size_t chunk = 0, Adjust adjust = 
 // of `batch` runs (0: each byte pushed on its own): a whole frame between two silences goes to the
 // framer at once when the next run of the batch shows the silence after it (Pipeline::push_chunk).
 // One-stamp reads, 7 data bits and early starts give runs that need the byte-by-byte way.
-void run_generated_runs(Sink& sink, std::size_t batch, Adjust adjust, generate::Mix mix) {
+void run_generated_runs(Sink& sink, std::size_t batch, Adjust adjust, generate::Mix mix,
+                        ChannelTable* channels = nullptr) {
   // Fewer records than run_generated(): the test makes 32 runs of it (slow under the sanitizers).
-  GeneratedBus bus(6000, mix, adjust);
+  GeneratedBus bus(6000, mix, adjust, channels);
   Pipeline pipeline(bus.options, bus.channels, sink);
   const TimeNs character_time = bus.options.timing.character_time;
   generate::Record r;
@@ -427,6 +435,52 @@ TEST(Pipeline, TelegramsHandedOverUndissectedAreWhatThePipelineHandsOver) {
         EXPECT_EQ(decoded.descriptors, replayed.descriptors);
       }
     }
+  }
+}
+
+// `read` to a file: the pipeline hands telegrams over undissected to a ThreadedSink whose helpers
+// decode and format batches on two threads; the text (plain and -V) and the JSON must be byte for
+// byte what one sink writes, given every frame decoded by the pipeline.
+TEST(Pipeline, FormattedOnSeveralThreadsAsByOne) {
+  for (const int kind : {0, 1, 2}) {  // text, text -V, JSON
+    SCOPED_TRACE(kind);
+    const generate::Mix mix = kind == 1 ? generate::Mix::modbus_rtu : generate::Mix::all;
+    std::string texts[2];
+    for (const bool threaded : {false, true}) {
+      ChannelTable channels;  // the sinks', which the bus interns its links into
+      char* data = nullptr;
+      std::size_t size = 0;
+      std::FILE* file = open_memstream(&data, &size);
+      ASSERT_NE(file, nullptr);
+      auto make = [&](std::FILE* f) -> std::unique_ptr<Sink> {
+        if (kind == 2) return std::make_unique<JsonSink>(f, channels, 1000, true);
+        TextSinkOptions options;
+        options.verbose = kind == 1;
+        return std::make_unique<TextSink>(f, channels, options);
+      };
+      {
+        const std::unique_ptr<Sink> inner = make(file);
+        std::vector<std::unique_ptr<Sink>> helpers;
+        std::vector<Sink*> pointers;
+        for (int i = 0; i < 2; ++i) {
+          helpers.push_back(make(nullptr));
+          pointers.push_back(helpers.back().get());
+        }
+        if (threaded) {
+          ThreadedSink sink(*inner, pointers);
+          run_generated_runs(sink, 300, Adjust::slow_bytes, mix, &channels);
+          sink.finish();
+        } else {
+          run_generated_runs(*inner, 300, Adjust::slow_bytes, mix, &channels);
+        }
+        ASSERT_TRUE(inner->flush());
+      }
+      std::fclose(file);
+      texts[threaded] = std::string(data, size);
+      std::free(data);
+    }
+    EXPECT_GT(texts[0].size(), 100000u);
+    EXPECT_TRUE(texts[0] == texts[1]);
   }
 }
 

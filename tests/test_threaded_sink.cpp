@@ -10,6 +10,13 @@
 #include <thread>
 #include <vector>
 
+#include <fmt/format.h>
+
+#include <cstdio>
+#include <cstdlib>
+
+#include "sinks/json_sink.hpp"
+#include "sinks/text_sink.hpp"
 #include "sinks/threaded_sink.hpp"
 
 using namespace drivetap;
@@ -334,4 +341,115 @@ TEST(ThreadedSink, RecordsAfterFinishGoStraightToTheInnerSink) {
   ASSERT_FALSE(inner.lines.empty());
   EXPECT_EQ(inner.lines.back(), "anomaly late");
   EXPECT_EQ(inner.threads.back(), std::this_thread::get_id());
+}
+
+namespace {
+
+// The text a sink writes into a file in memory.
+class MemoryFile {
+ public:
+  MemoryFile() : file_(open_memstream(&data_, &size_)) {}
+  ~MemoryFile() {
+    if (file_) std::fclose(file_);
+    std::free(data_);
+  }
+  MemoryFile(const MemoryFile&) = delete;
+  MemoryFile& operator=(const MemoryFile&) = delete;
+  std::FILE* file() { return file_; }
+  std::string text() {
+    std::fflush(file_);
+    return std::string(data_, size_);
+  }
+
+ private:
+  char* data_ = nullptr;
+  std::size_t size_ = 0;
+  std::FILE* file_;
+};
+
+// Frames, each now and then followed by anomalies of its own (shown under the frame) or of an
+// earlier frame (shown on a line of their own), transactions and noise: what a text sink shows
+// differently right after a frame, wherever a batch happens to start.
+void play_with_anomalies(Sink& sink, std::size_t frames) {
+  Message m;
+  for (std::size_t i = 1; i <= frames; ++i) {
+    m.frame.number = i;
+    m.frame.channel = static_cast<ChannelId>(i % 2);
+    m.frame.events.clear();
+    for (std::size_t k = 0; k < 2 + i % 5; ++k)
+      m.frame.events.push_back(
+          {static_cast<TimeNs>(i * 1000 + k), static_cast<std::uint8_t>(i), 0, m.frame.channel, 0});
+    m.bytes = m.frame.bytes();
+    m.protocol = Protocol::modbus_rtu;
+    m.direction = i % 2 ? Direction::request : Direction::response;
+    m.address = static_cast<int>(i % 7);
+    m.info = "info " + std::to_string(i);
+    sink.on_frame(m);
+    for (std::size_t k = 0; k < i % 3; ++k)
+      sink.on_anomaly({AnomalyKind::malformed, static_cast<TimeNs>(i * 1000), m.frame.channel,
+                       i % 7 == 0 ? i - 1 : i, "anomaly " + std::to_string(i)});
+    if (i % 4 == 0) {
+      Transaction t;
+      t.outcome = Outcome::timeout;
+      t.request_number = i - 1;
+      sink.on_transaction(t);
+    }
+    if (i % 9 == 0) {
+      Frame noise;
+      noise.number = ++i;
+      noise.events = {ByteEvent{static_cast<TimeNs>(i * 1000), 0x55, 0, 0, 0}};
+      sink.on_noise(noise);
+      sink.on_anomaly({AnomalyKind::uart_framing, 0, 0, i, "framing " + std::to_string(i)});
+    }
+  }
+  Stats s;
+  s.frames = frames;
+  sink.on_summary(s);
+}
+
+}  // namespace
+
+// With helpers, batches are formatted on several threads (the pipeline's among them when it is
+// ahead) and written in order: the text and JSON must be byte for byte what one sink writes, the
+// anomalies shown under their frame wherever a batch starts, and records after finish() too.
+TEST(ThreadedSink, HelpersFormatingBatchesWriteWhatOneSinkWrites) {
+  ChannelTable channels;
+  channels.intern("a");
+  channels.intern("b");
+  TextSinkOptions options;
+  const std::size_t frames = ThreadedSink::kBatchRecords * 20 + 7;
+  for (const bool json : {false, true}) {
+    auto make = [&](std::FILE* f) -> std::unique_ptr<Sink> {
+      if (json) return std::make_unique<JsonSink>(f, channels, 1000, true);
+      return std::make_unique<TextSink>(f, channels, options);
+    };
+    MemoryFile expected_file;
+    {
+      const std::unique_ptr<Sink> direct = make(expected_file.file());
+      play_with_anomalies(*direct, frames);
+      direct->on_anomaly({AnomalyKind::malformed, 0, 0, frames, "after"});
+      ASSERT_TRUE(direct->flush());
+    }
+    const std::string expected = expected_file.text();
+    ASSERT_GT(expected.size(), frames * 20);
+    for (const std::size_t count : {1u, 2u, 3u}) {
+      SCOPED_TRACE(fmt::format("json {} helpers {}", json, count));
+      MemoryFile file;
+      const std::unique_ptr<Sink> inner = make(file.file());
+      std::vector<std::unique_ptr<Sink>> helpers;
+      std::vector<Sink*> pointers;
+      for (std::size_t i = 0; i < count; ++i) {
+        helpers.push_back(make(nullptr));
+        pointers.push_back(helpers.back().get());
+      }
+      {
+        ThreadedSink threaded(*inner, pointers);
+        play_with_anomalies(threaded, frames);
+        threaded.finish();
+        threaded.on_anomaly({AnomalyKind::malformed, 0, 0, frames, "after"});
+      }
+      ASSERT_TRUE(inner->flush());
+      EXPECT_EQ(file.text(), expected);
+    }
+  }
 }

@@ -20,6 +20,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "core/protocol.hpp"
@@ -138,8 +139,8 @@ void add_common_options(CLI::App* cmd, CommonOptions& o) {
   std::exit(code);
 }
 
-// The built-in profiles (when `builtins_wanted`), then --profile-dir and --profile files (a user profile
-// with a built-in id replaces it). A bad file ends the run with its file:line: key error.
+// The built-in profiles (when `builtins_wanted`), then --profile-dir and --profile files (a user
+// profile with a built-in id replaces it). A bad file ends the run with its file:line: key error.
 void load_profiles(const CommonOptions& o, bool builtins_wanted) {
   auto add = [](DriveProfile profile) {
     for (DriveProfile& known : g_profiles)
@@ -182,8 +183,8 @@ PipelineOptions make_pipeline_options(const CommonOptions& o, const RunSettings&
   if (!o.protocol.empty()) p->protocol = protocol_from_option(o.protocol);
   // `--drive none` alone uses no profile: the built-in ones are not even parsed (a few ms).
   const bool none_only =
-      !o.drives.empty() &&
-      std::all_of(o.drives.begin(), o.drives.end(), [](const std::string& b) { return b == "none"; });
+      !o.drives.empty() && std::all_of(o.drives.begin(), o.drives.end(),
+                                       [](const std::string& b) { return b == "none"; });
   load_profiles(o, !none_only);
   bool guess = true;
   for (const std::string& binding : o.drives) {
@@ -264,16 +265,26 @@ class Outputs {
       capture_ = std::make_unique<CaptureSink>(capture_file_, channels, capture_options(o, p));
       tee_.add(capture_.get());
     }
-    if (o.format == "json") {
-      text_ = std::make_unique<JsonSink>(text_file_, channels, p.timing.character_time, timed);
-    } else {
+    // The text or JSON sink; with no file, one of its helpers (writing into memory).
+    const auto make_text = [&](std::FILE* file) -> std::unique_ptr<Sink> {
+      if (o.format == "json")
+        return std::make_unique<JsonSink>(file, channels, p.timing.character_time, timed);
       TextSinkOptions t;
       t.verbose = o.verbose;
       t.show_time = timed;
       t.summary = !o.no_summary;
       t.frames = !(capture_to_stdout && text_file_ == stderr);
-      text_ = std::make_unique<TextSink>(text_file_, channels, t);
-    }
+      return std::make_unique<TextSink>(file, channels, t);
+    };
+    text_ = make_text(text_file_);
+    // Text or JSON alone, to a file or a pipe, is formatted a batch at a time by as many threads
+    // as there are cores, the decoding thread among them when it is ahead (ThreadedSink helpers),
+    // and written in order: formatting is most of a run's work. A terminal gets each line as it
+    // comes from the one writer; a capture file has its own order of blocks to keep.
+    const unsigned cores = std::thread::hardware_concurrency();
+    if (!ring && o.write.empty() && !o.stats_only && !o.events_only && cores >= 2 &&
+        ::isatty(::fileno(text_file_)) != 1)
+      for (unsigned i = 0; i < std::min(cores, 4u); ++i) helpers_.push_back(make_text(nullptr));
     if (o.stats_only && o.no_summary) die("--stats and --no-summary leave nothing to print");
     if (o.stats_only) {
       summary_only_ = std::make_unique<SummaryOnlySink>(*text_);
@@ -290,8 +301,13 @@ class Outputs {
   // --events without -w, whose sinks drop nearly every record: copying them would cost more
   // than it saves).
   void write_on_second_thread() {
-    if ((!options_.stats_only && !options_.events_only) || capture_)
+    if (!helpers_.empty()) {
+      std::vector<Sink*> helpers;
+      for (const std::unique_ptr<Sink>& helper : helpers_) helpers.push_back(helper.get());
+      threaded_ = std::make_unique<ThreadedSink>(*text_, std::move(helpers));  // (tee_: text_)
+    } else if ((!options_.stats_only && !options_.events_only) || capture_) {
       threaded_ = std::make_unique<ThreadedSink>(tee_);
+    }
   }
   Sink& sink() { return threaded_ ? static_cast<Sink&>(*threaded_) : tee_; }
   // Live capture: everything written so far reaches its file (a text line per frame as it
@@ -351,6 +367,7 @@ class Outputs {
   std::FILE* capture_file_ = nullptr;
   int capture_errno_ = 0;  // why the first failed flush failed
   std::unique_ptr<Sink> text_;
+  std::vector<std::unique_ptr<Sink>> helpers_;  // text_'s kind, writing into memory
   std::unique_ptr<Sink> events_only_;
   std::unique_ptr<Sink> summary_only_;
   std::unique_ptr<CaptureSink> capture_;

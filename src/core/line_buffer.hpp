@@ -8,6 +8,7 @@
 #include <cstring>
 #include <memory>
 #include <string_view>
+#include <utility>
 
 namespace drivetap {
 
@@ -21,6 +22,12 @@ class LineBuffer {
   LineBuffer& operator=(const LineBuffer&) = delete;
 
   void clear() { size_ = 0; }
+  // Exchanges contents with `other` (no copy): a buffer handed from one owner to the next.
+  void swap(LineBuffer& other) noexcept {
+    std::swap(data_, other.data_);
+    std::swap(size_, other.size_);
+    std::swap(capacity_, other.capacity_);
+  }
   [[nodiscard]] std::size_t size() const { return size_; }
   [[nodiscard]] bool empty() const { return size_ == 0; }
   [[nodiscard]] const char* data() const { return data_.get(); }

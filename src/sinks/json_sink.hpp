@@ -26,6 +26,10 @@ class JsonSink final : public Sink {
   void on_summary(const Stats& stats) override;
   void on_event(const BusEvent& event) override;
   bool flush() override;
+  // Made with no file (nullptr): writes into memory, for a ThreadedSink's helpers (sink.hpp).
+  // (Each record stands on its own: nothing to follow.)
+  LineBuffer* formatted() override { return lines_.gathered(); }
+  void write_formatted(std::string_view text) override { lines_.write_lines(text); }
 
  private:
   // One id of a frame's field tree: its descriptor, first node and number of nodes.

@@ -15,6 +15,8 @@ namespace drivetap {
 
 class LineWriter {
  public:
+  // With no file (nullptr), the lines are gathered in memory until their owner takes them
+  // (gathered()): a sink formatting batches of records for another one (ThreadedSink helpers).
   explicit LineWriter(std::FILE* out)
       : out_(out), to_terminal_(out != nullptr && ::isatty(::fileno(out)) == 1) {}
 
@@ -31,9 +33,23 @@ class LineWriter {
     buffer_ += '\n';
     if (buffer_.size() >= kBlockBytes || to_terminal_) write_out();
   }
+  // Whole lines made by another writer (its gathered() text), written as if ended here: with
+  // nothing buffered, straight to the file (no copy).
+  void write_lines(std::string_view lines) {
+    if (buffer_.empty() && out_) {
+      if (std::fwrite(lines.data(), 1, lines.size(), out_) != lines.size()) status_.note_failure();
+      return;
+    }
+    buffer_ += lines;
+    if (buffer_.size() >= kBlockBytes || to_terminal_) write_out();
+  }
+  // Without a file: the lines gathered so far (the owner writes them elsewhere and clears them);
+  // nullptr for a writer with a file.
+  LineBuffer* gathered() { return out_ ? nullptr : &buffer_; }
   // Writes what is buffered and flushes the file: true when every write went through (else
-  // errno is the first failure's).
+  // errno is the first failure's). Without a file: true, the lines stay gathered.
   bool flush() {
+    if (!out_) return true;
     write_out();
     return status_.flush(out_);
   }
@@ -41,7 +57,7 @@ class LineWriter {
  private:
   // Once per block: kept out of the path every line takes.
   [[gnu::noinline]] void write_out() {
-    if (buffer_.empty()) return;
+    if (buffer_.empty() || !out_) return;
     if (std::fwrite(buffer_.data(), 1, buffer_.size(), out_) != buffer_.size())
       status_.note_failure();
     buffer_.clear();

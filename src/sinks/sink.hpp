@@ -11,6 +11,7 @@
 #include "core/bus_event.hpp"
 #include "core/byte_event.hpp"
 #include "core/frame.hpp"
+#include "core/line_buffer.hpp"
 #include "core/message.hpp"
 #include "core/protocol.hpp"
 #include "core/transaction.hpp"
@@ -80,6 +81,17 @@ class Sink {
   // counts the telegrams its framers take whole without decoding them (its summary lane) and
   // hands them over so. Fixed for the sink's lifetime.
   [[nodiscard]] virtual bool completes_decode() const { return false; }
+  // Formatting on several threads (a ThreadedSink with helpers: sinks like its inner one, each
+  // writing a batch of records into memory while the others write theirs):
+  // - formatted(): a sink made to write into memory gives the text it wrote since it was last
+  //   cleared (the caller writes it elsewhere and clears it); nullptr for other sinks;
+  // - write_formatted(): appends text that such a sink of the same kind formatted for the
+  //   records that come next, as this sink would have written them;
+  // - follow(): the records that come next follow the frame or noise record numbered `number`
+  //   (what a sink shows differently right after its frame, e.g. the frame's anomalies).
+  virtual LineBuffer* formatted() { return nullptr; }
+  virtual void write_formatted(std::string_view text) { (void)text; }
+  virtual void follow(std::uint64_t number) { (void)number; }
   // Whether on_frame(), on_noise(), on_anomaly() and on_transaction() do anything; when not, the
   // pipeline may count what the summary needs of a telegram without decoding it into a Message
   // (its summary lane: `read --stats`). Fixed for the sink's lifetime.

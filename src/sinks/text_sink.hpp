@@ -31,6 +31,10 @@ class TextSink final : public Sink {
   void on_summary(const Stats& stats) override;
   void on_event(const BusEvent& event) override;
   bool flush() override;
+  // Made with no file (nullptr): writes into memory, for a ThreadedSink's helpers (sink.hpp).
+  LineBuffer* formatted() override { return lines_.gathered(); }
+  void write_formatted(std::string_view text) override { lines_.write_lines(text); }
+  void follow(std::uint64_t number) override { last_frame_number_ = number; }
   // The field tree is shown only with -V.
   [[nodiscard]] bool wants_fields() const override { return options_.verbose; }
   [[nodiscard]] bool wants_transactions() const override { return false; }  // see on_transaction

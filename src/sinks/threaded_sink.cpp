@@ -1,22 +1,32 @@
 // Threaded sink (src/sinks/threaded_sink.hpp): records copied into batches, replayed in order
-// into the inner sink on a writer thread.
+// into the inner sink on a writer thread (or formatted by helpers on several, written in order).
 #include "sinks/threaded_sink.hpp"
+
+#include <algorithm>
 
 #include "core/protocol.hpp"
 #include "core/worker_thread.hpp"
 
 namespace drivetap {
 
-ThreadedSink::ThreadedSink(Sink& inner)
+ThreadedSink::ThreadedSink(Sink& inner, std::vector<Sink*> helpers)
     : inner_(inner),
       wants_detail_(inner.wants_detail()),
       wants_fields_(inner.wants_fields()),
       wants_transactions_(inner.wants_transactions()),
       wants_records_(inner.wants_records()),
-      current_(std::make_unique<Batch>()) {
-  // kDepth batches besides the one being filled: the writer holds at most one of them.
-  for (std::size_t i = 0; i < kDepth; ++i) free_.push_back(std::make_unique<Batch>());
-  writer_ = start_worker_thread([this] { run(); });
+      helpers_(std::move(helpers)),
+      current_(std::make_unique<Batch>()),
+      scratch_(std::max<std::size_t>(1, helpers_.size())),
+      assist_(helpers_.size() >= 2) {
+  // One writer thread, or one per helper but the last, which is the pipeline thread's.
+  const std::size_t writers = assist_ ? helpers_.size() - 1 : 1;
+  // kDepth batches besides the one being filled, and one more for each formatting thread past
+  // the first: each holds at most one of them.
+  for (std::size_t i = 0; i < kDepth + scratch_.size() - 1; ++i)
+    free_.push_back(std::make_unique<Batch>());
+  for (std::size_t w = 0; w < writers; ++w)
+    writers_.push_back(start_worker_thread([this, w] { run(w); }));
 }
 
 ThreadedSink::~ThreadedSink() {
@@ -31,12 +41,28 @@ ThreadedSink::Record& ThreadedSink::next_record() {
 void ThreadedSink::publish() {
   if (current_->used == 0) return;
   std::unique_lock lock(mutex_);
+  current_->sequence = published_++;
   full_.push_back(std::move(current_));
   changed_.notify_all();
   // Back-pressure: every other batch is queued or being replayed; wait for one to come back.
-  changed_.wait(lock, [this] { return !free_.empty(); });
+  // With a helper of its own, this thread formats the oldest queued batch meanwhile: the writers
+  // are behind, and this core would idle.
+  while (free_.empty()) {
+    if (!assist_ || full_.empty()) {
+      changed_.wait(lock);
+      continue;
+    }
+    std::unique_ptr<Batch> batch = std::move(full_.front());
+    full_.pop_front();
+    ++replaying_;
+    lock.unlock();
+    replay(*batch, *helpers_.back(), scratch_.back());
+    commit(std::move(batch));
+    lock.lock();
+  }
   current_ = std::move(free_.back());
   free_.pop_back();
+  current_->follows = last_number_;
 }
 
 void ThreadedSink::wait_until_idle() {
@@ -53,12 +79,18 @@ std::size_t ThreadedSink::kept_storage_bytes() {
     for (const Record& r : batch.records)
       bytes += r.message.frame.storage_bytes() + r.noise.storage_bytes();
   };
+  for (const Scratch& scratch : scratch_) bytes += scratch.decoded.frame.storage_bytes();
   count(*current_);
   for (const std::unique_ptr<Batch>& batch : free_) count(*batch);
   return bytes;
 }
 
-void ThreadedSink::run() {
+void ThreadedSink::run(std::size_t writer) {
+  // Without helpers, the one writer replays into the inner sink. With them, each writer replays
+  // its batches into its helper, which writes them into memory, and the text goes to the inner
+  // sink in the batches' order (commit()).
+  Sink& target = helpers_.empty() ? inner_ : *helpers_[writer];
+  Scratch& scratch = scratch_[writer];
   for (;;) {
     std::unique_ptr<Batch> batch;
     {
@@ -69,45 +101,87 @@ void ThreadedSink::run() {
       full_.pop_front();
       ++replaying_;
     }
-    for (std::size_t i = 0; i < batch->used; ++i) {
-      Record& r = batch->records[i];  // not const: a record holding a large frame is freed
-      switch (r.kind) {
-        case Kind::frame:
-          complete_drive_info(r.message, drive_scratch_);
-          inner_.on_frame(r.message);
-          if (r.message.frame.storage_bytes() > kKeptStorageBytes) r.message = Message{};
-          break;
-        case Kind::undissected:
-          r.undissected.telegram.run.bytes = r.undissected.bytes;
-          r.undissected.telegram.request = r.undissected.request;
-          replay_undissected(r.undissected.telegram);
-          if (decoded_.frame.storage_bytes() > kKeptStorageBytes) decoded_ = Message{};
-          break;
-        case Kind::noise:
-          inner_.on_noise(r.noise);
-          if (r.noise.storage_bytes() > kKeptStorageBytes) r.noise = Frame{};
-          break;
-        case Kind::anomaly:
-          inner_.on_anomaly(r.anomaly);
-          break;
-        case Kind::transaction:
-          inner_.on_transaction(r.transaction);
-          break;
-        case Kind::summary:
-          inner_.on_summary(*r.stats);
-          break;
-        case Kind::event:
-          inner_.on_event(r.event);
-          break;
-      }
+    replay(*batch, target, scratch);
+    if (helpers_.empty()) {
+      recycle(std::move(batch));
+    } else {
+      commit(std::move(batch));
     }
-    batch->used = 0;
-    batch->storage_bytes = 0;
-    std::lock_guard lock(mutex_);
-    free_.push_back(std::move(batch));
+  }
+}
+
+void ThreadedSink::replay(Batch& batch, Sink& target, Scratch& scratch) {
+  if (!helpers_.empty()) target.follow(batch.follows);
+  for (std::size_t i = 0; i < batch.used; ++i) {
+    Record& r = batch.records[i];  // not const: a record holding a large frame is freed
+    switch (r.kind) {
+      case Kind::frame:
+        complete_drive_info(r.message, scratch.drive);
+        target.on_frame(r.message);
+        if (r.message.frame.storage_bytes() > kKeptStorageBytes) r.message = Message{};
+        break;
+      case Kind::undissected:
+        r.undissected.telegram.run.bytes = r.undissected.bytes;
+        r.undissected.telegram.request = r.undissected.request;
+        replay_undissected(r.undissected.telegram, target, scratch.decoded);
+        if (scratch.decoded.frame.storage_bytes() > kKeptStorageBytes) scratch.decoded = Message{};
+        break;
+      case Kind::noise:
+        target.on_noise(r.noise);
+        if (r.noise.storage_bytes() > kKeptStorageBytes) r.noise = Frame{};
+        break;
+      case Kind::anomaly:
+        target.on_anomaly(r.anomaly);
+        break;
+      case Kind::transaction:
+        target.on_transaction(r.transaction);
+        break;
+      case Kind::summary:
+        target.on_summary(*r.stats);
+        break;
+      case Kind::event:
+        target.on_event(r.event);
+        break;
+    }
+  }
+  // (A helper is made to write into memory: formatted() is its text.)
+  if (!helpers_.empty()) batch.text.swap(*target.formatted());
+}
+
+void ThreadedSink::recycle(std::unique_ptr<Batch> batch) {
+  batch->used = 0;
+  batch->storage_bytes = 0;
+  std::lock_guard lock(mutex_);
+  free_.push_back(std::move(batch));
+  --replaying_;
+  changed_.notify_all();
+}
+
+void ThreadedSink::commit(std::unique_ptr<Batch> batch) {
+  std::unique_lock lock(mutex_);
+  formatted_.push_back(std::move(batch));
+  // One writer at a time writes, every formatted batch that is next in order; a writer whose
+  // batch must wait leaves it to that one and formats another meanwhile.
+  if (committing_) return;
+  committing_ = true;
+  for (;;) {
+    const auto next = std::find_if(formatted_.begin(), formatted_.end(),
+                                   [this](const auto& b) { return b->sequence == committed_; });
+    if (next == formatted_.end()) break;
+    std::unique_ptr<Batch> ready = std::move(*next);
+    formatted_.erase(next);
+    lock.unlock();
+    inner_.write_formatted(ready->text.view());
+    ready->text.clear();
+    ready->used = 0;
+    ready->storage_bytes = 0;
+    lock.lock();
+    ++committed_;
+    free_.push_back(std::move(ready));
     --replaying_;
     changed_.notify_all();
   }
+  committing_ = false;
 }
 
 void ThreadedSink::weigh(std::size_t bytes) {
@@ -115,38 +189,45 @@ void ThreadedSink::weigh(std::size_t bytes) {
   if (current_->storage_bytes >= kBatchBytes) publish();
 }
 
-void ThreadedSink::replay_undissected(const UndissectedTelegram& telegram) {
-  decoded_.detail = wants_detail_;
-  decoded_.tree = wants_detail_ && wants_fields_;
-  decode_undissected(telegram, decoded_);
-  inner_.on_frame(decoded_);
+void ThreadedSink::replay_undissected(const UndissectedTelegram& telegram, Sink& target,
+                                      Message& decoded) const {
+  decoded.detail = wants_detail_;
+  decoded.tree = wants_detail_ && wants_fields_;
+  decode_undissected(telegram, decoded);
+  target.on_frame(decoded);
   // The message's anomalies follow it, as the pipeline hands them on.
-  for (const Anomaly& a : decoded_.anomalies) inner_.on_anomaly(a);
+  for (const Anomaly& a : decoded.anomalies) target.on_anomaly(a);
 }
 
 void ThreadedSink::on_undissected(const UndissectedTelegram& telegram) {
-  if (finished_) return replay_undissected(telegram);  // (the writer has stopped: decoded here)
-  Record& r = next_record();
-  r.kind = Kind::undissected;
-  r.undissected.telegram = telegram;
-  r.undissected.bytes.assign(telegram.run.bytes.begin(), telegram.run.bytes.end());
-  r.undissected.request.assign(telegram.request.begin(), telegram.request.end());
-  weigh(r.undissected.bytes.size());
+  if (finished_) {  // the writers have stopped: decoded here
+    replay_undissected(telegram, inner_, scratch_[0].decoded);
+  } else {
+    Record& r = next_record();
+    r.kind = Kind::undissected;
+    r.undissected.telegram = telegram;
+    r.undissected.bytes.assign(telegram.run.bytes.begin(), telegram.run.bytes.end());
+    r.undissected.request.assign(telegram.request.begin(), telegram.request.end());
+    weigh(r.undissected.bytes.size());
+  }
+  last_number_ = telegram.number;  // (after the record: a batch it publishes follows it)
 }
 
 void ThreadedSink::on_frame(const Message& message) {
   if (finished_ && message.drive_profile) {
-    // The writer thread has stopped: the annotation is written here, on a copy.
+    // The writers have stopped: the annotation is written here, on a copy.
     Message completed = message;
-    complete_drive_info(completed, drive_scratch_);
-    return inner_.on_frame(completed);
-  }
-  if (const Record* r = give(Kind::frame, &Record::message, message, &Sink::on_frame))
+    complete_drive_info(completed, scratch_[0].drive);
+    inner_.on_frame(completed);
+  } else if (const Record* r = give(Kind::frame, &Record::message, message, &Sink::on_frame)) {
     weigh(r->message.frame.storage_bytes());
+  }
+  last_number_ = message.frame.number;  // (after the record: a batch it publishes follows it)
 }
 void ThreadedSink::on_noise(const Frame& noise) {
   if (const Record* r = give(Kind::noise, &Record::noise, noise, &Sink::on_noise))
     weigh(r->noise.storage_bytes());
+  last_number_ = noise.number;
 }
 void ThreadedSink::on_anomaly(const Anomaly& anomaly) {
   give(Kind::anomaly, &Record::anomaly, anomaly, &Sink::on_anomaly);
@@ -179,8 +260,10 @@ void ThreadedSink::finish() {
     stopping_ = true;
     changed_.notify_all();
   }
-  writer_.join();
+  for (std::thread& writer : writers_) writer.join();
   finished_ = true;
+  // Records from now on go straight to the inner sink, after the last one a writer replayed.
+  if (!helpers_.empty()) inner_.follow(last_number_);
 }
 
 }  // namespace drivetap

@@ -48,7 +48,13 @@ class ThreadedSink final : public Sink {
   // noise with a time stamp a byte holds some 70 KiB), however few they are.
   static constexpr std::size_t kBatchBytes = 1024 * 1024;
 
-  explicit ThreadedSink(Sink& inner);
+  // With `helpers` (sinks like `inner`, made to write into memory: Sink::formatted()), batches are
+  // formatted whole by several threads, each with a helper of its own, and their text goes to
+  // `inner` (Sink::write_formatted()) in the batches' order: one writer thread per helper but the
+  // last, which is the pipeline thread's when its next batch would otherwise wait for a writer
+  // (one helper: one writer thread, no help). Without helpers, one writer replays into `inner`.
+  // The helpers must outlive this sink.
+  explicit ThreadedSink(Sink& inner, std::vector<Sink*> helpers = {});
   ~ThreadedSink() override;
   ThreadedSink(const ThreadedSink&) = delete;
   ThreadedSink& operator=(const ThreadedSink&) = delete;
@@ -112,6 +118,14 @@ class ThreadedSink final : public Sink {
     std::vector<Record> records = std::vector<Record>(kBatchRecords);
     std::size_t used = 0;
     std::size_t storage_bytes = 0;  // of the frames of records [0, used)
+    std::uint64_t sequence = 0;     // published as the sequence-th batch
+    std::uint64_t follows = 0;      // the number of the frame or noise record before it
+    LineBuffer text;                // with helpers: its records' text, once formatted
+  };
+  // A writer's own storage, reused from record to record.
+  struct Scratch {
+    DriveReading drive;  // complete_drive_info()'s
+    Message decoded;     // an undissected telegram's
   };
 
   Record& next_record();  // the current batch's next free record (publishing a full batch)
@@ -130,29 +144,44 @@ class ThreadedSink final : public Sink {
   }
   // Counts `bytes` of storage in the current batch; publishes it once it holds kBatchBytes.
   void weigh(std::size_t bytes);
-  // An undissected telegram to the inner sink: decoded into decoded_, then it and its anomalies.
-  void replay_undissected(const UndissectedTelegram& telegram);
-  void publish();          // hands the current batch, if it holds records, to the writer
-  void wait_until_idle();  // until every published batch has been replayed
-  void run();              // the writer thread
+  // An undissected telegram to `target`: decoded into `decoded`, then it and its anomalies.
+  void replay_undissected(const UndissectedTelegram& telegram, Sink& target,
+                          Message& decoded) const;
+  void publish();                // hands the current batch, if it holds records, to the writer
+  void wait_until_idle();        // until every published batch has been replayed
+  void run(std::size_t writer);  // a writer thread
+  // The batch's records into `target` (with helpers, its text then in batch.text).
+  void replay(Batch& batch, Sink& target, Scratch& scratch);
+  // A replayed batch back to the free ones.
+  void recycle(std::unique_ptr<Batch> batch);
+  // With helpers: a formatted batch's text to the inner sink in the batches' order (now, or by
+  // the writer writing the batches before it), then the batch back to the free ones.
+  void commit(std::unique_ptr<Batch> batch);
 
   Sink& inner_;
   const bool wants_detail_;
   const bool wants_fields_;
   const bool wants_transactions_;
   const bool wants_records_;
+  std::vector<Sink*> helpers_;
   std::unique_ptr<Batch> current_;  // being filled on the pipeline thread
-  DriveReading drive_scratch_;      // the writer's (or, after finish(), the caller's)
-  Message decoded_;  // the writer's (or, after finish(), the caller's): undissected telegrams
+  // The number of the last frame or noise record given (pipeline thread only).
+  std::uint64_t last_number_ = 0;
+  std::vector<Scratch> scratch_;  // one per helper (after finish(), the first is the caller's)
+  const bool assist_;  // the pipeline thread formats with the last helper when it would wait
 
   std::mutex mutex_;
   std::condition_variable changed_;
   std::deque<std::unique_ptr<Batch>> full_;  // published, in order
   std::vector<std::unique_ptr<Batch>> free_;
-  std::size_t replaying_ = 0;  // batches the writer has taken and not given back
+  std::size_t replaying_ = 0;    // batches the writers have taken and not given back
+  std::uint64_t published_ = 0;  // batches published
+  std::uint64_t committed_ = 0;  // with helpers: batches whose text went to the inner sink
+  std::vector<std::unique_ptr<Batch>> formatted_;  // with helpers: formatted, waiting their turn
+  bool committing_ = false;  // a writer is writing formatted batches to the inner sink
   bool stopping_ = false;
   bool finished_ = false;  // the writer thread has stopped (pipeline thread only)
-  std::thread writer_;
+  std::vector<std::thread> writers_;
 };
 
 }  // namespace drivetap
