@@ -1,5 +1,6 @@
 // Fuzzes the Modbus PDU/RTU layer: dissect_pdu (every direction), predict_pdu_length, pdu_fits,
-// rtu_direction_fit and dissect_rtu on a Frame built from the data.
+// rtu_direction_fit and dissect_rtu on a Frame built from the data; pdu_findings and the RTU
+// decoder's summary (the pipeline's summary lane) against what the dissectors find.
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -15,18 +16,47 @@ using namespace drivetap;
 
 constexpr Direction kDirections[] = {Direction::unknown, Direction::request, Direction::response};
 
-// Dissects frame[offset, offset + length) and checks the field tree stays inside the frame.
+// Dissects frame[offset, offset + length) and checks the field tree stays inside the frame, and
+// that pdu_findings() finds what the dissector finds (the summary lane counts by it).
 void dissect(std::span<const std::uint8_t> frame, std::size_t offset, std::size_t length,
              Direction dir) {
   FieldTree nodes;
   FieldTreeBuilder tree(nodes);
   const modbus::PduDecode d = modbus::dissect_pdu(frame, offset, length, dir, tree);
-  (void)d;
   for (const FieldNode& n : nodes) {
     if (std::size_t{n.offset} + n.length > frame.size())
       fuzz::contract_broken("dissect_pdu: field span beyond the frame");
     (void)format_field_value(nodes, n, frame);
   }
+  const modbus::PduFindings found = modbus::pdu_findings(frame.subspan(offset, length), dir);
+  if (found.problems != d.problems.size() || found.exception_code != d.exception_code)
+    fuzz::contract_broken("pdu_findings: not what dissect_pdu finds");
+}
+
+// The RTU decoder's summary of a telegram taken whole (the pipeline's summary lane) must be what
+// dissect_rtu() gives the Message: verdict, pairing members and every anomaly by kind.
+void check_summary(const Frame& frame, Direction dir, const FramingTiming& timing) {
+  const Message m = modbus::dissect_rtu(frame, dir, timing);
+  Framer::ChunkFrame taken;
+  taken.timing = {frame.gap_before, frame.max_intra_gap, frame.max_intra_gap_at};
+  ProtocolDecoder::TelegramSummary s;
+  const modbus::RtuDecoder decoder;
+  if (!decoder.summarise(m.bytes, dir, taken, timing, &s)) {
+    if (m.bytes.size() >= 4) fuzz::contract_broken("summarise: no summary of a 4-byte frame");
+    return;
+  }
+  std::size_t malformed = 0;
+  std::uint32_t kinds = 0;
+  for (const Anomaly& a : m.anomalies) {
+    if (a.kind == AnomalyKind::malformed)
+      ++malformed;
+    else
+      kinds |= 1u << static_cast<unsigned>(a.kind);
+  }
+  if (s.verdict != m.checksum.verdict || s.address != m.address || s.function != m.function ||
+      s.is_exception != m.is_exception || s.exception_code != m.exception_code ||
+      s.malformed != malformed || s.other_kinds != kinds)
+    fuzz::contract_broken("summarise: not what dissect_rtu gives");
 }
 
 }  // namespace
@@ -69,5 +99,15 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     fuzz::check_field_spans(m);
     for (const FieldNode& n : m.fields) (void)format_field_value(m.fields, n, m.bytes);
   }
+  // The summary: of a frame without UART marks (a run the framer takes whole has none), with a
+  // silence inside it (from the data) or none.
+  Frame marked_free;
+  for (const ByteEvent& e : frame.events) marked_free.events.push_back({e.time, e.byte, 0, 0, 0});
+  marked_free.gap_before = frame.gap_before;
+  if (bytes.size() >= 2) {
+    marked_free.max_intra_gap = (bytes[0] & 1) ? 2 * timing.t15 : 0;
+    marked_free.max_intra_gap_at = 1;
+  }
+  for (Direction dir : kDirections) check_summary(marked_free, dir, timing);
   return 0;
 }

@@ -350,27 +350,37 @@ bool Reader::parse_enhanced(std::span<const std::uint8_t> body, std::uint64_t at
   return true;
 }
 
+namespace {
+// Little-endian loads (peek_plain() takes little-endian sections only: nearly every writer's).
+std::uint32_t le32(const std::uint8_t* p) {
+  return std::uint32_t{p[0]} | (std::uint32_t{p[1]} << 8) | (std::uint32_t{p[2]} << 16) |
+         (std::uint32_t{p[3]} << 24);
+}
+}  // namespace
+
 bool Reader::peek_plain(PlainPacket& out) {
   // The checks of next() and parse_enhanced() in the same order, each failure leaving the block to
   // next(), which reports it.
-  if (!error_.empty() || !in_section_) return false;
+  if (!error_.empty() || !in_section_ || big_endian_) return false;
   if (end_ - pos_ < 8 && fill(8) < 8) return false;
-  if (u32(window_.data() + pos_) != kEnhancedPacket) return false;
-  const std::uint32_t total = u32(window_.data() + pos_ + 4);
+  if (le32(window_.data() + pos_) != kEnhancedPacket) return false;
+  const std::uint32_t total = le32(window_.data() + pos_ + 4);
   if (total < 32 || total % 4 != 0 || total > kMaxBlockLength) return false;
   if (end_ - pos_ < total && fill(total) < total) return false;
   const std::uint8_t* block = window_.data() + pos_;  // (fill() may have moved the window)
-  if (u32(block + total - 4) != total) return false;
-  const std::span<const std::uint8_t> body(block + 8, total - 12);
-  const std::uint32_t interface = u32(&body[0]);
+  if (le32(block + total - 4) != total) return false;
+  const std::uint8_t* body = block + 8;
+  const std::size_t body_size = total - 12;
+  const std::uint32_t interface = le32(body);
   if (interface >= interfaces_.size()) return false;
-  const std::uint32_t captured = u32(&body[12]);
-  if (captured > body.size() - 20) return false;
+  const std::uint32_t captured = le32(body + 12);
+  if (captured > body_size - 20) return false;
   // No options: none at all, or the end-of-options first (walk_options() reads no further).
   const std::size_t options_at = 20 + ((std::size_t{captured} + 3) & ~std::size_t{3});
-  if (options_at + 4 <= body.size() && u16(&body[options_at]) != kOptEnd) return false;
+  if (options_at + 4 <= body_size && (body[options_at] | body[options_at + 1]) != kOptEnd)
+    return false;
   const Interface& itf = interfaces_[interface];
-  const std::uint64_t ts = (std::uint64_t{u32(&body[4])} << 32) | u32(&body[8]);
+  const std::uint64_t ts = (std::uint64_t{le32(body + 4)} << 32) | le32(body + 8);
   if (itf.ts_den == 1 && itf.ts_offset_s == 0) {
     // scale_time() without its 128-bit division: a product past 64 bits is past kTimeLimit too.
     std::uint64_t ns = 0;
@@ -383,7 +393,7 @@ bool Reader::peek_plain(PlainPacket& out) {
     if (overflow) return false;
   }
   out.interface = interface;
-  out.data = body.subspan(20, captured);
+  out.data = std::span<const std::uint8_t>(body + 20, captured);
   peeked_ = total;
   return true;
 }

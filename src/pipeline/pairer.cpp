@@ -74,7 +74,7 @@ void Pairer::close_unanswered(const Pending& p, std::string detail, std::vector<
   out.push_back(std::move(t));
 }
 
-void Pairer::expire(TimeNs now, std::vector<Transaction>& out) {
+void Pairer::expire_some(TimeNs now, std::vector<Transaction>& out) {
   // Requests are in request order: the expired ones are a prefix.
   std::size_t expired = 0;
   while (expired < live_ && now - slots_[expired].end > options_.timeout) {
@@ -152,13 +152,17 @@ PairingResult Pairer::add(std::size_t link, const PairingInput& m, std::vector<T
   }
   if (m.direction != Direction::response) return {};
 
-  Transaction t;
-  t.protocol = m.protocol;
-  t.address = m.address;
-  t.function = function_key(m.function);
-  t.response_number = m.number;
-  t.response_time = start;
-  t.exception_code = m.exception_code;
+  // The reply's transaction, made in place once those it closes before it are out.
+  auto transaction = [&]() -> Transaction& {
+    Transaction& t = out.emplace_back();
+    t.protocol = m.protocol;
+    t.address = m.address;
+    t.function = function_key(m.function);
+    t.response_number = m.number;
+    t.response_time = start;
+    t.exception_code = m.exception_code;
+    return t;
+  };
   std::size_t match = live_;
   for (std::size_t i = 0; i < live_; ++i) {
     const Pending& p = slots_[i];
@@ -169,15 +173,12 @@ PairingResult Pairer::add(std::size_t link, const PairingInput& m, std::vector<T
   }
   if (match < live_) {
     const Pending& request = slots_[match];
-    t.outcome = m.is_exception ? Outcome::exception : Outcome::ok;
-    t.channel = request.channel;
-    t.request_number = request.number;
-    t.request_time = request.start;
     // With no silence visible before the reply (bytes stamped per adapter read), the latency is
     // not measurable: report the pairing without a number rather than a false 0 ms.
-    t.latency = (m.gap_before == 0 || start < request.end) ? -1 : start - request.end;
-    if (t.latency < 0) t.detail = "latency hidden: no silence visible before the reply";
-    const PairingResult found{true, request.number, t.latency};
+    const TimeNs latency = (m.gap_before == 0 || start < request.end) ? -1 : start - request.end;
+    const PairingResult found{true, request.number, latency};
+    const ChannelId channel = request.channel;
+    const TimeNs request_time = request.start;
     // The answered request leaves, and older requests on the same link were never answered
     // (reported before the pairing, in request order).
     remove_pending([&](std::size_t i, const Pending& p) {
@@ -188,13 +189,19 @@ PairingResult Pairer::add(std::size_t link, const PairingInput& m, std::vector<T
       }
       return false;
     });
-    out.push_back(std::move(t));
+    Transaction& t = transaction();
+    t.outcome = m.is_exception ? Outcome::exception : Outcome::ok;
+    t.channel = channel;
+    t.request_number = found.request_number;
+    t.request_time = request_time;
+    t.latency = latency;
+    if (latency < 0) t.detail = "latency hidden: no silence visible before the reply";
     return found;
   }
+  Transaction& t = transaction();
   t.outcome = Outcome::unsolicited;
   t.channel = m.channel;
   t.detail = "no request waiting for this reply";
-  out.push_back(std::move(t));
   return {};
 }
 

@@ -459,6 +459,11 @@ void Pipeline::check_packetization(FrameKind kind, std::uint32_t first, std::uin
   // Only sources with packets (origin != 0) are checked: a good capture tool puts exactly one
   // frame in each packet; drivetap re-frames anyway and says where the tool did not.
   if (first == 0) return;
+  if (first == last && first != st.last_frame_origin) {  // (nearly every frame: nothing to say)
+    st.last_frame_origin = last;
+    st.last_frame_number = number;
+    return;
+  }
   const char* what = kind == FrameKind::noise ? "noise record" : "frame";
   if (first != last) {
     emit_anomaly(
@@ -605,19 +610,9 @@ void Pipeline::count_whole_telegram(ChannelState& st, const ByteRun& run,
   in.last_byte_time = last_byte;
   in.gap_before = taken.timing.gap_before;
   in.bytes = bytes;
-  // What the sink decodes, with what only the pipeline knows (the request's bytes copied: the
-  // pairer's storage may be reused once pairer_.add() below has dropped them).
-  UndissectedTelegram telegram;
-  if (hand_over_records_) {
-    telegram.decoder = &decoder;
-    telegram.timing = options_.timing;
-    telegram.run = run;
-    telegram.taken = taken;
-    telegram.number = number;
-    telegram.direction = dir;
-    request_.assign(request.begin(), request.end());
-    telegram.request = request_;
-  }
+  // (The request's bytes copied for the sink: the pairer's storage may be reused once
+  // pairer_.add() has dropped them.)
+  if (hand_over_records_) request_.assign(request.begin(), request.end());
   const PairingResult paired = pairer_.add(st.link, in, transactions_);
   stats_.count_telegram(run.size(), summary.verdict, start, last_byte);
   // The message's anomalies, counted (the sink that decodes the message hands them on).
@@ -626,6 +621,15 @@ void Pipeline::count_whole_telegram(ChannelState& st, const ByteRun& run,
   for (std::uint32_t kinds = summary.other_kinds; kinds != 0; kinds &= kinds - 1)
     stats_.count_anomaly(static_cast<AnomalyKind>(std::countr_zero(kinds)));
   if (hand_over_records_) {
+    // What the sink decodes, with what only the pipeline knows.
+    UndissectedTelegram telegram;
+    telegram.decoder = &decoder;
+    telegram.timing = options_.timing;
+    telegram.run = run;
+    telegram.taken = taken;
+    telegram.number = number;
+    telegram.direction = dir;
+    telegram.request = request_;
     if (paired.paired) {
       telegram.latency = paired.latency;
       telegram.request_number = paired.request_number;
@@ -660,7 +664,7 @@ void Pipeline::summarise_drives() {
   for (auto& [key, d] : drives) stats_.drives.push_back(std::move(d));
 }
 
-void Pipeline::emit_transactions(std::vector<Transaction>& transactions) {
+void Pipeline::emit_some_transactions(std::vector<Transaction>& transactions) {
   for (const Transaction& t : transactions) {
     stats_.count_transaction(t);
     if (hand_over_transactions_) sink_.on_transaction(t);

@@ -108,7 +108,11 @@ class Pipeline {
   Direction decide_direction(const ProtocolDecoder& decoder, TimeNs start,
                              std::span<const std::uint8_t> bytes, int address, int function,
                              std::size_t link, ChannelRole role) const;
-  void emit_transactions(std::vector<Transaction>& transactions);
+  // Counts and hands over `transactions` (none, most of the calls: inline), then empties it.
+  void emit_transactions(std::vector<Transaction>& transactions) {
+    if (!transactions.empty()) emit_some_transactions(transactions);
+  }
+  void emit_some_transactions(std::vector<Transaction>& transactions);
   void emit_anomaly(const Anomaly& a);
 
   PipelineOptions options_;

@@ -406,17 +406,23 @@ std::size_t CaptureReader::append_plain_packets(RunBatch& out) {
   while (out.byte_count() - bytes_before < kPlainBytes && ng_->peek_plain(packet)) {
     const pcapng::Interface& itf = ng_->interfaces()[packet.interface];
     if (itf.link_type != kLinkTypeUpperPdu || packet.interface >= channel_cache_.size()) break;
-    // The tags of one of the last blocks, byte for byte (as load_pcapng_packet() looks them up).
-    const KnownTags* known = nullptr;
-    for (const KnownTags& k : known_tags_) {
+    // The tags of one of the last blocks, byte for byte (as load_pcapng_packet() looks them up;
+    // at most one can match: a tag block ends at its first end-of-options tag). The entry that
+    // matched the packet before the last is tried first: requests and replies alternate.
+    const auto matches = [&](const KnownTags& k) {
       const std::size_t tags = k.bytes.size();
-      if (tags != 0 && packet.data.size() >= tags &&
-          std::equal(k.bytes.begin(), k.bytes.end(), packet.data.begin())) {
-        known = &k;
-        break;
-      }
+      return tags != 0 && packet.data.size() >= tags &&
+             std::memcmp(k.bytes.data(), packet.data.data(), tags) == 0;
+    };
+    std::size_t match = matched_tags_[0];
+    if (!matches(known_tags_[match])) {
+      match = 0;
+      while (match < known_tags_.size() && !matches(known_tags_[match])) ++match;
+      if (match == known_tags_.size()) break;
     }
-    if (!known) break;
+    matched_tags_[0] = matched_tags_[1];
+    matched_tags_[1] = match;
+    const KnownTags* known = &known_tags_[match];
     const int direction = known->outbound ? (*known->outbound ? 1 : 2) : 0;
     const ChannelId channel = channel_cache_[packet.interface][direction];
     if (channel == kNoChannel) break;

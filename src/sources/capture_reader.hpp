@@ -100,6 +100,8 @@ class CaptureReader final : public ByteSource {
   };
   std::array<KnownTags, 4> known_tags_;
   std::size_t known_tags_next_ = 0;  // the entry the next new tag block replaces
+  // append_plain_packets(): the entries the last two packets matched, the older first.
+  std::array<std::size_t, 2> matched_tags_{};
   // Channel of each interface of the current section, by direction (none stated, outbound,
   // inbound); kNoChannel until its first packet. Indexed, so a file with many interfaces or
   // sections costs no search per packet.
