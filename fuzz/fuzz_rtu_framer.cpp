@@ -1,5 +1,6 @@
 // Fuzzes RtuFramer, the Modbus RTU dissector and the pairer: data is a stream of (time delta,
-// byte, flags) records turned into ByteEvents and pushed through the Pipeline.
+// byte, flags) records turned into ByteEvents and pushed through the Pipeline; then, as runs,
+// through the summary lane (counted and handed over undissected) against decoding every frame.
 //
 //   header (3 bytes, missing bytes read as 0):
 //     [0] bits 0-2 baud (1200..115200), bit 3-4 parity N/E/O, bit 5 7 data bits, bit 6 2 stop
@@ -15,6 +16,8 @@
 #include <array>
 #include <cstdint>
 #include <span>
+#include <string>
+#include <vector>
 
 #include "fuzz/fuzz_common.hpp"
 
@@ -48,6 +51,71 @@ PipelineOptions options_from(std::uint8_t line, std::uint8_t timing) {
   return p;
 }
 
+// Records as text: what the summary lane must keep as decoding every frame gives it.
+struct DigestSink final : Sink {
+  explicit DigestSink(bool records, bool decodes) : records_(records), decodes_(decodes) {}
+  std::string digest;
+  void on_frame(const Message& m) override {
+    digest += "F" + std::to_string(m.frame.number) + ":" +
+              std::to_string(static_cast<int>(m.direction)) + "," + std::to_string(m.address) +
+              "," + std::to_string(m.function) + "," + std::to_string(m.exception_code) + "," +
+              std::to_string(static_cast<int>(m.checksum.verdict)) + "," +
+              std::to_string(m.latency) + "," + std::to_string(m.request_number) + "," +
+              std::to_string(m.frame.size()) + "," + m.info + ";";
+  }
+  void on_noise(const Frame& f) override { digest += "N" + std::to_string(f.number) + ";"; }
+  void on_anomaly(const Anomaly& a) override {
+    digest += "A" + std::to_string(static_cast<int>(a.kind)) + "," +
+              std::to_string(a.frame_number) + "," + a.detail + ";";
+  }
+  void on_transaction(const Transaction& t) override {
+    digest += "T" + std::to_string(static_cast<int>(t.outcome)) + "," +
+              std::to_string(t.request_number) + "," + std::to_string(t.response_number) + "," +
+              std::to_string(t.latency) + ";";
+  }
+  void on_event(const BusEvent& e) override { digest += "E" + e.kind + ";"; }
+  void on_summary(const Stats& st) override {
+    digest += "S" + std::to_string(st.frames) + "," + std::to_string(st.bytes) + "," +
+              std::to_string(st.noise_records) + "," + std::to_string(st.transactions) + "," +
+              std::to_string(st.latency_sum) + "," + std::to_string(st.latency_count) + "," +
+              std::to_string(st.anomaly_total) + "," + std::to_string(st.first_time) + "," +
+              std::to_string(st.last_time);
+    for (const std::uint64_t n : st.checksum) digest += "," + std::to_string(n);
+    for (const std::uint64_t n : st.outcomes) digest += "," + std::to_string(n);
+    for (const std::uint64_t n : st.anomalies) digest += "," + std::to_string(n);
+  }
+  bool flush() override { return true; }
+  [[nodiscard]] bool wants_records() const override { return records_; }
+  [[nodiscard]] bool completes_decode() const override { return decodes_; }
+
+ private:
+  bool records_, decodes_;
+};
+
+// The summary lane (Pipeline::count_whole_telegram: `read --stats`, and `read` handing telegrams
+// over undissected): the events as runs through push_runs(), as `read` gives a capture's packets,
+// once decoded frame by frame, once counted, once handed over undissected. The counts must be
+// those of decoding, and the records handed over undissected the same records.
+void check_summary_lane(const PipelineOptions& options, const ChannelTable& channels,
+                        std::span<const ByteEvent> events) {
+  PipelineOptions lane = options;
+  lane.auto_candidates.clear();  // (drive profiles read every frame: no lane)
+  RunBatch runs;
+  runs.add_events(events);
+  DigestSink decoded(true, false), counted(false, false), handed_over(true, true);
+  for (DigestSink* sink : {&decoded, &counted, &handed_over}) {
+    Pipeline pipeline(lane, channels, *sink);
+    pipeline.push_runs(runs);
+    pipeline.finish();
+  }
+  const std::size_t summary = decoded.digest.rfind('S');
+  if (summary == std::string::npos ||
+      counted.digest.substr(counted.digest.rfind('S')) != decoded.digest.substr(summary))
+    fuzz::contract_broken("summary lane: counts not those of decoding every frame");
+  if (handed_over.digest != decoded.digest)
+    fuzz::contract_broken("summary lane: records handed over undissected differ");
+}
+
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
@@ -61,6 +129,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   const std::array<ChannelId, 4> ids = {channels.intern("bus"), channels.intern("m"),
                                         channels.intern("s"), channels.intern("link2")};
   fuzz::CheckedRun run(options, channels);
+  std::vector<ByteEvent> events;
   std::size_t budget = 1 << 13;  // events per input: keeps one run short
   for (std::size_t i = 3; i + 4 <= in.size(); i += 4) {
     const unsigned delta = in[i] | (unsigned{in[i + 1]} << 8);
@@ -89,8 +158,12 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     e.byte = in[i + 2];
     e.flags = in[i + 3] & 0x0F;
     e.channel = ids[(in[i + 3] >> 4) & 3];
-    for (; copies > 0 && budget > 0; --copies, --budget) run.push(e);
+    for (; copies > 0 && budget > 0; --copies, --budget) {
+      run.push(e);
+      events.push_back(e);
+    }
   }
   run.finish();
+  check_summary_lane(options, channels, events);
   return 0;
 }
