@@ -15,7 +15,9 @@
 //   BM_Pipeline_RtuAutoDrives        the same with every built-in profile as --drive auto candidate
 //   BM_Pipeline_RtuBatched           no profiles, push_runs() on the runs of 16384 events at a time
 //                                    (as `read`: a run per frame, whole frames taken at once)
-//   BM_Pipeline_RtuBatchedSummaryOnly  the same into a sink that shows no decode (`read --stats`)
+//   BM_Pipeline_RtuBatchedSummaryOnly  the same into a sink that shows no decode but takes records
+//   BM_Pipeline_RtuSummaryLane       the same into a sink that takes no records (`read --stats`):
+//                                    whole telegrams counted without a decode (the summary lane)
 //   BM_TextSink / BM_JsonSink / BM_PcapngSink   the sinks on the pipeline's records, to /dev/null
 //
 // Every benchmark checks its result once (frames found == frames sent, checksums good, the
@@ -496,7 +498,11 @@ void BM_Pairer(benchmark::State& state) {
 struct CountingSink final : Sink {
   std::uint64_t frames = 0, noise = 0, anomalies = 0, transactions = 0, ok = 0;
   bool detail = true;  // false: like `read --stats`, no field trees or info lines are built
+  // false: no records at all, like `read --stats`' sink (the pipeline's summary lane counts
+  // telegrams taken whole without decoding them); the counts then come from the summary.
+  bool records = true;
   [[nodiscard]] bool wants_detail() const override { return detail; }
+  [[nodiscard]] bool wants_records() const override { return records; }
   void on_frame(const Message&) override { ++frames; }
   void on_noise(const Frame&) override { ++noise; }
   void on_anomaly(const Anomaly&) override { ++anomalies; }
@@ -504,7 +510,14 @@ struct CountingSink final : Sink {
     ++transactions;
     ok += t.outcome == Outcome::ok;
   }
-  void on_summary(const Stats&) override {}
+  void on_summary(const Stats& s) override {
+    if (records) return;
+    frames = s.frames;
+    noise = s.noise_records;
+    anomalies = s.anomaly_total;
+    transactions = s.transactions;
+    ok = s.outcomes[static_cast<std::size_t>(Outcome::ok)];
+  }
   bool flush() override { return true; }
 };
 
@@ -545,7 +558,7 @@ const std::vector<RunBatch>& rtu_run_batches(std::size_t batch) {
 // `batch` 0: push() per byte event; else push_runs() on batches of runs of `batch` events (what
 // `read`'s decoding thread does with the chunks its reader thread hands over).
 void run_pipeline(benchmark::State& state, bool auto_drives, std::size_t batch = 0,
-                  bool detail = true) {
+                  bool detail = true, bool records = true) {
   const Traffic& t = rtu_traffic();
   ChannelTable channels;
   channels.intern("bus");
@@ -555,6 +568,7 @@ void run_pipeline(benchmark::State& state, bool auto_drives, std::size_t batch =
   for (auto _ : state) {
     sink = CountingSink();
     sink.detail = detail;
+    sink.records = records;
     Pipeline pipeline(options, channels, sink);
     if (!batches)
       for (const ByteEvent& e : t.events) pipeline.push(e);
@@ -580,6 +594,9 @@ void BM_Pipeline_RtuBatched(benchmark::State& state) {
 }
 void BM_Pipeline_RtuBatchedSummaryOnly(benchmark::State& state) {
   run_pipeline(state, false, 16384, false);
+}
+void BM_Pipeline_RtuSummaryLane(benchmark::State& state) {
+  run_pipeline(state, false, 16384, false, false);
 }
 
 // ---- Drive profiles ---------------------------------------------------------------------------
@@ -766,6 +783,7 @@ BENCHMARK(BM_Pipeline_RtuNoDrives)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_Pipeline_RtuAutoDrives)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_Pipeline_RtuBatched)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_Pipeline_RtuBatchedSummaryOnly)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_Pipeline_RtuSummaryLane)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_TextSink)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_JsonSink)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_PcapngSink)->Unit(benchmark::kMicrosecond);
