@@ -1,8 +1,11 @@
 #!/usr/bin/env bash
 # Instructions a record, per thread, of `drivetap read` in each mode (callgrind): the measure of
 # the code that this VM's neighbours do not move, where wall and CPU seconds vary by a third from
-# one spell to the next (bench/README.md). The decoding thread bounds text and --stats; JSON's
-# writer and decoding threads share the second core with the read-ahead.
+# one spell to the next (bench/README.md). The decoding thread bounds --stats. Text and JSON are
+# formatted by a writer thread and by the decoding thread whenever its next batch would wait
+# (ThreadedSink helpers): how the batches fall between the two depends on the scheduling (under
+# callgrind, which runs one thread at a time, the decoding thread formats most), so for those
+# modes the column "all threads" is the measure, the work both cores share.
 #
 #   bench/instructions.sh [BUILD_DIR] [RECORDS]     default build-bench, 100000
 #
