@@ -370,15 +370,19 @@ class MemoryFile {
 // Frames, each now and then followed by anomalies of its own (shown under the frame) or of an
 // earlier frame (shown on a line of their own), transactions and noise: what a text sink shows
 // differently right after a frame, wherever a batch happens to start.
-void play_with_anomalies(Sink& sink, std::size_t frames) {
+// With `heavy`, every frame holds some 70 KiB of storage (4 KiB of bytes, each stamped on its
+// own, like noise from a logic analyser): batches are then handed on by weight (kBatchBytes),
+// right after a frame and before its anomalies.
+void play_with_anomalies(Sink& sink, std::size_t frames, bool heavy = false) {
   Message m;
   for (std::size_t i = 1; i <= frames; ++i) {
     m.frame.number = i;
     m.frame.channel = static_cast<ChannelId>(i % 2);
     m.frame.events.clear();
-    for (std::size_t k = 0; k < 2 + i % 5; ++k)
-      m.frame.events.push_back(
-          {static_cast<TimeNs>(i * 1000 + k), static_cast<std::uint8_t>(i), 0, m.frame.channel, 0});
+    const std::size_t size = heavy ? 4096 : 2 + i % 5;
+    for (std::size_t k = 0; k < size; ++k)
+      m.frame.events.push_back({static_cast<TimeNs>(i * 100'000'000 + k * k),
+                                static_cast<std::uint8_t>(i), 0, m.frame.channel, 0});
     m.bytes = m.frame.bytes();
     m.protocol = Protocol::modbus_rtu;
     m.direction = i % 2 ? Direction::request : Direction::response;
@@ -411,45 +415,48 @@ void play_with_anomalies(Sink& sink, std::size_t frames) {
 
 // With helpers, batches are formatted on several threads (the pipeline's among them when it is
 // ahead) and written in order: the text and JSON must be byte for byte what one sink writes, the
-// anomalies shown under their frame wherever a batch starts, and records after finish() too.
+// anomalies shown under their frame wherever a batch starts (after a full batch, or after a frame
+// whose weight hands the batch on), and records after finish() too.
 TEST(ThreadedSink, HelpersFormatingBatchesWriteWhatOneSinkWrites) {
   ChannelTable channels;
   channels.intern("a");
   channels.intern("b");
   TextSinkOptions options;
-  const std::size_t frames = ThreadedSink::kBatchRecords * 20 + 7;
   for (const bool json : {false, true}) {
-    auto make = [&](std::FILE* f) -> std::unique_ptr<Sink> {
-      if (json) return std::make_unique<JsonSink>(f, channels, 1000, true);
-      return std::make_unique<TextSink>(f, channels, options);
-    };
-    MemoryFile expected_file;
-    {
-      const std::unique_ptr<Sink> direct = make(expected_file.file());
-      play_with_anomalies(*direct, frames);
-      direct->on_anomaly({AnomalyKind::malformed, 0, 0, frames, "after"});
-      ASSERT_TRUE(direct->flush());
-    }
-    const std::string expected = expected_file.text();
-    ASSERT_GT(expected.size(), frames * 20);
-    for (const std::size_t count : {1u, 2u, 3u}) {
-      SCOPED_TRACE(fmt::format("json {} helpers {}", json, count));
-      MemoryFile file;
-      const std::unique_ptr<Sink> inner = make(file.file());
-      std::vector<std::unique_ptr<Sink>> helpers;
-      std::vector<Sink*> pointers;
-      for (std::size_t i = 0; i < count; ++i) {
-        helpers.push_back(make(nullptr));
-        pointers.push_back(helpers.back().get());
-      }
+    for (const bool heavy : {false, true}) {
+      auto make = [&](std::FILE* f) -> std::unique_ptr<Sink> {
+        if (json) return std::make_unique<JsonSink>(f, channels, 1000, true);
+        return std::make_unique<TextSink>(f, channels, options);
+      };
+      const std::size_t frames = heavy ? 150 : ThreadedSink::kBatchRecords * 20 + 7;
+      MemoryFile expected_file;
       {
-        ThreadedSink threaded(*inner, pointers);
-        play_with_anomalies(threaded, frames);
-        threaded.finish();
-        threaded.on_anomaly({AnomalyKind::malformed, 0, 0, frames, "after"});
+        const std::unique_ptr<Sink> direct = make(expected_file.file());
+        play_with_anomalies(*direct, frames, heavy);
+        direct->on_anomaly({AnomalyKind::malformed, 0, 0, frames, "after"});
+        ASSERT_TRUE(direct->flush());
       }
-      ASSERT_TRUE(inner->flush());
-      EXPECT_EQ(file.text(), expected);
+      const std::string expected = expected_file.text();
+      ASSERT_GT(expected.size(), frames * 20);
+      for (const std::size_t count : {1u, 2u, 3u}) {
+        SCOPED_TRACE(fmt::format("json {} heavy {} helpers {}", json, heavy, count));
+        MemoryFile file;
+        const std::unique_ptr<Sink> inner = make(file.file());
+        std::vector<std::unique_ptr<Sink>> helpers;
+        std::vector<Sink*> pointers;
+        for (std::size_t i = 0; i < count; ++i) {
+          helpers.push_back(make(nullptr));
+          pointers.push_back(helpers.back().get());
+        }
+        {
+          ThreadedSink threaded(*inner, pointers);
+          play_with_anomalies(threaded, frames, heavy);
+          threaded.finish();
+          threaded.on_anomaly({AnomalyKind::malformed, 0, 0, frames, "after"});
+        }
+        ASSERT_TRUE(inner->flush());
+        EXPECT_TRUE(file.text() == expected);  // (no diff of megabytes of text when it fails)
+      }
     }
   }
 }

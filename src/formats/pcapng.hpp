@@ -137,6 +137,9 @@ class Reader {
   // next() then reads that block, with its findings. (The fast lane of a reader that takes most
   // packets without a PacketRecord; issue 8.)
   bool peek_plain(PlainPacket& out);
+  // A regular file, read in large chunks (false: a pipe or terminal, read block by block as the
+  // capture arrives).
+  [[nodiscard]] bool regular_file() const { return whole_reads_; }
   // Consumes the block peek_plain() gave (call before the next peek or read).
   void take_peeked() {
     pos_ += peeked_;

@@ -77,7 +77,8 @@ std::size_t ThreadedSink::kept_storage_bytes() {
   std::size_t bytes = 0;
   auto count = [&bytes](const Batch& batch) {
     for (const Record& r : batch.records)
-      bytes += r.message.frame.storage_bytes() + r.noise.storage_bytes();
+      bytes += r.message.frame.storage_bytes() + r.noise.storage_bytes() +
+               r.undissected.bytes.capacity();
   };
   for (const Scratch& scratch : scratch_) bytes += scratch.decoded.frame.storage_bytes();
   count(*current_);
@@ -208,9 +209,11 @@ void ThreadedSink::on_undissected(const UndissectedTelegram& telegram) {
     r.undissected.telegram = telegram;
     r.undissected.bytes.assign(telegram.run.bytes.begin(), telegram.run.bytes.end());
     r.undissected.request.assign(telegram.request.begin(), telegram.request.end());
+    given(telegram.number);
     weigh(r.undissected.bytes.size());
+    return;
   }
-  last_number_ = telegram.number;  // (after the record: a batch it publishes follows it)
+  given(telegram.number);
 }
 
 void ThreadedSink::on_frame(const Message& message) {
@@ -220,14 +223,19 @@ void ThreadedSink::on_frame(const Message& message) {
     complete_drive_info(completed, scratch_[0].drive);
     inner_.on_frame(completed);
   } else if (const Record* r = give(Kind::frame, &Record::message, message, &Sink::on_frame)) {
+    given(message.frame.number);
     weigh(r->message.frame.storage_bytes());
+    return;
   }
-  last_number_ = message.frame.number;  // (after the record: a batch it publishes follows it)
+  given(message.frame.number);
 }
 void ThreadedSink::on_noise(const Frame& noise) {
-  if (const Record* r = give(Kind::noise, &Record::noise, noise, &Sink::on_noise))
+  if (const Record* r = give(Kind::noise, &Record::noise, noise, &Sink::on_noise)) {
+    given(noise.number);
     weigh(r->noise.storage_bytes());
-  last_number_ = noise.number;
+    return;
+  }
+  given(noise.number);
 }
 void ThreadedSink::on_anomaly(const Anomaly& anomaly) {
   give(Kind::anomaly, &Record::anomaly, anomaly, &Sink::on_anomaly);

@@ -144,6 +144,9 @@ class ThreadedSink final : public Sink {
   }
   // Counts `bytes` of storage in the current batch; publishes it once it holds kBatchBytes.
   void weigh(std::size_t bytes);
+  // The frame or noise record numbered `number` has been given (after its record is in the
+  // batch, before weigh(): a batch published from now on starts after it, Batch::follows).
+  void given(std::uint64_t number) { last_number_ = number; }
   // An undissected telegram to `target`: decoded into `decoded`, then it and its anomalies.
   void replay_undissected(const UndissectedTelegram& telegram, Sink& target,
                           Message& decoded) const;

@@ -440,6 +440,8 @@ std::size_t CaptureReader::append_plain_packets(RunBatch& out) {
              channel,
              static_cast<std::uint32_t>(packets_),
              {}});
+    // From a pipe, a packet as it arrives: the next may be a while coming (a live capture).
+    if (!ng_->regular_file()) break;
   }
   return taken;
 }

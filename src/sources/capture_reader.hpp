@@ -65,8 +65,9 @@ class CaptureReader final : public ByteSource {
   // load_pcapng_packet(), lay_out() and append_runs() would make one run of, the way another
   // tool's packet is laid out (an enhanced packet block without options, on an interface and
   // direction whose channel is known, its exported-PDU tags a block seen before), each appended to
-  // `out` as that run straight from the reader's window, up to kPlainBytes bytes. How many
-  // packets were taken; 0 when the next is any other (it takes the usual way).
+  // `out` as that run straight from the reader's window, up to kPlainBytes bytes (from a pipe,
+  // one packet: the next may be a while coming). How many packets were taken; 0 when the next is
+  // any other (it takes the usual way).
   std::size_t append_plain_packets(RunBatch& out);
   static constexpr std::size_t kPlainBytes = 4096;
   bool load_pcapng_packet();
