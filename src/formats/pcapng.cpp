@@ -284,6 +284,17 @@ bool Reader::parse_interface(std::span<const std::uint8_t> body, std::uint64_t a
 namespace {
 // value * num / den without overflow for the ranges pcapng allows (128-bit intermediate).
 TimeNs scale_time(std::uint64_t value, const Interface& itf, bool* overflow) {
+  if (itf.ts_den == 1 && itf.ts_offset_s == 0) {
+    // Nanoseconds or coarser with no offset (nearly every file): no 128-bit division. A product
+    // past 64 bits is past kTimeLimit too.
+    std::uint64_t ns = 0;
+    if (__builtin_mul_overflow(value, itf.ts_num, &ns) ||
+        ns >= static_cast<std::uint64_t>(kTimeLimit)) {
+      *overflow = true;
+      return 0;
+    }
+    return static_cast<TimeNs>(ns);
+  }
   const unsigned __int128 ns = static_cast<unsigned __int128>(value) * itf.ts_num / itf.ts_den;
   const __int128 total =
       static_cast<__int128>(ns) + static_cast<__int128>(itf.ts_offset_s) * 1'000'000'000;
@@ -381,17 +392,9 @@ bool Reader::peek_plain(PlainPacket& out) {
     return false;
   const Interface& itf = interfaces_[interface];
   const std::uint64_t ts = (std::uint64_t{le32(body + 4)} << 32) | le32(body + 8);
-  if (itf.ts_den == 1 && itf.ts_offset_s == 0) {
-    // scale_time() without its 128-bit division: a product past 64 bits is past kTimeLimit too.
-    std::uint64_t ns = 0;
-    if (__builtin_mul_overflow(ts, itf.ts_num, &ns) || ns >= static_cast<std::uint64_t>(kTimeLimit))
-      return false;
-    out.timestamp = static_cast<TimeNs>(ns);
-  } else {
-    bool overflow = false;
-    out.timestamp = scale_time(ts, itf, &overflow);
-    if (overflow) return false;
-  }
+  bool overflow = false;
+  out.timestamp = scale_time(ts, itf, &overflow);
+  if (overflow) return false;
   out.interface = interface;
   out.data = std::span<const std::uint8_t>(body + 20, captured);
   peeked_ = total;

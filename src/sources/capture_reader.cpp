@@ -236,16 +236,13 @@ bool CaptureReader::load_pcapng_packet() {
     }
     std::optional<SerialPayload> payload;
     if (itf.link_type == kLinkTypeUpperPdu) {
-      for (const KnownTags& known : known_tags_) {
-        const std::size_t tags = known.bytes.size();
-        if (tags == 0 || rec.data.size() < tags ||
-            !std::equal(known.bytes.begin(), known.bytes.end(), rec.data.begin()))
-          continue;
-        // A tag block seen before, byte for byte: the same parse.
-        payload = SerialPayload{
-            std::span<const std::uint8_t>(rec.data).subspan(tags), known.outbound, {}, {}};
-        break;
-      }
+      // A tag block seen before, byte for byte: the same parse.
+      if (const KnownTags* known = known_tags_of(rec.data))
+        payload =
+            SerialPayload{std::span<const std::uint8_t>(rec.data).subspan(known->bytes.size()),
+                          known->outbound,
+                          {},
+                          {}};
     }
     if (!payload) {
       std::string why;
@@ -393,6 +390,25 @@ bool CaptureReader::next_batch(std::vector<ByteEvent>& out) {
   return true;
 }
 
+const CaptureReader::KnownTags* CaptureReader::known_tags_of(std::span<const std::uint8_t> data) {
+  // At most one entry can match: a tag block ends at its first end-of-options tag, so of two that
+  // both began `data` one would end inside the other. The entry that matched the packet before
+  // the last is tried first: requests and replies alternate.
+  const auto matches = [&](const KnownTags& k) {
+    const std::size_t tags = k.bytes.size();
+    return tags != 0 && data.size() >= tags && std::memcmp(k.bytes.data(), data.data(), tags) == 0;
+  };
+  std::size_t match = matched_tags_[0];
+  if (!matches(known_tags_[match])) {
+    match = 0;
+    while (match < known_tags_.size() && !matches(known_tags_[match])) ++match;
+    if (match == known_tags_.size()) return nullptr;
+  }
+  matched_tags_[0] = matched_tags_[1];
+  matched_tags_[1] = match;
+  return &known_tags_[match];
+}
+
 std::size_t CaptureReader::append_plain_packets(RunBatch& out) {
   // Before the first packet the settings are not known; while a drivetap capture's are not, each
   // packet reads them again (load_pcapng_packet()).
@@ -406,23 +422,9 @@ std::size_t CaptureReader::append_plain_packets(RunBatch& out) {
   while (out.byte_count() - bytes_before < kPlainBytes && ng_->peek_plain(packet)) {
     const pcapng::Interface& itf = ng_->interfaces()[packet.interface];
     if (itf.link_type != kLinkTypeUpperPdu || packet.interface >= channel_cache_.size()) break;
-    // The tags of one of the last blocks, byte for byte (as load_pcapng_packet() looks them up;
-    // at most one can match: a tag block ends at its first end-of-options tag). The entry that
-    // matched the packet before the last is tried first: requests and replies alternate.
-    const auto matches = [&](const KnownTags& k) {
-      const std::size_t tags = k.bytes.size();
-      return tags != 0 && packet.data.size() >= tags &&
-             std::memcmp(k.bytes.data(), packet.data.data(), tags) == 0;
-    };
-    std::size_t match = matched_tags_[0];
-    if (!matches(known_tags_[match])) {
-      match = 0;
-      while (match < known_tags_.size() && !matches(known_tags_[match])) ++match;
-      if (match == known_tags_.size()) break;
-    }
-    matched_tags_[0] = matched_tags_[1];
-    matched_tags_[1] = match;
-    const KnownTags* known = &known_tags_[match];
+    // The tags of one of the last blocks, byte for byte.
+    const KnownTags* known = known_tags_of(packet.data);
+    if (!known) break;
     const int direction = known->outbound ? (*known->outbound ? 1 : 2) : 0;
     const ChannelId channel = channel_cache_[packet.interface][direction];
     if (channel == kNoChannel) break;

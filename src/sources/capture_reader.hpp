@@ -101,8 +101,10 @@ class CaptureReader final : public ByteSource {
   };
   std::array<KnownTags, 4> known_tags_;
   std::size_t known_tags_next_ = 0;  // the entry the next new tag block replaces
-  // append_plain_packets(): the entries the last two packets matched, the older first.
+  // known_tags_of(): the entries the last two packets matched, the older first.
   std::array<std::size_t, 2> matched_tags_{};
+  // The entry of known_tags_ whose block begins `data`, or nullptr.
+  const KnownTags* known_tags_of(std::span<const std::uint8_t> data);
   // Channel of each interface of the current section, by direction (none stated, outbound,
   // inbound); kNoChannel until its first packet. Indexed, so a file with many interfaces or
   // sections costs no search per packet.
