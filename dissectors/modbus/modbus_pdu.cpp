@@ -714,10 +714,6 @@ void dissect_pdu_into(PduDecode& d, std::span<const std::uint8_t> frame, std::si
     d.describe([&] { return function_name(fc) + (req ? "" : " reply") + " (truncated)"; });
 }
 
-}  // namespace drivetap::modbus
-
-namespace drivetap::modbus {
-
 PduFindings pdu_findings(std::span<const std::uint8_t> pdu, Direction direction) {
   // Each count is what the PduReader of dissect_pdu_into() reports: a field the frame ends
   // before ("frame ends before ..."), one per field read; leftover bytes after the layout
@@ -732,8 +728,8 @@ PduFindings pdu_findings(std::span<const std::uint8_t> pdu, Direction direction)
   const std::size_t rest = pdu.size() - 1;  // bytes after the function code
   auto be16 = [&](std::size_t at) { return static_cast<unsigned>((pdu[at] << 8) | pdu[at + 1]); };
   // Fields of 2 + 2 bytes and nothing after (read requests, single writes, multiple-write
-  // replies): the two values when both are there.
-  auto two_words = [&](unsigned* first, unsigned* second) {
+  // replies): the second value (quantity, written value) when both are there.
+  auto two_words = [&](unsigned* second) {
     if (rest < 2) {
       f.problems += 2;
       return false;
@@ -743,7 +739,6 @@ PduFindings pdu_findings(std::span<const std::uint8_t> pdu, Direction direction)
       return false;
     }
     if (rest > 4) f.problems += 1;
-    *first = be16(1);
     *second = be16(3);
     return true;
   };
@@ -760,7 +755,6 @@ PduFindings pdu_findings(std::span<const std::uint8_t> pdu, Direction direction)
     return f;
   }
   const bool request = direction != Direction::response;
-  unsigned a = 0;
   unsigned b = 0;
   switch (fc) {
     case 0x01:
@@ -769,7 +763,7 @@ PduFindings pdu_findings(std::span<const std::uint8_t> pdu, Direction direction)
     case 0x04: {
       const bool bits = fc <= 0x02;
       if (request) {
-        if (two_words(&a, &b)) quantity(b, bits ? 2000 : 125);
+        if (two_words(&b)) quantity(b, bits ? 2000 : 125);
         return f;
       }
       if (rest == 0) {
@@ -788,15 +782,15 @@ PduFindings pdu_findings(std::span<const std::uint8_t> pdu, Direction direction)
       return f;
     }
     case 0x05:
-      if (two_words(&a, &b) && b != 0x0000 && b != 0xFF00) f.problems += 1;
+      if (two_words(&b) && b != 0x0000 && b != 0xFF00) f.problems += 1;
       return f;
     case 0x06:
-      two_words(&a, &b);
+      two_words(&b);
       return f;
     case 0x0F:
     case 0x10: {
       if (!request) {
-        two_words(&a, &b);
+        two_words(&b);
         return f;
       }
       if (rest < 5) {

@@ -198,18 +198,16 @@ bool Pipeline::push_chunk(const ByteRun& run, TimeNs next_time) {
       deadline_of_others(run.channel) == std::numeric_limits<TimeNs>::max()) {
     // A sink that takes no records, or decodes them itself, has the frame counted, not decoded
     // here (ready_ is empty: the frame would be handled alone).
-    if (summary_lane_ && ready_.empty()) {
-      Framer::ChunkFrame taken;
-      if (st.framer->take_chunk(run, next_time, &taken)) {
-        note_taken(st, run.event(run.size() - 1));
-        earliest_deadline_ = std::min(earliest_deadline_, st.framer->next_deadline());
-        count_whole_telegram(st, run, taken);
-        return true;
-      }
-    } else if (st.framer->push_chunk(run, next_time, ready_)) {
+    const bool counted = summary_lane_ && ready_.empty();
+    Framer::ChunkFrame taken;
+    if (counted ? st.framer->take_chunk(run, next_time, &taken)
+                : st.framer->push_chunk(run, next_time, ready_)) {
       note_taken(st, run.event(run.size() - 1));
       earliest_deadline_ = std::min(earliest_deadline_, st.framer->next_deadline());
-      handle_frames();
+      if (counted)
+        count_whole_telegram(st, run, taken);
+      else
+        handle_frames();
       return true;
     }
   }
@@ -565,8 +563,8 @@ void Pipeline::handle_frame(Frame& frame) {
 
 void Pipeline::count_whole_telegram(ChannelState& st, const ByteRun& run,
                                     const Framer::ChunkFrame& taken) {
-  // handle_frame()'s steps for this frame, in its order, as far as they change what is counted:
-  // the sink takes no records (so nothing is handed to it), and no profile reads the frame.
+  // handle_frame()'s steps for this frame, in its order, with the decode left out: the sink takes
+  // no records, or gets the telegram undissected (Sink::on_undissected); no profile reads it.
   const ProtocolDecoder& decoder = *st.decoder;
   const TimeNs start = run.first;
   const TimeNs last_byte = run.time(run.size() - 1);

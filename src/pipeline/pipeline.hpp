@@ -93,8 +93,8 @@ class Pipeline {
   void handle_frame(Frame& frame);
   // The summary lane: handle_frame() of the frame the framer took whole as `taken` from `run`
   // (Framer::take_chunk), for a sink that takes no records or decodes them itself: what the
-  // summary counts, from the decoder's TelegramSummary, with no decode made here (the sink gets
-  // the message undissected, Message::undissected).
+  // summary counts, from the decoder's TelegramSummary, with no decode made here (a sink that
+  // takes records gets the telegram undissected, Sink::on_undissected).
   void count_whole_telegram(ChannelState& st, const ByteRun& run, const Framer::ChunkFrame& taken);
   void check_packetization(const Frame& frame, ChannelState& st);
   // The same for a record of `kind` whose bytes came from source packets first..last.
