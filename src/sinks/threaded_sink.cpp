@@ -33,13 +33,8 @@ ThreadedSink::~ThreadedSink() {
   finish();
 }
 
-ThreadedSink::Record& ThreadedSink::next_record() {
-  if (current_->used == current_->records.size()) publish();
-  return current_->records[current_->used++];
-}
-
 void ThreadedSink::publish() {
-  if (current_->used == 0) return;
+  if (current_->empty()) return;
   std::unique_lock lock(mutex_);
   current_->sequence = published_++;
   full_.push_back(std::move(current_));
@@ -76,9 +71,9 @@ std::size_t ThreadedSink::kept_storage_bytes() {
   const std::lock_guard lock(mutex_);
   std::size_t bytes = 0;
   auto count = [&bytes](const Batch& batch) {
-    for (const Record& r : batch.records)
-      bytes += r.message.frame.storage_bytes() + r.noise.storage_bytes() +
-               r.undissected.bytes.capacity();
+    for (const Record& r : batch.records.items)
+      bytes += r.message.frame.storage_bytes() + r.noise.storage_bytes();
+    bytes += batch.bytes.capacity();
   };
   for (const Scratch& scratch : scratch_) bytes += scratch.decoded.frame.storage_bytes();
   count(*current_);
@@ -113,35 +108,43 @@ void ThreadedSink::run(std::size_t writer) {
 
 void ThreadedSink::replay(Batch& batch, Sink& target, Scratch& scratch) {
   if (!helpers_.empty()) target.follow(batch.follows);
-  for (std::size_t i = 0; i < batch.used; ++i) {
-    Record& r = batch.records[i];  // not const: a record holding a large frame is freed
-    switch (r.kind) {
-      case Kind::frame:
+  for (const Entry& entry : batch.order) {
+    switch (entry.kind) {
+      case Kind::frame: {
+        Record& r = batch.records.items[entry.slot];  // not const: a large frame is freed
         complete_drive_info(r.message, scratch.drive);
         target.on_frame(r.message);
         if (r.message.frame.storage_bytes() > kKeptStorageBytes) r.message = Message{};
         break;
-      case Kind::undissected:
-        r.undissected.telegram.run.bytes = r.undissected.bytes;
-        r.undissected.telegram.request = r.undissected.request;
-        replay_undissected(r.undissected.telegram, target, scratch.decoded);
+      }
+      case Kind::undissected: {
+        UndissectedTelegram& telegram = batch.undissected.items[entry.slot].telegram;
+        const std::span<const std::uint8_t> bytes(batch.bytes);
+        const std::size_t at = batch.undissected.items[entry.slot].bytes_at;
+        const std::size_t size = telegram.run.bytes.size();
+        telegram.run.bytes = bytes.subspan(at, size);
+        telegram.request = bytes.subspan(at + size, telegram.request.size());
+        replay_undissected(telegram, target, scratch.decoded);
         if (scratch.decoded.frame.storage_bytes() > kKeptStorageBytes) scratch.decoded = Message{};
         break;
-      case Kind::noise:
+      }
+      case Kind::noise: {
+        Record& r = batch.records.items[entry.slot];
         target.on_noise(r.noise);
         if (r.noise.storage_bytes() > kKeptStorageBytes) r.noise = Frame{};
         break;
+      }
       case Kind::anomaly:
-        target.on_anomaly(r.anomaly);
+        target.on_anomaly(batch.records.items[entry.slot].anomaly);
         break;
       case Kind::transaction:
-        target.on_transaction(r.transaction);
+        target.on_transaction(batch.transactions.items[entry.slot]);
         break;
       case Kind::summary:
-        target.on_summary(*r.stats);
+        target.on_summary(*batch.records.items[entry.slot].stats);
         break;
       case Kind::event:
-        target.on_event(r.event);
+        target.on_event(batch.records.items[entry.slot].event);
         break;
     }
   }
@@ -150,8 +153,7 @@ void ThreadedSink::replay(Batch& batch, Sink& target, Scratch& scratch) {
 }
 
 void ThreadedSink::recycle(std::unique_ptr<Batch> batch) {
-  batch->used = 0;
-  batch->storage_bytes = 0;
+  batch->clear();
   std::lock_guard lock(mutex_);
   free_.push_back(std::move(batch));
   --replaying_;
@@ -174,8 +176,7 @@ void ThreadedSink::commit(std::unique_ptr<Batch> batch) {
     lock.unlock();
     inner_.write_formatted(ready->text.view());
     ready->text.clear();
-    ready->used = 0;
-    ready->storage_bytes = 0;
+    ready->clear();
     lock.lock();
     ++committed_;
     free_.push_back(std::move(ready));
@@ -204,13 +205,14 @@ void ThreadedSink::on_undissected(const UndissectedTelegram& telegram) {
   if (finished_) {  // the writers have stopped: decoded here
     replay_undissected(telegram, inner_, scratch_[0].decoded);
   } else {
-    Record& r = next_record();
-    r.kind = Kind::undissected;
-    r.undissected.telegram = telegram;
-    r.undissected.bytes.assign(telegram.run.bytes.begin(), telegram.run.bytes.end());
-    r.undissected.request.assign(telegram.request.begin(), telegram.request.end());
+    Undissected& r = next_slot(Kind::undissected, &Batch::undissected);
+    r.telegram = telegram;
+    std::vector<std::uint8_t>& bytes = current_->bytes;
+    r.bytes_at = bytes.size();
+    bytes.insert(bytes.end(), telegram.run.bytes.begin(), telegram.run.bytes.end());
+    bytes.insert(bytes.end(), telegram.request.begin(), telegram.request.end());
     given(telegram.number);
-    weigh(r.undissected.bytes.size());
+    weigh(telegram.run.bytes.size() + telegram.request.size());
     return;
   }
   given(telegram.number);
@@ -241,7 +243,8 @@ void ThreadedSink::on_anomaly(const Anomaly& anomaly) {
   give(Kind::anomaly, &Record::anomaly, anomaly, &Sink::on_anomaly);
 }
 void ThreadedSink::on_transaction(const Transaction& transaction) {
-  give(Kind::transaction, &Record::transaction, transaction, &Sink::on_transaction);
+  if (finished_) return inner_.on_transaction(transaction);
+  next_slot(Kind::transaction, &Batch::transactions) = transaction;
 }
 void ThreadedSink::on_event(const BusEvent& event) {
   give(Kind::event, &Record::event, event, &Sink::on_event);
@@ -249,8 +252,7 @@ void ThreadedSink::on_event(const BusEvent& event) {
 
 void ThreadedSink::on_summary(const Stats& stats) {
   if (finished_) return inner_.on_summary(stats);
-  Record& r = next_record();
-  r.kind = Kind::summary;
+  Record& r = next_slot(Kind::summary, &Batch::records);
   r.stats = std::make_unique<Stats>(stats);
 }
 

@@ -97,30 +97,58 @@ class ThreadedSink final : public Sink {
     summary,
     event
   };
-  // An UndissectedTelegram, its spans' bytes copied (storage kept from use to use).
+  // An UndissectedTelegram whose bytes, and then its request's, were copied into the batch's
+  // `bytes` from `bytes_at`: its spans are set to them when replayed.
   struct Undissected {
-    UndissectedTelegram telegram;  // spans set to the vectors below when replayed
-    std::vector<std::uint8_t> bytes;
-    std::vector<std::uint8_t> request;
+    UndissectedTelegram telegram;
+    std::size_t bytes_at = 0;
   };
-  // One record; only the member of its kind is meaningful. The others keep their storage.
+  // A record of a kind but the two of nearly every record of a run (undissected telegrams and
+  // transactions); only the member of its kind is meaningful. The others keep their storage.
   struct Record {
-    Kind kind = Kind::frame;
     Message message;
-    Undissected undissected;
     Frame noise;
     Anomaly anomaly;
-    Transaction transaction;
     BusEvent event;
     std::unique_ptr<Stats> stats;  // rare: the closing summary
   };
-  struct Batch {
-    std::vector<Record> records = std::vector<Record>(kBatchRecords);
+  // A batch's records in order: one of kind `kind` is the `slot`-th of the vector of its kind.
+  struct Entry {
+    Kind kind;
+    std::uint32_t slot;
+  };
+  // A batch's records of one kind, kept from use to use (their strings keep their storage).
+  template <class T>
+  struct Slots {
+    std::vector<T> items;
     std::size_t used = 0;
-    std::size_t storage_bytes = 0;  // of the frames of records [0, used)
-    std::uint64_t sequence = 0;     // published as the sequence-th batch
-    std::uint64_t follows = 0;      // the number of the frame or noise record before it
-    LineBuffer text;                // with helpers: its records' text, once formatted
+    T& next() {
+      if (used == items.size()) items.emplace_back();
+      return items[used++];
+    }
+  };
+  struct Batch {
+    // Undissected telegrams and transactions, nearly all of a run's records, are small records
+    // in vectors of their own, their bytes in one vector: the pipeline thread writes (and a
+    // writer reads) a few cache lines a record, not a Record of every kind (over a kilobyte).
+    std::vector<Entry> order;
+    Slots<Undissected> undissected;
+    Slots<Transaction> transactions;
+    Slots<Record> records;
+    std::vector<std::uint8_t> bytes;  // the undissected telegrams'
+    std::size_t storage_bytes = 0;    // of the frames of its records, and `bytes`
+    std::uint64_t sequence = 0;       // published as the sequence-th batch
+    std::uint64_t follows = 0;        // the number of the frame or noise record before it
+    LineBuffer text;                  // with helpers: its records' text, once formatted
+    Batch() { order.reserve(kBatchRecords); }
+    [[nodiscard]] bool empty() const { return order.empty(); }
+    // Emptied for reuse (the records' storage kept).
+    void clear() {
+      order.clear();
+      undissected.used = transactions.used = records.used = 0;
+      bytes.clear();
+      storage_bytes = 0;
+    }
   };
   // A writer's own storage, reused from record to record.
   struct Scratch {
@@ -128,7 +156,15 @@ class ThreadedSink final : public Sink {
     Message decoded;     // an undissected telegram's
   };
 
-  Record& next_record();  // the current batch's next free record (publishing a full batch)
+  // The slot of the next record, of kind `kind`, in the current batch (publishing a full batch
+  // first).
+  template <class T>
+  T& next_slot(Kind kind, Slots<T> Batch::*slots) {
+    if (current_->order.size() == kBatchRecords) publish();
+    Slots<T>& of_kind = (*current_).*slots;
+    current_->order.push_back({kind, static_cast<std::uint32_t>(of_kind.used)});
+    return of_kind.next();
+  }
   // A record of one kind: copied into `slot` of the next record, or after finish() given to the
   // inner sink through `direct` (then nullptr).
   template <class T>
@@ -137,8 +173,7 @@ class ThreadedSink final : public Sink {
       (inner_.*direct)(value);
       return nullptr;
     }
-    Record& r = next_record();
-    r.kind = kind;
+    Record& r = next_slot(kind, &Batch::records);
     r.*slot = value;  // copy-assigned: the record's vectors and strings keep their storage
     return &r;
   }
