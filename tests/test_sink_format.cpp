@@ -254,3 +254,41 @@ TEST(SinkFormat, FractionsAreTheLowestDigitsZeroPadded) {
     }
   }
 }
+
+TEST(SinkFormat, AlignedNumbersAreWhatFmtPrintsRightAligned) {
+  for (const std::uint64_t v : uint_cases()) {
+    for (const std::size_t width : {0u, 1u, 5u, 14u, 25u}) {
+      const std::string expected = fmt::format("x{:>{}}", v, width);
+      std::string s = "x";
+      append_uint_aligned(s, v, width);
+      ASSERT_EQ(s, expected) << v << " " << width;
+      LineBuffer line;
+      line += 'x';
+      append_uint_aligned(line, v, width);
+      ASSERT_EQ(std::string(line.view()), expected) << v << " " << width;
+    }
+  }
+}
+
+TEST(SinkFormat, AlignedSecondsAreThePaddedPlainOnes) {
+  std::mt19937_64 random(13);
+  std::vector<TimeNs> times = {0,         1,        999'999'999, 1'000'000'000, -1, -1'500'000'000,
+                               INT64_MAX, INT64_MIN};
+  for (int k = 0; k < 20000; ++k)
+    times.push_back(static_cast<TimeNs>(random() >> static_cast<unsigned>(k % 64)));
+  for (const TimeNs t : times) {
+    for (int decimals = 0; decimals <= 9; ++decimals) {
+      for (const std::size_t width : {0u, 14u, 30u}) {
+        const std::string plain = format_seconds(t, decimals);
+        const std::string expected = fmt::format("|{:>{}}", plain, width);
+        std::string s = "|";
+        append_seconds_aligned(s, t, decimals, width);
+        ASSERT_EQ(s, expected) << t << " " << decimals << " " << width;
+        LineBuffer line;
+        line += '|';
+        append_seconds_aligned(line, t, decimals, width);
+        ASSERT_EQ(std::string(line.view()), expected) << t << " " << decimals << " " << width;
+      }
+    }
+  }
+}

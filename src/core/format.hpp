@@ -3,6 +3,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <cstring>
@@ -58,7 +59,18 @@ inline void write_decimal_digits(std::span<char> digits, std::uint64_t v) {
   if (left == 1) digits[0] = static_cast<char>('0' + v % 10);
 }
 
-// Numbers below 100 (addresses, function codes, counts, most register values) without fmt.
+// The number of decimal digits of v (1 for 0).
+inline std::size_t decimal_digit_count(std::uint64_t v) {
+  std::size_t count = 1;
+  for (std::uint64_t limit = 10; count < 20 && v >= limit; limit *= 10) ++count;
+  return count;
+}
+
+// Digits are written where they belong, not formatted into a buffer and copied: a copy of 4 or 8
+// bytes that reads characters just written 2 at a time stalls on store forwarding (fmt's
+// format_int buffer copied into the line was an eighth of all the time JSON took, in perf).
+
+// Numbers below 100 (addresses, function codes, counts, most register values) on a short path.
 template <class Out>
 inline void append_uint(Out& out, std::uint64_t v) {
   if (v < 10) {
@@ -69,11 +81,7 @@ inline void append_uint(Out& out, std::uint64_t v) {
     out.append(&kDigitPairs[2 * v], 2);
     return;
   }
-  // Written where they belong: fmt::format_int's buffer, read back by 4- and 8-byte copies
-  // just after its 2-byte stores, stalled on store forwarding (an eighth of all the time JSON
-  // took, in perf).
-  std::size_t count = 3;
-  for (std::uint64_t limit = 1000; count < 20 && v >= limit; limit *= 10) ++count;
+  const std::size_t count = decimal_digit_count(v);
   write_decimal_digits(std::span<char>(append_room(out, count), count), v);
 }
 
@@ -91,6 +99,22 @@ inline void append_padded(Out& out, std::string_view text, std::size_t width, bo
   if (pad_left) out.append(pad, ' ');
   out.append(text);
   if (!pad_left) out.append(pad, ' ');
+}
+
+// Room for `count` characters right-aligned in `width` columns: spaces before it, if any.
+template <class Out>
+inline std::span<char> append_right_aligned_room(Out& out, std::size_t count, std::size_t width) {
+  const std::size_t pad = count < width ? width - count : 0;
+  const std::span<char> room(append_room(out, pad + count), pad + count);
+  std::fill_n(room.begin(), pad, ' ');
+  return room.subspan(pad);
+}
+
+// v right-aligned in `width` columns.
+template <class Out>
+inline void append_uint_aligned(Out& out, std::uint64_t v, std::size_t width) {
+  const std::size_t count = decimal_digit_count(v);
+  write_decimal_digits(append_right_aligned_room(out, count, width), v);
 }
 
 // '.' and the `decimals` (1..9) lowest decimal digits of `fraction`, zero-padded: ".050".
@@ -113,6 +137,28 @@ inline void append_seconds(Out& out, TimeNs t, int decimals) {
   if (negative) out += '-';
   append_uint(out, a / 1'000'000'000u);
   if (decimals > 0) append_fraction(out, frac, decimals);
+}
+
+// The same right-aligned in `width` columns.
+template <class Out>
+inline void append_seconds_aligned(Out& out, TimeNs t, int decimals, std::size_t width) {
+  if (t < 0 || decimals <= 0 || decimals > 9) {  // rare: through a string
+    std::string text;
+    append_seconds(text, t, decimals);
+    append_padded(out, text, width, true);
+    return;
+  }
+  const auto a = static_cast<std::uint64_t>(t);
+  std::uint64_t fraction = a % 1'000'000'000u;
+  for (int i = decimals; i < 9; ++i) fraction /= 10;
+  const std::uint64_t whole = a / 1'000'000'000u;
+  const std::size_t whole_digits = decimal_digit_count(whole);
+  const auto fraction_digits = static_cast<std::size_t>(decimals);
+  const std::span<char> room =
+      append_right_aligned_room(out, whole_digits + 1 + fraction_digits, width);
+  write_decimal_digits(room.first(whole_digits), whole);
+  room[whole_digits] = '.';
+  write_decimal_digits(room.subspan(whole_digits + 1), fraction);
 }
 
 inline std::string format_seconds(TimeNs t, int decimals) {

@@ -97,16 +97,13 @@ TextSink::TextSink(std::FILE* out, const ChannelTable& channels, TextSinkOptions
 template <class Out>
 void TextSink::append_prefix(Out& s, std::uint64_t number, TimeNs time, ChannelId channel) const {
   if (number) {
-    const fmt::format_int digits(number);
-    append_padded(s, {digits.data(), digits.size()}, 5, true);
+    append_uint_aligned(s, number, 5);
     s += ' ';
   } else {
     s += "    - ";
   }
   if (options_.show_time) {
-    seconds_.clear();
-    append_seconds(seconds_, time, 6);
-    append_padded(s, seconds_.view(), 14, true);
+    append_seconds_aligned(s, time, 6, 14);
     s += ' ';
   }
   append_padded(s, channels_.at(channel).name, 3, false);

@@ -49,7 +49,6 @@ class TextSink final : public Sink {
   TextSinkOptions options_;
   std::uint64_t last_frame_number_ = 0;
   LineWriter lines_;  // lines not written yet (flush() writes them); frame lines are built there
-  mutable LineBuffer seconds_;  // scratch for the time column
 };
 
 // The decode of a frame in one line, without number/time/channel: shared with the JSON
