@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cstdint>
 #include <cstring>
 #include <iterator>
@@ -61,9 +62,20 @@ inline void write_decimal_digits(std::span<char> digits, std::uint64_t v) {
 
 // The number of decimal digits of v (1 for 0).
 inline std::size_t decimal_digit_count(std::uint64_t v) {
-  std::size_t count = 1;
-  for (std::uint64_t limit = 10; count < 20 && v >= limit; limit *= 10) ++count;
-  return count;
+  static constexpr std::array<std::uint64_t, 20> kPowersOfTen = [] {
+    std::array<std::uint64_t, 20> powers{};
+    std::uint64_t p = 1;
+    for (std::uint64_t& power : powers) {
+      power = p;
+      p *= 10;  // (wraps after the last, unused)
+    }
+    return powers;
+  }();
+  // floor(log10(2^bits)) by 1233 / 4096 ~ log10(2): the count, or one more than it.
+  // (v | 1: 0 has one digit; below 10^k, with k >= 1, exactly when v is.)
+  const std::uint64_t w = v | 1u;
+  const auto guess = static_cast<std::size_t>((std::bit_width(w) * 1233) >> 12);
+  return guess + 1 - (w < kPowersOfTen[guess] ? 1 : 0);
 }
 
 // Digits are written where they belong, not formatted into a buffer and copied: a copy of 4 or 8
