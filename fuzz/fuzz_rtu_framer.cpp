@@ -9,7 +9,11 @@
 //   record (4 bytes): delta lo, delta hi, byte, flags
 //     delta: bits 0-13 amount, bits 14-15 unit: ns, us, ms, or us backwards (time_reversed lines,
 //     several channels); the time is the start of this byte, relative to the previous byte's start
-//     flags: bits 0-3 UART marks, bits 4-5 channel: bus, m, s, link2 (a second bus)
+//     flags: bits 0-3 UART marks, bits 4-5 channel: bus, m, s, link2 (a second bus);
+//       bits 6-7 (no byte log seed sets them): 1 (bit 6) the record is the CRC-16 of the bytes
+//       since the last telegram start, two bytes one character apart in wire order (a telegram
+//       with a good CRC, which random bytes almost never make), 3 the same byte-swapped
+//       (PROTOCOLS.md §6), 2 the byte starts a telegram; each CRC record also ends the telegram
 //     delta 0xC000 (0 us backwards) is a burst instead: the byte 4100 times with one timestamp
 //     (a USB read; the pipeline lays the copies back to back), enough to reach the framer's
 //     4096-byte segmentation without silence from a small input. At most 8192 events per input.
@@ -19,6 +23,7 @@
 #include <string>
 #include <vector>
 
+#include "core/checksum.hpp"
 #include "fuzz/fuzz_common.hpp"
 
 namespace {
@@ -130,7 +135,14 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
                                         channels.intern("s"), channels.intern("link2")};
   fuzz::CheckedRun run(options, channels);
   std::vector<ByteEvent> events;
-  std::size_t budget = 1 << 13;  // events per input: keeps one run short
+  std::size_t budget = 1 << 13;        // events per input: keeps one run short
+  std::vector<std::uint8_t> telegram;  // bytes since the last telegram start, for a CRC record
+  auto emit = [&](ByteEvent e, unsigned copies) {
+    for (; copies > 0 && budget > 0; --copies, --budget) {
+      run.push(e);
+      events.push_back(e);
+    }
+  };
   for (std::size_t i = 3; i + 4 <= in.size(); i += 4) {
     const unsigned delta = in[i] | (unsigned{in[i + 1]} << 8);
     const TimeNs amount = delta & 0x3FFF;
@@ -158,10 +170,23 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     e.byte = in[i + 2];
     e.flags = in[i + 3] & 0x0F;
     e.channel = ids[(in[i + 3] >> 4) & 3];
-    for (; copies > 0 && budget > 0; --copies, --budget) {
-      run.push(e);
-      events.push_back(e);
+    const unsigned telegram_mark = in[i + 3] >> 6;
+    if (telegram_mark == 1 || telegram_mark == 3) {
+      const std::uint16_t crc = crc16_modbus(telegram);
+      const auto low = static_cast<std::uint8_t>(crc & 0xFF);
+      const auto high = static_cast<std::uint8_t>(crc >> 8);
+      e.byte = telegram_mark == 1 ? low : high;
+      emit(e, 1);
+      t += options.timing.character_time;
+      e.time = t;
+      e.byte = telegram_mark == 1 ? high : low;
+      emit(e, 1);
+      telegram.clear();
+      continue;
     }
+    if (telegram_mark == 2) telegram.clear();
+    if (telegram.size() < 300) telegram.push_back(e.byte);
+    emit(e, copies);
   }
   run.finish();
   check_summary_lane(options, channels, events);
