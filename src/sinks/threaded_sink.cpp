@@ -16,9 +16,9 @@ ThreadedSink::ThreadedSink(Sink& inner, std::vector<Sink*> helpers)
       wants_transactions_(inner.wants_transactions()),
       wants_records_(inner.wants_records()),
       helpers_(std::move(helpers)),
-      current_(std::make_unique<Batch>()),
+      assist_(helpers_.size() >= 2),
       scratch_(std::max<std::size_t>(1, helpers_.size())),
-      assist_(helpers_.size() >= 2) {
+      current_(std::make_unique<Batch>()) {
   // One writer thread, or one per helper but the last, which is the pipeline thread's.
   const std::size_t writers = assist_ ? helpers_.size() - 1 : 1;
   // kDepth batches besides the one being filled, and one more for each formatting thread past
