@@ -128,7 +128,10 @@ class alignas(64) ThreadedSink final : public Sink {
       return items[used++];
     }
   };
-  struct Batch {
+  // On cache lines of its own: the pipeline thread writes the members of the batch it fills for
+  // every record while a writer reads those of another for every record it replays, and the
+  // batches are made one after the other on the heap (sharing a line, JSON ran 12 % slower).
+  struct alignas(kCacheLine) Batch {
     // Undissected telegrams and transactions, nearly all of a run's records, are small records
     // in vectors of their own, their bytes in one vector: the pipeline thread writes (and a
     // writer reads) a few cache lines a record, not a Record of every kind (over a kilobyte).
