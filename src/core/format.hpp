@@ -138,39 +138,44 @@ inline void append_fraction(Out& out, std::uint64_t fraction, int decimals) {
   write_decimal_digits(room.subspan(1), fraction);
 }
 
-// Seconds with `decimals` (<= 9) digits, exact (no floating point): 1.500000.
-template <class Out>
-inline void append_seconds(Out& out, TimeNs t, int decimals) {
+// |t| as whole seconds and the `decimals` (<= 9) leading digits of its fraction, truncated.
+struct SecondsParts {
+  bool negative;
+  std::uint64_t whole;
+  std::uint64_t fraction;
+};
+inline SecondsParts split_seconds(TimeNs t, int decimals) {
   const bool negative = t < 0;
   const std::uint64_t a =
       negative ? static_cast<std::uint64_t>(-(t + 1)) + 1u : static_cast<std::uint64_t>(t);
-  std::uint64_t frac = a % 1'000'000'000u;
-  for (int i = decimals; i < 9; ++i) frac /= 10;
-  if (negative) out += '-';
-  append_uint(out, a / 1'000'000'000u);
-  if (decimals > 0) append_fraction(out, frac, decimals);
+  std::uint64_t fraction = a % 1'000'000'000u;
+  for (int i = decimals; i < 9; ++i) fraction /= 10;
+  return {negative, a / 1'000'000'000u, fraction};
+}
+
+// Seconds with `decimals` (<= 9) digits, exact (no floating point): 1.500000.
+template <class Out>
+inline void append_seconds(Out& out, TimeNs t, int decimals) {
+  const SecondsParts parts = split_seconds(t, decimals);
+  if (parts.negative) out += '-';
+  append_uint(out, parts.whole);
+  if (decimals > 0) append_fraction(out, parts.fraction, decimals);
 }
 
 // The same right-aligned in `width` columns.
 template <class Out>
 inline void append_seconds_aligned(Out& out, TimeNs t, int decimals, std::size_t width) {
-  if (t < 0 || decimals <= 0 || decimals > 9) {  // rare: through a string
-    std::string text;
-    append_seconds(text, t, decimals);
-    append_padded(out, text, width, true);
-    return;
-  }
-  const auto a = static_cast<std::uint64_t>(t);
-  std::uint64_t fraction = a % 1'000'000'000u;
-  for (int i = decimals; i < 9; ++i) fraction /= 10;
-  const std::uint64_t whole = a / 1'000'000'000u;
-  const std::size_t whole_digits = decimal_digit_count(whole);
-  const auto fraction_digits = static_cast<std::size_t>(decimals);
+  const SecondsParts parts = split_seconds(t, decimals);
+  const std::size_t sign = parts.negative ? 1 : 0;
+  const std::size_t whole_digits = decimal_digit_count(parts.whole);
+  const std::size_t fraction_chars = decimals > 0 ? 1 + static_cast<std::size_t>(decimals) : 0;
   const std::span<char> room =
-      append_right_aligned_room(out, whole_digits + 1 + fraction_digits, width);
-  write_decimal_digits(room.first(whole_digits), whole);
-  room[whole_digits] = '.';
-  write_decimal_digits(room.subspan(whole_digits + 1), fraction);
+      append_right_aligned_room(out, sign + whole_digits + fraction_chars, width);
+  if (parts.negative) room[0] = '-';
+  write_decimal_digits(room.subspan(sign, whole_digits), parts.whole);
+  if (fraction_chars == 0) return;
+  room[sign + whole_digits] = '.';
+  write_decimal_digits(room.subspan(sign + whole_digits + 1), parts.fraction);
 }
 
 inline std::string format_seconds(TimeNs t, int decimals) {

@@ -17,7 +17,7 @@ namespace drivetap {
 
 // On cache lines of its own: the helpers of a ThreadedSink, one per thread, each write theirs for
 // every record, and are made one after the other on the heap.
-class alignas(64) JsonSink final : public Sink {
+class alignas(kCacheLineBytes) JsonSink final : public Sink {
  public:
   JsonSink(std::FILE* out, const ChannelTable& channels, TimeNs character_time,
            bool show_latency = true);

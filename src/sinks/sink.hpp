@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cerrno>
+#include <cstddef>
 #include <cstdio>
 #include <vector>
 
@@ -18,6 +19,11 @@
 #include "pipeline/stats.hpp"
 
 namespace drivetap {
+
+// The bytes of a cache line (x86-64, most ARM cores): what the threaded sink and its helpers,
+// written by different threads for every record, are aligned to (alignas), so that no line holds
+// parts of two of them (bench/README.md, "The cache round").
+inline constexpr std::size_t kCacheLineBytes = 64;
 
 // Whether a sink's writes to its file failed, and the first failure's errno. Records may be
 // written on another thread than the one that flushes (ThreadedSink), and errno is per thread:

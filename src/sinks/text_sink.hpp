@@ -23,7 +23,7 @@ struct TextSinkOptions {
 
 // On cache lines of its own: the helpers of a ThreadedSink, one per thread, each write theirs for
 // every record, and are made one after the other on the heap.
-class alignas(64) TextSink final : public Sink {
+class alignas(kCacheLineBytes) TextSink final : public Sink {
  public:
   TextSink(std::FILE* out, const ChannelTable& channels, TextSinkOptions options);
   void on_frame(const Message& message) override;

@@ -118,13 +118,12 @@ void ThreadedSink::replay(Batch& batch, Sink& target, Scratch& scratch) {
         break;
       }
       case Kind::undissected: {
-        UndissectedTelegram& telegram = batch.undissected.items[entry.slot].telegram;
+        Undissected& u = batch.undissected.items[entry.slot];
         const std::span<const std::uint8_t> bytes(batch.bytes);
-        const std::size_t at = batch.undissected.items[entry.slot].bytes_at;
-        const std::size_t size = telegram.run.bytes.size();
-        telegram.run.bytes = bytes.subspan(at, size);
-        telegram.request = bytes.subspan(at + size, telegram.request.size());
-        replay_undissected(telegram, target, scratch.decoded);
+        const std::size_t size = u.telegram.run.bytes.size();
+        u.telegram.run.bytes = bytes.subspan(u.bytes_at, size);
+        u.telegram.request = bytes.subspan(u.bytes_at + size, u.telegram.request.size());
+        replay_undissected(u.telegram, target, scratch.decoded);
         if (scratch.decoded.frame.storage_bytes() > kKeptStorageBytes) scratch.decoded = Message{};
         break;
       }
@@ -175,7 +174,6 @@ void ThreadedSink::commit(std::unique_ptr<Batch> batch) {
     formatted_.erase(next);
     lock.unlock();
     inner_.write_formatted(ready->text.view());
-    ready->text.clear();
     ready->clear();
     lock.lock();
     ++committed_;
@@ -204,18 +202,17 @@ void ThreadedSink::replay_undissected(const UndissectedTelegram& telegram, Sink&
 void ThreadedSink::on_undissected(const UndissectedTelegram& telegram) {
   if (finished_) {  // the writers have stopped: decoded here
     replay_undissected(telegram, inner_, scratch_[0].decoded);
-  } else {
-    Undissected& r = next_slot(Kind::undissected, &Batch::undissected);
-    r.telegram = telegram;
-    std::vector<std::uint8_t>& bytes = current_->bytes;
-    r.bytes_at = bytes.size();
-    bytes.insert(bytes.end(), telegram.run.bytes.begin(), telegram.run.bytes.end());
-    bytes.insert(bytes.end(), telegram.request.begin(), telegram.request.end());
     given(telegram.number);
-    weigh(telegram.run.bytes.size() + telegram.request.size());
     return;
   }
+  Undissected& r = next_slot(Kind::undissected, &Batch::undissected);
+  r.telegram = telegram;
+  std::vector<std::uint8_t>& bytes = current_->bytes;
+  r.bytes_at = bytes.size();
+  bytes.insert(bytes.end(), telegram.run.bytes.begin(), telegram.run.bytes.end());
+  bytes.insert(bytes.end(), telegram.request.begin(), telegram.request.end());
   given(telegram.number);
+  weigh(telegram.run.bytes.size() + telegram.request.size());
 }
 
 void ThreadedSink::on_frame(const Message& message) {

@@ -40,9 +40,8 @@
 
 namespace drivetap {
 
-class alignas(64) ThreadedSink final : public Sink {
+class alignas(kCacheLineBytes) ThreadedSink final : public Sink {
  public:
-  static constexpr std::size_t kCacheLine = 64;
   static constexpr std::size_t kBatchRecords = 256;
   static constexpr std::size_t kDepth = 4;  // batches queued for the writer at most
   // A batch is published once its records' frames hold this many bytes of storage (4 KiB of
@@ -131,7 +130,7 @@ class alignas(64) ThreadedSink final : public Sink {
   // On cache lines of its own: the pipeline thread writes the members of the batch it fills for
   // every record while a writer reads those of another for every record it replays, and the
   // batches are made one after the other on the heap (sharing a line, JSON ran 12 % slower).
-  struct alignas(kCacheLine) Batch {
+  struct alignas(kCacheLineBytes) Batch {
     // Undissected telegrams and transactions, nearly all of a run's records, are small records
     // in vectors of their own, their bytes in one vector: the pipeline thread writes (and a
     // writer reads) a few cache lines a record, not a Record of every kind (over a kilobyte).
@@ -152,6 +151,7 @@ class alignas(64) ThreadedSink final : public Sink {
       undissected.used = transactions.used = records.used = 0;
       bytes.clear();
       storage_bytes = 0;
+      text.clear();
     }
   };
   // A writer's own storage, reused from record to record.
@@ -216,12 +216,12 @@ class alignas(64) ThreadedSink final : public Sink {
   std::vector<Scratch> scratch_;  // one per helper (after finish(), the first is the caller's)
   std::vector<std::thread> writers_;
 
-  alignas(kCacheLine) std::unique_ptr<Batch> current_;  // being filled on the pipeline thread
+  alignas(kCacheLineBytes) std::unique_ptr<Batch> current_;  // being filled on the pipeline thread
   // The number of the last frame or noise record given (pipeline thread only).
   std::uint64_t last_number_ = 0;
   bool finished_ = false;  // the writer thread has stopped (pipeline thread only)
 
-  alignas(kCacheLine) std::mutex mutex_;
+  alignas(kCacheLineBytes) std::mutex mutex_;
   std::condition_variable changed_;
   std::deque<std::unique_ptr<Batch>> full_;  // published, in order
   std::vector<std::unique_ptr<Batch>> free_;
