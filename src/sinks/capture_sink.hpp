@@ -8,9 +8,9 @@
 // pcapng only: one interface per channel (name, line settings as description), EPB direction
 // flags (outbound = master -> slave), the CRC-error flag bit, drivetap's annotation as the packet
 // comment, and per-byte times and UART marks in a custom option, so that reading the file back
-// reproduces the run exactly (`--plain` leaves all of that out but the interfaces). Classic pcap has no room for per-byte times: its packets are
-// stamped when their last byte ended, as capture tools stamp them, so reading one back lays the
-// bytes out where they were.
+// reproduces the run exactly (`--plain` leaves all of that out but the interfaces). Classic pcap
+// has no room for per-byte times: its packets are stamped when their last byte ended, as capture
+// tools stamp them, so reading one back lays the bytes out where they were.
 #pragma once
 
 #include <cstdio>
