@@ -8,6 +8,8 @@
 #include <algorithm>
 #include <cstring>
 
+#include "core/read_block.hpp"
+
 namespace drivetap::pcapng {
 namespace {
 
@@ -148,7 +150,10 @@ std::size_t Reader::fill(std::size_t need) {
   if (whole_reads_ && window_.size() < kReadChunk) window_.resize(kReadChunk);
   // Each pass reads at least one byte or marks the end.
   while (end_ < need && !at_end_) {
-    const std::size_t want = whole_reads_ ? window_.size() - end_ : need - end_;
+    std::size_t want = whole_reads_ ? window_.size() - end_ : need - end_;
+    // Whole read blocks where they are enough: read straight into the window (read_block.hpp).
+    const std::size_t whole_blocks = want - want % kReadBlockBytes;
+    if (whole_reads_ && whole_blocks >= need - end_) want = whole_blocks;
     const std::size_t got = std::fread(window_.data() + end_, 1, want, in_);
     end_ += got;
     if (got == 0) at_end_ = true;

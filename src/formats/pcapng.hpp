@@ -121,8 +121,8 @@ struct PlainPacket {
 };
 
 // Blocks are read into a window of the file and parsed where they lie: from a regular file in
-// reads of kReadChunk bytes, from a pipe exactly the bytes each block needs (a capture streamed
-// through a pipe is decoded as it arrives).
+// reads of whole read blocks (core/read_block.hpp) into a kReadChunk window, from a pipe exactly
+// the bytes each block needs (a capture streamed through a pipe is decoded as it arrives).
 class Reader {
  public:
   Reader(std::FILE* in, std::string name);
@@ -184,7 +184,7 @@ class Reader {
   bool keep_comments_ = true;
   std::vector<Interface> interfaces_;
   static constexpr std::size_t kReadChunk = 256 * 1024;
-  bool whole_reads_ = false;          // a regular file: read kReadChunk bytes at a time
+  bool whole_reads_ = false;          // a regular file: read up to a window at a time
   std::vector<std::uint8_t> window_;  // file bytes [offset_ - pos_, offset_ - pos_ + end_)
   std::size_t pos_ = 0;               // the next unread byte of window_ (file offset offset_)
   std::size_t end_ = 0;

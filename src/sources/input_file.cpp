@@ -8,6 +8,8 @@
 #include <cerrno>
 #include <cstring>
 
+#include "core/read_block.hpp"
+
 namespace drivetap {
 namespace {
 
@@ -84,14 +86,12 @@ const char* input_format_name(InputFormat f) {
 }
 
 namespace {
-constexpr std::size_t kReadBuffer = 1 << 20;
-
-// Before the first read of `f`: a 1 MiB stdio buffer (a file of many small pcapng blocks is
-// otherwise read 4 KiB per system call).
+// Before the first read of `f`: a stdio buffer of kReadBlockBytes (a file of many small pcapng
+// blocks is otherwise read 4 KiB per system call; larger reads of whole blocks bypass it).
 void use_large_buffer(std::FILE* f, InputFile* in) {
   if (in->buffer) return;  // one per input: a replay cookie keeps the file's buffer too
-  in->buffer = new char[kReadBuffer];
-  if (std::setvbuf(f, in->buffer, _IOFBF, kReadBuffer) != 0) {
+  in->buffer = new char[kReadBlockBytes];
+  if (std::setvbuf(f, in->buffer, _IOFBF, kReadBlockBytes) != 0) {
     delete[] in->buffer;  // not taken: stdio keeps its own
     in->buffer = nullptr;
   }

@@ -15,8 +15,8 @@ struct InputFile {
   InputFormat format = InputFormat::unknown;
   unsigned char head[4] = {0, 0, 0, 0};
   std::size_t head_size = 0;
-  // stdio buffer of `file` (larger than the default 4 KiB: one read call per 1 MiB); freed by
-  // close_input after the file is closed, never before.
+  // stdio buffer of `file` (kReadBlockBytes, larger than the default 4 KiB); freed by close_input
+  // after the file is closed, never before.
   char* buffer = nullptr;
 };
 
