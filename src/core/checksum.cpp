@@ -98,24 +98,6 @@ ChecksumResult check_rtu_crc(std::span<const std::uint8_t> frame) {
   return check_rtu_crc(frame, crc16_modbus(frame.first(frame.size() - 2)));
 }
 
-ChecksumResult check_rtu_crc(std::span<const std::uint8_t> frame, std::uint16_t crc) {
-  ChecksumResult r;
-  if (frame.size() < 3) return r;
-  const std::uint8_t lo = frame[frame.size() - 2];
-  const std::uint8_t hi = frame[frame.size() - 1];
-  r.width = 2;
-  r.stated_wire = static_cast<std::uint32_t>((lo << 8) | hi);
-  r.computed_wire = static_cast<std::uint32_t>(((crc & 0xFFu) << 8) | (crc >> 8));
-  if (r.stated_wire == r.computed_wire) {
-    r.verdict = ChecksumVerdict::good;
-  } else if (r.stated_wire == (((r.computed_wire & 0xFFu) << 8) | (r.computed_wire >> 8))) {
-    r.verdict = ChecksumVerdict::swapped;
-  } else {
-    r.verdict = ChecksumVerdict::bad;
-  }
-  return r;
-}
-
 std::string wire_hex(std::uint32_t packed, std::uint8_t width, std::string_view separator) {
   std::string out;
   append_wire_hex(out, packed, width, separator);

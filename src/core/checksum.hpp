@@ -31,14 +31,31 @@ struct ChecksumResult {
   bool text = false;         // sent as hex characters (Easydrive SUM): shown as one number
 };
 
-// Modbus ASCII LRC (PROTOCOLS.md §3): two's complement of the 8-bit sum of the binary bytes.
-std::uint8_t lrc8(std::span<const std::uint8_t> data);
-
 // Compares the two CRC bytes at the end of a Modbus RTU frame with the CRC of what precedes them.
 ChecksumResult check_rtu_crc(std::span<const std::uint8_t> frame);
 // The same with `crc`, crc16_modbus() of all but the last two bytes, computed already (by the
-// framer: Frame::checksum).
-ChecksumResult check_rtu_crc(std::span<const std::uint8_t> frame, std::uint16_t crc);
+// framer: Frame::checksum). Inline: called for every telegram, and a result returned through
+// memory from a call is read back wider than it was written (a store-forwarding stall in perf).
+inline ChecksumResult check_rtu_crc(std::span<const std::uint8_t> frame, std::uint16_t crc) {
+  ChecksumResult r;
+  if (frame.size() < 3) return r;
+  const std::uint8_t lo = frame[frame.size() - 2];
+  const std::uint8_t hi = frame[frame.size() - 1];
+  r.width = 2;
+  r.stated_wire = static_cast<std::uint32_t>((lo << 8) | hi);
+  r.computed_wire = static_cast<std::uint32_t>(((crc & 0xFFu) << 8) | (crc >> 8));
+  if (r.stated_wire == r.computed_wire) {
+    r.verdict = ChecksumVerdict::good;
+  } else if (r.stated_wire == (((r.computed_wire & 0xFFu) << 8) | (r.computed_wire >> 8))) {
+    r.verdict = ChecksumVerdict::swapped;
+  } else {
+    r.verdict = ChecksumVerdict::bad;
+  }
+  return r;
+}
+
+// Modbus ASCII LRC (PROTOCOLS.md §3): two's complement of the 8-bit sum of the binary bytes.
+std::uint8_t lrc8(std::span<const std::uint8_t> data);
 
 std::string_view to_string(ChecksumVerdict v);
 

@@ -5,6 +5,8 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cstring>
+#include <span>
 #include <string_view>
 
 #include "core/format.hpp"
@@ -13,7 +15,7 @@ namespace drivetap {
 
 namespace {
 
-const char* direction_tag(Direction d) {
+std::string_view direction_tag(Direction d) {
   switch (d) {
     case Direction::request:
       return "req";
@@ -29,12 +31,16 @@ template <class Out>
 void append_checksum_text(Out& out, const ChecksumResult& c) {
   auto wire = [&](std::uint32_t v) { return wire_hex(v, c.width, c.text ? "" : " "); };
   switch (c.verdict) {
-    case ChecksumVerdict::good:
+    case ChecksumVerdict::good: {
       // (the names are ASCII: no locale call per frame)
-      for (const char ch : std::string_view(c.name))
-        out += ch >= 'A' && ch <= 'Z' ? static_cast<char>(ch - 'A' + 'a') : ch;
-      out += " ok";
+      const std::string_view name(c.name);
+      const std::span<char> room(append_room(out, name.size() + 3), name.size() + 3);
+      std::transform(name.begin(), name.end(), room.begin(), [](char ch) {
+        return ch >= 'A' && ch <= 'Z' ? static_cast<char>(ch - 'A' + 'a') : ch;
+      });
+      std::memcpy(room.subspan(name.size()).data(), " ok", 3);
       return;
+    }
     case ChecksumVerdict::bad:
       fmt::format_to(std::back_inserter(out), FMT_COMPILE("{} BAD (wire {}, computed {})"), c.name,
                      wire(c.stated_wire), wire(c.computed_wire));
