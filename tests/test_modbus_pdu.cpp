@@ -906,3 +906,23 @@ TEST(ModbusPdu, FindingsAreWhatTheDissectorFinds) {
   EXPECT_GT(with_problems, checked / 10);
   EXPECT_LT(with_problems, checked * 9 / 10);
 }
+
+TEST(ModbusPdu, InfoIntoGetsTheLineInPlaceOfInfo) {
+  // dissect_rtu() has the line written into the message's own string, keeping its storage.
+  const std::vector<std::uint8_t> frame = {0x01, 0x03, 0x25, 0x23, 0x00, 0x01};
+  FieldTree fields;
+  FieldTreeBuilder tree(fields, false);
+  std::string line = "an older, longer line that leaves its storage to this one";
+  const std::size_t capacity = line.capacity();
+  PduDecode d;
+  d.info_into = &line;
+  dissect_pdu_into(d, frame, 1, frame.size() - 1, Direction::request, tree);
+  EXPECT_EQ(line, "Read Holding Registers 0x2523");
+  EXPECT_EQ(line.capacity(), capacity);
+  EXPECT_TRUE(d.info.empty());
+  // Each function's own text (describe(), not describe_in_place()) goes there too.
+  const std::vector<std::uint8_t> status = {0x01, 0x07};
+  dissect_pdu_into(d, status, 1, status.size() - 1, Direction::request, tree);
+  EXPECT_EQ(line, "Read Exception Status");
+  EXPECT_TRUE(d.info.empty());
+}

@@ -644,3 +644,16 @@ TEST(Pipeline, BeginMessageLeavesTheFrameHoldingThePreviousOne) {
   EXPECT_EQ(second.number, 1u);
   EXPECT_EQ(second.events.size(), 3u);
 }
+
+TEST(Pipeline, BeginMessageTakesItsOwnFrameAsItIs) {
+  // decode_undissected() builds the frame in the message and hands it over in place: a swap of
+  // the frame with itself would leave it without its events.
+  Message m;
+  m.frame.events = {{100, 0x01, 0, 0, 0}, {200, 0x03, 0, 0, 0}};
+  m.frame.number = 7;
+  m.bytes = {9, 9, 9};
+  begin_message(m, std::move(m.frame), Protocol::modbus_rtu, Direction::request);
+  EXPECT_EQ(m.frame.number, 7u);
+  EXPECT_EQ(m.frame.events.size(), 2u);
+  EXPECT_EQ(m.bytes, (std::vector<std::uint8_t>{0x01, 0x03}));
+}

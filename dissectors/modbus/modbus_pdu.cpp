@@ -524,7 +524,7 @@ PduDecode dissect_pdu(std::span<const std::uint8_t> frame, std::size_t pdu_offse
 
 void dissect_pdu_into(PduDecode& d, std::span<const std::uint8_t> frame, std::size_t pdu_offset,
                       std::size_t pdu_length, Direction dir, FieldTreeBuilder& tree) {
-  d.info.clear();
+  d.info_text().clear();
   d.problems.clear();
   d.exception_code = -1;
   PduReader r(frame, pdu_offset, pdu_length, tree, d);
@@ -710,7 +710,7 @@ void dissect_pdu_into(PduDecode& d, std::span<const std::uint8_t> frame, std::si
       break;
     }
   }
-  if (d.info.empty())
+  if (d.info_text().empty())
     d.describe([&] { return function_name(fc) + (req ? "" : " reply") + " (truncated)"; });
 }
 

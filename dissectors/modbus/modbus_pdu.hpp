@@ -85,22 +85,26 @@ struct PduDecode {
   std::vector<std::string> problems;  // protocol-rule breaks: each becomes a `malformed` anomaly
   int exception_code = -1;
   bool detail = true;  // the info line is wanted
+  // When set, the info line is written there instead of into `info` (dissect_rtu(): the
+  // message's own string, so that no string is moved in and out per telegram).
+  std::string* info_into = nullptr;
 
-  // Sets `info` to make() when decoding in detail; make() is not called otherwise.
+  [[nodiscard]] std::string& info_text() { return info_into ? *info_into : info; }
+  // Sets the info line to make() when decoding in detail; make() is not called otherwise.
   template <class MakeText>
   void describe(MakeText&& make) {
-    if (detail) info = make();
+    if (detail) info_text() = make();
   }
   // The same for the replies and requests of every poll: append(line) builds the line in a
-  // reused LineBuffer (appends inline, no temporaries), copied into `info`'s own storage (which
-  // the caller may lend, see dissect_pdu_into) at once.
+  // reused LineBuffer (appends inline, no temporaries), copied into the info line's storage at
+  // once.
   template <class AppendText>
   void describe_in_place(AppendText&& append) {
     if (!detail) return;
     LineBuffer& line = scratch();
     line.clear();
     append(line);
-    info.assign(line.data(), line.size());
+    info_text().assign(line.data(), line.size());
   }
   static LineBuffer& scratch();
 };
@@ -122,8 +126,8 @@ PduFindings pdu_findings(std::span<const std::uint8_t> pdu, Direction direction)
 PduDecode dissect_pdu(std::span<const std::uint8_t> frame, std::size_t pdu_offset,
                       std::size_t pdu_length, Direction direction, FieldTreeBuilder& tree,
                       bool info);
-// The same into `out`, whose `info` string keeps its storage (a decoder reusing one Message
-// lends its info string there and takes it back).
+// The same into `out`, whose info line (`info`, or the string `info_into` points at: a decoder
+// reusing one Message has it written into the message's) keeps its storage.
 void dissect_pdu_into(PduDecode& out, std::span<const std::uint8_t> frame, std::size_t pdu_offset,
                       std::size_t pdu_length, Direction direction, FieldTreeBuilder& tree);
 // The same, with the info line when the tree keeps fields.

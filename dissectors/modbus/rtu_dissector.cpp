@@ -51,16 +51,16 @@ void dissect_rtu(Message& m, Frame&& frame, Direction direction, const FramingTi
     const std::size_t pdu_len = bytes.size() - 3;
     PduDecode pdu;
     pdu.detail = m.detail;
-    pdu.info = std::move(m.info);  // lent: the line is written into the storage m keeps
+    pdu.info_into = &m.info;  // the line is written where m keeps it
     dissect_pdu_into(pdu, bytes, 1, pdu_len, direction, tree);
-    m.info = std::move(pdu.info);
     m.exception_code = pdu.exception_code;
     for (std::string& problem : pdu.problems) add_malformed(m, std::move(problem));
     // The framer's CRC when it computed one over these bytes (a frame it took whole between two
     // silences: most of a capture's packets on one channel): not a second time.
-    m.checksum = m.frame.checksum_kind == FrameChecksum::crc16_modbus
-                     ? check_rtu_crc(bytes, static_cast<std::uint16_t>(m.frame.checksum))
-                     : check_rtu_crc(bytes);
+    check_rtu_crc_into(m.checksum, bytes,
+                       m.frame.checksum_kind == FrameChecksum::crc16_modbus
+                           ? static_cast<std::uint16_t>(m.frame.checksum)
+                           : crc16_modbus(bytes.first(bytes.size() - 2)));
     tree.add(kCrc, bytes.size() - 2, 2, m.checksum.stated_wire);
   } else {
     m.describe([&] {

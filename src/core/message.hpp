@@ -73,10 +73,13 @@ inline constexpr std::size_t kTypicalFieldCount = 16;
 // The vectors and strings `m` held keep their storage (the pipeline decodes every frame of a run
 // into one Message, so the hot path does not allocate); `m.detail` and `m.tree` are kept. The
 // frame is swapped in: `frame` is left holding m's previous frame, whose storage its batch builds
-// a later frame in.
+// a later frame in. `frame` may be m.frame itself, built in place (decode_undissected()): it is
+// then taken as it is.
 inline void begin_message(Message& m, Frame&& frame, Protocol protocol, Direction direction) {
   // Every member of Message is set here (tests/test_pipeline.cpp BeginMessageResetsEveryMember).
-  std::swap(m.frame, frame);
+  // (A frame just built is not moved: its members, read back wider than they were written, would
+  // stall the move on store forwarding; and a swap with itself would lose its events.)
+  if (&frame != &m.frame) std::swap(m.frame, frame);
   m.bytes.assign(m.frame.events.bytes().begin(), m.frame.events.bytes().end());
   m.protocol = protocol;
   m.direction = direction;

@@ -104,13 +104,12 @@ struct UndissectedTelegram {
 
 // What the pipeline would have handed over for `t` (handle_frame()): the Message its decoder
 // makes of its frame, with the pipeline's numbers and pairing, each anomaly numbered with the
-// frame. `out`'s storage is reused (begin_message()).
+// frame. `out`'s storage is reused: the frame is built in out.frame, which dissect_into() takes
+// in place (begin_message()).
 inline void decode_undissected(const UndissectedTelegram& t, Message& out) {
-  Frame frame;
-  std::swap(frame, out.frame);  // (its storage, for dissect_into() to swap back in)
-  add_chunk_frame_into(frame, t.run.channel, t.run, t.taken);
-  frame.number = t.number;
-  t.decoder->dissect_into(out, std::move(frame), t.direction, t.timing, t.request);
+  add_chunk_frame_into(out.frame, t.run.channel, t.run, t.taken);
+  out.frame.number = t.number;
+  t.decoder->dissect_into(out, std::move(out.frame), t.direction, t.timing, t.request);
   out.latency = t.latency;
   out.request_number = t.request_number;
   for (Anomaly& a : out.anomalies) a.frame_number = t.number;
