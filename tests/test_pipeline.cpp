@@ -611,7 +611,7 @@ TEST(Pipeline, BeginMessageResetsEveryMember) {
   EXPECT_EQ(dirty.is_exception, fresh.is_exception);
   EXPECT_EQ(dirty.exception_code, fresh.exception_code);
   EXPECT_EQ(dirty.checksum.verdict, fresh.checksum.verdict);
-  EXPECT_STREQ(dirty.checksum.name, fresh.checksum.name);
+  EXPECT_EQ(dirty.checksum.name, fresh.checksum.name);
   EXPECT_EQ(dirty.checksum.width, fresh.checksum.width);
   EXPECT_EQ(dirty.checksum.stated_wire, fresh.checksum.stated_wire);
   EXPECT_EQ(dirty.checksum.computed_wire, fresh.checksum.computed_wire);

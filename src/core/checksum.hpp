@@ -4,6 +4,7 @@
 #include <cstdint>
 #include <span>
 #include <string>
+#include <string_view>
 
 namespace drivetap {
 
@@ -26,9 +27,9 @@ struct ChecksumResult {
   // print exactly as an engineer compares them with the bytes on the line.
   std::uint32_t stated_wire = 0;
   std::uint32_t computed_wire = 0;
-  std::uint8_t width = 0;    // bytes
-  const char* name = "CRC";  // CRC, LRC, BCC, SUM: how the protocol calls it
-  bool text = false;         // sent as hex characters (Easydrive SUM): shown as one number
+  std::uint8_t width = 0;         // bytes
+  std::string_view name = "CRC";  // CRC, LRC, BCC, SUM: how the protocol calls it
+  bool text = false;              // sent as hex characters (Easydrive SUM): shown as one number
 };
 
 // Compares the two CRC bytes at the end of a Modbus RTU frame with the CRC of what precedes them.

@@ -33,7 +33,7 @@ void append_checksum_text(Out& out, const ChecksumResult& c) {
   switch (c.verdict) {
     case ChecksumVerdict::good: {
       // (the names are ASCII: no locale call per frame)
-      const std::string_view name(c.name);
+      const std::string_view name = c.name;
       const std::span<char> room(append_room(out, name.size() + 3), name.size() + 3);
       std::transform(name.begin(), name.end(), room.begin(), [](char ch) {
         return ch >= 'A' && ch <= 'Z' ? static_cast<char>(ch - 'A' + 'a') : ch;
