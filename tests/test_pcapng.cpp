@@ -2,6 +2,8 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -9,6 +11,7 @@
 #include "formats/link_layer.hpp"
 #include "formats/pcapng.hpp"
 #include "formats/upper_pdu.hpp"
+#include "sources/input_file.hpp"
 
 using namespace drivetap;
 
@@ -373,4 +376,53 @@ TEST(Pcapng, PeekPlainGivesWhatNextGivesAndLeavesTheRestToIt) {
       EXPECT_EQ(read[i].comment, expected.packets[i].comment) << i;
     }
   }
+}
+
+TEST(Pcapng, WholeBlockReadsOfARegularFileGiveWhatSmallReadsGive) {
+  // From a regular file opened as every input is (open_input: a stdio buffer of one read block)
+  // the reader asks for whole read blocks where they hold what it needs, and otherwise for what
+  // is left of its window. Blocks of 1 to 2000 bytes straddle the block and window boundaries;
+  // packets of 70 KiB and 300 KiB need more than a block and more than the window. Read that way
+  // and from memory (no file: only the bytes each block needs), the packets must be the same.
+  const std::vector<std::uint8_t> file = write_file([](pcapng::Writer& w) {
+    w.section_header("test");
+    w.interface(147, "bus", "", "");
+    for (std::uint32_t i = 0; i < 3000; ++i) {
+      const std::size_t size = i == 700 ? 70 * 1024 : i == 1900 ? 300 * 1024 : 1 + (i * 37) % 2000;
+      std::vector<std::uint8_t> data(size);
+      for (std::size_t k = 0; k < size; ++k) data[k] = static_cast<std::uint8_t>(i + k);
+      pcapng::Writer::Packet p;
+      p.timestamp = 1'000'000'000 + i;
+      p.data = data;
+      w.packet(p);
+    }
+  });
+  ASSERT_GT(file.size(), 3u * 1024 * 1024);  // a dozen windows
+  const ReadResult expected = read_file(file);
+  ASSERT_EQ(expected.error, "");
+  ASSERT_EQ(expected.packets.size(), 3000u);
+
+  char path[] = "/tmp/drivetap-pcapng-XXXXXX";
+  const int fd = mkstemp(path);
+  ASSERT_GE(fd, 0);
+  ASSERT_EQ(write(fd, file.data(), file.size()), static_cast<ssize_t>(file.size()));
+  close(fd);
+  InputFile in;
+  std::string error;
+  ASSERT_TRUE(open_input(path, &in, &error)) << error;
+  pcapng::Reader reader(in.file, path);
+  pcapng::PacketRecord rec;
+  std::size_t n = 0;
+  // Each pass reads one packet, or ends.
+  while (reader.next(rec)) {
+    ASSERT_LT(n, expected.packets.size());
+    EXPECT_EQ(std::vector<std::uint8_t>(rec.data.begin(), rec.data.end()), expected.packets[n].data)
+        << n;
+    EXPECT_EQ(rec.timestamp, expected.packets[n].timestamp) << n;
+    ++n;
+  }
+  EXPECT_EQ(reader.error(), "");
+  EXPECT_EQ(n, expected.packets.size());
+  close_input(in);
+  std::remove(path);
 }
