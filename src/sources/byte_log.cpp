@@ -6,6 +6,8 @@
 #include <cstdlib>
 #include <cstring>
 
+#include "core/read_block.hpp"
+
 namespace drivetap {
 namespace {
 
@@ -38,7 +40,8 @@ bool ByteLogReader::fail(std::size_t column, const std::string& reason) {
 }
 
 bool ByteLogReader::read_line() {
-  constexpr std::size_t kReadBytes = 64u << 10;
+  // One read block a read: straight into the buffer, past stdio's (core/read_block.hpp).
+  constexpr std::size_t kReadBytes = kReadBlockBytes;
   std::size_t scanned = 0;  // bytes of this line already searched for '\n'
   // Each pass finds the line's end or reads more (or ends): the buffer only fills up.
   while (true) {
