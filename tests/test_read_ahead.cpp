@@ -2,7 +2,12 @@
 // order, and the reader stops when asked or when the source ends or fails.
 #include <gtest/gtest.h>
 
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <future>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "sources/read_ahead.hpp"
@@ -92,5 +97,27 @@ TEST(ReadAhead, StopsWhenTheCallerTakesNoMore) {
   }  // the destructor stops the reader a few chunks ahead, not at the end of the source
   ByteEvent e;
   ASSERT_TRUE(source.next(e));
-  EXPECT_LT(e.origin, 10u * ReadAhead::kChunkBytes);
+  EXPECT_LT(e.origin, (ReadAhead::kDepth + 2) * ReadAhead::kChunkBytes);
+}
+
+TEST(ReadAhead, WakesTheReaderAgainOnceTheQueueRunsLow) {
+  // The reader fills every place of the queue while the caller is away, and waits; the caller
+  // must wake it as it drains the queue, or it would wait for ever for the rest of the source.
+  ChannelTable channels;
+  const std::size_t total = 3 * ReadAhead::kDepth * ReadAhead::kChunkBytes;
+  CountingSource source(channels, total, false);
+  ReadAhead ahead(source);
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  auto drained = std::async(std::launch::async, [&ahead] {
+    std::size_t bytes = 0;
+    RunBatch chunk;
+    while (ahead.next_chunk(chunk))
+      for (std::size_t k = 0; k < chunk.size(); ++k) bytes += chunk[k].size();
+    return bytes;
+  });
+  if (drained.wait_for(std::chrono::seconds(30)) != std::future_status::ready) {
+    std::fprintf(stderr, "ReadAhead: no chunk for 30 s with the reader's queue drained\n");
+    std::_Exit(1);  // (the caller's thread cannot be stopped; a hang would stall the suite)
+  }
+  EXPECT_EQ(drained.get(), total);
 }

@@ -56,8 +56,9 @@ bool ReadAhead::next_chunk(RunBatch& out) {
   if (spare_.size() < kDepth) spare_.push_back(std::move(out));
   out = std::move(full_.front());
   full_.pop_front();
+  const bool refill = full_.size() <= kRefillAt;  // (the reader waits only with kDepth queued)
   lock.unlock();
-  changed_.notify_all();
+  if (refill) changed_.notify_all();
   return true;
 }
 
