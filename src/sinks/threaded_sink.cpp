@@ -38,7 +38,9 @@ void ThreadedSink::publish() {
   std::unique_lock lock(mutex_);
   current_->sequence = published_++;
   full_.push_back(std::move(current_));
-  changed_.notify_all();
+  // (Waiting for a free batch below, this thread has published all the others: kWakeWritersAt
+  // or more wait, or are being replayed, so the writers are busy or were woken.)
+  if (full_.size() >= kWakeWritersAt) changed_.notify_all();
   // Back-pressure: every other batch is queued or being replayed; wait for one to come back.
   // With a helper of its own, this thread formats the oldest queued batch meanwhile: the writers
   // are behind, and this core would idle.
@@ -63,6 +65,7 @@ void ThreadedSink::publish() {
 void ThreadedSink::wait_until_idle() {
   publish();
   std::unique_lock lock(mutex_);
+  changed_.notify_all();  // the writers take what is queued, however little
   changed_.wait(lock, [this] { return full_.empty() && replaying_ == 0; });
 }
 

@@ -44,6 +44,11 @@ class alignas(kCacheLineBytes) ThreadedSink final : public Sink {
  public:
   static constexpr std::size_t kBatchRecords = 256;
   static constexpr std::size_t kDepth = 4;  // batches queued for the writer at most
+  // A waiting writer is woken once this many batches wait, not for each one: a writer that
+  // keeps up (the pipeline thread is the slower one with drive profiles) then takes two per
+  // wake-up, each of which costs the pipeline thread a futex call and scheduler time.
+  static constexpr std::size_t kWakeWritersAt = 2;
+  static_assert(kWakeWritersAt <= kDepth, "a pipeline waiting for a free batch has woken them");
   // A batch is published once its records' frames hold this many bytes of storage (4 KiB of
   // noise with a time stamp a byte holds some 70 KiB), however few they are.
   static constexpr std::size_t kBatchBytes = 1024 * 1024;
