@@ -134,6 +134,38 @@ struct EdsPoll {
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
+// ProtocolDecoder::reads_request(): the pipeline's summary lane hands a reply's request to its
+// decoder only when the decoder says it reads it.
+
+TEST(ReadsRequest, RepliesDecodeAlikeWithoutTheRequestWhereTheDecoderDoesNotReadIt) {
+  struct Case {
+    Protocol protocol;
+    std::vector<std::uint8_t> request, reply;
+  };
+  const std::vector<Case> cases = {
+      {Protocol::modbus_rtu, with_crc({0x01, 0x03, 0x25, 0x20, 0x00, 0x02}),
+       with_crc({0x01, 0x03, 0x04, 0x00, 0x06, 0x13, 0x88})},
+      {Protocol::modbus_ascii, ascii_frame({0x01, 0x03, 0x25, 0x23, 0x00, 0x01}),
+       ascii_frame({0x01, 0x03, 0x02, 0x00, 0x2A})},
+      {Protocol::danfoss_fc, with_bcc({0x02, 0x06, 0x01, 0x04, 0x7C, 0x20, 0x00}),
+       with_bcc({0x02, 0x06, 0x01, 0x04, 0x7C, 0x20, 0x00})},
+      {Protocol::easydrive, eds_frame("010B000F"), eds_frame("0100030F0001")},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(std::string(protocol_id(c.protocol)));
+    const Message with = decode(c.protocol, c.reply, Direction::response, c.request);
+    const Message without = decode(c.protocol, c.reply, Direction::response);
+    const bool alike = with.info == without.info &&
+                       with.anomalies.size() == without.anomalies.size() &&
+                       with.fields.size() == without.fields.size();
+    // A decoder that says it does not read the request decodes alike without it; Easydrive's
+    // replies name the value their request asked for.
+    EXPECT_EQ(decoder_for(c.protocol)->reads_request(), !alike)
+        << with.info << " / " << without.info;
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
 // Parameter numbering rules (profile.hpp ParameterRule; PROTOCOLS.md §2, §4, §5).
 
 TEST(ParameterRules, ParsesTheManualsNumbersUnderEachRule) {

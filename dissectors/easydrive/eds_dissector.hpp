@@ -41,6 +41,7 @@ class EdsDecoder final : public ProtocolDecoder {
                     std::span<const std::uint8_t> request = {}) const override {
     dissect_eds(out, std::move(frame), direction, timing, request);
   }
+  [[nodiscard]] bool reads_request() const override { return true; }  // replies echo its index
 };
 
 }  // namespace drivetap::easydrive

@@ -52,6 +52,9 @@ class ProtocolDecoder {
   virtual void dissect_into(Message& out, Frame&& frame, Direction direction,
                             const FramingTiming& timing,
                             std::span<const std::uint8_t> request = {}) const = 0;
+  // Whether dissect_into() reads `request` at all: a caller that would look the request up for
+  // it alone (the pipeline's summary lane) leaves it out when not.
+  [[nodiscard]] virtual bool reads_request() const { return false; }
   // The same into a new Message, decoded in detail.
   [[nodiscard]] Message dissect(Frame frame, Direction direction, const FramingTiming& timing,
                                 std::span<const std::uint8_t> request = {}) const {

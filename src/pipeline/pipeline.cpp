@@ -575,9 +575,9 @@ void Pipeline::count_whole_telegram(ChannelState& st, const ByteRun& run,
   const Direction dir =
       decide_direction(decoder, start, bytes, keys.address, keys.function, st.link, st.role);
   // A reply is decoded in the light of the request it answers (the pairer's copy, as it is until
-  // pairer_.add() below): the sink that decodes it gets its bytes.
+  // pairer_.add() below): the sink that decodes it gets its bytes, if its decoder reads them.
   std::span<const std::uint8_t> request;
-  if (hand_over_records_ && dir == Direction::response)
+  if (hand_over_records_ && dir == Direction::response && decoder.reads_request())
     request = pairer_.awaited_request(st.link, keys.address, keys.function, start);
   ProtocolDecoder::TelegramSummary summary;
   if (!decoder.summarise(bytes, dir, taken, options_.timing, &summary)) {
