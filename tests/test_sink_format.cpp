@@ -11,6 +11,7 @@
 #include "core/format.hpp"
 #include "core/line_buffer.hpp"
 #include "sinks/json_sink.hpp"
+#include "sinks/text_sink.hpp"
 
 using namespace drivetap;
 
@@ -255,40 +256,35 @@ TEST(SinkFormat, FractionsAreTheLowestDigitsZeroPadded) {
   }
 }
 
-TEST(SinkFormat, AlignedNumbersAreWhatFmtPrintsRightAligned) {
-  for (const std::uint64_t v : uint_cases()) {
-    for (const std::size_t width : {0u, 1u, 5u, 14u, 25u}) {
-      const std::string expected = fmt::format("x{:>{}}", v, width);
-      std::string s = "x";
-      append_uint_aligned(s, v, width);
-      ASSERT_EQ(s, expected) << v << " " << width;
-      LineBuffer line;
-      line += 'x';
-      append_uint_aligned(line, v, width);
-      ASSERT_EQ(std::string(line.view()), expected) << v << " " << width;
-    }
-  }
-}
-
-TEST(SinkFormat, AlignedSecondsAreThePaddedPlainOnes) {
+TEST(SinkFormat, TextPrefixIsTheAlignedColumns) {
+  // Every record's number (or "-"), time and channel, as fmt pads them: the prefix writes its
+  // pieces into room for the most they take, so long numbers, times and names are the edges.
   std::mt19937_64 random(13);
   std::vector<TimeNs> times = {0,         1,        999'999'999, 1'000'000'000, -1, -1'500'000'000,
                                INT64_MAX, INT64_MIN};
-  for (int k = 0; k < 20000; ++k)
+  for (int k = 0; k < 2000; ++k)
     times.push_back(static_cast<TimeNs>(random() >> static_cast<unsigned>(k % 64)));
-  for (const TimeNs t : times) {
-    for (int decimals = 0; decimals <= 9; ++decimals) {
-      for (const std::size_t width : {0u, 14u, 30u}) {
-        const std::string plain = format_seconds(t, decimals);
-        const std::string expected = fmt::format("|{:>{}}", plain, width);
-        std::string s = "|";
-        append_seconds_aligned(s, t, decimals, width);
-        ASSERT_EQ(s, expected) << t << " " << decimals << " " << width;
-        LineBuffer line;
-        line += '|';
-        append_seconds_aligned(line, t, decimals, width);
-        ASSERT_EQ(std::string(line.view()), expected) << t << " " << decimals << " " << width;
-      }
+  const std::vector<std::uint64_t> numbers = uint_cases();
+  const std::vector<std::string> channels = {
+      "", "a", "rtu", "bus1", "ttyUSB0=rtu", "ab", "12345", std::string(40, 'c')};
+  // Every number, each with a time and a channel of the lists in turn (every time meets many).
+  for (std::size_t k = 0; k < numbers.size(); ++k) {
+    const TimeNs t = times[k % times.size()];
+    const std::uint64_t number = k % 7 == 0 ? 0 : numbers[k];
+    const std::string& channel = channels[k % channels.size()];
+    for (const bool show_time : {true, false}) {
+      const std::string time_column =
+          show_time ? fmt::format("{:>14} ", format_seconds(t, 6)) : std::string();
+      const std::string expected = "|" +
+                                   (number ? fmt::format("{:>5}", number) : std::string("    -")) +
+                                   " " + time_column + fmt::format("{:<3} ", channel);
+      std::string s = "|";
+      append_text_prefix(s, number, t, show_time, channel);
+      ASSERT_EQ(s, expected) << number << " " << t << " " << channel;
+      LineBuffer line;
+      line += '|';
+      append_text_prefix(line, number, t, show_time, channel);
+      ASSERT_EQ(std::string(line.view()), expected) << number << " " << t << " " << channel;
     }
   }
 }

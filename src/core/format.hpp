@@ -46,6 +46,16 @@ inline char* append_room(Out& out, std::size_t n) {
   }
 }
 
+// Grows `out` by at most `most` characters that write(char* at) writes from `at` on, returning
+// where it stopped: pieces of known greatest length written through a pointer, with no capacity
+// check per piece (and no reload of the buffer's members after every character stored).
+template <class Out, class Write>
+inline void append_at_most(Out& out, std::size_t most, Write&& write) {
+  char* const start = append_room(out, most);
+  const char* const end = write(start);
+  out.resize(static_cast<std::size_t>(end - out.data()));
+}
+
 // The lowest digits.size() decimal digits of v, zero-padded, into `digits`.
 inline void write_decimal_digits(std::span<char> digits, std::uint64_t v) {
   std::size_t left = digits.size();
@@ -97,36 +107,27 @@ inline void append_uint(Out& out, std::uint64_t v) {
   write_decimal_digits(std::span<char>(append_room(out, count), count), v);
 }
 
+// `text` copied to `at`; returns the end. Short text (a channel's name) in two fixed-size moves
+// that overlap, as LineBuffer::append() copies short pieces; longer text by memcpy.
+inline char* write_chars(char* at, std::string_view text) {
+  const std::size_t n = text.size();
+  if (n >= 8 && n <= 16) {
+    std::memcpy(at, text.data(), 8);
+    std::memcpy(at + n - 8, text.data() + n - 8, 8);
+  } else if (n >= 4 && n < 8) {
+    std::memcpy(at, text.data(), 4);
+    std::memcpy(at + n - 4, text.data() + n - 4, 4);
+  } else {
+    std::memcpy(at, text.data(), n);
+  }
+  return at + n;
+}
+
 template <class Out>
 inline void append_int(Out& out, std::int64_t v) {
   if (v >= 0) return append_uint(out, static_cast<std::uint64_t>(v));
   const fmt::format_int digits(v);
   out.append(digits.data(), digits.size());
-}
-
-// `text` right-aligned (pad_left) or left-aligned in `width` columns.
-template <class Out>
-inline void append_padded(Out& out, std::string_view text, std::size_t width, bool pad_left) {
-  const std::size_t pad = text.size() < width ? width - text.size() : 0;
-  if (pad_left) out.append(pad, ' ');
-  out.append(text);
-  if (!pad_left) out.append(pad, ' ');
-}
-
-// Room for `count` characters right-aligned in `width` columns: spaces before it, if any.
-template <class Out>
-inline std::span<char> append_right_aligned_room(Out& out, std::size_t count, std::size_t width) {
-  const std::size_t pad = count < width ? width - count : 0;
-  const std::span<char> room(append_room(out, pad + count), pad + count);
-  std::fill_n(room.begin(), pad, ' ');
-  return room.subspan(pad);
-}
-
-// v right-aligned in `width` columns.
-template <class Out>
-inline void append_uint_aligned(Out& out, std::uint64_t v, std::size_t width) {
-  const std::size_t count = decimal_digit_count(v);
-  write_decimal_digits(append_right_aligned_room(out, count, width), v);
 }
 
 // '.' and the `decimals` (1..9) lowest decimal digits of `fraction`, zero-padded: ".050".
@@ -160,22 +161,6 @@ inline void append_seconds(Out& out, TimeNs t, int decimals) {
   if (parts.negative) out += '-';
   append_uint(out, parts.whole);
   if (decimals > 0) append_fraction(out, parts.fraction, decimals);
-}
-
-// The same right-aligned in `width` columns.
-template <class Out>
-inline void append_seconds_aligned(Out& out, TimeNs t, int decimals, std::size_t width) {
-  const SecondsParts parts = split_seconds(t, decimals);
-  const std::size_t sign = parts.negative ? 1 : 0;
-  const std::size_t whole_digits = decimal_digit_count(parts.whole);
-  const std::size_t fraction_chars = decimals > 0 ? 1 + static_cast<std::size_t>(decimals) : 0;
-  const std::span<char> room =
-      append_right_aligned_room(out, sign + whole_digits + fraction_chars, width);
-  if (parts.negative) room[0] = '-';
-  write_decimal_digits(room.subspan(sign, whole_digits), parts.whole);
-  if (fraction_chars == 0) return;
-  room[sign + whole_digits] = '.';
-  write_decimal_digits(room.subspan(sign + whole_digits + 1), parts.fraction);
 }
 
 inline std::string format_seconds(TimeNs t, int decimals) {

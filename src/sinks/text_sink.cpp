@@ -100,25 +100,63 @@ std::string frame_summary(const Message& m, bool with_latency) {
 TextSink::TextSink(std::FILE* out, const ChannelTable& channels, TextSinkOptions options)
     : channels_(channels), options_(options), lines_(out) {}
 
+namespace {
+
+// The most characters a prefix takes besides its channel's name: a number of up to 20 digits and
+// a space; a time of a sign, up to 20 whole digits, a point and 6 decimals, and a space; the 3
+// spaces written after the name (those past its padding to 3 columns are written over) and a
+// space.
+constexpr std::size_t kPrefixMostChars = 21 + 29 + 4;
+
+}  // namespace
+
 template <class Out>
-void TextSink::append_prefix(Out& s, std::uint64_t number, TimeNs time, ChannelId channel) const {
-  if (number) {
-    append_uint_aligned(s, number, 5);
-    s += ' ';
-  } else {
-    s += "    - ";
-  }
-  if (options_.show_time) {
-    append_seconds_aligned(s, time, 6, 14);
-    s += ' ';
-  }
-  append_padded(s, channels_.at(channel).name, 3, false);
-  s += ' ';
+void append_text_prefix(Out& out, std::uint64_t number, TimeNs time, bool show_time,
+                        std::string_view channel) {
+  // The pieces are written through a pointer into room for the most they can take: no capacity
+  // check and no reload of the line's members per piece (appended piece by piece, the prefix
+  // took a fourteenth of text's samples). The widths are fixed: all the spaces of a column are
+  // written with one store, the digits over the last of them.
+  append_at_most(out, kPrefixMostChars + channel.size(), [&](char* at) {
+    if (number) {  // right-aligned in 5 columns
+      const std::size_t count = decimal_digit_count(number);
+      std::memcpy(at, "     ", 5);
+      at += count < 5 ? 5 - count : 0;
+      write_decimal_digits(std::span<char>(at, count), number);
+      at += count;
+    } else {
+      std::memcpy(at, "    -", 5);
+      at += 5;
+    }
+    *at++ = ' ';
+    if (show_time) {  // seconds with 6 decimals, right-aligned in 14 columns
+      const SecondsParts parts = split_seconds(time, 6);
+      const std::size_t whole = decimal_digit_count(parts.whole);
+      const std::size_t count = (parts.negative ? 1 : 0) + whole + 7;
+      std::memcpy(at, "              ", 14);
+      at += count < 14 ? 14 - count : 0;
+      if (parts.negative) *at++ = '-';
+      write_decimal_digits(std::span<char>(at, whole), parts.whole);
+      at += whole;
+      *at++ = '.';
+      write_decimal_digits(std::span<char>(at, 6), parts.fraction);
+      at += 6;
+      *at++ = ' ';
+    }
+    at = write_chars(at, channel);  // left-aligned in 3 columns
+    std::memcpy(at, "   ", 3);
+    at += channel.size() < 3 ? 3 - channel.size() : 0;
+    *at++ = ' ';
+    return at;
+  });
 }
+
+template void append_text_prefix(std::string&, std::uint64_t, TimeNs, bool, std::string_view);
+template void append_text_prefix(LineBuffer&, std::uint64_t, TimeNs, bool, std::string_view);
 
 std::string TextSink::prefix(std::uint64_t number, TimeNs time, ChannelId channel) const {
   std::string s;
-  append_prefix(s, number, time, channel);
+  append_text_prefix(s, number, time, options_.show_time, channels_.at(channel).name);
   return s;
 }
 
@@ -126,7 +164,8 @@ void TextSink::on_frame(const Message& m) {
   last_frame_number_ = m.frame.number;
   if (!options_.frames) return;
   LineBuffer& line = lines_.buffer();  // the line is built where it will be written from
-  append_prefix(line, m.frame.number, m.frame.start(), m.frame.channel);
+  append_text_prefix(line, m.frame.number, m.frame.start(), options_.show_time,
+                     channels_.at(m.frame.channel).name);
   line += direction_tag(m.direction);
   line += "  ";
   append_frame_summary(line, m, options_.show_time);

@@ -42,9 +42,7 @@ class alignas(kCacheLineBytes) TextSink final : public Sink {
   [[nodiscard]] bool wants_transactions() const override { return false; }  // see on_transaction
 
  private:
-  // "   12   1.234567 bus " (number, time, channel), appended to `s`.
-  template <class Out>
-  void append_prefix(Out& s, std::uint64_t number, TimeNs time, ChannelId channel) const;
+  // append_text_prefix() of a record of `channel`.
   std::string prefix(std::uint64_t number, TimeNs time, ChannelId channel) const;
 
   const ChannelTable& channels_;
@@ -52,6 +50,14 @@ class alignas(kCacheLineBytes) TextSink final : public Sink {
   std::uint64_t last_frame_number_ = 0;
   LineWriter lines_;  // lines not written yet (flush() writes them); frame lines are built there
 };
+
+// The start of every text line, appended to `out` (std::string or LineBuffer): the record's
+// number right-aligned in 5 columns ("-" for none), its time in seconds with 6 decimals in 14
+// (when `show_time`), the channel's name left-aligned in 3, each followed by a space:
+// "   12       1.234567 bus ".
+template <class Out>
+void append_text_prefix(Out& out, std::uint64_t number, TimeNs time, bool show_time,
+                        std::string_view channel);
 
 // The decode of a frame in one line, without number/time/channel: shared with the JSON
 // `summary` key so both sinks say the same thing.
