@@ -18,12 +18,12 @@ using namespace drivetap;
 
 namespace {
 
-// Gives `total` bytes in batches of 1..37, interning a new channel every 1000 bytes (as a
-// capture reader meets new interfaces), then ends, with an error when told to.
+// Gives `total` bytes in batches of 1..`longest` (37), interning a new channel every 1000 bytes (as
+// a capture reader meets new interfaces), then ends, with an error when told to.
 class CountingSource final : public ByteSource {
  public:
-  CountingSource(ChannelTable& channels, std::size_t total, bool fail)
-      : channels_(channels), total_(total), fail_(fail) {}
+  CountingSource(ChannelTable& channels, std::size_t total, bool fail, std::size_t longest = 37)
+      : channels_(channels), total_(total), fail_(fail), longest_(longest) {}
   bool read_header() override { return true; }
   [[nodiscard]] RunSettings settings() const override { return {}; }
   void set_character_time(TimeNs) override {}
@@ -40,7 +40,7 @@ class CountingSource final : public ByteSource {
   }
   bool next_batch(std::vector<ByteEvent>& out) override {
     out.clear();
-    const std::size_t want = 1 + batches_++ % 37;
+    const std::size_t want = 1 + batches_++ % longest_;
     ByteEvent e;
     while (out.size() < want && next(e)) out.push_back(e);
     return !out.empty();
@@ -51,6 +51,7 @@ class CountingSource final : public ByteSource {
   ChannelTable& channels_;
   std::size_t total_, given_ = 0, batches_ = 0;
   bool fail_;
+  std::size_t longest_;
   ChannelId channel_ = 0;
   std::string error_;
 };
@@ -120,4 +121,20 @@ TEST(ReadAhead, WakesTheReaderAgainOnceTheQueueRunsLow) {
     std::_Exit(1);  // (the caller's thread cannot be stopped; a hang would stall the suite)
   }
   EXPECT_EQ(drained.get(), total);
+}
+
+TEST(ReadAhead, AChunkOfOneByteRunsEndsAtKChunkRuns) {
+  // Bytes that come one a batch (each with a time of its own, as on a noisy bus) make a run each:
+  // a chunk of kChunkBytes of them would hold 16 384 runs of 56 bytes, and the queue eight such.
+  ChannelTable channels;
+  const std::size_t total = 4 * ReadAhead::kChunkBytes;
+  CountingSource source(channels, total, false, 1);
+  ReadAhead ahead(source);
+  RunBatch chunk;
+  std::size_t bytes = 0;
+  while (ahead.next_chunk(chunk)) {
+    EXPECT_LE(chunk.size(), ReadAhead::kChunkRuns);
+    bytes += chunk.byte_count();
+  }
+  EXPECT_EQ(bytes, total);
 }

@@ -35,7 +35,8 @@ void ReadAhead::run() {
     chunk.clear();
     bool more = true;
     // Each pass appends one batch of the source.
-    while (chunk.byte_count() < kChunkBytes && (more = source_.append_runs(chunk))) {
+    while (chunk.byte_count() < kChunkBytes && chunk.size() < kChunkRuns &&
+           (more = source_.append_runs(chunk))) {
     }
     {
       const std::lock_guard lock(mutex_);

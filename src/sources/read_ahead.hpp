@@ -2,7 +2,7 @@
 // pipeline, so that file reading and unpacking (pcapng blocks, exported-PDU tags, per-byte
 // options) use the second core while the first decodes (issue 8, bench/README.md).
 //
-//   reader thread:  source.append_runs() ... -> chunk (>= kChunkBytes bytes) -> queue (kDepth)
+//   reader thread:  source.append_runs() ... -> chunk (kChunkBytes, kChunkRuns) -> queue (kDepth)
 //   caller:         next_chunk() <- queue; push_runs(chunk); the chunk goes back for reuse
 //
 // Only for sources that report no findings (take_findings(): those belong before a given byte)
@@ -26,8 +26,11 @@ namespace drivetap {
 
 class ReadAhead {
  public:
-  static constexpr std::size_t kChunkBytes = 16384;  // a chunk ends at the first batch past this
-  static constexpr std::size_t kDepth = 8;           // chunks read ahead at most
+  // A chunk ends at the first batch past kChunkBytes bytes or kChunkRuns runs (a run, 56 bytes,
+  // holds one byte where every byte has a time of its own: a noisy bus seen by a logic analyser).
+  static constexpr std::size_t kChunkBytes = 16384;
+  static constexpr std::size_t kChunkRuns = 2048;
+  static constexpr std::size_t kDepth = 8;  // chunks read ahead at most
   // The caller wakes a waiting reader once the queue is down to this many chunks, not after
   // every chunk taken: the reader, faster than the pipeline, then reads two before it waits
   // again. A wake-up costs the caller's thread some 10 us of futex and scheduler time on this VM
