@@ -38,9 +38,14 @@ void ThreadedSink::publish() {
   std::unique_lock lock(mutex_);
   current_->sequence = published_++;
   full_.push_back(std::move(current_));
-  // (Waiting for a free batch below, this thread has published all the others: kWakeWritersAt
-  // or more wait, or are being replayed, so the writers are busy or were woken.)
-  if (full_.size() >= kWakeWritersAt) changed_.notify_all();
+  // While the writers have been the slower side lately (this thread found no free batch within
+  // the last kBehindBatches), a waiting writer is woken at once: an idle writer is lost time.
+  // Otherwise once kWakeWritersAt batches wait: this thread is the slower side, and every
+  // wake-up costs it. (Waiting for a free batch below, this thread has published all the others:
+  // kWakeWritersAt or more wait, or are being replayed, so the writers are busy or were woken.)
+  const bool writers_behind = published_ - last_back_pressure_ <= kBehindBatches;
+  if (full_.size() >= (writers_behind ? 1 : kWakeWritersAt)) changed_.notify_all();
+  if (free_.empty()) last_back_pressure_ = published_;
   // Back-pressure: every other batch is queued or being replayed; wait for one to come back.
   // With a helper of its own, this thread formats the oldest queued batch meanwhile: the writers
   // are behind, and this core would idle.

@@ -44,10 +44,12 @@ class alignas(kCacheLineBytes) ThreadedSink final : public Sink {
  public:
   static constexpr std::size_t kBatchRecords = 256;
   static constexpr std::size_t kDepth = 4;  // batches queued for the writer at most
-  // A waiting writer is woken once this many batches wait, not for each one: a writer that
-  // keeps up (the pipeline thread is the slower one with drive profiles) then takes two per
-  // wake-up, each of which costs the pipeline thread a futex call and scheduler time.
+  // A waiting writer is woken once this many batches wait, not for each one, unless the writers
+  // were behind within the last kBehindBatches (publish()): a writer that keeps up (the pipeline
+  // thread is the slower one with drive profiles) then takes two per wake-up, each of which costs
+  // the pipeline thread a futex call and scheduler time.
   static constexpr std::size_t kWakeWritersAt = 2;
+  static constexpr std::uint64_t kBehindBatches = 8;
   static_assert(kWakeWritersAt <= kDepth, "a pipeline waiting for a free batch has woken them");
   // A batch is published once its records' frames hold this many bytes of storage (4 KiB of
   // noise with a time stamp a byte holds some 70 KiB), however few they are.
@@ -230,9 +232,10 @@ class alignas(kCacheLineBytes) ThreadedSink final : public Sink {
   std::condition_variable changed_;
   std::deque<std::unique_ptr<Batch>> full_;  // published, in order
   std::vector<std::unique_ptr<Batch>> free_;
-  std::size_t replaying_ = 0;    // batches the writers have taken and not given back
-  std::uint64_t published_ = 0;  // batches published
-  std::uint64_t committed_ = 0;  // with helpers: batches whose text went to the inner sink
+  std::size_t replaying_ = 0;             // batches the writers have taken and not given back
+  std::uint64_t published_ = 0;           // batches published
+  std::uint64_t last_back_pressure_ = 0;  // published_ when publish() last found no free batch
+  std::uint64_t committed_ = 0;           // with helpers: batches whose text went to the inner sink
   std::vector<std::unique_ptr<Batch>> formatted_;  // with helpers: formatted, waiting their turn
   bool committing_ = false;  // a writer is writing formatted batches to the inner sink
   bool stopping_ = false;
