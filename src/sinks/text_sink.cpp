@@ -108,6 +108,14 @@ namespace {
 // space.
 constexpr std::size_t kPrefixMostChars = 21 + 29 + 4;
 
+// Where `count` characters right-aligned in Width columns start, at `at`: the Width spaces are
+// written in one fixed-size store, the characters then go over the last of them.
+template <std::size_t Width>
+char* right_aligned_start(char* at, std::size_t count) {
+  std::memset(at, ' ', Width);
+  return at + (count < Width ? Width - count : 0);
+}
+
 }  // namespace
 
 template <class Out>
@@ -115,13 +123,12 @@ void append_text_prefix(Out& out, std::uint64_t number, TimeNs time, bool show_t
                         std::string_view channel) {
   // The pieces are written through a pointer into room for the most they can take: no capacity
   // check and no reload of the line's members per piece (appended piece by piece, the prefix
-  // took a fourteenth of text's samples). The widths are fixed: all the spaces of a column are
-  // written with one store, the digits over the last of them.
+  // took a fourteenth of text's samples). The widths are fixed, so each column's spaces are one
+  // store.
   append_at_most(out, kPrefixMostChars + channel.size(), [&](char* at) {
     if (number) {  // right-aligned in 5 columns
       const std::size_t count = decimal_digit_count(number);
-      std::memcpy(at, "     ", 5);
-      at += count < 5 ? 5 - count : 0;
+      at = right_aligned_start<5>(at, count);
       write_decimal_digits(std::span<char>(at, count), number);
       at += count;
     } else {
@@ -132,9 +139,7 @@ void append_text_prefix(Out& out, std::uint64_t number, TimeNs time, bool show_t
     if (show_time) {  // seconds with 6 decimals, right-aligned in 14 columns
       const SecondsParts parts = split_seconds(time, 6);
       const std::size_t whole = decimal_digit_count(parts.whole);
-      const std::size_t count = (parts.negative ? 1 : 0) + whole + 7;
-      std::memcpy(at, "              ", 14);
-      at += count < 14 ? 14 - count : 0;
+      at = right_aligned_start<14>(at, (parts.negative ? 1 : 0) + whole + 7);
       if (parts.negative) *at++ = '-';
       write_decimal_digits(std::span<char>(at, whole), parts.whole);
       at += whole;
