@@ -118,7 +118,7 @@ void Pipeline::frame_byte(ChannelState& st, const ByteEvent& e) {
   if (!ready_.empty()) handle_frames();
 }
 
-TimeNs Pipeline::deadline_of_others(ChannelId channel) const {
+inline TimeNs Pipeline::deadline_of_others(ChannelId channel) const {
   TimeNs earliest = std::numeric_limits<TimeNs>::max();
   for (std::size_t i = 0; i < states_.size(); ++i)
     if (i != channel && states_[i]->framer)
@@ -177,7 +177,7 @@ void Pipeline::push_runs(const RunBatch& runs) {
   }
 }
 
-bool Pipeline::push_chunk(const ByteRun& run, TimeNs next_time) {
+inline bool Pipeline::push_chunk(const ByteRun& run, TimeNs next_time) {
   const TimeNs character_time = options_.timing.character_time;
   // push() of each byte would take them as they are: as_on_the_wire() changes none (8 data bits;
   // each starts after the end of the one before).
@@ -384,9 +384,10 @@ void Pipeline::handle_frames() {
   if (outer) in_batch_ = false;
 }
 
-Direction Pipeline::decide_direction(const ProtocolDecoder& decoder, TimeNs start,
-                                     std::span<const std::uint8_t> bytes, int address, int function,
-                                     std::size_t link, ChannelRole role) const {
+inline Direction Pipeline::decide_direction(const ProtocolDecoder& decoder, TimeNs start,
+                                            std::span<const std::uint8_t> bytes, int address,
+                                            int function, std::size_t link,
+                                            ChannelRole role) const {
   switch (role) {
     case ChannelRole::master:
       return Direction::request;

@@ -390,7 +390,8 @@ bool CaptureReader::next_batch(std::vector<ByteEvent>& out) {
   return true;
 }
 
-const CaptureReader::KnownTags* CaptureReader::known_tags_of(std::span<const std::uint8_t> data) {
+inline const CaptureReader::KnownTags* CaptureReader::known_tags_of(
+    std::span<const std::uint8_t> data) {
   // At most one entry can match: a tag block ends at its first end-of-options tag, so of two that
   // both began `data` one would end inside the other. The entry that matched the packet before
   // the last is tried first: requests and replies alternate.
