@@ -123,7 +123,8 @@ class HybridFramer final : public Framer {
   std::size_t good_frame_in(std::span<const std::uint8_t> from) const;
   // good_frame_in(frame) == frame.size(): all of it is a frame of a predicted length with a good
   // checksum (no other length tried); *computed is that checksum (Rules::check_checksum()).
-  bool is_good_frame(std::span<const std::uint8_t> frame, std::uint32_t* computed) const;
+  [[gnu::always_inline]] bool is_good_frame(std::span<const std::uint8_t> frame,
+                                            std::uint32_t* computed) const;
   std::size_t first_good_start(std::size_t from, std::size_t to) const;
   std::size_t next_hard_boundary(std::size_t p) const;
   bool is_hard_boundary(std::size_t index) const;

@@ -216,8 +216,8 @@ std::size_t HybridFramer<Rules>::good_frame_at(std::size_t p, std::size_t limit)
 }
 
 template <class Rules>
-bool HybridFramer<Rules>::is_good_frame(std::span<const std::uint8_t> frame,
-                                        std::uint32_t* computed) const {
+inline bool HybridFramer<Rules>::is_good_frame(std::span<const std::uint8_t> frame,
+                                               std::uint32_t* computed) const {
   // good_frame_in() returns frame.size() exactly when that is one of the predicted lengths (it is
   // tried first then, or is the first of two) and its checksum matches: any other length it
   // tries is shorter.

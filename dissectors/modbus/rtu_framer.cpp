@@ -12,25 +12,6 @@ const RtuRules& RtuFramer::rules() {
   return instance;
 }
 
-void RtuRules::predicted_lengths(std::span<const std::uint8_t> from, std::size_t out[2],
-                                 bool* needs_more) const {
-  out[0] = out[1] = 0;
-  *needs_more = false;
-  if (from.size() < 2) {
-    *needs_more = true;
-    return;
-  }
-  int i = 0;
-  for (Direction dir : {Direction::request, Direction::response}) {
-    const LengthPrediction pred = predict_pdu_length(from.subspan(1), dir);
-    if (pred.kind == LengthPrediction::Kind::known) {
-      out[i++] = pred.length + 3;  // address + PDU + CRC
-    } else if (pred.kind == LengthPrediction::Kind::need_more) {
-      *needs_more = true;
-    }
-  }
-}
-
 bool RtuRules::checksum_matches(std::span<const std::uint8_t> frame) const {
   return check_checksum(frame).matches;
 }

@@ -9,6 +9,7 @@
 #pragma once
 
 #include "dissectors/common/hybrid_framer.hpp"
+#include "dissectors/modbus/modbus_pdu.hpp"
 
 namespace drivetap::modbus {
 
@@ -19,8 +20,25 @@ class RtuRules final : public HybridFrameRules {
  public:
   [[nodiscard]] std::size_t min_frame() const override { return kRtuMinFrame; }
   [[nodiscard]] std::size_t max_frame() const override { return kRtuMaxFrame; }
+  // (Defined here: inlined into the framer's check of every telegram.)
   void predicted_lengths(std::span<const std::uint8_t> from, std::size_t out[2],
-                         bool* needs_more) const override;
+                         bool* needs_more) const override {
+    out[0] = out[1] = 0;
+    *needs_more = false;
+    if (from.size() < 2) {
+      *needs_more = true;
+      return;
+    }
+    int i = 0;
+    for (Direction dir : {Direction::request, Direction::response}) {
+      const LengthPrediction pred = predict_pdu_length(from.subspan(1), dir);
+      if (pred.kind == LengthPrediction::Kind::known) {
+        out[i++] = pred.length + 3;  // address + PDU + CRC
+      } else if (pred.kind == LengthPrediction::Kind::need_more) {
+        *needs_more = true;
+      }
+    }
+  }
   [[nodiscard]] bool checksum_matches(std::span<const std::uint8_t> frame) const override;
   // The CRC-16 computed (crc16_modbus()), and whether the frame's holds, also swapped.
   [[nodiscard]] ChecksumCheck check_checksum(std::span<const std::uint8_t> frame) const override;
