@@ -1,6 +1,7 @@
 // Fuzzes the Modbus PDU/RTU layer: dissect_pdu (every direction), predict_pdu_length, pdu_fits,
 // rtu_direction_fit and dissect_rtu on a Frame built from the data; pdu_findings and the RTU
-// decoder's summary (the pipeline's summary lane) against what the dissectors find.
+// decoder's summary (the pipeline's summary lane) against what the dissectors find, and the same
+// summary made with the decoder's precheck (the read-ahead thread's) against it.
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -41,7 +42,7 @@ void check_summary(const Frame& frame, Direction dir, const FramingTiming& timin
   taken.timing = {frame.gap_before, frame.max_intra_gap, frame.max_intra_gap_at};
   ProtocolDecoder::TelegramSummary s;
   const modbus::RtuDecoder decoder;
-  if (!decoder.summarise(m.bytes, dir, taken, timing, &s)) {
+  if (!decoder.summarise(m.bytes, dir, taken, timing, nullptr, &s)) {
     if (m.bytes.size() >= 4) fuzz::contract_broken("summarise: no summary of a 4-byte frame");
     return;
   }
@@ -57,6 +58,20 @@ void check_summary(const Frame& frame, Direction dir, const FramingTiming& timin
       s.is_exception != m.is_exception || s.exception_code != m.exception_code ||
       s.malformed != malformed || s.other_kinds != kinds)
     fuzz::contract_broken("summarise: not what dissect_rtu gives");
+  // With the precheck of a telegram the framer would take whole: the same summary.
+  TelegramPrecheck made;
+  if (!decoder.precheck(m.bytes, &made)) fuzz::contract_broken("precheck: none made");
+  if (!made.whole_frame) return;
+  if (made.fit.request != decoder.direction_fit(m.bytes).request ||
+      made.fit.response != decoder.direction_fit(m.bytes).response ||
+      made.always_response != decoder.always_response(m.bytes))
+    fuzz::contract_broken("precheck: not the decoder's direction answers");
+  made.decoder = &decoder;
+  ProtocolDecoder::TelegramSummary with;
+  if (!decoder.summarise(m.bytes, dir, taken, timing, &made, &with) || with.verdict != s.verdict ||
+      with.exception_code != s.exception_code || with.malformed != s.malformed ||
+      with.other_kinds != s.other_kinds)
+    fuzz::contract_broken("summarise: not the same with the precheck");
 }
 
 }  // namespace

@@ -9,6 +9,7 @@
 
 #include "core/byte_events.hpp"
 #include "core/frame.hpp"
+#include "core/protocol.hpp"
 
 namespace drivetap {
 namespace {
@@ -196,5 +197,35 @@ TEST(ByteEvents, TimingFromStretchesIsTheTimingByteByByte) {
   }
 }
 
+// A chunk's prechecks sit beside its runs (RunBatch::set_precheck): handed with run k while set
+// by a decoder, none for the other runs, gone with clear().
+TEST(RunBatch, PrechecksStayWithTheirRunsUntilCleared) {
+  const std::vector<std::uint8_t> bytes{1, 2, 3, 4, 5, 6};
+  RunBatch batch;
+  for (int k = 0; k < 4; ++k) batch.add(ByteRun{bytes, k * 1000, 10, 0, 0, {}});
+  EXPECT_FALSE(batch.has_prechecks());
+  EXPECT_EQ(batch.precheck(1), nullptr);
+  const ProtocolDecoder* const some_decoder = decoder_for(Protocol::modbus_rtu);
+  TelegramPrecheck made;
+  made.decoder = some_decoder;
+  made.checksum = 0xBEEF;
+  batch.set_precheck(2, made);
+  ASSERT_TRUE(batch.has_prechecks());
+  EXPECT_EQ(batch.precheck(0), nullptr);
+  EXPECT_EQ(batch.precheck(1), nullptr);
+  ASSERT_NE(batch.precheck(2), nullptr);
+  EXPECT_EQ(batch.precheck(2)->checksum, 0xBEEFu);
+  EXPECT_EQ(batch.precheck(3), nullptr);
+  EXPECT_EQ(batch.precheck(4), nullptr);          // past the runs
+  batch.add(ByteRun{bytes, 9000, 10, 0, 0, {}});  // a run added later has none
+  EXPECT_EQ(batch.precheck(4), nullptr);
+  made.decoder = nullptr;  // a precheck no decoder made is none
+  batch.set_precheck(1, made);
+  EXPECT_EQ(batch.precheck(1), nullptr);
+  batch.clear();
+  EXPECT_FALSE(batch.has_prechecks());
+  batch.add(ByteRun{bytes, 0, 10, 0, 0, {}});
+  EXPECT_EQ(batch.precheck(0), nullptr);
+}
 }  // namespace
 }  // namespace drivetap

@@ -291,12 +291,43 @@ void run_generated(TranscriptSink& sink, std::size_t chunk = 0, Adjust adjust = 
   pipeline.finish();
 }
 
+// Prechecks a batch's runs carry (TelegramPrecheck), as ReadAhead makes them: none; made by the
+// decoder the pipeline names (Pipeline::precheck_decoder_of); or made by it, then falsified, and
+// credited to another decoder (the pipeline must not use them) or to the right one (it must).
+enum class Prechecks { none, made, foreign_falsified, own_falsified };
+
+void set_prechecks(RunBatch& runs, const Pipeline& pipeline, Prechecks kind) {
+  if (kind == Prechecks::none) return;
+  for (std::size_t k = 0; k < runs.size(); ++k) {
+    const ByteRun run = runs[k];
+    const ProtocolDecoder* decoder = pipeline.precheck_decoder_of(run.channel);
+    TelegramPrecheck made;
+    if (!decoder || !run.flags.empty() || !decoder->precheck(run.bytes, &made)) continue;
+    made.decoder = decoder;
+    if (kind != Prechecks::made) {  // every answer turned round
+      made.whole_frame = !made.whole_frame;
+      made.checksum ^= 0xFFFF;
+      made.fit = {!made.fit.request, !made.fit.response};
+      made.always_response = !made.always_response;
+      made.exception_code[0] = made.exception_code[1] = 7;
+      made.malformed[0] = made.malformed[1] = 1;
+    }
+    if (kind == Prechecks::foreign_falsified)
+      made.decoder =
+          decoder_for(decoder->protocol() == Protocol::modbus_rtu ? Protocol::danfoss_fc
+                                                                  : Protocol::modbus_rtu);
+    runs.set_precheck(k, made);
+  }
+}
+
 // The same traffic as runs, one per record (a pcapng's packets), through push_runs() in batches
 // of `batch` runs (0: each byte pushed on its own): a whole frame between two silences goes to the
 // framer at once when the next run of the batch shows the silence after it (Pipeline::push_chunk).
 // One-stamp reads, 7 data bits and early starts give runs that need the byte-by-byte way.
+// `prechecks`: what the batches carry; *prechecked counts the runs that carried one.
 void run_generated_runs(Sink& sink, std::size_t batch, Adjust adjust, generate::Mix mix,
-                        ChannelTable* channels = nullptr) {
+                        ChannelTable* channels = nullptr, Prechecks prechecks = Prechecks::none,
+                        std::size_t* prechecked = nullptr) {
   // Fewer records than run_generated(): the test makes 32 runs of it (slow under the sanitizers).
   GeneratedBus bus(6000, mix, adjust, channels);
   Pipeline pipeline(bus.options, bus.channels, sink);
@@ -333,10 +364,14 @@ void run_generated_runs(Sink& sink, std::size_t batch, Adjust adjust, generate::
     }
     runs.add(run);
     if (runs.size() == batch) {
+      set_prechecks(runs, pipeline, prechecks);
+      for (std::size_t k = 0; prechecked && k < runs.size(); ++k)
+        *prechecked += runs.precheck(k) ? 1 : 0;
       pipeline.push_runs(runs);
       runs.clear();
     }
   }
+  set_prechecks(runs, pipeline, prechecks);
   pipeline.push_runs(runs);
   pipeline.finish();
 }
@@ -398,6 +433,61 @@ TEST(Pipeline, SummaryLaneCountsWhatDecodingFinds) {
         EXPECT_LT(counted.messages, decoded.messages / 10);
       }
     }
+  }
+}
+
+// The reader's prechecks (TelegramPrecheck, ReadAhead::precheck_with) stand in for the framer's
+// check and the summary's findings on the summary lane: the summary must be what decoding every
+// frame gives. Falsified ones credited to another decoder must be ignored; credited to the
+// channel's own decoder they are used, and the summary shows it (the test can fail).
+TEST(Pipeline, PrechecksGiveTheSameSummary) {
+  for (const generate::Mix mix : {generate::Mix::modbus_rtu, generate::Mix::all}) {
+    for (const Adjust adjust : {Adjust::none, Adjust::early_starts, Adjust::zero_quantities}) {
+      SCOPED_TRACE(
+          fmt::format("mix {} adjust {}", static_cast<int>(mix), static_cast<int>(adjust)));
+      TranscriptSink decoded(false);
+      run_generated_runs(decoded, 300, adjust, mix);
+      ASSERT_FALSE(decoded.records.empty());
+      for (const Prechecks kind : {Prechecks::made, Prechecks::foreign_falsified}) {
+        TranscriptSink counted(false);
+        counted.records_wanted = false;
+        std::size_t prechecked = 0;
+        run_generated_runs(counted, 300, adjust, mix, nullptr, kind, &prechecked);
+        EXPECT_GT(prechecked, 1000u) << static_cast<int>(kind);
+        ASSERT_FALSE(counted.records.empty());
+        EXPECT_EQ(decoded.records.back(), counted.records.back()) << static_cast<int>(kind);
+      }
+      TranscriptSink falsified(false);
+      falsified.records_wanted = false;
+      run_generated_runs(falsified, 300, adjust, mix, nullptr, Prechecks::own_falsified);
+      ASSERT_FALSE(falsified.records.empty());
+      EXPECT_NE(decoded.records.back(), falsified.records.back());
+    }
+  }
+}
+
+// A sink that takes records keeps the reader's core busy with its writers: the pipeline asks for
+// no prechecks then (Pipeline::precheck_decoder_of), only when it alone decodes.
+TEST(Pipeline, PrechecksAreAskedForOnlyWhenNoRecordsAreTaken) {
+  for (const bool records : {false, true}) {
+    TranscriptSink sink(false);
+    sink.records_wanted = records;
+    GeneratedBus bus(50, generate::Mix::modbus_rtu, Adjust::none, nullptr);
+    Pipeline pipeline(bus.options, bus.channels, sink);
+    generate::Record r;
+    while (bus.gen.next(r))
+      for (std::size_t i = 0; i < r.bytes.size(); ++i)
+        pipeline.push({r.start + static_cast<TimeNs>(i) * bus.options.timing.character_time,
+                       r.bytes[i], 0, bus.channel(r.link), 0});
+    ASSERT_GE(pipeline.channel_count(), 1u);
+    const ProtocolDecoder* asked = pipeline.precheck_decoder_of(bus.channel(0));
+    if (records) {
+      EXPECT_EQ(asked, nullptr);
+    } else {
+      ASSERT_NE(asked, nullptr);
+      EXPECT_EQ(asked->protocol(), Protocol::modbus_rtu);
+    }
+    pipeline.finish();
   }
 }
 

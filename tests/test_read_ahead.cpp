@@ -138,3 +138,74 @@ TEST(ReadAhead, AChunkOfOneByteRunsEndsAtKChunkRuns) {
   }
   EXPECT_EQ(bytes, total);
 }
+
+namespace {
+
+// A decoder whose precheck marks every run it is asked about with the run's size, for the reader's
+// prechecks to be recognised (the rest is never called).
+class SizeStampingDecoder final : public ProtocolDecoder {
+ public:
+  [[nodiscard]] Protocol protocol() const override { return Protocol::modbus_rtu; }
+  [[nodiscard]] std::unique_ptr<Framer> make_framer(ChannelId,
+                                                    const FramerSettings&) const override {
+    return nullptr;
+  }
+  [[nodiscard]] DirectionFit direction_fit(std::span<const std::uint8_t>) const override {
+    return {};
+  }
+  [[nodiscard]] bool always_response(std::span<const std::uint8_t>) const override { return false; }
+  [[nodiscard]] bool recognisable(std::span<const std::uint8_t>) const override { return false; }
+  [[nodiscard]] PairingKeys pairing_keys(std::span<const std::uint8_t>) const override {
+    return {};
+  }
+  void dissect_into(Message&, Frame&&, Direction, const FramingTiming&,
+                    std::span<const std::uint8_t>) const override {}
+  bool precheck(std::span<const std::uint8_t> bytes, TelegramPrecheck* out) const override {
+    out->whole_frame = true;
+    out->checksum = static_cast<std::uint32_t>(bytes.size());
+    return true;
+  }
+};
+
+}  // namespace
+
+// Runs of a channel the caller named a decoder for (precheck_with) come with that decoder's
+// precheck once the reader has seen the name; other channels' runs, and every run read once the
+// name is withdrawn, come without. Channel "ch1" (id 1) has bytes 1000-1999, 301 000-301 999 and
+// 601 000-601 999; the reader is at most ReadAhead::kDepth chunks (some 150 KB here) ahead.
+TEST(ReadAhead, RunsOfANamedChannelCarryTheDecodersPrecheck) {
+  ChannelTable channels;
+  CountingSource source(channels, 700'000, false);
+  const SizeStampingDecoder decoder;
+  std::size_t prechecked_bytes = 0;
+  bool withdrawn = false;
+  {
+    ReadAhead ahead(source);
+    ahead.precheck_with(1, &decoder);  // long before the reader reaches byte 301 000
+    ahead.precheck_with(ReadAhead::kPrecheckChannels, &decoder);  // out of range: ignored
+    RunBatch chunk;
+    while (ahead.next_chunk(chunk)) {
+      for (std::size_t k = 0; k < chunk.size(); ++k) {
+        const ByteRun run = chunk[k];
+        const TelegramPrecheck* made = chunk.precheck(k);
+        const std::uint32_t first = run.origin;
+        if (run.channel == 1 && first >= 301'000 && first < 302'000) {
+          ASSERT_NE(made, nullptr) << first;
+        }
+        // Withdrawn past the second stretch (the reader is some 150 KB ahead: far from 601 000).
+        if (!withdrawn && first >= 302'000) {
+          ahead.precheck_with(1, nullptr);
+          withdrawn = true;
+        }
+        if (!made) continue;
+        ASSERT_EQ(run.channel, 1u);
+        ASSERT_LT(first, 600'000u) << "read after the name was withdrawn";
+        ASSERT_EQ(made->decoder, &decoder);
+        ASSERT_EQ(made->checksum, run.size());
+        prechecked_bytes += run.size();
+      }
+    }
+  }
+  EXPECT_TRUE(withdrawn);
+  EXPECT_GE(prechecked_bytes, 1000u);
+}

@@ -564,3 +564,55 @@ TEST(RtuFramer, TakeChunkIsPushChunkWithoutTheFrame) {
     EXPECT_EQ(pushed[i].checksum, taken_frames[i].checksum);
   }
 }
+
+// The precheck the read-ahead thread makes (RtuDecoder::precheck, TelegramPrecheck) must be what
+// the framer's check of a run taken whole and the summary find, on well-formed telegrams of every
+// function code each way, exceptions, cut and padded ones, swapped CRCs and noise.
+TEST(RtuDecoder, PrecheckIsWhatTheFramerAndTheSummaryFind) {
+  std::mt19937 rng(2026);
+  const RtuDecoder decoder;
+  const FramingTiming timing = FramingTiming::from(k9600);
+  std::size_t whole = 0;
+  for (int i = 0; i < 20000; ++i) {
+    std::vector<std::uint8_t> pdu{
+        static_cast<std::uint8_t>(rng() % 4 == 0 ? rng() : 1 + rng() % 16)};
+    const std::size_t length = rng() % 3 == 0 ? rng() % 12 : 4 + rng() % 2 * (1 + rng() % 9);
+    for (std::size_t k = 0; k < length; ++k)
+      pdu.push_back(static_cast<std::uint8_t>(rng() % 5 == 0 ? rng() % 8 : rng()));
+    if (pdu.size() >= 5 && rng() % 2 == 0)
+      pdu[4] = static_cast<std::uint8_t>(pdu.size() - 5);  // a byte count that fits
+    std::vector<std::uint8_t> frame{static_cast<std::uint8_t>(1 + rng() % 247)};
+    frame.insert(frame.end(), pdu.begin(), pdu.end());
+    frame = with_crc(frame);
+    if (rng() % 10 == 0) std::swap(frame[frame.size() - 2], frame[frame.size() - 1]);
+    if (rng() % 10 == 0) frame[rng() % frame.size()] ^= 0x10;
+    if (rng() % 20 == 0) frame.resize(rng() % frame.size());
+    SCOPED_TRACE(::testing::PrintToString(frame));
+    TelegramPrecheck made;
+    ASSERT_TRUE(decoder.precheck(frame, &made));
+    std::uint32_t checksum = 0;
+    const bool good = is_good_hybrid_frame(RtuFramer::rules(), frame, &checksum);
+    ASSERT_EQ(made.whole_frame, good);
+    if (!good) continue;
+    ++whole;
+    EXPECT_EQ(made.checksum, checksum);
+    EXPECT_EQ(made.fit.request, decoder.direction_fit(frame).request);
+    EXPECT_EQ(made.fit.response, decoder.direction_fit(frame).response);
+    EXPECT_EQ(made.always_response, decoder.always_response(frame));
+    // summarise() with the precheck is summarise() without it, each way.
+    Framer::ChunkFrame taken;
+    taken.checksum_kind = FrameChecksum::crc16_modbus;
+    taken.checksum = checksum;
+    for (const Direction way : {Direction::request, Direction::response}) {
+      made.decoder = &decoder;
+      ProtocolDecoder::TelegramSummary with, without;
+      ASSERT_TRUE(decoder.summarise(frame, way, taken, timing, &made, &with));
+      ASSERT_TRUE(decoder.summarise(frame, way, taken, timing, nullptr, &without));
+      EXPECT_EQ(with.exception_code, without.exception_code);
+      EXPECT_EQ(with.malformed, without.malformed);
+      EXPECT_EQ(with.verdict, without.verdict);
+      EXPECT_EQ(with.other_kinds, without.other_kinds);
+    }
+  }
+  EXPECT_GT(whole, 3000u);
+}

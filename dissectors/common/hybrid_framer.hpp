@@ -78,6 +78,28 @@ class HybridFrameRules {
   }
 };
 
+// good_frame_in(frame) == frame.size() of a hybrid framer with these rules: all of `frame` is a
+// frame of a predicted length with a good checksum (no other length tried); *computed is that
+// checksum (Rules::check_checksum()). On the bytes alone: the framer's check of a run taken whole
+// (take_chunk) and a decoder's precheck of it (TelegramPrecheck::whole_frame) are this one.
+template <class Rules>
+[[gnu::always_inline]] inline bool is_good_hybrid_frame(const Rules& rules,
+                                                        std::span<const std::uint8_t> frame,
+                                                        std::uint32_t* computed) {
+  // good_frame_in() returns frame.size() exactly when that is one of the predicted lengths (it is
+  // tried first then, or is the first of two) and its checksum matches: any other length it
+  // tries is shorter.
+  const std::size_t n = frame.size();
+  if (n < rules.min_frame() || n > rules.max_frame()) return false;
+  std::size_t candidates[2] = {0, 0};
+  bool needs_more = false;
+  rules.predicted_lengths(frame, candidates, &needs_more);
+  if (candidates[0] != n && candidates[1] != n) return false;
+  const HybridFrameRules::ChecksumCheck check = rules.check_checksum(frame);
+  *computed = check.computed;
+  return check.matches;
+}
+
 // `Rules` is a final HybridFrameRules: the framer asks it several questions per frame, and knowing
 // the type turns those into direct (inlinable) calls. The member definitions are in
 // hybrid_framer_impl.hpp, instantiated once per protocol in that protocol's framer source.
@@ -98,7 +120,8 @@ class HybridFramer final : public Framer {
   // A run that is a whole frame between two silences, taken at once (see Framer::push_chunk).
   bool push_chunk(const ByteRun& run, TimeNs next_time, FrameBatch& out) override;
   // The same without the frame (see Framer::take_chunk).
-  bool take_chunk(const ByteRun& run, TimeNs next_time, ChunkFrame* taken) override;
+  bool take_chunk(const ByteRun& run, TimeNs next_time, ChunkFrame* taken,
+                  const TelegramPrecheck* precheck = nullptr) override;
   // Time has reached `now` on the bus; closes what silence or the hold limit has completed.
   void advance(TimeNs now, FrameBatch& out) override;
   // End of input: everything pending becomes frames or noise.
@@ -121,10 +144,6 @@ class HybridFramer final : public Framer {
   std::size_t good_frame_at(std::size_t p, std::size_t limit) const;  // 0 when none
   // The same over any bytes: the good frame at from[0] ending inside `from`, or 0.
   std::size_t good_frame_in(std::span<const std::uint8_t> from) const;
-  // good_frame_in(frame) == frame.size(): all of it is a frame of a predicted length with a good
-  // checksum (no other length tried); *computed is that checksum (Rules::check_checksum()).
-  [[gnu::always_inline]] bool is_good_frame(std::span<const std::uint8_t> frame,
-                                            std::uint32_t* computed) const;
   std::size_t first_good_start(std::size_t from, std::size_t to) const;
   std::size_t next_hard_boundary(std::size_t p) const;
   bool is_hard_boundary(std::size_t index) const;

@@ -74,7 +74,8 @@ void HybridFramer<Rules>::push_all(std::span<const ByteEvent> events, FrameBatch
 }
 
 template <class Rules>
-bool HybridFramer<Rules>::take_chunk(const ByteRun& run, TimeNs next_time, ChunkFrame* taken) {
+bool HybridFramer<Rules>::take_chunk(const ByteRun& run, TimeNs next_time, ChunkFrame* taken,
+                                     const TelegramPrecheck* precheck) {
   const TimeNs character_time = options_.timing.character_time;
   const TimeNs t35 = options_.timing.t35;
   const std::size_t n = run.size();
@@ -87,8 +88,15 @@ bool HybridFramer<Rules>::take_chunk(const ByteRun& run, TimeNs next_time, Chunk
       run.step < 0 || run.step - character_time > t35 || !run.flags.empty())
     return false;
   const TimeNs end = std::max(last_end_, run.time(n - 1) + character_time);
+  if (next_time - end <= t35) return false;
+  // The check of the bytes, made ahead on the read-ahead thread when the run carries it.
   std::uint32_t checksum = 0;
-  if (next_time - end <= t35 || !is_good_frame(run.bytes, &checksum)) return false;
+  if (precheck) {
+    if (!precheck->whole_frame) return false;
+    checksum = precheck->checksum;
+  } else if (!is_good_hybrid_frame(rules_, run.bytes, &checksum)) {
+    return false;
+  }
   taken->checksum_kind = rules_.checksum_kind();  // computed over exactly the frame's bytes
   taken->checksum = checksum;
   // The run's timing as push_run() would have kept it (not timing_of(): no second look).
@@ -213,23 +221,6 @@ void HybridFramer<Rules>::predicted_lengths_in(std::span<const std::uint8_t> fro
 template <class Rules>
 std::size_t HybridFramer<Rules>::good_frame_at(std::size_t p, std::size_t limit) const {
   return good_frame_in(pending_.bytes().subspan(p, limit - p));
-}
-
-template <class Rules>
-inline bool HybridFramer<Rules>::is_good_frame(std::span<const std::uint8_t> frame,
-                                               std::uint32_t* computed) const {
-  // good_frame_in() returns frame.size() exactly when that is one of the predicted lengths (it is
-  // tried first then, or is the first of two) and its checksum matches: any other length it
-  // tries is shorter.
-  const std::size_t n = frame.size();
-  if (n < rules_.min_frame() || n > rules_.max_frame()) return false;
-  std::size_t candidates[2] = {0, 0};
-  bool needs_more = false;
-  rules_.predicted_lengths(frame, candidates, &needs_more);
-  if (candidates[0] != n && candidates[1] != n) return false;
-  const HybridFrameRules::ChecksumCheck check = rules_.check_checksum(frame);
-  *computed = check.computed;
-  return check.matches;
 }
 
 template <class Rules>

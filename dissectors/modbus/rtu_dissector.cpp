@@ -92,14 +92,21 @@ void dissect_rtu(Message& m, Frame&& frame, Direction direction, const FramingTi
 
 bool RtuDecoder::summarise(std::span<const std::uint8_t> bytes, Direction direction,
                            const Framer::ChunkFrame& taken, const FramingTiming& timing,
-                           TelegramSummary* out) const {
+                           const TelegramPrecheck* precheck, TelegramSummary* out) const {
   // dissect_rtu()'s members and findings for a frame of 4 bytes or more (the framer's shortest
   // telegram; the shorter fragment's finding is left to it), in the same order.
   if (bytes.size() < 4) return false;
   out->address = bytes[0];
   out->function = bytes[1];
   out->is_exception = (bytes[1] & 0x80) != 0;
-  const PduFindings found = pdu_findings(bytes.subspan(1, bytes.size() - 3), direction);
+  PduFindings found;
+  if (precheck && direction != Direction::unknown) {
+    const int way = direction == Direction::request ? 0 : 1;
+    found.exception_code = precheck->exception_code[way];
+    found.problems = precheck->malformed[way];
+  } else {
+    found = pdu_findings(bytes.subspan(1, bytes.size() - 3), direction);
+  }
   out->exception_code = found.exception_code;
   out->malformed = found.problems;
   out->verdict = (taken.checksum_kind == FrameChecksum::crc16_modbus
@@ -113,6 +120,23 @@ bool RtuDecoder::summarise(std::span<const std::uint8_t> bytes, Direction direct
   if (taken.timing.max_intra_gap > timing.t15) found_one(AnomalyKind::intra_frame_gap);
   if (taken.timing.gap_before > 0 && taken.timing.gap_before < timing.t35)
     found_one(AnomalyKind::short_interframe_gap);
+  return true;
+}
+
+bool RtuDecoder::precheck(std::span<const std::uint8_t> bytes, TelegramPrecheck* out) const {
+  // The framer's check; for a telegram it would take whole, summarise()'s findings each way and
+  // the pipeline's questions for its direction (a run that is no such telegram needs no more).
+  out->whole_frame = is_good_hybrid_frame(RtuFramer::rules(), bytes, &out->checksum);
+  if (!out->whole_frame) return true;
+  out->fit = rtu_direction_fit(bytes);
+  out->always_response = always_response(bytes);
+  const std::span<const std::uint8_t> pdu = bytes.subspan(1, bytes.size() - 3);
+  for (const Direction way : {Direction::request, Direction::response}) {
+    const PduFindings found = pdu_findings(pdu, way);
+    const int k = way == Direction::request ? 0 : 1;
+    out->exception_code[k] = found.exception_code;
+    out->malformed[k] = found.problems;
+  }
   return true;
 }
 

@@ -47,7 +47,8 @@ class RtuDecoder final : public ProtocolDecoder {
   }
   bool summarise(std::span<const std::uint8_t> bytes, Direction direction,
                  const Framer::ChunkFrame& taken, const FramingTiming& timing,
-                 TelegramSummary* out) const override;
+                 const TelegramPrecheck* precheck, TelegramSummary* out) const override;
+  bool precheck(std::span<const std::uint8_t> bytes, TelegramPrecheck* out) const override;
 };
 
 }  // namespace drivetap::modbus

@@ -63,8 +63,9 @@ class RtuFramer final : public Framer {
   bool push_chunk(const ByteRun& run, TimeNs next_time, FrameBatch& out) override {
     return framer_.push_chunk(run, next_time, out);
   }
-  bool take_chunk(const ByteRun& run, TimeNs next_time, ChunkFrame* taken) override {
-    return framer_.take_chunk(run, next_time, taken);
+  bool take_chunk(const ByteRun& run, TimeNs next_time, ChunkFrame* taken,
+                  const TelegramPrecheck* precheck = nullptr) override {
+    return framer_.take_chunk(run, next_time, taken, precheck);
   }
   void advance(TimeNs now, FrameBatch& out) override { framer_.advance(now, out); }
   void finish(FrameBatch& out) override { framer_.finish(out); }

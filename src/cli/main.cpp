@@ -567,6 +567,11 @@ int run_read(const CommonOptions& o, const std::string& path) {
     if (!ahead)
       for (const Anomaly& a : source->take_findings()) pipeline.report(a);
     pipeline.push_runs(batch);
+    // The reader makes the prechecks the pipeline asks for, by the decoders detected so far.
+    if (ahead)
+      for (std::size_t c = 0; c < pipeline.channel_count(); ++c)
+        ahead->precheck_with(static_cast<ChannelId>(c),
+                             pipeline.precheck_decoder_of(static_cast<ChannelId>(c)));
     if (g_stop) {
       interrupted = true;
       break;

@@ -24,6 +24,7 @@
 #include <vector>
 
 #include "core/byte_event.hpp"
+#include "core/precheck.hpp"
 
 namespace drivetap {
 
@@ -122,10 +123,21 @@ class RunBatch {
             e.origin,
             flags};
   }
+  [[nodiscard]] bool has_prechecks() const { return !prechecks_.empty(); }
+  // What a decoder worked out of run k's bytes ahead (set_precheck()), or nullptr.
+  [[nodiscard]] const TelegramPrecheck* precheck(std::size_t k) const {
+    return k < prechecks_.size() && prechecks_[k].decoder ? &prechecks_[k] : nullptr;
+  }
   void clear() {
     bytes_.clear();
     flags_.clear();
     runs_.clear();
+    prechecks_.clear();
+  }
+  // Run k's precheck (k < size(); the read-ahead thread's, once the runs are in).
+  void set_precheck(std::size_t k, const TelegramPrecheck& precheck) {
+    if (prechecks_.size() < runs_.size()) prechecks_.resize(runs_.size());
+    prechecks_[k] = precheck;
   }
   // (Inlined: once a packet in the capture readers' loops, as a profile-guided build has it.)
   [[gnu::always_inline]] void add(const ByteRun& run) {
@@ -159,6 +171,7 @@ class RunBatch {
   std::vector<std::uint8_t>
       flags_;  // empty, or one per byte of bytes_ (up to the last flagged run)
   std::vector<Entry> runs_;
+  std::vector<TelegramPrecheck> prechecks_;  // empty, or one per run up to the last one set
 };
 
 class ByteEvents {

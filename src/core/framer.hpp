@@ -55,10 +55,14 @@ class Framer {
   // the framer's state as it would, fills *taken and returns true; otherwise returns false and
   // changes nothing. For a caller that needs no Frame of the run (the pipeline's summary lane).
   // A framer that overrides push_chunk() overrides this too (the caller does not try both).
-  virtual bool take_chunk(const ByteRun& run, TimeNs next_time, ChunkFrame* taken) {
+  // `precheck`: the run's, made by the decoder whose framer this is (TelegramPrecheck), or
+  // nullptr; its check of the bytes is then not made again.
+  virtual bool take_chunk(const ByteRun& run, TimeNs next_time, ChunkFrame* taken,
+                          const TelegramPrecheck* precheck = nullptr) {
     (void)run;
     (void)next_time;
     (void)taken;
+    (void)precheck;
     return false;
   }
   // Time has reached `now`; closes what silence or a hold limit has completed.

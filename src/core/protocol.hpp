@@ -10,14 +10,10 @@
 
 #include "core/framer.hpp"
 #include "core/message.hpp"
+#include "core/precheck.hpp"
 #include "core/serial_config.hpp"
 
 namespace drivetap {
-
-struct DirectionFit {
-  bool request = false;
-  bool response = false;
-};
 
 struct FramerSettings {
   FramingTiming timing;
@@ -77,14 +73,23 @@ class ProtocolDecoder {
   static_assert(kAnomalyKindCount <= 32, "TelegramSummary::other_kinds has a bit per kind");
   // Fills *out for `bytes`, a telegram travelling in `direction` that its framer took whole as
   // `taken` (so with no UART marks); false when the protocol has no such summary (its telegrams
-  // are then dissected as usual).
+  // are then dissected as usual). `precheck`: this decoder's precheck() of the bytes, or nullptr.
   virtual bool summarise(std::span<const std::uint8_t> bytes, Direction direction,
                          const Framer::ChunkFrame& taken, const FramingTiming& timing,
-                         TelegramSummary* out) const {
+                         const TelegramPrecheck* precheck, TelegramSummary* out) const {
     (void)bytes;
     (void)direction;
     (void)taken;
     (void)timing;
+    (void)precheck;
+    (void)out;
+    return false;
+  }
+  // Fills *out with what this protocol's framer and summary find in `bytes` taken as one
+  // telegram (TelegramPrecheck; out->decoder is left to the caller), made on the read-ahead
+  // thread from the bytes alone; false when the protocol makes none.
+  virtual bool precheck(std::span<const std::uint8_t> bytes, TelegramPrecheck* out) const {
+    (void)bytes;
     (void)out;
     return false;
   }

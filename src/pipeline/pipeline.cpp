@@ -118,6 +118,12 @@ void Pipeline::frame_byte(ChannelState& st, const ByteEvent& e) {
   if (!ready_.empty()) handle_frames();
 }
 
+const ProtocolDecoder* Pipeline::precheck_decoder_of(ChannelId channel) const {
+  if (!summary_lane_ || hand_over_records_ || channel >= states_.size()) return nullptr;
+  const ChannelState& st = *states_[channel];
+  return st.framer && !st.redetect ? st.decoder : nullptr;
+}
+
 inline TimeNs Pipeline::deadline_of_others(ChannelId channel) const {
   TimeNs earliest = std::numeric_limits<TimeNs>::max();
   for (std::size_t i = 0; i < states_.size(); ++i)
@@ -165,19 +171,31 @@ void Pipeline::push_batch(std::span<const ByteEvent> events) {
 }
 
 void Pipeline::push_runs(const RunBatch& runs) {
+  // (A chunk without prechecks, all but --stats's, takes a loop that does not look for them.)
+  if (runs.has_prechecks())
+    push_runs_as<true>(runs);
+  else
+    push_runs_as<false>(runs);
+}
+
+template <bool Prechecked>
+void Pipeline::push_runs_as(const RunBatch& runs) {
   for (std::size_t k = 0; k < runs.size(); ++k) {
     const ByteRun run = runs[k];
     // The next run on the same channel, with nothing pushed in between, tells whether this one
     // is followed by a silence.
     if (k + 1 < runs.size()) {
       const ByteRun next = runs[k + 1];
-      if (next.channel == run.channel && push_chunk(run, next.first)) continue;
+      if (next.channel == run.channel &&
+          push_chunk(run, next.first, Prechecked ? runs.precheck(k) : nullptr))
+        continue;
     }
     push_run(run);
   }
 }
 
-inline bool Pipeline::push_chunk(const ByteRun& run, TimeNs next_time) {
+inline bool Pipeline::push_chunk(const ByteRun& run, TimeNs next_time,
+                                 const TelegramPrecheck* precheck) {
   const TimeNs character_time = options_.timing.character_time;
   // push() of each byte would take them as they are: as_on_the_wire() changes none (8 data bits;
   // each starts after the end of the one before).
@@ -199,13 +217,15 @@ inline bool Pipeline::push_chunk(const ByteRun& run, TimeNs next_time) {
     // A sink that takes no records, or decodes them itself, has the frame counted, not decoded
     // here (ready_ is empty: the frame would be handled alone).
     const bool counted = summary_lane_ && ready_.empty();
+    // The run's precheck is used only when the channel's decoder made it (TelegramPrecheck).
+    if (precheck && precheck->decoder != st.decoder) precheck = nullptr;
     Framer::ChunkFrame taken;
-    if (counted ? st.framer->take_chunk(run, next_time, &taken)
+    if (counted ? st.framer->take_chunk(run, next_time, &taken, precheck)
                 : st.framer->push_chunk(run, next_time, ready_)) {
       note_taken(st, run.event(run.size() - 1));
       earliest_deadline_ = std::min(earliest_deadline_, st.framer->next_deadline());
       if (counted)
-        count_whole_telegram(st, run, taken);
+        count_whole_telegram(st, run, taken, precheck);
       else
         handle_frames();
       return true;
@@ -386,8 +406,8 @@ void Pipeline::handle_frames() {
 
 inline Direction Pipeline::decide_direction(const ProtocolDecoder& decoder, TimeNs start,
                                             std::span<const std::uint8_t> bytes, int address,
-                                            int function, std::size_t link,
-                                            ChannelRole role) const {
+                                            int function, std::size_t link, ChannelRole role,
+                                            const TelegramPrecheck* precheck) const {
   switch (role) {
     case ChannelRole::master:
       return Direction::request;
@@ -397,8 +417,9 @@ inline Direction Pipeline::decide_direction(const ProtocolDecoder& decoder, Time
       break;
   }
   if (bytes.size() < 2) return Direction::unknown;
-  if (decoder.always_response(bytes)) return Direction::response;
-  const DirectionFit fit = decoder.direction_fit(bytes);
+  if (precheck ? precheck->always_response : decoder.always_response(bytes))
+    return Direction::response;
+  const DirectionFit fit = precheck ? precheck->fit : decoder.direction_fit(bytes);
   if (fit.request != fit.response) return fit.request ? Direction::request : Direction::response;
   // Both layouts fit (echo replies, acknowledgements of the same size) or neither does: order
   // decides — a reply is what a pending request of the same station and function awaits.
@@ -509,8 +530,8 @@ void Pipeline::handle_frame(Frame& frame) {
   const ProtocolDecoder& decoder = *st.decoder;
   const std::span<const std::uint8_t> bytes = frame.events.bytes();
   const ProtocolDecoder::PairingKeys keys = decoder.pairing_keys(bytes);
-  const Direction dir =
-      decide_direction(decoder, frame.start(), bytes, keys.address, keys.function, link, st.role);
+  const Direction dir = decide_direction(decoder, frame.start(), bytes, keys.address, keys.function,
+                                         link, st.role, nullptr);
   // A reply is dissected in the light of the request it answers: the pairer's own copy, which
   // stays as it is until pairer_.add() below.
   std::span<const std::uint8_t> request;
@@ -563,7 +584,8 @@ void Pipeline::handle_frame(Frame& frame) {
 }
 
 void Pipeline::count_whole_telegram(ChannelState& st, const ByteRun& run,
-                                    const Framer::ChunkFrame& taken) {
+                                    const Framer::ChunkFrame& taken,
+                                    const TelegramPrecheck* precheck) {
   // handle_frame()'s steps for this frame, in its order, with the decode left out: the sink takes
   // no records, or gets the telegram undissected (Sink::on_undissected); no profile reads it.
   const ProtocolDecoder& decoder = *st.decoder;
@@ -573,15 +595,15 @@ void Pipeline::count_whole_telegram(ChannelState& st, const ByteRun& run,
   pairer_.expire(start, transactions_);
   emit_transactions(transactions_);
   const ProtocolDecoder::PairingKeys keys = decoder.pairing_keys(bytes);
-  const Direction dir =
-      decide_direction(decoder, start, bytes, keys.address, keys.function, st.link, st.role);
+  const Direction dir = decide_direction(decoder, start, bytes, keys.address, keys.function,
+                                         st.link, st.role, precheck);
   // A reply is decoded in the light of the request it answers (the pairer's copy, as it is until
   // pairer_.add() below): the sink that decodes it gets its bytes, if its decoder reads them.
   std::span<const std::uint8_t> request;
   if (hand_over_records_ && dir == Direction::response && decoder.reads_request())
     request = pairer_.awaited_request(st.link, keys.address, keys.function, start);
   ProtocolDecoder::TelegramSummary summary;
-  if (!decoder.summarise(bytes, dir, taken, options_.timing, &summary)) {
+  if (!decoder.summarise(bytes, dir, taken, options_.timing, precheck, &summary)) {
     // No summary for this telegram: the frame, decoded as usual (expiring and handing over
     // transactions again at the same time changes nothing).
     add_chunk_frame(ready_, run.channel, run, taken);

@@ -66,11 +66,22 @@ class Pipeline {
   // after N frames).
   void finish(bool cut_partial = true);
   [[nodiscard]] const Stats& stats() const { return stats_; }
+  // The decoder whose prechecks a reader on another thread should make for channel `channel`'s
+  // runs (ReadAhead::precheck_with), channels [0, channel_count()): the channel's decoder now,
+  // when this thread alone decodes — the sink takes no records, the summary lane counts every
+  // telegram taken whole — and the reader's core would otherwise wait; nullptr otherwise (no
+  // decoder yet, re-detecting, or a sink whose writers keep both cores busy, where a precheck,
+  // which works out both directions' findings, is more work in all).
+  [[nodiscard]] const ProtocolDecoder* precheck_decoder_of(ChannelId channel) const;
+  [[nodiscard]] std::size_t channel_count() const { return states_.size(); }
 
  private:
   struct ChannelState;
   ChannelState& state_for(ChannelId id);
   void advance_all(TimeNs now);
+  // push_runs() of a chunk with prechecks (RunBatch::has_prechecks) or without.
+  template <bool Prechecked>
+  void push_runs_as(const RunBatch& runs);
   // The part of push() after the clock has moved to e's time: e to its channel's framer (or
   // detection).
   void frame_byte(ChannelState& st, const ByteEvent& e);
@@ -80,7 +91,9 @@ class Pipeline {
   // This and the two other always_inline members below run once a telegram on the summary lane:
   // inlined as a profile-guided build inlines them, --stats takes 3.5 % fewer instructions
   // (bench/README "Compiler options"). Defined inline in pipeline.cpp, their only user.
-  [[gnu::always_inline]] bool push_chunk(const ByteRun& run, TimeNs next_time);
+  // `precheck`: the run's (RunBatch::precheck), or nullptr.
+  [[gnu::always_inline]] bool push_chunk(const ByteRun& run, TimeNs next_time,
+                                         const TelegramPrecheck* precheck);
   // push_run() from byte i on, byte i - 1 having been pushed.
   void push_rest(const ByteRun& run, std::size_t i);
   // Bytes from run byte i on that close nothing, appended to the framer at once: how many.
@@ -98,7 +111,8 @@ class Pipeline {
   // (Framer::take_chunk), for a sink that takes no records or decodes them itself: what the
   // summary counts, from the decoder's TelegramSummary, with no decode made here (a sink that
   // takes records gets the telegram undissected, Sink::on_undissected).
-  void count_whole_telegram(ChannelState& st, const ByteRun& run, const Framer::ChunkFrame& taken);
+  void count_whole_telegram(ChannelState& st, const ByteRun& run, const Framer::ChunkFrame& taken,
+                            const TelegramPrecheck* precheck);
   void check_packetization(const Frame& frame, ChannelState& st);
   // The same for a record of `kind` whose bytes came from source packets first..last.
   void check_packetization(FrameKind kind, std::uint32_t first, std::uint32_t last,
@@ -107,11 +121,12 @@ class Pipeline {
   void summarise_drives();
   void detect(ChannelState& st, ChannelId channel, bool final);
   void start_detection(ChannelState& st);
-  // The direction of a frame starting at `start`.
+  // The direction of a frame starting at `start`; `precheck`: its decoder's, or nullptr.
   [[gnu::always_inline]] Direction decide_direction(const ProtocolDecoder& decoder, TimeNs start,
                                                     std::span<const std::uint8_t> bytes,
                                                     int address, int function, std::size_t link,
-                                                    ChannelRole role) const;
+                                                    ChannelRole role,
+                                                    const TelegramPrecheck* precheck) const;
   // Counts and hands over `transactions` (none, most of the calls: inline), then empties it.
   void emit_transactions(std::vector<Transaction>& transactions) {
     if (!transactions.empty()) emit_some_transactions(transactions);

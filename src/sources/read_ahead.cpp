@@ -38,6 +38,7 @@ void ReadAhead::run() {
     while (chunk.byte_count() < kChunkBytes && chunk.size() < kChunkRuns &&
            (more = source_.append_runs(chunk))) {
     }
+    precheck(chunk);
     {
       const std::lock_guard lock(mutex_);
       if (!chunk.empty()) full_.push_back(std::move(chunk));
@@ -48,6 +49,31 @@ void ReadAhead::run() {
   }
   const std::lock_guard lock(mutex_);
   ended_ = true;
+}
+
+void ReadAhead::precheck_with(ChannelId channel, const ProtocolDecoder* decoder) {
+  if (channel < kPrecheckChannels) prechecking_[channel].store(decoder, std::memory_order_relaxed);
+}
+
+void ReadAhead::precheck(RunBatch& chunk) {
+  // (Relaxed: a decoder is a constant object of the table, and a chunk read before the caller
+  // named it simply has no prechecks.)
+  std::array<const ProtocolDecoder*, kPrecheckChannels> decoders;
+  bool any = false;
+  for (std::size_t c = 0; c < kPrecheckChannels; ++c) {
+    decoders[c] = prechecking_[c].load(std::memory_order_relaxed);
+    any = any || decoders[c] != nullptr;
+  }
+  if (!any) return;
+  for (std::size_t k = 0; k < chunk.size(); ++k) {
+    const ByteRun run = chunk[k];
+    // (A run with UART marks is never taken whole: no precheck.)
+    if (run.channel >= kPrecheckChannels || !decoders[run.channel] || !run.flags.empty()) continue;
+    TelegramPrecheck made;
+    if (!decoders[run.channel]->precheck(run.bytes, &made)) continue;
+    made.decoder = decoders[run.channel];
+    chunk.set_precheck(k, made);
+  }
 }
 
 bool ReadAhead::next_chunk(RunBatch& out) {

@@ -10,8 +10,15 @@
 // stopped). The source's ChannelTable is interned on the reader thread and looked up on the
 // caller's: ChannelTable allows one writer alongside readers of the channels they were handed.
 // error() and notes() of the source may be read once next_chunk() returned false.
+//
+// The reader also makes each run's precheck (TelegramPrecheck, core/precheck.hpp) for a channel
+// whose decoder the caller has named (precheck_with(): the pipeline's, once it has detected the
+// protocol): the framer's check and the summary's findings, worked out from the bytes alone on
+// the second core instead of the decoding thread's.
 #pragma once
 
+#include <array>
+#include <atomic>
 #include <condition_variable>
 #include <cstddef>
 #include <deque>
@@ -20,6 +27,7 @@
 #include <vector>
 
 #include "core/byte_events.hpp"
+#include "core/protocol.hpp"
 #include "sources/source.hpp"
 
 namespace drivetap {
@@ -46,9 +54,15 @@ class ReadAhead {
   // The next chunk of bytes, in the source's order, into `out` (which goes back to the reader for
   // reuse); false once the source has ended (at its end or on error: see the source's error()).
   bool next_chunk(RunBatch& out);
+  // Runs of `channel` read from now on carry `decoder`'s precheck (nullptr: none), for channels
+  // below kPrecheckChannels. Any thread; the reader sees it at its next chunk.
+  static constexpr std::size_t kPrecheckChannels = 64;
+  void precheck_with(ChannelId channel, const ProtocolDecoder* decoder);
 
  private:
   void run();
+  // The prechecks of the chunk's runs whose channel has a decoder named.
+  void precheck(RunBatch& chunk);
 
   ByteSource& source_;
   std::mutex mutex_;
@@ -57,6 +71,7 @@ class ReadAhead {
   std::vector<RunBatch> spare_;  // handed back, for the reader to fill again
   bool ended_ = false;           // the reader has read its last chunk
   bool stop_ = false;            // the caller wants no more
+  std::array<std::atomic<const ProtocolDecoder*>, kPrecheckChannels> prechecking_{};
   std::thread thread_;
 };
 
