@@ -22,8 +22,9 @@ namespace {
 // a capture reader meets new interfaces), then ends, with an error when told to.
 class CountingSource final : public ByteSource {
  public:
-  CountingSource(ChannelTable& channels, std::size_t total, bool fail, std::size_t longest = 37)
-      : channels_(channels), total_(total), fail_(fail), longest_(longest) {}
+  CountingSource(ChannelTable& channels, std::size_t total, bool fail, std::size_t longest = 37,
+                 std::chrono::microseconds pause = {})
+      : channels_(channels), total_(total), fail_(fail), longest_(longest), pause_(pause) {}
   bool read_header() override { return true; }
   [[nodiscard]] RunSettings settings() const override { return {}; }
   void set_character_time(TimeNs) override {}
@@ -40,6 +41,7 @@ class CountingSource final : public ByteSource {
   }
   bool next_batch(std::vector<ByteEvent>& out) override {
     out.clear();
+    if (pause_.count() > 0) std::this_thread::sleep_for(pause_);  // a slow read
     const std::size_t want = 1 + batches_++ % longest_;
     ByteEvent e;
     while (out.size() < want && next(e)) out.push_back(e);
@@ -52,6 +54,7 @@ class CountingSource final : public ByteSource {
   std::size_t total_, given_ = 0, batches_ = 0;
   bool fail_;
   std::size_t longest_;
+  std::chrono::microseconds pause_;
   ChannelId channel_ = 0;
   std::string error_;
 };
@@ -180,7 +183,7 @@ TEST(ReadAhead, RunsOfANamedChannelCarryTheDecodersPrecheck) {
   std::size_t prechecked_bytes = 0;
   bool withdrawn = false;
   {
-    ReadAhead ahead(source);
+    ReadAhead ahead(source, 0);        // every chunk prechecked
     ahead.precheck_with(1, &decoder);  // long before the reader reaches byte 301 000
     ahead.precheck_with(ReadAhead::kPrecheckChannels, &decoder);  // out of range: ignored
     RunBatch chunk;
@@ -208,4 +211,34 @@ TEST(ReadAhead, RunsOfANamedChannelCarryTheDecodersPrecheck) {
   }
   EXPECT_TRUE(withdrawn);
   EXPECT_GE(prechecked_bytes, 1000u);
+}
+
+// By default a chunk is prechecked only while the caller has ReadAhead::kPrecheckAhead chunks
+// queued: a reader slower than its caller leaves the prechecks to the caller; one that is ahead
+// makes them.
+TEST(ReadAhead, PrechecksOnlyWhileAhead) {
+  const SizeStampingDecoder decoder;
+  for (const bool reader_ahead : {false, true}) {
+    SCOPED_TRACE(reader_ahead);
+    ChannelTable channels;
+    // Slow: a batch every 100 us, some 40 ms in all; fast: as fast as it goes.
+    CountingSource source(channels, 20'000, false, 37,
+                          std::chrono::microseconds(reader_ahead ? 0 : 100));
+    std::size_t prechecked = 0;
+    {
+      ReadAhead ahead(source);
+      for (ChannelId c = 0; c < 20; ++c) ahead.precheck_with(c, &decoder);
+      RunBatch chunk;
+      while (ahead.next_chunk(chunk)) {
+        for (std::size_t k = 0; k < chunk.size(); ++k) prechecked += chunk.precheck(k) ? 1 : 0;
+        // A slow caller: the reader fills the queue meanwhile.
+        if (reader_ahead) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+      }
+    }
+    if (reader_ahead) {
+      EXPECT_GT(prechecked, 0u);
+    } else {
+      EXPECT_EQ(prechecked, 0u);
+    }
+  }
 }

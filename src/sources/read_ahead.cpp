@@ -7,8 +7,10 @@
 
 namespace drivetap {
 
-ReadAhead::ReadAhead(ByteSource& source)
-    : source_(source), thread_(start_worker_thread([this] { run(); })) {}
+ReadAhead::ReadAhead(ByteSource& source, std::size_t precheck_ahead)
+    : source_(source),
+      precheck_ahead_(precheck_ahead),
+      thread_(start_worker_thread([this] { run(); })) {}
 
 ReadAhead::~ReadAhead() {
   {
@@ -23,10 +25,12 @@ void ReadAhead::run() {
   RunBatch chunk;
   // Each pass reads one chunk and queues it, or ends.
   while (true) {
+    bool ahead = false;  // the caller has chunks enough to go on with while this one is prechecked
     {
       std::unique_lock lock(mutex_);
       changed_.wait(lock, [this] { return stop_ || full_.size() < kDepth; });
       if (stop_) break;
+      ahead = full_.size() >= precheck_ahead_;
       if (!spare_.empty()) {
         chunk = std::move(spare_.back());
         spare_.pop_back();
@@ -38,7 +42,7 @@ void ReadAhead::run() {
     while (chunk.byte_count() < kChunkBytes && chunk.size() < kChunkRuns &&
            (more = source_.append_runs(chunk))) {
     }
-    precheck(chunk);
+    if (ahead) precheck(chunk);
     {
       const std::lock_guard lock(mutex_);
       if (!chunk.empty()) full_.push_back(std::move(chunk));

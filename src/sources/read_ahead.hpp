@@ -45,7 +45,8 @@ class ReadAhead {
   // (a sixth of --stats's decoding thread went into it when each chunk woke the reader).
   static constexpr std::size_t kRefillAt = kDepth - 2;
 
-  explicit ReadAhead(ByteSource& source);
+  // `precheck_ahead`: kPrecheckAhead but in tests (0: every chunk prechecked).
+  explicit ReadAhead(ByteSource& source, std::size_t precheck_ahead = kPrecheckAhead);
   // Stops the reader thread (at its next batch) and waits for it.
   ~ReadAhead();
   ReadAhead(const ReadAhead&) = delete;
@@ -57,6 +58,10 @@ class ReadAhead {
   // Runs of `channel` read from now on carry `decoder`'s precheck (nullptr: none), for channels
   // below kPrecheckChannels. Any thread; the reader sees it at its next chunk.
   static constexpr std::size_t kPrecheckChannels = 64;
+  // A chunk is prechecked only while at least this many wait in the queue: when reading is the
+  // slower side (a capture whose packets cost more to unpack, drivetap's full pcapng), prechecks
+  // would hold the caller up, and the reader then leaves them to it, chunk by chunk.
+  static constexpr std::size_t kPrecheckAhead = kDepth / 2;
   void precheck_with(ChannelId channel, const ProtocolDecoder* decoder);
 
  private:
@@ -71,6 +76,7 @@ class ReadAhead {
   std::vector<RunBatch> spare_;  // handed back, for the reader to fill again
   bool ended_ = false;           // the reader has read its last chunk
   bool stop_ = false;            // the caller wants no more
+  const std::size_t precheck_ahead_;
   std::array<std::atomic<const ProtocolDecoder*>, kPrecheckChannels> prechecking_{};
   std::thread thread_;
 };
