@@ -62,8 +62,8 @@ void check_summary(const Frame& frame, Direction dir, const FramingTiming& timin
   TelegramPrecheck made;
   if (!decoder.precheck(m.bytes, &made)) fuzz::contract_broken("precheck: none made");
   if (!made.whole_frame) return;
-  if (made.fit.request != decoder.direction_fit(m.bytes).request ||
-      made.fit.response != decoder.direction_fit(m.bytes).response ||
+  const DirectionFit fit = decoder.direction_fit(m.bytes);
+  if (made.fit.request != fit.request || made.fit.response != fit.response ||
       made.always_response != decoder.always_response(m.bytes))
     fuzz::contract_broken("precheck: not the decoder's direction answers");
   made.decoder = &decoder;

@@ -15,6 +15,11 @@ double in_characters(TimeNs t, TimeNs character_time) {
   return character_time > 0 ? static_cast<double>(t) / static_cast<double>(character_time) : 0.0;
 }
 
+// TelegramPrecheck's slot for the findings of the telegram read as `way` (request or response).
+int precheck_slot(Direction way) {
+  return way == Direction::request ? 0 : 1;
+}
+
 }  // namespace
 
 DirectionFit rtu_direction_fit(std::span<const std::uint8_t> frame) {
@@ -101,9 +106,8 @@ bool RtuDecoder::summarise(std::span<const std::uint8_t> bytes, Direction direct
   out->is_exception = (bytes[1] & 0x80) != 0;
   PduFindings found;
   if (precheck && direction != Direction::unknown) {
-    const int way = direction == Direction::request ? 0 : 1;
-    found.exception_code = precheck->exception_code[way];
-    found.problems = precheck->malformed[way];
+    found.exception_code = precheck->exception_code[precheck_slot(direction)];
+    found.problems = precheck->malformed[precheck_slot(direction)];
   } else {
     found = pdu_findings(bytes.subspan(1, bytes.size() - 3), direction);
   }
@@ -133,9 +137,8 @@ bool RtuDecoder::precheck(std::span<const std::uint8_t> bytes, TelegramPrecheck*
   const std::span<const std::uint8_t> pdu = bytes.subspan(1, bytes.size() - 3);
   for (const Direction way : {Direction::request, Direction::response}) {
     const PduFindings found = pdu_findings(pdu, way);
-    const int k = way == Direction::request ? 0 : 1;
-    out->exception_code[k] = found.exception_code;
-    out->malformed[k] = found.problems;
+    out->exception_code[precheck_slot(way)] = found.exception_code;
+    out->malformed[precheck_slot(way)] = found.problems;
   }
   return true;
 }
