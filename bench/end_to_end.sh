@@ -6,12 +6,15 @@
 # mix of the five drive families (tshark decodes neither the FC nor the '~' protocol). One table
 # per size, and drivetap's peak RSS across the sizes; then drivetap's peak RSS on a noisy bus seen
 # by a logic analyser (every byte stamped on its own: the frames whose storage is largest).
-# Writes bench/RESULTS.md.
+# Writes bench/RESULTS.md (or $RESULTS).
 #
 #   bench/end_to_end.sh [BUILD_DIR] [FRAMES...]     default: build 1000000 10000000
 #   REPEAT=N bench/end_to_end.sh ...                  each tshark and drivetap row the best of N
 #                                                     runs (default 1; generation runs once)
 #   NOISE_BYTES=N bench/end_to_end.sh ...             bytes of the noisy capture (default 6000000)
+#   RESULTS=FILE bench/end_to_end.sh ...              the report there instead of bench/RESULTS.md
+#
+# Needs tshark and GNU time's /usr/bin/time (Debian: apt-get install tshark time).
 #
 # The captures come from `drivetap generate` (README "drivetap generate"), seed 1: the comparison
 # runs on `--mix modbus-rtu --plain` (the frames alone, 80 bytes a packet, as another capture tool
@@ -26,11 +29,23 @@ shift || true
 sizes=("$@")
 [ ${#sizes[@]} -gt 0 ] || sizes=(1000000 10000000)
 drivetap="$build/drivetap"
+results=${RESULTS:-$root/bench/RESULTS.md}
+repeat=${REPEAT:-1}
+noise_bytes=${NOISE_BYTES:-6000000}
+# Every argument and tool checked before the first run (a 10 M run takes a quarter of an hour).
+die() { echo "end_to_end.sh: $*" >&2; exit 2; }
+[ -x "$drivetap" ] || die "$drivetap: no drivetap there (first argument: the build directory)"
+for frames in "${sizes[@]}"; do
+  [[ $frames =~ ^[1-9][0-9]*$ ]] || die "FRAMES $frames: not a positive number of frames"
+done
+[[ $repeat =~ ^[1-9][0-9]*$ ]] || die "REPEAT=$repeat: not a positive number of runs"
+[[ $noise_bytes =~ ^[1-9][0-9]*$ ]] || die "NOISE_BYTES=$noise_bytes: not a positive number of bytes"
+command -v tshark >/dev/null || die "tshark is not installed (Debian: apt-get install tshark)"
+[ -x /usr/bin/time ] || die "/usr/bin/time is not installed (Debian: apt-get install time)"
+[ -d "$(dirname "$results")" ] || die "RESULTS=$results: no directory $(dirname "$results")"
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 
-repeat=${REPEAT:-1}
-[[ $repeat =~ ^[1-9][0-9]*$ ]] || { echo "REPEAT=$repeat: not a positive number of runs" >&2; exit 2; }
 rows=()
 # min_of A B: the smaller of two decimal numbers, B when A is empty.
 min_of() { awk -v a="$1" -v b="$2" 'BEGIN { print (a == "" || b + 0 < a + 0) ? b : a }'; }
@@ -75,7 +90,7 @@ report="$work/RESULTS.md"
   echo "# End-to-end results (bench/end_to_end.sh)"
   echo
   echo "Machine: $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //'), $(nproc) cores;"
-  echo "$(date -u +%Y-%m-%d); drivetap $(git -C "$root" rev-parse --short HEAD); captures from"
+  echo "$(date -u +%Y-%m-%d); drivetap $(git -C "$root" rev-parse --short HEAD 2>/dev/null || echo '(not a git checkout)'); captures from"
   echo "\`drivetap generate --seed 1\`: Modbus RTU as --plain pcapng for the comparison with tshark (and as drivetap's"
   echo "full pcapng, drivetap alone); all links for the mix."
   echo "Each tshark and drivetap row is the best of $repeat run(s) (REPEAT), its memory the largest."
@@ -160,7 +175,6 @@ done
 # times after the one before (no silence long enough to end a frame, no two gaps alike), so that
 # every frame is a noise record of the longest kind with a time stamp per byte (some 17 bytes of
 # storage a byte). A Park-Miller generator (exact in awk's doubles): the same file everywhere.
-noise_bytes=${NOISE_BYTES:-6000000}
 echo "== $noise_bytes noise bytes" >&2
 awk -v n="$noise_bytes" 'BEGIN {
   print "#! serial 19200 8E1"; x = 1; t = 1; ct = 11 / 19200
@@ -191,5 +205,5 @@ measure "drivetap text, noise pcapng" "$drivetap" read --drive none "$work/noise
   done
 } >>"$report"
 
-cp "$report" "$root/bench/RESULTS.md"
-cat "$root/bench/RESULTS.md"
+cp "$report" "$results"
+cat "$results"

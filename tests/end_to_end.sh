@@ -1,0 +1,88 @@
+#!/usr/bin/env bash
+# bench/end_to_end.sh kept working (issue 8): a small run of it writes the whole report.
+#   tests/end_to_end.sh DRIVETAP_BIN
+# 1. On 3000 frames and 3000 noise bytes, into a report of its own (RESULTS=, not
+#    bench/RESULTS.md): exit 0, every row of every table with its figures, drivetap's ratios to
+#    tshark, the packet count of the capture and the memory lines.
+# 2. Bad arguments: one line naming the argument, exit 2, before any run.
+# Without tshark or /usr/bin/time the test is skipped (77), unless DRIVETAP_REQUIRE_TSHARK=1 (CI).
+set -uo pipefail
+drivetap="$1"
+root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+script="$root/bench/end_to_end.sh"
+build=$(dirname "$drivetap")
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+failed=0
+fail() { echo "FAIL: $*"; failed=1; }
+
+for tool in tshark /usr/bin/time; do
+  if ! command -v "$tool" >/dev/null; then
+    [ "${DRIVETAP_REQUIRE_TSHARK:-0}" = 1 ] && { echo "FAIL: $tool not installed"; exit 1; }
+    echo "SKIP: $tool not installed"
+    exit 77
+  fi
+done
+
+# 2. Bad arguments.
+refused() {  # refused WHAT ARGUMENT... : exit 2 and one line naming WHAT
+  local what=$1
+  shift
+  "$@" >"$work/out" 2>"$work/err"
+  local rc=$?
+  [ $rc = 2 ] || fail "$what: exit $rc, not 2"
+  [ "$(wc -l <"$work/err")" = 1 ] || fail "$what: not one line: $(cat "$work/err")"
+  grep -q -- "$what" "$work/err" || fail "$what: not named in: $(cat "$work/err")"
+}
+refused "FRAMES 12x" bash "$script" "$build" 12x
+refused "REPEAT=0" env REPEAT=0 bash "$script" "$build" 100
+refused "NOISE_BYTES=-1" env NOISE_BYTES=-1 bash "$script" "$build" 100
+refused "$work/none/drivetap" bash "$script" "$work/none" 100
+refused "RESULTS=$work/none/R.md" env RESULTS="$work/none/R.md" bash "$script" "$build" 100
+
+# 1. A small run.
+report="$work/RESULTS.md"
+if ! RESULTS="$report" NOISE_BYTES=3000 bash "$script" "$build" 3000 >"$work/out" 2>"$work/err"; then
+  fail "end_to_end.sh exit $?: $(tail -3 "$work/err")"
+fi
+[ -s "$report" ] || fail "no report written"
+cmp -s "$report" "$work/out" || fail "the report is not what it printed"
+grep -q '^## 3000 frames$' "$report" || fail "no table for 3000 frames"
+grep -q '^Modbus RTU capture: 3[0-9][0-9][0-9] packets' "$report" ||
+  fail "packet count: $(grep '^Modbus RTU capture' "$report")"
+# row NAME RATIO-REGEX: a row of the table with seconds, CPU, packets/s, RSS, ratio, command.
+row() {
+  local name=$1 ratio=$2 line
+  line=$(grep -F "| $name |" "$report" | head -1)
+  [ -n "$line" ] || { fail "no row '$name'"; return; }
+  grep -Eq "^\| $(sed 's/[][\.*^$+?(){}|/]/\\&/g' <<<"$name") \| [0-9]+\.[0-9]{3} \| [0-9]+\.[0-9]{2} \| [0-9]+ \| [0-9]+ \| $ratio \| \`.+\` \|$" <<<"$line" ||
+    fail "row '$name' malformed: $line"
+}
+row "generate --mix modbus-rtu --plain" ""
+row "tshark text" ""
+row "tshark -T fields" ""
+row "tshark io,stat" ""
+row "cat (no decoding)" "[0-9.]+x io,stat"
+row "drivetap text" "[0-9.]+x text"
+row "drivetap -T json" "[0-9.]+x fields"
+row "drivetap --stats" "[0-9.]+x io,stat"
+row "drivetap text, drives" "[0-9.]+x text"
+row "generate --mix modbus-rtu (full)" ""
+row "cat, full pcapng" "\(another file\)"
+row "drivetap --stats, full pcapng" "\(another file\)"
+row "drivetap text, full pcapng" "\(another file\)"
+row "generate --mix all" ""
+row "drivetap text, mix, drives" ""
+grep -Eq '^- 3000 frames: [0-9]+ / [0-9]+ / [0-9]+$' "$report" || fail "no memory line for 3000 frames"
+grep -q '^3000 bytes of noise' "$report" || fail "no noise table"
+for name in "drivetap --stats, noise log" "drivetap -T json, noise log" \
+  "drivetap --stats, noise pcapng" "drivetap -T json, noise pcapng" "drivetap text, noise pcapng"; do
+  grep -Eq "^\| $name \| [0-9]+\.[0-9]{3} \| [0-9]+\.[0-9]{2} \| [0-9]+ \| \`.+\` \|$" "$report" ||
+    fail "noise row '$name' missing or malformed"
+done
+# The work directory's path is left out of the commands.
+tmp_root=$(dirname "$work")
+grep -qF "$tmp_root/" "$report" && fail "a temporary path in the report: $(grep -m1 -F "$tmp_root/" "$report")"
+
+[ $failed = 0 ] && echo "end_to_end.sh: the report of a 3000-frame run has every row"
+exit $failed
