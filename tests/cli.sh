@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Command-line checks of drive profiles: a bad user profile is refused with file:line: key, a
-# --profile-dir profile replaces the built-in one of the same id, --drive none turns guessing off.
+# --profile-dir profile replaces the built-in one of the same id, --drive none turns guessing off;
+# and the rest of the checks numbered below (--stats, the libraries loaded at start-up, ...).
 #   tests/cli.sh DRIVETAP_BIN
 set -uo pipefail
 drivetap="$1"
@@ -104,6 +105,19 @@ stats=$("$drivetap" read --stats "$log" | sed '/^$/d')
 [ "$stats" = "$full" ] || fail "--stats: summary differs from a full run's"
 [ "$("$drivetap" read --stats -T json "$log" | grep -c .)" = 1 ] || fail "--stats -T json: not one line"
 "$drivetap" read --stats -T json "$log" | grep -q '^{"type":"summary"' || fail "--stats -T json: no summary"
+
+# 10. Start-up: libpcap and libzip are loaded when a classic pcap or a sigrok session needs them,
+#     not at every start (src/formats/shared_libraries.hpp); both still read and write.
+needed=$(readelf -d "$drivetap" | grep NEEDED)
+grep -Eq 'lib(pcap|zip)\.' <<<"$needed" && fail "drivetap links libpcap or libzip at start: $needed"
+tmp=$(mktemp -d)
+"$drivetap" read --pcap -w "$tmp/e9.pcap" "$log" >/dev/null || fail "read --pcap -w: exit $?"
+# (Classic pcap keeps a time a frame, not a byte: the frames are the same, not the timing.)
+[ "$("$drivetap" read "$tmp/e9.pcap" | grep '^frames:')" = "$(grep '^frames:' <<<"$full")" ] ||
+  fail "the classic pcap written and read back: other frames"
+sr="$root/captures/sigrok-brainchild-io-16do/brainchild-io-16do.sr"
+"$drivetap" read "$sr" | grep -q '^frames: .*checksum ok [1-9]' || fail "a sigrok session: no good frame"
+rm -rf "$tmp"
 
 [ "$failed" = 0 ] && echo "ok cli"
 exit "$failed"

@@ -25,6 +25,7 @@
 
 #include "core/protocol.hpp"
 #include "core/serial_config.hpp"
+#include "formats/shared_libraries.hpp"
 #include "generate/byte_log_writer.hpp"
 #include "generate/traffic.hpp"
 #include "pipeline/diagnose.hpp"
@@ -225,6 +226,8 @@ PipelineOptions make_pipeline_options(const CommonOptions& o, const RunSettings&
 CaptureSinkOptions capture_options(const CommonOptions& o, const PipelineOptions& p) {
   if (o.plain && o.classic_pcap)
     die("--plain: only with pcapng (classic pcap has no comments or per-byte times to leave out)");
+  if (o.classic_pcap && !pcap_library().loaded)
+    die(fmt::format("--pcap: {}", pcap_library().error));
   CaptureSinkOptions c;
   c.format = o.classic_pcap ? CaptureFormat::pcap : CaptureFormat::pcapng;
   c.link_type = o.dlt == "user0" ? CaptureLinkType::user0 : CaptureLinkType::upper_pdu;

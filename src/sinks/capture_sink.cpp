@@ -15,6 +15,7 @@
 #include <pcap/pcap.h>
 
 #include "formats/link_layer.hpp"
+#include "formats/shared_libraries.hpp"
 #include "formats/upper_pdu.hpp"
 #include "sinks/text_sink.hpp"
 
@@ -41,14 +42,18 @@ CaptureSink::CaptureSink(std::FILE* out, const ChannelTable& channels, CaptureSi
     return;
   }
   const int dlt = options_.link_type == CaptureLinkType::user0 ? DLT_USER0 : kLinkTypeUpperPdu;
-  pcap_ = pcap_open_dead_with_tstamp_precision(dlt, 65535, PCAP_TSTAMP_PRECISION_NANO);
-  if (pcap_) dumper_ = pcap_dump_fopen(pcap_, out_);
+  // (The command line has made sure libpcap loads: `--pcap` says why it cannot.)
+  const PcapLibrary& lib = pcap_library();
+  if (lib.loaded) {
+    pcap_ = lib.open_dead_with_tstamp_precision(dlt, 65535, PCAP_TSTAMP_PRECISION_NANO);
+    if (pcap_) dumper_ = lib.dump_fopen(pcap_, out_);
+  }
   if (!dumper_) status_.note_failure();
 }
 
 CaptureSink::~CaptureSink() {
-  if (dumper_) pcap_dump_flush(dumper_);  // the FILE stays the caller's: no pcap_dump_close
-  if (pcap_) pcap_close(pcap_);
+  if (dumper_) pcap_library().dump_flush(dumper_);  // the FILE stays the caller's: no dump_close
+  if (pcap_) pcap_library().close(pcap_);
 }
 
 std::uint32_t CaptureSink::interface_for(ChannelId channel) {
@@ -162,7 +167,7 @@ void CaptureSink::write_pending() {
     h.ts.tv_sec = static_cast<time_t>(end / kNsPerSecond);
     h.ts.tv_usec = static_cast<suseconds_t>(end % kNsPerSecond);  // ns precision
     h.caplen = h.len = static_cast<bpf_u_int32>(data.size());
-    pcap_dump(reinterpret_cast<u_char*>(dumper_), &h, data.data());
+    pcap_library().dump(reinterpret_cast<u_char*>(dumper_), &h, data.data());
     // pcap_dump() says nothing of a failed write: its errno is kept here, on the writing thread.
     if (std::ferror(out_)) status_.note_failure();
   } else if (options_.plain) {
@@ -312,7 +317,7 @@ void cut_back_to(std::FILE* file, long known_good, CaptureFormat format) {
 
 bool CaptureSink::flush() {
   write_pending();
-  if (dumper_ && pcap_dump_flush(dumper_) != 0) status_.note_failure();
+  if (dumper_ && pcap_library().dump_flush(dumper_) != 0) status_.note_failure();
   return status_.flush(out_);
 }
 

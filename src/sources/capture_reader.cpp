@@ -10,6 +10,7 @@
 
 #include "core/protocol.hpp"
 #include "formats/link_layer.hpp"
+#include "formats/shared_libraries.hpp"
 
 namespace drivetap {
 
@@ -58,18 +59,24 @@ CaptureReader::CaptureReader(std::FILE* in, std::string name, bool pcapng, Chann
     ng_->keep_comments(false);
     return;
   }
+  const PcapLibrary& lib = pcap_library();
+  if (!lib.loaded) {
+    error_ = fmt::format("{}: offset 0: a classic pcap file, but {}", name_, lib.error);
+    std::fclose(in);
+    return;
+  }
   char errbuf[PCAP_ERRBUF_SIZE] = {0};
-  pcap_ = pcap_fopen_offline_with_tstamp_precision(in, PCAP_TSTAMP_PRECISION_NANO, errbuf);
+  pcap_ = lib.fopen_offline_with_tstamp_precision(in, PCAP_TSTAMP_PRECISION_NANO, errbuf);
   if (!pcap_) {
     error_ = fmt::format("{}: offset 0: {}", name_, errbuf);
     std::fclose(in);
     return;
   }
-  pcap_link_type_ = static_cast<std::uint32_t>(pcap_datalink(pcap_));
+  pcap_link_type_ = static_cast<std::uint32_t>(lib.datalink(pcap_));
 }
 
 CaptureReader::~CaptureReader() {
-  if (pcap_) pcap_close(pcap_);
+  if (pcap_) pcap_library().close(pcap_);
 }
 
 void CaptureReader::skip(const std::string& why, std::uint64_t where) {
@@ -279,18 +286,20 @@ bool CaptureReader::load_pcapng_packet() {
 }
 
 bool CaptureReader::load_pcap_packet() {
+  const PcapLibrary& lib = pcap_library();  // (loaded: pcap_ was opened with it)
   struct pcap_pkthdr* header = nullptr;
   const u_char* data = nullptr;
   // Each pass consumes one packet, or returns.
   while (true) {
-    const long before = pcap_file(pcap_) ? std::ftell(pcap_file(pcap_)) : -1;
-    const int rc = pcap_next_ex(pcap_, &header, &data);
+    std::FILE* file = lib.file(pcap_);
+    const long before = file ? std::ftell(file) : -1;
+    const int rc = lib.next_ex(pcap_, &header, &data);
     if (rc == PCAP_ERROR_BREAK) return false;  // end of file
     if (rc != 1) {
       error_ = before >= 0
                    ? fmt::format("{}: offset {}: packet {}: {}", name_, before, packets_ + 1,
-                                 pcap_geterr(pcap_))
-                   : fmt::format("{}: packet {}: {}", name_, packets_ + 1, pcap_geterr(pcap_));
+                                 lib.geterr(pcap_))
+                   : fmt::format("{}: packet {}: {}", name_, packets_ + 1, lib.geterr(pcap_));
       return false;
     }
     ++packets_;

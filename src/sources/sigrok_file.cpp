@@ -12,12 +12,14 @@
 #include <map>
 #include <sstream>
 
+#include "formats/shared_libraries.hpp"
+
 namespace drivetap {
 
 struct SigrokFile::Zip {
   zip_t* archive = nullptr;
   ~Zip() {
-    if (archive) zip_discard(archive);  // read only: nothing to write back
+    if (archive) zip_library().discard(archive);  // read only: nothing to write back
   }
 };
 
@@ -46,16 +48,16 @@ constexpr zip_uint64_t kMaxMetadata = 1u << 20;
 bool read_entry(zip_t* z, const std::string& name, std::string& out, bool* too_large) {
   zip_stat_t st;
   *too_large = false;
-  if (zip_stat(z, name.c_str(), 0, &st) != 0) return false;
+  if (zip_library().stat(z, name.c_str(), 0, &st) != 0) return false;
   if (!(st.valid & ZIP_STAT_SIZE) || st.size > kMaxMetadata) {
     *too_large = true;
     return false;
   }
-  zip_file_t* f = zip_fopen(z, name.c_str(), 0);
+  zip_file_t* f = zip_library().fopen(z, name.c_str(), 0);
   if (!f) return false;
   out.resize(static_cast<std::size_t>(st.size));
-  const zip_int64_t got = zip_fread(f, out.data(), st.size);
-  zip_fclose(f);
+  const zip_int64_t got = zip_library().fread(f, out.data(), st.size);
+  zip_library().fclose(f);
   return got == static_cast<zip_int64_t>(st.size);
 }
 
@@ -91,16 +93,20 @@ long chunk_number(const std::string& name, const std::string& prefix) {
 }  // namespace
 
 std::unique_ptr<SigrokFile> SigrokFile::open(const std::string& path, std::string* error) {
+  if (!zip_library().loaded) {
+    *error = fmt::format("{}: a sigrok session file, but {}", path, zip_library().error);
+    return nullptr;
+  }
   std::unique_ptr<SigrokFile> file(new SigrokFile());
   file->path_ = path;
   file->zip_ = std::make_unique<Zip>();
   int code = 0;
-  file->zip_->archive = zip_open(path.c_str(), ZIP_RDONLY, &code);
+  file->zip_->archive = zip_library().open(path.c_str(), ZIP_RDONLY, &code);
   if (!file->zip_->archive) {
     zip_error_t ze;
-    zip_error_init_with_code(&ze, code);
-    *error = fmt::format("{}: not a readable zip: {}", path, zip_error_strerror(&ze));
-    zip_error_fini(&ze);
+    zip_library().error_init_with_code(&ze, code);
+    *error = fmt::format("{}: not a readable zip: {}", path, zip_library().error_strerror(&ze));
+    zip_library().error_fini(&ze);
     return nullptr;
   }
   zip_t* z = file->zip_->archive;
@@ -153,9 +159,9 @@ std::unique_ptr<SigrokFile> SigrokFile::open(const std::string& path, std::strin
     return nullptr;
   }
   std::vector<std::pair<long, std::string>> found;
-  const zip_int64_t entries = zip_get_num_entries(z, 0);
+  const zip_int64_t entries = zip_library().get_num_entries(z, 0);
   for (zip_int64_t i = 0; i < entries; ++i) {
-    const char* name = zip_get_name(z, static_cast<zip_uint64_t>(i), 0);
+    const char* name = zip_library().get_name(z, static_cast<zip_uint64_t>(i), 0);
     if (!name) continue;
     const long n = chunk_number(name, prefix);
     if (n >= 0) found.emplace_back(n, name);
@@ -173,7 +179,7 @@ struct SigrokFile::Entry {
   zip_file_t* file = nullptr;
   std::string name;
   ~Entry() {
-    if (file) zip_fclose(file);
+    if (file) zip_library().fclose(file);
   }
 };
 
@@ -186,10 +192,10 @@ bool SigrokFile::open_next_entry(std::string* error) {
   if (next_chunk_ >= chunks_.size()) return true;
   auto entry = std::make_unique<Entry>();
   entry->name = chunks_[next_chunk_++];
-  entry->file = zip_fopen(zip_->archive, entry->name.c_str(), 0);
+  entry->file = zip_library().fopen(zip_->archive, entry->name.c_str(), 0);
   if (!entry->file) {
-    *error =
-        fmt::format("{}: {}: cannot open: {}", path_, entry->name, zip_strerror(zip_->archive));
+    *error = fmt::format("{}: {}: cannot open: {}", path_, entry->name,
+                         zip_library().strerror(zip_->archive));
     return false;
   }
   entry_ = std::move(entry);
@@ -216,10 +222,10 @@ bool SigrokFile::read_piece(std::size_t* samples, std::string* error) {
   used_ = 0;
   *samples = 0;
   while (entry_) {
-    const zip_int64_t got = zip_fread(entry_->file, raw_.data() + filled_, kReadBytes);
+    const zip_int64_t got = zip_library().fread(entry_->file, raw_.data() + filled_, kReadBytes);
     if (got < 0) {
       *error = fmt::format("{}: {}: offset {}: damaged: {}", path_, entry_->name, entry_offset_,
-                           zip_file_strerror(entry_->file));
+                           zip_library().file_strerror(entry_->file));
       entry_.reset();
       return false;
     }
