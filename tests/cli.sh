@@ -23,6 +23,14 @@ err=$("$drivetap" profiles "$bad" 2>&1 >/dev/null); rc=$?
 [ "$rc" = 1 ] && [ "$err" = "drivetap: $bad:11: key 'register[1].scale': expected a number" ] ||
   fail "profiles FILE: exit $rc, stderr: $err"
 
+# toml++ 3.3.0's undefined behaviour on a non-ASCII character after a key (a fuzz finding,
+# captures/regressions/toml-unreachable-non-ascii-after-key): Debian's build gives the parse error.
+bug="$root/captures/regressions/toml-unreachable-non-ascii-after-key/input.profile"
+err=$("$drivetap" profiles "$bug" 2>&1 >/dev/null); rc=$?
+[ "$rc" = 1 ] &&
+  [ "$err" = "drivetap: $bug:1: Error while parsing key-value pair: expected '=', saw '§'" ] ||
+  fail "profiles $bug: exit $rc, stderr: $err"
+
 # 2. --profile-dir: the site's e9 replaces the built-in one, and auto binding uses it.
 out=$("$drivetap" read --profile-dir "$here/profiles/good" "$root/captures/session-e9/input.log")
 grep -q "drive 2 bound to E-9 at pump station 3" <<<"$out" || fail "--profile-dir: not bound to the site profile"
@@ -116,7 +124,7 @@ tmp=$(mktemp -d)
 [ "$("$drivetap" read "$tmp/e9.pcap" | grep '^frames:')" = "$(grep '^frames:' <<<"$full")" ] ||
   fail "the classic pcap written and read back: other frames"
 sr="$root/captures/sigrok-brainchild-io-16do/brainchild-io-16do.sr"
-"$drivetap" read "$sr" | grep -q '^frames: .*checksum ok [1-9]' || fail "a sigrok session: no good frame"
+"$drivetap" read "$sr" 2>/dev/null | grep -q '^frames: .*checksum ok [1-9]' || fail "a sigrok session: no good frame"
 rm -rf "$tmp"
 
 [ "$failed" = 0 ] && echo "ok cli"
