@@ -3,11 +3,15 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <condition_variable>
 #include <cstdio>
 #include <cstdlib>
+#include <functional>
 #include <future>
+#include <mutex>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include "sources/read_ahead.hpp"
@@ -213,32 +217,94 @@ TEST(ReadAhead, RunsOfANamedChannelCarryTheDecodersPrecheck) {
   EXPECT_GE(prechecked_bytes, 1000u);
 }
 
+namespace {
+
+// Gives `batches` batches of ReadAhead::kChunkBytes bytes on one channel, each batch a chunk of
+// its own; before each batch it calls `before_batch(index)` on the reader's thread, which lets a
+// test hold the reader at a chunk of its choosing.
+class GatedSource final : public ByteSource {
+ public:
+  GatedSource(ChannelTable& channels, std::size_t batches,
+              std::function<void(std::size_t)> before_batch)
+      : channel_(channels.intern("ch0")),
+        batches_(batches),
+        before_batch_(std::move(before_batch)) {}
+  bool read_header() override { return true; }
+  [[nodiscard]] RunSettings settings() const override { return {}; }
+  void set_character_time(TimeNs) override {}
+  bool next(ByteEvent&) override { return false; }
+  bool next_batch(std::vector<ByteEvent>& out) override {
+    out.clear();
+    if (given_ == batches_) return false;
+    before_batch_(given_);
+    for (std::size_t i = 0; i < ReadAhead::kChunkBytes; ++i, ++origin_)
+      out.push_back({static_cast<TimeNs>(origin_) * 1000, static_cast<std::uint8_t>(origin_), 0,
+                     channel_, static_cast<std::uint32_t>(origin_)});
+    ++given_;
+    return true;
+  }
+  [[nodiscard]] const std::string& error() const override { return error_; }
+
+ private:
+  ChannelId channel_;
+  std::size_t batches_, given_ = 0;
+  std::uint32_t origin_ = 0;
+  std::function<void(std::size_t)> before_batch_;
+  std::string error_;
+};
+
+}  // namespace
+
 // By default a chunk is prechecked only while the caller has ReadAhead::kPrecheckAhead chunks
 // queued: a reader slower than its caller leaves the prechecks to the caller; one that is ahead
-// makes them.
+// makes them. The source holds the reader where the test wants it, so that the queue's length
+// at each chunk, and with it the answer, is the same in every run.
 TEST(ReadAhead, PrechecksOnlyWhileAhead) {
   const SizeStampingDecoder decoder;
+  constexpr std::size_t kChunks = ReadAhead::kPrecheckAhead + 2;
+  static_assert(kChunks < ReadAhead::kDepth, "the reader must not wait for room");
   for (const bool reader_ahead : {false, true}) {
     SCOPED_TRACE(reader_ahead);
+    std::mutex mutex;
+    std::condition_variable changed;
+    std::size_t taken = 0;      // chunks the caller has taken
+    bool reached_last = false;  // the reader has come to the last chunk
+    auto before_batch = [&](std::size_t index) {
+      std::unique_lock lock(mutex);
+      if (reader_ahead) {
+        // The caller takes nothing before the reader starts its last chunk: chunk k (from 0)
+        // starts with k queued.
+        if (index + 1 == kChunks) reached_last = true;
+        changed.notify_all();
+      } else {
+        // Each chunk starts once the caller took the one before: at most one queued.
+        changed.wait(lock, [&] { return taken >= index; });
+      }
+    };
     ChannelTable channels;
-    // Slow: a batch every 100 us, some 40 ms in all; fast: as fast as it goes.
-    CountingSource source(channels, 20'000, false, 37,
-                          std::chrono::microseconds(reader_ahead ? 0 : 100));
-    std::size_t prechecked = 0;
+    GatedSource source(channels, kChunks, before_batch);
+    std::vector<bool> prechecked;  // per chunk: its runs carry prechecks
     {
       ReadAhead ahead(source);
-      for (ChannelId c = 0; c < 20; ++c) ahead.precheck_with(c, &decoder);
+      ahead.precheck_with(0, &decoder);
+      if (reader_ahead) {
+        std::unique_lock lock(mutex);
+        changed.wait(lock, [&] { return reached_last; });
+      }
       RunBatch chunk;
       while (ahead.next_chunk(chunk)) {
-        for (std::size_t k = 0; k < chunk.size(); ++k) prechecked += chunk.precheck(k) ? 1 : 0;
-        // A slow caller: the reader fills the queue meanwhile.
-        if (reader_ahead) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+        ASSERT_GT(chunk.size(), 0u);
+        std::size_t with = 0;
+        for (std::size_t k = 0; k < chunk.size(); ++k) with += chunk.precheck(k) ? 1 : 0;
+        ASSERT_TRUE(with == 0 || with == chunk.size()) << "chunk " << prechecked.size();
+        prechecked.push_back(with > 0);
+        const std::lock_guard lock(mutex);
+        ++taken;
+        changed.notify_all();
       }
     }
-    if (reader_ahead) {
-      EXPECT_GT(prechecked, 0u);
-    } else {
-      EXPECT_EQ(prechecked, 0u);
-    }
+    ASSERT_EQ(prechecked.size(), kChunks);
+    for (std::size_t k = 0; k < kChunks; ++k)
+      EXPECT_EQ(prechecked[k], reader_ahead && k >= ReadAhead::kPrecheckAhead) << "chunk " << k;
   }
 }
