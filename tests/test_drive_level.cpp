@@ -1314,6 +1314,44 @@ TEST(DriveBinder, BroadcastIsNeverBound) {
   EXPECT_TRUE(rig.binder.stations().empty());
 }
 
+// A request's evidence is worked out once for every candidate and remembered, up to a bound past
+// which the memo starts again: on a bus that never repeats a request (here distinct reads enough
+// for the memo to restart twice a pass) and on one that does (the same again), every request scores
+// what it scores on a binder that has seen nothing else. Each value is a multiple of 0.5, exact
+// in a double, so the sums compare exactly.
+TEST(DriveBinder, RememberedEvidenceIsTheEvidenceAfresh) {
+  auto request = [](int i) {
+    // Holding and input registers, four lengths, from each start address: the memo's key is
+    // the function, the start and the count.
+    const auto function = static_cast<std::uint8_t>(0x03 + i % 2);
+    const auto count = static_cast<std::uint8_t>(1 + 3 * (i / 2 % 4));
+    const int address = i / 8;
+    const auto start = static_cast<std::uint8_t>(address >> 8);
+    const auto low = static_cast<std::uint8_t>(address);
+    return decode(Protocol::modbus_rtu, with_crc({0x05, function, start, low, 0x00, count}),
+                  Direction::request, {}, static_cast<std::uint64_t>(i + 1));
+  };
+  constexpr int kRequests = 3 * static_cast<int>(DriveBinder::kMaxRememberedRequests) - 100;
+  BinderRig rig;
+  std::vector<double> expected(rig.candidates.size(), 0);
+  for (int i = 0; i < kRequests; ++i) {
+    BinderRig alone;
+    alone.learn(request(i));
+    const std::vector<double>& score = alone.binder.stations().at({0, 5}).score;
+    for (std::size_t c = 0; c < expected.size(); ++c) expected[c] += score[c];
+  }
+  bool any = false;
+  for (const double e : expected) any = any || e != 0;
+  ASSERT_TRUE(any) << "the requests scored nothing for any candidate";
+  for (const int passes : {1, 2}) {
+    for (int i = 0; i < kRequests; ++i) rig.learn(request(i));
+    const std::vector<double>& score = rig.binder.stations().at({0, 5}).score;
+    ASSERT_EQ(score.size(), expected.size());
+    for (std::size_t c = 0; c < expected.size(); ++c)
+      EXPECT_EQ(score[c], passes * expected[c]) << rig.candidates[c]->id << ", pass " << passes;
+  }
+}
+
 TEST(DriveBinder, ClearlyBetterEvidenceRebinds) {
   BinderRig rig;
   // An E-9 style read of 0x0000..0x0004 binds the E-9 ...

@@ -21,13 +21,6 @@ constexpr double kOwnProtocol = 2;
 // kBindMargin; rebinding needs a lead of kRebindMargin over the bound profile.
 constexpr double kBindScore = 2, kBindMargin = 2, kRebindMargin = 3;
 constexpr std::size_t kMaxAddressesPerRequest = 32;  // evidence from one request is bounded
-// Distinct (candidate, request) evidences kept; past it the memo starts again (a bound on memory
-// for a bus that never repeats a request).
-constexpr std::size_t kMaxRememberedRequests = 4096;
-
-bool speaks(const DriveProfile& p, Protocol protocol) {
-  return std::find(p.protocols.begin(), p.protocols.end(), protocol) != p.protocols.end();
-}
 
 bool covers(const DriveProfile& p, RegisterKind kind, std::uint32_t address) {
   if (p.find(kind, address)) return true;
@@ -130,19 +123,30 @@ double own_protocol_evidence(const DriveProfile& p, const Message& m) {
 
 }  // namespace
 
-double DriveBinder::request_evidence(std::size_t candidate, std::span<const std::uint8_t> b) {
+std::span<const double> DriveBinder::request_evidence(std::span<const std::uint8_t> b) {
   // What modbus_evidence() reads of a request: function, start, count (bytes 1..5).
   const std::uint64_t key =
-      static_cast<std::uint64_t>(candidate) << 40 | static_cast<std::uint64_t>(b[1]) << 32 |
-      static_cast<std::uint64_t>(b[2]) << 24 | static_cast<std::uint64_t>(b[3]) << 16 |
-      static_cast<std::uint64_t>(b[4]) << 8 | b[5];
-  const auto [it, fresh] = request_evidence_.try_emplace(key, 0.0);
-  if (fresh) it->second = modbus_evidence(*candidates_[candidate], Direction::request, b);
-  return it->second;
+      static_cast<std::uint64_t>(b[1]) << 32 | static_cast<std::uint64_t>(b[2]) << 24 |
+      static_cast<std::uint64_t>(b[3]) << 16 | static_cast<std::uint64_t>(b[4]) << 8 | b[5];
+  if (request_evidence_.size() >= kMaxRememberedRequests) {
+    request_evidence_.clear();
+    evidence_pool_.clear();
+  }
+  const auto [it, fresh] = request_evidence_.try_emplace(key, evidence_pool_.size());
+  if (fresh)
+    for (const DriveProfile* candidate : candidates_)
+      evidence_pool_.push_back(modbus_evidence(*candidate, Direction::request, b));
+  return std::span<const double>(evidence_pool_).subspan(it->second, candidates_.size());
 }
 
 DriveBinder::DriveBinder(std::vector<const DriveProfile*> candidates)
-    : candidates_(std::move(candidates)) {}
+    : candidates_(std::move(candidates)) {
+  for (const DriveProfile* p : candidates_) {
+    std::uint32_t mask = 0;
+    for (const Protocol protocol : p->protocols) mask |= protocol_bit(protocol);
+    protocols_.push_back(mask);
+  }
+}
 
 const DriveProfile* DriveBinder::bound(std::size_t link, int address) const {
   const auto it = stations_.find({link, address});
@@ -207,15 +211,17 @@ std::optional<BusEvent> DriveBinder::learn(std::size_t link, const Message& m) {
       modbus ? modbus_binary(m.protocol, m.bytes, decoded) : std::span<const std::uint8_t>();
   // Every Modbus device speaks Modbus: only what it reads and writes tells the family.
   const bool repeatable = modbus && m.direction == Direction::request && binary.size() >= 6;
-  if (repeatable && request_evidence_.size() >= kMaxRememberedRequests) request_evidence_.clear();
+  const std::span<const double> request_scores =
+      repeatable ? request_evidence(binary) : std::span<const double>();
+  const std::uint32_t protocol = protocol_bit(m.protocol);
   for (std::size_t i = 0; i < candidates_.size(); ++i) {
     const DriveProfile& p = *candidates_[i];
-    if (!speaks(p, m.protocol) || m.address < p.address_min || m.address > p.address_max) {
+    if (!(protocols_[i] & protocol) || m.address < p.address_min || m.address > p.address_max) {
       st.excluded[i] = 1;
       continue;
     }
     if (repeatable)
-      st.score[i] += request_evidence(i, binary);
+      st.score[i] += request_scores[i];
     else if (modbus)
       st.score[i] += modbus_evidence(p, m.direction, binary);
     else if (m.protocol == Protocol::danfoss_fc || m.protocol == Protocol::easydrive)

@@ -44,6 +44,9 @@ class DriveBinder {
   [[nodiscard]] const DriveProfile* bound(std::size_t link, int address) const;
   [[nodiscard]] const std::map<Key, Station>& stations() const { return stations_; }
   [[nodiscard]] const DriveProfile& candidate(int index) const { return *candidates_[index]; }
+  // Distinct requests whose evidence is remembered (for every candidate); past it the memo starts
+  // again: a bound on memory for a bus that never repeats a request.
+  static constexpr std::size_t kMaxRememberedRequests = 1024;
   // "auto, confidence high: evidence +12, next best ERMAN ER-G +3" for a station.
   [[nodiscard]] std::string evidence(const Station& station) const;
 
@@ -51,13 +54,21 @@ class DriveBinder {
   // Ranks the candidates of a station: best index and the runner-up's score.
   std::pair<int, std::optional<double>> best_of(const Station& station) const;
 
-  // Evidence of a Modbus request for one candidate: the same poll repeats all day, and the
-  // evidence depends only on the candidate, function, start and count (key built in learn()).
-  double request_evidence(std::size_t candidate, std::span<const std::uint8_t> binary);
+  // Evidence of a Modbus request for each candidate, in candidate order: the same poll repeats
+  // all day, and the evidence depends only on the candidate, function, start and count, so it is
+  // worked out once a request for all candidates and looked up once a frame.
+  std::span<const double> request_evidence(std::span<const std::uint8_t> binary);
+  static constexpr std::uint32_t protocol_bit(Protocol protocol) {
+    return std::uint32_t{1} << static_cast<unsigned>(protocol);
+  }
 
   std::vector<const DriveProfile*> candidates_;
+  std::vector<std::uint32_t> protocols_;  // per candidate: protocol_bit() of each it speaks
   std::map<Key, Station> stations_;
-  std::unordered_map<std::uint64_t, double> request_evidence_;  // bounded: see learn()
+  // Request key (bytes 1..5) -> offset in evidence_pool_ of its candidates' evidence
+  // (kMaxRememberedRequests at most).
+  std::unordered_map<std::uint64_t, std::size_t> request_evidence_;
+  std::vector<double> evidence_pool_;
 };
 
 }  // namespace drivetap
