@@ -9,6 +9,7 @@
 
 #include "core/checksum.hpp"
 #include "generate/traffic.hpp"
+#include "profiles/profile.hpp"
 #include "sinks/json_sink.hpp"
 #include "sinks/text_sink.hpp"
 #include "sinks/threaded_sink.hpp"
@@ -243,14 +244,26 @@ enum class Adjust { none, one_stamp_reads, seven_bits, early_starts, slow_bytes,
 // links are interned in on first use, and the options (7 data bits for Adjust::seven_bits).
 struct GeneratedBus {
   // The links are interned into `table` when given (a sink's), else into the bus's own.
+  // `drives`: every built-in profile a candidate for binding by guess (`read`'s default).
   GeneratedBus(std::uint64_t frames, generate::Mix mix, Adjust adjust,
-               ChannelTable* table = nullptr)
+               ChannelTable* table = nullptr, bool drives = false)
       : gen(generate::Options{frames, 7, mix}),
         channel_of(gen.links().size(), -1),
         channels(table ? *table : own_channels) {
     options.serial = generate::Generator::serial();
     options.timing = FramingTiming::from(options.serial);
     if (adjust == Adjust::seven_bits) options.serial.data_bits = 7;
+    if (drives)
+      for (const DriveProfile& p : builtin_profiles()) options.auto_candidates.push_back(&p);
+  }
+  static const std::vector<DriveProfile>& builtin_profiles() {
+    static const std::vector<DriveProfile> profiles = [] {
+      ProfileError e;
+      auto loaded = load_builtin_profiles(&e);
+      if (!loaded) ADD_FAILURE() << e.text();
+      return loaded.value_or(std::vector<DriveProfile>{});
+    }();
+    return profiles;
   }
   ChannelId channel(std::size_t link) {
     if (channel_of[link] < 0) channel_of[link] = channels.intern(gen.links()[link].channel);
@@ -325,11 +338,12 @@ void set_prechecks(RunBatch& runs, const Pipeline& pipeline, Prechecks kind) {
 // framer at once when the next run of the batch shows the silence after it (Pipeline::push_chunk).
 // One-stamp reads, 7 data bits and early starts give runs that need the byte-by-byte way.
 // `prechecks`: what the batches carry; *prechecked counts the runs that carried one.
+// `drives`: with every built-in profile a candidate for binding (GeneratedBus).
 void run_generated_runs(Sink& sink, std::size_t batch, Adjust adjust, generate::Mix mix,
                         ChannelTable* channels = nullptr, Prechecks prechecks = Prechecks::none,
-                        std::size_t* prechecked = nullptr) {
+                        std::size_t* prechecked = nullptr, bool drives = false) {
   // Fewer records than run_generated(): the test makes 32 runs of it (slow under the sanitizers).
-  GeneratedBus bus(6000, mix, adjust, channels);
+  GeneratedBus bus(6000, mix, adjust, channels, drives);
   Pipeline pipeline(bus.options, bus.channels, sink);
   const TimeNs character_time = bus.options.timing.character_time;
   generate::Record r;
@@ -411,26 +425,35 @@ TEST(Pipeline, SummaryLaneCountsWhatDecodingFinds) {
     for (const Adjust adjust :
          {Adjust::none, Adjust::one_stamp_reads, Adjust::seven_bits, Adjust::early_starts,
           Adjust::slow_bytes, Adjust::zero_quantities}) {
-      SCOPED_TRACE(
-          fmt::format("mix {} adjust {}", static_cast<int>(mix), static_cast<int>(adjust)));
-      TranscriptSink decoded(false);
-      run_generated_runs(decoded, 300, adjust, mix);
-      TranscriptSink counted(false);
-      counted.records_wanted = false;
-      run_generated_runs(counted, 300, adjust, mix);
-      ASSERT_FALSE(decoded.records.empty());
-      ASSERT_FALSE(counted.records.empty());
-      EXPECT_EQ(decoded.records.back(), counted.records.back());  // the summary
-      // The events (protocol detection), in order; the frames counted in the lane never reached
-      // the sink.
-      std::vector<std::string> decoded_events, counted_events;
-      for (const std::string& r : decoded.records)
-        if (r.starts_with("event ")) decoded_events.push_back(r);
-      for (const std::string& r : counted.records)
-        if (r.starts_with("event ")) counted_events.push_back(r);
-      EXPECT_EQ(decoded_events, counted_events);
-      if (mix == generate::Mix::modbus_rtu && adjust == Adjust::none) {
-        EXPECT_LT(counted.messages, decoded.messages / 10);
+      for (const bool drives : {false, true}) {
+        SCOPED_TRACE(fmt::format("mix {} adjust {} drives {}", static_cast<int>(mix),
+                                 static_cast<int>(adjust), drives));
+        TranscriptSink decoded(false);
+        run_generated_runs(decoded, 300, adjust, mix, nullptr, Prechecks::none, nullptr, drives);
+        TranscriptSink counted(false);
+        counted.records_wanted = false;
+        run_generated_runs(counted, 300, adjust, mix, nullptr, Prechecks::none, nullptr, drives);
+        ASSERT_FALSE(decoded.records.empty());
+        ASSERT_FALSE(counted.records.empty());
+        EXPECT_EQ(decoded.records.back(), counted.records.back());  // the summary
+        // The events (protocol detection), in order; the frames counted in the lane never reached
+        // the sink.
+        std::vector<std::string> decoded_events, counted_events;
+        for (const std::string& r : decoded.records)
+          if (r.starts_with("event ")) decoded_events.push_back(r);
+        for (const std::string& r : counted.records)
+          if (r.starts_with("event ")) counted_events.push_back(r);
+        EXPECT_EQ(decoded_events, counted_events);
+        if (mix == generate::Mix::modbus_rtu && adjust == Adjust::none) {
+          EXPECT_LT(counted.messages, decoded.messages / 10);
+        }
+        if (drives) {  // the drive level was at work: bindings and state changes
+          EXPECT_GT(std::count_if(
+                        counted_events.begin(), counted_events.end(),
+                        [](const std::string& e) { return e.starts_with("event drive_bound"); }),
+                    0);
+          EXPECT_GT(counted_events.size(), 20u);
+        }
       }
     }
   }
@@ -499,30 +522,45 @@ TEST(Pipeline, TelegramsHandedOverUndissectedAreWhatThePipelineHandsOver) {
     for (const Adjust adjust :
          {Adjust::none, Adjust::early_starts, Adjust::slow_bytes, Adjust::zero_quantities}) {
       for (const bool detail : {true, false}) {
-        SCOPED_TRACE(fmt::format("mix {} adjust {} detail {}", static_cast<int>(mix),
-                                 static_cast<int>(adjust), detail));
-        TranscriptSink decoded(detail);
-        run_generated_runs(decoded, 300, adjust, mix);
-        TranscriptSink decoding(detail);
-        decoding.decodes = true;
-        run_generated_runs(decoding, 300, adjust, mix);
-        TranscriptSink replayed(detail);
-        {
-          ThreadedSink threaded(replayed);
-          run_generated_runs(threaded, 300, adjust, mix);
-          threaded.finish();
+        for (const bool drives : {false, true}) {
+          SCOPED_TRACE(fmt::format("mix {} adjust {} detail {} drives {}", static_cast<int>(mix),
+                                   static_cast<int>(adjust), detail, drives));
+          TranscriptSink decoded(detail);
+          run_generated_runs(decoded, 300, adjust, mix, nullptr, Prechecks::none, nullptr, drives);
+          TranscriptSink decoding(detail);
+          decoding.decodes = true;
+          run_generated_runs(decoding, 300, adjust, mix, nullptr, Prechecks::none, nullptr, drives);
+          TranscriptSink replayed(detail);
+          {
+            ThreadedSink threaded(replayed);
+            run_generated_runs(threaded, 300, adjust, mix, nullptr, Prechecks::none, nullptr,
+                               drives);
+            threaded.finish();
+          }
+          ASSERT_GT(decoded.messages, 5000u);
+          ASSERT_EQ(decoded.records.size(), decoding.records.size());
+          for (std::size_t i = 0; i < decoded.records.size(); ++i)
+            ASSERT_EQ(decoded.records[i], decoding.records[i]) << "record " << i;
+          EXPECT_EQ(decoded.infos, decoding.infos);
+          EXPECT_EQ(decoded.descriptors, decoding.descriptors);
+          ASSERT_EQ(decoded.records.size(), replayed.records.size());
+          for (std::size_t i = 0; i < decoded.records.size(); ++i)
+            ASSERT_EQ(decoded.records[i], replayed.records[i]) << "record " << i;
+          EXPECT_EQ(decoded.infos, replayed.infos);
+          EXPECT_EQ(decoded.descriptors, replayed.descriptors);
+          if (drives && detail) {  // annotations written, timing rules found
+            std::size_t annotated = 0, timing = 0;
+            for (const std::string& r : replayed.records) {
+              annotated += r.starts_with("frame ") && r.find(" drive ''") == std::string::npos;
+              timing += r.starts_with(
+                  fmt::format("anomaly {} ", static_cast<int>(AnomalyKind::timing_rule)));
+            }
+            EXPECT_GT(annotated, 100u);
+            if (mix == generate::Mix::all) {
+              EXPECT_GT(timing, 0u);
+            }
+          }
         }
-        ASSERT_GT(decoded.messages, 5000u);
-        ASSERT_EQ(decoded.records.size(), decoding.records.size());
-        for (std::size_t i = 0; i < decoded.records.size(); ++i)
-          ASSERT_EQ(decoded.records[i], decoding.records[i]) << "record " << i;
-        EXPECT_EQ(decoded.infos, decoding.infos);
-        EXPECT_EQ(decoded.descriptors, decoding.descriptors);
-        ASSERT_EQ(decoded.records.size(), replayed.records.size());
-        for (std::size_t i = 0; i < decoded.records.size(); ++i)
-          ASSERT_EQ(decoded.records[i], replayed.records[i]) << "record " << i;
-        EXPECT_EQ(decoded.infos, replayed.infos);
-        EXPECT_EQ(decoded.descriptors, replayed.descriptors);
       }
     }
   }

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <span>
 #include <string>
 #include <utility>
 #include <vector>
@@ -66,6 +67,40 @@ struct Message {
     if (detail) info = make();
   }
 };
+
+// What the drive level reads of a telegram (DriveBinder, read_for_drive_into(), DriveTimeline,
+// the profiles' timing rules): a Message's head, which the pipeline's summary lane also has for
+// a telegram it does not decode (from the decoder's TelegramSummary). `bytes` are the Message's
+// (as on the wire); `latency` is set once the telegram is paired.
+struct TelegramHead {
+  Protocol protocol = Protocol::unknown;
+  Direction direction = Direction::unknown;
+  int address = -1;
+  ChecksumVerdict verdict = ChecksumVerdict::none;
+  std::span<const std::uint8_t> bytes;
+  TimeNs start = 0;      // the first byte's time
+  TimeNs last_byte = 0;  // the last byte's time
+  ChannelId channel = 0;
+  std::uint64_t number = 0;
+  TimeNs gap_before = -1;
+  TimeNs latency = -1;
+};
+
+inline TelegramHead head_of(const Message& m) {
+  TelegramHead h;
+  h.protocol = m.protocol;
+  h.direction = m.direction;
+  h.address = m.address;
+  h.verdict = m.checksum.verdict;
+  h.bytes = m.bytes;
+  h.start = m.frame.start();
+  h.last_byte = m.frame.events.empty() ? 0 : m.frame.events.back().time;
+  h.channel = m.frame.channel;
+  h.number = m.frame.number;
+  h.gap_before = m.frame.gap_before;
+  h.latency = m.latency;
+  return h;
+}
 
 inline constexpr std::size_t kTypicalFieldCount = 16;
 

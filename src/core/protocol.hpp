@@ -108,12 +108,18 @@ struct UndissectedTelegram {
   TimeNs latency = -1;  // pairing, for a reply
   std::uint64_t request_number = 0;
   std::span<const std::uint8_t> request;  // for a reply: the request it answers, if known
+  // With drive profiles: the profile whose annotation the sink writes (Message::drive_profile,
+  // Sink::completes_drive_info()), nullptr for none; and what the pipeline found of the
+  // telegram's timing under the profile's rules, numbered with the frame, which follow the
+  // decode's own anomalies.
+  const DriveProfile* drive_profile = nullptr;
+  std::span<const Anomaly> anomalies;
 };
 
 // What the pipeline would have handed over for `t` (handle_frame()): the Message its decoder
-// makes of its frame, with the pipeline's numbers and pairing, each anomaly numbered with the
-// frame. `out`'s storage is reused: the frame is built in out.frame, which dissect_into() takes
-// in place (begin_message()).
+// makes of its frame, with the pipeline's numbers, pairing and drive-level findings, each anomaly
+// numbered with the frame, and the profile whose annotation is still to write. `out`'s storage is
+// reused: the frame is built in out.frame, which dissect_into() takes in place (begin_message()).
 inline void decode_undissected(const UndissectedTelegram& t, Message& out) {
   add_chunk_frame_into(out.frame, t.run.channel, t.run, t.taken);
   out.frame.number = t.number;
@@ -121,6 +127,12 @@ inline void decode_undissected(const UndissectedTelegram& t, Message& out) {
   out.latency = t.latency;
   out.request_number = t.request_number;
   for (Anomaly& a : out.anomalies) a.frame_number = t.number;
+  if (!t.anomalies.empty())
+    out.anomalies.insert(out.anomalies.end(), t.anomalies.begin(), t.anomalies.end());
+  if (t.drive_profile) {
+    out.drive_profile = t.drive_profile;
+    out.request.assign(t.request.begin(), t.request.end());
+  }
 }
 
 // The decoder of `protocol`, from the explicit table; nullptr for Protocol::unknown.

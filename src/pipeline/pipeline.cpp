@@ -42,8 +42,13 @@ Pipeline::Pipeline(PipelineOptions options, const ChannelTable& channels, Sink& 
   hand_over_transactions_ = sink.wants_transactions();
   defer_drive_info_ = message_.detail && sink.completes_drive_info();
   hand_over_records_ = sink.wants_records();
-  summary_lane_ = (!hand_over_records_ || sink.completes_decode()) && options_.drives.empty() &&
-                  options_.auto_candidates.empty() && options_.max_frames == 0;
+  drive_level_ = !options_.drives.empty() || !options_.auto_candidates.empty();
+  // With drive profiles, a sink that takes records must write their annotation itself
+  // (defer_drive_info_): the lane makes only the observation. (Without detail, handle_frame()
+  // still hands over the text an observation makes of an exception reply.)
+  summary_lane_ =
+      (!hand_over_records_ || (sink.completes_decode() && (!drive_level_ || defer_drive_info_))) &&
+      options_.max_frames == 0;
   // The sink may read the profiles on its own thread: their lookup tables are built here, before
   // it gets any message (after this they are only read).
   for (const auto& [address, profile] : options_.drives) profile->build_index();
@@ -429,32 +434,31 @@ inline Direction Pipeline::decide_direction(const ProtocolDecoder& decoder, Time
   return Direction::request;
 }
 
-void Pipeline::check_drive_timing(Message& m, const DriveProfile& p) {
-  if (m.frame.events.empty()) return;
+void Pipeline::check_drive_timing(const TelegramHead& m, const DriveProfile& p,
+                                  std::vector<Anomaly>& found) {
+  if (m.bytes.empty()) return;
   const TimeNs char_time = options_.timing.character_time;
   // The rule's source ("ERMAN E-9P/9G, 000 §5.2"), formatted only for a finding.
   auto finding = [&](const std::string& text) {
     std::string detail = fmt::format(FMT_COMPILE("{} ({}"), text, p.name);
     if (!p.timing_section.empty()) detail += ", " + p.timing_section;
     detail += ')';
-    m.anomalies.push_back(
-        {AnomalyKind::timing_rule, m.frame.start(), m.frame.channel, 0, std::move(detail)});
+    found.push_back({AnomalyKind::timing_rule, m.start, m.channel, m.number, std::move(detail)});
   };
   auto ms = [](TimeNs t) { return static_cast<double>(t) / static_cast<double>(kNsPerMs); };
   if (m.direction == Direction::request) {
-    if (p.min_silence_chars && m.frame.gap_before >= 0 && char_time > 0 &&
-        static_cast<double>(m.frame.gap_before) <
-            *p.min_silence_chars * static_cast<double>(char_time))
+    if (p.min_silence_chars && m.gap_before >= 0 && char_time > 0 &&
+        static_cast<double>(m.gap_before) < *p.min_silence_chars * static_cast<double>(char_time))
       finding(fmt::format(
           FMT_COMPILE("{:.1f} characters of silence before the request; the drive needs {:g}"),
-          static_cast<double>(m.frame.gap_before) / static_cast<double>(char_time),
+          static_cast<double>(m.gap_before) / static_cast<double>(char_time),
           *p.min_silence_chars));
     const auto last = last_reply_end_.find(m.address);
     if (p.min_reply_to_request_ms && last != last_reply_end_.end() &&
-        ms(m.frame.start() - last->second) < *p.min_reply_to_request_ms)
+        ms(m.start - last->second) < *p.min_reply_to_request_ms)
       finding(fmt::format(
           FMT_COMPILE("request {:.1f} ms after the drive's last reply; the drive needs {:g} ms"),
-          ms(m.frame.start() - last->second), *p.min_reply_to_request_ms));
+          ms(m.start - last->second), *p.min_reply_to_request_ms));
   } else if (m.direction == Direction::response) {
     if (m.latency >= 0 && p.min_reply_delay_ms && ms(m.latency) < *p.min_reply_delay_ms)
       finding(fmt::format(
@@ -464,8 +468,38 @@ void Pipeline::check_drive_timing(Message& m, const DriveProfile& p) {
       finding(fmt::format(
           FMT_COMPILE("reply {:.1f} ms after the request; the drive answers within {:g} ms"),
           ms(m.latency), *p.max_reply_delay_ms));
-    last_reply_end_[m.address] = m.frame.events.back().time + char_time;
+    last_reply_end_[m.address] = m.last_byte + char_time;
   }
+}
+
+const DriveProfile* Pipeline::read_drive_level(std::size_t link, const PairingInput& telegram,
+                                               ChecksumVerdict verdict,
+                                               std::span<const std::uint8_t> request) {
+  TelegramHead& head = drive_head_;
+  head.protocol = telegram.protocol;
+  head.direction = telegram.direction;
+  head.address = telegram.address;
+  head.verdict = verdict;
+  head.bytes = telegram.bytes;
+  head.start = telegram.start;
+  head.last_byte = telegram.last_byte_time;
+  head.channel = telegram.channel;
+  head.number = telegram.number;
+  head.gap_before = telegram.gap_before;
+  head.latency = -1;
+  const DriveProfile* profile = drive_profile_for(link, head);
+  // The observation only: a sink that takes records writes the annotation (the lane's
+  // condition, in the constructor).
+  if (profile)
+    read_for_drive_into(*profile, head, request, DriveReadingWants::observation, drive_reading_);
+  return profile;
+}
+
+const DriveProfile* Pipeline::drive_profile_for(std::size_t link, const TelegramHead& telegram) {
+  if (const auto drive = options_.drives.find(telegram.address); drive != options_.drives.end())
+    return drive->second;
+  if (auto bound = binder_.learn(link, telegram)) sink_.on_event(*bound);
+  return binder_.bound(link, telegram.address);
 }
 
 void Pipeline::check_packetization(const Frame& frame, ChannelState& st) {
@@ -541,17 +575,11 @@ void Pipeline::handle_frame(Frame& frame) {
   decoder.dissect_into(m, std::move(frame), dir, options_.timing, request);
   // Drive level: the station's profile (bound on the command line or guessed from its traffic),
   // what the frame means to it, and the state changes it shows.
-  const DriveProfile* profile = nullptr;
-  if (const auto drive = options_.drives.find(m.address); drive != options_.drives.end()) {
-    profile = drive->second;
-  } else {
-    if (auto bound = binder_.learn(link, m)) sink_.on_event(*bound);
-    profile = binder_.bound(link, m.address);
-  }
+  const DriveProfile* profile = drive_profile_for(link, head_of(m));
   if (profile) {
     // The annotation's text is written here, or by the sink on its own thread (then only the
     // observation is made here: the timeline needs it now).
-    read_for_drive_into(*profile, m, request,
+    read_for_drive_into(*profile, head_of(m), request,
                         m.detail && !defer_drive_info_ ? DriveReadingWants::text_and_observation
                                                        : DriveReadingWants::observation,
                         drive_reading_);
@@ -570,7 +598,7 @@ void Pipeline::handle_frame(Frame& frame) {
     }
   }
   pairer_.add(link, m, transactions_);
-  if (profile) check_drive_timing(m, *profile);
+  if (profile) check_drive_timing(head_of(m), *profile, m.anomalies);
   for (Anomaly& a : m.anomalies) a.frame_number = m.frame.number;
   stats_.count_frame(m);
   sink_.on_frame(m);
@@ -578,7 +606,7 @@ void Pipeline::handle_frame(Frame& frame) {
   check_packetization(m.frame, st);
   // A corrupted frame says nothing reliable about the drive's state.
   if (profile && m.checksum.verdict == ChecksumVerdict::good)
-    for (const BusEvent& e : timeline_.observe(link, m, *profile, drive_reading_.observed))
+    for (const BusEvent& e : timeline_.observe(link, head_of(m), *profile, drive_reading_.observed))
       sink_.on_event(e);
   emit_transactions(transactions_);
 }
@@ -587,7 +615,8 @@ void Pipeline::count_whole_telegram(ChannelState& st, const ByteRun& run,
                                     const Framer::ChunkFrame& taken,
                                     const TelegramPrecheck* precheck) {
   // handle_frame()'s steps for this frame, in its order, with the decode left out: the sink takes
-  // no records, or gets the telegram undissected (Sink::on_undissected); no profile reads it.
+  // no records, or gets the telegram undissected (Sink::on_undissected). The drive level reads
+  // the telegram's head (TelegramHead), which the summary gives.
   const ProtocolDecoder& decoder = *st.decoder;
   const TimeNs start = run.first;
   const TimeNs last_byte = run.time(run.size() - 1);
@@ -599,8 +628,10 @@ void Pipeline::count_whole_telegram(ChannelState& st, const ByteRun& run,
                                          st.link, st.role, precheck);
   // A reply is decoded in the light of the request it answers (the pairer's copy, as it is until
   // pairer_.add() below): the sink that decodes it gets its bytes, if its decoder reads them.
+  // (The drive level reads a reply with its request too.)
   std::span<const std::uint8_t> request;
-  if (hand_over_records_ && dir == Direction::response && decoder.reads_request())
+  if (dir == Direction::response &&
+      ((hand_over_records_ && decoder.reads_request()) || drive_level_))
     request = pairer_.awaited_request(st.link, keys.address, keys.function, start);
   ProtocolDecoder::TelegramSummary summary;
   if (!decoder.summarise(bytes, dir, taken, options_.timing, precheck, &summary)) {
@@ -631,9 +662,16 @@ void Pipeline::count_whole_telegram(ChannelState& st, const ByteRun& run,
   in.last_byte_time = last_byte;
   in.gap_before = taken.timing.gap_before;
   in.bytes = bytes;
+  const DriveProfile* profile =
+      drive_level_ ? read_drive_level(st.link, in, summary.verdict, request) : nullptr;
   // (The request's bytes copied for the sink: the pairer's storage may be reused once
   // pairer_.add() has dropped them.)
-  if (hand_over_records_) request_.assign(request.begin(), request.end());
+  if (hand_over_records_) {
+    if (request.empty())
+      request_.clear();  // (most telegrams: a request, or a reply its decoder reads alone)
+    else
+      request_.assign(request.begin(), request.end());
+  }
   const PairingResult paired = pairer_.add(st.link, in, transactions_);
   stats_.count_telegram(run.size(), summary.verdict, start, last_byte);
   // The message's anomalies, counted (the sink that decodes the message hands them on).
@@ -641,6 +679,12 @@ void Pipeline::count_whole_telegram(ChannelState& st, const ByteRun& run,
   // Each pass counts the lowest kind left.
   for (std::uint32_t kinds = summary.other_kinds; kinds != 0; kinds &= kinds - 1)
     stats_.count_anomaly(static_cast<AnomalyKind>(std::countr_zero(kinds)));
+  if (profile) {
+    drive_anomalies_.clear();
+    if (paired.paired) drive_head_.latency = paired.latency;
+    check_drive_timing(drive_head_, *profile, drive_anomalies_);
+    for (const Anomaly& a : drive_anomalies_) stats_.count_anomaly(a);
+  }
   if (hand_over_records_) {
     // What the sink decodes, with what only the pipeline knows.
     UndissectedTelegram telegram;
@@ -655,9 +699,17 @@ void Pipeline::count_whole_telegram(ChannelState& st, const ByteRun& run,
       telegram.latency = paired.latency;
       telegram.request_number = paired.request_number;
     }
+    if (profile) {
+      if (defer_drive_info_) telegram.drive_profile = profile;
+      telegram.anomalies = drive_anomalies_;
+    }
     sink_.on_undissected(telegram);
   }
   check_packetization(FrameKind::telegram, run.origin, run.origin, number, start, run.channel, st);
+  if (profile && drive_head_.verdict == ChecksumVerdict::good)
+    for (const BusEvent& e :
+         timeline_.observe(st.link, drive_head_, *profile, drive_reading_.observed))
+      sink_.on_event(e);
   emit_transactions(transactions_);
 }
 

@@ -117,7 +117,17 @@ class Pipeline {
   // The same for a record of `kind` whose bytes came from source packets first..last.
   void check_packetization(FrameKind kind, std::uint32_t first, std::uint32_t last,
                            std::uint64_t number, TimeNs start, ChannelId channel, ChannelState& st);
-  void check_drive_timing(Message& m, const DriveProfile& profile);
+  // The profile's timing rules (PROTOCOLS.md, each drive's section): findings into `found`.
+  void check_drive_timing(const TelegramHead& telegram, const DriveProfile& profile,
+                          std::vector<Anomaly>& found);
+  // The profile of the telegram's station: bound with --drive, or by the binder (which learns
+  // from the telegram first, and hands a change of binding to the sink); nullptr for none.
+  const DriveProfile* drive_profile_for(std::size_t link, const TelegramHead& telegram);
+  // count_whole_telegram()'s drive level before pairing: drive_head_ from the telegram, its
+  // profile (drive_profile_for()) and the observation of it in drive_reading_; the profile.
+  const DriveProfile* read_drive_level(std::size_t link, const PairingInput& telegram,
+                                       ChecksumVerdict verdict,
+                                       std::span<const std::uint8_t> request);
   void summarise_drives();
   void detect(ChannelState& st, ChannelId channel, bool final);
   void start_detection(ChannelState& st);
@@ -152,9 +162,13 @@ class Pipeline {
   bool hand_over_transactions_ = true;  // the sink's wants_transactions()
   bool defer_drive_info_ = false;       // the sink's completes_drive_info(), with detail
   // Telegrams taken whole are counted, not decoded (count_whole_telegram): the sink takes no
-  // records or decodes them itself, no drive profile reads any frame, and no frame limit stops
-  // the run.
+  // records or decodes them itself (and, with drive profiles, writes their annotation), and no
+  // frame limit stops the run.
   bool summary_lane_ = false;
+  bool drive_level_ = false;  // profiles bound with --drive, or candidates for binding by guess
+  // count_whole_telegram() with drive profiles: the telegram's head, and its timing-rule findings.
+  TelegramHead drive_head_;
+  std::vector<Anomaly> drive_anomalies_;
   bool hand_over_records_ = true;  // the sink's wants_records()
   TimeNs earliest_deadline_;
   std::uint64_t frame_counter_ = 0;

@@ -253,8 +253,9 @@ std::span<const std::uint16_t> words_of(std::span<const std::uint8_t> b, std::si
 
 // The readers below append the annotation to `out` (after the caller's "drive N (name): ") and
 // fill the observation.
-void read_modbus(const DriveProfile& p, const Message& m, std::span<const std::uint8_t> request,
-                 DriveReadingWants wants, std::string& out, DriveObservation& o) {
+void read_modbus(const DriveProfile& p, const TelegramHead& m,
+                 std::span<const std::uint8_t> request, DriveReadingWants wants, std::string& out,
+                 DriveObservation& o) {
   std::vector<std::uint8_t> decoded;
   const std::span<const std::uint8_t> b = modbus_binary(m.protocol, m.bytes, decoded);
   if (b.size() < 4) return;
@@ -314,8 +315,8 @@ void read_modbus(const DriveProfile& p, const Message& m, std::span<const std::u
 // Danfoss FC protocol (PROTOCOLS.md §4):
 //   STX LGE ADR [PKE IND PWEhigh PWElow] PCD1 PCD2 BCC        (LGE 6: PCD only; 14: with PKE)
 //   PKE = AK(4 bits) PNU(12 bits); PCD1/PCD2 = CTW/REF to the drive, STW/MAV from it.
-void read_fc(const DriveProfile& p, const Message& m, DriveReadingWants wants, std::string& out,
-             DriveObservation& o) {
+void read_fc(const DriveProfile& p, const TelegramHead& m, DriveReadingWants wants,
+             std::string& out, DriveObservation& o) {
   const std::span<const std::uint8_t> b = m.bytes;
   if (b.size() < 4 || b[0] != 0x02) return;
   const std::size_t lge = b[1];
@@ -419,8 +420,9 @@ constexpr RunAction kRunActions[] = {
     {0xE, "emergency stop", false, std::nullopt, false, false},
 };
 
-void read_easydrive(const DriveProfile& p, const Message& m, std::span<const std::uint8_t> request,
-                    DriveReadingWants wants, std::string& out, DriveObservation& o) {
+void read_easydrive(const DriveProfile& p, const TelegramHead& m,
+                    std::span<const std::uint8_t> request, DriveReadingWants wants,
+                    std::string& out, DriveObservation& o) {
   const std::span<const std::uint8_t> f = m.bytes;
   if (f.size() != 14 && f.size() != 18) return;
   const bool has_data = f.size() == 18;
@@ -575,7 +577,7 @@ std::string describe_value(const DriveProfile& p, const RegisterDef& r, std::uin
   return out;
 }
 
-void read_for_drive_into(const DriveProfile& p, const Message& m,
+void read_for_drive_into(const DriveProfile& p, const TelegramHead& m,
                          std::span<const std::uint8_t> request, DriveReadingWants wants,
                          DriveReading& out) {
   out.observed.clear();
@@ -607,7 +609,7 @@ void read_for_drive_into(const DriveProfile& p, const Message& m,
 
 void complete_drive_info(Message& m, DriveReading& scratch) {
   if (!m.drive_profile) return;
-  read_for_drive_into(*m.drive_profile, m, m.request, DriveReadingWants::text, scratch);
+  read_for_drive_into(*m.drive_profile, head_of(m), m.request, DriveReadingWants::text, scratch);
   std::swap(m.drive_info, scratch.text);  // both keep their storage
   m.drive_profile = nullptr;
 }

@@ -81,9 +81,14 @@ enum class DriveReadingWants : std::uint8_t {
 };
 // read_for_drive() into `out`, whose strings keep their storage from one frame to the next (the
 // pipeline reads every frame into one DriveReading).
-void read_for_drive_into(const DriveProfile& profile, const Message& message,
+void read_for_drive_into(const DriveProfile& profile, const TelegramHead& telegram,
                          std::span<const std::uint8_t> request, DriveReadingWants wants,
                          DriveReading& out);
+inline void read_for_drive_into(const DriveProfile& profile, const Message& message,
+                                std::span<const std::uint8_t> request, DriveReadingWants wants,
+                                DriveReading& out) {
+  read_for_drive_into(profile, head_of(message), request, wants, out);
+}
 
 // Writes the annotation a pipeline left to its sink (Message::drive_profile): drive_info as
 // read_for_drive() gives its text, from the message and its request's bytes; drive_profile is

@@ -110,7 +110,7 @@ double modbus_evidence(const DriveProfile& p, Direction direction,
 
 // Evidence from an FC-protocol or Easydrive frame: the protocol itself belongs to one family
 // (Danfoss, Easydrive), the parameters and running values it names confirm the profile.
-double own_protocol_evidence(const DriveProfile& p, const Message& m) {
+double own_protocol_evidence(const DriveProfile& p, const TelegramHead& m) {
   if (m.direction != Direction::request) return 0;
   double score = kOwnProtocol;
   const std::span<const std::uint8_t> b = m.bytes;
@@ -196,9 +196,9 @@ std::string DriveBinder::evidence(const Station& st) const {
                      st.frames, st.frames == 1 ? "" : "s", runner);
 }
 
-std::optional<BusEvent> DriveBinder::learn(std::size_t link, const Message& m) {
+std::optional<BusEvent> DriveBinder::learn(std::size_t link, const TelegramHead& m) {
   if (m.address <= 0 || candidates_.empty()) return std::nullopt;  // broadcasts bind nothing
-  if (m.checksum.verdict != ChecksumVerdict::good) return std::nullopt;
+  if (m.verdict != ChecksumVerdict::good) return std::nullopt;
   Station& st = stations_[{link, m.address}];
   if (st.score.empty()) {
     st.score.assign(candidates_.size(), 0);
@@ -249,12 +249,12 @@ std::optional<BusEvent> DriveBinder::learn(std::size_t link, const Message& m) {
   }
   if (!changed) return std::nullopt;
   BusEvent e;
-  e.time = m.frame.start();
-  e.channel = m.frame.channel;
+  e.time = m.start;
+  e.channel = m.channel;
   e.kind = "drive_bound";
   e.protocol = m.protocol;
   e.address = m.address;
-  e.frame = m.frame.number;
+  e.frame = m.number;
   e.confidence = st.bound >= 0 ? st.confidence : "low";
   e.profile = st.bound >= 0 ? candidates_[static_cast<std::size_t>(st.bound)]->id : "generic";
   e.to = e.profile;

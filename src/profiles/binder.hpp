@@ -28,7 +28,10 @@ class DriveBinder {
 
   // Weighs what `message` says about its station; returns the event when the station's binding
   // changed.
-  std::optional<BusEvent> learn(std::size_t link, const Message& message);
+  std::optional<BusEvent> learn(std::size_t link, const TelegramHead& telegram);
+  std::optional<BusEvent> learn(std::size_t link, const Message& message) {
+    return learn(link, head_of(message));
+  }
 
   struct Station {
     std::vector<double> score;  // per candidate: fitting minus contradicting observations

@@ -23,7 +23,7 @@ std::string DriveState::summary() const {
   return fmt::format(FMT_COMPILE("{}"), fmt::join(parts, ", "));
 }
 
-std::vector<BusEvent> DriveTimeline::observe(std::size_t link, const Message& m,
+std::vector<BusEvent> DriveTimeline::observe(std::size_t link, const TelegramHead& m,
                                              const DriveProfile& profile,
                                              const DriveObservation& o) {
   std::vector<BusEvent> events;
@@ -34,13 +34,13 @@ std::vector<BusEvent> DriveTimeline::observe(std::size_t link, const Message& m,
   }
   auto emit = [&](std::string kind, std::string what, std::string from, std::string to) {
     BusEvent e;
-    e.time = m.frame.start();
-    e.channel = m.frame.channel;
+    e.time = m.start;
+    e.channel = m.channel;
     e.kind = std::move(kind);
     e.protocol = m.protocol;
     e.address = m.address;
     e.profile = profile.id;
-    e.frame = m.frame.number;
+    e.frame = m.number;
     e.detail = fmt::format(FMT_COMPILE("drive {} ({}): {}"), m.address, profile.name, what);
     e.from = std::move(from);
     e.to = std::move(to);

@@ -37,8 +37,12 @@ class DriveTimeline {
  public:
   // Folds the observation of `message` (already read with `profile`) into the state of drive
   // (link, message.address) and returns the events it caused.
-  std::vector<BusEvent> observe(std::size_t link, const Message& message,
+  std::vector<BusEvent> observe(std::size_t link, const TelegramHead& telegram,
                                 const DriveProfile& profile, const DriveObservation& observed);
+  std::vector<BusEvent> observe(std::size_t link, const Message& message,
+                                const DriveProfile& profile, const DriveObservation& observed) {
+    return observe(link, head_of(message), profile, observed);
+  }
 
   using Key = std::pair<std::size_t, int>;  // link, station address
   [[nodiscard]] const std::map<Key, DriveState>& drives() const { return drives_; }

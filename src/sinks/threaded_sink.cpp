@@ -131,7 +131,10 @@ void ThreadedSink::replay(Batch& batch, Sink& target, Scratch& scratch) {
         const std::size_t size = u.telegram.run.bytes.size();
         u.telegram.run.bytes = bytes.subspan(u.bytes_at, size);
         u.telegram.request = bytes.subspan(u.bytes_at + size, u.telegram.request.size());
-        replay_undissected(u.telegram, target, scratch.decoded);
+        if (!u.telegram.anomalies.empty())
+          u.telegram.anomalies = std::span<const Anomaly>(batch.anomalies)
+                                     .subspan(u.anomalies_at, u.telegram.anomalies.size());
+        replay_undissected(u.telegram, target, scratch);
         if (scratch.decoded.frame.storage_bytes() > kKeptStorageBytes) scratch.decoded = Message{};
         break;
       }
@@ -198,10 +201,12 @@ void ThreadedSink::weigh(std::size_t bytes) {
 }
 
 void ThreadedSink::replay_undissected(const UndissectedTelegram& telegram, Sink& target,
-                                      Message& decoded) const {
+                                      Scratch& scratch) const {
+  Message& decoded = scratch.decoded;
   decoded.detail = wants_detail_;
   decoded.tree = wants_detail_ && wants_fields_;
   decode_undissected(telegram, decoded);
+  if (decoded.drive_profile) complete_drive_info(decoded, scratch.drive);
   target.on_frame(decoded);
   // The message's anomalies follow it, as the pipeline hands them on.
   for (const Anomaly& a : decoded.anomalies) target.on_anomaly(a);
@@ -209,12 +214,17 @@ void ThreadedSink::replay_undissected(const UndissectedTelegram& telegram, Sink&
 
 void ThreadedSink::on_undissected(const UndissectedTelegram& telegram) {
   if (finished_) {  // the writers have stopped: decoded here
-    replay_undissected(telegram, inner_, scratch_[0].decoded);
+    replay_undissected(telegram, inner_, scratch_[0]);
     given(telegram.number);
     return;
   }
   Undissected& r = next_slot(Kind::undissected, &Batch::undissected);
   r.telegram = telegram;
+  if (!telegram.anomalies.empty()) {
+    std::vector<Anomaly>& anomalies = current_->anomalies;
+    r.anomalies_at = static_cast<std::uint32_t>(anomalies.size());
+    anomalies.insert(anomalies.end(), telegram.anomalies.begin(), telegram.anomalies.end());
+  }
   std::vector<std::uint8_t>& bytes = current_->bytes;
   r.bytes_at = bytes.size();
   bytes.insert(bytes.end(), telegram.run.bytes.begin(), telegram.run.bytes.end());

@@ -109,6 +109,7 @@ class alignas(kCacheLineBytes) ThreadedSink final : public Sink {
   struct Undissected {
     UndissectedTelegram telegram;
     std::size_t bytes_at = 0;
+    std::uint32_t anomalies_at = 0;  // telegram.anomalies' in Batch::anomalies
   };
   // A record of a kind but the two of nearly every record of a run (undissected telegrams and
   // transactions); only the member of its kind is meaningful. The others keep their storage.
@@ -146,10 +147,12 @@ class alignas(kCacheLineBytes) ThreadedSink final : public Sink {
     Slots<Transaction> transactions;
     Slots<Record> records;
     std::vector<std::uint8_t> bytes;  // the undissected telegrams'
-    std::size_t storage_bytes = 0;    // of the frames of its records, and `bytes`
-    std::uint64_t sequence = 0;       // published as the sequence-th batch
-    std::uint64_t follows = 0;        // the number of the frame or noise record before it
-    LineBuffer text;                  // with helpers: its records' text, once formatted
+    // Their anomalies found by the pipeline (drive timing rules: rare).
+    std::vector<Anomaly> anomalies;
+    std::size_t storage_bytes = 0;  // of the frames of its records, and `bytes`
+    std::uint64_t sequence = 0;     // published as the sequence-th batch
+    std::uint64_t follows = 0;      // the number of the frame or noise record before it
+    LineBuffer text;                // with helpers: its records' text, once formatted
     Batch() { order.reserve(kBatchRecords); }
     [[nodiscard]] bool empty() const { return order.empty(); }
     // Emptied for reuse (the records' storage kept).
@@ -157,6 +160,7 @@ class alignas(kCacheLineBytes) ThreadedSink final : public Sink {
       order.clear();
       undissected.used = transactions.used = records.used = 0;
       bytes.clear();
+      anomalies.clear();
       storage_bytes = 0;
       text.clear();
     }
@@ -193,9 +197,10 @@ class alignas(kCacheLineBytes) ThreadedSink final : public Sink {
   // The frame or noise record numbered `number` has been given (after its record is in the
   // batch, before weigh(): a batch published from now on starts after it, Batch::follows).
   void given(std::uint64_t number) { last_number_ = number; }
-  // An undissected telegram to `target`: decoded into `decoded`, then it and its anomalies.
+  // An undissected telegram to `target`: decoded into scratch.decoded (its drive annotation
+  // written with scratch.drive), then it and its anomalies.
   void replay_undissected(const UndissectedTelegram& telegram, Sink& target,
-                          Message& decoded) const;
+                          Scratch& scratch) const;
   void publish();                // hands the current batch, if it holds records, to the writer
   void wait_until_idle();        // until every published batch has been replayed
   void run(std::size_t writer);  // a writer thread
