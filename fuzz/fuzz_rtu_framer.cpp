@@ -25,6 +25,7 @@
 
 #include "core/checksum.hpp"
 #include "fuzz/fuzz_common.hpp"
+#include "profiles/annotate.hpp"
 
 namespace {
 
@@ -56,11 +57,19 @@ PipelineOptions options_from(std::uint8_t line, std::uint8_t timing) {
   return p;
 }
 
-// Records as text: what the summary lane must keep as decoding every frame gives it.
+// Records as text: what the summary lane must keep as decoding every frame gives it. A sink that
+// decodes (`decodes`) also writes the drive annotation, as the threaded sink does.
 struct DigestSink final : Sink {
   explicit DigestSink(bool records, bool decodes) : records_(records), decodes_(decodes) {}
   std::string digest;
+  std::string events;  // the events alone (a sink without records gets them too)
   void on_frame(const Message& m) override {
+    if (m.drive_profile) {  // (only a sink that completes_drive_info() gets one)
+      read_for_drive_into(*m.drive_profile, m, m.request, DriveReadingWants::text, reading_);
+      digest += "D" + reading_.text + ";";
+    } else {
+      digest += "D" + m.drive_info + ";";
+    }
     digest += "F" + std::to_string(m.frame.number) + ":" +
               std::to_string(static_cast<int>(m.direction)) + "," + std::to_string(m.address) +
               "," + std::to_string(m.function) + "," + std::to_string(m.exception_code) + "," +
@@ -78,7 +87,11 @@ struct DigestSink final : Sink {
               std::to_string(t.request_number) + "," + std::to_string(t.response_number) + "," +
               std::to_string(t.latency) + ";";
   }
-  void on_event(const BusEvent& e) override { digest += "E" + e.kind + ";"; }
+  void on_event(const BusEvent& e) override {
+    const std::string record = "E" + e.kind + "," + e.detail + ";";
+    digest += record;
+    events += record;
+  }
   void on_summary(const Stats& st) override {
     digest += "S" + std::to_string(st.frames) + "," + std::to_string(st.bytes) + "," +
               std::to_string(st.noise_records) + "," + std::to_string(st.transactions) + "," +
@@ -92,33 +105,44 @@ struct DigestSink final : Sink {
   bool flush() override { return true; }
   [[nodiscard]] bool wants_records() const override { return records_; }
   [[nodiscard]] bool completes_decode() const override { return decodes_; }
+  [[nodiscard]] bool completes_drive_info() const override { return decodes_; }
 
  private:
   bool records_, decodes_;
+  DriveReading reading_;
 };
 
 // The summary lane (Pipeline::count_whole_telegram: `read --stats`, and `read` handing telegrams
 // over undissected): the events as runs through push_runs(), as `read` gives a capture's packets,
-// once decoded frame by frame, once counted, once handed over undissected. The counts must be
-// those of decoding, and the records handed over undissected the same records.
+// once decoded frame by frame, once counted, once handed over undissected, without and with
+// drive profiles (bindings, observations, timing rules and the timeline on the lane). The counts
+// must be those of decoding, the events the same events, and the records handed over
+// undissected the same records.
 void check_summary_lane(const PipelineOptions& options, const ChannelTable& channels,
                         std::span<const ByteEvent> events) {
-  PipelineOptions lane = options;
-  lane.auto_candidates.clear();  // (drive profiles read every frame: no lane)
   RunBatch runs;
   runs.add_events(events);
-  DigestSink decoded(true, false), counted(false, false), handed_over(true, true);
-  for (DigestSink* sink : {&decoded, &counted, &handed_over}) {
-    Pipeline pipeline(lane, channels, *sink);
-    pipeline.push_runs(runs);
-    pipeline.finish();
+  for (const bool drives : {false, true}) {
+    PipelineOptions lane = options;
+    if (!drives) lane.auto_candidates.clear();
+    DigestSink decoded(true, false), counted(false, false), handed_over(true, true);
+    for (DigestSink* sink : {&decoded, &counted, &handed_over}) {
+      Pipeline pipeline(lane, channels, *sink);
+      pipeline.push_runs(runs);
+      pipeline.finish();
+    }
+    const std::size_t summary = decoded.digest.rfind('S');
+    if (summary == std::string::npos || counted.events != decoded.events ||
+        counted.digest.substr(counted.digest.rfind('S')) != decoded.digest.substr(summary))
+      fuzz::contract_broken(drives ? "summary lane with drive profiles: counts or events not "
+                                     "those of decoding every frame"
+                                   : "summary lane: counts or events not those of decoding "
+                                     "every frame");
+    if (handed_over.digest != decoded.digest)
+      fuzz::contract_broken(drives ? "summary lane with drive profiles: records handed over "
+                                     "undissected differ"
+                                   : "summary lane: records handed over undissected differ");
   }
-  const std::size_t summary = decoded.digest.rfind('S');
-  if (summary == std::string::npos ||
-      counted.digest.substr(counted.digest.rfind('S')) != decoded.digest.substr(summary))
-    fuzz::contract_broken("summary lane: counts not those of decoding every frame");
-  if (handed_over.digest != decoded.digest)
-    fuzz::contract_broken("summary lane: records handed over undissected differ");
 }
 
 }  // namespace
