@@ -37,20 +37,9 @@ DriveProfile builtin_profile(std::string_view file) {
   return {};
 }
 
-// All built-in profiles, loaded once for the whole test binary.
-const std::vector<DriveProfile>& all_builtins() {
-  static const std::vector<DriveProfile> profiles = [] {
-    ProfileError e;
-    auto loaded = load_builtin_profiles(&e);
-    if (!loaded) ADD_FAILURE() << e.text();
-    return loaded.value_or(std::vector<DriveProfile>{});
-  }();
-  return profiles;
-}
-
 std::vector<const DriveProfile*> builtin_candidates() {
   std::vector<const DriveProfile*> out;
-  for (const DriveProfile& p : all_builtins()) out.push_back(&p);
+  for (const DriveProfile& p : drivetap::testing::builtin_profiles()) out.push_back(&p);
   return out;
 }
 

@@ -9,7 +9,6 @@
 
 #include "core/checksum.hpp"
 #include "generate/traffic.hpp"
-#include "profiles/profile.hpp"
 #include "sinks/json_sink.hpp"
 #include "sinks/text_sink.hpp"
 #include "sinks/threaded_sink.hpp"
@@ -254,16 +253,8 @@ struct GeneratedBus {
     options.timing = FramingTiming::from(options.serial);
     if (adjust == Adjust::seven_bits) options.serial.data_bits = 7;
     if (drives)
-      for (const DriveProfile& p : builtin_profiles()) options.auto_candidates.push_back(&p);
-  }
-  static const std::vector<DriveProfile>& builtin_profiles() {
-    static const std::vector<DriveProfile> profiles = [] {
-      ProfileError e;
-      auto loaded = load_builtin_profiles(&e);
-      if (!loaded) ADD_FAILURE() << e.text();
-      return loaded.value_or(std::vector<DriveProfile>{});
-    }();
-    return profiles;
+      for (const DriveProfile& p : drivetap::testing::builtin_profiles())
+        options.auto_candidates.push_back(&p);
   }
   ChannelId channel(std::size_t link) {
     if (channel_of[link] < 0) channel_of[link] = channels.intern(gen.links()[link].channel);

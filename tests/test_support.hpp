@@ -5,11 +5,25 @@
 #include <string>
 #include <vector>
 
+#include <gtest/gtest.h>
+
 #include "core/checksum.hpp"
 #include "pipeline/pipeline.hpp"
+#include "profiles/profile.hpp"
 #include "sources/byte_log.hpp"
 
 namespace drivetap::testing {
+
+// All built-in drive profiles, loaded once for the whole test binary.
+inline const std::vector<DriveProfile>& builtin_profiles() {
+  static const std::vector<DriveProfile> profiles = [] {
+    ProfileError e;
+    auto loaded = load_builtin_profiles(&e);
+    if (!loaded) ADD_FAILURE() << e.text();
+    return loaded.value_or(std::vector<DriveProfile>{});
+  }();
+  return profiles;
+}
 
 struct RecordingSink final : Sink {
   std::vector<Message> frames;
