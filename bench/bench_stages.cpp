@@ -18,6 +18,9 @@
 //   BM_Pipeline_RtuBatchedSummaryOnly  the same into a sink that shows no decode but takes records
 //   BM_Pipeline_RtuSummaryLane       the same into a sink that takes no records (`read --stats`):
 //                                    whole telegrams counted without a decode (the summary lane)
+//   BM_Pipeline_RtuSummaryLaneAutoDrives  the same with every built-in profile as --drive auto
+//                                    candidate (`read --stats`'s default: binding, observations,
+//                                    timing rules and the timeline on the lane)
 //   BM_TextSink / BM_JsonSink / BM_PcapngSink   the sinks on the pipeline's records, to /dev/null
 //
 // Every benchmark checks its result once (frames found == frames sent, checksums good, the
@@ -598,6 +601,9 @@ void BM_Pipeline_RtuBatchedSummaryOnly(benchmark::State& state) {
 void BM_Pipeline_RtuSummaryLane(benchmark::State& state) {
   run_pipeline(state, false, 16384, false, false);
 }
+void BM_Pipeline_RtuSummaryLaneAutoDrives(benchmark::State& state) {
+  run_pipeline(state, true, 16384, false, false);
+}
 
 // ---- Drive profiles ---------------------------------------------------------------------------
 
@@ -784,6 +790,7 @@ BENCHMARK(BM_Pipeline_RtuAutoDrives)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_Pipeline_RtuBatched)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_Pipeline_RtuBatchedSummaryOnly)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_Pipeline_RtuSummaryLane)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_Pipeline_RtuSummaryLaneAutoDrives)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_TextSink)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_JsonSink)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_PcapngSink)->Unit(benchmark::kMicrosecond);

@@ -435,39 +435,51 @@ inline Direction Pipeline::decide_direction(const ProtocolDecoder& decoder, Time
 }
 
 void Pipeline::check_drive_timing(const TelegramHead& m, const DriveProfile& p,
-                                  std::vector<Anomaly>& found) {
+                                  std::vector<Anomaly>& found, bool described) {
   if (m.bytes.empty()) return;
   const TimeNs char_time = options_.timing.character_time;
-  // The rule's source ("ERMAN E-9P/9G, 000 §5.2"), formatted only for a finding.
-  auto finding = [&](const std::string& text) {
-    std::string detail = fmt::format(FMT_COMPILE("{} ({}"), text, p.name);
-    if (!p.timing_section.empty()) detail += ", " + p.timing_section;
-    detail += ')';
+  // A finding; its text (`describe()`, with the rule's source, "ERMAN E-9P/9G, 000 §5.2") only
+  // when `described`: a run that shows no anomaly counts it by its kind.
+  auto finding = [&](auto&& describe) {
+    std::string detail;
+    if (described) {
+      detail = fmt::format(FMT_COMPILE("{} ({}"), describe(), p.name);
+      if (!p.timing_section.empty()) detail += ", " + p.timing_section;
+      detail += ')';
+    }
     found.push_back({AnomalyKind::timing_rule, m.start, m.channel, m.number, std::move(detail)});
   };
   auto ms = [](TimeNs t) { return static_cast<double>(t) / static_cast<double>(kNsPerMs); };
   if (m.direction == Direction::request) {
     if (p.min_silence_chars && m.gap_before >= 0 && char_time > 0 &&
         static_cast<double>(m.gap_before) < *p.min_silence_chars * static_cast<double>(char_time))
-      finding(fmt::format(
-          FMT_COMPILE("{:.1f} characters of silence before the request; the drive needs {:g}"),
-          static_cast<double>(m.gap_before) / static_cast<double>(char_time),
-          *p.min_silence_chars));
+      finding([&] {
+        return fmt::format(
+            FMT_COMPILE("{:.1f} characters of silence before the request; the drive needs {:g}"),
+            static_cast<double>(m.gap_before) / static_cast<double>(char_time),
+            *p.min_silence_chars);
+      });
     const auto last = last_reply_end_.find(m.address);
     if (p.min_reply_to_request_ms && last != last_reply_end_.end() &&
         ms(m.start - last->second) < *p.min_reply_to_request_ms)
-      finding(fmt::format(
-          FMT_COMPILE("request {:.1f} ms after the drive's last reply; the drive needs {:g} ms"),
-          ms(m.start - last->second), *p.min_reply_to_request_ms));
+      finding([&] {
+        return fmt::format(
+            FMT_COMPILE("request {:.1f} ms after the drive's last reply; the drive needs {:g} ms"),
+            ms(m.start - last->second), *p.min_reply_to_request_ms);
+      });
   } else if (m.direction == Direction::response) {
     if (m.latency >= 0 && p.min_reply_delay_ms && ms(m.latency) < *p.min_reply_delay_ms)
-      finding(fmt::format(
-          FMT_COMPILE("reply {:.1f} ms after the request; the drive keeps at least {:g} ms"),
-          ms(m.latency), *p.min_reply_delay_ms));
+      finding([&] {
+        return fmt::format(
+            FMT_COMPILE("reply {:.1f} ms after the request; the drive keeps at least {:g} ms"),
+            ms(m.latency), *p.min_reply_delay_ms);
+      });
     if (m.latency >= 0 && p.max_reply_delay_ms && ms(m.latency) > *p.max_reply_delay_ms)
-      finding(fmt::format(
-          FMT_COMPILE("reply {:.1f} ms after the request; the drive answers within {:g} ms"),
-          ms(m.latency), *p.max_reply_delay_ms));
+      finding([&] {
+        return fmt::format(
+            FMT_COMPILE("reply {:.1f} ms after the request; the drive answers within {:g} ms"),
+            ms(m.latency), *p.max_reply_delay_ms);
+      });
     last_reply_end_[m.address] = m.last_byte + char_time;
   }
 }
@@ -598,7 +610,7 @@ void Pipeline::handle_frame(Frame& frame) {
     }
   }
   pairer_.add(link, m, transactions_);
-  if (profile) check_drive_timing(head_of(m), *profile, m.anomalies);
+  if (profile) check_drive_timing(head_of(m), *profile, m.anomalies, true);
   for (Anomaly& a : m.anomalies) a.frame_number = m.frame.number;
   stats_.count_frame(m);
   sink_.on_frame(m);
@@ -682,7 +694,8 @@ void Pipeline::count_whole_telegram(ChannelState& st, const ByteRun& run,
   if (profile) {
     drive_anomalies_.clear();
     if (paired.paired) drive_head_.latency = paired.latency;
-    check_drive_timing(drive_head_, *profile, drive_anomalies_);
+    // (A sink without records shows no anomaly: the findings are counted, not described.)
+    check_drive_timing(drive_head_, *profile, drive_anomalies_, hand_over_records_);
     for (const Anomaly& a : drive_anomalies_) stats_.count_anomaly(a);
   }
   if (hand_over_records_) {

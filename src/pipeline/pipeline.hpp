@@ -117,9 +117,10 @@ class Pipeline {
   // The same for a record of `kind` whose bytes came from source packets first..last.
   void check_packetization(FrameKind kind, std::uint32_t first, std::uint32_t last,
                            std::uint64_t number, TimeNs start, ChannelId channel, ChannelState& st);
-  // The profile's timing rules (PROTOCOLS.md, each drive's section): findings into `found`.
+  // The profile's timing rules (PROTOCOLS.md, each drive's section): findings into `found`,
+  // their detail written only when `described`.
   void check_drive_timing(const TelegramHead& telegram, const DriveProfile& profile,
-                          std::vector<Anomaly>& found);
+                          std::vector<Anomaly>& found, bool described);
   // The profile of the telegram's station: bound with --drive, or by the binder (which learns
   // from the telegram first, and hands a change of binding to the sink); nullptr for none.
   const DriveProfile* drive_profile_for(std::size_t link, const TelegramHead& telegram);
