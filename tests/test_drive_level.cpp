@@ -1135,6 +1135,32 @@ TEST(DriveTimeline, FromRealFramesAndSummary) {
   EXPECT_EQ(s.events, 3u);
 }
 
+// Without a sink that shows events (`read --stats`), the timeline keeps each drive's state and
+// counts its changes but makes no event: the same state and count as with events.
+TEST(DriveTimeline, UndescribedChangesKeepTheStateAndTheCount) {
+  const DriveProfile e9 = builtin_profile("e9.toml");
+  const Message req = rtu({0x02, 0x03, 0x00, 0x00, 0x00, 0x05}, Direction::request, {}, 1);
+  const std::vector<std::vector<std::uint8_t>> replies = {
+      {0x02, 0x03, 0x0A, 0x00, 0x0B, 0x13, 0x88, 0x13, 0x7D, 0x01, 0x7C, 0x00, 0x64},
+      {0x02, 0x03, 0x0A, 0x00, 0x0A, 0x0F, 0xA0, 0x0F, 0x9B, 0x01, 0x7C, 0x00, 0x64},
+      {0x02, 0x03, 0x0A, 0x00, 0x00, 0x0F, 0xA0, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00}};
+  DriveTimeline described, counted;
+  std::size_t events = 0;
+  std::uint64_t number = 1;
+  for (const auto& reply : replies) {
+    const Message rsp = rtu(reply, Direction::response, {}, ++number);
+    const DriveObservation o = read_for_drive(e9, rsp, req.bytes).observed;
+    events += described.observe(0, head_of(rsp), e9, o, true).size();
+    EXPECT_TRUE(counted.observe(0, head_of(rsp), e9, o, false).empty());
+  }
+  const DriveState& with = described.drives().at({0, 2});
+  const DriveState& without = counted.drives().at({0, 2});
+  EXPECT_GE(events, 5u);
+  EXPECT_EQ(with.events, events);
+  EXPECT_EQ(without.events, with.events);
+  EXPECT_EQ(without.summary(), with.summary());
+}
+
 // ---------------------------------------------------------------------------------------------
 // Drive binding by guess, with every built-in profile as a candidate.
 

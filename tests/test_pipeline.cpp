@@ -215,6 +215,9 @@ struct TranscriptSink final : Sink {
         s.transactions, fmt::join(s.outcomes, " "), s.latency_count, s.latency_sum, s.latency_min,
         s.latency_max, s.anomaly_total, fmt::join(s.anomalies, " "), s.first_time, s.last_time,
         s.drives.size()));
+    for (const DriveSummary& d : s.drives)
+      records.back() +=
+          fmt::format(" | drive {} {} '{}' {} events", d.address, d.profile, d.state, d.events);
   }
   bool flush() override { return true; }
   [[nodiscard]] bool wants_detail() const override { return detail; }
@@ -222,8 +225,10 @@ struct TranscriptSink final : Sink {
   [[nodiscard]] bool wants_transactions() const override { return transactions; }
   [[nodiscard]] bool wants_records() const override { return records_wanted; }
   [[nodiscard]] bool completes_decode() const override { return decodes; }
+  [[nodiscard]] bool wants_events() const override { return events_wanted; }
   bool transactions = true;
   bool records_wanted = true;
+  bool events_wanted = true;
   bool decodes = false;  // takes telegrams undissected (decoded by Sink::on_undissected())
 };
 
@@ -444,6 +449,27 @@ TEST(Pipeline, SummaryLaneCountsWhatDecodingFinds) {
                         [](const std::string& e) { return e.starts_with("event drive_bound"); }),
                     0);
           EXPECT_GT(counted_events.size(), 20u);
+          // A sink that shows no events (`read --stats`): the same summary, drive states and
+          // counts of their changes included, and no state change made an event.
+          TranscriptSink quiet(false);
+          quiet.records_wanted = false;
+          quiet.events_wanted = false;
+          run_generated_runs(quiet, 300, adjust, mix, nullptr, Prechecks::none, nullptr, drives);
+          ASSERT_FALSE(quiet.records.empty());
+          EXPECT_EQ(decoded.records.back(), quiet.records.back());
+          EXPECT_NE(decoded.records.back().find(" events"), std::string::npos);
+          std::vector<std::string> unchanged_events;  // bindings and detection: not state changes
+          for (const std::string& e : counted_events)
+            if (e.starts_with("event drive_bound") || !e.starts_with("event "))
+              unchanged_events.push_back(e);
+          std::vector<std::string> quiet_events;
+          for (const std::string& r : quiet.records)
+            if (r.starts_with("event ")) quiet_events.push_back(r);
+          for (const std::string& e : quiet_events)
+            for (const char* kind :
+                 {"command", "setpoint", "running", "direction", "fault", "warning"})
+              EXPECT_FALSE(e.starts_with(fmt::format("event {} ", kind))) << e;
+          EXPECT_LT(quiet_events.size(), counted_events.size());
         }
       }
     }

@@ -42,6 +42,7 @@ Pipeline::Pipeline(PipelineOptions options, const ChannelTable& channels, Sink& 
   hand_over_transactions_ = sink.wants_transactions();
   defer_drive_info_ = message_.detail && sink.completes_drive_info();
   hand_over_records_ = sink.wants_records();
+  hand_over_events_ = sink.wants_events();
   drive_level_ = !options_.drives.empty() || !options_.auto_candidates.empty();
   // With drive profiles, a sink that takes records must write their annotation itself
   // (defer_drive_info_): the lane makes only the observation. (Without detail, handle_frame()
@@ -618,7 +619,8 @@ void Pipeline::handle_frame(Frame& frame) {
   check_packetization(m.frame, st);
   // A corrupted frame says nothing reliable about the drive's state.
   if (profile && m.checksum.verdict == ChecksumVerdict::good)
-    for (const BusEvent& e : timeline_.observe(link, head_of(m), *profile, drive_reading_.observed))
+    for (const BusEvent& e :
+         timeline_.observe(link, head_of(m), *profile, drive_reading_.observed, hand_over_events_))
       sink_.on_event(e);
   emit_transactions(transactions_);
 }
@@ -720,8 +722,8 @@ void Pipeline::count_whole_telegram(ChannelState& st, const ByteRun& run,
   }
   check_packetization(FrameKind::telegram, run.origin, run.origin, number, start, run.channel, st);
   if (profile && drive_head_.verdict == ChecksumVerdict::good)
-    for (const BusEvent& e :
-         timeline_.observe(st.link, drive_head_, *profile, drive_reading_.observed))
+    for (const BusEvent& e : timeline_.observe(st.link, drive_head_, *profile,
+                                               drive_reading_.observed, hand_over_events_))
       sink_.on_event(e);
   emit_transactions(transactions_);
 }

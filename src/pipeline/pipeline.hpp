@@ -171,6 +171,7 @@ class Pipeline {
   TelegramHead drive_head_;
   std::vector<Anomaly> drive_anomalies_;
   bool hand_over_records_ = true;  // the sink's wants_records()
+  bool hand_over_events_ = true;   // the sink's wants_events(): drive state changes as events
   TimeNs earliest_deadline_;
   std::uint64_t frame_counter_ = 0;
   TimeNs latest_time_ = std::numeric_limits<TimeNs>::min();

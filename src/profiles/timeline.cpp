@@ -24,27 +24,34 @@ std::string DriveState::summary() const {
 }
 
 std::vector<BusEvent> DriveTimeline::observe(std::size_t link, const TelegramHead& m,
-                                             const DriveProfile& profile,
-                                             const DriveObservation& o) {
+                                             const DriveProfile& profile, const DriveObservation& o,
+                                             bool described) {
   std::vector<BusEvent> events;
   DriveState& s = drives_[{link, m.address}];
   if (s.profile_id != profile.id) {
     s.profile_id = profile.id;
     s.profile_name = profile.name;
   }
-  auto emit = [&](std::string kind, std::string what, std::string from, std::string to) {
+  // A state change: counted, and made an event when `described` (`text()` gives its kind, what
+  // it says, and the values from and to, formatted only then).
+  struct EventText {
+    std::string kind, what, from, to;
+  };
+  auto emit = [&](auto&& text) {
+    ++s.events;
+    if (!described) return;
+    EventText t = text();
     BusEvent e;
     e.time = m.start;
     e.channel = m.channel;
-    e.kind = std::move(kind);
+    e.kind = std::move(t.kind);
     e.protocol = m.protocol;
     e.address = m.address;
     e.profile = profile.id;
     e.frame = m.number;
-    e.detail = fmt::format(FMT_COMPILE("drive {} ({}): {}"), m.address, profile.name, what);
-    e.from = std::move(from);
-    e.to = std::move(to);
-    ++s.events;
+    e.detail = fmt::format(FMT_COMPILE("drive {} ({}): {}"), m.address, profile.name, t.what);
+    e.from = std::move(t.from);
+    e.to = std::move(t.to);
     events.push_back(std::move(e));
   };
 
@@ -55,44 +62,57 @@ std::vector<BusEvent> DriveTimeline::observe(std::size_t link, const TelegramHea
   // A setpoint that differs from the last one known, whether commanded or read back.
   auto setpoint_change = [&](const Quantity& to, const char* suffix) {
     if (s.setpoint && s.setpoint->text == to.text) return;
-    emit("setpoint",
-         s.setpoint
-             ? fmt::format(FMT_COMPILE("setpoint {} -> {}{}"), s.setpoint->text, to.text, suffix)
-             : fmt::format(FMT_COMPILE("setpoint {}{}"), to.text, suffix),
-         s.setpoint ? s.setpoint->text : "", to.text);
+    emit([&] {
+      return EventText{"setpoint",
+                       s.setpoint ? fmt::format(FMT_COMPILE("setpoint {} -> {}{}"),
+                                                s.setpoint->text, to.text, suffix)
+                                  : fmt::format(FMT_COMPILE("setpoint {}{}"), to.text, suffix),
+                       s.setpoint ? s.setpoint->text : "", to.text};
+    });
     s.setpoint = to;
   };
 
   // What the master commanded.
   if (o.run_command && o.run_command != s.run_command) {
-    const std::string to = word(o.run_command, "start", "stop");
-    emit("command", to + " commanded", word(s.run_command, "start", "stop"), to);
+    emit([&] {
+      const std::string to = word(o.run_command, "start", "stop");
+      return EventText{"command", to + " commanded", word(s.run_command, "start", "stop"), to};
+    });
     s.run_command = o.run_command;
   }
   if (o.reverse_command && o.reverse_command != s.reverse_command) {
     // Forward is every drive's default: the first command says something only when it reverses.
     if (s.reverse_command || *o.reverse_command) {
-      const std::string to = word(o.reverse_command, "reverse", "forward");
-      emit("command", to + " commanded", word(s.reverse_command, "reverse", "forward"), to);
+      emit([&] {
+        const std::string to = word(o.reverse_command, "reverse", "forward");
+        return EventText{"command", to + " commanded",
+                         word(s.reverse_command, "reverse", "forward"), to};
+      });
     }
     s.reverse_command = o.reverse_command;
   }
   const bool is_command = o.run_command || o.reverse_command || o.setpoint_command;
-  if (o.reset_command && !s.reset_level) emit("command", "fault reset commanded", "", "reset");
+  if (o.reset_command && !s.reset_level)
+    emit([] { return EventText{"command", "fault reset commanded", "", "reset"}; });
   if (o.reset_command || is_command) s.reset_level = o.reset_command;
   if (o.setpoint_command) setpoint_change(*o.setpoint_command, " commanded");
 
   // What the drive reported.
   if (o.running && o.running != s.running) {
-    const std::string to = word(o.running, "running", "stopped");
-    emit("running", to, word(s.running, "running", "stopped"), to);
+    emit([&] {
+      const std::string to = word(o.running, "running", "stopped");
+      return EventText{"running", to, word(s.running, "running", "stopped"), to};
+    });
     s.running = o.running;
   }
   if (o.reverse && o.reverse != s.reverse) {
     if (s.reverse) {
-      const std::string from = word(s.reverse, "reverse", "forward");
-      const std::string to = word(o.reverse, "reverse", "forward");
-      emit("direction", fmt::format(FMT_COMPILE("direction {} -> {}"), from, to), from, to);
+      emit([&] {
+        const std::string from = word(s.reverse, "reverse", "forward");
+        const std::string to = word(o.reverse, "reverse", "forward");
+        return EventText{"direction", fmt::format(FMT_COMPILE("direction {} -> {}"), from, to),
+                         from, to};
+      });
     }
     s.reverse = o.reverse;
   }
@@ -100,25 +120,39 @@ std::vector<BusEvent> DriveTimeline::observe(std::size_t link, const TelegramHea
   if (o.fault_code && o.fault_code != s.fault_code) {
     const std::uint32_t was = s.fault_code.value_or(0);
     if (*o.fault_code != 0 && was == 0)
-      emit("fault", fmt::format(FMT_COMPILE("fault {} appeared"), o.fault_text), "", o.fault_text);
+      emit([&] {
+        return EventText{"fault", fmt::format(FMT_COMPILE("fault {} appeared"), o.fault_text), "",
+                         o.fault_text};
+      });
     else if (*o.fault_code == 0 && was != 0)
-      emit("fault", fmt::format(FMT_COMPILE("fault {} cleared"), s.fault_text), s.fault_text, "");
+      emit([&] {
+        return EventText{"fault", fmt::format(FMT_COMPILE("fault {} cleared"), s.fault_text),
+                         s.fault_text, ""};
+      });
     else if (*o.fault_code != 0)
-      emit("fault", fmt::format(FMT_COMPILE("fault {} -> {}"), s.fault_text, o.fault_text),
-           s.fault_text, o.fault_text);
+      emit([&] {
+        return EventText{"fault",
+                         fmt::format(FMT_COMPILE("fault {} -> {}"), s.fault_text, o.fault_text),
+                         s.fault_text, o.fault_text};
+      });
     s.fault_code = o.fault_code;
     s.fault_text = o.fault_text;
   }
   if (o.fault_active && o.fault_active != s.fault_active) {
     if (*o.fault_active || s.fault_active)
-      emit("fault", *o.fault_active ? "status word shows a fault" : "status word fault cleared",
-           *o.fault_active ? "" : "fault", *o.fault_active ? "fault" : "");
+      emit([&] {
+        return EventText{
+            "fault", *o.fault_active ? "status word shows a fault" : "status word fault cleared",
+            *o.fault_active ? "" : "fault", *o.fault_active ? "fault" : ""};
+      });
     s.fault_active = o.fault_active;
   }
   if (o.warning && o.warning != s.warning) {
     if (*o.warning || s.warning)
-      emit("warning", *o.warning ? "warning on" : "warning off", *o.warning ? "" : "warning",
-           *o.warning ? "warning" : "");
+      emit([&] {
+        return EventText{"warning", *o.warning ? "warning on" : "warning off",
+                         *o.warning ? "" : "warning", *o.warning ? "warning" : ""};
+      });
     s.warning = o.warning;
   }
   if (o.output_frequency) s.output_frequency = o.output_frequency;

@@ -37,8 +37,11 @@ class DriveTimeline {
  public:
   // Folds the observation of `message` (already read with `profile`) into the state of drive
   // (link, message.address) and returns the events it caused.
+  // `described` false: the state and its count of changes kept, no event made (no sink shows
+  // them: `read --stats`).
   std::vector<BusEvent> observe(std::size_t link, const TelegramHead& telegram,
-                                const DriveProfile& profile, const DriveObservation& observed);
+                                const DriveProfile& profile, const DriveObservation& observed,
+                                bool described = true);
   std::vector<BusEvent> observe(std::size_t link, const Message& message,
                                 const DriveProfile& profile, const DriveObservation& observed) {
     return observe(link, head_of(message), profile, observed);

@@ -102,6 +102,9 @@ class Sink {
   // pipeline may count what the summary needs of a telegram without decoding it into a Message
   // (its summary lane: `read --stats`). Fixed for the sink's lifetime.
   [[nodiscard]] virtual bool wants_records() const { return true; }
+  // Whether on_event() does anything; when not, the pipeline still keeps each drive's state and
+  // counts its changes, but writes no event's text (`read --stats`). Fixed for its lifetime.
+  [[nodiscard]] virtual bool wants_events() const { return true; }
 };
 
 // Sends every record to several sinks.
@@ -137,6 +140,7 @@ class TeeSink final : public Sink {
     return any_wants(&Sink::wants_transactions);
   }
   [[nodiscard]] bool wants_records() const override { return any_wants(&Sink::wants_records); }
+  [[nodiscard]] bool wants_events() const override { return any_wants(&Sink::wants_events); }
 
  private:
   // Whether any member sink answers yes to `wants`.
@@ -163,6 +167,7 @@ class SummaryOnlySink final : public Sink {
   [[nodiscard]] bool wants_fields() const override { return false; }
   [[nodiscard]] bool wants_transactions() const override { return false; }
   [[nodiscard]] bool wants_records() const override { return false; }
+  [[nodiscard]] bool wants_events() const override { return false; }
 
  private:
   Sink& inner_;

@@ -15,6 +15,7 @@ ThreadedSink::ThreadedSink(Sink& inner, std::vector<Sink*> helpers)
       wants_fields_(inner.wants_fields()),
       wants_transactions_(inner.wants_transactions()),
       wants_records_(inner.wants_records()),
+      wants_events_(inner.wants_events()),
       helpers_(std::move(helpers)),
       assist_(helpers_.size() >= 2),
       scratch_(std::max<std::size_t>(1, helpers_.size())),

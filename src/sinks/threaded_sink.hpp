@@ -78,6 +78,7 @@ class alignas(kCacheLineBytes) ThreadedSink final : public Sink {
   [[nodiscard]] bool wants_fields() const override { return wants_fields_; }
   [[nodiscard]] bool wants_transactions() const override { return wants_transactions_; }
   [[nodiscard]] bool wants_records() const override { return wants_records_; }
+  [[nodiscard]] bool wants_events() const override { return wants_events_; }
   // The drive annotation (Message::drive_profile) is written on the writer thread, before the
   // inner sink gets the message: formatting it is a third of the decoding thread's work with
   // drive profiles (bench/README.md).
@@ -223,6 +224,7 @@ class alignas(kCacheLineBytes) ThreadedSink final : public Sink {
   const bool wants_fields_;
   const bool wants_transactions_;
   const bool wants_records_;
+  const bool wants_events_;
   std::vector<Sink*> helpers_;
   const bool assist_;  // the pipeline thread formats with the last helper when it would wait
   std::vector<Scratch> scratch_;  // one per helper (after finish(), the first is the caller's)
