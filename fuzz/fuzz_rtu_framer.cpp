@@ -131,17 +131,14 @@ void check_summary_lane(const PipelineOptions& options, const ChannelTable& chan
       pipeline.push_runs(runs);
       pipeline.finish();
     }
+    const std::string what = drives ? "summary lane with drive profiles" : "summary lane";
     const std::size_t summary = decoded.digest.rfind('S');
     if (summary == std::string::npos || counted.events != decoded.events ||
         counted.digest.substr(counted.digest.rfind('S')) != decoded.digest.substr(summary))
-      fuzz::contract_broken(drives ? "summary lane with drive profiles: counts or events not "
-                                     "those of decoding every frame"
-                                   : "summary lane: counts or events not those of decoding "
-                                     "every frame");
+      fuzz::contract_broken(
+          (what + ": counts or events not those of decoding every frame").c_str());
     if (handed_over.digest != decoded.digest)
-      fuzz::contract_broken(drives ? "summary lane with drive profiles: records handed over "
-                                     "undissected differ"
-                                   : "summary lane: records handed over undissected differ");
+      fuzz::contract_broken((what + ": records handed over undissected differ").c_str());
   }
 }
 

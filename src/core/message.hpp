@@ -94,7 +94,7 @@ inline TelegramHead head_of(const Message& m) {
   h.verdict = m.checksum.verdict;
   h.bytes = m.bytes;
   h.start = m.frame.start();
-  h.last_byte = m.frame.events.empty() ? 0 : m.frame.events.back().time;
+  h.last_byte = m.frame.events.back_time();  // (0 for a frame of no bytes)
   h.channel = m.frame.channel;
   h.number = m.frame.number;
   h.gap_before = m.frame.gap_before;

@@ -588,11 +588,12 @@ void Pipeline::handle_frame(Frame& frame) {
   decoder.dissect_into(m, std::move(frame), dir, options_.timing, request);
   // Drive level: the station's profile (bound on the command line or guessed from its traffic),
   // what the frame means to it, and the state changes it shows.
-  const DriveProfile* profile = drive_profile_for(link, head_of(m));
+  TelegramHead head = head_of(m);
+  const DriveProfile* profile = drive_profile_for(link, head);
   if (profile) {
     // The annotation's text is written here, or by the sink on its own thread (then only the
     // observation is made here: the timeline needs it now).
-    read_for_drive_into(*profile, head_of(m), request,
+    read_for_drive_into(*profile, head, request,
                         m.detail && !defer_drive_info_ ? DriveReadingWants::text_and_observation
                                                        : DriveReadingWants::observation,
                         drive_reading_);
@@ -611,7 +612,8 @@ void Pipeline::handle_frame(Frame& frame) {
     }
   }
   pairer_.add(link, m, transactions_);
-  if (profile) check_drive_timing(head_of(m), *profile, m.anomalies, true);
+  head.latency = m.latency;  // (what pairing set of the message)
+  if (profile) check_drive_timing(head, *profile, m.anomalies, true);
   for (Anomaly& a : m.anomalies) a.frame_number = m.frame.number;
   stats_.count_frame(m);
   sink_.on_frame(m);
@@ -620,7 +622,7 @@ void Pipeline::handle_frame(Frame& frame) {
   // A corrupted frame says nothing reliable about the drive's state.
   if (profile && m.checksum.verdict == ChecksumVerdict::good)
     for (const BusEvent& e :
-         timeline_.observe(link, head_of(m), *profile, drive_reading_.observed, hand_over_events_))
+         timeline_.observe(link, head, *profile, drive_reading_.observed, hand_over_events_))
       sink_.on_event(e);
   emit_transactions(transactions_);
 }
