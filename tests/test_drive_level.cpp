@@ -450,7 +450,7 @@ TEST(DriveReading, E9WriteOfControlWordAndSetpoint) {
   EXPECT_FALSE(r.observed.reset_command);
   ASSERT_TRUE(r.observed.setpoint_command);
   EXPECT_DOUBLE_EQ(r.observed.setpoint_command->value, 50.0);
-  EXPECT_EQ(r.observed.setpoint_command->text, "50.00 Hz");
+  EXPECT_EQ(r.observed.setpoint_command->text(), "50.00 Hz");
   // A write is a command: nothing the drive reported.
   EXPECT_FALSE(r.observed.running);
   EXPECT_FALSE(r.observed.setpoint);
@@ -474,13 +474,13 @@ TEST(DriveReading, E9StatusReplyReadWithItsRequest) {
   EXPECT_EQ(r.observed.fault_active, true);
   EXPECT_EQ(r.observed.reverse, false);  // bit 1 = 1 means forward on the E-9
   ASSERT_TRUE(r.observed.setpoint);
-  EXPECT_EQ(r.observed.setpoint->text, "50.00 Hz");
+  EXPECT_EQ(r.observed.setpoint->text(), "50.00 Hz");
   ASSERT_TRUE(r.observed.output_frequency);
   EXPECT_DOUBLE_EQ(r.observed.output_frequency->value, 49.89);
   ASSERT_TRUE(r.observed.voltage);
-  EXPECT_EQ(r.observed.voltage->text, "380 V");
+  EXPECT_EQ(r.observed.voltage->text(), "380 V");
   ASSERT_TRUE(r.observed.current);
-  EXPECT_EQ(r.observed.current->text, "10.0 A");
+  EXPECT_EQ(r.observed.current->text(), "10.0 A");
   EXPECT_FALSE(r.observed.run_command);
   // Without its request a reply says nothing.
   EXPECT_EQ(read_for_drive(e9, rsp, {}).text, "");
@@ -489,7 +489,39 @@ TEST(DriveReading, E9StatusReplyReadWithItsRequest) {
   const DriveReading f =
       read_for_drive(e9, rtu({0x02, 0x03, 0x02, 0x00, 0x04}, Direction::response), fault_req.bytes);
   EXPECT_EQ(f.observed.fault_code, 4u);
-  EXPECT_EQ(f.observed.fault_text, "4 (output overcurrent)");
+  EXPECT_EQ(f.observed.fault.text(), "4 (output overcurrent)");
+}
+
+// Two quantities read alike exactly when their texts are equal, whichever way same_text() decides
+// it (the timeline's setpoint changes): for every pair of registers of each built-in profile, on
+// values around the edges of 16 bits and the small ones that a scale of no power of ten prints
+// alike (Danfoss's 100/16384 %), and on a text written without a register.
+TEST(Quantity, SameTextIsTheTextsCompared) {
+  const std::uint32_t raws[] = {0, 1, 2, 3, 50, 5000, 0x4000, 0x7FFF, 0x8000, 0xFFFF};
+  std::size_t pairs = 0, alike_apart = 0;
+  for (const DriveProfile& p : drivetap::testing::builtin_profiles()) {
+    for (const RegisterDef& a : p.registers) {
+      for (const RegisterDef& b : p.registers) {
+        for (const std::uint32_t x : raws) {
+          for (const std::uint32_t y : {x, x + 1, x ^ 1u}) {
+            const Quantity qa = Quantity::of(p, a, x, false), qb = Quantity::of(p, b, y, false);
+            const bool alike = qa.text() == qb.text();
+            ASSERT_EQ(qa.same_text(qb), alike)
+                << p.name << ": " << a.name << " " << x << " (" << qa.text() << ") against "
+                << b.name << " " << y << " (" << qb.text() << ")";
+            ++pairs;
+            if (alike && x != y) ++alike_apart;
+          }
+        }
+      }
+    }
+  }
+  EXPECT_GT(pairs, 10000u);
+  EXPECT_GT(alike_apart, 0u);  // values apart that print alike were among them
+  Quantity written{4, "4 (overcurrent)"};
+  const DriveProfile e9 = builtin_profile("e9.toml");
+  EXPECT_TRUE(written.same_text(Quantity{4, "4 (overcurrent)"}));
+  EXPECT_FALSE(written.same_text(Quantity::of(e9, e9.registers.front(), 4, false)));
 }
 
 // Without the text (read --stats), a reading observes exactly what it observes with it.
@@ -497,7 +529,7 @@ TEST(DriveReading, WithoutTextTheObservationIsTheSame) {
   const DriveProfile e9 = builtin_profile("e9.toml");
   const E9Poll poll;
   const Message &req = poll.req, &rsp = poll.rsp, &write = poll.write;
-  auto text = [](const std::optional<Quantity>& q) { return q ? q->text : "-"; };
+  auto text = [](const std::optional<Quantity>& q) { return q ? q->text() : "-"; };
   for (const auto& [m, request] :
        {std::pair{req, std::vector<std::uint8_t>()}, std::pair{rsp, req.bytes},
         std::pair{write, std::vector<std::uint8_t>()}}) {
@@ -563,7 +595,7 @@ TEST(DriveReading, ReadingIntoOneReadingIsReadingAfresh) {
   // Cleared, an observation is a new one (every member set first); its fault text keeps its
   // storage.
   DriveReading r = read_for_drive(e9, fault, fault_req.bytes);
-  ASSERT_EQ(r.observed.fault_text, "4 (output overcurrent)");
+  ASSERT_EQ(r.observed.fault.text(), "4 (output overcurrent)");
   DriveObservation& o = r.observed;
   o.running = o.reverse = o.fault_active = o.warning = true;
   o.setpoint = o.output_frequency = o.current = o.voltage = Quantity{50, "50.00 Hz"};
@@ -571,10 +603,11 @@ TEST(DriveReading, ReadingIntoOneReadingIsReadingAfresh) {
   o.run_command = o.reverse_command = true;
   o.reset_command = true;
   o.setpoint_command = Quantity{25, "25.00 Hz, a text too long for a short string"};
-  const std::size_t capacity = o.fault_text.capacity();
+  o.fault.written = "4 (a text too long for a short string)";
+  const std::size_t capacity = o.fault.written.capacity();
   o.clear();
   EXPECT_TRUE(o == DriveObservation{});
-  EXPECT_EQ(o.fault_text.capacity(), capacity);
+  EXPECT_EQ(o.fault.written.capacity(), capacity);
 }
 
 // The writer thread of a ThreadedSink reads a frame for its text alone (the pipeline made the
@@ -631,7 +664,7 @@ TEST(DriveReading, DanfossFcProcessData) {
   EXPECT_FALSE(q.observed.reset_command);
   ASSERT_TRUE(q.observed.setpoint_command);
   EXPECT_DOUBLE_EQ(q.observed.setpoint_command->value, 50.0);
-  EXPECT_EQ(q.observed.setpoint_command->text, "50.00 %");
+  EXPECT_EQ(q.observed.setpoint_command->text(), "50.00 %");
 
   // STW 0x0E07 (bit 11 running), MAV 0x2000 = 50 %.
   const Message rsp =
@@ -644,7 +677,7 @@ TEST(DriveReading, DanfossFcProcessData) {
   EXPECT_EQ(a.observed.warning, false);
   ASSERT_TRUE(a.observed.output_frequency);
   EXPECT_DOUBLE_EQ(a.observed.output_frequency->value, 50.0);
-  EXPECT_EQ(a.observed.output_frequency->text, "50.00 %");
+  EXPECT_EQ(a.observed.output_frequency->text(), "50.00 %");
   EXPECT_FALSE(a.observed.run_command);
 
   // Reverse with a negative reference: 0xE000 = -8192 = -50 %; reset bit 7 set.
@@ -657,7 +690,7 @@ TEST(DriveReading, DanfossFcProcessData) {
   EXPECT_EQ(rev.observed.reverse_command, true);
   EXPECT_TRUE(rev.observed.reset_command);
   ASSERT_TRUE(rev.observed.setpoint_command);
-  EXPECT_EQ(rev.observed.setpoint_command->text, "-50.00 %");
+  EXPECT_EQ(rev.observed.setpoint_command->text(), "-50.00 %");
 
   // STW with trip (bit 3) and warning (bit 7).
   const DriveReading trip = read_for_drive(
@@ -798,7 +831,7 @@ TEST(DriveReading, ErgCoilsAndState) {
   const DriveReading f =
       read_for_drive(erg, rtu({0x01, 0x04, 0x02, 0x01, 0xF4}, Direction::response), fq.bytes);
   ASSERT_TRUE(f.observed.output_frequency);
-  EXPECT_EQ(f.observed.output_frequency->text, "50.0 Hz");
+  EXPECT_EQ(f.observed.output_frequency->text(), "50.0 Hz");
 }
 
 TEST(DriveReading, E5AsciiReply) {
@@ -850,7 +883,7 @@ TEST(DriveReading, EasydriveRunAndStatus) {
   EXPECT_FALSE(r.observed.reverse_command);
   ASSERT_TRUE(r.observed.setpoint_command);
   EXPECT_DOUBLE_EQ(r.observed.setpoint_command->value, 40.0);
-  EXPECT_EQ(r.observed.setpoint_command->text, "40.00 Hz");
+  EXPECT_EQ(r.observed.setpoint_command->text(), "40.00 Hz");
 
   // Read the status word (0B, index 000F); reply: OK, AUX fault 03, index 0F, data 0001 (running).
   const Message q = decode(Protocol::easydrive, eds_frame("010B000F"), Direction::request);
@@ -863,9 +896,9 @@ TEST(DriveReading, EasydriveRunAndStatus) {
   EXPECT_EQ(s.observed.running, true);
   EXPECT_EQ(s.observed.reverse, false);
   EXPECT_EQ(s.observed.fault_code, 3u);
-  EXPECT_NE(s.observed.fault_text.find("overcurrent at constant speed"), std::string::npos)
-      << s.observed.fault_text;
-  EXPECT_EQ(s.observed.fault_text, "3 (overcurrent at constant speed)");
+  EXPECT_NE(s.observed.fault.text().find("overcurrent at constant speed"), std::string::npos)
+      << s.observed.fault.text();
+  EXPECT_EQ(s.observed.fault.text(), "3 (overcurrent at constant speed)");
   EXPECT_EQ(s.text,
             "drive 1 (Easydrive EDS1000): status word 0x0001 [running, voltage normal, forward]; "
             "fault 3 (overcurrent at constant speed)");
@@ -875,7 +908,7 @@ TEST(DriveReading, EasydriveRunAndStatus) {
       eds, decode(Protocol::easydrive, eds_frame("0100100F0005"), Direction::response, q.bytes),
       q.bytes);
   EXPECT_EQ(hex.observed.fault_code, 16u);
-  EXPECT_EQ(hex.observed.fault_text, "16 (RS485 communication fault)");
+  EXPECT_EQ(hex.observed.fault.text(), "16 (RS485 communication fault)");
   EXPECT_EQ(hex.observed.reverse, true);  // status bit 2
 
   // Stop, fault reset, run reverse.
@@ -1023,7 +1056,8 @@ TEST(DriveTimeline, FaultAppearsAndClears) {
   auto fault = [](std::uint32_t code, std::string text) {
     DriveObservation o;
     o.fault_code = code;
-    o.fault_text = std::move(text);
+    o.fault.value = code;
+    o.fault.written = std::move(text);
     return o;
   };
   EXPECT_TRUE(rig.feed(fault(0, "0 (no fault)")).empty());

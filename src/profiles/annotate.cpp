@@ -124,12 +124,8 @@ void append_display_name(std::string& out, const RegisterDef& r) {
 void observe(const DriveProfile& p, const RegisterDef& r, std::uint32_t raw, bool double_word,
              bool written, DriveObservation& o) {
   const StateBits& s = r.state;
-  // The quantity's text is written in place: no temporary string.
-  auto set_quantity = [&](std::optional<Quantity>& q) {
-    q.emplace();
-    q->value = scaled(r, raw, double_word);
-    append_value(q->text, p, r, raw, double_word);
-  };
+  // (The quantity's text is made only when shown.)
+  auto set_quantity = [&](std::optional<Quantity>& q) { q = Quantity::of(p, r, raw, double_word); };
   if (written) {
     switch (r.role) {
       case RegisterRole::control:
@@ -177,8 +173,7 @@ void observe(const DriveProfile& p, const RegisterDef& r, std::uint32_t raw, boo
       break;
     case RegisterRole::fault:
       o.fault_code = raw;
-      o.fault_text.clear();  // keeps its storage
-      append_value(o.fault_text, p, r, raw, double_word);
+      o.fault = Quantity::of(p, r, raw, double_word);
       break;
     default:
       break;
@@ -455,9 +450,8 @@ void read_easydrive(const DriveProfile& p, const TelegramHead& m,
           if (action.reset) o.reset_command = true;
           if (action.with_frequency && data >= 0 && setpoint) {
             o.setpoint_command =
-                Quantity{scaled(*setpoint, static_cast<std::uint32_t>(data), false),
-                         describe_value(p, *setpoint, static_cast<std::uint32_t>(data))};
-            parts.add("setpoint {}", o.setpoint_command->text);
+                Quantity::of(p, *setpoint, static_cast<std::uint32_t>(data), false);
+            if (parts.enabled()) parts.add("setpoint {}", o.setpoint_command->text());
           }
         }
         break;
@@ -508,14 +502,17 @@ void read_easydrive(const DriveProfile& p, const TelegramHead& m,
       const auto it = names->second.find(static_cast<std::uint32_t>(fault));
       if (it != names->second.end() && !it->second.empty()) name = &it->second;
     }
-    o.fault_text.clear();  // keeps its storage
-    append_int(o.fault_text, fault);
+    // (Not append_value(): a code the manual's table lacks is shown bare.)
+    o.fault.value = static_cast<double>(fault);
+    std::string& text = o.fault.written;
+    text.clear();  // keeps its storage
+    append_int(text, fault);
     if (name) {
-      o.fault_text += " (";
-      o.fault_text += *name;
-      o.fault_text += ')';
+      text += " (";
+      text += *name;
+      text += ')';
     }
-    if (fault > 0) parts.add("fault {}", o.fault_text);
+    if (fault > 0) parts.add("fault {}", text);
   }
 }
 
@@ -568,6 +565,47 @@ void append_value(std::string& out, const DriveProfile& p, const RegisterDef& r,
     out += ' ';
     out += r.unit;
   }
+}
+
+Quantity Quantity::of(const DriveProfile& profile, const RegisterDef& reg, std::uint32_t raw,
+                      bool double_word) {
+  Quantity q;
+  q.value = scaled(reg, raw, double_word);
+  q.profile = &profile;
+  q.reg = &reg;
+  q.raw = raw;
+  q.double_word = double_word;
+  return q;
+}
+
+void Quantity::append_text(std::string& out) const {
+  if (reg)
+    append_value(out, *profile, *reg, raw, double_word);
+  else
+    out += written;
+}
+
+std::string Quantity::text() const {
+  std::string out;
+  append_text(out);
+  return out;
+}
+
+bool Quantity::same_text(const Quantity& other) const {
+  if (reg && other.reg) {
+    if (reg == other.reg && profile == other.profile && raw == other.raw &&
+        double_word == other.double_word)
+      return true;
+    // Two registers that both show a plain number the same way (a setpoint read back against the
+    // one written) read alike when they hold the same value. (Different values may still print
+    // alike under a scale that is no power of ten: those are compared as written.)
+    const RegisterDef &a = *reg, &b = *other.reg;
+    if (a.enum_name.empty() && b.enum_name.empty() && a.bits.empty() && b.bits.empty() &&
+        a.scale == b.scale && a.unit == b.unit &&
+        raw_value(a, raw, double_word) == raw_value(b, other.raw, other.double_word))
+      return true;
+  }
+  return text() == other.text();
 }
 
 std::string describe_value(const DriveProfile& p, const RegisterDef& r, std::uint32_t raw,

@@ -17,10 +17,28 @@
 
 namespace drivetap {
 
+// A value as the drive's profile shows it: "50.00 Hz", "4 (overcurrent)". The text is made when
+// asked for, from the register and its raw value: the timeline keeps a drive's telemetry from
+// every poll but shows it only in the summary (made at every poll, the texts took `read --stats`
+// with drive profiles a tenth of its instructions). A value that no register describes carries
+// its text made (`written`: Easydrive's fault code).
 struct Quantity {
   double value = 0;
-  std::string text;  // "50.00 Hz"
-  bool operator==(const Quantity&) const = default;
+  std::string written;
+  const DriveProfile* profile = nullptr;  // with `reg`: what the text is made from
+  const RegisterDef* reg = nullptr;
+  std::uint32_t raw = 0;
+  bool double_word = false;
+
+  // The register's value (raw as the wire carries it; `double_word`: two registers' worth).
+  static Quantity of(const DriveProfile& profile, const RegisterDef& reg, std::uint32_t raw,
+                     bool double_word);
+  void append_text(std::string& out) const;
+  [[nodiscard]] std::string text() const;
+  // Whether the two read the same: without making the texts when they are one register's same
+  // raw value.
+  [[nodiscard]] bool same_text(const Quantity& other) const;
+  bool operator==(const Quantity& other) const { return value == other.value && same_text(other); }
 };
 
 // What one frame showed about its drive. Status fields come from the drive's replies; command
@@ -29,7 +47,7 @@ struct DriveObservation {
   std::optional<bool> running, reverse, fault_active, warning;
   std::optional<Quantity> setpoint, output_frequency, current, voltage;
   std::optional<std::uint32_t> fault_code;  // 0 = no fault
-  std::string fault_text;                   // "4 (overcurrent)"
+  Quantity fault;                           // with fault_code: "4 (overcurrent)"
   std::optional<bool> run_command, reverse_command;
   bool reset_command = false;
   std::optional<Quantity> setpoint_command;
@@ -48,7 +66,12 @@ struct DriveObservation {
     current.reset();
     voltage.reset();
     fault_code.reset();
-    fault_text.clear();
+    fault.value = 0;
+    fault.written.clear();
+    fault.profile = nullptr;
+    fault.reg = nullptr;
+    fault.raw = 0;
+    fault.double_word = false;
     run_command.reset();
     reverse_command.reset();
     reset_command = false;

@@ -10,10 +10,10 @@ std::string DriveState::summary() const {
   std::vector<std::string> parts;
   if (running) parts.push_back(*running ? "running" : "stopped");
   if (reverse) parts.push_back(*reverse ? "reverse" : "forward");
-  if (setpoint) parts.push_back("setpoint " + setpoint->text);
-  if (output_frequency) parts.push_back("output frequency " + output_frequency->text);
-  if (current) parts.push_back("current " + current->text);
-  if (voltage) parts.push_back("voltage " + voltage->text);
+  if (setpoint) parts.push_back("setpoint " + setpoint->text());
+  if (output_frequency) parts.push_back("output frequency " + output_frequency->text());
+  if (current) parts.push_back("current " + current->text());
+  if (voltage) parts.push_back("voltage " + voltage->text());
   if (fault_code)
     parts.push_back(*fault_code ? "fault " + fault_text : "no fault");
   else if (fault_active)
@@ -61,13 +61,14 @@ std::vector<BusEvent> DriveTimeline::observe(std::size_t link, const TelegramHea
   };
   // A setpoint that differs from the last one known, whether commanded or read back.
   auto setpoint_change = [&](const Quantity& to, const char* suffix) {
-    if (s.setpoint && s.setpoint->text == to.text) return;
+    if (s.setpoint && s.setpoint->same_text(to)) return;
     emit([&] {
+      const std::string from = s.setpoint ? s.setpoint->text() : "", text = to.text();
       return EventText{"setpoint",
-                       s.setpoint ? fmt::format(FMT_COMPILE("setpoint {} -> {}{}"),
-                                                s.setpoint->text, to.text, suffix)
-                                  : fmt::format(FMT_COMPILE("setpoint {}{}"), to.text, suffix),
-                       s.setpoint ? s.setpoint->text : "", to.text};
+                       s.setpoint
+                           ? fmt::format(FMT_COMPILE("setpoint {} -> {}{}"), from, text, suffix)
+                           : fmt::format(FMT_COMPILE("setpoint {}{}"), text, suffix),
+                       from, text};
     });
     s.setpoint = to;
   };
@@ -119,10 +120,11 @@ std::vector<BusEvent> DriveTimeline::observe(std::size_t link, const TelegramHea
   if (o.setpoint) setpoint_change(*o.setpoint, "");
   if (o.fault_code && o.fault_code != s.fault_code) {
     const std::uint32_t was = s.fault_code.value_or(0);
+    const std::string fault_text = o.fault.text();
     if (*o.fault_code != 0 && was == 0)
       emit([&] {
-        return EventText{"fault", fmt::format(FMT_COMPILE("fault {} appeared"), o.fault_text), "",
-                         o.fault_text};
+        return EventText{"fault", fmt::format(FMT_COMPILE("fault {} appeared"), fault_text), "",
+                         fault_text};
       });
     else if (*o.fault_code == 0 && was != 0)
       emit([&] {
@@ -132,11 +134,11 @@ std::vector<BusEvent> DriveTimeline::observe(std::size_t link, const TelegramHea
     else if (*o.fault_code != 0)
       emit([&] {
         return EventText{"fault",
-                         fmt::format(FMT_COMPILE("fault {} -> {}"), s.fault_text, o.fault_text),
-                         s.fault_text, o.fault_text};
+                         fmt::format(FMT_COMPILE("fault {} -> {}"), s.fault_text, fault_text),
+                         s.fault_text, fault_text};
       });
     s.fault_code = o.fault_code;
-    s.fault_text = o.fault_text;
+    s.fault_text = fault_text;
   }
   if (o.fault_active && o.fault_active != s.fault_active) {
     if (*o.fault_active || s.fault_active)
