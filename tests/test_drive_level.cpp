@@ -799,6 +799,11 @@ TEST(DriveReading, VltAquaModbusMapping) {
   // Vendor exception code 0x42 (§7.8.11, decimal 66).
   EXPECT_EQ(read_for_drive(vlt, rtu({0x01, 0x86, 0x42}, Direction::response), m.bytes).text,
             "drive 1 (Danfoss VLT AQUA): error 0x42: illegal data length or value");
+  // The observation alone (read --stats) has that text too, and no other.
+  EXPECT_EQ(read_for_drive(vlt, rtu({0x01, 0x86, 0x42}, Direction::response), m.bytes, false).text,
+            "drive 1 (Danfoss VLT AQUA): error 0x42: illegal data length or value");
+  EXPECT_EQ(read_for_drive(vlt, q, {}, false).text, "");
+  EXPECT_NE(read_for_drive(vlt, q, {}).text, "");
 }
 
 TEST(DriveReading, ErgCoilsAndState) {

@@ -619,14 +619,20 @@ void read_for_drive_into(const DriveProfile& p, const TelegramHead& m,
                          std::span<const std::uint8_t> request, DriveReadingWants wants,
                          DriveReading& out) {
   out.observed.clear();
-  // "drive 2 (ERMAN E-9P/9G): ...", taken back when the profile says nothing of the frame.
+  // "drive 2 (ERMAN E-9P/9G): ...", taken back when the profile says nothing of the frame. An
+  // observation alone has text only for an exception reply the profile names: the lead is put
+  // before that text then, not written for every frame.
   std::string& text = out.text;
   text.clear();  // keeps its storage
-  text += "drive ";
-  append_int(text, m.address);
-  text += " (";
-  text += p.name;
-  text += "): ";
+  auto append_lead = [&](std::string& to) {
+    to += "drive ";
+    append_int(to, m.address);
+    to += " (";
+    to += p.name;
+    to += "): ";
+  };
+  const bool lead_first = wants != DriveReadingWants::observation;
+  if (lead_first) append_lead(text);
   const std::size_t lead = text.size();
   switch (m.protocol) {
     case Protocol::modbus_rtu:
@@ -642,7 +648,13 @@ void read_for_drive_into(const DriveProfile& p, const TelegramHead& m,
     case Protocol::unknown:
       break;
   }
-  if (text.size() == lead) text.clear();
+  if (text.size() == lead) {
+    text.clear();
+  } else if (!lead_first) {
+    std::string led;
+    append_lead(led);
+    text.insert(0, led);
+  }
 }
 
 void complete_drive_info(Message& m, DriveReading& scratch) {
