@@ -47,6 +47,36 @@ TEST(Profiles, E9FromManual000) {
   FAIL() << "e9.toml is not built in";
 }
 
+// A walk finds what find() finds, for addresses asked in ascending order from any start (the
+// registers of every kind of each built-in profile and their neighbours), and after an address
+// below the last one; find_holding() on a walk as without.
+TEST(Profiles, WalkFindsWhatFindFinds) {
+  const RegisterKind kinds[] = {RegisterKind::holding, RegisterKind::input,
+                                RegisterKind::coil,    RegisterKind::discrete,
+                                RegisterKind::running, RegisterKind::parameter};
+  std::size_t found = 0;
+  for (const DriveProfile& p : drivetap::testing::builtin_profiles()) {
+    std::vector<std::uint32_t> starts = {0};
+    for (const RegisterDef& r : p.registers)
+      for (std::uint32_t d : {0u, 1u, 2u}) starts.push_back(r.address > d ? r.address - d : 0);
+    for (const RegisterKind kind : kinds) {
+      for (const std::uint32_t start : starts) {
+        DriveProfile::Walk walk(p, kind, start), holding(p, RegisterKind::holding, start);
+        for (std::uint32_t a = start; a < start + 40; ++a) {
+          const RegisterDef* expected = p.find(kind, a);
+          ASSERT_EQ(walk.find(a), expected) << p.name << " kind " << int(kind) << " at " << a;
+          if (expected) ++found;
+          ASSERT_EQ(p.find_holding(a, holding), p.find_holding(a)) << p.name << " at " << a;
+        }
+        const std::uint32_t back = start / 2;  // below the last one asked
+        ASSERT_EQ(walk.find(back), p.find(kind, back)) << p.name << " back to " << back;
+        ASSERT_EQ(walk.find(back + 1), p.find(kind, back + 1)) << p.name << " on from " << back;
+      }
+    }
+  }
+  EXPECT_GT(found, 1000u);
+}
+
 TEST(Profiles, ErrorsNameFileLineAndKey) {
   EXPECT_EQ(error_of("[drive]\nid = \"x\"\nname = \"X\"\n[[register]]\naddress = 1\nname = \"a\"\n"
                      "scale = \"big\"\n"),

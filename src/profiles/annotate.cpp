@@ -185,10 +185,11 @@ void observe(const DriveProfile& p, const RegisterDef& r, std::uint32_t raw, boo
 void read_registers(const DriveProfile& p, RegisterKind kind, std::uint32_t start,
                     std::span<const std::uint16_t> values, bool written, Parts& parts,
                     DriveObservation& o) {
+  DriveProfile::Walk walk(p, kind, start);
   for (std::size_t i = 0; i < values.size(); ++i) {
     const std::uint32_t address = start + static_cast<std::uint32_t>(i);
     const RegisterDef* r =
-        kind == RegisterKind::holding ? p.find_holding(address) : p.find(kind, address);
+        kind == RegisterKind::holding ? p.find_holding(address, walk) : walk.find(address);
     if (!r) continue;  // registers the manual does not name are left to the frame line
     std::uint32_t raw = values[i];
     const bool double_word = r->words == 2 && i + 1 < values.size();

@@ -68,9 +68,43 @@ std::optional<std::uint32_t> DriveProfile::parameter_of_register(std::uint32_t a
   return std::nullopt;
 }
 
+DriveProfile::Walk::Walk(const DriveProfile& profile, RegisterKind kind, std::uint32_t first)
+    : profile_(profile), kind_(kind) {
+  profile.build_index();
+  seek(register_key(kind, first));
+}
+
+void DriveProfile::Walk::seek(std::uint64_t key) {
+  const auto& index = profile_.registers_index_;
+  at_ = static_cast<std::size_t>(
+      std::lower_bound(index.begin(), index.end(), key,
+                       [](const auto& e, std::uint64_t k) { return e.first < k; }) -
+      index.begin());
+  last_ = key;
+}
+
+const RegisterDef* DriveProfile::Walk::find(std::uint32_t address) {
+  const auto& index = profile_.registers_index_;
+  const std::uint64_t key = register_key(kind_, address);
+  if (key < last_) seek(key);
+  last_ = key;
+  while (at_ < index.size() && index[at_].first < key) ++at_;  // each pass moves on one entry
+  if (at_ == index.size() || index[at_].first != key) return nullptr;
+  return &profile_.registers[index[at_].second];  // (the first of equal keys, as find())
+}
+
+const RegisterDef* DriveProfile::find_holding(std::uint32_t address, Walk& walk) const {
+  if (const RegisterDef* r = walk.find(address)) return r;
+  return parameter_at(address, nullptr);
+}
+
 const RegisterDef* DriveProfile::find_holding(std::uint32_t address, std::string* label) const {
   if (label) label->clear();
   if (const RegisterDef* r = find(RegisterKind::holding, address)) return r;
+  return parameter_at(address, label);
+}
+
+const RegisterDef* DriveProfile::parameter_at(std::uint32_t address, std::string* label) const {
   const auto number = parameter_of_register(address);
   if (!number) return nullptr;
   if (const RegisterDef* r = find(RegisterKind::parameter, *number)) return r;

@@ -106,12 +106,32 @@ struct DriveProfile {
   // rule maps but the profile does not name; empty when the address is no parameter.
   [[nodiscard]] const RegisterDef* find_holding(std::uint32_t address,
                                                 std::string* parameter_label = nullptr) const;
+  // find() for the addresses of a block (a poll reads 8 registers from `first` up): one search
+  // for the first, then a walk along the table (looked up afresh, each register took some 20
+  // instructions of a frame's drive reading). An address below the last one asked is searched
+  // afresh. The profile must outlive it and not change meanwhile.
+  class Walk {
+   public:
+    Walk(const DriveProfile& profile, RegisterKind kind, std::uint32_t first);
+    [[nodiscard]] const RegisterDef* find(std::uint32_t address);
+
+   private:
+    void seek(std::uint64_t key);
+    const DriveProfile& profile_;
+    RegisterKind kind_;
+    std::size_t at_ = 0;      // the first table entry not below the last key asked
+    std::uint64_t last_ = 0;  // the last key asked
+  };
+  // find_holding() for a holding-register walk (its kind must be holding).
+  [[nodiscard]] const RegisterDef* find_holding(std::uint32_t address, Walk& walk) const;
   // The parameter's wire number of a Modbus holding register address, if the rule maps one.
   [[nodiscard]] std::optional<std::uint32_t> parameter_of_register(std::uint32_t address) const;
   // The manual's spelling of a parameter wire number ("4-14", "08-03", "F0.05").
   [[nodiscard]] std::string parameter_label(std::uint32_t number) const;
 
  private:
+  // find_holding() past the register map: the parameter the rule puts at `address`.
+  const RegisterDef* parameter_at(std::uint32_t address, std::string* parameter_label) const;
   // find() is called for every register of every frame of every candidate profile: it searches
   // a sorted (kind, address) -> index table, rebuilt whenever `registers` changed size (profiles
   // are built once and then only read; a caller editing a register's key in place must clear
