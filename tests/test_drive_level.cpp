@@ -1211,8 +1211,12 @@ struct BinderRig {
   std::vector<BusEvent> events;
   std::uint64_t number = 0;
 
+  // (learn_bound(): what learn() does, and the binding after it, checked against bound().)
   void learn(const Message& m) {
-    if (auto e = binder.learn(0, m)) events.push_back(*e);
+    std::optional<BusEvent> e;
+    const DriveProfile* now = binder.learn_bound(0, head_of(m), e);
+    EXPECT_EQ(now, binder.bound(0, m.address)) << "frame " << m.frame.number;
+    if (e) events.push_back(*e);
   }
   // A request and its reply.
   void exchange(Protocol p, const std::vector<std::uint8_t>& req,
@@ -1427,4 +1431,12 @@ TEST(DriveBinder, ClearlyBetterEvidenceRebinds) {
   EXPECT_EQ(e.from, "e9");  // BusEvent: from = the previous value, known here
   EXPECT_EQ(e.frame, 3u);
   EXPECT_EQ(e.detail.find("drive 2 bound to E5-8200 (auto, confidence "), 0u) << e.detail;
+  // A frame with a bad checksum teaches nothing, and its station stays bound.
+  auto bad = with_crc({0x02, 0x03, 0x25, 0x20, 0x00, 0x08});
+  bad.back() ^= 0x01;
+  const Message m = decode(Protocol::modbus_rtu, bad, Direction::request);
+  std::optional<BusEvent> changed;
+  EXPECT_EQ(rig.binder.learn_bound(0, head_of(m), changed), rig.binder.bound(0, 2));
+  EXPECT_EQ(rig.bound_id(2), "e5-8200");
+  EXPECT_FALSE(changed);
 }

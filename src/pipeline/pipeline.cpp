@@ -511,8 +511,10 @@ const DriveProfile* Pipeline::read_drive_level(std::size_t link, const PairingIn
 const DriveProfile* Pipeline::drive_profile_for(std::size_t link, const TelegramHead& telegram) {
   if (const auto drive = options_.drives.find(telegram.address); drive != options_.drives.end())
     return drive->second;
-  if (auto bound = binder_.learn(link, telegram)) sink_.on_event(*bound);
-  return binder_.bound(link, telegram.address);
+  std::optional<BusEvent> changed;
+  const DriveProfile* profile = binder_.learn_bound(link, telegram, changed);
+  if (changed) sink_.on_event(*changed);
+  return profile;
 }
 
 void Pipeline::check_packetization(const Frame& frame, ChannelState& st) {

@@ -197,9 +197,20 @@ std::string DriveBinder::evidence(const Station& st) const {
 }
 
 std::optional<BusEvent> DriveBinder::learn(std::size_t link, const TelegramHead& m) {
-  if (m.address <= 0 || candidates_.empty()) return std::nullopt;  // broadcasts bind nothing
-  if (m.verdict != ChecksumVerdict::good) return std::nullopt;
+  std::optional<BusEvent> changed;
+  learn_bound(link, m, changed);
+  return changed;
+}
+
+const DriveProfile* DriveBinder::learn_bound(std::size_t link, const TelegramHead& m,
+                                             std::optional<BusEvent>& event) {
+  // (Stations are made only below: no station has an address of 0 or less.)
+  if (m.address <= 0 || candidates_.empty()) return nullptr;  // broadcasts bind nothing
+  if (m.verdict != ChecksumVerdict::good) return bound(link, m.address);
   Station& st = stations_[{link, m.address}];
+  const auto bound_now = [&]() -> const DriveProfile* {
+    return st.bound >= 0 ? candidates_[static_cast<std::size_t>(st.bound)] : nullptr;
+  };
   if (st.score.empty()) {
     st.score.assign(candidates_.size(), 0);
     st.excluded.assign(candidates_.size(), 0);
@@ -228,7 +239,7 @@ std::optional<BusEvent> DriveBinder::learn(std::size_t link, const TelegramHead&
       st.score[i] += own_protocol_evidence(p, m);
   }
   const auto [best, second] = best_of(st);
-  if (best < 0) return std::nullopt;
+  if (best < 0) return bound_now();
   const double lead = st.score[static_cast<std::size_t>(best)] - second.value_or(0);
   const double top = st.score[static_cast<std::size_t>(best)];
   bool changed = false;
@@ -247,8 +258,8 @@ std::optional<BusEvent> DriveBinder::learn(std::size_t link, const TelegramHead&
                     : own >= kBindScore && margin >= 3 ? "medium"
                                                        : "low";
   }
-  if (!changed) return std::nullopt;
-  BusEvent e;
+  if (!changed) return bound_now();
+  BusEvent& e = event.emplace();
   e.time = m.start;
   e.channel = m.channel;
   e.kind = "drive_bound";
@@ -263,7 +274,7 @@ std::optional<BusEvent> DriveBinder::learn(std::size_t link, const TelegramHead&
                  ? fmt::format("drive {} bound to {} ({})", m.address,
                                candidates_[static_cast<std::size_t>(st.bound)]->name, evidence(st))
                  : fmt::format("drive {}: {}", m.address, evidence(st));
-  return e;
+  return bound_now();
 }
 
 }  // namespace drivetap

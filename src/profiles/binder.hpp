@@ -32,6 +32,11 @@ class DriveBinder {
   std::optional<BusEvent> learn(std::size_t link, const Message& message) {
     return learn(link, head_of(message));
   }
+  // learn(), and the profile the station is bound to afterwards (bound()): one lookup of the
+  // station where the pipeline made two for every frame. `changed`: set when the binding
+  // changed, as learn() returns it.
+  const DriveProfile* learn_bound(std::size_t link, const TelegramHead& telegram,
+                                  std::optional<BusEvent>& changed);
 
   struct Station {
     std::vector<double> score;  // per candidate: fitting minus contradicting observations
