@@ -88,18 +88,10 @@ void Pairer::expire_some(TimeNs now, std::vector<Transaction>& out) {
 
 PairingInput pairing_input(const Message& m) {
   PairingInput in;
-  in.direction = m.direction;
-  in.protocol = m.protocol;
-  in.address = m.address;
+  static_cast<TelegramHead&>(in) = head_of(m);
   in.function = m.function;
   in.is_exception = m.is_exception;
   in.exception_code = m.exception_code;
-  in.number = m.frame.number;
-  in.channel = m.frame.channel;
-  in.start = m.frame.start();
-  in.last_byte_time = m.frame.events.back_time();
-  in.gap_before = m.frame.gap_before;
-  in.bytes = m.bytes;
   return in;
 }
 
@@ -145,7 +137,7 @@ PairingResult Pairer::add(std::size_t link, const PairingInput& m, std::vector<T
     p.number = m.number;
     p.channel = m.channel;
     p.start = start;
-    p.end = m.last_byte_time + options_.character_time;
+    p.end = m.last_byte + options_.character_time;
     p.protocol = m.protocol;
     p.bytes.assign(m.bytes.begin(), m.bytes.end());
     return {};

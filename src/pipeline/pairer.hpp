@@ -23,21 +23,14 @@ struct PairerOptions {
   std::size_t max_pending = 64;  // bound on requests in flight per link (hostile input)
 };
 
-// What pairing reads of a decoded telegram: a Message holds it all (pairing_input()); the
-// pipeline's summary lane, which makes no Message, fills it from the frame it took whole.
-struct PairingInput {
-  Direction direction = Direction::unknown;
-  Protocol protocol = Protocol::modbus_rtu;
-  int address = -1;
+// What pairing reads of a decoded telegram: its head (which the drive level reads too: the
+// pipeline's summary lane fills one for both) and its function. A Message holds it all
+// (pairing_input()); the summary lane, which makes no Message, fills it from the frame it took
+// whole. Pairing reads neither the head's checksum verdict nor its latency.
+struct PairingInput : TelegramHead {
   int function = -1;
   bool is_exception = false;
   int exception_code = -1;
-  std::uint64_t number = 0;  // the frame's
-  ChannelId channel = 0;
-  TimeNs start = 0;           // the first byte's time
-  TimeNs last_byte_time = 0;  // the last byte's (start) time
-  TimeNs gap_before = -1;     // Frame::gap_before
-  std::span<const std::uint8_t> bytes;
 };
 PairingInput pairing_input(const Message& m);
 

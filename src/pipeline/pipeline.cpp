@@ -485,21 +485,8 @@ void Pipeline::check_drive_timing(const TelegramHead& m, const DriveProfile& p,
   }
 }
 
-const DriveProfile* Pipeline::read_drive_level(std::size_t link, const PairingInput& telegram,
-                                               ChecksumVerdict verdict,
+const DriveProfile* Pipeline::read_drive_level(std::size_t link, const TelegramHead& head,
                                                std::span<const std::uint8_t> request) {
-  TelegramHead& head = drive_head_;
-  head.protocol = telegram.protocol;
-  head.direction = telegram.direction;
-  head.address = telegram.address;
-  head.verdict = verdict;
-  head.bytes = telegram.bytes;
-  head.start = telegram.start;
-  head.last_byte = telegram.last_byte_time;
-  head.channel = telegram.channel;
-  head.number = telegram.number;
-  head.gap_before = telegram.gap_before;
-  head.latency = -1;
   const DriveProfile* profile = drive_profile_for(link, head);
   // The observation only: a sink that takes records writes the annotation (the lane's
   // condition, in the constructor).
@@ -667,21 +654,22 @@ void Pipeline::count_whole_telegram(ChannelState& st, const ByteRun& run,
       st.redetect = true;
     }
   }
+  // The telegram's head (for pairing and the drive level) and function.
   PairingInput in;
   in.direction = dir;
   in.protocol = decoder.protocol();
   in.address = summary.address;
+  in.verdict = summary.verdict;
   in.function = summary.function;
   in.is_exception = summary.is_exception;
   in.exception_code = summary.exception_code;
   in.number = number;
   in.channel = run.channel;
   in.start = start;
-  in.last_byte_time = last_byte;
+  in.last_byte = last_byte;
   in.gap_before = taken.timing.gap_before;
   in.bytes = bytes;
-  const DriveProfile* profile =
-      drive_level_ ? read_drive_level(st.link, in, summary.verdict, request) : nullptr;
+  const DriveProfile* profile = drive_level_ ? read_drive_level(st.link, in, request) : nullptr;
   // (The request's bytes copied for the sink: the pairer's storage may be reused once
   // pairer_.add() has dropped them.)
   if (hand_over_records_) {
@@ -699,9 +687,9 @@ void Pipeline::count_whole_telegram(ChannelState& st, const ByteRun& run,
     stats_.count_anomaly(static_cast<AnomalyKind>(std::countr_zero(kinds)));
   if (profile) {
     drive_anomalies_.clear();
-    if (paired.paired) drive_head_.latency = paired.latency;
+    if (paired.paired) in.latency = paired.latency;
     // (A sink without records shows no anomaly: the findings are counted, not described.)
-    check_drive_timing(drive_head_, *profile, drive_anomalies_, hand_over_records_);
+    check_drive_timing(in, *profile, drive_anomalies_, hand_over_records_);
     for (const Anomaly& a : drive_anomalies_) stats_.count_anomaly(a);
   }
   if (hand_over_records_) {
@@ -725,9 +713,9 @@ void Pipeline::count_whole_telegram(ChannelState& st, const ByteRun& run,
     sink_.on_undissected(telegram);
   }
   check_packetization(FrameKind::telegram, run.origin, run.origin, number, start, run.channel, st);
-  if (profile && drive_head_.verdict == ChecksumVerdict::good)
-    for (const BusEvent& e : timeline_.observe(st.link, drive_head_, *profile,
-                                               drive_reading_.observed, hand_over_events_))
+  if (profile && in.verdict == ChecksumVerdict::good)
+    for (const BusEvent& e :
+         timeline_.observe(st.link, in, *profile, drive_reading_.observed, hand_over_events_))
       sink_.on_event(e);
   emit_transactions(transactions_);
 }

@@ -124,10 +124,9 @@ class Pipeline {
   // The profile of the telegram's station: bound with --drive, or by the binder (which learns
   // from the telegram first, and hands a change of binding to the sink); nullptr for none.
   const DriveProfile* drive_profile_for(std::size_t link, const TelegramHead& telegram);
-  // count_whole_telegram()'s drive level before pairing: drive_head_ from the telegram, its
-  // profile (drive_profile_for()) and the observation of it in drive_reading_; the profile.
-  const DriveProfile* read_drive_level(std::size_t link, const PairingInput& telegram,
-                                       ChecksumVerdict verdict,
+  // count_whole_telegram()'s drive level before pairing: the telegram's profile
+  // (drive_profile_for()) and the observation of it in drive_reading_; the profile.
+  const DriveProfile* read_drive_level(std::size_t link, const TelegramHead& telegram,
                                        std::span<const std::uint8_t> request);
   void summarise_drives();
   void detect(ChannelState& st, ChannelId channel, bool final);
@@ -167,8 +166,7 @@ class Pipeline {
   // frame limit stops the run.
   bool summary_lane_ = false;
   bool drive_level_ = false;  // profiles bound with --drive, or candidates for binding by guess
-  // count_whole_telegram() with drive profiles: the telegram's head, and its timing-rule findings.
-  TelegramHead drive_head_;
+  // count_whole_telegram() with drive profiles: the telegram's timing-rule findings.
   std::vector<Anomaly> drive_anomalies_;
   bool hand_over_records_ = true;  // the sink's wants_records()
   bool hand_over_events_ = true;   // the sink's wants_events(): drive state changes as events
