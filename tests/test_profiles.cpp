@@ -49,7 +49,7 @@ TEST(Profiles, E9FromManual000) {
 
 // A walk finds what find() finds, for addresses asked in ascending order from any start (the
 // registers of every kind of each built-in profile and their neighbours), and after an address
-// below the last one; find_holding() on a walk as without.
+// below the last one; find_holding() on a walk (of holding registers or not) as without.
 TEST(Profiles, WalkFindsWhatFindFinds) {
   const RegisterKind kinds[] = {RegisterKind::holding, RegisterKind::input,
                                 RegisterKind::coil,    RegisterKind::discrete,
@@ -67,6 +67,8 @@ TEST(Profiles, WalkFindsWhatFindFinds) {
           ASSERT_EQ(walk.find(a), expected) << p.name << " kind " << int(kind) << " at " << a;
           if (expected) ++found;
           ASSERT_EQ(p.find_holding(a, holding), p.find_holding(a)) << p.name << " at " << a;
+          // (A walk of another kind is not used.)
+          ASSERT_EQ(p.find_holding(a, walk), p.find_holding(a)) << p.name << " at " << a;
         }
         const std::uint32_t back = start / 2;  // below the last one asked
         ASSERT_EQ(walk.find(back), p.find(kind, back)) << p.name << " back to " << back;

@@ -21,7 +21,8 @@ namespace drivetap {
 // asked for, from the register and its raw value: the timeline keeps a drive's telemetry from
 // every poll but shows it only in the summary (made at every poll, the texts took `read --stats`
 // with drive profiles a tenth of its instructions). A value that no register describes carries
-// its text made (`written`: Easydrive's fault code).
+// its text made (`written`: Easydrive's fault code). It points into its profile, which must
+// outlive it and not change meanwhile (the pipeline's profiles outlive the pipeline).
 struct Quantity {
   double value = 0;
   std::string written;
@@ -36,7 +37,7 @@ struct Quantity {
   void append_text(std::string& out) const;
   [[nodiscard]] std::string text() const;
   // Whether the two read the same: without making the texts when they are one register's same
-  // raw value.
+  // raw value, or two plain numbers of one scale and unit with the same value.
   [[nodiscard]] bool same_text(const Quantity& other) const;
   bool operator==(const Quantity& other) const { return value == other.value && same_text(other); }
 };

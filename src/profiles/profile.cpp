@@ -94,6 +94,7 @@ const RegisterDef* DriveProfile::Walk::find(std::uint32_t address) {
 }
 
 const RegisterDef* DriveProfile::find_holding(std::uint32_t address, Walk& walk) const {
+  if (walk.kind() != RegisterKind::holding) return find_holding(address);
   if (const RegisterDef* r = walk.find(address)) return r;
   return parameter_at(address, nullptr);
 }

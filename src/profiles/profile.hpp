@@ -114,6 +114,7 @@ struct DriveProfile {
    public:
     Walk(const DriveProfile& profile, RegisterKind kind, std::uint32_t first);
     [[nodiscard]] const RegisterDef* find(std::uint32_t address);
+    [[nodiscard]] RegisterKind kind() const { return kind_; }
 
    private:
     void seek(std::uint64_t key);
@@ -122,7 +123,7 @@ struct DriveProfile {
     std::size_t at_ = 0;      // the first table entry not below the last key asked
     std::uint64_t last_ = 0;  // the last key asked
   };
-  // find_holding() for a holding-register walk (its kind must be holding).
+  // find_holding() along a walk of the holding registers (a walk of another kind is not used).
   [[nodiscard]] const RegisterDef* find_holding(std::uint32_t address, Walk& walk) const;
   // The parameter's wire number of a Modbus holding register address, if the rule maps one.
   [[nodiscard]] std::optional<std::uint32_t> parameter_of_register(std::uint32_t address) const;

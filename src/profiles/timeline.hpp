@@ -2,7 +2,8 @@
 // frequency, current, fault) from the observations of its frames, and the events when it changes
 // ("drive 2 (ERMAN E-9P/9G): fault 4 (overcurrent) appeared"). Contract: events come out in frame
 // order, at most one per kind and value change; telemetry (output frequency, current, voltage)
-// is kept, not announced: it changes with every poll.
+// is kept, not announced: it changes with every poll. The states keep their quantities as read
+// (Quantity points into its profile): the profiles must outlive the timeline.
 #pragma once
 
 #include <cstdint>
