@@ -44,8 +44,17 @@ double scaled(const RegisterDef& r, std::uint32_t raw, bool double_word) {
 // The scaled value as "{:.Nf}" prints it, N = decimals_of(scale). A scale of 1, 0.1, 0.01 ...
 // or a whole one makes it an exact decimal, printed from integers: the double's rounding error
 // is far below half the last digit for any 32-bit raw value, so the text is the same.
+constexpr double kDecimalScales[] = {1, 0.1, 0.01, 0.001, 0.0001, 0.00001};
+
+// Whether append_scaled() prints values under `scale` as exact decimals (from integers): then
+// two different values never print alike.
+bool exact_decimal_scale(double scale) {
+  for (const double s : kDecimalScales)
+    if (scale == s) return true;
+  return false;
+}
+
 void append_scaled(std::string& out, const RegisterDef& r, std::uint32_t raw, bool double_word) {
-  static constexpr double kDecimalScales[] = {1, 0.1, 0.01, 0.001, 0.0001, 0.00001};
   static constexpr std::int64_t kPowersOfTen[] = {1, 10, 100, 1000, 10000, 100000};
   const std::int64_t value = raw_value(r, raw, double_word);
   // A decimal scale, the usual one, is looked up in the table: decimals_of() gives each entry
@@ -597,14 +606,18 @@ bool Quantity::same_text(const Quantity& other) const {
     if (reg == other.reg && profile == other.profile && raw == other.raw &&
         double_word == other.double_word)
       return true;
-    // Two registers that both show a plain number the same way (a setpoint read back against the
-    // one written) read alike when they hold the same value. (Different values may still print
-    // alike under a scale that is no power of ten: those are compared as written.)
+    // Two registers that both show a plain number the same way (one register, or a setpoint
+    // read back against the one written) read alike when they hold the same value; under a
+    // power of ten (0.01 Hz) different values read differently, a change of setpoint. (Under
+    // another scale, Danfoss's 100/16384 %, different values may print alike: those are
+    // compared as written.)
     const RegisterDef &a = *reg, &b = *other.reg;
     if (a.enum_name.empty() && b.enum_name.empty() && a.bits.empty() && b.bits.empty() &&
-        a.scale == b.scale && a.unit == b.unit &&
-        raw_value(a, raw, double_word) == raw_value(b, other.raw, other.double_word))
-      return true;
+        a.scale == b.scale && a.unit == b.unit) {
+      const bool same =
+          raw_value(a, raw, double_word) == raw_value(b, other.raw, other.double_word);
+      if (same || exact_decimal_scale(a.scale)) return same;
+    }
   }
   return text() == other.text();
 }

@@ -37,7 +37,8 @@ struct Quantity {
   void append_text(std::string& out) const;
   [[nodiscard]] std::string text() const;
   // Whether the two read the same: without making the texts when they are one register's same
-  // raw value, or two plain numbers of one scale and unit with the same value.
+  // raw value, or two plain numbers of one scale and unit (of a power of ten, or with the same
+  // value).
   [[nodiscard]] bool same_text(const Quantity& other) const;
   bool operator==(const Quantity& other) const { return value == other.value && same_text(other); }
 };
