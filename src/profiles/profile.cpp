@@ -42,13 +42,19 @@ void DriveProfile::build_index() const {
   }
 }
 
+std::size_t DriveProfile::first_index_at(std::uint64_t key) const {
+  return static_cast<std::size_t>(
+      std::lower_bound(registers_index_.begin(), registers_index_.end(), key,
+                       [](const auto& e, std::uint64_t k) { return e.first < k; }) -
+      registers_index_.begin());
+}
+
 const RegisterDef* DriveProfile::find(RegisterKind kind, std::uint32_t address) const {
   build_index();
   const std::uint64_t key = register_key(kind, address);
-  const auto it = std::lower_bound(registers_index_.begin(), registers_index_.end(), key,
-                                   [](const auto& e, std::uint64_t k) { return e.first < k; });
-  if (it == registers_index_.end() || it->first != key) return nullptr;
-  return &registers[it->second];
+  const std::size_t at = first_index_at(key);
+  if (at == registers_index_.size() || registers_index_[at].first != key) return nullptr;
+  return &registers[registers_index_[at].second];
 }
 
 std::optional<std::uint32_t> DriveProfile::parameter_of_register(std::uint32_t address) const {
@@ -75,11 +81,7 @@ DriveProfile::Walk::Walk(const DriveProfile& profile, RegisterKind kind, std::ui
 }
 
 void DriveProfile::Walk::seek(std::uint64_t key) {
-  const auto& index = profile_.registers_index_;
-  at_ = static_cast<std::size_t>(
-      std::lower_bound(index.begin(), index.end(), key,
-                       [](const auto& e, std::uint64_t k) { return e.first < k; }) -
-      index.begin());
+  at_ = profile_.first_index_at(key);
   last_ = key;
 }
 

@@ -131,6 +131,9 @@ struct DriveProfile {
   [[nodiscard]] std::string parameter_label(std::uint32_t number) const;
 
  private:
+  // The first entry of the table (built) whose key is not below `key`: find()'s search, and a
+  // walk's first.
+  [[nodiscard]] std::size_t first_index_at(std::uint64_t key) const;
   // find_holding() past the register map: the parameter the rule puts at `address`.
   const RegisterDef* parameter_at(std::uint32_t address, std::string* parameter_label) const;
   // find() is called for every register of every frame of every candidate profile: it searches
