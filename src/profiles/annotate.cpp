@@ -41,9 +41,6 @@ double scaled(const RegisterDef& r, std::uint32_t raw, bool double_word) {
   return static_cast<double>(raw_value(r, raw, double_word)) * r.scale;
 }
 
-// The scaled value as "{:.Nf}" prints it, N = decimals_of(scale). A scale of 1, 0.1, 0.01 ...
-// or a whole one makes it an exact decimal, printed from integers: the double's rounding error
-// is far below half the last digit for any 32-bit raw value, so the text is the same.
 constexpr double kDecimalScales[] = {1, 0.1, 0.01, 0.001, 0.0001, 0.00001};
 
 // Whether append_scaled() prints values under `scale` as exact decimals (from integers): then
@@ -54,6 +51,9 @@ bool exact_decimal_scale(double scale) {
   return false;
 }
 
+// The scaled value as "{:.Nf}" prints it, N = decimals_of(scale). A scale of 1, 0.1, 0.01 ...
+// or a whole one makes it an exact decimal, printed from integers: the double's rounding error
+// is far below half the last digit for any 32-bit raw value, so the text is the same.
 void append_scaled(std::string& out, const RegisterDef& r, std::uint32_t raw, bool double_word) {
   static constexpr std::int64_t kPowersOfTen[] = {1, 10, 100, 1000, 10000, 100000};
   const std::int64_t value = raw_value(r, raw, double_word);

@@ -34,6 +34,15 @@ struct Quantity {
   // The register's value (raw as the wire carries it; `double_word`: two registers' worth).
   static Quantity of(const DriveProfile& profile, const RegisterDef& reg, std::uint32_t raw,
                      bool double_word);
+  // Back to a value of nothing, `written` keeping its storage.
+  void clear() {
+    value = 0;
+    written.clear();
+    profile = nullptr;
+    reg = nullptr;
+    raw = 0;
+    double_word = false;
+  }
   void append_text(std::string& out) const;
   [[nodiscard]] std::string text() const;
   // Whether the two read the same: without making the texts when they are one register's same
@@ -68,12 +77,7 @@ struct DriveObservation {
     current.reset();
     voltage.reset();
     fault_code.reset();
-    fault.value = 0;
-    fault.written.clear();
-    fault.profile = nullptr;
-    fault.reg = nullptr;
-    fault.raw = 0;
-    fault.double_word = false;
+    fault.clear();
     run_command.reset();
     reverse_command.reset();
     reset_command = false;

@@ -15,7 +15,7 @@ std::string DriveState::summary() const {
   if (current) parts.push_back("current " + current->text());
   if (voltage) parts.push_back("voltage " + voltage->text());
   if (fault_code)
-    parts.push_back(*fault_code ? "fault " + fault_text : "no fault");
+    parts.push_back(*fault_code ? "fault " + fault.text() : "no fault");
   else if (fault_active)
     parts.push_back(*fault_active ? "fault" : "no fault");
   if (warning && *warning) parts.push_back("warning");
@@ -120,25 +120,23 @@ std::vector<BusEvent> DriveTimeline::observe(std::size_t link, const TelegramHea
   if (o.setpoint) setpoint_change(*o.setpoint, "");
   if (o.fault_code && o.fault_code != s.fault_code) {
     const std::uint32_t was = s.fault_code.value_or(0);
-    const std::string fault_text = o.fault.text();
     if (*o.fault_code != 0 && was == 0)
       emit([&] {
-        return EventText{"fault", fmt::format(FMT_COMPILE("fault {} appeared"), fault_text), "",
-                         fault_text};
+        const std::string to = o.fault.text();
+        return EventText{"fault", fmt::format(FMT_COMPILE("fault {} appeared"), to), "", to};
       });
     else if (*o.fault_code == 0 && was != 0)
       emit([&] {
-        return EventText{"fault", fmt::format(FMT_COMPILE("fault {} cleared"), s.fault_text),
-                         s.fault_text, ""};
+        const std::string from = s.fault.text();
+        return EventText{"fault", fmt::format(FMT_COMPILE("fault {} cleared"), from), from, ""};
       });
     else if (*o.fault_code != 0)
       emit([&] {
-        return EventText{"fault",
-                         fmt::format(FMT_COMPILE("fault {} -> {}"), s.fault_text, fault_text),
-                         s.fault_text, fault_text};
+        const std::string from = s.fault.text(), to = o.fault.text();
+        return EventText{"fault", fmt::format(FMT_COMPILE("fault {} -> {}"), from, to), from, to};
       });
     s.fault_code = o.fault_code;
-    s.fault_text = fault_text;
+    s.fault = o.fault;
   }
   if (o.fault_active && o.fault_active != s.fault_active) {
     if (*o.fault_active || s.fault_active)

@@ -25,7 +25,7 @@ struct DriveState {
   std::optional<bool> running, reverse, fault_active, warning;
   std::optional<Quantity> setpoint, output_frequency, current, voltage;
   std::optional<std::uint32_t> fault_code;
-  std::string fault_text;
+  Quantity fault;  // with fault_code: "4 (overcurrent)"
   std::optional<bool> run_command, reverse_command;
   bool reset_level = false;  // the last command carried the reset bit (edges make events)
   std::uint64_t events = 0;
