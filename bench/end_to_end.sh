@@ -2,7 +2,9 @@
 # End to end against tshark (issue 8): the same Modbus RTU pcapng through `drivetap read` in text,
 # JSON and --stats modes and through tshark (text, -T fields, -q -z io,stat,0), side by side:
 # seconds, packets/s, drivetap's ratio to tshark, peak RSS; `cat` of the file as the floor of any
-# reader (its ratio to io,stat bounds what --stats can reach); then drivetap alone on the realistic
+# reader (its ratio to io,stat bounds what --stats can reach) and drivetap_floor (bench/floor.cpp:
+# the file read with drivetap's reader and each packet's CRC checked, on one thread, nothing else
+# of a decode) as the floor of a --stats pass; then drivetap alone on the realistic
 # mix of the five drive families (tshark decodes neither the FC nor the '~' protocol). One table
 # per size, and drivetap's peak RSS across the sizes; then drivetap's peak RSS on a noisy bus seen
 # by a logic analyser (every byte stamped on its own: the frames whose storage is largest).
@@ -29,12 +31,14 @@ shift || true
 sizes=("$@")
 [ ${#sizes[@]} -gt 0 ] || sizes=(1000000 10000000)
 drivetap="$build/drivetap"
+floor="$build/bench/drivetap_floor"
 results=${RESULTS:-$root/bench/RESULTS.md}
 repeat=${REPEAT:-1}
 noise_bytes=${NOISE_BYTES:-6000000}
 # Every argument and tool checked before the first run (a 10 M run takes a quarter of an hour).
 die() { echo "end_to_end.sh: $*" >&2; exit 2; }
 [ -x "$drivetap" ] || die "$drivetap: no drivetap there (first argument: the build directory)"
+[ -x "$floor" ] || echo "end_to_end.sh: no $floor (a build without Google Benchmark): no floor row" >&2
 for frames in "${sizes[@]}"; do
   [[ $frames =~ ^[1-9][0-9]*$ ]] || die "FRAMES $frames: not a positive number of frames"
 done
@@ -112,6 +116,8 @@ for frames in "${sizes[@]}"; do
   measure "tshark io,stat" tshark -r "$work/bus.pcapng" -q -z io,stat,0
   # The floor of any reader: the file's bytes copied out of the page cache once, nothing decoded.
   measure "cat (no decoding)" cat "$work/bus.pcapng"
+  # The floor of --stats: reading and CRC-checking every packet on one thread, nothing else.
+  [ ! -x "$floor" ] || measure "floor: read + CRC, one thread" "$floor" "$work/bus.pcapng"
   measure "drivetap text" "$drivetap" read --drive none "$work/bus.pcapng"
   measure "drivetap -T json" "$drivetap" read --drive none -T json "$work/bus.pcapng"
   measure "drivetap --stats" "$drivetap" read --drive none --stats "$work/bus.pcapng"
@@ -151,7 +157,7 @@ for frames in "${sizes[@]}"; do
       case $name in
         "drivetap text" | "drivetap text, drives") ratio=$(awk -v a="$(seconds_of 'tshark text')" -v b="$seconds" 'BEGIN { printf "%.1fx text", a / b }') ;;
         "drivetap -T json") ratio=$(awk -v a="$(seconds_of 'tshark -T fields')" -v b="$seconds" 'BEGIN { printf "%.1fx fields", a / b }') ;;
-        "drivetap --stats" | "cat (no decoding)") ratio=$(awk -v a="$(seconds_of 'tshark io,stat')" -v b="$seconds" 'BEGIN { printf "%.1fx io,stat", a / b }') ;;
+        "drivetap --stats" | "cat (no decoding)" | "floor: read + CRC, one thread") ratio=$(awk -v a="$(seconds_of 'tshark io,stat')" -v b="$seconds" 'BEGIN { printf "%.1fx io,stat", a / b }') ;;
         *"full pcapng") ratio="(another file)" ;;
       esac
       echo "| $name | $seconds | $cpu | $rate | $((rss / 1024)) | $ratio | \`${cmd//$work\//}\` |"

@@ -63,6 +63,8 @@ row "tshark text" ""
 row "tshark -T fields" ""
 row "tshark io,stat" ""
 row "cat (no decoding)" "[0-9.]+x io,stat"
+# (drivetap_floor is built with the benchmarks, where Google Benchmark is installed.)
+[ ! -x "$build/bench/drivetap_floor" ] || row "floor: read + CRC, one thread" "[0-9.]+x io,stat"
 row "drivetap text" "[0-9.]+x text"
 row "drivetap -T json" "[0-9.]+x fields"
 row "drivetap --stats" "[0-9.]+x io,stat"
