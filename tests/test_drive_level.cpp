@@ -1211,7 +1211,7 @@ struct BinderRig {
   std::vector<BusEvent> events;
   std::uint64_t number = 0;
 
-  // (learn_bound(): what learn() does, and the binding after it, checked against bound().)
+  // (learn_bound(): the binding after it checked against bound().)
   void learn(const Message& m) {
     std::optional<BusEvent> e;
     const DriveProfile* now = binder.learn_bound(0, head_of(m), e);

@@ -196,12 +196,6 @@ std::string DriveBinder::evidence(const Station& st) const {
                      st.frames, st.frames == 1 ? "" : "s", runner);
 }
 
-std::optional<BusEvent> DriveBinder::learn(std::size_t link, const TelegramHead& m) {
-  std::optional<BusEvent> changed;
-  learn_bound(link, m, changed);
-  return changed;
-}
-
 const DriveProfile* DriveBinder::learn_bound(std::size_t link, const TelegramHead& m,
                                              std::optional<BusEvent>& event) {
   // (Stations are made only below: no station has an address of 0 or less.)

@@ -26,15 +26,9 @@ class DriveBinder {
  public:
   explicit DriveBinder(std::vector<const DriveProfile*> candidates);
 
-  // Weighs what `message` says about its station; returns the event when the station's binding
-  // changed.
-  std::optional<BusEvent> learn(std::size_t link, const TelegramHead& telegram);
-  std::optional<BusEvent> learn(std::size_t link, const Message& message) {
-    return learn(link, head_of(message));
-  }
-  // learn(), and the profile the station is bound to afterwards (bound()): one lookup of the
-  // station where the pipeline made two for every frame. `changed`: set when the binding
-  // changed, as learn() returns it.
+  // Weighs what `telegram` says about its station; `changed` is set to the event when the
+  // station's binding changed. Returns the profile the station is bound to afterwards (bound()),
+  // in the one lookup of the station the pipeline makes for every frame.
   const DriveProfile* learn_bound(std::size_t link, const TelegramHead& telegram,
                                   std::optional<BusEvent>& changed);
 
