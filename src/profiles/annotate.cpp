@@ -41,14 +41,15 @@ double scaled(const RegisterDef& r, std::uint32_t raw, bool double_word) {
   return static_cast<double>(raw_value(r, raw, double_word)) * r.scale;
 }
 
+// The decimal scales append_scaled() prints as exact decimals, from integers (then two different
+// values never print alike): 10^-i at index i.
 constexpr double kDecimalScales[] = {1, 0.1, 0.01, 0.001, 0.0001, 0.00001};
 
-// Whether append_scaled() prints values under `scale` as exact decimals (from integers): then
-// two different values never print alike.
-bool exact_decimal_scale(double scale) {
-  for (const double s : kDecimalScales)
-    if (scale == s) return true;
-  return false;
+// The number of decimals of `scale` when it is one of kDecimalScales; -1 otherwise.
+int decimal_scale_index(double scale) {
+  for (int i = 0; i < static_cast<int>(std::size(kDecimalScales)); ++i)
+    if (scale == kDecimalScales[i]) return i;
+  return -1;
 }
 
 // The scaled value as "{:.Nf}" prints it, N = decimals_of(scale). A scale of 1, 0.1, 0.01 ...
@@ -56,12 +57,12 @@ bool exact_decimal_scale(double scale) {
 // is far below half the last digit for any 32-bit raw value, so the text is the same.
 void append_scaled(std::string& out, const RegisterDef& r, std::uint32_t raw, bool double_word) {
   static constexpr std::int64_t kPowersOfTen[] = {1, 10, 100, 1000, 10000, 100000};
+  static_assert(std::size(kPowersOfTen) == std::size(kDecimalScales));
   const std::int64_t value = raw_value(r, raw, double_word);
   // A decimal scale, the usual one, is looked up in the table: decimals_of() gives each entry
   // its index (ProfileSchema.ScaledValuesReadAsTheDoublePrinted), and its loop of roundings costs
   // more than the rest of the value.
-  for (int decimals = 0; decimals < 6; ++decimals) {
-    if (r.scale != kDecimalScales[decimals]) continue;
+  if (const int decimals = decimal_scale_index(r.scale); decimals >= 0) {
     const auto unit = static_cast<std::uint64_t>(kPowersOfTen[decimals]);
     const std::uint64_t magnitude =
         static_cast<std::uint64_t>(value < 0 ? -value : value);  // |value| < 2^32
@@ -616,7 +617,7 @@ bool Quantity::same_text(const Quantity& other) const {
         a.scale == b.scale && a.unit == b.unit) {
       const bool same =
           raw_value(a, raw, double_word) == raw_value(b, other.raw, other.double_word);
-      if (same || exact_decimal_scale(a.scale)) return same;
+      if (same || decimal_scale_index(a.scale) >= 0) return same;
     }
   }
   return text() == other.text();
