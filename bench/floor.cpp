@@ -39,9 +39,8 @@ int main(int argc, char** argv) {
     return 1;
   }
   // (The character time places the bytes in time, which the floor does not look at: `read`'s.)
-  const drivetap::RunSettings settings = reader.settings();
-  reader.set_character_time(settings.serial ? settings.serial->character_time()
-                                            : drivetap::SerialConfig{}.character_time());
+  reader.set_character_time(
+      reader.settings().serial.value_or(drivetap::SerialConfig{}).character_time());
   std::uint64_t runs = 0, short_runs = 0, good = 0, swapped = 0, bad = 0;
   drivetap::RunBatch batch;
   // Each pass reads one batch of runs and counts them, or ends.
