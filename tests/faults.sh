@@ -118,11 +118,11 @@ expect "--profile file missing" 1 '^drivetap: profile /nonexistent.toml: cannot 
   "$drivetap" read --profile /nonexistent.toml "$log" -o /dev/null
 expect "--profile-dir missing" 1 '/nonexistent' -- \
   "$drivetap" read --profile-dir /nonexistent "$log" -o /dev/null
-expect "--profile is /dev/zero" 1 '^drivetap: profile /dev/zero: larger than 1048576 bytes: not a drive profile$' -- \
+expect "--profile is /dev/zero" 1 '^drivetap: profile /dev/zero: is not a regular file (a FIFO, socket or device), not a profile file$' -- \
   timeout 20 "$drivetap" read --profile /dev/zero "$log" -o /dev/null
 expect "--profile is a directory" 1 "^drivetap: profile $work: is a directory, not a profile file\$" -- \
   "$drivetap" read --profile "$work" "$log" -o /dev/null
-expect "profiles FILE missing" 1 '^drivetap: /nonexistent.toml: cannot open the profile file$' -- \
+expect "profiles FILE missing" 1 '^drivetap: /nonexistent.toml: cannot open the profile file: No such file or directory$' -- \
   "$drivetap" profiles /nonexistent.toml
 
 # Inputs cut short: one error line, exit 1, and the outputs hold everything before the cut,

@@ -61,7 +61,7 @@ TEST(SinkFormat, JsonStringsEscapeQuotesBackslashesAndControls) {
 
 // Long strings go through the sixteen- and eight-character scans before any escaping: a
 // character that needs escaping is found at every place of them, and none is found where there
-// is none (bytes 0x7F and above included).
+// is none (ASCII; bytes from 0x80 are checked as UTF-8, below).
 TEST(SinkFormat, JsonEscapingOfLongStringsFindsEveryPlace) {
   auto reference = [](std::string_view s) {
     std::string out = "\"";
@@ -86,7 +86,7 @@ TEST(SinkFormat, JsonEscapingOfLongStringsFindsEveryPlace) {
   };
   for (const std::size_t length : {16u, 17u, 31u, 40u, 48u, 300u}) {
     std::string plain;
-    for (std::size_t i = 0; i < length; ++i) plain += static_cast<char>(0x20 + (i * 37) % 0xE0);
+    for (std::size_t i = 0; i < length; ++i) plain += static_cast<char>(0x20 + (i * 37) % 0x60);
     for (char& c : plain)
       if (c == '"' || c == '\\') c = 'x';
     EXPECT_EQ(json_quote(plain), reference(plain)) << length;
@@ -97,6 +97,24 @@ TEST(SinkFormat, JsonEscapingOfLongStringsFindsEveryPlace) {
         s[at] = special;
         EXPECT_EQ(json_quote(s), reference(s)) << length << " " << at << " " << int{special};
       }
+  }
+}
+
+// Names from hostile files reach JSON (issue 36): well-formed UTF-8 passes, a malformed byte
+// becomes U+FFFD and a C1 control is escaped, at every place of a long string (the scans).
+TEST(SinkFormat, JsonOfMalformedUtf8IsValidUtf8) {
+  EXPECT_EQ(json_quote("a\xFF" "b"), "\"a\\ufffdb\"");                // not a lead byte
+  EXPECT_EQ(json_quote("\xC3"), "\"\\ufffd\"");                     // cut sequence
+  EXPECT_EQ(json_quote("\xC0\xAF"), "\"\\ufffd\\ufffd\"");           // overlong '/'
+  EXPECT_EQ(json_quote("\xED\xA0\x80"), "\"\\ufffd\\ufffd\\ufffd\"");  // surrogate
+  EXPECT_EQ(json_quote("\xC2\x9B" "2J"), "\"\\u009b2J\"");             // C1 CSI
+  EXPECT_EQ(json_quote("\xE2\x82\xAC\xF0\x9F\x98\x80"), "\"\xE2\x82\xAC\xF0\x9F\x98\x80\"");
+  const std::string plain(48, 'a');
+  for (std::size_t at = 0; at < plain.size(); ++at) {
+    std::string s = plain;
+    s[at] = '\xFE';
+    EXPECT_EQ(json_quote(s), "\"" + plain.substr(0, at) + "\\ufffd" + plain.substr(at + 1) + "\"")
+        << at;
   }
 }
 

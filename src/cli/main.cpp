@@ -3,10 +3,12 @@
 #include <CLI/CLI.hpp>
 
 #include <poll.h>
+#include <sys/syscall.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <charconv>
 #include <chrono>
 #include <csignal>
@@ -23,6 +25,7 @@
 #include <thread>
 #include <vector>
 
+#include "core/printable.hpp"
 #include "core/protocol.hpp"
 #include "core/serial_config.hpp"
 #include "formats/shared_libraries.hpp"
@@ -52,8 +55,38 @@ namespace {
 using namespace drivetap;
 
 volatile std::sig_atomic_t g_stop = 0;
+std::atomic<bool> g_stop_asked{false};  // the same, for the watchdog thread (lock-free)
 void on_signal(int) {
   g_stop = 1;
+  g_stop_asked.store(true, std::memory_order_relaxed);
+}
+
+// SIGINT and SIGTERM must end a run whose output blocks (a FIFO or pipe whose reader stopped
+// reading): a thread sits in write() and the decoding thread waits for it. Once a stop was asked
+// for and the run has not ended within a grace second, every thread is sent SIGUSR1 (a handler
+// that does nothing, installed without SA_RESTART) until the run ends: a blocked write() returns
+// EINTR, the output counts as failed and is not written to again, and the run closes its other
+// outputs and ends as interrupted.
+void start_stop_watchdog() {
+  struct sigaction wake {};
+  wake.sa_handler = [](int) {};
+  sigemptyset(&wake.sa_mask);
+  wake.sa_flags = 0;  // no SA_RESTART: the blocked call returns EINTR
+  ::sigaction(SIGUSR1, &wake, nullptr);
+  std::thread([] {
+    while (!g_stop_asked.load(std::memory_order_relaxed))
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    std::this_thread::sleep_for(std::chrono::seconds(1));
+    const pid_t self = static_cast<pid_t>(::syscall(SYS_gettid));
+    for (;;) {
+      std::error_code ec;
+      for (const auto& task : std::filesystem::directory_iterator("/proc/self/task", ec)) {
+        const long tid = std::strtol(task.path().filename().c_str(), nullptr, 10);
+        if (tid > 0 && tid != self) ::syscall(SYS_tgkill, ::getpid(), tid, SIGUSR1);
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
+  }).detach();
 }
 
 struct CommonOptions {
@@ -78,6 +111,7 @@ struct CommonOptions {
   bool stats_only = false;                  // --stats
   std::vector<std::string> logic_channels;  // --channels RX,TX
   bool invert = false;
+  std::uint64_t logic_max = SigrokFile::kDefaultMaxSampleBytes;  // --logic-max
 };
 
 // Profiles loaded for this run (built in and --profile files); bound drives point into it.
@@ -117,6 +151,10 @@ void add_common_options(CLI::App* cmd, CommonOptions& o) {
   cmd->add_flag("--invert", o.invert,
                 "Logic-analyser captures, with -s: the line idles low (A/B swapped, RS-232 side); "
                 "without -s polarity and settings are detected");
+  cmd->add_option("--logic-max", o.logic_max,
+                  "sigrok sessions: the most sample data to decompress, e.g. 4G (default 1G; 0: "
+                  "no limit), a guard against zip bombs")
+      ->transform(CLI::AsSizeValue(false));
   cmd->add_flag("--events", o.events_only,
                 "Print only the events: drive-state timeline, drive bindings, protocol detection");
   cmd->add_flag("--no-summary", o.no_summary, "Do not print the closing summary");
@@ -134,10 +172,78 @@ void add_common_options(CLI::App* cmd, CommonOptions& o) {
       ->check(CLI::IsMember({"upper-pdu", "user0"}));
 }
 
+// One line on stderr, "drivetap: MESSAGE": whole (a NUL in a name taken from a file would cut
+// a %s), with whatever is not printable UTF-8 escaped (a name may hold a newline or ESC).
+void say(std::string_view message) {
+  const std::string line = fmt::format("drivetap: {}\n", printable(message, false));
+  std::fwrite(line.data(), 1, line.size(), stderr);
+}
+
 [[noreturn]] void die(const std::string& message, int code = 2) {
   std::fflush(stdout);
-  std::fprintf(stderr, "drivetap: %s\n", message.c_str());
+  say(message);
   std::exit(code);
+}
+
+// Standard output flushed at the end of any command: a failed write is one line and exit 1 (a full
+// disk), or, when the reader went away (EPIPE), the silent exit status of a process that SIGPIPE
+// ended, as the shell expects of `drivetap ... | head`.
+void finish_stdout() {
+  if (std::fflush(stdout) == 0 && !std::ferror(stdout)) return;
+  if (errno == EPIPE) std::_Exit(128 + SIGPIPE);
+  die(fmt::format("standard output: write failed: {}", std::strerror(errno)), 1);
+}
+
+// Refuses (exit 2) an output that is an input or another output: `read Y.pcapng -w Y.pcapng`
+// would truncate the capture before reading it, `-o F -w F` would mix two formats in one file.
+// Files are compared by device and inode, as tshark does, when they exist, else by their
+// normalised path; "-" and devices (/dev/null twice) are not files to protect.
+// `files`: {option, path}, the inputs first.
+void refuse_shared_files(const std::vector<std::pair<std::string, std::string>>& files) {
+  struct Seen {
+    std::string option, path;
+    bool exists = false;
+    dev_t device = 0;
+    ino_t inode = 0;
+    std::string normalised;
+  };
+  std::vector<Seen> seen;
+  for (const auto& [option, path] : files) {
+    if (path.empty() || path == "-") continue;
+    Seen f;
+    f.option = option;
+    f.path = path;
+    struct stat st {};
+    if (::stat(path.c_str(), &st) == 0) {
+      if (!S_ISREG(st.st_mode) && !S_ISDIR(st.st_mode)) continue;
+      f.exists = true;
+      f.device = st.st_dev;
+      f.inode = st.st_ino;
+    } else {
+      std::error_code ec;
+      f.normalised = std::filesystem::weakly_canonical(path, ec).string();
+      if (ec) f.normalised = std::filesystem::absolute(path, ec).lexically_normal().string();
+    }
+    for (const Seen& before : seen) {
+      const bool same = f.exists ? before.exists && before.device == f.device &&
+                                       before.inode == f.inode
+                                 : !before.exists && before.normalised == f.normalised;
+      if (same)
+        die(fmt::format("{} {}: is the same file as {} {}: refusing to overwrite it", option, path,
+                        before.option, before.path));
+    }
+    seen.push_back(std::move(f));
+  }
+}
+
+// Said once a run: channel names from the input that were escaped or shortened to print.
+void say_rewritten_names(const ChannelTable& channels) {
+  if (channels.rewritten_names() == 0) return;
+  say(fmt::format(
+      "{} channel name{} not printable UTF-8 or longer than {} bytes: shown escaped or "
+      "shortened (first: {})",
+      channels.rewritten_names(), channels.rewritten_names() == 1 ? " was" : "s were",
+      ChannelTable::kMaxNameBytes, channels.first_rewritten_name()));
 }
 
 // The built-in profiles (when `builtins_wanted`), then --profile-dir and --profile files (a user
@@ -313,6 +419,9 @@ class Outputs {
     }
   }
   Sink& sink() { return threaded_ ? static_cast<Sink&>(*threaded_) : tee_; }
+  // Whether nothing written from now on reaches anybody: the text output failed (its reader went
+  // away, `| head`) and there is no capture file to complete. Reading on would be wasted.
+  [[nodiscard]] bool unread() const { return !capture_ && !ring_ && std::ferror(text_file_); }
   // Live capture: everything written so far reaches its file (a text line per frame as it
   // completes; pcapng packets readable while the capture runs). False when a write failed.
   bool flush() {
@@ -358,6 +467,11 @@ class Outputs {
     if (!text_ok) {
       // Half a line (half a JSON record) would mislead whoever reads the file: cut it off.
       if (to_file) cut_back_to_last_line(text_file_);
+      if (!to_file && text_errno == EPIPE) std::_Exit(128 + SIGPIPE);  // `| head`: as SIGPIPE
+      if (g_stop && text_errno == EINTR)
+        die(fmt::format("interrupted; {} blocked (nobody read it): the rest of its output is lost",
+                        text_name),
+            130);
       die(fmt::format("{}: write failed: {}", text_name, std::strerror(text_errno)), 1);
     }
     if (to_file && std::fclose(text_file_) != 0)
@@ -408,6 +522,7 @@ bool read_decode_line(std::string& line, std::uint64_t number, std::string* erro
 // Frames given as arguments, or one text per line of standard input, decoded as they come (a
 // long stdin is never held whole).
 int run_decode(const CommonOptions& o, const std::vector<std::string>& args) {
+  refuse_shared_files({{"-o", o.output}, {"-w", o.write}});
   ChannelTable channels;
   const ChannelId bus = channels.intern("bus");
   PipelineOptions p = make_pipeline_options(o, RunSettings{});
@@ -512,10 +627,13 @@ std::unique_ptr<ByteSource> open_source(const CommonOptions& o, const std::strin
       close_input(in);
       std::string error;
       std::unique_ptr<LogicCapture> file;
-      if (format == InputFormat::sigrok)
-        file = SigrokFile::open(path, &error);
-      else
+      if (format == InputFormat::sigrok) {
+        auto sigrok = SigrokFile::open(path, &error);
+        if (sigrok) sigrok->set_max_sample_bytes(o.logic_max);
+        file = std::move(sigrok);
+      } else {
         file = VcdFile::open(path, &error);
+      }
       if (!file) die(error, 1);
       source =
           std::make_unique<LogicSource>(std::move(file), path, channels, logic_source_options(o));
@@ -548,18 +666,22 @@ bool is_regular_file(const std::string& path) {
 }
 
 int run_read(const CommonOptions& o, const std::string& path) {
+  refuse_shared_files({{"input", path}, {"-o", o.output}, {"-w", o.write}});
   InputFile in;
   ChannelTable channels;
   std::unique_ptr<ByteSource> source = open_source(o, path, in, channels);
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGTERM, on_signal);
+  source->set_stop_flag(&g_stop);
   const PipelineOptions p = start_source(o, *source);
+  if (g_stop) die("interrupted", 130);
   Outputs out(o, channels, p, /*timed=*/true);
   out.write_on_second_thread();
   Pipeline pipeline(p, channels, out.sink());
 
-  std::signal(SIGINT, on_signal);
-  std::signal(SIGTERM, on_signal);
   RunBatch batch;
   bool interrupted = false;
+  std::uint64_t batches = 0;
   // pcap/pcapng files are read a few chunks ahead on a second thread (no findings; a regular
   // file cannot block the reader for ever); other sources batch by batch on this one.
   std::optional<ReadAhead> ahead;
@@ -579,13 +701,16 @@ int run_read(const CommonOptions& o, const std::string& path) {
       interrupted = true;
       break;
     }
+    if (++batches % 256 == 0 && out.unread()) break;
   }
+  interrupted = interrupted || g_stop;  // a source may end early, as at its end, when stopped
   ahead.reset();  // the reader thread has stopped: the source is the caller's alone again
   // Whatever happened, what was read so far is decoded, summarised, written and flushed.
   pipeline.finish();
   out.close();
   for (const std::string& note : source->notes())
-    std::fprintf(stderr, "drivetap: %s\n", note.c_str());
+    say(note);
+  say_rewritten_names(channels);
   const std::string error = source->error();
   source.reset();
   close_input(in);
@@ -601,9 +726,11 @@ int run_diagnose(const CommonOptions& o, const std::string& path) {
   InputFile in;
   ChannelTable channels;
   std::unique_ptr<ByteSource> source = open_source(o, path, in, channels);
-  const PipelineOptions p = start_source(o, *source);
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
+  source->set_stop_flag(&g_stop);
+  const PipelineOptions p = start_source(o, *source);
+  if (g_stop) die("interrupted", 130);
   const Diagnosis d = diagnose_capture(*source, p, channels, &g_stop);
   if (!d.error.empty()) die(d.error, 1);
   if (d.interrupted) die("interrupted", 130);
@@ -733,6 +860,7 @@ int run_scan(const CommonOptions& o, const CaptureOptions& c) {
 // every file closed valid.
 int run_capture(const CommonOptions& o, const CaptureOptions& c) {
   if (c.ports.empty()) die("capture: give at least one port with -i (e.g. -i /dev/ttyUSB0)");
+  refuse_shared_files({{"-o", o.output}, {"-w", o.write}});
   TimeNs autostop = 0;
   for (const std::string& a : c.autostop) {
     if (!a.starts_with("duration:")) die(fmt::format("-a {}: expected duration:SECONDS", a));
@@ -775,7 +903,7 @@ int run_capture(const CommonOptions& o, const CaptureOptions& c) {
     std::string error;
     if (!open_port(k, &error)) die(error, 1);
     for (const std::string& w : ports[k]->warnings())
-      std::fprintf(stderr, "drivetap: warning: %s\n", w.c_str());
+      say("warning: " + w);
   }
   std::fprintf(stderr, "drivetap: capturing on %s at %s (listen only; Ctrl-C stops)\n",
                fmt::format("{}", fmt::join(c.ports, ", ")).c_str(), p.serial.to_string().c_str());
@@ -789,6 +917,7 @@ int run_capture(const CommonOptions& o, const CaptureOptions& c) {
   const TimeNs hold = 3 * kNsPerMs;
   const TimeNs started = clock.now();
   std::vector<ByteEvent> pending;  // read, not yet pushed: sorted by time before each push
+  std::size_t sorted_pending = 0;  // pending[0, sorted_pending) is in time order
   std::vector<ByteEvent> fresh;
   std::string stop_reason;
   int exit_code = 0;
@@ -835,7 +964,7 @@ int run_capture(const CommonOptions& o, const CaptureOptions& c) {
       const bool alive = ports[k]->read_available(fresh);
       pending.insert(pending.end(), fresh.begin(), fresh.end());
       if (!alive) {
-        std::fprintf(stderr, "drivetap: %s\n", ports[k]->error().c_str());
+        say(ports[k]->error());
         for (const std::string& n : ports[k]->notes()) pipeline.add_source_note(n);
         ports[k].reset();
         if (!c.reconnect) {
@@ -855,8 +984,12 @@ int run_capture(const CommonOptions& o, const CaptureOptions& c) {
       }
     // Push what is older than the hold, in time order; then let silences close frames.
     const TimeNs settled = clock.now() - hold;
-    std::stable_sort(pending.begin(), pending.end(),
-                     [](const ByteEvent& a, const ByteEvent& b) { return a.time < b.time; });
+    // What was held is in order already: the new bytes are sorted and merged in (a flooded port
+    // would make a full sort of the backlog every round cost more than the bytes).
+    const auto by_time = [](const ByteEvent& a, const ByteEvent& b) { return a.time < b.time; };
+    const auto fresh_from = pending.begin() + static_cast<std::ptrdiff_t>(sorted_pending);
+    std::stable_sort(fresh_from, pending.end(), by_time);
+    std::inplace_merge(pending.begin(), fresh_from, pending.end(), by_time);
     std::size_t pushed = 0;
     auto limit_reached = [&] {
       return c.max_frames > 0 && pipeline.stats().frames >= c.max_frames;
@@ -864,6 +997,7 @@ int run_capture(const CommonOptions& o, const CaptureOptions& c) {
     while (pushed < pending.size() && pending[pushed].time <= settled && !limit_reached())
       pipeline.push(pending[pushed++]);
     pending.erase(pending.begin(), pending.begin() + static_cast<std::ptrdiff_t>(pushed));
+    sorted_pending = pending.size();
     if (!limit_reached()) pipeline.advance(settled);
     if (!out.flush()) {
       stop_reason = "output write failed";
@@ -887,7 +1021,7 @@ int run_capture(const CommonOptions& o, const CaptureOptions& c) {
     return 130;
   }
   if (!stop_reason.empty())
-    std::fprintf(stderr, "drivetap: capture stopped: %s\n", stop_reason.c_str());
+    say("capture stopped: " + stop_reason);
   return exit_code;
 }
 
@@ -930,6 +1064,7 @@ int run_generate(const GenerateOptions& g) {
     die("generate: give -o FILE (byte log), -w FILE (pcapng) or both");
   if (g.plain && g.write.empty()) die("--plain: only with -w FILE (it is a kind of pcapng)");
   if (g.output == "-" && g.write == "-") die("-o - and -w - cannot both be stdout");
+  refuse_shared_files({{"-o", g.output}, {"-w", g.write}, {"--truth", g.truth}});
   auto create = [](const char* option, const std::string& path, const char* mode) {
     if (path.empty()) return static_cast<std::FILE*>(nullptr);
     if (path == "-") return stdout;
@@ -1042,8 +1177,12 @@ int run_profiles(const std::vector<std::string>& files) {
 
 int main(int argc, char** argv) {
   // A file size limit (ulimit -f) must fail the write (EFBIG) like a full disk, so that outputs
-  // are cut back to whole packets and closed, rather than kill the process mid-packet.
+  // are cut back to whole packets and closed, rather than kill the process mid-packet. A reader
+  // that went away (`| head`) fails the write too (EPIPE): the -w file is closed whole, then the
+  // run ends as SIGPIPE would have ended it (finish_stdout()).
   std::signal(SIGXFSZ, SIG_IGN);
+  std::signal(SIGPIPE, SIG_IGN);
+  start_stop_watchdog();
   // The short, tcpdump-like form: `drivetap -i /dev/ttyUSB0 -s "19200 8E1"` is a capture.
   std::vector<char*> args(argv, argv + argc);
   static char capture_word[] = "capture";
@@ -1134,13 +1273,15 @@ int main(int argc, char** argv) {
     // --help and --version exit 0; every command-line error exits 2 (CLI11's own codes vary).
     return app.exit(e) == 0 ? 0 : 2;
   }
-  if (*decode) return run_decode(decode_opts, hex_args);
-  if (*read) return run_read(read_opts, path);
+  int status = 2;
+  if (*decode) status = run_decode(decode_opts, hex_args);
+  if (*read) status = run_read(read_opts, path);
   if (*capture_cmd)
-    return capture_args.scan ? run_scan(capture_opts, capture_args)
-                             : run_capture(capture_opts, capture_args);
-  if (*diagnose_cmd) return run_diagnose(diagnose_opts, diagnose_path);
-  if (*profiles) return run_profiles(profile_files);
-  if (*generate_cmd) return run_generate(generate_opts);
-  return 2;
+    status = capture_args.scan ? run_scan(capture_opts, capture_args)
+                               : run_capture(capture_opts, capture_args);
+  if (*diagnose_cmd) status = run_diagnose(diagnose_opts, diagnose_path);
+  if (*profiles) status = run_profiles(profile_files);
+  if (*generate_cmd) status = run_generate(generate_opts);
+  finish_stdout();
+  return status;
 }

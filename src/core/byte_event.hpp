@@ -12,6 +12,7 @@
 #include <string_view>
 #include <vector>
 
+#include "core/printable.hpp"
 #include "core/time.hpp"
 
 namespace drivetap {
@@ -64,12 +65,16 @@ class ChannelTable {
   // detection buffer and statistics: without a bound a hostile file could grow memory (and the
   // linear name lookup) without end. A real tap has a handful.
   static constexpr std::size_t kMaxChannels = 256;
+  // A channel's name as printed: printable UTF-8 (src/core/printable.hpp), at most this long (a
+  // pcapng if_name may run to 64 KiB, and every output line names its channel).
+  static constexpr std::size_t kMaxNameBytes = 64;
 
   // One thread may intern (a source reading ahead on a thread of its own) while another looks
   // up the channels of the bytes it was handed: the storage is reserved once and never moves,
   // and a channel is published (size()) only once it is complete.
   ChannelTable() {
     channels_.reserve(kMaxChannels);
+    given_names_.reserve(kMaxChannels);
     link_of_.reserve(kMaxChannels);
     links_.reserve(kMaxChannels);
   }
@@ -88,6 +93,9 @@ class ChannelTable {
   [[nodiscard]] std::size_t link_count() const {
     return link_count_.load(std::memory_order_acquire);
   }
+  // Names that had to be escaped or shortened to print (said once, in a note), and the first.
+  [[nodiscard]] std::size_t rewritten_names() const { return rewritten_; }
+  [[nodiscard]] const std::string& first_rewritten_name() const { return first_rewritten_; }
 
  private:
   [[nodiscard]] std::size_t checked(ChannelId id) const {
@@ -98,18 +106,23 @@ class ChannelTable {
   // Only intern() changes these, by push_back within the reserved capacity; readers index the
   // published part (below size_ / link_count_).
   std::vector<Channel> channels_;
+  std::vector<std::string> given_names_;  // as the source gave them: the lookup's key
   std::vector<std::size_t> link_of_;
   std::vector<std::string> links_;
   std::atomic<std::size_t> size_{0};
   std::atomic<std::size_t> link_count_{0};
+  std::size_t rewritten_ = 0;
+  std::string first_rewritten_;
 };
 
 inline ChannelId ChannelTable::intern(std::string_view name, std::string_view link,
                                       ChannelRole role) {
-  for (std::size_t i = 0; i < channels_.size(); ++i)
-    if (channels_[i].name == name) return static_cast<ChannelId>(i);
+  for (std::size_t i = 0; i < given_names_.size(); ++i)
+    if (given_names_[i] == name) return static_cast<ChannelId>(i);
   if (channels_.size() >= kMaxChannels) return kNoChannel;
-  Channel ch{std::string(name), std::string(link), role};
+  Channel ch{printable_bounded(name, kMaxNameBytes), std::string(link), role};
+  if (ch.name != name && rewritten_++ == 0) first_rewritten_ = ch.name;
+  given_names_.emplace_back(name);
   std::size_t link_index = links_.size();
   for (std::size_t i = 0; i < links_.size(); ++i)
     if (links_[i] == ch.link) link_index = i;

@@ -44,6 +44,9 @@ class LineBuffer {
 #pragma GCC diagnostic ignored "-Wstringop-overread"
 #endif
   [[gnu::always_inline]] void append(const char* s, std::size_t n) {
+    // An empty piece copies nothing; memcpy with a still unallocated buffer's null pointer would be
+    // undefined even for 0 bytes.
+    if (n == 0) return;
     if (capacity_ - size_ < n) return append_growing(s, n);
     char* at = data_.get() + size_;
     size_ += n;

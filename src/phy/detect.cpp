@@ -176,6 +176,13 @@ LineDetection detect_line(std::span<const std::vector<LevelRun>> channels,
     const double scale = std::pow(10.0, std::floor(std::log10(d.measured_baud)) - 2);
     baud = std::round(d.measured_baud / scale) * scale;
   }
+  if (baud < UartSettings::kMinBaud || baud > UartSettings::kMaxBaud) {
+    d.why_not = fmt::format(
+        "the pulses measure {:g} baud at {} samples/s, outside the UART range {:.0f}..{:.0f} baud "
+        "(is the capture's sample rate or timescale right?)",
+        d.measured_baud, sample_rate_hz, UartSettings::kMinBaud, UartSettings::kMaxBaud);
+    return d;
+  }
   d.baud_confidence = best.fitting >= 0.95 && best.scored >= 50 && best.single >= 5
                           ? Confidence::high
                       : best.fitting >= 0.85 && best.scored >= 10 ? Confidence::medium

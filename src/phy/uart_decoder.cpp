@@ -87,7 +87,9 @@ double UartSettings::frame_bits() const {
 }
 
 std::string UartSettings::validate(std::uint64_t sample_rate_hz) const {
-  if (!std::isfinite(baud) || baud <= 0) return fmt::format("baud rate {} is not positive", baud);
+  if (!std::isfinite(baud) || baud < kMinBaud || baud > kMaxBaud)
+    return fmt::format("{:g} baud is outside the UART range {:.0f}..{:.0f} baud", baud, kMinBaud,
+                       kMaxBaud);
   if (data_bits < 5 || data_bits > 9)
     return fmt::format("{} data bits: a UART character has 5 to 9", data_bits);
   if (sample_rate_hz == 0 || sample_rate_hz > kMaxSampleRateHz)

@@ -41,6 +41,11 @@ enum class UartParity : std::uint8_t { none, even, odd, mark, space };
 enum class StopBits : std::uint8_t { one, one_and_half, two };
 
 struct UartSettings {
+  // The range `-s` accepts (SerialConfig::parse). Outside it there is no character time the
+  // framer and the timing rules can work with (below 0.5 baud it rounds to 0).
+  static constexpr double kMinBaud = 50;
+  static constexpr double kMaxBaud = 4'000'000;
+
   double baud = 9600;          // not necessarily a standard rate (10700 occurs)
   std::uint8_t data_bits = 8;  // 5..9
   UartParity parity = UartParity::none;

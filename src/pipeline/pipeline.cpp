@@ -12,6 +12,20 @@
 
 namespace drivetap {
 
+namespace {
+
+// A candidate protocol while a channel's protocol is being detected: its framer and its counts so
+// far. Each held byte is fed once, so that detection costs a few framings of the held bytes, not
+// one per evaluation.
+struct DetectionCandidate {
+  const ProtocolDecoder* decoder = nullptr;
+  std::unique_ptr<Framer> framer;
+  int good = 0;
+  int telegrams = 0;
+};
+
+}  // namespace
+
 struct Pipeline::ChannelState {
   // With a fixed protocol the framer exists from the start; in "auto" mode the channel first
   // holds its bytes until detect() has chosen the protocol.
@@ -20,7 +34,11 @@ struct Pipeline::ChannelState {
   bool auto_protocol = false;
   std::vector<ByteEvent> held;   // bytes waiting for detection (bounded by kDetectBytes)
   std::size_t evaluated_at = 0;  // held.size() at the last evaluation
-  int failures = 0;              // consecutive bad telegrams / noise since the last good one
+  std::vector<DetectionCandidate> candidates;  // while detecting: one per protocol
+  int failures = 0;  // consecutive bad telegrams / noise since the last good one
+  // Failures in a row that start detection afresh. Each detection that finds no clear protocol
+  // doubles it (a line of noise would otherwise be detected over and over); a clear one resets it.
+  int redetect_after = 8;  // kRedetectFailures
   bool redetect = false;
   TimeNs last_end = std::numeric_limits<TimeNs>::min();
   std::uint32_t last_frame_origin = 0;       // packet the previous frame ended in
@@ -294,29 +312,24 @@ constexpr std::size_t kDetectBytes = 2048;  // most bytes held before deciding a
 constexpr std::size_t kDetectEvery = 128;   // re-evaluate after this many more bytes
 constexpr int kDetectGoodFrames = 3;        // never decide on one lucky checksum
 constexpr int kRedetectFailures = 8;        // bad telegrams/noise in a row: the bus changed?
+constexpr int kMaxRedetectFailures = 8 << 12;  // the back-off's ceiling on a line of noise
 constexpr Protocol kCandidates[] = {Protocol::modbus_rtu, Protocol::modbus_ascii,
                                     Protocol::danfoss_fc, Protocol::easydrive};
 
-struct Score {
-  const ProtocolDecoder* decoder = nullptr;
-  int good = 0;
-  int telegrams = 0;
-};
-
-Score score(const ProtocolDecoder& d, ChannelId channel, const std::vector<ByteEvent>& held,
-            const PipelineOptions& options) {
-  Score s{&d, 0, 0};
-  auto framer = d.make_framer(channel, {options.timing, options.max_hold});
-  FrameBatch out;
-  framer->push_all(held, out);
-  framer->finish(out);
-  for (Frame& f : out) {
+// Feeds `events` to a candidate's framer (and closes it when `close`), counting the telegrams it
+// cuts and those whose checksum is good.
+void score(DetectionCandidate& c, std::span<const ByteEvent> events, bool close,
+           const PipelineOptions& options, FrameBatch& scratch) {
+  scratch.clear();
+  c.framer->push_all(events, scratch);
+  if (close) c.framer->finish(scratch);
+  for (Frame& f : scratch) {
     if (f.kind != FrameKind::telegram) continue;
-    ++s.telegrams;
-    const Message m = d.dissect(std::move(f), Direction::unknown, options.timing);
-    if (m.checksum.verdict == ChecksumVerdict::good) ++s.good;
+    ++c.telegrams;
+    const Message m = c.decoder->dissect(std::move(f), Direction::unknown, options.timing);
+    if (m.checksum.verdict == ChecksumVerdict::good) ++c.good;
   }
-  return s;
+  scratch.clear();
 }
 
 }  // namespace
@@ -330,33 +343,47 @@ void Pipeline::start_detection(ChannelState& st) {
   st.decoder = nullptr;
   st.failures = 0;
   st.evaluated_at = 0;
+  st.candidates.clear();
 }
 
 void Pipeline::detect(ChannelState& st, ChannelId channel, bool final) {
   if (st.held.empty()) return;
   if (!final && st.held.size() < kDetectBytes && st.held.size() - st.evaluated_at < kDetectEvery)
     return;
+  if (st.candidates.empty())
+    for (Protocol p : kCandidates) {
+      const ProtocolDecoder* d = decoder_for(p);
+      st.candidates.push_back({d, d->make_framer(channel, {options_.timing, options_.max_hold})});
+    }
+  // The last chance to decide closes the candidates' framers: their last telegram counts too.
+  const bool last_chance = final || st.held.size() >= kDetectBytes;
+  const std::span<const ByteEvent> fresh = std::span(st.held).subspan(st.evaluated_at);
   st.evaluated_at = st.held.size();
-  Score best, second;
+  const DetectionCandidate* best = nullptr;
+  const DetectionCandidate* second = nullptr;
   std::string evidence;
-  for (Protocol p : kCandidates) {
-    const Score s = score(*decoder_for(p), channel, st.held, options_);
+  for (DetectionCandidate& c : st.candidates) {
+    score(c, fresh, last_chance, options_, detection_scratch_);
     evidence += fmt::format(FMT_COMPILE("{}{} {}/{}"), evidence.empty() ? "" : ", ",
-                            protocol_label(p), s.good, s.telegrams);
-    if (!best.decoder || s.good > best.good) {
+                            protocol_label(c.decoder->protocol()), c.good, c.telegrams);
+    if (!best || c.good > best->good) {
       second = best;
-      best = s;
-    } else if (!second.decoder || s.good > second.good) {
-      second = s;
+      best = &c;
+    } else if (!second || c.good > second->good) {
+      second = &c;
     }
   }
-  const bool clear = best.good >= kDetectGoodFrames && best.good > 2 * second.good;
-  if (!clear && !final && st.held.size() < kDetectBytes) return;
+  const bool clear = best->good >= kDetectGoodFrames && best->good > 2 * second->good;
+  if (!clear && !last_chance) return;
   // Decide: the clear winner, else the best guess (Modbus RTU when nothing checks out).
-  const ProtocolDecoder* chosen = best.good > 0 ? best.decoder : decoder_for(Protocol::modbus_rtu);
-  const char* confidence = clear && best.good * 5 >= best.telegrams * 4 ? "high"
-                           : best.good > 0                              ? "medium"
-                                                                        : "low";
+  const ProtocolDecoder* chosen =
+      best->good > 0 ? best->decoder : decoder_for(Protocol::modbus_rtu);
+  const char* confidence = clear && best->good * 5 >= best->telegrams * 4 ? "high"
+                           : best->good > 0                                ? "medium"
+                                                                           : "low";
+  st.redetect_after =
+      clear ? kRedetectFailures : std::min(st.redetect_after * 2, kMaxRedetectFailures);
+  st.candidates.clear();
   BusEvent ev;
   ev.time = st.held.front().time;
   ev.channel = channel;
@@ -553,7 +580,7 @@ void Pipeline::handle_frame(Frame& frame) {
     emit_anomaly({AnomalyKind::noise, frame.start(), frame.channel, frame.number,
                   fmt::format(FMT_COMPILE("{} byte{} outside any frame: {}"), frame.size(),
                               frame.size() == 1 ? "" : "s", hex)});
-    if (st.auto_protocol && ++st.failures >= kRedetectFailures) st.redetect = true;
+    if (st.auto_protocol && ++st.failures >= st.redetect_after) st.redetect = true;
     std::vector<Anomaly> uart;
     append_uart_anomalies(frame.events, frame.number, uart);
     for (const Anomaly& a : uart) emit_anomaly(a);
@@ -596,7 +623,7 @@ void Pipeline::handle_frame(Frame& frame) {
   if (st.auto_protocol) {
     if (m.checksum.verdict == ChecksumVerdict::good) {
       st.failures = 0;
-    } else if (++st.failures >= kRedetectFailures) {
+    } else if (++st.failures >= st.redetect_after) {
       st.redetect = true;
     }
   }
@@ -650,7 +677,7 @@ void Pipeline::count_whole_telegram(ChannelState& st, const ByteRun& run,
   if (st.auto_protocol) {
     if (summary.verdict == ChecksumVerdict::good) {
       st.failures = 0;
-    } else if (++st.failures >= kRedetectFailures) {
+    } else if (++st.failures >= st.redetect_after) {
       st.redetect = true;
     }
   }

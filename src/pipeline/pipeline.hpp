@@ -154,6 +154,7 @@ class Pipeline {
   // Reused from frame to frame so that the hot path does not allocate: the batch being handled
   // (ready_ swaps with it).
   FrameBatch batch_;
+  FrameBatch detection_scratch_;  // frames the detection candidates cut, scored and dropped
   bool in_batch_ = false;
   std::vector<ByteEvent> run_;  // push_batch: the run going to a framer at once
   std::vector<Transaction> transactions_;

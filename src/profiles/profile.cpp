@@ -4,7 +4,13 @@
 
 #include <fmt/format.h>
 
+#include <fcntl.h>
+#include <sys/stat.h>
 #include <toml++/toml.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
@@ -12,6 +18,7 @@
 #include <set>
 #include <sstream>
 
+#include "core/printable.hpp"
 #include "core/protocol.hpp"
 
 namespace drivetap {
@@ -208,7 +215,7 @@ std::string string_at(const toml::table& t, std::string_view key, const std::str
     return {};
   }
   if (!n->is_string()) throw Bad{line_of(*n), path, "expected a string"};
-  return std::string(n->as_string()->get());
+  return printable(n->as_string()->get());
 }
 
 std::optional<std::int64_t> int_at(const toml::table& t, std::string_view key,
@@ -256,7 +263,7 @@ std::map<std::uint32_t, std::string> value_names(const toml::table& t, const std
     const std::string p = path + "." + std::string(k.str());
     const std::uint32_t n = numeric_key(k.str(), line_of(v), p);
     if (!v.is_string()) throw Bad{line_of(v), p, "expected a string"};
-    out[n] = std::string(v.as_string()->get());
+    out[n] = printable(v.as_string()->get());
   }
   return out;
 }
@@ -386,8 +393,8 @@ RegisterDef parse_register(const toml::table& t, const std::string& path,
       const toml::array* a = v.as_array();
       if (!a || a->size() != 2 || !(*a)[0].is_string() || !(*a)[1].is_string())
         throw Bad{line_of(v), p, "expected [\"meaning when 0\", \"meaning when 1\"]"};
-      r.bits.push_back({static_cast<int>(bit), std::string((*a)[0].as_string()->get()),
-                        std::string((*a)[1].as_string()->get())});
+      r.bits.push_back({static_cast<int>(bit), printable((*a)[0].as_string()->get()),
+                        printable((*a)[1].as_string()->get())});
     }
     // TOML tables keep their keys as text ("10" before "2"); meanings are shown by bit number.
     std::sort(r.bits.begin(), r.bits.end(),
@@ -544,10 +551,64 @@ DriveProfile parse_tables(const toml::table& root) {
   return p;
 }
 
+// toml++ recurses once per part of a dotted key and per level of nested arrays and inline
+// tables, so a small file can exhaust the stack whatever its size limit. A drive profile needs a
+// few levels of each: the text is refused past these before it reaches the parser.
+constexpr int kMaxTomlNesting = 32;
+constexpr int kMaxTomlDots = 32;
+
+// Where the text nests deeper or dots longer than a profile can: {line, why}, or line 0. Strings
+// and comments are skipped (their brackets and dots are text); every step moves `i` forward.
+std::pair<int, std::string> toml_nesting_problem(std::string_view text) {
+  int line = 1, depth = 0, dots = 0;
+  std::size_t i = 0;
+  auto skip_string = [&](std::string_view quote, bool escapes) {
+    i += quote.size();
+    while (i < text.size() && text.substr(i, quote.size()) != quote) {
+      if (text[i] == '\n') ++line;
+      i += escapes && text[i] == '\\' && i + 1 < text.size() ? 2 : 1;
+    }
+    i += quote.size();  // past the closing quote (or past the end: the parser reports it)
+  };
+  while (i < text.size()) {
+    const char c = text[i];
+    if (text.substr(i, 3) == R"(""")") {
+      skip_string(R"(""")", true);
+    } else if (text.substr(i, 3) == "'''") {
+      skip_string("'''", false);
+    } else if (c == '"') {
+      skip_string("\"", true);
+    } else if (c == '\'') {
+      skip_string("'", false);
+    } else if (c == '#') {
+      while (i < text.size() && text[i] != '\n') ++i;
+    } else {
+      if (c == '\n') {
+        ++line;
+        dots = 0;
+      } else if (c == '[' || c == '{') {
+        if (++depth > kMaxTomlNesting)
+          return {line, fmt::format("arrays and tables nest deeper than {} levels", kMaxTomlNesting)};
+      } else if (c == ']' || c == '}') {
+        depth = std::max(depth - 1, 0);
+      } else if (c == '.' && ++dots > kMaxTomlDots) {
+        return {line, fmt::format("more than {} dots on one line (a dotted key of that many parts)",
+                                  kMaxTomlDots)};
+      }
+      ++i;
+    }
+  }
+  return {0, {}};
+}
+
 }  // namespace
 
 std::optional<DriveProfile> parse_profile(std::string_view toml_text, std::string_view file_name,
                                           ProfileError* error) {
+  if (const auto [line, why] = toml_nesting_problem(toml_text); line > 0) {
+    *error = {std::string(file_name), line, "", why + ": not a drive profile"};
+    return std::nullopt;
+  }
   toml::table root;
   try {
     root = toml::parse(toml_text, file_name);
@@ -575,26 +636,40 @@ std::optional<std::vector<DriveProfile>> load_builtin_profiles(ProfileError* err
 }
 
 std::optional<DriveProfile> load_profile_file(const std::string& path, ProfileError* error) {
-  std::error_code ec;
-  if (std::filesystem::is_directory(path, ec)) {
-    *error = {path, 0, "", "is a directory, not a profile file"};
+  // Opened without blocking and refused unless it is a regular file: a FIFO would hang open()
+  // until a writer came, a device (/dev/zero) would be read without end.
+  const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+  if (fd < 0) {
+    *error = {path, 0, "", fmt::format("cannot open the profile file: {}", std::strerror(errno))};
     return std::nullopt;
   }
-  std::ifstream in(path);
-  if (!in) {
-    *error = {path, 0, "", "cannot open the profile file"};
+  struct Closer {
+    int fd;
+    ~Closer() { ::close(fd); }
+  } closer{fd};
+  struct stat st {};
+  if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+    *error = {path, 0, "",
+              S_ISDIR(st.st_mode) ? "is a directory, not a profile file"
+                                  : "is not a regular file (a FIFO, socket or device), not a "
+                                    "profile file"};
     return std::nullopt;
   }
-  // Profiles are a few KiB of TOML; reading stops past the limit (a device such as /dev/zero, or
-  // a large file given by mistake, would otherwise be read whole into memory).
+  // Profiles are a few KiB of TOML; reading stops past the limit (a large file given by mistake
+  // would otherwise be read whole into memory).
   constexpr std::size_t kMaxProfileBytes = 1u << 20;
   std::string text(kMaxProfileBytes + 1, '\0');
-  in.read(text.data(), static_cast<std::streamsize>(text.size()));
-  if (in.bad()) {
-    *error = {path, 0, "", "cannot read the profile file"};
-    return std::nullopt;
+  std::size_t got = 0;
+  while (got < text.size()) {
+    const ssize_t n = ::read(fd, text.data() + got, text.size() - got);
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) {
+      *error = {path, 0, "", fmt::format("cannot read the profile file: {}", std::strerror(errno))};
+      return std::nullopt;
+    }
+    if (n == 0) break;
+    got += static_cast<std::size_t>(n);
   }
-  const auto got = static_cast<std::size_t>(in.gcount());
   if (got > kMaxProfileBytes) {
     *error = {path, 0, "",
               fmt::format("larger than {} bytes: not a drive profile", kMaxProfileBytes)};

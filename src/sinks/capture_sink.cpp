@@ -159,10 +159,15 @@ void CaptureSink::write_pending() {
     upper_pdu::append_tags(tags, data);
   }
   data.insert(data.end(), p.bytes.begin(), p.bytes.end());
-  const TimeNs timestamp = p.events.empty() ? 0 : p.events.front_time();
+  // pcap and pcapng store unsigned times: a byte time before 0 (a foreign capture's first packet
+  // stamped at 0, its bytes laid out before it) is stamped at 0. pcapng's per-byte option keeps
+  // the true times as deltas from the stamp, which may be negative.
+  const TimeNs first = p.events.empty() ? 0 : p.events.front_time();
+  const TimeNs timestamp = std::max<TimeNs>(first, 0);
+  const TimeNs end =
+      std::max<TimeNs>(p.events.empty() ? 0 : p.events.back_time() + options_.character_time, 0);
 
   if (options_.format == CaptureFormat::pcap) {
-    const TimeNs end = p.events.empty() ? 0 : p.events.back_time() + options_.character_time;
     struct pcap_pkthdr h {};
     h.ts.tv_sec = static_cast<time_t>(end / kNsPerSecond);
     h.ts.tv_usec = static_cast<suseconds_t>(end % kNsPerSecond);  // ns precision
@@ -173,7 +178,7 @@ void CaptureSink::write_pending() {
   } else if (options_.plain) {
     pcapng::Writer::Packet pkt;
     pkt.interface = interface_for(p.channel);
-    pkt.timestamp = p.events.empty() ? 0 : p.events.back_time() + options_.character_time;
+    pkt.timestamp = end;
     pkt.data = data;
     ng_.packet(pkt);
     if (!ng_.ok()) status_.note_failure();
@@ -184,7 +189,7 @@ void CaptureSink::write_pending() {
     // per byte: version 2 gives the spacing once.
     const TimeNs step =
         p.events.size() >= 2 ? p.events.time(1) - p.events.time(0) : options_.character_time;
-    bool even = step >= 0;
+    bool even = step >= 0 && first == timestamp;
     // One stretch without UART marks is even by construction; otherwise each byte is looked at.
     if (even && (p.events.stretches().size() > 1 || p.events.any_flags())) {
       const std::uint32_t origin = p.events.empty() ? 0 : p.events.origin(0);

@@ -13,6 +13,7 @@
 #endif
 
 #include "core/format.hpp"
+#include "core/printable.hpp"
 #include "sinks/text_sink.hpp"
 
 namespace drivetap {
@@ -21,10 +22,13 @@ using namespace std::string_view_literals;
 
 namespace {
 
-// Characters a JSON string cannot hold as they are: '"', '\\' and the controls below 0x20.
+// Characters a JSON string cannot hold as they are: '"', '\\' and the controls below 0x20; and
+// every byte from 0x80, which must be checked for well-formed UTF-8 (a name from a hostile file
+// may be anything).
 constexpr std::array<bool, 256> kNeedsEscape = [] {
   std::array<bool, 256> table{};
   for (int c = 0; c < 0x20; ++c) table[static_cast<std::size_t>(c)] = true;
+  for (int c = 0x80; c < 0x100; ++c) table[static_cast<std::size_t>(c)] = true;
   table['"'] = table['\\'] = true;
   return table;
 }();
@@ -52,7 +56,7 @@ bool any_needs_escape(std::string_view s) {
     const __m128i hit =
         _mm_or_si128(_mm_or_si128(_mm_cmpeq_epi8(x, quotes), _mm_cmpeq_epi8(x, backslashes)),
                      _mm_cmpeq_epi8(_mm_min_epu8(x, last_controls), x));
-    if (_mm_movemask_epi8(hit) != 0) return true;
+    if ((_mm_movemask_epi8(hit) | _mm_movemask_epi8(x)) != 0) return true;  // or a byte >= 0x80
   }
 #endif
   // Eight characters at a time: a byte below 0x20, '"' or '\\' sets its high bit in `hit`
@@ -67,7 +71,7 @@ bool any_needs_escape(std::string_view s) {
     const std::uint64_t control = (x - kOnes * 0x20) & ~x;
     const std::uint64_t is_quote = (quote - kOnes) & ~quote;
     const std::uint64_t is_backslash = (backslash - kOnes) & ~backslash;
-    if (((control | is_quote | is_backslash) & kHighs) != 0) return true;
+    if (((control | is_quote | is_backslash | x) & kHighs) != 0) return true;  // x: >= 0x80
   }
   for (; i < s.size(); ++i)
     if (kNeedsEscape[static_cast<unsigned char>(s[i])]) return true;
@@ -115,7 +119,28 @@ void append_json_escaped(Out& out, std::string_view s) {
         escape = "\\t";
         break;
       default:
-        if (static_cast<unsigned char>(c) >= 0x20) continue;
+        if (static_cast<unsigned char>(c) >= 0x80) {
+          // Well-formed UTF-8 stays as it is (C1 controls escaped); a malformed byte becomes
+          // U+FFFD, as a decoder would show it.
+          const std::size_t n = utf8_length(s, i, /*allow_c1=*/false);
+          if (n > 0) {
+            i += n - 1;
+            continue;
+          }
+          out.append(s.substr(plain, i - plain));
+          if (utf8_length(s, i, /*allow_c1=*/true) == 2) {  // U+0080..U+009F
+            const unsigned code = (static_cast<unsigned char>(c) & 0x1Fu) << 6 |
+                                  (static_cast<unsigned char>(s[i + 1]) & 0x3Fu);
+            fmt::format_to(std::back_inserter(out), FMT_COMPILE("\\u{:04x}"), code);
+            ++i;
+          } else {
+            out += "\\ufffd";
+          }
+          plain = i + 1;
+          continue;
+        } else if (static_cast<unsigned char>(c) >= 0x20) {
+          continue;
+        }
         break;
     }
     out.append(s.substr(plain, i - plain));

@@ -36,6 +36,7 @@ class LineWriter {
   // Whole lines made by another writer (its gathered() text), written as if ended here: with
   // nothing buffered, straight to the file (no copy).
   void write_lines(std::string_view lines) {
+    if (status_.failed()) return;  // a failed output stays failed: no write may block again
     if (buffer_.empty() && out_) {
       if (std::fwrite(lines.data(), 1, lines.size(), out_) != lines.size()) status_.note_failure();
       return;
@@ -58,6 +59,10 @@ class LineWriter {
   // Once per block: kept out of the path every line takes.
   [[gnu::noinline]] void write_out() {
     if (buffer_.empty() || !out_) return;
+    if (status_.failed()) {  // a failed output (a closed pipe) stays failed: nothing more to it
+      buffer_.clear();
+      return;
+    }
     if (std::fwrite(buffer_.data(), 1, buffer_.size(), out_) != buffer_.size())
       status_.note_failure();
     buffer_.clear();

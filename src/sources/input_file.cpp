@@ -52,8 +52,9 @@ InputFormat recognise(const unsigned char* h, std::size_t n) {
       return InputFormat::pcap;
   }
   // A Value Change Dump opens with a $keyword ($date, $version, $timescale...), maybe after
-  // blank lines.
-  for (std::size_t i = 0; i < n; ++i) {
+  // blank lines, maybe after a UTF-8 byte order mark (an editor's; the VCD reader skips it).
+  const std::size_t bom = n >= 3 && h[0] == 0xEF && h[1] == 0xBB && h[2] == 0xBF ? 3 : 0;
+  for (std::size_t i = bom; i < n; ++i) {
     if (h[i] == '$') return InputFormat::vcd;
     if (h[i] != ' ' && h[i] != '\t' && h[i] != '\n' && h[i] != '\r') break;
   }

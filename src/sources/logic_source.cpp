@@ -5,7 +5,17 @@
 
 #include <algorithm>
 
+#include "core/printable.hpp"
+
 namespace drivetap {
+namespace {
+
+// Level runs held for channel choice and detection, over all channels (16 bytes each: 64 MiB),
+// and the fewest kept for each channel however many there are.
+constexpr std::size_t kDetectionRunBudget = std::size_t{4} << 20;
+constexpr std::size_t kMinDetectionRuns = 1000;
+
+}  // namespace
 
 LogicSource::LogicSource(std::unique_ptr<LogicCapture> capture, std::string name,
                          ChannelTable& channels, LogicSourceOptions options)
@@ -29,8 +39,15 @@ bool LogicSource::choose_channels() {
         std::stoul(wanted) < names.size())
       found = std::stoul(wanted);
     if (!found) {
-      error_ = fmt::format("--channels: {}: no channel '{}' (channels: {})", name_, wanted,
-                           fmt::join(names, ", "));
+      std::vector<std::string> shown;
+      for (const std::string& n : names) shown.push_back(printable_bounded(n, 64));
+      error_ = fmt::format("--channels: {}: no channel '{}' (channels: {})", name_,
+                           printable(wanted), fmt::join(shown, ", "));
+      return false;
+    }
+    if (std::find(reading.begin(), reading.end(), *found) != reading.end()) {
+      error_ = fmt::format("--channels: {}: channel '{}' is named twice (as '{}')", name_,
+                           printable_bounded(names[*found], 64), printable(wanted));
       return false;
     }
     reading.push_back(*found);
@@ -39,26 +56,45 @@ bool LogicSource::choose_channels() {
   if (!named)
     for (std::size_t i = 0; i < names.size(); ++i) reading.push_back(i);
   if (!capture_->select(reading, &error_)) return false;
+  // The runs held for detection are bounded in all, not only per channel: a capture of thousands
+  // of channels gets fewer runs for each.
+  const std::size_t per_channel = std::max<std::size_t>(
+      kMinDetectionRuns, std::min(options_.detection_runs, kDetectionRunBudget / reading.size()));
   std::vector<std::vector<phy::LevelRun>> runs(reading.size());
   std::vector<std::uint64_t> edges(reading.size(), 0);
+  std::size_t moving = 0;  // channels with 4 edges or more
   auto enough = [&] {
     bool any_full = false;
     for (std::size_t k = 0; k < reading.size(); ++k) {
-      const bool full = runs[k].size() >= options_.detection_runs;
+      const bool full = runs[k].size() >= per_channel;
       if (edges[k] >= 4 && !full) return false;
       any_full = any_full || full;
     }
     return any_full;
   };
-  while (!enough() && capture_->next_block(block_, &error_)) {
+  while (!enough() && !stop_requested() && capture_->next_block(block_, &error_)) {
     for (std::size_t k = 0; k < reading.size(); ++k)
       for (const phy::LevelRun& r : block_.runs[k]) {
-        if (runs[k].size() >= options_.detection_runs) break;
-        if (!runs[k].empty() && runs[k].back().level != r.level) ++edges[k];
+        if (runs[k].size() >= per_channel) break;
+        if (!runs[k].empty() && runs[k].back().level != r.level && ++edges[k] == 4) ++moving;
         runs[k].push_back(r);
       }
+    // More moving channels than can be kept apart: say so now, before detecting any of them.
+    if (!named && moving > ChannelTable::kMaxChannels) {
+      error_ = fmt::format(
+          "{}: more than {} channels change level; drivetap keeps at most {} apart (choose with "
+          "--channels)",
+          name_, ChannelTable::kMaxChannels, ChannelTable::kMaxChannels);
+      return false;
+    }
   }
-  if (!error_.empty()) return false;
+  // Damage (or the decompression limit) met while reading ahead is met again, at the same place,
+  // when decoding: detect from what came before it, decode up to it, then report it.
+  if (!error_.empty() && std::all_of(runs.begin(), runs.end(), [](const auto& r) {
+        return r.empty();
+      }))
+    return false;
+  error_.clear();
   for (std::size_t k = 0; k < reading.size(); ++k) {
     if (!named && edges[k] < 4) continue;
     chosen_.push_back(reading[k]);
@@ -173,7 +209,7 @@ bool LogicSource::next(ByteEvent& out) {
       out = pending_[next_pending_++];
       return true;
     }
-    if (!fill()) return false;
+    if (stop_requested() || !fill()) return false;
   }
 }
 
@@ -199,7 +235,7 @@ std::vector<std::string> LogicSource::notes() const {
     notes.push_back(fmt::format(
         "{}: channel {}: {} characters ({} parity errors, {} framing errors, {} breaks, {} "
         "glitches filtered, {} false starts)",
-        name_, chosen_names_[k], st.characters, st.parity_errors, st.framing_errors, st.breaks,
+        name_, channels_.at(ids_[k]).name, st.characters, st.parity_errors, st.framing_errors, st.breaks,
         st.glitches, st.false_starts));
   }
   return notes;

@@ -50,7 +50,6 @@ class LogicSource final : public ByteSource {
   [[nodiscard]] const std::vector<std::vector<phy::LevelRun>>& head_runs() const {
     return head_runs_;
   }
-  [[nodiscard]] const std::vector<std::string>& channel_names() const { return chosen_names_; }
   [[nodiscard]] std::uint64_t sample_rate() const { return capture_->sample_rate(); }
   // Per decoded channel, the decoder's totals so far (final once next() returned false).
   [[nodiscard]] std::vector<phy::UartDecoderStats> decoder_stats() const;

@@ -199,6 +199,12 @@ std::uint8_t ParmrkDecoder::error_flags(UartErrorCounts& unexplained) const {
 
 void ByteTimeBackdater::stamp(std::span<ByteEvent> read_characters, TimeNs read_time) {
   const auto n = static_cast<TimeNs>(read_characters.size());
+  if (have_previous_ && n > 0 && previous_end_ - read_time > kMaxLead) {
+    // The line rate cannot be kept: the bytes are stamped at their arrival (times may step back
+    // by up to kMaxLead, once), and the stamps stay bounded in memory and in time.
+    ++overrun_reads_;
+    have_previous_ = false;
+  }
   for (TimeNs k = 0; k < n; ++k) {
     TimeNs start = read_time - (n - k) * character_time_;
     if (have_previous_ && start < previous_end_) start = previous_end_;
@@ -268,6 +274,7 @@ std::string ReadPatternMonitor::verdict() const {
 SerialPort::SerialPort(int fd, const SerialPortOptions& o, ChannelId channel)
     : fd_(fd),
       path_(o.path),
+      serial_(o.serial),
       channel_(channel),
       decoder_(o.serial.parity != Parity::none),
       backdater_(o.serial.character_time()),
@@ -507,6 +514,11 @@ std::vector<std::string> SerialPort::notes() const {
   out.push_back(fmt::format("{}: {} reads, {} bytes read, {} characters", path_, reads_,
                             bytes_read_, monitor_.characters()));
   out.push_back(fmt::format("{}: {}", path_, monitor_.verdict()));
+  if (backdater_.overrun_reads() > 0)
+    out.push_back(fmt::format(
+        "{}: bytes came faster than {} allows ({} reads): their times could not be kept to the "
+        "line rate and were taken at their arrival (wrong line settings, or a flooded port)",
+        path_, serial_.to_string(), backdater_.overrun_reads()));
   return out;
 }
 

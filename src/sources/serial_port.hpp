@@ -121,11 +121,17 @@ class ByteTimeBackdater {
   explicit ByteTimeBackdater(TimeNs character_time) : character_time_(character_time) {}
   // Sets the time of each event of one read, in order.
   void stamp(std::span<ByteEvent> read_characters, TimeNs read_time);
+  // Bytes that came faster than the line rate allows (a flooded port, wrong settings) would be
+  // stamped ever further into the future; past this lead they are stamped at their arrival.
+  static constexpr TimeNs kMaxLead = 500 * kNsPerMs;
+  // Reads whose bytes were stamped at arrival because the line rate could not be kept.
+  [[nodiscard]] std::uint64_t overrun_reads() const { return overrun_reads_; }
 
  private:
   TimeNs character_time_;
   TimeNs previous_end_ = 0;
   bool have_previous_ = false;
+  std::uint64_t overrun_reads_ = 0;
 };
 
 // Watches the pattern of reads for USB burst artefacts: an adapter that holds received bytes and
@@ -232,6 +238,7 @@ class SerialPort {
 
   int fd_;
   std::string path_;
+  SerialConfig serial_;
   ChannelId channel_;
   TimeNs wall_offset_ = 0;  // CLOCK_REALTIME - CLOCK_MONOTONIC at open
   ParmrkDecoder decoder_;

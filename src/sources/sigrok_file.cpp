@@ -208,6 +208,7 @@ bool SigrokFile::rewind(std::string* error) {
   next_chunk_ = 0;
   filled_ = 0;
   used_ = 0;
+  pass_bytes_ = 0;
   raw_.resize(kReadBytes + 8);  // room for the part of a sample a read leaves over
   return open_next_entry(error);
 }
@@ -240,6 +241,15 @@ bool SigrokFile::read_piece(std::size_t* samples, std::string* error) {
       continue;
     }
     entry_offset_ += static_cast<std::uint64_t>(got);
+    pass_bytes_ += static_cast<std::uint64_t>(got);
+    if (max_sample_bytes_ > 0 && pass_bytes_ > max_sample_bytes_) {
+      *error = fmt::format(
+          "{}: {}: offset {}: the samples decompress to more than {} bytes, the limit "
+          "(--logic-max; a zip bomb?): read up to there",
+          path_, entry_->name, entry_offset_ - static_cast<std::uint64_t>(got), max_sample_bytes_);
+      entry_.reset();
+      return false;
+    }
     filled_ += static_cast<std::size_t>(got);
     *samples = filled_ / unit;
     if (*samples == 0) continue;

@@ -30,6 +30,11 @@ class SigrokFile final : public LogicCapture {
   // Channel names in bit order (logic) or the one analog channel.
   [[nodiscard]] const std::vector<std::string>& channels() const override { return channels_; }
   [[nodiscard]] bool analog() const { return analog_; }
+  // The most sample data one pass decompresses (0: no limit). Deflate packs an idle line a
+  // thousandfold, so a few MB of zip can hold gigabytes: past the limit reading stops with an
+  // error, the blocks before it standing.
+  static constexpr std::uint64_t kDefaultMaxSampleBytes = std::uint64_t{1} << 30;
+  void set_max_sample_bytes(std::uint64_t bytes) { max_sample_bytes_ = bytes; }
 
   bool select(const std::vector<std::size_t>& channels, std::string* error) override;
   bool next_block(RunBlock& block, std::string* error) override;
@@ -61,6 +66,8 @@ class SigrokFile final : public LogicCapture {
   std::size_t filled_ = 0;         // bytes in raw_
   std::size_t used_ = 0;           // bytes of whole samples handed out from raw_
   std::uint64_t entry_offset_ = 0;
+  std::uint64_t pass_bytes_ = 0;  // sample bytes decompressed since the last rewind
+  std::uint64_t max_sample_bytes_ = kDefaultMaxSampleBytes;
   std::uint64_t sample_ = 0;  // samples handed out so far
   bool have_level_ = false;
   std::uint64_t last_word_ = 0;             // previous sample (selected bits only)

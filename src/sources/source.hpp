@@ -2,6 +2,7 @@
 // then a time-ordered stream of ByteEvents (per channel), with its own findings and notes.
 #pragma once
 
+#include <csignal>
 #include <optional>
 #include <string>
 #include <vector>
@@ -54,8 +55,15 @@ class ByteSource {
   virtual std::vector<Anomaly> take_findings() { return {}; }
   // Lines for stderr at the end (e.g. packets skipped because they carried no serial bytes).
   [[nodiscard]] virtual std::vector<std::string> notes() const { return {}; }
+  // A flag a signal handler sets: a source that can work long without handing out a byte (a
+  // logic capture's idle line) ends early, as at the end of the capture, once it is set.
+  void set_stop_flag(const volatile std::sig_atomic_t* stop) { stop_ = stop; }
+
+ protected:
+  [[nodiscard]] bool stop_requested() const { return stop_ && *stop_; }
 
  private:
+  const volatile std::sig_atomic_t* stop_ = nullptr;
   std::vector<ByteEvent> run_events_;  // append_runs()' batch, its storage kept
 };
 

@@ -590,6 +590,7 @@ int VcdFile::scan(RunBlock* block, std::string* error) {
     for (std::int32_t k = first_selected_[static_cast<std::size_t>(slot)]; k >= 0;
          k = next_selected_[static_cast<std::size_t>(k)]) {
       const auto i = static_cast<std::size_t>(k);
+      --budget;  // a block is bounded by the runs it may hold: one identifier can feed thousands
       if (first_pass) {
         if (known_[i]) continue;
         known_[i] = 1;

@@ -81,8 +81,9 @@ class VcdFile final : public LogicCapture {
   // sigrok had to round its times (24 MHz on 100 ps).
   [[nodiscard]] std::uint64_t timescale_rate() const { return timescale_rate_; }
 
-  // About how many tokens of the file a block covers (default 65536; at least 1): tests and the
-  // fuzz target make blocks small to put their ends everywhere. Takes effect at once.
+  // About how many tokens of the file, and values they set, a block covers (default 65536; at
+  // least 1): tests and the fuzz target make blocks small to put their ends everywhere. Takes
+  // effect at once.
   void set_block_tokens(std::size_t tokens) {
     block_tokens_ = std::clamp<std::size_t>(tokens, 1, std::size_t{1} << 40);
   }

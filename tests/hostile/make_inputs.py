@@ -1,0 +1,161 @@
+#!/usr/bin/env python3
+"""Hostile inputs for tests/hostile.sh (issue 36), made on the fly: the large ones are not worth
+committing, and each is named after the bug it reproduces.
+
+    make_inputs.py DIR NAME...     writes DIR/NAME.<ext> for each NAME below
+"""
+import random
+import struct
+import sys
+import zipfile
+
+
+def pcapng_block(kind, body):
+    body += b"\0" * (-len(body) % 4)
+    length = 12 + len(body)
+    return struct.pack("<II", kind, length) + body + struct.pack("<I", length)
+
+
+def pcapng_option(code, value):
+    return struct.pack("<HH", code, len(value)) + value + b"\0" * (-len(value) % 4)
+
+
+def pcapng(path, packets, link_type=147, if_name=None, tsresol=None, tsoffset=None):
+    """packets: (time_us, bytes); one interface."""
+    out = pcapng_block(0x0A0D0D0A, struct.pack("<IHHq", 0x1A2B3C4D, 1, 0, -1))
+    options = b""
+    if if_name is not None:
+        options += pcapng_option(2, if_name)
+    if tsresol is not None:
+        options += pcapng_option(9, bytes([tsresol]))
+    if tsoffset is not None:
+        options += pcapng_option(14, struct.pack("<q", tsoffset))
+    if options:
+        options += pcapng_option(0, b"")
+    out += pcapng_block(1, struct.pack("<HHI", link_type, 0, 0) + options)
+    for t, data in packets:
+        out += pcapng_block(6, struct.pack("<IIIII", 0, t >> 32, t & 0xFFFFFFFF, len(data),
+                                           len(data)) + data)
+    with open(path, "wb") as f:
+        f.write(out)
+
+
+def random_packets(path, megabytes):
+    """Random bytes in packets of 1..64 bytes, 5 ms apart: no protocol at all."""
+    r = random.Random(36)
+    packets, total, t = [], 0, 0
+    while total < megabytes << 20:
+        data = bytes(r.getrandbits(8) for _ in range(r.randint(1, 64)))
+        packets.append((t, data))
+        total += len(data)
+        t += 5000
+    pcapng(path, packets)
+
+
+def toggles(count, seed):
+    """Level-run lengths of a line that toggles irregularly (3..30 samples)."""
+    r = random.Random(seed)
+    return [r.choice([3, 3, 6, 9, 3, 12, 30]) for _ in range(count)]
+
+
+def vcd(path, timescale, variables=1, shared=False, changes=200, bom=False):
+    with open(path, "wb") as f:
+        if bom:
+            f.write(b"\xef\xbb\xbf")
+        f.write(f"$timescale {timescale} $end\n$scope module m $end\n".encode())
+        for i in range(variables):
+            ident = "!" if shared else chr(33 + i)
+            f.write(f"$var wire 1 {ident} line{i} $end\n".encode())
+        f.write(b"$upscope $end\n$enddefinitions $end\n#0 1!\n")
+        t, level = 0, 1
+        for width in toggles(changes, 1):
+            t += width
+            level ^= 1
+            f.write(f"#{t} {level}!\n".encode())
+
+
+def sigrok(path, rate, samples, extra_metadata=""):
+    with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED) as z:
+        z.writestr("version", "2")
+        z.writestr("metadata",
+                   "[global]\nsigrok version=0.5.2\n[device 1]\ncapturefile=logic-1\n"
+                   f"total probes=1\nsamplerate={rate}\nunitsize=1\nprobe1=RX\n{extra_metadata}")
+        z.writestr("logic-1-1", samples)
+
+
+def toggling_samples():
+    out, level = bytearray(), 1
+    for width in toggles(300, 2):
+        out += bytes([level]) * width
+        level ^= 1
+    return bytes(out)
+
+
+def uart_samples(text, samples_per_bit, idle_bits=40):
+    """8N1 characters of `text`, upright, as one sample byte per sample (bit 0 = the line)."""
+    bits = [1] * idle_bits
+    for c in text:
+        bits += [0] + [(c >> k) & 1 for k in range(8)] + [1] + [1] * 3
+    bits += [1] * idle_bits
+    return bytes(b for bit in bits for b in [bit] * samples_per_bit)
+
+
+def make(directory, name):
+    at = f"{directory}/{name}"
+    if name == "vcd-timescale-1s-sigfpe":
+        vcd(at + ".vcd", "1 s")
+    elif name == "sigrok-1hz-sigfpe":
+        sigrok(at + ".sr", "1 Hz", toggling_samples())
+    elif name == "sigrok-3hz-sigfpe":
+        sigrok(at + ".sr", "3 Hz", toggling_samples())
+    elif name == "sigrok-duplicate-samplerate-sigfpe":
+        sigrok(at + ".sr", "1 MHz", toggling_samples(), "samplerate=1 Hz\n")
+    elif name == "vcd-4096-variables-one-identifier":
+        vcd(at + ".vcd", "1 us", variables=4096, shared=True, changes=40000)
+    elif name == "vcd-utf8-bom":
+        vcd(at + ".vcd", "1 us", bom=True)
+    elif name == "sigrok-zip-bomb":
+        # 4 GiB of samples in about 4 MB: a byte of traffic, then an idle line.
+        with zipfile.ZipFile(at + ".sr", "w", zipfile.ZIP_DEFLATED) as z:
+            z.writestr("version", "2")
+            z.writestr("metadata",
+                       "[global]\nsigrok version=0.5.2\n[device 1]\ncapturefile=logic-1\n"
+                       "total probes=1\nsamplerate=1 MHz\nunitsize=1\nprobe1=RX\n")
+            with z.open("logic-1-1", "w", force_zip64=True) as f:
+                f.write(uart_samples(b"\x01\x03\x00\x00\x00\x01\x84\x0a" * 8, 104))
+                idle = b"\x01" * (1 << 24)
+                for _ in range(256):
+                    f.write(idle)
+    elif name == "random-packets":
+        random_packets(at + ".pcapng", 2)
+    elif name == "pcapng-64k-interface-name":
+        frame = bytes.fromhex("0203000000043a44")
+        pcapng(at + ".pcapng", [(k * 100000, frame) for k in range(50)],
+               if_name=b"A" * 65000 + b"\x1b[2J\n\xff")
+    elif name == "pcapng-negative-tsoffset":
+        frame = bytes.fromhex("020300000004443a")
+        pcapng(at + ".pcapng", [(k * 100000, frame) for k in range(3)], tsoffset=-1000)
+    elif name == "pcapng-first-packet-at-zero":
+        frame = bytes.fromhex("020300000004443a")
+        pcapng(at + ".pcapng", [(k * 100000, frame) for k in range(3)])
+    elif name == "logic-long-idle":
+        # 60 s of idle line at 10 MHz around one frame: decoding takes seconds of idle runs.
+        with zipfile.ZipFile(at + ".sr", "w", zipfile.ZIP_DEFLATED) as z:
+            z.writestr("version", "2")
+            z.writestr("metadata",
+                       "[global]\nsigrok version=0.5.2\n[device 1]\ncapturefile=logic-1\n"
+                       "total probes=1\nsamplerate=10 MHz\nunitsize=1\nprobe1=RX\n")
+            with z.open("logic-1-1", "w", force_zip64=True) as f:
+                f.write(uart_samples(b"\x02\x03\x00\x00\x00\x04\x44\x3a" * 4, 1042))
+                idle = b"\x01" * (1 << 24)
+                for _ in range(36):
+                    f.write(idle)
+    else:
+        sys.exit(f"make_inputs.py: unknown input '{name}'")
+
+
+if __name__ == "__main__":
+    if len(sys.argv) < 3:
+        sys.exit("usage: make_inputs.py DIR NAME...")
+    for n in sys.argv[2:]:
+        make(sys.argv[1], n)
