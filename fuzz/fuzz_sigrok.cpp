@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "fuzz/fuzz_logic.hpp"
+#include "fuzz/structured_mutators.hpp"
 #include "sources/sigrok_file.hpp"
 
 namespace {
@@ -115,4 +116,21 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   if (!file) contract_broken("a session that opened once does not open again");
   drivetap::fuzz::run_logic_path(std::move(file), path);
   return 0;
+}
+
+// Half the mutations of a recipe (odd first byte) rewrite its metadata with extreme or duplicate
+// keys (fuzz/structured_mutators.hpp); the rest, and every raw zip, are libFuzzer's.
+extern "C" std::size_t LLVMFuzzerCustomMutator(std::uint8_t* data, std::size_t size,
+                                               std::size_t max_size, unsigned seed) {
+  std::mt19937 rng(seed);
+  if (size > 0 && (data[0] & 1) && rng() % 2 == 0) {
+    const std::string all(reinterpret_cast<const char*>(data), size);
+    const std::size_t nul = all.find('\0', 1);
+    const std::string metadata = all.substr(1, nul == std::string::npos ? std::string::npos : nul - 1);
+    const std::string rest = nul == std::string::npos ? std::string() : all.substr(nul);
+    const std::string mutated =
+        all.substr(0, 1) + drivetap::fuzz::mutate_sigrok_metadata(metadata, rng) + rest;
+    if (const std::size_t used = drivetap::fuzz::store(mutated, data, max_size)) return used;
+  }
+  return LLVMFuzzerMutate(data, size, max_size);
 }

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "fuzz/fuzz_logic.hpp"
+#include "fuzz/structured_mutators.hpp"
 #include "sources/vcd_file.hpp"
 
 namespace {
@@ -83,4 +84,17 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   if (!file) contract_broken("a VCD that opened once does not open again");
   drivetap::fuzz::run_logic_path(std::move(file), path);
   return 0;
+}
+
+// Half the mutations rewrite the header (fuzz/structured_mutators.hpp), half are libFuzzer's.
+extern "C" std::size_t LLVMFuzzerCustomMutator(std::uint8_t* data, std::size_t size,
+                                               std::size_t max_size, unsigned seed) {
+  std::mt19937 rng(seed);
+  if (rng() % 2 == 0) {
+    const std::string text(reinterpret_cast<const char*>(data), size);
+    if (const std::size_t used =
+            drivetap::fuzz::store(drivetap::fuzz::mutate_vcd_header(text, rng), data, max_size))
+      return used;
+  }
+  return LLVMFuzzerMutate(data, size, max_size);
 }

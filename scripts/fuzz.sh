@@ -6,7 +6,7 @@
 #   bash scripts/fuzz.sh 120 pcapng byte_log
 #
 # Targets: byte_log pcapng pcap rtu_framer modbus_pdu upper_pdu_link modbus_ascii danfoss_fc
-# easydrive vcd sigrok profile hex_text (the "fuzz_" prefix is
+# easydrive vcd sigrok profile toml_nesting hex_text (the "fuzz_" prefix is
 # optional). Per target: working corpus build-fuzz/corpus/<target> (kept between runs), seeds
 # build-fuzz/seeds/<target> (remade each run), crash artifacts build-fuzz/artifacts/<target>/,
 # libFuzzer's log build-fuzz/logs/<target>.log. Reproducers saved under
@@ -31,7 +31,7 @@ if ! [[ "$seconds" =~ ^[0-9]+$ ]] || [ "$seconds" -eq 0 ]; then
   exit 2
 fi
 all_targets=(byte_log pcapng pcap rtu_framer modbus_pdu upper_pdu_link modbus_ascii danfoss_fc easydrive vcd
-  sigrok profile hex_text)
+  sigrok profile toml_nesting hex_text)
 targets=()
 for t in "$@"; do
   t=${t#fuzz_}
@@ -166,6 +166,34 @@ make_seeds() {
       unzip -p "$sr" "$chunk" | head -c 4096
     } > "$seeds/sigrok/$name.recipe" 2> /dev/null || true
   done
+  # Extreme headers (issue 36): timescales of 1 s, sample rates of 1 and 3 Hz, a duplicate
+  # samplerate, thousands of variables on one identifier, a byte order mark; the sigrok ones also
+  # as recipes.
+  python3 tests/hostile/make_inputs.py "$seeds/vcd" vcd-timescale-1s-sigfpe vcd-utf8-bom
+  python3 tests/hostile/make_inputs.py "$seeds/sigrok" sigrok-1hz-sigfpe sigrok-3hz-sigfpe \
+    sigrok-duplicate-samplerate-sigfpe
+  python3 - "$seeds/vcd/many-variables-one-identifier.vcd" <<'PY'
+import sys
+with open(sys.argv[1], "w") as f:
+    f.write("$timescale 1 us $end\n$scope module m $end\n")
+    f.write("".join(f"$var wire 1 ! v{i} $end\n" for i in range(300)))
+    f.write("$var wire 1 \" " + "n" * 5000 + " $end\n$upscope $end\n$enddefinitions $end\n")
+    f.write("".join(f"#{t * 7} {t % 2}! {t % 2}\"\n" for t in range(400)))
+PY
+  for sr in "$seeds/sigrok/"sigrok-*.sr; do
+    {
+      printf '\x01'
+      unzip -p "$sr" metadata
+      printf '\0'
+      unzip -p "$sr" logic-1-1 | head -c 4096
+    } > "${sr%.sr}.recipe" 2> /dev/null || true
+  done
+  # TOML nesting programs (fuzz/fuzz_toml_nesting.cpp): deep arrays, deep inline tables, long
+  # dotted keys and headers, strings and comments full of brackets.
+  head -c 200 /dev/zero > "$seeds/toml_nesting/arrays"
+  head -c 200 /dev/zero | tr '\0' ' ' > "$seeds/toml_nesting/tables"
+  head -c 200 /dev/zero | tr '\0' '@' > "$seeds/toml_nesting/dotted"
+  printf '\x00\x20\x40\x60\x80\xa0\xc0\xe0\xe7\xdf' > "$seeds/toml_nesting/mixed"
   # Drive profiles: each built-in one alone, and followed by a capture's bytes for its pipeline.
   local toml
   for toml in dissectors/profiles/*.toml; do
@@ -229,6 +257,7 @@ regressions_of() {
     [ -f "$r" ] || continue
     ext=${r##*.}
     [ "$ext" = log ] && ext=byte_log
+    [ "$ext" = sr ] && ext=sigrok
     [ "$ext" = "$1" ] && echo "$r"
   done
   return 0
