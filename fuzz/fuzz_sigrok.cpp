@@ -126,7 +126,8 @@ extern "C" std::size_t LLVMFuzzerCustomMutator(std::uint8_t* data, std::size_t s
   if (size > 0 && (data[0] & 1) && rng() % 2 == 0) {
     const std::string all(reinterpret_cast<const char*>(data), size);
     const std::size_t nul = all.find('\0', 1);
-    const std::string metadata = all.substr(1, nul == std::string::npos ? std::string::npos : nul - 1);
+    const std::string metadata =
+        all.substr(1, nul == std::string::npos ? std::string::npos : nul - 1);
     const std::string rest = nul == std::string::npos ? std::string() : all.substr(nul);
     const std::string mutated =
         all.substr(0, 1) + drivetap::fuzz::mutate_sigrok_metadata(metadata, rng) + rest;

@@ -36,8 +36,9 @@ inline void set_between(std::string& text, std::string_view key, std::string_vie
 // A VCD header with an extreme timescale, many variables on one identifier, a long name or deep
 // scopes; the value changes after $enddefinitions are kept.
 inline std::string mutate_vcd_header(std::string text, std::mt19937& rng) {
-  static const char* const kTimescales[] = {" 1 s ", " 100 s ", " 1 fs ", " 10 ps ", " 1 ms ",
-                                            " 100 ns ", " 1000000 s ", " 0 s ", " 3 us "};
+  static const char* const kTimescales[] = {" 1 s ",       " 100 s ", " 1 fs ",
+                                            " 10 ps ",     " 1 ms ",  " 100 ns ",
+                                            " 1000000 s ", " 0 s ",   " 3 us "};
   switch (rng() % 4) {
     case 0:
       set_between(text, "$timescale", "$end", pick(rng, kTimescales));
@@ -71,10 +72,11 @@ inline std::string mutate_vcd_header(std::string text, std::mt19937& rng) {
 
 // sigrok `metadata` INI text with an extreme or duplicated key.
 inline std::string mutate_sigrok_metadata(std::string text, std::mt19937& rng) {
-  static const char* const kRates[] = {"1 Hz", "3 Hz", "0.5 Hz", "7 Hz", "100 GHz", "1e30 Hz",
-                                       "18446744073709551615 Hz", "-1 MHz", "1 MHz", "24 MHz"};
-  static const char* const kCounts[] = {"0", "1", "2", "8", "9", "64", "65", "4096", "-1",
-                                        "2147483648"};
+  static const char* const kRates[] = {
+      "1 Hz",   "3 Hz",  "0.5 Hz", "7 Hz", "100 GHz", "1e30 Hz", "18446744073709551615 Hz",
+      "-1 MHz", "1 MHz", "24 MHz"};
+  static const char* const kCounts[] = {"0",  "1",  "2",    "8",  "9",
+                                        "64", "65", "4096", "-1", "2147483648"};
   switch (rng() % 4) {
     case 0:
       set_between(text, "samplerate=", "\n", pick(rng, kRates));

@@ -103,11 +103,15 @@ TEST(SinkFormat, JsonEscapingOfLongStringsFindsEveryPlace) {
 // Names from hostile files reach JSON (issue 36): well-formed UTF-8 passes, a malformed byte
 // becomes U+FFFD and a C1 control is escaped, at every place of a long string (the scans).
 TEST(SinkFormat, JsonOfMalformedUtf8IsValidUtf8) {
-  EXPECT_EQ(json_quote("a\xFF" "b"), "\"a\\ufffdb\"");                // not a lead byte
-  EXPECT_EQ(json_quote("\xC3"), "\"\\ufffd\"");                     // cut sequence
-  EXPECT_EQ(json_quote("\xC0\xAF"), "\"\\ufffd\\ufffd\"");           // overlong '/'
+  EXPECT_EQ(json_quote("a\xFF"
+                       "b"),
+            "\"a\\ufffdb\"");                                          // not a lead byte
+  EXPECT_EQ(json_quote("\xC3"), "\"\\ufffd\"");                        // cut sequence
+  EXPECT_EQ(json_quote("\xC0\xAF"), "\"\\ufffd\\ufffd\"");             // overlong '/'
   EXPECT_EQ(json_quote("\xED\xA0\x80"), "\"\\ufffd\\ufffd\\ufffd\"");  // surrogate
-  EXPECT_EQ(json_quote("\xC2\x9B" "2J"), "\"\\u009b2J\"");             // C1 CSI
+  EXPECT_EQ(json_quote("\xC2\x9B"
+                       "2J"),
+            "\"\\u009b2J\"");  // C1 CSI
   EXPECT_EQ(json_quote("\xE2\x82\xAC\xF0\x9F\x98\x80"), "\"\xE2\x82\xAC\xF0\x9F\x98\x80\"");
   const std::string plain(48, 'a');
   for (std::size_t at = 0; at < plain.size(); ++at) {

@@ -3,8 +3,8 @@
 #include <CLI/CLI.hpp>
 
 #include <poll.h>
-#include <sys/syscall.h>
 #include <sys/stat.h>
+#include <sys/syscall.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -225,9 +225,9 @@ void refuse_shared_files(const std::vector<std::pair<std::string, std::string>>&
       if (ec) f.normalised = std::filesystem::absolute(path, ec).lexically_normal().string();
     }
     for (const Seen& before : seen) {
-      const bool same = f.exists ? before.exists && before.device == f.device &&
-                                       before.inode == f.inode
-                                 : !before.exists && before.normalised == f.normalised;
+      const bool same = f.exists
+                            ? before.exists && before.device == f.device && before.inode == f.inode
+                            : !before.exists && before.normalised == f.normalised;
       if (same)
         die(fmt::format("{} {}: is the same file as {} {}: refusing to overwrite it", option, path,
                         before.option, before.path));
@@ -239,11 +239,11 @@ void refuse_shared_files(const std::vector<std::pair<std::string, std::string>>&
 // Said once a run: channel names from the input that were escaped or shortened to print.
 void say_rewritten_names(const ChannelTable& channels) {
   if (channels.rewritten_names() == 0) return;
-  say(fmt::format(
-      "{} channel name{} not printable UTF-8 or longer than {} bytes: shown escaped or "
-      "shortened (first: {})",
-      channels.rewritten_names(), channels.rewritten_names() == 1 ? " was" : "s were",
-      ChannelTable::kMaxNameBytes, channels.first_rewritten_name()));
+  say(
+      fmt::format("{} channel name{} not printable UTF-8 or longer than {} bytes: shown escaped or "
+                  "shortened (first: {})",
+                  channels.rewritten_names(), channels.rewritten_names() == 1 ? " was" : "s were",
+                  ChannelTable::kMaxNameBytes, channels.first_rewritten_name()));
 }
 
 // The built-in profiles (when `builtins_wanted`), then --profile-dir and --profile files (a user
@@ -708,8 +708,7 @@ int run_read(const CommonOptions& o, const std::string& path) {
   // Whatever happened, what was read so far is decoded, summarised, written and flushed.
   pipeline.finish();
   out.close();
-  for (const std::string& note : source->notes())
-    say(note);
+  for (const std::string& note : source->notes()) say(note);
   say_rewritten_names(channels);
   const std::string error = source->error();
   source.reset();
@@ -902,8 +901,7 @@ int run_capture(const CommonOptions& o, const CaptureOptions& c) {
   for (std::size_t k = 0; k < c.ports.size(); ++k) {
     std::string error;
     if (!open_port(k, &error)) die(error, 1);
-    for (const std::string& w : ports[k]->warnings())
-      say("warning: " + w);
+    for (const std::string& w : ports[k]->warnings()) say("warning: " + w);
   }
   std::fprintf(stderr, "drivetap: capturing on %s at %s (listen only; Ctrl-C stops)\n",
                fmt::format("{}", fmt::join(c.ports, ", ")).c_str(), p.serial.to_string().c_str());
@@ -1020,8 +1018,7 @@ int run_capture(const CommonOptions& o, const CaptureOptions& c) {
     std::fprintf(stderr, "drivetap: interrupted; output flushed and closed\n");
     return 130;
   }
-  if (!stop_reason.empty())
-    say("capture stopped: " + stop_reason);
+  if (!stop_reason.empty()) say("capture stopped: " + stop_reason);
   return exit_code;
 }
 

@@ -308,10 +308,10 @@ std::size_t Pipeline::take_quietly(const ByteRun& run, std::size_t i, TimeNs cha
 
 namespace {
 
-constexpr std::size_t kDetectBytes = 2048;  // most bytes held before deciding anyway
-constexpr std::size_t kDetectEvery = 128;   // re-evaluate after this many more bytes
-constexpr int kDetectGoodFrames = 3;        // never decide on one lucky checksum
-constexpr int kRedetectFailures = 8;        // bad telegrams/noise in a row: the bus changed?
+constexpr std::size_t kDetectBytes = 2048;     // most bytes held before deciding anyway
+constexpr std::size_t kDetectEvery = 128;      // re-evaluate after this many more bytes
+constexpr int kDetectGoodFrames = 3;           // never decide on one lucky checksum
+constexpr int kRedetectFailures = 8;           // bad telegrams/noise in a row: the bus changed?
 constexpr int kMaxRedetectFailures = 8 << 12;  // the back-off's ceiling on a line of noise
 constexpr Protocol kCandidates[] = {Protocol::modbus_rtu, Protocol::modbus_ascii,
                                     Protocol::danfoss_fc, Protocol::easydrive};
@@ -379,8 +379,8 @@ void Pipeline::detect(ChannelState& st, ChannelId channel, bool final) {
   const ProtocolDecoder* chosen =
       best->good > 0 ? best->decoder : decoder_for(Protocol::modbus_rtu);
   const char* confidence = clear && best->good * 5 >= best->telegrams * 4 ? "high"
-                           : best->good > 0                                ? "medium"
-                                                                           : "low";
+                           : best->good > 0                               ? "medium"
+                                                                          : "low";
   st.redetect_after =
       clear ? kRedetectFailures : std::min(st.redetect_after * 2, kMaxRedetectFailures);
   st.candidates.clear();

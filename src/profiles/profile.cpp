@@ -9,9 +9,9 @@
 #include <toml++/toml.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstring>
-#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -588,7 +588,8 @@ std::pair<int, std::string> toml_nesting_problem(std::string_view text) {
         dots = 0;
       } else if (c == '[' || c == '{') {
         if (++depth > kMaxTomlNesting)
-          return {line, fmt::format("arrays and tables nest deeper than {} levels", kMaxTomlNesting)};
+          return {line,
+                  fmt::format("arrays and tables nest deeper than {} levels", kMaxTomlNesting)};
       } else if (c == ']' || c == '}') {
         depth = std::max(depth - 1, 0);
       } else if (c == '.' && ++dots > kMaxTomlDots) {

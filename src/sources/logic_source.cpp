@@ -90,9 +90,8 @@ bool LogicSource::choose_channels() {
   }
   // Damage (or the decompression limit) met while reading ahead is met again, at the same place,
   // when decoding: detect from what came before it, decode up to it, then report it.
-  if (!error_.empty() && std::all_of(runs.begin(), runs.end(), [](const auto& r) {
-        return r.empty();
-      }))
+  if (!error_.empty() &&
+      std::all_of(runs.begin(), runs.end(), [](const auto& r) { return r.empty(); }))
     return false;
   error_.clear();
   for (std::size_t k = 0; k < reading.size(); ++k) {
@@ -235,8 +234,8 @@ std::vector<std::string> LogicSource::notes() const {
     notes.push_back(fmt::format(
         "{}: channel {}: {} characters ({} parity errors, {} framing errors, {} breaks, {} "
         "glitches filtered, {} false starts)",
-        name_, channels_.at(ids_[k]).name, st.characters, st.parity_errors, st.framing_errors, st.breaks,
-        st.glitches, st.false_starts));
+        name_, channels_.at(ids_[k]).name, st.characters, st.parity_errors, st.framing_errors,
+        st.breaks, st.glitches, st.false_starts));
   }
   return notes;
 }
