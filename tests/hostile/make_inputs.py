@@ -100,6 +100,21 @@ def uart_samples(text, samples_per_bit, idle_bits=40):
     return bytes(b for bit in bits for b in [bit] * samples_per_bit)
 
 
+def streamed_sigrok(path, rate, head, idle_mib16):
+    """A one-channel session: `head` samples, then idle_mib16 x 16 MiB of idle line, written
+    piece by piece (the whole would not fit in memory)."""
+    with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED) as z:
+        z.writestr("version", "2")
+        z.writestr("metadata",
+                   "[global]\nsigrok version=0.5.2\n[device 1]\ncapturefile=logic-1\n"
+                   f"total probes=1\nsamplerate={rate}\nunitsize=1\nprobe1=RX\n")
+        with z.open("logic-1-1", "w", force_zip64=True) as f:
+            f.write(head)
+            idle = b"\x01" * (1 << 24)
+            for _ in range(idle_mib16):
+                f.write(idle)
+
+
 def make(directory, name):
     at = f"{directory}/{name}"
     if name == "vcd-timescale-1s-sigfpe":
@@ -115,17 +130,9 @@ def make(directory, name):
     elif name == "vcd-utf8-bom":
         vcd(at + ".vcd", "1 us", bom=True)
     elif name == "sigrok-zip-bomb":
-        # 4 GiB of samples in about 4 MB: a byte of traffic, then an idle line.
-        with zipfile.ZipFile(at + ".sr", "w", zipfile.ZIP_DEFLATED) as z:
-            z.writestr("version", "2")
-            z.writestr("metadata",
-                       "[global]\nsigrok version=0.5.2\n[device 1]\ncapturefile=logic-1\n"
-                       "total probes=1\nsamplerate=1 MHz\nunitsize=1\nprobe1=RX\n")
-            with z.open("logic-1-1", "w", force_zip64=True) as f:
-                f.write(uart_samples(b"\x01\x03\x00\x00\x00\x01\x84\x0a" * 8, 104))
-                idle = b"\x01" * (1 << 24)
-                for _ in range(256):
-                    f.write(idle)
+        # 4 GiB of samples in about 4 MB: 64 characters of traffic, then an idle line.
+        streamed_sigrok(at + ".sr", "1 MHz",
+                        uart_samples(b"\x01\x03\x00\x00\x00\x01\x84\x0a" * 8, 104), 256)
     elif name == "random-packets":
         random_packets(at + ".pcapng", 2)
     elif name == "pcapng-64k-interface-name":
@@ -139,17 +146,9 @@ def make(directory, name):
         frame = bytes.fromhex("020300000004443a")
         pcapng(at + ".pcapng", [(k * 100000, frame) for k in range(3)])
     elif name == "logic-long-idle":
-        # 60 s of idle line at 10 MHz around one frame: decoding takes seconds of idle runs.
-        with zipfile.ZipFile(at + ".sr", "w", zipfile.ZIP_DEFLATED) as z:
-            z.writestr("version", "2")
-            z.writestr("metadata",
-                       "[global]\nsigrok version=0.5.2\n[device 1]\ncapturefile=logic-1\n"
-                       "total probes=1\nsamplerate=10 MHz\nunitsize=1\nprobe1=RX\n")
-            with z.open("logic-1-1", "w", force_zip64=True) as f:
-                f.write(uart_samples(b"\x02\x03\x00\x00\x00\x04\x44\x3a" * 4, 1042))
-                idle = b"\x01" * (1 << 24)
-                for _ in range(36):
-                    f.write(idle)
+        # 60 s of idle line at 10 MHz after 32 characters: decoding takes seconds of idle runs.
+        streamed_sigrok(at + ".sr", "10 MHz",
+                        uart_samples(b"\x02\x03\x00\x00\x00\x04\x44\x3a" * 4, 1042), 36)
     else:
         sys.exit(f"make_inputs.py: unknown input '{name}'")
 
