@@ -118,7 +118,7 @@ expect "--profile file missing" 1 '^drivetap: profile /nonexistent.toml: cannot 
   "$drivetap" read --profile /nonexistent.toml "$log" -o /dev/null
 expect "--profile-dir missing" 1 '/nonexistent' -- \
   "$drivetap" read --profile-dir /nonexistent "$log" -o /dev/null
-expect "--profile is /dev/zero" 1 '^drivetap: profile /dev/zero: is not a regular file (a FIFO, socket or device), not a profile file$' -- \
+expect "--profile is /dev/zero" 1 '^drivetap: profile /dev/zero: is not a regular file \(a FIFO, socket or device\), not a profile file$' -- \
   timeout 20 "$drivetap" read --profile /dev/zero "$log" -o /dev/null
 expect "--profile is a directory" 1 "^drivetap: profile $work: is a directory, not a profile file\$" -- \
   "$drivetap" read --profile "$work" "$log" -o /dev/null
