@@ -3,12 +3,12 @@
 #include <CLI/CLI.hpp>
 
 #include <poll.h>
+#include <semaphore.h>
 #include <sys/stat.h>
 #include <sys/syscall.h>
 #include <unistd.h>
 
 #include <algorithm>
-#include <atomic>
 #include <charconv>
 #include <chrono>
 #include <csignal>
@@ -55,27 +55,28 @@ namespace {
 using namespace drivetap;
 
 volatile std::sig_atomic_t g_stop = 0;
-std::atomic<bool> g_stop_asked{false};  // the same, for the watchdog thread (lock-free)
+sem_t g_stop_posted;  // posted by on_signal (sem_post is async-signal-safe): wakes the watchdog
 void on_signal(int) {
   g_stop = 1;
-  g_stop_asked.store(true, std::memory_order_relaxed);
+  ::sem_post(&g_stop_posted);
 }
 
-// SIGINT and SIGTERM must end a run whose output blocks (a FIFO or pipe whose reader stopped
-// reading): a thread sits in write() and the decoding thread waits for it. Once a stop was asked
-// for and the run has not ended within a grace second, every thread is sent SIGUSR1 (a handler
-// that does nothing, installed without SA_RESTART) until the run ends: a blocked write() returns
-// EINTR, the output counts as failed and is not written to again, and the run closes its other
-// outputs and ends as interrupted.
+// SIGINT and SIGTERM end a run with its outputs closed (on_signal sets g_stop, which the loops
+// check), also a run whose output blocks (a FIFO or pipe whose reader stopped reading), where a
+// thread sits in write() and the decoding thread waits for it: a watchdog thread, woken by the
+// signal, gives the run a grace second, then sends every other thread SIGUSR1 (a handler that does
+// nothing, installed without SA_RESTART) until the run ends. A blocked write() returns EINTR, the
+// output counts as failed and is not written to again, and the run closes its other outputs and
+// ends as interrupted. Commands that do not catch the signals end at once, as by default.
 void start_stop_watchdog() {
+  ::sem_init(&g_stop_posted, 0, 0);
   struct sigaction wake {};
   wake.sa_handler = [](int) {};
   sigemptyset(&wake.sa_mask);
   wake.sa_flags = 0;  // no SA_RESTART: the blocked call returns EINTR
   ::sigaction(SIGUSR1, &wake, nullptr);
   std::thread([] {
-    while (!g_stop_asked.load(std::memory_order_relaxed))
-      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    while (::sem_wait(&g_stop_posted) != 0) continue;  // EINTR: a signal landed on this thread
     std::this_thread::sleep_for(std::chrono::seconds(1));
     const pid_t self = static_cast<pid_t>(::syscall(SYS_gettid));
     for (;;) {
@@ -87,6 +88,15 @@ void start_stop_watchdog() {
       std::this_thread::sleep_for(std::chrono::milliseconds(100));
     }
   }).detach();
+}
+
+// SIGINT and SIGTERM set g_stop for the rest of this run, with the watchdog behind them.
+void catch_stop_signals() {
+  static bool watching = false;
+  if (!watching) start_stop_watchdog();
+  watching = true;
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGTERM, on_signal);
 }
 
 struct CommonOptions {
@@ -653,7 +663,9 @@ std::unique_ptr<ByteSource> open_source(const CommonOptions& o, const std::strin
 // Reads the source's header and settles the run's options: the capture's settings, overridden by
 // the command line's.
 PipelineOptions start_source(const CommonOptions& o, ByteSource& source) {
+  source.set_stop_flag(&g_stop);  // reading ahead for detection may take long (catch_stop_signals)
   if (!source.read_header()) die(source.error(), 1);
+  if (g_stop) die("interrupted", 130);
   PipelineOptions p = make_pipeline_options(o, source.settings());
   source.set_character_time(p.timing.character_time);
   return p;
@@ -670,11 +682,8 @@ int run_read(const CommonOptions& o, const std::string& path) {
   InputFile in;
   ChannelTable channels;
   std::unique_ptr<ByteSource> source = open_source(o, path, in, channels);
-  std::signal(SIGINT, on_signal);
-  std::signal(SIGTERM, on_signal);
-  source->set_stop_flag(&g_stop);
+  catch_stop_signals();
   const PipelineOptions p = start_source(o, *source);
-  if (g_stop) die("interrupted", 130);
   Outputs out(o, channels, p, /*timed=*/true);
   out.write_on_second_thread();
   Pipeline pipeline(p, channels, out.sink());
@@ -725,11 +734,8 @@ int run_diagnose(const CommonOptions& o, const std::string& path) {
   InputFile in;
   ChannelTable channels;
   std::unique_ptr<ByteSource> source = open_source(o, path, in, channels);
-  std::signal(SIGINT, on_signal);
-  std::signal(SIGTERM, on_signal);
-  source->set_stop_flag(&g_stop);
+  catch_stop_signals();
   const PipelineOptions p = start_source(o, *source);
-  if (g_stop) die("interrupted", 130);
   const Diagnosis d = diagnose_capture(*source, p, channels, &g_stop);
   if (!d.error.empty()) die(d.error, 1);
   if (d.interrupted) die("interrupted", 130);
@@ -808,8 +814,7 @@ int run_scan(const CommonOptions& o, const CaptureOptions& c) {
   if (!(c.scan_seconds > 0) || c.scan_seconds > 3600)
     die(fmt::format("--scan-time {}: expected seconds between 0 and 3600", c.scan_seconds));
   const std::string path = c.ports.front().substr(0, c.ports.front().find('='));
-  std::signal(SIGINT, on_signal);
-  std::signal(SIGTERM, on_signal);
+  catch_stop_signals();
   std::printf("scan %s: %g s per setting (listen only)\n", path.c_str(), c.scan_seconds);
   std::fflush(stdout);
   std::optional<ScanResult> best;
@@ -907,10 +912,7 @@ int run_capture(const CommonOptions& o, const CaptureOptions& c) {
                fmt::format("{}", fmt::join(c.ports, ", ")).c_str(), p.serial.to_string().c_str());
   Outputs out(o, channels, p, /*timed=*/true, ring ? &*ring : nullptr);
   Pipeline pipeline(p, channels, out.sink());
-  std::signal(SIGINT, on_signal);
-  std::signal(SIGTERM, on_signal);
-  std::signal(SIGPIPE, SIG_IGN);
-  std::signal(SIGXFSZ, SIG_IGN);  // a file-size limit is a write error, like a full disk
+  catch_stop_signals();
 
   const TimeNs hold = 3 * kNsPerMs;
   const TimeNs started = clock.now();
@@ -1072,8 +1074,6 @@ int run_generate(const GenerateOptions& g) {
   std::FILE* log_file = create("-o", g.output, "w");
   std::FILE* capture_file = create("-w", g.write, "wb");
   std::FILE* truth_file = create("--truth", g.truth, "w");
-  std::signal(SIGPIPE, SIG_IGN);
-  std::signal(SIGXFSZ, SIG_IGN);
   const auto started = std::chrono::steady_clock::now();
 
   generate::Generator gen(go);
@@ -1179,7 +1179,6 @@ int main(int argc, char** argv) {
   // run ends as SIGPIPE would have ended it (finish_stdout()).
   std::signal(SIGXFSZ, SIG_IGN);
   std::signal(SIGPIPE, SIG_IGN);
-  start_stop_watchdog();
   // The short, tcpdump-like form: `drivetap -i /dev/ttyUSB0 -s "19200 8E1"` is a capture.
   std::vector<char*> args(argv, argv + argc);
   static char capture_word[] = "capture";
