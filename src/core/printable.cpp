@@ -47,15 +47,6 @@ std::size_t printable_length(std::string_view text, std::size_t i) {
 
 }  // namespace
 
-bool is_printable(std::string_view text) {
-  for (std::size_t i = 0; i < text.size();) {
-    const std::size_t n = printable_length(text, i);
-    if (n == 0) return false;
-    i += n;
-  }
-  return true;
-}
-
 std::string printable(std::string_view text, bool escape_backslash) {
   std::string out;
   out.reserve(text.size());
@@ -75,11 +66,9 @@ std::string printable(std::string_view text, bool escape_backslash) {
   return out;
 }
 
-std::string printable_bounded(std::string_view text, std::size_t max_bytes, bool* shortened) {
+std::string printable_bounded(std::string_view text, std::size_t max_bytes) {
   std::string out = printable(text);
-  const bool cut = out.size() > max_bytes;
-  if (shortened) *shortened = cut;
-  if (!cut) return out;
+  if (out.size() <= max_bytes) return out;
   // FNV-1a of the original bytes: names that share their first bytes keep distinct texts.
   std::uint32_t hash = 2166136261u;
   for (const char c : text) hash = (hash ^ static_cast<unsigned char>(c)) * 16777619u;

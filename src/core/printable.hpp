@@ -18,15 +18,11 @@ std::string printable(std::string_view text, bool escape_backslash = true);
 
 // printable(text) bounded to about `max_bytes`: a longer result keeps its start, cut at a
 // character boundary, then "…" and a hash of the whole original ("#1a2b3c4d"), so that two long
-// names that begin alike stay apart. *shortened (when given) says whether it was cut.
-std::string printable_bounded(std::string_view text, std::size_t max_bytes,
-                              bool* shortened = nullptr);
+// names that begin alike stay apart.
+std::string printable_bounded(std::string_view text, std::size_t max_bytes);
 
 // Length of the well-formed UTF-8 character at text[i] (1 for ASCII), or 0 when the bytes there
 // are malformed, overlong, a surrogate or beyond U+10FFFF, or (unless allow_c1) a C1 control.
 std::size_t utf8_length(std::string_view text, std::size_t i, bool allow_c1);
-
-// Whether printable(text) == text (no byte needs escaping), without building it.
-bool is_printable(std::string_view text);
 
 }  // namespace drivetap

@@ -14,6 +14,14 @@ namespace drivetap {
 
 namespace {
 
+constexpr std::size_t kDetectBytes = 2048;     // most bytes held before deciding anyway
+constexpr std::size_t kDetectEvery = 128;      // re-evaluate after this many more bytes
+constexpr int kDetectGoodFrames = 3;           // never decide on one lucky checksum
+constexpr int kRedetectFailures = 8;           // bad telegrams/noise in a row: the bus changed?
+constexpr int kMaxRedetectFailures = 8 << 12;  // the back-off's ceiling on a line of noise
+constexpr Protocol kCandidates[] = {Protocol::modbus_rtu, Protocol::modbus_ascii,
+                                    Protocol::danfoss_fc, Protocol::easydrive};
+
 // A candidate protocol while a channel's protocol is being detected: its framer and its counts so
 // far. Each held byte is fed once, so that detection costs a few framings of the held bytes, not
 // one per evaluation.
@@ -38,7 +46,7 @@ struct Pipeline::ChannelState {
   int failures = 0;  // consecutive bad telegrams / noise since the last good one
   // Failures in a row that start detection afresh. Each detection that finds no clear protocol
   // doubles it (a line of noise would otherwise be detected over and over); a clear one resets it.
-  int redetect_after = 8;  // kRedetectFailures
+  int redetect_after = kRedetectFailures;
   bool redetect = false;
   TimeNs last_end = std::numeric_limits<TimeNs>::min();
   std::uint32_t last_frame_origin = 0;       // packet the previous frame ended in
@@ -307,14 +315,6 @@ std::size_t Pipeline::take_quietly(const ByteRun& run, std::size_t i, TimeNs cha
 }
 
 namespace {
-
-constexpr std::size_t kDetectBytes = 2048;     // most bytes held before deciding anyway
-constexpr std::size_t kDetectEvery = 128;      // re-evaluate after this many more bytes
-constexpr int kDetectGoodFrames = 3;           // never decide on one lucky checksum
-constexpr int kRedetectFailures = 8;           // bad telegrams/noise in a row: the bus changed?
-constexpr int kMaxRedetectFailures = 8 << 12;  // the back-off's ceiling on a line of noise
-constexpr Protocol kCandidates[] = {Protocol::modbus_rtu, Protocol::modbus_ascii,
-                                    Protocol::danfoss_fc, Protocol::easydrive};
 
 // Feeds `events` to a candidate's framer (and closes it when `close`), counting the telegrams it
 // cuts and those whose checksum is good.

@@ -40,14 +40,16 @@ bool LogicSource::choose_channels() {
       found = std::stoul(wanted);
     if (!found) {
       std::vector<std::string> shown;
-      for (const std::string& n : names) shown.push_back(printable_bounded(n, 64));
+      for (const std::string& n : names)
+        shown.push_back(printable_bounded(n, ChannelTable::kMaxNameBytes));
       error_ = fmt::format("--channels: {}: no channel '{}' (channels: {})", name_,
                            printable(wanted), fmt::join(shown, ", "));
       return false;
     }
     if (std::find(reading.begin(), reading.end(), *found) != reading.end()) {
       error_ = fmt::format("--channels: {}: channel '{}' is named twice (as '{}')", name_,
-                           printable_bounded(names[*found], 64), printable(wanted));
+                           printable_bounded(names[*found], ChannelTable::kMaxNameBytes),
+                           printable(wanted));
       return false;
     }
     reading.push_back(*found);
