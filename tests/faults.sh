@@ -8,25 +8,9 @@ drivetap=$1
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
-failures=0
-fail() {
-  echo "FAIL: $*" >&2
-  failures=$((failures + 1))
-}
+# shellcheck source=tests/expect.sh
+source "$root/tests/expect.sh"
 log=$root/captures/session-e9/input.log
-
-# expect NAME CODE PATTERN -- COMMAND...: exit status CODE, exactly one stderr line, matching PATTERN.
-expect() {
-  local name=$1 code=$2 pattern=$3
-  shift 4
-  "$@" > "$work/out" 2> "$work/err"
-  local rc=$?
-  local lines
-  lines=$(wc -l < "$work/err")
-  [ "$rc" -eq "$code" ] || fail "$name: exit $rc, expected $code ($(head -c 300 "$work/err"))"
-  [ "$lines" -eq 1 ] || fail "$name: $lines stderr lines, expected one: $(head -c 300 "$work/err")"
-  grep -qE -- "$pattern" "$work/err" || fail "$name: stderr '$(cat "$work/err")' lacks /$pattern/"
-}
 
 # Outputs.
 expect "-o in a missing directory" 2 '^drivetap: -o /nonexistent/x.txt: cannot create: No such file' -- \
