@@ -190,9 +190,10 @@ TEST(LineDetection, NonStandardRateIsReportedAsMeasured) {
   ASSERT_TRUE(d.found);
   EXPECT_FALSE(d.baud_standard);
   EXPECT_EQ(d.settings.baud, 10700);
-  // Characters sent 2 stop bits apart read as 1 stop bit and idle; detection says both fit.
-  EXPECT_EQ(settings_text(d.settings), "10700 8N1");
-  EXPECT_NE(d.format_reason.find("2 stop bits fit as well"), std::string::npos) << d.format_reason;
+  // Characters sent back to back 2 stop bits apart, never after 1: 2 stop bits.
+  EXPECT_EQ(settings_text(d.settings), "10700 8N2");
+  EXPECT_NE(d.format_reason.find("2 stop bits apart, none after 1"), std::string::npos)
+      << d.format_reason;
 }
 
 TEST(LineDetection, TooFewEdgesIsNoGuess) {
@@ -223,8 +224,11 @@ TEST(Diagnosis, SwappedWiresAreAnInvertedLine) {
   EXPECT_EQ(ids(d), std::vector<std::string>{"inverted-line"});
   EXPECT_EQ(d.evidence.frames_checksum_ok, 80u);  // decoded inverted all the same
   const Verdict& v = d.verdicts.front();
-  EXPECT_NE(v.evidence.find("rests low"), std::string::npos) << v.evidence;
+  // Decided by how each polarity decodes, and the fix names both causes of an inversion.
+  EXPECT_NE(v.evidence.find("decodes clearly better"), std::string::npos) << v.evidence;
+  EXPECT_NE(v.evidence.find("inverted: 0 errors"), std::string::npos) << v.evidence;
   EXPECT_NE(v.fix.find("swap the A and B"), std::string::npos);
+  EXPECT_NE(v.fix.find("RS-232 side of a converter"), std::string::npos);
   // Given the right polarity, no verdict.
   EXPECT_TRUE(diagnose_line(polling_line(swapped), swapped).verdicts.empty());
 }

@@ -226,7 +226,8 @@ TEST(UartPhyCaptures, SettingsDetectedFromTheSamples) {
   // The "8N2" recording sends its second character 1.15 stop bits after the first: 1 stop bit
   // is what reads it all.
   EXPECT_EQ(detected("uart-phy/errors_ampel64_4800_8n2_ok.sr"), "4800 8N1");
-  // 10700 baud is no standard rate: reported as measured (to three digits).
-  EXPECT_EQ(detected("uart-phy/from_analog_uart_analog_10700_8n2.sr"), "10700 8N1");
+  // 10700 baud is no standard rate: reported as measured (to three digits). Its characters follow
+  // each other exactly 2 stop bits apart, never after 1: 8N2, what the sender uses.
+  EXPECT_EQ(detected("uart-phy/from_analog_uart_analog_10700_8n2.sr"), "10700 8N2");
   EXPECT_EQ(detected("sigrok-brainchild-io-16do/brainchild-io-16do.sr"), "19200 8E1, inverted");
 }

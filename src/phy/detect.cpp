@@ -100,6 +100,7 @@ FormatTrial trial_decode(std::span<const std::vector<LevelRun>> channels,
   if (!settings.validate(sample_rate_hz).empty()) return t;
   const double per_bit = settings.samples_per_bit(sample_rate_hz);
   const auto frame = static_cast<std::uint64_t>(std::llround(settings.frame_bits() * per_bit));
+  const auto top_bit = static_cast<std::uint16_t>(1u << (settings.data_bits - 1));
   std::vector<UartCharacter> out;
   for (const std::vector<LevelRun>& runs : channels) {
     UartDecoder decoder(settings, sample_rate_hz);
@@ -107,13 +108,100 @@ FormatTrial trial_decode(std::span<const std::vector<LevelRun>> channels,
     decoder.push_runs(std::span(runs).first(std::min(runs.size(), max_runs_per_channel)), out);
     decoder.finish(out);
     t.stats += decoder.stats();
-    for (std::size_t i = 1; i < out.size(); ++i)
-      if (out[i].start_sample <=
-          out[i - 1].start_sample + frame + static_cast<std::uint64_t>(per_bit / 2))
-        ++t.back_to_back;
+    for (std::size_t i = 0; i < out.size(); ++i) {
+      if (!(out[i].flags & kUartBreak)) {
+        ++t.data_characters;
+        if (out[i].value & top_bit) ++t.top_bit_set;
+      }
+      if (i == 0) continue;
+      const double idle_bits = (static_cast<double>(out[i].start_sample) -
+                                static_cast<double>(out[i - 1].start_sample + frame)) /
+                               per_bit;
+      if (idle_bits <= 0.5) ++t.back_to_back;
+      // A whole bit to within 0.15 bit, or 1.5 samples where a bit has few of them.
+      if (std::abs(idle_bits - 1) <= std::min(0.4, std::max(0.15, 1.5 / per_bit)))
+        ++t.one_idle_bit_apart;
+      else if (idle_bits > 0.25 && idle_bits < 2.5)
+        ++t.loosely_apart;
+    }
   }
   return t;
 }
+
+namespace {
+
+struct Pulse {
+  bool level;
+  std::uint64_t length;
+};
+
+// Fewest errors first; among equals (within half a percent) the more specific format: a parity
+// bit that checked out on every character; 8 data bits, but never a last data bit that is always
+// 1 (two readings tie only when the longer one's last bit is: it is the stop bit read as data);
+// 1 stop bit over 2 (settled afterwards, by the spacing).
+int specificity(const FormatTrial& t) {
+  int score = 0;
+  if (t.settings.parity != UartParity::none) score += 4;
+  if (t.settings.stop_bits == StopBits::two) score -= 2;
+  if (t.top_bit_always_set())
+    score -= 3;
+  else if (t.settings.data_bits == 8)
+    score += 1;
+  return score;
+}
+
+bool better(const FormatTrial& a, const FormatTrial& b) {
+  const double ra = a.error_rate(), rb = b.error_rate();
+  if (std::abs(ra - rb) > 0.005) return ra < rb;
+  return specificity(a) > specificity(b);
+}
+
+// `a` decodes clearly better than `b`: fewer than half its errors per character and 2 % fewer.
+bool clearly_better(const FormatTrial& a, const FormatTrial& b) {
+  const double ra = a.error_rate(), rb = b.error_rate();
+  return a.stats.characters > 0 && ra + 0.02 < rb && ra <= rb * 0.5;
+}
+
+UartSettings format(double baud, bool inverted, std::uint8_t data_bits, UartParity parity,
+                    StopBits stop_bits) {
+  UartSettings s;
+  s.baud = baud;
+  s.inverted = inverted;
+  s.data_bits = data_bits;
+  s.parity = parity;
+  s.stop_bits = stop_bits;
+  return s;
+}
+
+// The rate to decode a measured one at: the standard rate within 3 %, else three significant
+// digits (what a device's divisor really is cannot be known).
+double decoding_baud(double measured, bool* standard) {
+  const double snapped = snap_to_standard_baud(measured);
+  *standard = snapped > 0;
+  if (*standard) return snapped;
+  const double scale = std::pow(10.0, std::floor(std::log10(measured)) - 2);
+  return std::round(measured / scale) * scale;
+}
+
+// How well a bit width decodes, whatever the format: framing errors, breaks and false starts of
+// the best of a few frame lengths (9 to 12 bits) in either polarity. Parity is left to the
+// format search, at the chosen rate.
+double framing_quality(std::span<const std::vector<LevelRun>> channels, std::uint64_t rate,
+                       double baud, std::size_t max_runs) {
+  double best = 2;
+  for (bool inverted : {false, true})
+    for (auto [bits, parity] : {std::pair{7, UartParity::none}, std::pair{8, UartParity::none},
+                                std::pair{9, UartParity::none}, std::pair{9, UartParity::mark}}) {
+      UartSettings s =
+          format(baud, inverted, static_cast<std::uint8_t>(bits), parity, StopBits::one);
+      FormatTrial t = trial_decode(channels, rate, s, max_runs);
+      t.stats.parity_errors = 0;
+      if (t.stats.characters > 0) best = std::min(best, t.error_rate());
+    }
+  return best;
+}
+
+}  // namespace
 
 LineDetection detect_line(std::span<const std::vector<LevelRun>> channels,
                           std::uint64_t sample_rate_hz, const DetectOptions& options) {
@@ -121,10 +209,6 @@ LineDetection detect_line(std::span<const std::vector<LevelRun>> channels,
   // Pulse widths: interior runs only (the first and last are cut by the capture), adjacent runs
   // of one level merged (a reader's block boundary is no edge).
   std::vector<std::uint64_t> widths;
-  struct Pulse {
-    bool level;
-    std::uint64_t length;
-  };
   std::vector<std::vector<Pulse>> pulses(channels.size());
   for (std::size_t c = 0; c < channels.size(); ++c) {
     const auto& runs = channels[c];
@@ -144,122 +228,182 @@ LineDetection detect_line(std::span<const std::vector<LevelRun>> channels,
   std::sort(widths.begin(), widths.end());
   d.pulses = widths.size();
 
-  // Bit width: candidates are the short pulses (the shortest that is no glitch is one bit, in any
-  // traffic with a 0-1-0 anywhere); the best score wins, the larger width on a near tie (every
-  // multiple of w is also one of w/2).
-  WidthScore best;
+  // Candidate bit widths: short pulses at several quantiles (the shortest that is no glitch is
+  // one bit in any traffic with a 0-1-0 anywhere), each refined around the pulses that fit it.
+  std::vector<WidthScore> candidates;
   for (double q : {0.002, 0.005, 0.01, 0.02, 0.05, 0.1, 0.2, 0.3, 0.5}) {
     const auto at = static_cast<std::size_t>(q * static_cast<double>(widths.size() - 1));
     const double candidate = static_cast<double>(widths[at]);
-    if (candidate < 3) continue;  // fewer than 3 samples a bit cannot be decoded anyway
+    if (candidate < 2) continue;  // fewer than 2 samples a bit cannot be decoded
     WidthScore s = score_width(widths, candidate);
     if (s.scored * 2 < widths.size() || s.single == 0) continue;  // most pulses longer: too short
     s = score_width(widths, s.width);  // once more around the refined width
-    if (s.scored * 2 < widths.size() || s.single == 0) continue;
-    if (best.scored == 0 || s.fitting > best.fitting + 0.02 ||
-        (s.fitting >= best.fitting - 0.02 && s.width > best.width * 1.5))
-      best = s;
+    // One-bit pulses are common in any UART traffic; a width that only glitches match is too
+    // narrow.
+    if (s.scored * 2 < widths.size() || s.single * 20 < s.scored) continue;
+    const bool seen = std::any_of(candidates.begin(), candidates.end(), [&](const WidthScore& c) {
+      return std::abs(c.width / s.width - 1) < 0.03;
+    });
+    if (!seen) candidates.push_back(s);
   }
-  if (best.scored == 0) {
+  if (candidates.empty()) {
     d.why_not =
         fmt::format("no bit width fits the {} pulses (too few samples per bit?)", widths.size());
     return d;
   }
-  d.pulses_fitting = best.fitting;
-  d.single_bit_pulses = best.single;
-  d.measured_baud = static_cast<double>(sample_rate_hz) / best.width;
-  const double standard = snap_to_standard_baud(d.measured_baud);
-  d.baud_standard = standard > 0;
-  double baud = standard;
-  if (!d.baud_standard) {
-    // Three significant digits: what a device's divisor can really be set to is not knowable.
-    const double scale = std::pow(10.0, std::floor(std::log10(d.measured_baud)) - 2);
-    baud = std::round(d.measured_baud / scale) * scale;
+  // The width whose multiples fit the pulses best (on a near tie the wider: every multiple of w is
+  // also one of w/2), unless another decodes clearly better: fewer than half its framing errors.
+  std::stable_sort(candidates.begin(), candidates.end(),
+                   [](const WidthScore& a, const WidthScore& b) {
+                     if (std::abs(a.fitting - b.fitting) > 0.02) return a.fitting > b.fitting;
+                     return a.width > b.width;
+                   });
+  const WidthScore* best = nullptr;
+  double best_quality = 3;
+  std::string out_of_range;
+  for (const WidthScore& c : candidates) {
+    const double measured = static_cast<double>(sample_rate_hz) / c.width;
+    bool standard = false;
+    const double baud = decoding_baud(measured, &standard);
+    if (baud < UartSettings::kMinBaud || baud > UartSettings::kMaxBaud) {
+      if (out_of_range.empty())  // the best-fitting width's
+        out_of_range = fmt::format(
+            "the pulses measure {:g} baud at {} samples/s, outside the UART range {:.0f}..{:.0f} "
+            "baud (is the capture's sample rate or timescale right?)",
+            measured, sample_rate_hz, UartSettings::kMinBaud, UartSettings::kMaxBaud);
+      continue;
+    }
+    ++d.baud_candidates;
+    const double quality = candidates.size() == 1 ? 0
+                                                  : framing_quality(channels, sample_rate_hz, baud,
+                                                                    options.max_runs_per_channel);
+    if (!best || (quality + 0.02 < best_quality && quality <= best_quality * 0.5)) {
+      best = &c;
+      best_quality = quality;
+    }
   }
-  if (baud < UartSettings::kMinBaud || baud > UartSettings::kMaxBaud) {
-    d.why_not = fmt::format(
-        "the pulses measure {:g} baud at {} samples/s, outside the UART range {:.0f}..{:.0f} baud "
-        "(is the capture's sample rate or timescale right?)",
-        d.measured_baud, sample_rate_hz, UartSettings::kMinBaud, UartSettings::kMaxBaud);
+  if (!best) {
+    d.why_not = out_of_range;
     return d;
   }
-  d.baud_confidence = best.fitting >= 0.95 && best.scored >= 50 && best.single >= 5
-                          ? Confidence::high
-                      : best.fitting >= 0.85 && best.scored >= 10 ? Confidence::medium
-                                                                  : Confidence::low;
-
-  // Polarity: the level the line rests at between characters — gaps longer than any character,
-  // the capture's first and last runs included (a recording usually starts and ends idle).
-  const double w = best.width;
-  std::uint64_t high_time = 0, low_time = 0;
-  for (std::size_t c = 0; c < pulses.size(); ++c)
-    for (const Pulse& p : pulses[c]) {
-      if (static_cast<double>(p.length) <= kLongestDataPulse * w) continue;
-      ++d.idle_gaps;
-      (p.level ? high_time : low_time) += p.length;
-    }
-  const bool idle_evidence = high_time + low_time > 0;
-  bool idle_high = true;
-  if (idle_evidence) {
-    idle_high = high_time >= low_time;
-    d.idle_share = static_cast<double>(std::max(high_time, low_time)) /
-                   static_cast<double>(high_time + low_time);
+  d.pulses_fitting = best->fitting;
+  d.single_bit_pulses = best->single;
+  // Every pulse one width: a clock, a strobe or a PWM output, not characters (a UART line shows
+  // runs of equal bits in all but a stream of 0x55).
+  if (best->single * 100 >= best->scored * 95 && best->scored >= 16) {
+    d.why_not = fmt::format(
+        "{} of {} pulses are one width ({:.0f} samples): a clock or strobe line, not UART "
+        "characters",
+        best->single, best->scored, best->width);
+    return d;
   }
-  // Without a gap to judge by, normal polarity unless only the inverted one decodes: a capture
-  // that starts and ends inside traffic says nothing about the rest level, and some traffic (as
-  // 0x00-separated bytes) reads almost as well upside down.
+  d.samples_per_bit = best->width;
+  d.measured_baud = static_cast<double>(sample_rate_hz) / best->width;
+  const double baud = decoding_baud(d.measured_baud, &d.baud_standard);
+  d.baud_confidence = best->fitting >= 0.95 && best->scored >= 50 && best->single >= 5
+                          ? Confidence::high
+                      : best->fitting >= 0.85 && best->scored >= 10 ? Confidence::medium
+                                                                    : Confidence::low;
+  // Two samples a bit decode (the centre is the sample after the edge's), but one sample of
+  // jitter is half a bit.
+  if (best->width < 3) d.baud_confidence = Confidence::low;
 
   // Formats by trial decoding, both polarities.
-  for (bool upside : {false, true})
-    for (std::uint8_t data_bits : {8, 7})
+  for (bool inverted : {false, true})
+    for (std::uint8_t data_bits : {8, 7, 9})
       for (UartParity parity : {UartParity::none, UartParity::even, UartParity::odd})
-        for (StopBits stop_bits : {StopBits::one, StopBits::two}) {
-          UartSettings s;
-          s.baud = baud;
-          s.data_bits = data_bits;
-          s.parity = parity;
-          s.stop_bits = stop_bits;
-          s.inverted = upside ? idle_high : !idle_high;
-          d.trials.push_back(
-              trial_decode(channels, sample_rate_hz, s, options.max_runs_per_channel));
-        }
-  // Fewest errors first; among equals (within half a percent) the more specific format: a parity
-  // bit that checked out on every character, 8 data bits over 7, and 1 stop bit over 2. Two stop
-  // bits cannot be told from one followed by a bit of idle line (a transmitter refilled by an
-  // interrupt leaves one); one reads both without error, and its shorter character time is what
-  // the sender's own t3.5 is usually measured in.
-  auto specificity = [](const FormatTrial& t) {
-    int score = 0;
-    if (t.settings.parity != UartParity::none) score += 4;
-    if (t.settings.stop_bits == StopBits::two) score -= 2;
-    if (t.settings.data_bits == 8) score += 1;
-    return score;
-  };
-  auto better = [&](const FormatTrial& a, const FormatTrial& b) {
-    const double ra = a.error_rate(), rb = b.error_rate();
-    if (std::abs(ra - rb) > 0.005) return ra < rb;
-    return specificity(a) > specificity(b);
-  };
-  // The polarity: the idle level says it, unless only the other one decodes (some traffic, as
-  // 0x00-separated bytes, reads almost as well upside down; a rest level is harder to fake).
+        for (StopBits stop_bits : {StopBits::one, StopBits::two})
+          d.trials.push_back(trial_decode(channels, sample_rate_hz,
+                                          format(baud, inverted, data_bits, parity, stop_bits),
+                                          options.max_runs_per_channel));
   auto best_of = [&](bool inverted) {
     const FormatTrial* found = nullptr;
     for (const FormatTrial& t : d.trials)
       if (t.settings.inverted == inverted && (!found || better(t, *found))) found = &t;
     return *found;
   };
-  const FormatTrial as_idle = best_of(!idle_high), upside_down = best_of(idle_high);
-  bool inverted = !idle_high;
-  const double idle_rate = as_idle.error_rate(), upside_rate = upside_down.error_rate();
-  if (idle_evidence ? upside_rate < 0.02 && idle_rate > 0.2
-                    : upside_rate < idle_rate - 0.3 || (upside_rate < 0.1 && idle_rate > 0.5))
-    inverted = idle_high;
+  const FormatTrial upright = best_of(false), upside_down = best_of(true);
+
+  // The rest level: gaps longer than any character, the capture's first and last runs included
+  // (a recording usually starts and ends idle).
+  const double w = best->width;
+  std::uint64_t high_time = 0, low_time = 0;
+  for (const std::vector<Pulse>& channel : pulses)
+    for (const Pulse& p : channel) {
+      if (static_cast<double>(p.length) <= kLongestDataPulse * w) continue;
+      ++d.idle_gaps;
+      (p.level ? high_time : low_time) += p.length;
+    }
+  const bool idle_evidence = high_time + low_time > 0;
+  const bool rests_high = high_time >= low_time;
+
+  // Polarity: the reading that decodes clearly better, and well (a handful of characters, most of
+  // them damaged either way, prove nothing); the rest level only when both decode alike
+  // (0x00-separated bytes read almost as well upside down).
+  auto decides = [](const FormatTrial& a, const FormatTrial& b) {
+    return clearly_better(a, b) && (a.error_rate() <= 0.1 || a.stats.characters >= 20);
+  };
+  bool inverted = false;
+  bool by_quality = true;
+  if (decides(upside_down, upright))
+    inverted = true;
+  else if (!decides(upright, upside_down)) {
+    by_quality = false;
+    inverted = idle_evidence && !rests_high;
+  }
+  d.other_polarity = inverted ? upright : upside_down;
+  const FormatTrial& chosen = inverted ? upside_down : upright;
+  if (idle_evidence)
+    d.idle_share = static_cast<double>(inverted ? low_time : high_time) /
+                   static_cast<double>(high_time + low_time);
+  const bool idle_agrees = idle_evidence && d.idle_share >= 0.5;
+  d.floats_when_idle = by_quality && idle_evidence && !idle_agrees;
+  auto reading = [](const char* name, const FormatTrial& t) {
+    return fmt::format("{}: {} errors in {} characters", name, t.errors(), t.stats.characters);
+  };
+  const std::string both =
+      fmt::format("{}; {}", reading("upright", upright), reading("inverted", upside_down));
+  if (by_quality)
+    d.polarity_reason = fmt::format("decodes clearly better that way ({})", both);
+  else if (idle_evidence)
+    d.polarity_reason = fmt::format(
+        "both readings decode alike ({}); the line rests at that "
+        "level {:.0f} % of the time in {} idle gaps",
+        both, d.idle_share * 100, d.idle_gaps);
+  else
+    d.polarity_reason = fmt::format(
+        "both readings decode alike ({}) and no idle gap shows the rest level: upright assumed",
+        both);
+  if (by_quality && chosen.stats.characters >= 20 && chosen.error_rate() <= 0.05)
+    d.polarity_confidence = Confidence::high;
+  else if (by_quality || (idle_evidence && d.idle_gaps >= 3 && d.idle_share >= 0.9))
+    d.polarity_confidence = Confidence::medium;
+  else
+    d.polarity_confidence = Confidence::low;
+
   std::stable_sort(d.trials.begin(), d.trials.end(),
                    [&](const FormatTrial& a, const FormatTrial& b) {
                      if (a.settings.inverted != b.settings.inverted)
                        return a.settings.inverted == inverted;
                      return better(a, b);
                    });
+  // Two stop bits where characters follow each other exactly 2 stop bits apart, never after 1
+  // and seldom a fraction of a bit later, and 2 stop bits decode them as well. A sender with 1
+  // stop bit sends back to back from its FIFO, or with gaps of its own that are no whole bit.
+  {
+    const FormatTrial& top = d.trials.front();
+    if (top.settings.stop_bits == StopBits::one) {
+      const FormatTrial* two =
+          d.trial(inverted, top.settings.data_bits, top.settings.parity, StopBits::two);
+      if (two && two->stats.short_stop_bits == 0 && two->errors() <= top.errors() &&
+          top.one_idle_bit_apart >= 3 && top.one_idle_bit_apart * 4 >= top.stats.characters &&
+          top.loosely_apart * 10 <= top.one_idle_bit_apart) {
+        const auto at = std::find_if(d.trials.begin(), d.trials.end(),
+                                     [&](const FormatTrial& t) { return &t == two; });
+        std::rotate(d.trials.begin(), at, at + 1);
+      }
+    }
+  }
   const FormatTrial& top = d.best();
   if (top.stats.characters == 0) {
     d.why_not = fmt::format("no characters decode at {:g} baud", baud);
@@ -267,15 +411,6 @@ LineDetection detect_line(std::span<const std::vector<LevelRun>> channels,
   }
   d.settings = top.settings;
   d.found = true;
-
-  // Polarity confidence: the idle level and the trial decoding agree, with idle gaps to judge by.
-  const bool chosen_agrees = (inverted == !idle_high) && !better(upside_down, as_idle);
-  if (!idle_evidence || inverted != !idle_high)
-    d.polarity_confidence = Confidence::low;
-  else if (chosen_agrees && d.idle_gaps >= 3 && d.idle_share >= 0.9)
-    d.polarity_confidence = Confidence::high;
-  else
-    d.polarity_confidence = Confidence::medium;
 
   // Format confidence and reason.
   const double rate = top.error_rate();
@@ -287,11 +422,23 @@ LineDetection detect_line(std::span<const std::vector<LevelRun>> channels,
                                   chars - top.stats.parity_errors, chars));
   else
     reasons.push_back("no parity fits better");
+  const FormatTrial* longer =
+      d.trial(inverted, static_cast<std::uint8_t>(top.settings.data_bits + 1), top.settings.parity,
+              top.settings.stop_bits);
+  if (longer && longer->top_bit_always_set() && longer->errors() <= top.errors())
+    reasons.push_back(
+        fmt::format("{} data bits: read with {}, the last data bit is 1 in all "
+                    "{} characters (it is the stop bit)",
+                    top.settings.data_bits, longer->settings.data_bits, longer->data_characters));
+  else if (top.settings.data_bits != 8)
+    reasons.push_back(
+        fmt::format("{} data bits decode with the fewest errors", top.settings.data_bits));
   const FormatTrial* two =
       d.trial(top.settings.inverted, top.settings.data_bits, top.settings.parity, StopBits::two);
   if (top.settings.stop_bits == StopBits::two)
     reasons.push_back(
-        fmt::format("{} characters back to back 2 stop bits apart", top.back_to_back));
+        fmt::format("{} of {} characters follow the previous one 2 stop bits apart, none after 1",
+                    top.back_to_back, chars));
   else if (two && two->stats.short_stop_bits > 0)
     reasons.push_back(fmt::format("{} characters follow the previous one after 1 stop bit",
                                   two->stats.short_stop_bits));

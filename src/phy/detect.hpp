@@ -1,15 +1,20 @@
-// Line settings detection from sampled levels (issue 6 §3; PROTOCOLS.md §1 line settings):
-// polarity from the idle level, baud rate from the pulse-width distribution, data bits, parity
-// and stop bits by trial decoding — each with its confidence and the evidence behind it.
+// Line settings detection from sampled levels (issue 6 §3, issue 37 §1-3; PROTOCOLS.md §1 line
+// settings): baud rate, polarity, data bits, parity and stop bits chosen by decode quality, each
+// with its confidence and the evidence behind it. Run it on one channel: the channels of one
+// capture may differ (the two sides of an RS-232 converter have opposite polarity).
 //
 //   pulse widths (samples):  52 52 104 52 156 52 ... 9000 (idle)
-//   bit width w: the largest w that puts nearly every pulse under 12.5 w at a whole multiple
-//   of w, some of them at 1 w; refined as the mean of width / multiple  ->  measured baud
+//   candidate bit widths: several short pulses, each refined as the mean of width / multiple of
+//   the pulses that fit it; every candidate is trial-decoded and the one whose characters decode
+//   with the fewest framing errors and breaks wins (a few narrow glitches decide nothing)
+//   polarity: the reading with clearly fewer errors; the idle level only on a tie (an unbiased
+//   pair rests low between transmissions although every character on it is upright)
 //
 // The measured rate is snapped to a standard one when within 3 % (a UART tolerates about that);
 // otherwise it is reported as measured (10700 occurs: an AVR on its internal oscillator).
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <span>
 #include <string>
@@ -29,9 +34,23 @@ struct FormatTrial {
   // characters that began within half a bit of the previous one's last stop bit: the spacing
   // that tells 1 stop bit from 2
   std::uint64_t back_to_back = 0;
+  // Characters that began a whole idle bit (within 0.15 bit) after the previous one's end, and
+  // those that began a fraction of a bit or more than one but under 2.5 bits after it: a sender
+  // with 2 stop bits shows the first, a sender with 1 stop bit and gaps of its own the second.
+  std::uint64_t one_idle_bit_apart = 0;
+  std::uint64_t loosely_apart = 0;
+  // Characters other than breaks, and those whose last data bit read 1: a top data bit that is
+  // 1 on (nearly: a damaged character) every character is a stop bit or idle read as data, the
+  // sign of too many data bits.
+  std::uint64_t data_characters = 0;
+  std::uint64_t top_bit_set = 0;
 
+  // Damaged characters (a rest at the space level is the line, not a character: not one).
   [[nodiscard]] std::uint64_t errors() const {
-    return stats.framing_errors + stats.parity_errors + stats.breaks + stats.false_starts;
+    return stats.framing_errors + stats.parity_errors + stats.false_starts + stats.breaks;
+  }
+  [[nodiscard]] bool top_bit_always_set() const {
+    return data_characters >= 4 && top_bit_set * 100 >= data_characters * 97;
   }
   // errors per character (1 when nothing decodes)
   [[nodiscard]] double error_rate() const;
@@ -45,9 +64,18 @@ struct LineDetection {
   double measured_baud = 0;  // from the pulse widths, before snapping
   bool baud_standard = false;
 
-  double idle_share = 0;  // share of the idle-gap time at the idle level
+  double samples_per_bit = 0;
+  std::uint64_t baud_candidates = 0;  // bit widths trial-decoded
+
+  double idle_share = 0;  // share of the idle-gap time at the chosen polarity's mark level
   std::uint64_t idle_gaps = 0;
   Confidence polarity_confidence = Confidence::low;
+  std::string polarity_reason;  // the evidence polarity was chosen by
+  // The line decodes clearly better in the chosen polarity, yet rests at its space level for
+  // most of the idle time: nobody drives it between transmissions (no fail-safe bias).
+  bool floats_when_idle = false;
+  // The best trial of the other polarity (same baud), for the evidence.
+  FormatTrial other_polarity;
 
   std::uint64_t pulses = 0;   // interior pulses measured
   double pulses_fitting = 0;  // share at a whole multiple of the bit width
@@ -69,8 +97,8 @@ struct DetectOptions {
   std::size_t max_runs_per_channel = 40'000;
 };
 
-// `channels`: the first runs of each channel that carries traffic; every channel is assumed to
-// use the same line settings (the two directions of one link).
+// `channels`: the first runs of one channel (several channels are pooled, as if one line: give
+// them only when they are known to share settings).
 LineDetection detect_line(std::span<const std::vector<LevelRun>> channels,
                           std::uint64_t sample_rate_hz, const DetectOptions& options = {});
 

@@ -11,8 +11,9 @@ namespace drivetap::phy {
 namespace {
 
 // Fewer samples per bit leave no room between the start edge's one-sample uncertainty and a bit
-// boundary: the centre of a bit would be a guess.
-constexpr double kMinSamplesPerBit = 3.0;
+// boundary. At 2 the centre is still the sample after the edge's (sigrok decodes such captures
+// too); detection gives such a line low confidence.
+constexpr double kMinSamplesPerBit = 2.0;
 // Above this, SampleClock::to_ns's integer arithmetic could overflow.
 constexpr std::uint64_t kMaxSampleRateHz = 10'000'000'000;
 
@@ -140,6 +141,7 @@ UartDecoder::UartDecoder(const UartSettings& settings, std::uint64_t sample_rate
   if (settings.stop_bits == StopBits::one_and_half) add_point(stop_begins + 1.25);
   if (settings.stop_bits == StopBits::two) add_point(stop_begins + 1.5);
   frame_samples_ = static_cast<std::uint64_t>(std::llround(settings.frame_bits() * per_bit));
+  rest_samples_ = kRestCharacters * frame_samples_;
 }
 
 void UartDecoder::push_runs(std::span<const LevelRun> runs, std::vector<UartCharacter>& out) {
@@ -177,9 +179,21 @@ void UartDecoder::push_run(bool level, std::uint64_t samples, std::vector<UartCh
   sample_until(edge_pending_ ? pending_start_ : now_, out);
 }
 
+void UartDecoder::end_of_low(std::uint64_t at, std::vector<UartCharacter>& out) {
+  if (!low_after_break_) return;
+  low_after_break_ = false;
+  if (at - break_start_ >= rest_samples_) {
+    ++stats_.rests_at_space;
+    return;
+  }
+  start_ = break_start_;
+  report(break_start_ + frame_samples_, true, out);
+}
+
 void UartDecoder::commit_edge(std::uint64_t at, bool mark, std::vector<UartCharacter>& out) {
   sample_until(at, out);  // sample points before the edge see the old level
   mark_ = mark;
+  if (mark) end_of_low(at, out);
   if (in_character_ && !mark && next_point_ > first_stop_point_) {
     // A start bit after the first stop bit's centre, inside the second stop bit (or the half
     // one): the character ends here, and the receiver re-synchronises on this edge, as a UART
@@ -200,6 +214,10 @@ void UartDecoder::commit_edge(std::uint64_t at, bool mark, std::vector<UartChara
 }
 
 void UartDecoder::sample_until(std::uint64_t limit, std::vector<UartCharacter>& out) {
+  if (low_after_break_ && limit - break_start_ >= rest_samples_) {
+    low_after_break_ = false;  // low this long: the line at rest, known without waiting for it
+    ++stats_.rests_at_space;
+  }
   while (in_character_) {
     if (next_point_ < point_count_) {
       if (start_ + point_offsets_[next_point_] >= limit) return;
@@ -215,8 +233,15 @@ void UartDecoder::sample_until(std::uint64_t limit, std::vector<UartCharacter>& 
     } else if (rose_since_start_) {
       report(start_ + frame_samples_, false, out);
     } else if (start_ + frame_samples_ <= limit) {
-      // Low from the start edge to the end of the stop bits: not a character but a break.
-      report(start_ + frame_samples_, true, out);
+      // Low from the start edge to the end of the stop bits: not a character but a break, or the
+      // line at rest; the rise (or how long it stays low) tells which.
+      in_character_ = false;
+      low_after_break_ = true;
+      break_start_ = start_;
+      if (limit - break_start_ >= rest_samples_) {
+        low_after_break_ = false;
+        ++stats_.rests_at_space;
+      }
     } else {
       return;  // all low so far: a break if the line stays low to the end of the stop bits
     }
@@ -267,6 +292,7 @@ void UartDecoder::finish(std::vector<UartCharacter>& out) {
     ++stats_.glitches;
   }
   sample_until(now_, out);
+  end_of_low(now_, out);  // the capture ends inside a break: reported as the break it was so far
   // A character whose stop bit the capture does not reach was cut by the end of the recording,
   // not damaged on the line: not reported, counted.
   if (in_character_ && next_point_ > 0 && next_point_ <= first_stop_point_) ++stats_.cut_by_end;

@@ -101,6 +101,10 @@ struct UartDecoderStats {
   std::uint64_t short_stop_bits = 0;
   // A character the end of the capture cut before its first stop bit: not reported.
   std::uint64_t cut_by_end = 0;
+  // Low stretches of kRestCharacters character times or more: the line resting at the space
+  // level (a floating, unbiased pair; or an inverted line). Not characters: not reported, not in
+  // `characters` or `breaks`.
+  std::uint64_t rests_at_space = 0;
 
   // Totals of several decoders (the channels of one line).
   UartDecoderStats& operator+=(const UartDecoderStats& o) {
@@ -112,19 +116,26 @@ struct UartDecoderStats {
     false_starts += o.false_starts;
     short_stop_bits += o.short_stop_bits;
     cut_by_end += o.cut_by_end;
+    rests_at_space += o.rests_at_space;
     return *this;
   }
 };
 
 class UartDecoder {
  public:
+  // A low stretch this many character times long is the line at rest (a floating pair between
+  // transmitters, an inverted line), not a character: no UART sends one, and the breaks some
+  // protocols send (DMX512's, 2 to 4 characters) carry nothing for a drive bus either.
+  static constexpr std::uint64_t kRestCharacters = 2;
+
   // Throws std::invalid_argument with settings.validate()'s reason when they cannot be decoded;
   // callers that take settings from a user call validate() first and report the reason.
   UartDecoder(const UartSettings& settings, std::uint64_t sample_rate_hz);
 
   // Appends to `out` every character completed by these samples. A character is reported as soon
-  // as its last stop bit has been sampled (a break: once the line has stayed low for a whole
-  // character), so a live capture sees it without waiting for the next edge.
+  // as its last stop bit has been sampled, so a live capture sees it without waiting for the next
+  // edge; a break when the line rises again, at most kRestCharacters character times after it
+  // began (longer, it is the line at rest, not a break).
   void push_run(bool level, std::uint64_t samples, std::vector<UartCharacter>& out);
   void push_runs(std::span<const LevelRun> runs, std::vector<UartCharacter>& out);
   // End of the capture: a character cut before its first stop bit is dropped (counted in
@@ -143,6 +154,8 @@ class UartDecoder {
   void commit_edge(std::uint64_t at, bool mark, std::vector<UartCharacter>& out);
   void sample_until(std::uint64_t limit, std::vector<UartCharacter>& out);
   void report(std::uint64_t end_sample, bool is_break, std::vector<UartCharacter>& out);
+  // The line rose (or the capture ended) at `at` after a whole character of low: a break.
+  void end_of_low(std::uint64_t at, std::vector<UartCharacter>& out);
 
   // Format, fixed at construction.
   std::uint8_t data_bits_;
@@ -169,6 +182,10 @@ class UartDecoder {
   std::uint64_t start_ = 0;
   std::uint8_t next_point_ = 0;
   std::uint32_t sampled_levels_ = 0;  // bit i = level at sample point i
+  // Low for a whole character and not risen since: a break or the line at rest, not yet known.
+  bool low_after_break_ = false;
+  std::uint64_t break_start_ = 0;
+  std::uint64_t rest_samples_ = 0;  // kRestCharacters character times
 
   UartDecoderStats stats_;
 };

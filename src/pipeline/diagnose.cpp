@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/printable.hpp"
 #include "pipeline/pipeline.hpp"
 #include "sinks/json_sink.hpp"
 #include "sources/logic_source.hpp"
@@ -57,9 +58,10 @@ void byte_level_settings(const LineEvidence& e, std::vector<Verdict>& out) {
   }
 }
 
-// Given settings against what the samples show.
-void sampled_settings(const LineEvidence& e, std::vector<Verdict>& out) {
-  const phy::LineDetection& d = *e.detection;
+// Given settings against what the samples show, and each channel's polarity.
+void sampled_settings(const LineEvidence& e, const LineEvidence::Channel& c,
+                      std::vector<Verdict>& out) {
+  const phy::LineDetection& d = *c.detection;
   if (!d.found) return;
   const phy::UartSettings& found = d.settings;
   const std::string works =
@@ -67,22 +69,31 @@ void sampled_settings(const LineEvidence& e, std::vector<Verdict>& out) {
                   d.best().errors(), d.best().stats.characters);
   const bool inverted_line = found.inverted && d.polarity_confidence != phy::Confidence::low;
   if (inverted_line && (!e.given || !e.given->inverted)) {
-    std::string upright;
-    if (e.upright_trial)
-      upright = fmt::format("; read upright at {} {}: {}", found.baud, format_only(found),
-                            trial_errors(*e.upright_trial));
+    // drivetap sees the same waveform either way: a swapped pair, or a probe on the RS-232 or
+    // TTL side of a converter (RS-232 is inverted by definition).
     out.push_back(
-        {"inverted-line", "The line is inverted: A and B are swapped",
-         fmt::format("the line rests low ({:.0f} % of the time in {} idle gaps){}; inverted: {}",
-                     d.idle_share * 100, d.idle_gaps, upright, works),
-         "swap the A and B wires of the tap (the drives are not affected if only the tap is "
-         "swapped; if a drive is, it sees framing errors on every frame), or decode with "
-         "--invert"});
+        {"inverted-line",
+         "The line is inverted: A and B swapped, or the probe is on the RS-232/TTL side of a "
+         "converter",
+         fmt::format("the polarity {}; {}", d.polarity_reason, works),
+         "on an RS-485 pair: swap the A and B wires of the tap (the drives are not affected if "
+         "only the tap is swapped; if a drive is, it sees framing errors on every frame); on the "
+         "RS-232 side of a converter the inversion is normal; either way decode with --invert"});
   }
-  if (!e.given || !e.given_trial || e.given_trial->error_rate() <= 0.05) return;
+  if (d.floats_when_idle)
+    out.push_back(
+        {"unbiased-bus", "Bus not biased: the line floats when no transmitter drives it",
+         fmt::format("between transmissions the line rests at the space level ({:.0f} % of the "
+                     "time in {} idle gaps), yet every transmission on it reads {}: {}",
+                     (1 - d.idle_share) * 100, d.idle_gaps, found.inverted ? "inverted" : "upright",
+                     d.polarity_reason),
+         "add fail-safe bias at one point of the bus (about 680 ohm pull-up on B/D+ and "
+         "pull-down on A/D-, or the master's or an adapter's bias switch), and check the 120 "
+         "ohm terminations: two, one at each end"});
+  if (!e.given || !c.given_trial || c.given_trial->error_rate() <= 0.05) return;
   const phy::UartSettings& given = *e.given;
   const std::string given_text = fmt::format(
-      "decoding as given ({}): {}", phy::settings_text(given), trial_errors(*e.given_trial));
+      "decoding as given ({}): {}", phy::settings_text(given), trial_errors(*c.given_trial));
   if (std::abs(given.baud - found.baud) > found.baud * 0.03) {
     out.push_back(
         {"baud-mismatch",
@@ -106,29 +117,82 @@ void sampled_settings(const LineEvidence& e, std::vector<Verdict>& out) {
   }
 }
 
+// Each channel's verdicts: one verdict where every channel has it (a file-level verdict where
+// the channels agree), else one per channel, named.
+void merge_channel_verdicts(const LineEvidence& e,
+                            const std::vector<std::vector<Verdict>>& per_channel,
+                            std::vector<Verdict>& out) {
+  if (e.channels.size() == 1) {
+    out.insert(out.end(), per_channel.front().begin(), per_channel.front().end());
+    return;
+  }
+  std::vector<std::string> ids;
+  for (const auto& verdicts : per_channel)
+    for (const Verdict& v : verdicts)
+      if (std::find(ids.begin(), ids.end(), v.id) == ids.end()) ids.push_back(v.id);
+  for (const std::string& id : ids) {
+    std::vector<std::pair<std::size_t, const Verdict*>> having;
+    for (std::size_t k = 0; k < per_channel.size(); ++k)
+      for (const Verdict& v : per_channel[k])
+        if (v.id == id) having.emplace_back(k, &v);
+    const bool all_agree = having.size() == e.channels.size() &&
+                           std::all_of(having.begin(), having.end(), [&](const auto& h) {
+                             return h.second->title == having.front().second->title;
+                           });
+    if (all_agree) {
+      Verdict merged = *having.front().second;
+      std::vector<std::string> evidence;
+      for (const auto& [k, v] : having)
+        evidence.push_back(fmt::format("channel {}: {}", e.channels[k].name, v->evidence));
+      merged.evidence = fmt::format("{}", fmt::join(evidence, "; "));
+      out.push_back(std::move(merged));
+      continue;
+    }
+    for (const auto& [k, v] : having) {
+      Verdict named = *v;
+      named.title = fmt::format("Channel {}: {}", e.channels[k].name, v->title);
+      out.push_back(std::move(named));
+    }
+  }
+}
+
+const LineEvidence::Channel* main_channel(const LineEvidence& e) {
+  return e.channels.empty() ? nullptr : &e.channels.front();
+}
+
 }  // namespace
 
 std::vector<Verdict> diagnose(const LineEvidence& e) {
   std::vector<Verdict> out;
-  if (e.from_samples && e.detection)
-    sampled_settings(e, out);
-  else
+  std::vector<std::vector<Verdict>> per_channel;
+  for (const LineEvidence::Channel& c : e.channels) {
+    std::vector<Verdict>& mine = per_channel.emplace_back();
+    if (!c.detection) continue;
+    sampled_settings(e, c, mine);
+    if (!c.detection->found || c.detection->baud_standard) continue;
+    const phy::LineDetection& d = *c.detection;
+    mine.push_back({"non-standard-baud",
+                    fmt::format("Non-standard baud rate: {:g} (measured {:.0f})", d.settings.baud,
+                                d.measured_baud),
+                    fmt::format("the pulse widths measure {:.0f} baud, more than 3 % from every "
+                                "standard rate ({} pulses, {:.0f} % at whole bit widths)",
+                                d.measured_baud, d.pulses, d.pulses_fitting * 100),
+                    "a device at a standard rate will see framing errors: check the sender's "
+                    "clock source and baud divisor (an MCU's internal RC oscillator drifts)"});
+  }
+  if (e.from_samples && !per_channel.empty())
+    merge_channel_verdicts(e, per_channel, out);
+  else if (!e.from_samples)
     byte_level_settings(e, out);
 
-  if (e.from_samples && e.detection && e.detection->found && !e.detection->baud_standard)
-    out.push_back({"non-standard-baud",
-                   fmt::format("Non-standard baud rate: {:g} (measured {:.0f})",
-                               e.detection->settings.baud, e.detection->measured_baud),
-                   fmt::format("the pulse widths measure {:.0f} baud, more than 3 % from every "
-                               "standard rate ({} pulses, {:.0f} % at whole bit widths)",
-                               e.detection->measured_baud, e.detection->pulses,
-                               e.detection->pulses_fitting * 100),
-                   "a device at a standard rate will see framing errors: check the sender's "
-                   "clock source and baud divisor (an MCU's internal RC oscillator drifts)"});
-
+  auto found = [&](std::initializer_list<std::string_view> wanted) {
+    return std::any_of(out.begin(), out.end(), [&](const Verdict& v) {
+      return std::find(wanted.begin(), wanted.end(), v.id) != wanted.end();
+    });
+  };
   // Unbiased bus: the driver releases the line and it floats, read as a 0x00/0xFF byte with a
-  // framing error right after the frame.
-  if (e.release_artefacts >= 2 && e.release_artefacts * 20 >= e.frames)
+  // framing error right after the frame (the samples may have said so already).
+  if (!found({"unbiased-bus"}) && e.release_artefacts >= 2 && e.release_artefacts * 20 >= e.frames)
     out.push_back(
         {"unbiased-bus", "Bus not biased: the line floats when a transmitter lets go",
          fmt::format("{} of {} frames end in a stray 0x00/0xFF or damaged byte without which "
@@ -142,15 +206,10 @@ std::vector<Verdict> diagnose(const LineEvidence& e) {
   const std::uint64_t bad_chars = e.framing_errors + e.parity_errors + e.breaks;
   const std::uint64_t noise_chars =
       bad_chars > e.release_artefacts ? bad_chars - e.release_artefacts : 0;
-  auto found = [&](std::initializer_list<std::string_view> wanted) {
-    return std::any_of(out.begin(), out.end(), [&](const Verdict& v) {
-      return std::find(wanted.begin(), wanted.end(), v.id) != wanted.end();
-    });
-  };
   // Decoded with the wrong settings: the errors are theirs, not noise, and the framing and its
   // gaps (measured in their character times) mean nothing until they are fixed.
   const bool decoded_wrong = found({"settings-mismatch", "baud-mismatch", "parity-mismatch"});
-  const bool settings_wrong = decoded_wrong || found({"inverted-line"});
+  const bool settings_wrong = decoded_wrong || (e.given && found({"inverted-line"}));
   const std::uint64_t noise_events = noise_chars + e.glitches + e.false_starts;
   // On samples the settings are measured: whatever errors remain are the line's. On bytes, many
   // errors are more likely a wrong setting (reported above) than noise.
@@ -274,20 +333,24 @@ Diagnosis diagnose_capture(ByteSource& source, const PipelineOptions& options,
   if (const auto* logic = dynamic_cast<const LogicSource*>(&source)) {
     evidence.from_samples = true;
     evidence.settings = phy::settings_text(logic->uart());
-    evidence.detection = logic->detection();
-    phy::UartDecoderStats line;
-    for (const phy::UartDecoderStats& st : logic->decoder_stats()) line += st;
-    evidence.glitches = line.glitches;
-    evidence.false_starts = line.false_starts;
-    if (logic->given_trial()) {
-      evidence.given = logic->uart();
-      evidence.given_trial = logic->given_trial();
+    evidence.dropped_channels = logic->dropped();
+    const std::vector<phy::UartDecoderStats> decoded = logic->decoder_stats();
+    for (std::size_t k = 0; k < logic->lines().size(); ++k) {
+      const LogicSource::ChannelLine& line = logic->lines()[k];
+      LineEvidence::Channel c;
+      c.name = printable_bounded(line.name, ChannelTable::kMaxNameBytes);
+      c.settings = phy::settings_text(line.uart);
+      c.detection = line.detection;
+      c.given_trial = line.given_trial;
+      if (k < decoded.size()) c.decoded = decoded[k];
+      evidence.glitches += c.decoded.glitches;
+      evidence.false_starts += c.decoded.false_starts;
+      if (line.given_trial) evidence.given = line.uart;
+      evidence.channels.push_back(std::move(c));
     }
-    if (evidence.detection && evidence.detection->found) {
-      phy::UartSettings flipped = evidence.detection->settings;
-      flipped.inverted = !flipped.inverted;
-      evidence.upright_trial = phy::trial_decode(logic->head_runs(), logic->sample_rate(), flipped);
-    }
+    // One file-level line only where every channel agrees.
+    for (const LineEvidence::Channel& c : evidence.channels)
+      if (c.settings != evidence.channels.front().settings) evidence.settings = "per channel";
   }
   result.verdicts = diagnose(evidence);
   return result;
@@ -296,29 +359,44 @@ Diagnosis diagnose_capture(ByteSource& source, const PipelineOptions& options,
 std::string diagnosis_text(const std::string& file, const LineEvidence& e,
                            const std::vector<Verdict>& verdicts, const Stats& stats) {
   std::string out = fmt::format("drivetap diagnose: {}\n", file);
-  if (e.detection && e.detection->found) {
-    const phy::LineDetection& d = *e.detection;
-    out += fmt::format("line:      {}{}\n", e.settings, e.given ? " (as given)" : " (detected)");
-    out += fmt::format(
-        "  baud     {:g}{} (measured {:.0f}, {:+.1f} %), confidence {}: {:.0f} % of {} pulses "
+  auto detection_text = [&](const phy::LineDetection& d, const char* indent) {
+    std::string text;
+    text += fmt::format(
+        "{}baud     {:g}{} (measured {:.0f}, {:+.1f} %), confidence {}: {:.0f} % of {} pulses "
         "at whole bit widths, {} one bit wide\n",
-        d.settings.baud, d.baud_standard ? "" : " (not a standard rate)", d.measured_baud,
+        indent, d.settings.baud, d.baud_standard ? "" : " (not a standard rate)", d.measured_baud,
         (d.measured_baud / d.settings.baud - 1) * 100, phy::confidence_name(d.baud_confidence),
         d.pulses_fitting * 100, d.pulses, d.single_bit_pulses);
-    out += fmt::format("  polarity {}, confidence {}: {}\n",
-                       d.settings.inverted ? "inverted (idles low)" : "normal (idles high)",
-                       phy::confidence_name(d.polarity_confidence),
-                       d.idle_gaps ? fmt::format("{:.0f} % of {} idle gaps at that level",
-                                                 d.idle_share * 100, d.idle_gaps)
-                                   : std::string("no idle gap in the capture to judge by"));
-    out += fmt::format("  format   {}, confidence {}: {}\n", format_only(d.settings),
-                       phy::confidence_name(d.format_confidence), d.format_reason);
-  } else if (e.detection) {
-    out += fmt::format("line:      {} (as given; detection failed: {})\n", e.settings,
-                       e.detection->why_not);
-  } else {
+    text += fmt::format("{}polarity {}, confidence {}: {}\n", indent,
+                        d.settings.inverted ? "inverted" : "normal",
+                        phy::confidence_name(d.polarity_confidence), d.polarity_reason);
+    text += fmt::format("{}format   {}, confidence {}: {}\n", indent, format_only(d.settings),
+                        phy::confidence_name(d.format_confidence), d.format_reason);
+    return text;
+  };
+  const char* how = e.given ? " (as given)" : " (detected)";
+  if (!e.from_samples) {
     out += fmt::format("line:      {} (from the capture; byte-level evidence only)\n", e.settings);
+  } else if (e.channels.size() == 1) {
+    const LineEvidence::Channel& c = e.channels.front();
+    if (c.detection && c.detection->found)
+      out +=
+          fmt::format("line:      {}{}\n{}", c.settings, how, detection_text(*c.detection, "  "));
+    else if (c.detection)
+      out += fmt::format("line:      {} (as given; detection failed: {})\n", c.settings,
+                         c.detection->why_not);
+  } else {
+    out += fmt::format("line:      {}{}, {} channels each on its own\n", e.settings, how,
+                       e.channels.size());
+    for (const LineEvidence::Channel& c : e.channels) {
+      out += fmt::format("  channel {}: {}\n", c.name, c.settings);
+      if (c.detection && c.detection->found)
+        out += detection_text(*c.detection, "    ");
+      else if (c.detection)
+        out += fmt::format("    detection failed: {}\n", c.detection->why_not);
+    }
   }
+  for (const std::string& why : e.dropped_channels) out += fmt::format("  {}\n", why);
   out += fmt::format(
       "traffic:   {} characters ({} framing errors, {} parity errors, {} breaks{}); {} frames "
       "(checksum ok {}, bad {}); {} noise bytes; {} transactions\n",
@@ -342,15 +420,35 @@ std::string diagnosis_json(const std::string& file, const LineEvidence& e,
                            const std::vector<Verdict>& verdicts, const Stats& stats) {
   std::string out = fmt::format("{{\"file\":{},\"line\":{},\"source\":\"{}\"", json_quote(file),
                                 json_quote(e.settings), e.from_samples ? "samples" : "bytes");
-  if (e.detection && e.detection->found) {
-    const phy::LineDetection& d = *e.detection;
-    out += fmt::format(
-        ",\"detection\":{{\"baud\":{:g},\"measured_baud\":{:.1f},\"baud_standard\":{},"
+  auto detection_json = [](const phy::LineDetection& d) {
+    return fmt::format(
+        "{{\"baud\":{:g},\"measured_baud\":{:.1f},\"baud_standard\":{},"
         "\"baud_confidence\":\"{}\",\"inverted\":{},\"polarity_confidence\":\"{}\","
-        "\"format\":\"{}\",\"format_confidence\":\"{}\",\"format_reason\":{}}}",
+        "\"polarity_reason\":{},\"floats_when_idle\":{},\"format\":\"{}\","
+        "\"format_confidence\":\"{}\",\"format_reason\":{}}}",
         d.settings.baud, d.measured_baud, d.baud_standard, phy::confidence_name(d.baud_confidence),
-        d.settings.inverted, phy::confidence_name(d.polarity_confidence), format_only(d.settings),
+        d.settings.inverted, phy::confidence_name(d.polarity_confidence),
+        json_quote(d.polarity_reason), d.floats_when_idle, format_only(d.settings),
         phy::confidence_name(d.format_confidence), json_quote(d.format_reason));
+  };
+  if (const LineEvidence::Channel* c = main_channel(e);
+      c && c->detection && c->detection->found && e.channels.size() == 1)
+    out += ",\"detection\":" + detection_json(*c->detection);
+  if (e.from_samples) {
+    out += ",\"channels\":[";
+    for (std::size_t i = 0; i < e.channels.size(); ++i) {
+      const LineEvidence::Channel& c = e.channels[i];
+      out += fmt::format("{}{{\"name\":{},\"line\":{}", i ? "," : "", json_quote(c.name),
+                         json_quote(c.settings));
+      if (c.detection && c.detection->found)
+        out += ",\"detection\":" + detection_json(*c.detection);
+      out += fmt::format(
+          ",\"characters\":{},\"framing_errors\":{},\"parity_errors\":{},\"breaks\":{},"
+          "\"rests_at_space\":{}}}",
+          c.decoded.characters, c.decoded.framing_errors, c.decoded.parity_errors, c.decoded.breaks,
+          c.decoded.rests_at_space);
+    }
+    out += "]";
   }
   out += fmt::format(
       ",\"characters\":{},\"framing_errors\":{},\"parity_errors\":{},\"breaks\":{},"

@@ -36,12 +36,20 @@ struct LineEvidence {
   std::uint64_t glitches = 0;
   std::uint64_t false_starts = 0;
 
-  // Sampled captures: what detection measured, and the settings given with -s (if any).
+  // Sampled captures: per decoded channel, what detection measured on it and how the settings
+  // given with -s (if any) decode it. Verdicts about the line are per channel; one about the
+  // file only where the channels agree.
   bool from_samples = false;
-  std::optional<phy::LineDetection> detection;
+  struct Channel {
+    std::string name;
+    std::string settings;  // decoded with
+    std::optional<phy::LineDetection> detection;
+    std::optional<phy::FormatTrial> given_trial;  // the given settings on the detection sample
+    phy::UartDecoderStats decoded;                // the whole capture
+  };
+  std::vector<Channel> channels;
+  std::vector<std::string> dropped_channels;  // not decoded: why, one line each
   std::optional<phy::UartSettings> given;
-  std::optional<phy::FormatTrial> given_trial;    // the given settings on the detection sample
-  std::optional<phy::FormatTrial> upright_trial;  // detected settings, polarity flipped
 
   // Frame level (from the pipeline).
   std::uint64_t frames = 0;

@@ -118,32 +118,68 @@ bool LogicSource::read_header() {
     }
   }
   if (!choose_channels()) return false;
-  phy::LineDetection found = phy::detect_line(head_runs_, rate);
-  if (options_.uart) {
-    uart_ = *options_.uart;
-    // Given settings are used as given; when they decode badly and others decode clean, say so.
-    given_trial_ = phy::trial_decode(head_runs_, rate, uart_);
-    const phy::FormatTrial& given = *given_trial_;
-    if (found.found && given.error_rate() > 0.05 && found.best().error_rate() < 0.01)
-      extra_notes_.push_back(fmt::format(
-          "{}: {} of {} characters have errors with the given settings ({}); the line looks "
-          "like {} (detected) — see `drivetap diagnose`",
-          name_, given.errors(), given.stats.characters, phy::settings_text(uart_),
-          phy::settings_text(found.settings)));
-  } else {
-    if (!found.found) {
-      error_ = fmt::format(
-          "{}: cannot detect the line settings: {}; give them with -s (and "
-          "--invert if the line idles low)",
-          name_, found.why_not);
-      return false;
+  // Each channel on its own: settings, polarity and verdicts of one never decide another's.
+  std::vector<std::size_t> kept;
+  std::string first_failure;
+  for (std::size_t k = 0; k < chosen_.size(); ++k) {
+    ChannelLine line;
+    line.name = chosen_names_[k];
+    line.head_runs = std::move(head_runs_[k]);
+    const std::span<const std::vector<phy::LevelRun>> one(&line.head_runs, 1);
+    phy::LineDetection found = phy::detect_line(one, rate);
+    const std::string shown = printable_bounded(line.name, ChannelTable::kMaxNameBytes);
+    if (options_.uart) {
+      line.uart = *options_.uart;
+      // Given settings are used as given; when they decode badly and others decode clean, say so.
+      line.given_trial = phy::trial_decode(one, rate, line.uart);
+      const phy::FormatTrial& given = *line.given_trial;
+      if (found.found && given.error_rate() > 0.05 && found.best().error_rate() < 0.01)
+        extra_notes_.push_back(fmt::format(
+            "{}: channel {}: {} of {} characters have errors with the given settings ({}); the "
+            "line looks like {} (detected) — see `drivetap diagnose`",
+            name_, shown, given.errors(), given.stats.characters, phy::settings_text(line.uart),
+            phy::settings_text(found.settings)));
+    } else if (!found.found) {
+      if (first_failure.empty())
+        first_failure = chosen_.size() == 1 ? found.why_not
+                                            : fmt::format("channel {}: {}", shown, found.why_not);
+      dropped_.push_back(
+          fmt::format("{}: channel {}: not decoded: cannot detect its line "
+                      "settings: {}",
+                      name_, shown, found.why_not));
+      continue;
+    } else {
+      line.uart = found.settings;
     }
-    uart_ = found.settings;
+    line.detection = std::move(found);
+    kept.push_back(k);
+    lines_.push_back(std::move(line));
   }
-  detection_ = std::move(found);
+  head_runs_.clear();
+  if (lines_.empty()) {
+    error_ = fmt::format(
+        "{}: cannot detect the line settings: {}; give them with -s (and "
+        "--invert if the line idles low)",
+        name_, first_failure);
+    return false;
+  }
+  std::vector<std::size_t> decoded;
+  for (std::size_t k : kept) decoded.push_back(chosen_[k]);
+  if (decoded.size() != chosen_.size()) {
+    std::vector<std::string> names;
+    for (std::size_t k : kept) names.push_back(chosen_names_[k]);
+    chosen_ = decoded;
+    chosen_names_ = names;
+  }
+  // The busiest channel sets the pipeline's character time.
+  auto characters = [](const ChannelLine& l) {
+    return l.detection && l.detection->found ? l.detection->best().stats.characters : 0;
+  };
+  for (std::size_t k = 1; k < lines_.size(); ++k)
+    if (characters(lines_[k]) > characters(lines_[main_line_])) main_line_ = k;
   if (!capture_->select(chosen_, &error_)) return false;
   for (std::size_t k = 0; k < chosen_.size(); ++k) {
-    decoders_.emplace_back(uart_, rate);
+    decoders_.emplace_back(lines_[k].uart, rate);
     // All channels of one analyser watch one link: on a 4-wire link RX and TX are its two
     // directions, and content and order tell requests from replies (as on a shared pair).
     ids_.push_back(channels_.intern(chosen_names_[k], "", ChannelRole::bus));
@@ -157,16 +193,21 @@ bool LogicSource::read_header() {
   }
   clock_ = phy::SampleClock{rate, 0};
   // A character still to come began at most one character (plus a filtered edge) before the end
-  // of what was pushed; two characters of margin.
-  hold_back_ = static_cast<std::uint64_t>(2 * uart_.frame_bits() * uart_.samples_per_bit(rate)) +
-               decoders_.front().glitch_filter_samples() + 2;
+  // of what was pushed, a break up to kRestCharacters before it (reported when the line rises);
+  // two characters of margin.
+  constexpr double kHeldCharacters = phy::UartDecoder::kRestCharacters + 2;
+  for (std::size_t k = 0; k < lines_.size(); ++k)
+    hold_back_ = std::max<std::uint64_t>(
+        hold_back_, static_cast<std::uint64_t>(kHeldCharacters * lines_[k].uart.frame_bits() *
+                                               lines_[k].uart.samples_per_bit(rate)) +
+                        decoders_[k].glitch_filter_samples() + 2);
   return true;
 }
 
 RunSettings LogicSource::settings() const {
   // The pipeline's timing (t1.5, t3.5, character time) follows the line found or given.
   RunSettings s;
-  s.serial = uart_.serial_config();
+  s.serial = uart().serial_config();
   return s;
 }
 
@@ -222,14 +263,19 @@ std::vector<phy::UartDecoderStats> LogicSource::decoder_stats() const {
 
 std::vector<std::string> LogicSource::notes() const {
   std::vector<std::string> notes;
-  if (detection_ && !options_.uart) {
-    const phy::LineDetection& d = *detection_;
+  for (const ChannelLine& line : lines_) {
+    if (!line.detection || options_.uart) continue;
+    const phy::LineDetection& d = *line.detection;
     notes.push_back(fmt::format(
-        "{}: line detected: {} (baud {} measured {:.0f}, {}; polarity {}; format {}: {})", name_,
-        phy::settings_text(uart_), d.baud_standard ? "standard," : "non-standard,", d.measured_baud,
-        phy::confidence_name(d.baud_confidence), phy::confidence_name(d.polarity_confidence),
-        phy::confidence_name(d.format_confidence), d.format_reason));
+        "{}: channel {}: line detected: {} (baud {} measured {:.0f}, {}; polarity {}; format {}: "
+        "{})",
+        name_, printable_bounded(line.name, ChannelTable::kMaxNameBytes),
+        phy::settings_text(line.uart), d.baud_standard ? "standard," : "non-standard,",
+        d.measured_baud, phy::confidence_name(d.baud_confidence),
+        phy::confidence_name(d.polarity_confidence), phy::confidence_name(d.format_confidence),
+        d.format_reason));
   }
+  notes.insert(notes.end(), dropped_.begin(), dropped_.end());
   notes.insert(notes.end(), extra_notes_.begin(), extra_notes_.end());
   for (std::size_t k = 0; k < decoders_.size(); ++k) {
     const phy::UartDecoderStats& st = decoders_[k].stats();

@@ -2,7 +2,9 @@
 // src/sources/logic_capture.hpp) decoded by drivetap's own UART decoder (src/phy/uart_decoder.hpp),
 // one decoder per chosen channel, the characters of all channels merged in time order (channel =
 // direction on a 4-wire link). Byte times are the start bits' first samples; UART errors ride on
-// the events. Line settings not given are detected from the first runs (src/phy/detect.hpp).
+// the events. Line settings not given are detected from the first runs of each channel on its own
+// (src/phy/detect.hpp): the two sides of a converter differ in polarity, a clock or enable line
+// beside the data is no UART at all.
 //
 // Streaming: the capture is decoded block by block; a character is handed out once no channel
 // can still produce an earlier one (two character times behind the block end), so memory holds
@@ -41,15 +43,23 @@ class LogicSource final : public ByteSource {
   [[nodiscard]] const std::string& error() const override { return error_; }
   [[nodiscard]] std::vector<std::string> notes() const override;
 
-  // What read_header() found.
-  [[nodiscard]] const phy::UartSettings& uart() const { return uart_; }
-  [[nodiscard]] const std::optional<phy::LineDetection>& detection() const { return detection_; }
-  // With settings given (-s): how they decode the first runs; unset when they were detected.
-  [[nodiscard]] const std::optional<phy::FormatTrial>& given_trial() const { return given_trial_; }
-  // The first runs of each decoded channel (what detection read), for diagnosis.
-  [[nodiscard]] const std::vector<std::vector<phy::LevelRun>>& head_runs() const {
-    return head_runs_;
+  // What read_header() found, per decoded channel (in the order of decoder_stats()).
+  struct ChannelLine {
+    std::string name;
+    phy::UartSettings uart;                       // decoded with
+    std::optional<phy::LineDetection> detection;  // what its own samples show
+    // With settings given (-s): how they decode the first runs; unset when they were detected.
+    std::optional<phy::FormatTrial> given_trial;
+    std::vector<phy::LevelRun> head_runs;  // the first runs (what detection read)
+  };
+  [[nodiscard]] const std::vector<ChannelLine>& lines() const { return lines_; }
+  // The settings of the busiest channel: the pipeline's character time follows them.
+  [[nodiscard]] const phy::UartSettings& uart() const { return lines_.at(main_line_).uart; }
+  [[nodiscard]] const std::optional<phy::LineDetection>& detection() const {
+    return lines_.at(main_line_).detection;
   }
+  // Channels whose detection failed while others' succeeded: not decoded, one note each.
+  [[nodiscard]] const std::vector<std::string>& dropped() const { return dropped_; }
   [[nodiscard]] std::uint64_t sample_rate() const { return capture_->sample_rate(); }
   // Per decoded channel, the decoder's totals so far (final once next() returned false).
   [[nodiscard]] std::vector<phy::UartDecoderStats> decoder_stats() const;
@@ -63,9 +73,9 @@ class LogicSource final : public ByteSource {
   ChannelTable& channels_;
   LogicSourceOptions options_;
 
-  phy::UartSettings uart_;
-  std::optional<phy::LineDetection> detection_;
-  std::optional<phy::FormatTrial> given_trial_;
+  std::vector<ChannelLine> lines_;
+  std::size_t main_line_ = 0;
+  std::vector<std::string> dropped_;
   std::vector<std::size_t> chosen_;
   std::vector<std::string> chosen_names_;
   std::vector<std::vector<phy::LevelRun>> head_runs_;

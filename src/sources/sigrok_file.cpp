@@ -61,7 +61,13 @@ bool read_entry(zip_t* z, const std::string& name, std::string& out, bool* too_l
   return got == static_cast<zip_int64_t>(st.size);
 }
 
-// `metadata` is INI: "[device 1]" then key=value lines.
+std::string trimmed(const std::string& text) {
+  const std::size_t first = text.find_first_not_of(" \t");
+  if (first == std::string::npos) return {};
+  return text.substr(first, text.find_last_not_of(" \t") - first + 1);
+}
+
+// `metadata` is INI: "[device 1]" then key=value lines ("key = value" in sigrok 0.2's files).
 std::map<std::string, std::string> device_keys(const std::string& ini) {
   std::map<std::string, std::string> keys;
   std::istringstream in(ini);
@@ -69,12 +75,14 @@ std::map<std::string, std::string> device_keys(const std::string& ini) {
   bool in_device = false;
   while (std::getline(in, line)) {
     if (!line.empty() && line.back() == '\r') line.pop_back();
+    line = trimmed(line);
     if (line.starts_with("[")) {
       in_device = line == "[device 1]";
       continue;
     }
     const std::size_t eq = line.find('=');
-    if (in_device && eq != std::string::npos) keys[line.substr(0, eq)] = line.substr(eq + 1);
+    if (in_device && eq != std::string::npos)
+      keys[trimmed(line.substr(0, eq))] = trimmed(line.substr(eq + 1));
   }
   return keys;
 }
@@ -128,7 +136,7 @@ std::unique_ptr<SigrokFile> SigrokFile::open(const std::string& path, std::strin
     *error = fmt::format("{}: metadata: samplerate '{}' is not a rate", path, keys["samplerate"]);
     return nullptr;
   }
-  const int probes = keys.count("total probes") ? std::atoi(keys["total probes"].c_str()) : 0;
+  int probes = keys.count("total probes") ? std::atoi(keys["total probes"].c_str()) : 0;
   const int analogs = keys.count("total analog") ? std::atoi(keys["total analog"].c_str()) : 0;
   std::string prefix;
   if (probes > 0) {
@@ -137,11 +145,14 @@ std::unique_ptr<SigrokFile> SigrokFile::open(const std::string& path, std::strin
       return nullptr;
     }
     file->unit_size_ = keys.count("unitsize") ? std::atoi(keys["unitsize"].c_str()) : 1;
-    if (file->unit_size_ < 1 || file->unit_size_ > 8 || file->unit_size_ * 8 < probes) {
-      *error = fmt::format("{}: metadata: unitsize {} does not hold {} channels", path,
-                           file->unit_size_, probes);
+    if (file->unit_size_ < 1 || file->unit_size_ > 8) {
+      *error =
+          fmt::format("{}: metadata: unitsize {} (1 to 8 bytes a sample)", path, file->unit_size_);
       return nullptr;
     }
+    // Old sessions count the device's probes, more than a sample holds: those past the sample's
+    // bits were never recorded (libsigrok reads such files the same way).
+    probes = std::min(probes, file->unit_size_ * 8);
     for (int i = 1; i <= probes; ++i) {
       const auto it = keys.find(fmt::format("probe{}", i));
       file->channels_.push_back(it == keys.end() ? fmt::format("{}", i - 1) : it->second);
