@@ -3,7 +3,8 @@
 # as arguments are installed too (scripts/fuzz.sh adds clang and its tools).
 set -euo pipefail
 packages=(build-essential cmake ninja-build pkg-config libfmt-dev libcli11-dev libgtest-dev libgmock-dev
-          libpcap-dev libtomlplusplus-dev libzip-dev libbenchmark-dev tshark time python3 "$@")
+          libpcap-dev libtomlplusplus-dev libzip-dev libbenchmark-dev tshark sigrok-cli time python3
+          "$@")
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

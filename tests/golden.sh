@@ -1,6 +1,9 @@
 #!/usr/bin/env bash
 # Golden test: `drivetap read` of captures/<name>/input.* must print exactly expected.txt (text),
 # expected.json (JSON lines) and expected.events.txt (`--events`: the drive-state timeline). Extra options for a capture go in captures/<name>/args.
+# A logic-analyser capture (input.sr, input.vcd) is also diagnosed: `drivetap diagnose` must print
+# expected.diagnose.txt and, with -T json, expected.diagnose.json (the line, per channel, and the
+# verdicts).
 # A capture that must fail (a damaged file) has expected.exit (the exit status) and
 # expected.stderr (the one-line error); what was decoded before the damage is still compared.
 #
@@ -39,10 +42,21 @@ for dir in "${dirs[@]}"; do
   (cd "$dir" && "$drivetap" read "${args[@]}" "$input" > "$tmp/text" 2> "$tmp/text.err") || text_exit=$?
   (cd "$dir" && "$drivetap" read -T json "${args[@]}" "$input" > "$tmp/json" 2> "$tmp/json.err") || json_exit=$?
   (cd "$dir" && "$drivetap" read --events "${args[@]}" "$input" > "$tmp/events" 2> /dev/null) || true
+  kinds=(txt json events.txt)
+  case "$input" in
+    *.sr | *.vcd)
+      kinds+=(diagnose.txt diagnose.json)
+      (cd "$dir" && "$drivetap" diagnose "${args[@]}" "$input" > "$tmp/diagnose.txt" 2> /dev/null) || true
+      (cd "$dir" && "$drivetap" diagnose -T json "${args[@]}" "$input" > "$tmp/diagnose.json" 2> /dev/null) || true
+      ;;
+  esac
   if [ "$update" = 1 ]; then
     cp "$tmp/text" "$dir/expected.txt"
     cp "$tmp/json" "$dir/expected.json"
     cp "$tmp/events" "$dir/expected.events.txt"
+    for kind in diagnose.txt diagnose.json; do
+      if [ -f "$tmp/$kind" ]; then cp "$tmp/$kind" "$dir/expected.$kind"; fi
+    done
     if [ "$text_exit" != 0 ]; then
       echo "$text_exit" > "$dir/expected.exit"
       cp "$tmp/text.err" "$dir/expected.stderr"
@@ -60,8 +74,13 @@ for dir in "${dirs[@]}"; do
       echo "FAIL $dir: error message differs from expected.stderr"
       failed=1
     fi
-    for kind in txt json events.txt; do
-      got="$tmp/text"; [ "$kind" = json ] && got="$tmp/json"; [ "$kind" = events.txt ] && got="$tmp/events"
+    for kind in "${kinds[@]}"; do
+      case "$kind" in
+        txt) got="$tmp/text" ;;
+        json) got="$tmp/json" ;;
+        events.txt) got="$tmp/events" ;;
+        *) got="$tmp/$kind" ;;
+      esac
       if ! diff -u "$dir/expected.$kind" "$got" > "$tmp/diff"; then
         echo "FAIL $dir: output differs from expected.$kind"
         head -n 60 "$tmp/diff"

@@ -145,6 +145,49 @@ std::vector<std::string> ids(const Diagnosis& d) {
 
 const UartSettings k19200_8E1 = settings(19200, 8, UartParity::even, StopBits::one);
 
+// The same polling on a pair with no fail-safe bias: each transmitter drives the line 1.5 bits
+// before its first start bit and 1 bit after its last stop bit; in between it floats, read low.
+std::vector<LevelRun> unbiased_polling_line(const UartSettings& uart) {
+  LineSimSettings ls;
+  ls.uart = uart;
+  ls.sample_rate_hz = 8'000'000;
+  LineSimulator sim(ls);
+  std::mt19937 rng(5);
+  auto transmit = [&](const std::vector<std::uint8_t>& bytes, double float_bits) {
+    sim.idle(1.5);
+    sim.send(bytes);
+    sim.idle(1);
+    sim.send_break(float_bits);
+  };
+  sim.send_break(100);
+  for (int i = 0; i < 40; ++i) {
+    const auto reg = static_cast<std::uint8_t>(rng() & 0x3F);
+    transmit(with_crc({0x02, 0x03, 0x00, reg, 0x00, 0x02}), 60);
+    transmit(with_crc({0x02, 0x03, 0x04, static_cast<std::uint8_t>(rng() & 0xFF), 0x00, 0x01,
+                       static_cast<std::uint8_t>(rng() & 0xFF)}),
+             300);
+  }
+  return sim.runs();
+}
+
+// Characters with `gap_bits` of idle after each (their values drawn below 2^data_bits).
+std::vector<LevelRun> spaced_characters(const UartSettings& uart, double gap_bits,
+                                        std::uint16_t lowest = 0, std::uint64_t rate = 8'000'000) {
+  LineSimSettings ls;
+  ls.uart = uart;
+  ls.sample_rate_hz = rate;
+  LineSimulator sim(ls);
+  std::mt19937 rng(11);
+  sim.idle(50);
+  for (int i = 0; i < 300; ++i) {
+    const auto span = static_cast<std::uint32_t>((1u << uart.data_bits) - lowest);
+    sim.send(static_cast<std::uint16_t>(lowest + rng() % span));
+    sim.idle(gap_bits);
+  }
+  sim.idle(50);
+  return sim.runs();
+}
+
 }  // namespace
 
 // ---- detection ----
@@ -196,6 +239,62 @@ TEST(LineDetection, NonStandardRateIsReportedAsMeasured) {
       << d.format_reason;
 }
 
+// 7 data bits with idle between characters read as 8 without an error, every one with bit 7 set:
+// the top data bit that is always 1 is the stop bit (on a 7-bit Modbus ASCII line, 0x3A ':'
+// would read 0xBA and hide every frame).
+TEST(LineDetection, SevenDataBitsAreNotEightWithTheTopBitSet) {
+  const UartSettings seven = settings(19200, 7, UartParity::none, StopBits::one);
+  const LineDetection d = detect_line(one(spaced_characters(seven, 3)), 8'000'000);
+  ASSERT_TRUE(d.found) << d.why_not;
+  EXPECT_EQ(settings_text(d.settings), "19200 7N1") << d.format_reason;
+  EXPECT_NE(d.format_reason.find("the last data bit is 1 in all"), std::string::npos)
+      << d.format_reason;
+}
+
+TEST(LineDetection, NineDataBitsAreFound) {
+  const UartSettings nine = settings(19200, 9, UartParity::none, StopBits::one);
+  const LineDetection d = detect_line(one(spaced_characters(nine, 3)), 8'000'000);
+  ASSERT_TRUE(d.found) << d.why_not;
+  EXPECT_EQ(settings_text(d.settings), "19200 9N1") << d.format_reason;
+  // And the characters keep their 9th bit.
+  const auto got = decode_runs(spaced_characters(nine, 3), d.settings, 8'000'000);
+  EXPECT_TRUE(
+      std::any_of(got.begin(), got.end(), [](const UartCharacter& c) { return c.value > 0xFF; }));
+}
+
+// 2 stop bits where characters follow exactly 2 stop bits apart; 1 where the sender's own gaps
+// are no whole bit (a UART with 1 stop bit and software between characters).
+TEST(LineDetection, StopBitsFromTheSpacingOfCharacters) {
+  const UartSettings odd_two = settings(9600, 8, UartParity::odd, StopBits::two);
+  const LineDetection two = detect_line(one(spaced_characters(odd_two, 0)), 8'000'000);
+  EXPECT_EQ(settings_text(two.settings), "9600 8O2") << two.format_reason;
+  const UartSettings odd_one = settings(9600, 8, UartParity::odd, StopBits::one);
+  const LineDetection loose = detect_line(one(spaced_characters(odd_one, 1.4)), 8'000'000);
+  EXPECT_EQ(settings_text(loose.settings), "9600 8O1") << loose.format_reason;
+}
+
+// Two samples a bit decode (sigrok decodes them too), with low confidence in the rate.
+TEST(LineDetection, TwoSamplesPerBitDecodeWithLowConfidence) {
+  const UartSettings uart = settings(9600, 8, UartParity::none, StopBits::one);
+  const LineDetection d = detect_line(one(spaced_characters(uart, 2, 0, 19'200)), 19'200);
+  ASSERT_TRUE(d.found) << d.why_not;
+  EXPECT_EQ(settings_text(d.settings), "9600 8N1");
+  EXPECT_EQ(d.baud_confidence, Confidence::low);
+  EXPECT_EQ(d.best().errors(), 0u);
+}
+
+// A clock or strobe beside the data (every pulse one width) is no UART line.
+TEST(LineDetection, PulsesAllOneWidthAreNoUart) {
+  std::vector<LevelRun> strobe;
+  for (int i = 0; i < 100; ++i) {
+    strobe.push_back({true, 10000});  // idle between strobes: no data pulse
+    strobe.push_back({false, 500});
+  }
+  const LineDetection d = detect_line(one(strobe), 1'000'000);
+  EXPECT_FALSE(d.found);
+  EXPECT_NE(d.why_not.find("clock or strobe"), std::string::npos) << d.why_not;
+}
+
 TEST(LineDetection, TooFewEdgesIsNoGuess) {
   const LineDetection d = detect_line(one({{true, 1000}, {false, 50}, {true, 1000}}), 1'000'000);
   EXPECT_FALSE(d.found);
@@ -215,6 +314,22 @@ TEST(Diagnosis, CleanLineHasNoVerdict) {
     // Also with the right settings given.
     EXPECT_TRUE(diagnose_line(polling_line(uart), uart).verdicts.empty());
   }
+}
+
+// An unbiased pair rests low between transmissions although every character on it is upright:
+// upright, with the unbiased-bus verdict; never "A and B swapped" (issue 37 §1).
+TEST(Diagnosis, UnbiasedPairIsUprightAndFloatsNotSwapped) {
+  const Diagnosis d = diagnose_line(unbiased_polling_line(k19200_8E1));
+  ASSERT_EQ(d.evidence.channels.size(), 1u);
+  const LineDetection& line = *d.evidence.channels.front().detection;
+  EXPECT_FALSE(line.settings.inverted) << line.polarity_reason;
+  EXPECT_TRUE(line.floats_when_idle);
+  EXPECT_EQ(ids(d), std::vector<std::string>{"unbiased-bus"});
+  EXPECT_EQ(d.evidence.frames_checksum_ok, 80u);
+  EXPECT_EQ(d.evidence.breaks, 0u);  // the floating line is no character
+  // The same with the settings given.
+  EXPECT_EQ(ids(diagnose_line(unbiased_polling_line(k19200_8E1), k19200_8E1)),
+            std::vector<std::string>{"unbiased-bus"});
 }
 
 TEST(Diagnosis, SwappedWiresAreAnInvertedLine) {

@@ -774,13 +774,16 @@ TEST(SampleClock, ConvertsSamplesToNanoseconds) {
 TEST(SampleClock, ByteEventCarriesTimeLowByteAndFlags) {
   UartCharacter c;
   c.start_sample = 2'500;
-  c.value = 0x1A5;  // 9 data bits: the ninth has no place in a ByteEvent
+  c.value = 0x1A5;  // 9 data bits: the byte is the low 8, the ninth rides as a flag
   c.flags = kUartParityError | kUartFramingError;
   const ByteEvent e = to_byte_event(c, SampleClock{2'000'000, 100}, 3);
   EXPECT_EQ(e.time, 100 + 1'250'000);
   EXPECT_EQ(e.byte, 0xA5);
-  EXPECT_EQ(e.flags, kUartParityError | kUartFramingError);
+  EXPECT_EQ(e.flags, kUartParityError | kUartFramingError | kUartNinthBit);
   EXPECT_EQ(e.channel, 3);
+  c.value = 0x0A5;
+  EXPECT_EQ(to_byte_event(c, SampleClock{2'000'000, 100}, 3).flags,
+            kUartParityError | kUartFramingError);
 }
 
 // --- Throughput sanity (prints a rate, asserts only correctness) -------------------------------

@@ -23,6 +23,9 @@ enum UartFlag : std::uint8_t {
   kUartFramingError = 1u << 1,
   kUartBreak = 1u << 2,
   kUartOverrun = 1u << 3,
+  // The 9th data bit of a 9-bit character (logic captures only): a mark, not an error; `byte`
+  // holds the low 8 bits.
+  kUartNinthBit = 1u << 4,
 };
 
 using ChannelId = std::uint16_t;

@@ -13,6 +13,7 @@
 #include <string>
 #include <string_view>
 
+#include "core/byte_events.hpp"
 #include "core/time.hpp"
 
 namespace drivetap {
@@ -222,6 +223,24 @@ inline std::string hex_bytes(std::span<const std::uint8_t> bytes, const char* se
   std::string out;
   out.reserve(bytes.size() * 3);
   append_hex_bytes(out, bytes, separator);
+  return out;
+}
+
+// The characters as sent, 3 hex digits each, where any carries a 9th data bit ("1A3 0F2");
+// else empty (the bytes say it all).
+inline std::string nine_bit_hex(const ByteEvents& events, const char* separator = " ") {
+  if (!events.any_flags()) return {};
+  bool any = false;
+  for (std::size_t i = 0; i < events.size() && !any; ++i)
+    any = (events.flags(i) & kUartNinthBit) != 0;
+  if (!any) return {};
+  std::string out;
+  for (std::size_t i = 0; i < events.size(); ++i) {
+    if (i) out += separator;
+    out += (events.flags(i) & kUartNinthBit) ? '1' : '0';
+    out += kHexDigits[events.byte(i) >> 4];
+    out += kHexDigits[events.byte(i) & 0x0F];
+  }
   return out;
 }
 

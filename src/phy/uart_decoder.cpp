@@ -324,6 +324,7 @@ ByteEvent to_byte_event(const UartCharacter& c, const SampleClock& clock, Channe
   e.time = clock.to_ns(c.start_sample);
   e.byte = static_cast<std::uint8_t>(c.value & 0xFF);
   e.flags = c.flags;
+  if (c.value & 0x100) e.flags |= kUartNinthBit;
   e.channel = channel;
   return e;
 }

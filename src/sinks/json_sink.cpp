@@ -349,6 +349,11 @@ void JsonSink::on_noise(const Frame& f) {
           "{{\"type\":\"noise\",\"n\":{},\"t\":{},\"t_end\":{},\"channel\":{},\"hex\":\"{}\"}}"),
       f.number, seconds(f.start()), seconds(t_end), quoted_channel(f.channel),
       hex_bytes(bytes, ""));
+  // A 9-bit line: "hex" keeps the low 8 bits (what the framers read), "chars9" the characters.
+  if (std::string nine = nine_bit_hex(f.events); !nine.empty()) {
+    line.pop_back();
+    line += fmt::format(FMT_COMPILE(",\"chars9\":\"{}\"}}"), nine);
+  }
   lines_.write(line);
 }
 

@@ -212,6 +212,12 @@ void TextSink::on_noise(const Frame& f) {
   last_frame_number_ = f.number;
   if (!options_.frames) return;
   const std::span<const std::uint8_t> bytes = f.events.bytes();
+  if (std::string nine = nine_bit_hex(f.events); !nine.empty()) {
+    lines_.write(prefix(f.number, f.start(), f.channel) +
+                 fmt::format(FMT_COMPILE("---  noise: {} 9-bit character{} {}"), bytes.size(),
+                             bytes.size() == 1 ? "" : "s", nine));
+    return;
+  }
   lines_.write(prefix(f.number, f.start(), f.channel) +
                fmt::format(FMT_COMPILE("---  noise: {} byte{} {}"), bytes.size(),
                            bytes.size() == 1 ? "" : "s", hex_bytes(bytes)));

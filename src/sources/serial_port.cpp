@@ -291,7 +291,12 @@ std::unique_ptr<SerialPort> SerialPort::open(const SerialPortOptions& o, Channel
     return nullptr;
   };
   const SerialConfig& s = o.serial;
-  if (s.baud == 0 || s.data_bits < 5 || s.data_bits > 8 || s.stop_bits < 1 || s.stop_bits > 2)
+  if (s.data_bits > 8)
+    return fail(fmt::format("cannot use line settings {}: a serial port reads 5 to 8 data bits "
+                            "(record a 9-bit line with a logic analyser)",
+                            s.to_string()),
+                EINVAL);
+  if (s.baud == 0 || s.data_bits < 5 || s.stop_bits < 1 || s.stop_bits > 2)
     return fail(fmt::format("cannot use line settings {}", s.to_string()), EINVAL);
 
   const int fd = ::open(o.path.c_str(), O_RDONLY | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
