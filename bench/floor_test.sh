@@ -11,7 +11,7 @@ trap 'rm -rf "$work"' EXIT
 "$drivetap" generate --frames 3000 --seed 1 --mix modbus-rtu --plain -w "$work/bus.pcapng" 2>/dev/null
 # "frames: N (checksum ok G, bad B, swapped S); noise: R records, ..." -> "G S B R"
 summary=$("$drivetap" read --drive none --stats "$work/bus.pcapng" | grep '^frames:')
-expected=$(sed -E 's/.*checksum ok ([0-9]+), bad ([0-9]+), swapped ([0-9]+)\); noise: ([0-9]+) record.*/\1 \3 \2 \4/' <<<"$summary")
+expected=$(sed -E 's/.*checksum ok ([0-9]+), bad ([0-9]+), swapped ([0-9]+)[^)]*\); noise: ([0-9]+) record.*/\1 \3 \2 \4/' <<<"$summary")
 # "runs N: crc ok G, swapped S, bad B; shorter than 4 bytes R" -> "G S B R"
 counted=$("$floor" "$work/bus.pcapng")
 got=$(sed -E 's/.*crc ok ([0-9]+), swapped ([0-9]+), bad ([0-9]+); shorter than 4 bytes ([0-9]+)/\1 \2 \3 \4/' <<<"$counted")

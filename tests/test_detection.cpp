@@ -73,8 +73,8 @@ TEST(Detection, DanfossFcNotDecidedOnOneLuckyChecksum) {
   r.send(fc_telegram(0x04, {0x04, 0x7C, 0x20, 0x00}));
   r.pipeline->finish();
   ASSERT_EQ(r.sink.events.size(), 1u);
-  EXPECT_EQ(r.sink.events[0].protocol, Protocol::danfoss_fc);
-  EXPECT_EQ(r.sink.events[0].confidence, "medium") << "one telegram is not enough for high";
+  EXPECT_EQ(r.sink.events[0].protocol, Protocol::unknown) << "one telegram decides nothing";
+  EXPECT_EQ(r.sink.events[0].confidence, "none");
 }
 
 TEST(Detection, ReDecidesWhenTheBusChanges) {

@@ -119,6 +119,55 @@ bool is_response_ak(unsigned ak) {
 
 }  // namespace
 
+Plausibility fc_plausibility(std::span<const std::uint8_t> frame, Direction direction,
+                             bool describe) {
+  Plausibility p;
+  auto broken = [&](PlausibilityRule rule, auto&& why) {
+    p.broken = rule;
+    if (describe) p.why = why();
+    return p;
+  };
+  if (frame.empty() || frame[0] != kStxByte)
+    return broken(PlausibilityRule::fc_stx, [&] {
+      return frame.empty() ? std::string("no bytes")
+                           : fmt::format(FMT_COMPILE("starts with 0x{:02X}, not STX"), frame[0]);
+    });
+  if (frame.size() < 4)
+    return broken(PlausibilityRule::fc_lge_count,
+                  [&] { return fmt::format(FMT_COMPILE("{} bytes (at least 4)"), frame.size()); });
+  const std::uint8_t lge = frame[1];
+  const unsigned ak = frame.size() >= 12 ? frame[3] >> 4 : 0;
+  // Text blocks (AK 0xF) carry n text bytes: LGE 10 + n; every other telegram is 6 or 14.
+  if (lge != 6 && lge != 14 && !(lge > 10 && frame.size() >= 12 && ak == 0xF))
+    return broken(PlausibilityRule::fc_lge_allowed, [&] {
+      return fmt::format(FMT_COMPILE("LGE {} (6, 14, or 10 + n for a text block)"), lge);
+    });
+  if (std::size_t{lge} + 2 != frame.size())
+    return broken(PlausibilityRule::fc_lge_count, [&] {
+      return fmt::format(FMT_COMPILE("LGE {} but {} bytes after it"), lge, frame.size() - 2);
+    });
+  const std::uint8_t adr = frame[2];
+  const bool adr_ok = (adr & 0x80) ? adr != 0xFF : ((adr & 0x1F) != 0 || (adr & 0x20) != 0);
+  if (!adr_ok)
+    return broken(PlausibilityRule::fc_adr, [&] {
+      return fmt::format(FMT_COMPILE("ADR 0x{:02X} names no drive and no broadcast"), adr);
+    });
+  if (frame.size() >= 12) {
+    const bool as_request = is_request_ak(ak), as_response = is_response_ak(ak);
+    const bool ok = direction == Direction::request    ? as_request
+                    : direction == Direction::response ? as_response
+                                                       : as_request || as_response;
+    if (!ok)
+      return broken(PlausibilityRule::fc_ak, [&] {
+        return fmt::format(FMT_COMPILE("AK 0x{:X} is no {}"), ak,
+                           direction == Direction::request    ? "request"
+                           : direction == Direction::response ? "reply"
+                                                              : "request or reply");
+      });
+  }
+  return p;
+}
+
 Message dissect_fc(Frame frame, Direction direction, const FramingTiming& timing) {
   Message m;
   dissect_fc(m, std::move(frame), direction, timing);
@@ -139,6 +188,7 @@ void dissect_fc(Message& m, Frame&& frame, Direction direction, const FramingTim
         fmt::format(FMT_COMPILE("{}-byte fragment, too short for an FC telegram"), bytes.size());
     if (m.detail) m.info = what;
     add_malformed(m, std::move(what));
+    add_implausible(m, fc_plausibility(bytes, direction, true));
     return;
   }
   tree.add(kStx, 0, 1, *stx);
@@ -263,6 +313,7 @@ void dissect_fc(Message& m, Frame&& frame, Direction direction, const FramingTim
   m.checksum.computed_wire = computed;
   m.checksum.verdict = stated == computed ? ChecksumVerdict::good : ChecksumVerdict::bad;
   add_checksum_anomaly(m);
+  add_implausible(m, fc_plausibility(bytes, direction, true));
   append_uart_anomalies(m.frame.events, 0, m.anomalies);
 }
 

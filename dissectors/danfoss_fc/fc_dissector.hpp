@@ -14,6 +14,7 @@
 #include "core/message.hpp"
 #include "core/protocol.hpp"
 #include "dissectors/common/hybrid_framer.hpp"
+#include "dissectors/common/plausibility.hpp"
 
 namespace drivetap::danfoss_fc {
 
@@ -28,6 +29,12 @@ Address decode_adr(std::uint8_t adr);
 std::uint8_t bcc(std::span<const std::uint8_t> bytes);
 // "4-14" for PNU 414.
 std::string parameter_name(unsigned pnu);
+
+// The FC protocol plausibility rules (dissectors/common/plausibility.hpp): STX first; LGE 6, 14
+// or (AK 0xF, a text block) 10 + n, and equal to the bytes after it; ADR a drive address or a
+// broadcast; AK valid in the telegram's direction (unknown: in either).
+Plausibility fc_plausibility(std::span<const std::uint8_t> frame, Direction direction,
+                             bool describe);
 
 // Decodes into `m`, reusing its storage (begin_message); the other form returns a new Message.
 void dissect_fc(Message& m, Frame&& frame, Direction direction, const FramingTiming& timing);

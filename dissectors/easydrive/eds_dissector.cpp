@@ -70,6 +70,41 @@ std::string status_word(long w) {
 
 }  // namespace
 
+Plausibility eds_plausibility(std::span<const std::uint8_t> f, Direction direction, bool describe) {
+  Plausibility p;
+  auto broken = [&](PlausibilityRule rule, auto&& why) {
+    p.broken = rule;
+    if (describe) p.why = why();
+    return p;
+  };
+  if (f.empty() || f[0] != '~')
+    return broken(PlausibilityRule::eds_start, [] { return std::string("no '~' first"); });
+  if (f.back() != '\r')
+    return broken(PlausibilityRule::eds_terminator, [] { return std::string("no CR last"); });
+  for (std::size_t i = 1; i + 1 < f.size(); ++i)
+    if (hex_value(f[i]) < 0)
+      return broken(PlausibilityRule::eds_charset, [&] {
+        return fmt::format(FMT_COMPILE("character 0x{:02X} at {} (only 0-9, A-F)"), f[i], i);
+      });
+  if (f.size() != 14 && f.size() != 18)
+    return broken(PlausibilityRule::eds_length, [&] {
+      return fmt::format(FMT_COMPILE("{} characters before CR (13 or 17)"), f.size() - 1);
+    });
+  const long code = hex_field(f, 3, 2);
+  const bool ok = direction == Direction::request ? is_request_command(code)
+                  : direction == Direction::response
+                      ? is_response_code(code)
+                      : is_request_command(code) || is_response_code(code);
+  if (!ok)
+    return broken(PlausibilityRule::eds_command, [&] {
+      return fmt::format(FMT_COMPILE("code {:02X} is no {}"), code,
+                         direction == Direction::request    ? "command"
+                         : direction == Direction::response ? "response code"
+                                                            : "command or response code");
+    });
+  return p;
+}
+
 std::uint16_t ascii_sum(std::span<const std::uint8_t> text) {
   std::uint16_t s = 0;
   for (const std::uint8_t c : text) s = static_cast<std::uint16_t>(s + c);
@@ -92,6 +127,7 @@ void dissect_eds(Message& m, Frame&& frame, Direction direction, const FramingTi
   FieldTreeBuilder tree(m.fields, m.detail && m.tree);
   if (f.empty() || f[0] != '~') {
     add_malformed(m, "does not start with '~'");
+    add_implausible(m, eds_plausibility(f, direction, true));
     m.describe([] { return std::string("not an Easydrive frame"); });
     return;
   }
@@ -202,6 +238,7 @@ void dissect_eds(Message& m, Frame&& frame, Direction direction, const FramingTi
                          f.size());
     });
   }
+  add_implausible(m, eds_plausibility(f, direction, true));
   append_uart_anomalies(m.frame.events, 0, m.anomalies);
 }
 

@@ -11,6 +11,7 @@
 
 #include "core/message.hpp"
 #include "core/protocol.hpp"
+#include "dissectors/common/plausibility.hpp"
 
 namespace drivetap::easydrive {
 
@@ -23,6 +24,11 @@ std::uint16_t ascii_sum(std::span<const std::uint8_t> text);
 // `request`: for a reply, the request it answers — its command and index say what the reply's
 // data is (a frequency, the status word).
 // The first form decodes into `m`, reusing its storage (begin_message).
+// The Easydrive plausibility rules (dissectors/common/plausibility.hpp): '~' first, CR last,
+// only 0-9 and A-F between, 13 or 17 characters before CR, and a command (0A..0F) or a response
+// code (00, 10..14, 20, 30) in the telegram's direction (unknown: either).
+Plausibility eds_plausibility(std::span<const std::uint8_t> frame, Direction direction,
+                              bool describe);
 void dissect_eds(Message& m, Frame&& frame, Direction direction, const FramingTiming& timing,
                  std::span<const std::uint8_t> request = {});
 Message dissect_eds(Frame frame, Direction direction, const FramingTiming& timing,

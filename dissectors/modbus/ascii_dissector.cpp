@@ -63,6 +63,37 @@ AsciiHex decode_ascii_hex(std::span<const std::uint8_t> frame) {
   return out;
 }
 
+Plausibility ascii_plausibility(std::span<const std::uint8_t> frame, const AsciiHex& hex,
+                                Direction direction, bool describe) {
+  Plausibility p;
+  auto broken = [&](PlausibilityRule rule, auto&& why) {
+    p.broken = rule;
+    if (describe) p.why = why();
+    return p;
+  };
+  if (frame.empty() || frame[0] != ':')
+    return broken(PlausibilityRule::ascii_start, [] { return std::string("no ':' first"); });
+  if (!hex.terminated)
+    return broken(PlausibilityRule::ascii_terminator, [] { return std::string("no CR LF last"); });
+  const std::span<const std::uint8_t> digits = frame.subspan(1, frame.size() - 3);
+  for (std::size_t i = 0; i < digits.size(); ++i) {
+    bool lower = false;
+    if (hex_digit(digits[i], &lower) < 0)
+      return broken(PlausibilityRule::ascii_charset, [&] {
+        return fmt::format(FMT_COMPILE("character 0x{:02X} at {} is no hex digit"), digits[i],
+                           i + 1);
+      });
+  }
+  // Serial line §2.5.2: address, PDU of at most 253 bytes, LRC.
+  if (digits.size() % 2 != 0 || hex.binary.size() < 3 || hex.binary.size() > 255)
+    return broken(PlausibilityRule::ascii_length, [&] {
+      return fmt::format(FMT_COMPILE("{} hex digits (an even count spelling 3-255 bytes)"),
+                         digits.size());
+    });
+  return modbus_plausibility(hex.binary[0], std::span(hex.binary).subspan(1, hex.binary.size() - 2),
+                             direction, describe);
+}
+
 Message dissect_ascii(Frame frame, Direction direction, const FramingTiming& timing) {
   Message m;
   dissect_ascii(m, std::move(frame), direction, timing);
@@ -76,6 +107,7 @@ void dissect_ascii(Message& m, Frame&& frame, Direction direction, const Framing
   const AsciiHex hex = decode_ascii_hex(m.bytes);
   const std::vector<std::uint8_t>& bin = hex.binary;
   for (const std::string& p : hex.problems) add_malformed(m, p);
+  add_implausible(m, ascii_plausibility(m.bytes, hex, direction, true));
   if (bin.size() < 3) {
     m.describe([&] {
       return fmt::format(FMT_COMPILE("{}-character fragment, too short for Modbus ASCII"),

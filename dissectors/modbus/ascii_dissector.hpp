@@ -13,6 +13,7 @@
 
 #include "core/message.hpp"
 #include "core/protocol.hpp"
+#include "dissectors/common/plausibility.hpp"
 
 namespace drivetap::modbus {
 
@@ -24,6 +25,13 @@ struct AsciiHex {
   bool terminated = false;  // ended with CR LF
 };
 AsciiHex decode_ascii_hex(std::span<const std::uint8_t> frame);
+
+// The Modbus ASCII plausibility rules (dissectors/common/plausibility.hpp): ':' first, hex digits
+// (either case: lower case is a `malformed` finding, not another protocol), an even count of them
+// spelling 3..255 bytes, CR LF last; then modbus_plausibility() of the bytes they spell.
+// `hex`: decode_ascii_hex(frame).
+Plausibility ascii_plausibility(std::span<const std::uint8_t> frame, const AsciiHex& hex,
+                                Direction direction, bool describe);
 
 // Decodes into `m`, reusing its storage (begin_message); the other form returns a new Message.
 void dissect_ascii(Message& m, Frame&& frame, Direction direction, const FramingTiming& timing);

@@ -48,6 +48,55 @@ bool is_public_function(std::uint8_t fc) {
   return !kFunction.name_of(base).empty();
 }
 
+Plausibility modbus_plausibility(std::uint8_t address, std::span<const std::uint8_t> pdu,
+                                 Direction direction, bool describe) {
+  Plausibility p;
+  auto broken = [&](PlausibilityRule rule, auto&& why) {
+    p.broken = rule;
+    if (describe) p.why = why();
+    return p;
+  };
+  // Serial line §2.3: 0 broadcast, 1..247 slaves, 248..255 reserved.
+  if (address > 247)
+    return broken(PlausibilityRule::rtu_address,
+                  [&] { return fmt::format("address {} (248-255 are reserved)", address); });
+  if (pdu.empty())
+    return broken(PlausibilityRule::rtu_size, [] { return std::string("no function code"); });
+  const std::uint8_t fc = pdu[0];
+  if (!is_public_function(fc))
+    return broken(PlausibilityRule::rtu_function, [&] {
+      return fmt::format("function code 0x{:02X} is no public Modbus function", fc);
+    });
+  if (fc & 0x80) {
+    if (pdu.size() != 2)
+      return broken(PlausibilityRule::rtu_length, [&] {
+        return fmt::format("exception reply of {} PDU bytes (2: function, code)", pdu.size());
+      });
+    if (!exception_code_allowed(pdu[1]))
+      return broken(PlausibilityRule::rtu_exception_code, [&] {
+        return fmt::format("exception code {} (1-11, or a drive profile's vendor code)", pdu[1]);
+      });
+    return p;
+  }
+  // The layout: a direction whose rule is unknown for this function cannot be checked (passes).
+  bool fits = false;
+  for (const Direction way : {Direction::request, Direction::response}) {
+    if (direction != Direction::unknown && direction != way) continue;
+    const LengthPrediction predicted = predict_pdu_length(pdu, way);
+    if (predicted.kind == LengthPrediction::Kind::unknown ||
+        (predicted.kind == LengthPrediction::Kind::known && predicted.length == pdu.size()))
+      fits = true;
+  }
+  if (!fits)
+    return broken(PlausibilityRule::rtu_length, [&] {
+      return fmt::format("{} PDU bytes do not fit function 0x{:02X}'s layout{}", pdu.size(), fc,
+                         direction == Direction::request    ? " as a request"
+                         : direction == Direction::response ? " as a reply"
+                                                            : " either way");
+    });
+  return p;
+}
+
 namespace {
 
 constexpr LengthRule fixed(std::uint8_t n) {

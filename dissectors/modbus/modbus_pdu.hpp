@@ -14,6 +14,7 @@
 #include "core/field.hpp"
 #include "core/line_buffer.hpp"
 #include "core/message.hpp"
+#include "dissectors/common/plausibility.hpp"
 
 namespace drivetap::modbus {
 
@@ -79,6 +80,14 @@ inline bool pdu_fits(std::span<const std::uint8_t> pdu, Direction direction) {
 // True for the function codes of the public Modbus specification (01..18, 2B), with or without
 // the exception bit.
 bool is_public_function(std::uint8_t fc);
+
+// The Modbus plausibility rules (dissectors/common/plausibility.hpp) that RTU and ASCII share:
+// the address, the function code, the length its function code and counts imply, the exception
+// code. `pdu`: from the function code on, without the checksum; `direction` unknown: either
+// layout may fit. Plausibility::why is written only when `describe`. A few comparisons: run on
+// every telegram.
+Plausibility modbus_plausibility(std::uint8_t address, std::span<const std::uint8_t> pdu,
+                                 Direction direction, bool describe);
 
 struct PduDecode {
   std::string info;                   // one-line decode (empty when not `detail`)

@@ -31,6 +31,18 @@ DirectionFit rtu_direction_fit(std::span<const std::uint8_t> frame) {
   return fit;
 }
 
+Plausibility rtu_plausibility(std::span<const std::uint8_t> frame, Direction direction,
+                              bool describe) {
+  // Serial line §2.5.1: address, PDU of at most 253 bytes, CRC.
+  if (frame.size() < 4 || frame.size() > 256) {
+    Plausibility p;
+    p.broken = PlausibilityRule::rtu_size;
+    if (describe) p.why = fmt::format(FMT_COMPILE("{} bytes (4-256)"), frame.size());
+    return p;
+  }
+  return modbus_plausibility(frame[0], frame.subspan(1, frame.size() - 3), direction, describe);
+}
+
 Message dissect_rtu(Frame frame, Direction direction, const FramingTiming& timing) {
   Message m;
   dissect_rtu(m, std::move(frame), direction, timing);
@@ -76,6 +88,7 @@ void dissect_rtu(Message& m, Frame&& frame, Direction direction, const FramingTi
   }
 
   add_checksum_anomaly(m);
+  add_implausible(m, rtu_plausibility(bytes, direction, true));
   if (m.frame.max_intra_gap > timing.t15) {
     const std::size_t at = m.frame.max_intra_gap_at;
     m.anomalies.push_back(
@@ -121,6 +134,7 @@ bool RtuDecoder::summarise(std::span<const std::uint8_t> bytes, Direction direct
   out->other_kinds = 0;
   if (out->verdict == ChecksumVerdict::bad) found_one(AnomalyKind::checksum_bad);
   if (out->verdict == ChecksumVerdict::swapped) found_one(AnomalyKind::checksum_swapped);
+  if (!rtu_plausibility(bytes, direction, false).ok()) found_one(AnomalyKind::implausible);
   if (taken.timing.max_intra_gap > timing.t15) found_one(AnomalyKind::intra_frame_gap);
   if (taken.timing.gap_before > 0 && taken.timing.gap_before < timing.t35)
     found_one(AnomalyKind::short_interframe_gap);

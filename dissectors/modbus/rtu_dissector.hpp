@@ -13,11 +13,17 @@
 #include "core/message.hpp"
 #include "core/protocol.hpp"
 #include "core/serial_config.hpp"
+#include "dissectors/common/plausibility.hpp"
 
 namespace drivetap::modbus {
 
 // Which directions the frame's length agrees with (from its function code and count fields).
 DirectionFit rtu_direction_fit(std::span<const std::uint8_t> frame);
+
+// The Modbus RTU plausibility rules (dissectors/common/plausibility.hpp): 4..256 bytes, then
+// the address, function, layout and exception code rules of modbus_plausibility().
+Plausibility rtu_plausibility(std::span<const std::uint8_t> frame, Direction direction,
+                              bool describe);
 
 // Decodes `frame` as a Modbus RTU telegram travelling in `direction`. Checksum, malformed
 // content, gaps > t1.5 inside the frame, a short silence before it and UART-flagged bytes all

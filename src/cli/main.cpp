@@ -28,6 +28,7 @@
 #include "core/printable.hpp"
 #include "core/protocol.hpp"
 #include "core/serial_config.hpp"
+#include "dissectors/common/plausibility.hpp"
 #include "formats/shared_libraries.hpp"
 #include "generate/byte_log_writer.hpp"
 #include "generate/traffic.hpp"
@@ -298,11 +299,13 @@ PipelineOptions make_pipeline_options(const CommonOptions& o, const RunSettings&
   auto p = resolve_pipeline_options(capture, {o.serial, o.t15, o.t35, o.timeout, o.max_hold}, &err);
   if (!p) die(err);
   if (!o.protocol.empty()) p->protocol = protocol_from_option(o.protocol);
-  // `--drive none` alone uses no profile: the built-in ones are not even parsed (a few ms).
-  const bool none_only =
-      !o.drives.empty() && std::all_of(o.drives.begin(), o.drives.end(),
-                                       [](const std::string& b) { return b == "none"; });
-  load_profiles(o, !none_only);
+  // The built-in profiles are parsed even for `--drive none` (a few ms): their vendor exception
+  // codes are plausible Modbus exceptions whether or not a drive is bound (before anything
+  // decodes).
+  load_profiles(o, true);
+  for (const DriveProfile& profile : g_profiles)
+    for (const auto& [code, meaning] : profile.exceptions)
+      if (code <= 0xFF) allow_vendor_exception_code(static_cast<std::uint8_t>(code));
   bool guess = true;
   for (const std::string& binding : o.drives) {
     if (binding == "auto") continue;
@@ -536,6 +539,8 @@ int run_decode(const CommonOptions& o, const std::vector<std::string>& args) {
   ChannelTable channels;
   const ChannelId bus = channels.intern("bus");
   PipelineOptions p = make_pipeline_options(o, RunSettings{});
+  // The frames are the ones the user typed: one good telegram tells their protocol.
+  p.detect_min_good = 1;
   // Frames given separately are laid out with a clean silence between them; bytes run together
   // in one frame text are back to back and get split by content.
   const TimeNs gap = std::max<TimeNs>(p.timing.t35 * 4, 20 * kNsPerMs);

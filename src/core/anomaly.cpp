@@ -1,91 +1,89 @@
-// Names of anomaly kinds and protocol/direction ids (output contract of the JSON sink).
+// Anomaly kinds declared as data (id, label, severity) and protocol/direction ids (output
+// contract of the JSON sink).
 #include "core/anomaly.hpp"
 
 #include <fmt/compile.h>
 #include <fmt/format.h>
 
+#include <iterator>
+
 #include "core/message.hpp"
 
 namespace drivetap {
 
+namespace {
+
+// Every kind of finding, declared once: its id, its label and its severity, in AnomalyKind order.
+struct AnomalyKindInfo {
+  AnomalyKind kind;
+  const char* id;
+  const char* label;
+  Severity severity;
+};
+constexpr AnomalyKindInfo kAnomalyKinds[] = {
+    {AnomalyKind::checksum_bad, "checksum_bad", "bad checksum", Severity::error},
+    {AnomalyKind::checksum_swapped, "checksum_swapped", "byte-swapped CRC", Severity::warning},
+    {AnomalyKind::intra_frame_gap, "intra_frame_gap", "gap inside frame", Severity::warning},
+    {AnomalyKind::short_interframe_gap, "short_interframe_gap", "silence before frame < t3.5",
+     Severity::warning},
+    {AnomalyKind::noise, "noise", "noise bytes", Severity::warning},
+    {AnomalyKind::malformed, "malformed", "malformed frame", Severity::error},
+    {AnomalyKind::implausible, "implausible", "not a telegram of its protocol", Severity::error},
+    {AnomalyKind::unanswered_request, "unanswered_request", "unanswered request",
+     Severity::warning},
+    {AnomalyKind::unsolicited_response, "unsolicited_response", "unsolicited response",
+     Severity::warning},
+    {AnomalyKind::uart_framing, "uart_framing", "UART framing error", Severity::error},
+    {AnomalyKind::uart_parity, "uart_parity", "UART parity error", Severity::error},
+    {AnomalyKind::uart_break, "uart_break", "UART break", Severity::warning},
+    {AnomalyKind::uart_overrun, "uart_overrun", "UART overrun", Severity::error},
+    {AnomalyKind::time_reversed, "time_reversed", "timestamp went backwards", Severity::note},
+    {AnomalyKind::packet_split_frame, "packet_split_frame", "frame split over packets",
+     Severity::note},
+    {AnomalyKind::packet_merged_frames, "packet_merged_frames", "packet holds several frames",
+     Severity::note},
+    {AnomalyKind::timing_rule, "timing_rule", "drive timing rule broken", Severity::warning},
+};
+static_assert(std::size(kAnomalyKinds) == kAnomalyKindCount, "one entry per AnomalyKind");
+constexpr bool in_kind_order() {
+  for (std::size_t k = 0; k < std::size(kAnomalyKinds); ++k)
+    if (static_cast<std::size_t>(kAnomalyKinds[k].kind) != k) return false;
+  return true;
+}
+static_assert(in_kind_order(), "kAnomalyKinds is indexed by AnomalyKind");
+
+const AnomalyKindInfo* info_of(AnomalyKind k) {
+  const auto i = static_cast<std::size_t>(k);
+  return i < std::size(kAnomalyKinds) ? &kAnomalyKinds[i] : nullptr;
+}
+
+}  // namespace
+
 const char* anomaly_id(AnomalyKind k) {
-  switch (k) {
-    case AnomalyKind::checksum_bad:
-      return "checksum_bad";
-    case AnomalyKind::checksum_swapped:
-      return "checksum_swapped";
-    case AnomalyKind::intra_frame_gap:
-      return "intra_frame_gap";
-    case AnomalyKind::short_interframe_gap:
-      return "short_interframe_gap";
-    case AnomalyKind::noise:
-      return "noise";
-    case AnomalyKind::malformed:
-      return "malformed";
-    case AnomalyKind::unanswered_request:
-      return "unanswered_request";
-    case AnomalyKind::unsolicited_response:
-      return "unsolicited_response";
-    case AnomalyKind::uart_framing:
-      return "uart_framing";
-    case AnomalyKind::uart_parity:
-      return "uart_parity";
-    case AnomalyKind::uart_break:
-      return "uart_break";
-    case AnomalyKind::uart_overrun:
-      return "uart_overrun";
-    case AnomalyKind::time_reversed:
-      return "time_reversed";
-    case AnomalyKind::packet_split_frame:
-      return "packet_split_frame";
-    case AnomalyKind::packet_merged_frames:
-      return "packet_merged_frames";
-    case AnomalyKind::timing_rule:
-      return "timing_rule";
-    case AnomalyKind::kCount:
-      break;
-  }
-  return "unknown";
+  const AnomalyKindInfo* info = info_of(k);
+  return info ? info->id : "unknown";
 }
 
 const char* anomaly_label(AnomalyKind k) {
-  switch (k) {
-    case AnomalyKind::checksum_bad:
-      return "bad checksum";
-    case AnomalyKind::checksum_swapped:
-      return "byte-swapped CRC";
-    case AnomalyKind::intra_frame_gap:
-      return "gap inside frame";
-    case AnomalyKind::short_interframe_gap:
-      return "silence before frame < t3.5";
-    case AnomalyKind::noise:
-      return "noise bytes";
-    case AnomalyKind::malformed:
-      return "malformed frame";
-    case AnomalyKind::unanswered_request:
-      return "unanswered request";
-    case AnomalyKind::unsolicited_response:
-      return "unsolicited response";
-    case AnomalyKind::uart_framing:
-      return "UART framing error";
-    case AnomalyKind::uart_parity:
-      return "UART parity error";
-    case AnomalyKind::uart_break:
-      return "UART break";
-    case AnomalyKind::uart_overrun:
-      return "UART overrun";
-    case AnomalyKind::time_reversed:
-      return "timestamp went backwards";
-    case AnomalyKind::packet_split_frame:
-      return "frame split over packets";
-    case AnomalyKind::packet_merged_frames:
-      return "packet holds several frames";
-    case AnomalyKind::timing_rule:
-      return "drive timing rule broken";
-    case AnomalyKind::kCount:
-      break;
+  const AnomalyKindInfo* info = info_of(k);
+  return info ? info->label : "unknown";
+}
+
+Severity anomaly_severity(AnomalyKind k) {
+  const AnomalyKindInfo* info = info_of(k);
+  return info ? info->severity : Severity::error;
+}
+
+const char* severity_id(Severity s) {
+  switch (s) {
+    case Severity::note:
+      return "note";
+    case Severity::warning:
+      return "warning";
+    case Severity::error:
+      return "error";
   }
-  return "unknown";
+  return "error";
 }
 
 void append_uart_anomalies(const ByteEvents& events, std::uint64_t frame_number,

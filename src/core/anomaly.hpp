@@ -20,6 +20,7 @@ enum class AnomalyKind : std::uint8_t {
   short_interframe_gap,  // visible silence before a frame shorter than t3.5
   noise,                 // bytes that fit no frame
   malformed,             // length or field content that breaks the protocol's rules
+  implausible,           // breaks a plausibility rule: not a telegram of its protocol at all
   unanswered_request,    // no reply within the timeout (or before the next request)
   unsolicited_response,  // a reply with no matching request
   uart_framing,          // UART framing error on a byte
@@ -35,8 +36,15 @@ enum class AnomalyKind : std::uint8_t {
 
 inline constexpr std::size_t kAnomalyKindCount = static_cast<std::size_t>(AnomalyKind::kCount);
 
+// How much a finding weighs, as Wireshark's expert info does: `error` means the frame or the
+// line is wrong (a bad checksum, a telegram that cannot be one), `warning` that a rule of timing
+// or conversation is broken, `note` that the capture tool, not the bus, did something odd.
+enum class Severity : std::uint8_t { note, warning, error };
+
 const char* anomaly_id(AnomalyKind k);     // stable snake_case id, as in JSON `kind`
 const char* anomaly_label(AnomalyKind k);  // short human text
+Severity anomaly_severity(AnomalyKind k);  // declared with the kind (anomaly.cpp)
+const char* severity_id(Severity s);       // "note" / "warning" / "error", as in JSON
 
 struct Anomaly {
   AnomalyKind kind = AnomalyKind::malformed;

@@ -56,6 +56,9 @@ struct Channel {
   std::string name;
   std::string link;
   ChannelRole role = ChannelRole::bus;
+  // The payload of one direction of a TCP or UDP flow, not a serial line: it joins the decode
+  // only once detection finds a drive protocol on it (issue 37).
+  bool ip_flow = false;
 };
 
 // A channel id that names no channel: what intern() returns for a new name once the table is full.
@@ -88,7 +91,8 @@ class ChannelTable {
   // kNoChannel when the name is new and the table already holds kMaxChannels.
   ChannelId intern(std::string_view name);
   // Same, with the link and role given explicitly (sources that know them, e.g. IP flows).
-  ChannelId intern(std::string_view name, std::string_view link, ChannelRole role);
+  ChannelId intern(std::string_view name, std::string_view link, ChannelRole role,
+                   bool ip_flow = false);
   [[nodiscard]] const Channel& at(ChannelId id) const { return channels_[checked(id)]; }
   [[nodiscard]] std::size_t size() const { return size_.load(std::memory_order_acquire); }
   // Index of the link a channel belongs to (dense, 0..link_count()-1).
@@ -119,11 +123,11 @@ class ChannelTable {
 };
 
 inline ChannelId ChannelTable::intern(std::string_view name, std::string_view link,
-                                      ChannelRole role) {
+                                      ChannelRole role, bool ip_flow) {
   for (std::size_t i = 0; i < given_names_.size(); ++i)
     if (given_names_[i] == name) return static_cast<ChannelId>(i);
   if (channels_.size() >= kMaxChannels) return kNoChannel;
-  Channel ch{printable_bounded(name, kMaxNameBytes), std::string(link), role};
+  Channel ch{printable_bounded(name, kMaxNameBytes), std::string(link), role, ip_flow};
   if (ch.name != name && rewritten_++ == 0) first_rewritten_ = ch.name;
   given_names_.emplace_back(name);
   std::size_t link_index = links_.size();

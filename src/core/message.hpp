@@ -77,6 +77,9 @@ struct TelegramHead {
   Direction direction = Direction::unknown;
   int address = -1;
   ChecksumVerdict verdict = ChecksumVerdict::none;
+  // False when the telegram breaks a plausibility rule of its protocol (an `implausible`
+  // finding): then it is no good telegram, whatever its checksum.
+  bool plausible = true;
   std::span<const std::uint8_t> bytes;
   TimeNs start = 0;      // the first byte's time
   TimeNs last_byte = 0;  // the last byte's time
@@ -86,12 +89,20 @@ struct TelegramHead {
   TimeNs latency = -1;
 };
 
+// A good telegram: its checksum is good and it keeps its protocol's plausibility rules.
+inline bool good_telegram(const TelegramHead& h) {
+  return h.verdict == ChecksumVerdict::good && h.plausible;
+}
+
 inline TelegramHead head_of(const Message& m) {
   TelegramHead h;
   h.protocol = m.protocol;
   h.direction = m.direction;
   h.address = m.address;
   h.verdict = m.checksum.verdict;
+  h.plausible = true;
+  for (const Anomaly& a : m.anomalies)
+    if (a.kind == AnomalyKind::implausible) h.plausible = false;
   h.bytes = m.bytes;
   h.start = m.frame.start();
   h.last_byte = m.frame.events.back_time();  // (0 for a frame of no bytes)

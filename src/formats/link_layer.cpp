@@ -55,16 +55,23 @@ std::optional<SerialPayload> transport(std::uint8_t protocol, std::span<const st
     *why = "no payload";
     return std::nullopt;
   }
-  // Modbus/TCP (MBAP header: protocol id 0, length = rest) is not serial RTU.
-  if (p.bytes.size() >= 8 && p.bytes[2] == 0 && p.bytes[3] == 0 &&
-      static_cast<std::size_t>((p.bytes[4] << 8) | p.bytes[5]) == p.bytes.size() - 6) {
-    *why = "Modbus/TCP (MBAP header), not Modbus RTU";
-    return std::nullopt;
-  }
   const std::string a = fmt::format("{}:{}", src, *sport);
   const std::string b = fmt::format("{}:{}", dst, *dport);
   p.flow = fmt::format("{} {}>{}", name, a, b);
   p.flow_link = fmt::format("{} {}", name, a < b ? a + "<>" + b : b + "<>" + a);
+  // Modbus/TCP is not serial bytes: skipped, one note a flow (its segments counted), never read
+  // as RTU. A segment is Modbus/TCP when it is one or more whole MBAP ADUs (protocol id 0,
+  // length = unit id + PDU, 2..254).
+  std::size_t at = 0;
+  while (p.bytes.size() - at >= 8 && p.bytes[at + 2] == 0 && p.bytes[at + 3] == 0) {
+    const std::size_t length = static_cast<std::size_t>((p.bytes[at + 4] << 8) | p.bytes[at + 5]);
+    if (length < 2 || length > 254 || length > p.bytes.size() - at - 6) break;
+    at += 6 + length;
+  }
+  if (at != 0 && at == p.bytes.size()) {
+    *why = fmt::format("Modbus/TCP (MBAP) on {}: not serial bytes, not decoded", p.flow_link);
+    return std::nullopt;
+  }
   return p;
 }
 

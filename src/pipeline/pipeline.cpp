@@ -1,6 +1,7 @@
 // Pipeline wiring of the stages (PROTOCOLS.md §1-§2, §7).
 #include "pipeline/pipeline.hpp"
 
+#include "dissectors/common/plausibility.hpp"
 #include "profiles/annotate.hpp"
 
 #include <fmt/compile.h>
@@ -28,9 +29,37 @@ constexpr Protocol kCandidates[] = {Protocol::modbus_rtu, Protocol::modbus_ascii
 struct DetectionCandidate {
   const ProtocolDecoder* decoder = nullptr;
   std::unique_ptr<Framer> framer;
-  int good = 0;
+  int good = 0;  // good checksum and plausible (good_telegram())
   int telegrams = 0;
+  // Good request/reply pairs: a good telegram whose layout fits a reply right after a good one of
+  // the same station and function whose layout fits a request.
+  int pairs = 0;
+  bool after_request = false;
+  ProtocolDecoder::PairingKeys request_keys;
 };
+
+// What a line carries when no drive protocol fits it, in a few words: "56 bytes of printable
+// ASCII text", "600 bytes of constant 0x00", "2048 random-looking bytes".
+std::string describe_line(std::span<const ByteEvent> held) {
+  std::size_t printable = 0, marked = 0;
+  bool constant = true;
+  for (const ByteEvent& e : held) {
+    const std::uint8_t b = e.byte;
+    if ((b >= 0x20 && b < 0x7F) || b == '\r' || b == '\n' || b == '\t') ++printable;
+    if (e.flags != 0) ++marked;
+    if (b != held.front().byte) constant = false;
+  }
+  std::string what;
+  if (constant)
+    what = fmt::format(FMT_COMPILE("{} byte{} of constant 0x{:02X}"), held.size(),
+                       held.size() == 1 ? "" : "s", held.front().byte);
+  else if (printable * 20 >= held.size() * 19)  // text, with the odd line-noise byte
+    what = fmt::format(FMT_COMPILE("{} bytes of printable ASCII text"), held.size());
+  else
+    what = fmt::format(FMT_COMPILE("{} random-looking bytes"), held.size());
+  if (marked > 0) what += fmt::format(FMT_COMPILE(" ({} with UART errors or breaks)"), marked);
+  return what;
+}
 
 }  // namespace
 
@@ -54,6 +83,11 @@ struct Pipeline::ChannelState {
   std::uint64_t last_frame_number = 0;
   ChannelRole role = ChannelRole::bus;  // the channel's, looked up once
   std::size_t link = 0;                 // the channel's link index, looked up once
+  // An IP flow (Channel::ip_flow) on which detection found no drive protocol: its bytes are
+  // counted, not decoded (a note in the summary says so).
+  bool ip_flow = false;
+  bool left_out = false;
+  std::uint64_t left_out_bytes = 0;
 };
 
 Pipeline::Pipeline(PipelineOptions options, const ChannelTable& channels, Sink& sink)
@@ -99,6 +133,7 @@ Pipeline::ChannelState& Pipeline::state_for(ChannelId id) {
     if (channel < channels_.size()) {
       st->role = channels_.at(channel).role;
       st->link = channels_.link_index(channel);
+      st->ip_flow = channels_.at(channel).ip_flow;
     }
     states_.push_back(std::move(st));
   }
@@ -138,6 +173,10 @@ void Pipeline::push(const ByteEvent& in) {
 }
 
 void Pipeline::frame_byte(ChannelState& st, const ByteEvent& e) {
+  if (st.left_out) {
+    ++st.left_out_bytes;
+    return;
+  }
   if (st.redetect) start_detection(st);
   if (!st.framer) {
     st.held.push_back(e);
@@ -327,7 +366,21 @@ void score(DetectionCandidate& c, std::span<const ByteEvent> events, bool close,
     if (f.kind != FrameKind::telegram) continue;
     ++c.telegrams;
     const Message m = c.decoder->dissect(std::move(f), Direction::unknown, options.timing);
-    if (m.checksum.verdict == ChecksumVerdict::good) ++c.good;
+    if (m.checksum.verdict != ChecksumVerdict::good || is_implausible(m)) {
+      c.after_request = false;
+      continue;
+    }
+    ++c.good;
+    const DirectionFit fit = c.decoder->direction_fit(m.bytes);
+    const ProtocolDecoder::PairingKeys keys = c.decoder->pairing_keys(m.bytes);
+    if (c.after_request && fit.response && keys.address == c.request_keys.address &&
+        keys.function == c.request_keys.function) {
+      ++c.pairs;
+      c.after_request = false;
+    } else {
+      c.after_request = fit.request;
+      c.request_keys = keys;
+    }
   }
   scratch.clear();
 }
@@ -353,7 +406,9 @@ void Pipeline::detect(ChannelState& st, ChannelId channel, bool final) {
   if (st.candidates.empty())
     for (Protocol p : kCandidates) {
       const ProtocolDecoder* d = decoder_for(p);
-      st.candidates.push_back({d, d->make_framer(channel, {options_.timing, options_.max_hold})});
+      DetectionCandidate& c = st.candidates.emplace_back();
+      c.decoder = d;
+      c.framer = d->make_framer(channel, {options_.timing, options_.max_hold});
     }
   // The last chance to decide closes the candidates' framers: their last telegram counts too.
   const bool last_chance = final || st.held.size() >= kDetectBytes;
@@ -375,12 +430,15 @@ void Pipeline::detect(ChannelState& st, ChannelId channel, bool final) {
   }
   const bool clear = best->good >= kDetectGoodFrames && best->good > 2 * second->good;
   if (!clear && !last_chance) return;
-  // Decide: the clear winner, else the best guess (Modbus RTU when nothing checks out).
-  const ProtocolDecoder* chosen =
-      best->good > 0 ? best->decoder : decoder_for(Protocol::modbus_rtu);
-  const char* confidence = clear && best->good * 5 >= best->telegrams * 4 ? "high"
-                           : best->good > 0                               ? "medium"
-                                                                          : "low";
+  // Several good telegrams (checksum and plausibility) decide, never one lucky checksum; on a
+  // line that carries both directions, high confidence also wants a request answered.
+  const bool found = clear || (best->good >= options_.detect_min_good && best->good > second->good);
+  const bool both_ways = st.role == ChannelRole::bus && options_.detect_min_good > 1;
+  const char* confidence =
+      !found ? "none"
+      : clear && best->good * 5 >= best->telegrams * 4 && (!both_ways || best->pairs > 0)
+          ? "high"
+          : "medium";
   st.redetect_after =
       clear ? kRedetectFailures : std::min(st.redetect_after * 2, kMaxRedetectFailures);
   st.candidates.clear();
@@ -388,13 +446,29 @@ void Pipeline::detect(ChannelState& st, ChannelId channel, bool final) {
   ev.time = st.held.front().time;
   ev.channel = channel;
   ev.kind = "protocol_detected";
-  ev.protocol = chosen->protocol();
   ev.confidence = confidence;
-  ev.detail = fmt::format(
-      "protocol {} (confidence {}; telegrams with a good checksum in the first "
-      "{} bytes: {})",
-      protocol_label(chosen->protocol()), confidence, st.held.size(), evidence);
+  if (found) {
+    ev.protocol = best->decoder->protocol();
+    ev.detail = fmt::format(
+        "protocol {} (confidence {}; good telegrams, checksum and plausibility, in the first {} "
+        "bytes: {})",
+        protocol_label(ev.protocol), confidence, st.held.size(), evidence);
+  } else {
+    // No drive protocol: say what the line carries. An IP flow then stays out of the decode; a
+    // serial line is still cut as Modbus RTU (its bytes shown, its findings named), as before.
+    ev.protocol = Protocol::unknown;
+    ev.detail = fmt::format(
+        "no drive protocol: {} (good telegrams, checksum and plausibility: {}){}",
+        describe_line(st.held), evidence, st.ip_flow ? "; the flow is left out of the decode" : "");
+  }
   sink_.on_event(ev);
+  if (!found && st.ip_flow) {
+    st.left_out = true;
+    st.left_out_bytes += st.held.size();
+    st.held.clear();
+    return;
+  }
+  const ProtocolDecoder* chosen = found ? best->decoder : decoder_for(Protocol::modbus_rtu);
   st.decoder = chosen;
   st.framer = chosen->make_framer(channel, {options_.timing, options_.max_hold});
   std::vector<ByteEvent> held;
@@ -621,7 +695,7 @@ void Pipeline::handle_frame(Frame& frame) {
     }
   }
   if (st.auto_protocol) {
-    if (m.checksum.verdict == ChecksumVerdict::good) {
+    if (good_telegram(head)) {
       st.failures = 0;
     } else if (++st.failures >= st.redetect_after) {
       st.redetect = true;
@@ -635,8 +709,8 @@ void Pipeline::handle_frame(Frame& frame) {
   sink_.on_frame(m);
   for (const Anomaly& a : m.anomalies) emit_anomaly(a);
   check_packetization(m.frame, st);
-  // A corrupted frame says nothing reliable about the drive's state.
-  if (profile && m.checksum.verdict == ChecksumVerdict::good)
+  // A corrupted or implausible frame says nothing reliable about the drive's state.
+  if (profile && good_telegram(head))
     for (const BusEvent& e :
          timeline_.observe(link, head, *profile, drive_reading_.observed, hand_over_events_))
       sink_.on_event(e);
@@ -674,8 +748,10 @@ void Pipeline::count_whole_telegram(ChannelState& st, const ByteRun& run,
     return;
   }
   const std::uint64_t number = ++frame_counter_;
+  const bool plausible =
+      (summary.other_kinds & (1u << static_cast<unsigned>(AnomalyKind::implausible))) == 0;
   if (st.auto_protocol) {
-    if (summary.verdict == ChecksumVerdict::good) {
+    if (summary.verdict == ChecksumVerdict::good && plausible) {
       st.failures = 0;
     } else if (++st.failures >= st.redetect_after) {
       st.redetect = true;
@@ -687,6 +763,7 @@ void Pipeline::count_whole_telegram(ChannelState& st, const ByteRun& run,
   in.protocol = decoder.protocol();
   in.address = summary.address;
   in.verdict = summary.verdict;
+  in.plausible = plausible;
   in.function = summary.function;
   in.is_exception = summary.is_exception;
   in.exception_code = summary.exception_code;
@@ -706,7 +783,7 @@ void Pipeline::count_whole_telegram(ChannelState& st, const ByteRun& run,
       request_.assign(request.begin(), request.end());
   }
   const PairingResult paired = pairer_.add(st.link, in, transactions_);
-  stats_.count_telegram(run.size(), summary.verdict, start, last_byte);
+  stats_.count_telegram(run.size(), summary.verdict, plausible, start, last_byte);
   // The message's anomalies, counted (the sink that decodes the message hands them on).
   for (std::size_t i = 0; i < summary.malformed; ++i) stats_.count_anomaly(AnomalyKind::malformed);
   // Each pass counts the lowest kind left.
@@ -740,7 +817,7 @@ void Pipeline::count_whole_telegram(ChannelState& st, const ByteRun& run,
     sink_.on_undissected(telegram);
   }
   check_packetization(FrameKind::telegram, run.origin, run.origin, number, start, run.channel, st);
-  if (profile && in.verdict == ChecksumVerdict::good)
+  if (profile && good_telegram(in))
     for (const BusEvent& e :
          timeline_.observe(st.link, in, *profile, drive_reading_.observed, hand_over_events_))
       sink_.on_event(e);
@@ -803,6 +880,11 @@ void Pipeline::finish(bool cut_partial) {
     if (st.framer) st.framer->finish(ready_);
   }
   handle_frames();
+  for (std::size_t i = 0; i < states_.size(); ++i)
+    if (states_[i]->left_out && i < channels_.size())
+      stats_.source_notes.push_back(
+          fmt::format(FMT_COMPILE("{}: no drive protocol, {} bytes left out of the decode"),
+                      channels_.at(static_cast<ChannelId>(i)).name, states_[i]->left_out_bytes));
   pairer_.finish(transactions_);
   emit_transactions(transactions_);
   summarise_drives();

@@ -33,6 +33,9 @@ struct PipelineOptions {
   std::map<int, const DriveProfile*> drives;
   // --drive auto (the default): the profiles other stations are bound to by their traffic.
   std::vector<const DriveProfile*> auto_candidates;
+  // Detection decides on at least this many good telegrams (checksum and plausibility), never
+  // on one lucky checksum on a bus; `decode` sets 1: its frames are the ones the user typed.
+  int detect_min_good = 2;
   // Stop emitting after this many frames (0: no limit): `capture -c N` gets exactly N even when
   // one byte closes several frames at once.
   std::uint64_t max_frames = 0;

@@ -14,12 +14,16 @@ void widen_window(Stats& s, const Frame& f) {
 }  // namespace
 
 void Stats::count_frame(const Message& m) {
+  bool plausible = true;
+  for (const Anomaly& a : m.anomalies)
+    if (a.kind == AnomalyKind::implausible) plausible = false;
   if (m.frame.events.empty()) {  // (a frame of no bytes widens no window)
     ++frames;
     ++checksum[static_cast<std::size_t>(m.checksum.verdict)];
+    if (m.checksum.verdict == ChecksumVerdict::good && plausible) ++good_telegrams;
     return;
   }
-  count_telegram(m.frame.size(), m.checksum.verdict, m.frame.events.front().time,
+  count_telegram(m.frame.size(), m.checksum.verdict, plausible, m.frame.events.front().time,
                  m.frame.events.back().time);
 }
 

@@ -31,6 +31,9 @@ struct Stats {
   std::uint64_t noise_records = 0;
   std::uint64_t noise_bytes = 0;
   std::array<std::uint64_t, 4> checksum{};  // by ChecksumVerdict
+  // Telegrams with a good checksum that keep their protocol's plausibility rules
+  // (good_telegram()): what a drive bus is made of; checksum[good] counts the rest too.
+  std::uint64_t good_telegrams = 0;
   std::array<std::uint64_t, 5> outcomes{};  // by Outcome
   std::uint64_t transactions = 0;
   std::uint64_t latency_count = 0;
@@ -47,11 +50,14 @@ struct Stats {
   std::vector<std::string> source_notes;
 
   void count_frame(const Message& m);
-  // The same for a telegram of `size` bytes, the first starting at `first`, the last at `last`.
-  void count_telegram(std::size_t size, ChecksumVerdict verdict, TimeNs first, TimeNs last) {
+  // The same for a telegram of `size` bytes, the first starting at `first`, the last at `last`;
+  // `plausible`: it has no `implausible` finding.
+  void count_telegram(std::size_t size, ChecksumVerdict verdict, bool plausible, TimeNs first,
+                      TimeNs last) {
     ++frames;
     bytes += size;
     ++checksum[static_cast<std::size_t>(verdict)];
+    if (verdict == ChecksumVerdict::good && plausible) ++good_telegrams;
     first_time = std::min(first_time, first);
     last_time = std::max(last_time, last);
   }

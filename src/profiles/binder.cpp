@@ -18,8 +18,9 @@ namespace {
 constexpr double kNamed = 1, kRuleOnly = 0.5, kUnknown = -1, kRefused = -2;
 constexpr double kOwnProtocol = 2;
 // A station is bound when its best profile reaches kBindScore and leads the runner-up by
-// kBindMargin; rebinding needs a lead of kRebindMargin over the bound profile.
-constexpr double kBindScore = 2, kBindMargin = 2, kRebindMargin = 3;
+// kBindMargin; rebinding needs a lead of kRebindMargin over the bound profile. A lead of 3 is
+// what confidence "medium" asks (below): a family is never bound on low confidence (issue 37).
+constexpr double kBindScore = 2, kBindMargin = 3, kRebindMargin = 3;
 constexpr std::size_t kMaxAddressesPerRequest = 32;  // evidence from one request is bounded
 
 bool covers(const DriveProfile& p, RegisterKind kind, std::uint32_t address) {
@@ -200,7 +201,7 @@ const DriveProfile* DriveBinder::learn_bound(std::size_t link, const TelegramHea
                                              std::optional<BusEvent>& event) {
   // (Stations are made only below: no station has an address of 0 or less.)
   if (m.address <= 0 || candidates_.empty()) return nullptr;  // broadcasts bind nothing
-  if (m.verdict != ChecksumVerdict::good) return bound(link, m.address);
+  if (!good_telegram(m)) return bound(link, m.address);
   Station& st = stations_[{link, m.address}];
   const auto bound_now = [&]() -> const DriveProfile* {
     return st.bound >= 0 ? candidates_[static_cast<std::size_t>(st.bound)] : nullptr;

@@ -1,7 +1,8 @@
 // Drive binding by guess (`--drive auto`, the default): which family profile a station's traffic
 // fits — protocol, station address range, function codes, register and parameter addresses it
-// reads and writes, vendor exception codes. Contract: learns only from frames with a good
-// checksum; a station is bound once one profile leads every other by a clear margin, and rebound
+// reads and writes, vendor exception codes. Contract: learns only from good telegrams (checksum
+// and plausibility, good_telegram()); a station is bound once one profile leads every other by a
+// clear margin (never on low confidence), and rebound
 // only when another overtakes it by more; a station no profile fits stays on "generic Modbus"
 // (no drive-level annotation). Each binding change is a `drive_bound` BusEvent with the evidence.
 #pragma once

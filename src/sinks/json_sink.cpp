@@ -359,9 +359,10 @@ void JsonSink::on_noise(const Frame& f) {
 
 void JsonSink::on_anomaly(const Anomaly& a) {
   std::string line = fmt::format(
-      FMT_COMPILE("{{\"type\":\"anomaly\",\"t\":{},\"kind\":\"{}\",\"channel\":{},\"frame\":{},"
-                  "\"detail\":{}}}"),
-      seconds(a.time), anomaly_id(a.kind), quoted_channel(a.channel),
+      FMT_COMPILE("{{\"type\":\"anomaly\",\"t\":{},\"kind\":\"{}\",\"severity\":\"{}\","
+                  "\"channel\":{},\"frame\":{},\"detail\":{}}}"),
+      seconds(a.time), anomaly_id(a.kind), severity_id(anomaly_severity(a.kind)),
+      quoted_channel(a.channel),
       a.frame_number == 0 ? std::string("null") : fmt::format(FMT_COMPILE("{}"), a.frame_number),
       json_quote(a.detail));
   lines_.write(line);
@@ -445,11 +446,11 @@ void JsonSink::on_summary(const Stats& s) {
         format_ms(s.latency_sum / static_cast<TimeNs>(s.latency_count)), format_ms(s.latency_max));
   std::string line = fmt::format(
       "{{\"type\":\"summary\",\"bytes\":{},\"frames\":{},\"noise_records\":{},\"noise_bytes\":{},"
-      "\"checksum\":{{\"good\":{},\"bad\":{},\"swapped\":{},\"none\":{}}},"
+      "\"checksum\":{{\"good\":{},\"bad\":{},\"swapped\":{},\"none\":{}}},\"good_telegrams\":{},"
       "\"transactions\":{{\"total\":{},\"ok\":{},\"exception\":{},\"timeout\":{},\"broadcast\":{},"
       "\"unsolicited\":{}}},\"latency_ms\":{},\"anomalies_total\":{},\"anomalies\":{{{}}}}}",
-      s.bytes, s.frames, s.noise_records, s.noise_bytes, c[1], c[2], c[3], c[0], s.transactions,
-      o[0], o[1], o[2], o[3], o[4], latency, s.anomaly_total, anomalies);
+      s.bytes, s.frames, s.noise_records, s.noise_bytes, c[1], c[2], c[3], c[0], s.good_telegrams,
+      s.transactions, o[0], o[1], o[2], o[3], o[4], latency, s.anomaly_total, anomalies);
   line.pop_back();  // the closing brace: drives follow
   line += ",\"drives\":["sv;
   for (std::size_t i = 0; i < s.drives.size(); ++i) {

@@ -260,13 +260,18 @@ void TextSink::on_summary(const Stats& s) {
     lines_.write(fmt::format(FMT_COMPILE("capture:      {} bytes"), s.bytes));
   }
   const auto& c = s.checksum;
+  const std::uint64_t ok = c[static_cast<int>(ChecksumVerdict::good)];
+  // Telegrams whose checksum matches but which break a plausibility rule are said apart (only
+  // then: a drive bus has none).
+  const std::string good = ok == s.good_telegrams
+                               ? std::string()
+                               : fmt::format(FMT_COMPILE("; good telegrams {}"), s.good_telegrams);
   lines_.write(fmt::format(
       FMT_COMPILE(
-          "frames:       {} (checksum ok {}, bad {}, swapped {}); noise: {} record{}, {} byte{}"),
-      s.frames, c[static_cast<int>(ChecksumVerdict::good)],
-      c[static_cast<int>(ChecksumVerdict::bad)], c[static_cast<int>(ChecksumVerdict::swapped)],
-      s.noise_records, s.noise_records == 1 ? "" : "s", s.noise_bytes,
-      s.noise_bytes == 1 ? "" : "s"));
+          "frames:       {} (checksum ok {}, bad {}, swapped {}{}); noise: {} record{}, {} byte{}"),
+      s.frames, ok, c[static_cast<int>(ChecksumVerdict::bad)],
+      c[static_cast<int>(ChecksumVerdict::swapped)], good, s.noise_records,
+      s.noise_records == 1 ? "" : "s", s.noise_bytes, s.noise_bytes == 1 ? "" : "s"));
   const auto& o = s.outcomes;
   std::string tx = fmt::format(
       FMT_COMPILE(

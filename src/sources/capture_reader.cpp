@@ -102,7 +102,7 @@ std::string CaptureReader::too_many_channels(long long offset) const {
 
 ChannelId CaptureReader::channel_for(const std::string& base, const SerialPayload& payload) {
   if (!payload.flow.empty())
-    return channels_.intern(payload.flow, payload.flow_link, ChannelRole::bus);
+    return channels_.intern(payload.flow, payload.flow_link, ChannelRole::bus, /*ip_flow=*/true);
   if (payload.outbound)
     return channels_.intern(base + (*payload.outbound ? ".tx" : ".rx"), base, ChannelRole::bus);
   return channels_.intern(base);
