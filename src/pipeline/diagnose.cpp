@@ -156,11 +156,200 @@ void merge_channel_verdicts(const LineEvidence& e,
   }
 }
 
+// "station 2: 5 of 20; station 7: 1 of 3", the stations with a count, by address.
+template <typename Count, typename Text>
+std::string per_station(const LineEvidence& e, Count count, Text text) {
+  std::vector<std::string> parts;
+  for (const auto& [address, station] : e.stations)
+    if (count(station) > 0)
+      parts.push_back(fmt::format(
+          "{}: {}", address < 0 ? std::string("no address") : fmt::format("station {}", address),
+          text(station)));
+  return fmt::format("{}", fmt::join(parts, "; "));
+}
+
+const char* exception_meaning(int code) {
+  switch (code) {
+    case 1:
+      return "function not supported";
+    case 2:
+      return "no such register";
+    case 3:
+      return "value out of range";
+    case 4:
+      return "the drive failed";
+    case 5:
+      return "acknowledged, still working";
+    case 6:
+      return "busy";
+    default:
+      return "vendor code";
+  }
+}
+
+// The fix for a timing rule, by the rule the pipeline states (pipeline.cpp check_drive_timing).
+const char* timing_rule_fix(const std::string& rule) {
+  if (rule.find("keeps at least") != std::string::npos)
+    return "the drive answers sooner than its manual's minimum delay: check its response-delay "
+           "parameter; a master that turns its transmitter around slowly collides with such a "
+           "reply";
+  if (rule.find("answers within") != std::string::npos)
+    return "the drive answers later than its manual promises (overloaded, or its response delay "
+           "set high): lower that parameter, and keep the master's timeout above the delay";
+  if (rule.find("after the drive's last reply") != std::string::npos)
+    return "the master polls this drive sooner after its reply than the manual allows: add the "
+           "required pause before the next request to it";
+  return "the master leaves less silence before its requests than the drive needs: raise the "
+         "master's delay between frames to the manual's minimum";
+}
+
+// Findings of the conversation (checksums, replies, exceptions, timing rules) and of the capture
+// tool: each kind leads to a verdict with evidence per station or drive, or to a benign note.
+void bus_findings(const LineEvidence& e, std::vector<Verdict>& out) {
+  using S = LineEvidence::Station;
+  if (e.findings[static_cast<std::size_t>(AnomalyKind::unanswered_request)] > 0)
+    out.push_back(
+        {"timeouts", "Requests without a reply",
+         per_station(
+             e, [](const S& s) { return s.timeouts; },
+             [](const S& s) {
+               return fmt::format("{} of {} requests unanswered", s.timeouts, s.requests);
+             }),
+         "a station that never answers: its address, baud rate and parity, its wiring and power; "
+         "one that answers some: noise on its segment, or replies slower than the master's "
+         "timeout"});
+  if (e.findings[static_cast<std::size_t>(AnomalyKind::checksum_swapped)] > 0)
+    out.push_back({"swapped-crc", "CRC sent in the wrong byte order",
+                   per_station(
+                       e, [](const S& s) { return s.swapped_checksum; },
+                       [](const S& s) {
+                         return fmt::format("{} of {} frames with the CRC high byte first",
+                                            s.swapped_checksum, s.frames);
+                       }),
+                   "the sender writes its CRC in the wrong byte order (Modbus RTU sends the low "
+                   "byte first): fix it in the master's Modbus library or the drive's firmware; a "
+                   "strict receiver drops these frames"});
+  std::uint64_t clean_bad = 0;
+  for (const auto& [address, station] : e.stations) clean_bad += station.bad_checksum;
+  if (clean_bad > 0)
+    out.push_back(
+        {"bad-checksum", "Bad checksums without a UART error",
+         per_station(
+             e, [](const S& s) { return s.bad_checksum; },
+             [](const S& s) { return fmt::format("{} of {} frames", s.bad_checksum, s.frames); }),
+         "the bytes arrived without a UART error, so the line is not to blame: the "
+         "sender computes its checksum over other bytes (firmware, a dialect), or the "
+         "capture lost or merged bytes (a loaded USB adapter): compare with a second "
+         "capture"});
+  if (e.findings[static_cast<std::size_t>(AnomalyKind::unsolicited_response)] > 0)
+    out.push_back({"unsolicited-replies", "Replies without a request",
+                   per_station(
+                       e, [](const S& s) { return s.unsolicited; },
+                       [](const S& s) {
+                         return fmt::format("{} repl{}", s.unsolicited,
+                                            s.unsolicited == 1 ? "y" : "ies");
+                       }),
+                   "a second master on the bus, a request the tap missed, or a reply after the "
+                   "master had given up (raise the master's timeout)"});
+  const std::uint64_t malformed = e.findings[static_cast<std::size_t>(AnomalyKind::malformed)] +
+                                  e.findings[static_cast<std::size_t>(AnomalyKind::implausible)];
+  if (malformed > 0)
+    out.push_back({"malformed-frames", "Frames that break their protocol's rules",
+                   fmt::format("{} frames ({} malformed, {} implausible); {}", malformed,
+                               e.findings[static_cast<std::size_t>(AnomalyKind::malformed)],
+                               e.findings[static_cast<std::size_t>(AnomalyKind::implausible)],
+                               per_station(
+                                   e, [](const S& s) { return s.malformed; },
+                                   [](const S& s) {
+                                     return fmt::format("{} frame{}", s.malformed,
+                                                        s.malformed == 1 ? "" : "s");
+                                   })),
+                   "a device speaking another protocol or dialect at these settings (see the "
+                   "protocol detection), or bytes lost or merged by the capture"});
+  const std::uint64_t clean_noise = e.noise_records - e.flagged_noise_records;
+  if (e.findings[static_cast<std::size_t>(AnomalyKind::noise)] > 0 &&
+      clean_noise > e.release_noise_records)
+    out.push_back({"stray-bytes", "Bytes that fit no frame",
+                   fmt::format("{} noise records ({} bytes), {} without a UART error",
+                               e.noise_records, e.noise_bytes, clean_noise),
+                   "another device or protocol on the bus, an echo of a transmitter (an adapter's "
+                   "echo setting), or reflections on an unterminated line: check the devices on "
+                   "the bus and the 120 ohm terminations"});
+  std::uint64_t exceptions = 0;
+  for (const auto& [address, station] : e.stations)
+    for (const auto& [key, count] : station.exceptions) exceptions += count;
+  if (exceptions > 0)
+    out.push_back({"exception-replies", "Drives refuse requests (exception replies)",
+                   per_station(
+                       e, [](const S& s) { return s.exceptions.size(); },
+                       [](const S& s) {
+                         std::vector<std::string> kinds;
+                         for (const auto& [key, count] : s.exceptions)
+                           kinds.push_back(fmt::format("function {:02X} exception {} ({}) x{}",
+                                                       key.first, key.second,
+                                                       exception_meaning(key.second), count));
+                         return fmt::format("{}", fmt::join(kinds, ", "));
+                       }),
+                   "the master asks for what the drive refuses: a function it lacks (1), a "
+                   "register it does not have (2: check the register map; PDU addresses count "
+                   "from 0), a value out of range (3); busy (6): poll it slower"});
+  if (e.findings[static_cast<std::size_t>(AnomalyKind::uart_overrun)] > 0)
+    out.push_back({"tap-overrun", "The capturing adapter lost bytes (UART overrun)",
+                   fmt::format("{} overruns",
+                               e.findings[static_cast<std::size_t>(AnomalyKind::uart_overrun)]),
+                   "the tap, not the bus, lost them: a lower latency timer, a less loaded host, "
+                   "or a logic analyser"});
+  // One verdict per drive and rule: each rule has its own fix.
+  for (const auto& [rule, breaks] : e.timing_rules) {
+    std::vector<std::string> where;
+    for (const auto& [address, count] : breaks.stations)
+      where.push_back(fmt::format("station {}: {}", address, count));
+    out.push_back({"timing-rule", fmt::format("A drive's timing rule is broken: {}", rule),
+                   fmt::format("{} times ({}; first: {})", breaks.count, fmt::join(where, ", "),
+                               breaks.first),
+                   timing_rule_fix(rule)});
+  }
+  const std::uint64_t split = e.findings[static_cast<std::size_t>(AnomalyKind::packet_split_frame)];
+  const std::uint64_t merged =
+      e.findings[static_cast<std::size_t>(AnomalyKind::packet_merged_frames)];
+  if (split + merged > 0)
+    out.push_back({"capture-packets", "The capture tool's packets do not follow the frames",
+                   fmt::format("{} packets held part of a frame, {} held several", split, merged),
+                   "", true});
+  if (const std::uint64_t back = e.findings[static_cast<std::size_t>(AnomalyKind::time_reversed)];
+      back > 0)
+    out.push_back({"capture-clock", "The capture's timestamps went backwards",
+                   fmt::format("{} times: the capturing tool's clock, not the bus (timing "
+                               "findings next to them are unreliable)",
+                               back),
+                   "", true});
+}
+
 const LineEvidence::Channel* main_channel(const LineEvidence& e) {
   return e.channels.empty() ? nullptr : &e.channels.front();
 }
 
 }  // namespace
+
+const std::array<FindingCoverage, kAnomalyKindCount> kFindingCoverage = {{
+    {AnomalyKind::checksum_bad, "bad-checksum noise unbiased-bus"},
+    {AnomalyKind::checksum_swapped, "swapped-crc"},
+    {AnomalyKind::intra_frame_gap, "timing-t15"},
+    {AnomalyKind::short_interframe_gap, "timing-t35"},
+    {AnomalyKind::noise, "stray-bytes noise unbiased-bus"},
+    {AnomalyKind::malformed, "malformed-frames"},
+    {AnomalyKind::implausible, "malformed-frames"},
+    {AnomalyKind::unanswered_request, "timeouts"},
+    {AnomalyKind::unsolicited_response, "unsolicited-replies"},
+    {AnomalyKind::uart_framing, "noise unbiased-bus inverted-line"},
+    {AnomalyKind::uart_parity, "noise"},
+    {AnomalyKind::uart_break, "noise unbiased-bus"},
+    {AnomalyKind::uart_overrun, "tap-overrun"},
+    {AnomalyKind::time_reversed, "capture-clock"},
+    {AnomalyKind::packet_split_frame, "capture-packets"},
+    {AnomalyKind::packet_merged_frames, "capture-packets"},
+    {AnomalyKind::timing_rule, "timing-rule"},
+}};
 
 std::vector<Verdict> diagnose(const LineEvidence& e) {
   std::vector<Verdict> out;
@@ -245,19 +434,26 @@ std::vector<Verdict> diagnose(const LineEvidence& e) {
                                e.short_interframe_gaps, e.first_short_gap),
                    "receivers may merge the two frames: raise the replying drive's response "
                    "delay parameter or the master's delay between polls"});
-  if (e.timing_rule_breaks > 0)
-    out.push_back({"timing-rule", "A drive's timing rule is broken",
-                   fmt::format("{} times (first: {})", e.timing_rule_breaks, e.first_timing_rule),
-                   "slow the master's polling to what the drive's manual requires (the profile "
-                   "names the rule and its section)"});
+  bus_findings(e, out);
   return out;
 }
 
 void DiagnosisSink::on_frame(const Message& m) {
   ++evidence_.frames;
+  last_frame_ = m.frame.number;
+  last_address_ = m.address;
+  LineEvidence::Station& station = evidence_.stations[m.address];
+  ++station.frames;
   const ChecksumVerdict verdict = m.checksum.verdict;
   if (verdict == ChecksumVerdict::good) ++evidence_.frames_checksum_ok;
-  if (verdict != ChecksumVerdict::bad || m.frame.events.size() < 3) return;
+  if (verdict == ChecksumVerdict::swapped) ++station.swapped_checksum;
+  if (verdict != ChecksumVerdict::bad) return;
+  // Without a UART mark on any byte the line delivered what was sent: not the line's fault.
+  const bool clean = !m.frame.events.any_flags();
+  if (m.frame.events.size() < 3) {
+    if (clean) ++station.bad_checksum;
+    return;
+  }
   ++evidence_.frames_checksum_bad;
   const ByteEvent& last = m.frame.events.back();
   const bool stray = last.byte == 0x00 || last.byte == 0xFF || last.flags != 0;
@@ -267,27 +463,51 @@ void DiagnosisSink::on_frame(const Message& m) {
     trimmed.events.pop_back();
     trimmed.checksum_kind = FrameChecksum::none;  // the framer's CRC was of the untrimmed bytes
     const Message again = decoder->dissect(std::move(trimmed), Direction::unknown, FramingTiming{});
-    if (again.checksum.verdict == ChecksumVerdict::good) ++evidence_.release_artefacts;
+    if (again.checksum.verdict == ChecksumVerdict::good) {
+      ++evidence_.release_artefacts;
+      return;
+    }
   }
+  if (clean) ++station.bad_checksum;
 }
 
 // A stray byte or two right after a frame (the framer knew the frame's length and left them out):
 // the same artefact of a line left floating.
 void DiagnosisSink::on_noise(const Frame& noise) {
   evidence_.noise_bytes += noise.events.size();
+  ++evidence_.noise_records;
+  if (noise.events.any_flags()) ++evidence_.flagged_noise_records;
   const bool right_after = noise.gap_before >= 0 && noise.gap_before < timing_.t15;
   const bool stray = !noise.events.empty() && noise.events.size() <= 2 &&
                      std::all_of(noise.events.begin(), noise.events.end(), [](const ByteEvent& e) {
                        return e.byte == 0x00 || e.byte == 0xFF || e.flags != 0;
                      });
-  if (right_after && stray) ++evidence_.release_artefacts;
+  if (right_after && stray) {
+    ++evidence_.release_artefacts;
+    if (!noise.events.any_flags()) ++evidence_.release_noise_records;
+  }
+}
+
+void DiagnosisSink::on_transaction(const Transaction& t) {
+  LineEvidence::Station& station = evidence_.stations[t.address];
+  if (t.request_number > 0) ++station.requests;
+  if (t.outcome == Outcome::timeout) ++station.timeouts;
+  if (t.outcome == Outcome::unsolicited) ++station.unsolicited;
+  if (t.outcome == Outcome::exception) ++station.exceptions[{t.function, t.exception_code}];
 }
 
 void DiagnosisSink::on_anomaly(const Anomaly& a) {
   auto example = [&](std::string& slot) {
     if (slot.empty()) slot = fmt::format("frame {}: {}", a.frame_number, a.detail);
   };
+  ++evidence_.findings[static_cast<std::size_t>(a.kind)];
+  // A frame's findings arrive right after it: its station.
+  const int address = a.frame_number != 0 && a.frame_number == last_frame_ ? last_address_ : -1;
   switch (a.kind) {
+    case AnomalyKind::malformed:
+    case AnomalyKind::implausible:
+      ++evidence_.stations[address].malformed;
+      break;
     case AnomalyKind::intra_frame_gap:
       ++evidence_.intra_frame_gaps;
       example(evidence_.first_intra_gap);
@@ -296,10 +516,19 @@ void DiagnosisSink::on_anomaly(const Anomaly& a) {
       ++evidence_.short_interframe_gaps;
       example(evidence_.first_short_gap);
       break;
-    case AnomalyKind::timing_rule:
+    case AnomalyKind::timing_rule: {
       ++evidence_.timing_rule_breaks;
       example(evidence_.first_timing_rule);
+      // "reply 3.8 ms after the request; the drive keeps at least 10 ms (E5-8200, ...)": what
+      // follows the measurement names the drive and its rule.
+      const std::size_t cut = a.detail.find("; ");
+      auto& rule =
+          evidence_.timing_rules[cut == std::string::npos ? a.detail : a.detail.substr(cut + 2)];
+      ++rule.count;
+      ++rule.stations[address];
+      if (rule.first.empty()) rule.first = fmt::format("frame {}: {}", a.frame_number, a.detail);
       break;
+    }
     default:
       break;
   }
@@ -405,14 +634,18 @@ std::string diagnosis_text(const std::string& file, const LineEvidence& e,
           ? fmt::format(", {} glitches filtered, {} false starts", e.glitches, e.false_starts)
           : std::string(),
       e.frames, e.frames_checksum_ok, e.frames_checksum_bad, e.noise_bytes, stats.transactions);
-  if (verdicts.empty()) {
+  const auto faults = static_cast<std::size_t>(
+      std::count_if(verdicts.begin(), verdicts.end(), [](const Verdict& v) { return !v.benign; }));
+  if (faults == 0)
     out += "verdict:   healthy line — no fault found\n";
-    return out;
-  }
-  out += fmt::format("verdicts:  {}\n", verdicts.size());
+  else
+    out += fmt::format("verdicts:  {}\n", faults);
   for (const Verdict& v : verdicts)
-    out += fmt::format("  [{}] {}\n      evidence: {}\n      fix:      {}\n", v.id, v.title,
-                       v.evidence, v.fix);
+    if (!v.benign)
+      out += fmt::format("  [{}] {}\n      evidence: {}\n      fix:      {}\n", v.id, v.title,
+                         v.evidence, v.fix);
+  for (const Verdict& v : verdicts)
+    if (v.benign) out += fmt::format("benign:    [{}] {}: {}\n", v.id, v.title, v.evidence);
   return out;
 }
 
@@ -457,9 +690,10 @@ std::string diagnosis_json(const std::string& file, const LineEvidence& e,
       e.characters, e.framing_errors, e.parity_errors, e.breaks, e.glitches, e.false_starts,
       e.frames, e.frames_checksum_ok, e.frames_checksum_bad, e.noise_bytes, stats.transactions);
   for (std::size_t i = 0; i < verdicts.size(); ++i)
-    out += fmt::format("{}{{\"id\":\"{}\",\"title\":{},\"evidence\":{},\"fix\":{}}}", i ? "," : "",
-                       verdicts[i].id, json_quote(verdicts[i].title),
-                       json_quote(verdicts[i].evidence), json_quote(verdicts[i].fix));
+    out += fmt::format("{}{{\"id\":\"{}\",\"title\":{},\"evidence\":{},\"fix\":{},\"benign\":{}}}",
+                       i ? "," : "", verdicts[i].id, json_quote(verdicts[i].title),
+                       json_quote(verdicts[i].evidence), json_quote(verdicts[i].fix),
+                       verdicts[i].benign);
   out += "]}\n";
   return out;
 }

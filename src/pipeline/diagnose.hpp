@@ -9,8 +9,10 @@
 // patterns are known; a verdict says which kind of evidence it rests on.
 #pragma once
 
+#include <array>
 #include <csignal>
 #include <cstdint>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -65,16 +67,53 @@ struct LineEvidence {
   std::uint64_t short_interframe_gaps = 0;                          // t3.5 broken
   std::uint64_t timing_rule_breaks = 0;                             // a drive profile's timing rule
   std::string first_intra_gap, first_short_gap, first_timing_rule;  // an example of each
+
+  // Every finding the pipeline reported, by kind: each leads to a verdict or is named benign.
+  AnomalyCounts findings{};
+  // What each station (address; -1 for none) sent and what went wrong with it.
+  struct Station {
+    std::uint64_t requests = 0;  // transactions it was asked for
+    std::uint64_t timeouts = 0;
+    std::uint64_t unsolicited = 0;
+    std::uint64_t frames = 0;
+    std::uint64_t bad_checksum = 0;  // without a UART error or a floating-line artefact
+    std::uint64_t swapped_checksum = 0;
+    std::uint64_t malformed = 0;
+    std::map<std::pair<int, int>, std::uint64_t> exceptions;  // (function, code) -> replies
+  };
+  std::map<int, Station> stations;
+  std::uint64_t noise_records = 0;
+  std::uint64_t flagged_noise_records = 0;  // holding a byte with a UART error
+  std::uint64_t release_noise_records = 0;  // a clean stray 0x00/0xFF right after a frame
+  // Timing-rule breaks by rule, as the pipeline states it (the drive, its rule and the manual's
+  // section): count and first example.
+  struct RuleBreaks {
+    std::uint64_t count = 0;
+    std::string first;
+    std::map<int, std::uint64_t> stations;
+  };
+  std::map<std::string, RuleBreaks> timing_rules;
 };
 
 struct Verdict {
   std::string id;     // stable: inverted-line, baud-mismatch, parity-mismatch, settings-mismatch,
                       // non-standard-baud, noise, unbiased-bus, timing-t15, timing-t35,
-                      // timing-rule
+                      // timing-rule, timeouts, swapped-crc, bad-checksum, unsolicited-replies,
+                      // malformed-frames, stray-bytes, exception-replies, tap-overrun; benign:
+                      // capture-packets, capture-clock
   std::string title;  // one line
   std::string evidence;  // what was seen, with figures
-  std::string fix;       // what to do about it
+  std::string fix;       // what to do about it ("" for a benign note)
+  bool benign = false;   // a finding that is no fault of the bus (named, not a verdict)
 };
+
+// Which verdict each kind of finding leads to (or the benign note that names it), declared as
+// data: a new kind of finding cannot be added without deciding what diagnose says about it.
+struct FindingCoverage {
+  AnomalyKind kind;
+  const char* verdict;  // the id of the verdict or benign note that covers it
+};
+extern const std::array<FindingCoverage, kAnomalyKindCount> kFindingCoverage;
 
 std::vector<Verdict> diagnose(const LineEvidence& evidence);
 
@@ -86,7 +125,7 @@ class DiagnosisSink final : public Sink {
   void on_frame(const Message& message) override;
   void on_noise(const Frame& noise) override;
   void on_anomaly(const Anomaly& anomaly) override;
-  void on_transaction(const Transaction&) override {}
+  void on_transaction(const Transaction& transaction) override;
   void on_summary(const Stats& stats) override { stats_ = stats; }
   bool flush() override { return true; }
   [[nodiscard]] const Stats& stats() const { return stats_; }
@@ -95,6 +134,9 @@ class DiagnosisSink final : public Sink {
   LineEvidence& evidence_;
   FramingTiming timing_;
   Stats stats_;
+  // The frame the anomalies that follow belong to ("anomalies of a frame arrive right after it").
+  std::uint64_t last_frame_ = 0;
+  int last_address_ = -1;
 };
 
 // A whole diagnosis: the source (read_header() done) through the pipeline, nothing printed.
