@@ -38,7 +38,7 @@ cmp -s "$work/a.pcapng" "$work/e.pcapng" || fail "generate -w differs from read 
 truth=$(cat "$work/a.json")
 total=$(grep '^"total"' <<<"$truth")
 [ "$(value frames "$total")" -ge $((frames * 9 / 10)) ] || fail "only $(value frames "$total") frames"
-for k in exceptions timeouts checksum_bad checksum_swapped noise_records parity_errors timing_rule; do
+for k in exceptions timeouts bad_replies checksum_bad checksum_swapped noise_records parity_errors timing_rule; do
   [ "$(value $k "$total")" -gt 0 ] || fail "truth: no $k injected"
 done
 bindings=()
@@ -56,6 +56,7 @@ for file in a.log a.pcapng; do
   check ok "$(value ok "$tx")" "$(value ok "$total")"
   check exceptions "$(value exception "$tx")" "$(value exceptions "$total")"
   check timeouts "$(value timeout "$tx")" "$(value timeouts "$total")"
+  check "bad replies" "$(value bad_reply "$tx")" "$(value bad_replies "$total")"
   check "noise records" "$(value noise_records "$s")" "$(value noise_records "$total")"
   check "noise bytes" "$(value noise_bytes "$s")" "$(value noise_bytes "$total")"
   check bytes "$(value bytes "$s")" "$(value bytes "$total")"
@@ -94,7 +95,7 @@ cmp -s "$work/p.pcapng" "$work/q.pcapng" || fail "generate --plain differs from 
   fail "--plain: $(stat -c %s "$work/p.pcapng") bytes, not under a third of $(stat -c %s "$work/a.pcapng")"
 rich=$("$drivetap" read --stats -T json "${bindings[@]}" "$work/a.pcapng" | grep -o '"summary".*')
 plain=$("$drivetap" read --stats -T json "${bindings[@]}" "$work/p.pcapng" | grep -o '"summary".*')
-for k in frames noise_records noise_bytes bytes good bad swapped total ok exception timeout \
+for k in frames noise_records noise_bytes bytes good bad swapped total ok exception timeout bad_reply \
   checksum_bad checksum_swapped unanswered_request timing_rule; do
   [ "$(value $k "$plain")" = "$(value $k "$rich")" ] ||
     fail "--plain: $k read back $(value $k "$plain"), from the full pcapng $(value $k "$rich")"

@@ -420,3 +420,36 @@ TEST(Pairer, MessagesWithoutDirectionAreIgnored) {
   EXPECT_TRUE(out.empty());
   EXPECT_TRUE(p.awaiting_reply(0, 1, 0x03, 21 * kMs));
 }
+
+// Issue 37 §6: a reply with a bad checksum was counted an `ok` transaction.
+TEST(Pairer, BadChecksumReplyIsBadReplyNotOk) {
+  Pairer p(options());
+  std::vector<Transaction> out;
+  Message q = request(1, 0x03, 0, 1);
+  q.checksum.verdict = ChecksumVerdict::good;
+  p.add(0, q, out);
+  Message r = response(1, 0x03, request_end(0) + 4 * kMs, 2);
+  r.checksum.verdict = ChecksumVerdict::bad;
+  p.add(0, r, out);
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].outcome, Outcome::bad_reply);
+  EXPECT_EQ(outcome_id(out[0].outcome), "bad_reply");
+  // It still answers its request: the request is closed and the latency measured.
+  EXPECT_EQ(out[0].request_number, 1u);
+  EXPECT_EQ(out[0].latency, 4 * kMs);
+  EXPECT_FALSE(p.awaiting_reply(0, 1, 0x03, request_end(0) + 5 * kMs));
+  // A corrupted exception reply is a bad reply too; a swapped CRC (data intact) is not.
+  Message q2 = request(1, 0x03, 100 * kMs, 3);
+  p.add(0, q2, out);
+  Message e = response(1, 0x83, request_end(100 * kMs) + 2 * kMs, 4);
+  e.checksum.verdict = ChecksumVerdict::bad;
+  p.add(0, e, out);
+  Message q3 = request(1, 0x03, 200 * kMs, 5);
+  p.add(0, q3, out);
+  Message s = response(1, 0x03, request_end(200 * kMs) + 2 * kMs, 6);
+  s.checksum.verdict = ChecksumVerdict::swapped;
+  p.add(0, s, out);
+  ASSERT_EQ(out.size(), 3u);
+  EXPECT_EQ(out[1].outcome, Outcome::bad_reply);
+  EXPECT_EQ(out[2].outcome, Outcome::ok);
+}

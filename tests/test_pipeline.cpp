@@ -802,3 +802,31 @@ TEST(Pipeline, BeginMessageTakesItsOwnFrameAsItIs) {
   EXPECT_EQ(m.frame.events.size(), 2u);
   EXPECT_EQ(m.bytes, (std::vector<std::uint8_t>{0x01, 0x03}));
 }
+
+// Issue 37 §6: `decode "01 03 00 00 00 01 84 0A | 01 03 02 00 2A 38 5B"` counted the reply with a
+// bad CRC as an `ok` transaction; it is a `bad_reply`, in the transactions, the summary counts
+// and the frame's text line.
+TEST(Pipeline, BadChecksumReplyIsABadReplyTransaction) {
+  Bus b;
+  auto bad = kReadRsp;
+  bad[bad.size() - 1] ^= 0x40;   // the CRC's high byte changed
+  for (int i = 0; i < 3; ++i) {  // (good exchanges first: detection needs three good telegrams)
+    b.send(kReadReq, 5 * kNsPerMs);
+    b.send(kReadRsp);
+  }
+  b.send(kReadReq, 5 * kNsPerMs);
+  b.send(bad);
+  b.finish();
+  ASSERT_EQ(b.sink.transactions.size(), 4u);
+  EXPECT_EQ(b.sink.transactions[3].outcome, Outcome::bad_reply);
+  EXPECT_EQ(b.sink.transactions[3].request_number, 7u);
+  EXPECT_EQ(b.sink.transactions[3].latency, 5 * kNsPerMs);
+  const Stats& s = b.pipeline->stats();
+  EXPECT_EQ(s.outcomes[static_cast<std::size_t>(Outcome::ok)], 3u);
+  EXPECT_EQ(s.outcomes[static_cast<std::size_t>(Outcome::bad_reply)], 1u);
+  ASSERT_EQ(b.sink.frames.size(), 8u);
+  EXPECT_NE(frame_summary(b.sink.frames[7], true).find("bad reply to #7 in 5.000 ms"),
+            std::string::npos)
+      << frame_summary(b.sink.frames[7], true);
+  EXPECT_NE(frame_summary(b.sink.frames[5], true).find("  reply to #5"), std::string::npos);
+}

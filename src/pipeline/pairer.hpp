@@ -4,7 +4,8 @@
 // same address and function (exception bit ignored). It ends as `timeout` when the timeout passes,
 // or when the master sends another request first (a single-master bus has one request in
 // flight). Address 0 is a broadcast: no reply expected. A response with no request waiting is
-// `unsolicited`. Latency = end of request's last character -> start of the response.
+// `unsolicited`. A reply with a bad checksum pairs as usual but is `bad_reply`. Latency = end of
+// request's last character -> start of the response.
 #pragma once
 
 #include <cstddef>
@@ -26,7 +27,8 @@ struct PairerOptions {
 // What pairing reads of a decoded telegram: its head (which the drive level reads too: the
 // pipeline's summary lane fills one for both) and its function. A Message holds it all
 // (pairing_input()); the summary lane, which makes no Message, fills it from the frame it took
-// whole. Pairing reads neither the head's checksum verdict nor its latency.
+// whole. Pairing reads the head's checksum verdict (a reply with a bad one is `bad_reply`), not its
+// latency.
 struct PairingInput : TelegramHead {
   int function = -1;
   bool is_exception = false;

@@ -30,8 +30,8 @@ struct Stats {
   std::uint64_t frames = 0;
   std::uint64_t noise_records = 0;
   std::uint64_t noise_bytes = 0;
-  std::array<std::uint64_t, 4> checksum{};  // by ChecksumVerdict
-  std::array<std::uint64_t, 5> outcomes{};  // by Outcome
+  std::array<std::uint64_t, 4> checksum{};              // by ChecksumVerdict
+  std::array<std::uint64_t, kOutcomeCount> outcomes{};  // by Outcome
   std::uint64_t transactions = 0;
   std::uint64_t latency_count = 0;
   TimeNs latency_sum = 0;
