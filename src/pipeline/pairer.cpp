@@ -64,6 +64,7 @@ void Pairer::remove_pending(Drop&& drop) {
 }
 
 void Pairer::close_unanswered(const Pending& p, std::string detail, std::vector<Transaction>& out) {
+  if (!options_.clocked) return;  // (no clock: not known to be unanswered, see PairerOptions)
   Transaction t;
   t.outcome = Outcome::timeout;
   t.protocol = p.protocol;

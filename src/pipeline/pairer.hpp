@@ -10,6 +10,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <span>
 #include <vector>
 
@@ -22,6 +23,10 @@ struct PairerOptions {
   TimeNs timeout = 1 * kNsPerSecond;
   TimeNs character_time = 0;     // to compute where a request ends
   std::size_t max_pending = 64;  // bound on requests in flight per link (hostile input)
+  // False when the times are synthetic (`drivetap decode` lays pasted frames out 20 ms apart): no
+  // request ever times out, and one left without a reply is dropped, not reported `timeout`,
+  // since nothing tells how long the bus really waited.
+  bool clocked = true;
 };
 
 // What pairing reads of a decoded telegram: its head (which the drive level reads too: the
@@ -45,7 +50,9 @@ struct PairingResult {
 
 class Pairer {
  public:
-  explicit Pairer(PairerOptions options) : options_(options) {}
+  explicit Pairer(PairerOptions options) : options_(options) {
+    if (!options_.clocked) options_.timeout = std::numeric_limits<TimeNs>::max();
+  }
 
   // Is a request from `address`/`function` on `link` still waiting for its reply at time `at`?
   [[nodiscard]] bool awaiting_reply(std::size_t link, int address, int function, TimeNs at) const;

@@ -60,7 +60,8 @@ Pipeline::Pipeline(PipelineOptions options, const ChannelTable& channels, Sink& 
     : options_(options),
       channels_(channels),
       sink_(sink),
-      pairer_(PairerOptions{options.reply_timeout, options.timing.character_time, 64}),
+      pairer_(
+          PairerOptions{options.reply_timeout, options.timing.character_time, 64, options.clocked}),
       earliest_deadline_(std::numeric_limits<TimeNs>::max()),
       binder_(options.auto_candidates) {
   message_.detail = sink.wants_detail();
@@ -464,7 +465,7 @@ inline Direction Pipeline::decide_direction(const ProtocolDecoder& decoder, Time
 
 void Pipeline::check_drive_timing(const TelegramHead& m, const DriveProfile& p,
                                   std::vector<Anomaly>& found, bool described) {
-  if (m.bytes.empty()) return;
+  if (m.bytes.empty() || !options_.clocked) return;  // (synthetic times break no rule)
   const TimeNs char_time = options_.timing.character_time;
   // A finding; its text (`describe()`, with the rule's source, "ERMAN E-9P/9G, 000 §5.2") only
   // when `described`: a run that shows no anomaly counts it by its kind.

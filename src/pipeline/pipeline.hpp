@@ -27,6 +27,9 @@ struct PipelineOptions {
   FramingTiming timing;  // usually FramingTiming::from(serial), possibly overridden
   TimeNs max_hold = 100 * kNsPerMs;
   TimeNs reply_timeout = 1 * kNsPerSecond;
+  // False for `drivetap decode`, whose times are synthetic: no timeout or unanswered request, no
+  // drive timing rule (PairerOptions::clocked).
+  bool clocked = true;
   // --protocol: a fixed protocol, or Protocol::unknown to detect it per channel ("auto").
   Protocol protocol = Protocol::unknown;
   // Drive profiles bound to station addresses (--drive 2=e9); the profiles outlive the pipeline.
