@@ -119,6 +119,25 @@ gen --mix modbus-rtu -o "$work/r.log" --truth "$work/r.json" || fail "generate -
 [ "$(grep -c '^{"channel"' "$work/r.json")" = 1 ] || fail "--mix modbus-rtu: more than one link"
 grep -v '^#' "$work/r.log" | grep -qv ' rtu ' && fail "--mix modbus-rtu: a line on another channel"
 
+# Time order across channels (issue 37 §6: 65 frames out of order in text and JSON, 66 negative
+# time deltas in the pcapng, from 3000 frames on four links, three of them detecting at first).
+"$drivetap" generate --frames 3000 -o "$work/o.log" -w "$work/o.pcapng" 2>/dev/null || fail "generate exit $?"
+# out_of_order: how many of the times on stdin (one a line) are earlier than the one before.
+out_of_order() { awk 'NR > 1 && $1 < last { n++ } { last = $1 } END { print n + 0 }'; }
+text=$("$drivetap" read "$work/o.log") || fail "read exit $?"
+times=$(grep -E '^ +[0-9]+ +-?[0-9]+\.[0-9]+ ' <<<"$text" | awk '{ print $2 }')
+[ "$(wc -l <<<"$times")" = 3000 ] || fail "order: $(wc -l <<<"$times") frame lines in the text, 3000 written"
+[ "$(out_of_order <<<"$times")" = 0 ] || fail "order: $(out_of_order <<<"$times") text frames out of time order"
+json=$("$drivetap" read -T json "$work/o.log") || fail "read -T json exit $?"
+times=$(grep -E '^\{"type":"(frame|noise|event)"' <<<"$json" | grep -o '"t":-\?[0-9.]*' | cut -d: -f2)
+[ "$(out_of_order <<<"$times")" = 0 ] || fail "order: $(out_of_order <<<"$times") JSON records out of time order"
+if command -v tshark >/dev/null; then
+  deltas=$(tshark -r "$work/o.pcapng" -T fields -e frame.time_delta 2>/dev/null)
+  [ "$(wc -l <<<"$deltas")" = 3000 ] || fail "order: tshark reads $(wc -l <<<"$deltas") packets, 3000 written"
+  negative=$(awk '$1 < 0' <<<"$deltas" | wc -l)
+  [ "$negative" = 0 ] || fail "order: $negative pcapng packets with a negative time delta (tshark)"
+fi
+
 # 3. Bad options: one line naming the option, exit 2.
 for args in "--frames 0" "--frames 12x" "--frames -5" "--seed abc" "--mix modbus" "--plain" ""; do
   err=$("$drivetap" generate $args -o "$work/x.log" 2>&1 >/dev/null); rc=$?

@@ -19,6 +19,16 @@ constexpr std::size_t kDetectEvery = 128;      // re-evaluate after this many mo
 constexpr int kDetectGoodFrames = 3;           // never decide on one lucky checksum
 constexpr int kRedetectFailures = 8;           // bad telegrams/noise in a row: the bus changed?
 constexpr int kMaxRedetectFailures = 8 << 12;  // the back-off's ceiling on a line of noise
+// Detection decides at the latest this long after the first byte it holds (on the evidence so
+// far): frames of other channels wait for it (README "Order of the output").
+constexpr TimeNs kDetectHold = 1 * kNsPerSecond;
+// The reorder stage's bounds: a closed frame waits at most this long (bus time, after the latest
+// byte seen) or behind this many others for an earlier frame of another channel; past them it is
+// handed on, even if an earlier frame comes later (an open frame held longer than its framer's
+// own bounds: a line without silence). Memory: the frames of kMaxReorderHold of traffic.
+constexpr TimeNs kMaxReorderHold = 2 * kNsPerSecond;
+constexpr std::size_t kMaxWaitingFrames = std::size_t{1} << 16;
+constexpr TimeNs kNoneHeld = std::numeric_limits<TimeNs>::max();
 constexpr Protocol kCandidates[] = {Protocol::modbus_rtu, Protocol::modbus_ascii,
                                     Protocol::danfoss_fc, Protocol::easydrive};
 
@@ -40,8 +50,19 @@ struct Pipeline::ChannelState {
   const ProtocolDecoder* decoder = nullptr;
   std::unique_ptr<Framer> framer;
   bool auto_protocol = false;
-  std::vector<ByteEvent> held;   // bytes waiting for detection (bounded by kDetectBytes)
-  std::size_t evaluated_at = 0;  // held.size() at the last evaluation
+  std::vector<ByteEvent> held;  // bytes waiting for detection (bounded by kDetectBytes)
+  // The first byte taken (held for detection or handed to the framer) that is in no emitted frame
+  // yet, or a lower bound of it; kNoneHeld when there is none. No frame of the channel can start
+  // earlier: frames of other channels that do wait (the reorder stage).
+  TimeNs unframed_from = kNoneHeld;
+
+  // Whether a frame cut by `d` counts towards re-detection: in "auto" mode, when the channel still
+  // uses that decoder (a frame that waited in the reorder stage may come after its channel
+  // started detecting afresh).
+  [[nodiscard]] bool detection_reads(const ProtocolDecoder& d) const {
+    return auto_protocol && decoder == &d;
+  }
+  std::size_t evaluated_at = 0;                // held.size() at the last evaluation
   std::vector<DetectionCandidate> candidates;  // while detecting: one per protocol
   int failures = 0;  // consecutive bad telegrams / noise since the last good one
   // Failures in a row that start detection afresh. Each detection that finds no clear protocol
@@ -109,10 +130,19 @@ Pipeline::ChannelState& Pipeline::state_for(ChannelId id) {
 void Pipeline::advance_all(TimeNs now) {
   if (now < earliest_deadline_) return;
   earliest_deadline_ = std::numeric_limits<TimeNs>::max();
-  for (auto& s : states_) {
-    if (!s->framer) continue;  // still detecting
-    s->framer->advance(now, ready_);
-    earliest_deadline_ = std::min(earliest_deadline_, s->framer->next_deadline());
+  for (std::size_t i = 0; i < states_.size(); ++i) {
+    ChannelState& s = *states_[i];
+    if (!s.framer) {  // detecting: it decides by kDetectHold after its first byte, come what may
+      if (s.held.empty()) continue;
+      const TimeNs due = s.held.front().time + kDetectHold;
+      if (now < due) {
+        earliest_deadline_ = std::min(earliest_deadline_, due);
+        continue;
+      }
+      detect(s, static_cast<ChannelId>(i), true);
+    }
+    s.framer->advance(now, ready_);
+    earliest_deadline_ = std::min(earliest_deadline_, s.framer->next_deadline());
   }
   handle_frames();
 }
@@ -140,7 +170,9 @@ void Pipeline::push(const ByteEvent& in) {
 
 void Pipeline::frame_byte(ChannelState& st, const ByteEvent& e) {
   if (st.redetect) start_detection(st);
+  if (st.unframed_from == kNoneHeld) st.unframed_from = e.time;
   if (!st.framer) {
+    if (st.held.empty()) earliest_deadline_ = std::min(earliest_deadline_, e.time + kDetectHold);
     st.held.push_back(e);
     detect(st, e.channel, false);
     if (!ready_.empty()) handle_frames();
@@ -159,9 +191,14 @@ const ProtocolDecoder* Pipeline::precheck_decoder_of(ChannelId channel) const {
 
 inline TimeNs Pipeline::deadline_of_others(ChannelId channel) const {
   TimeNs earliest = std::numeric_limits<TimeNs>::max();
-  for (std::size_t i = 0; i < states_.size(); ++i)
-    if (i != channel && states_[i]->framer)
-      earliest = std::min(earliest, states_[i]->framer->next_deadline());
+  for (std::size_t i = 0; i < states_.size(); ++i) {
+    if (i == channel) continue;
+    const ChannelState& s = *states_[i];
+    if (s.framer)
+      earliest = std::min(earliest, s.framer->next_deadline());
+    else if (!s.held.empty())  // (detection's own deadline, advance_all())
+      earliest = std::min(earliest, s.held.front().time + kDetectHold);
+  }
   return earliest;
 }
 
@@ -196,8 +233,10 @@ void Pipeline::push_batch(std::span<const ByteEvent> events) {
       ++i;
     }
     if (i == run_begin) continue;
-    st.framer->push_all(as_given ? events.subspan(run_begin, i - run_begin) : std::span(run_),
-                        ready_);
+    const std::span<const ByteEvent> taken =
+        as_given ? events.subspan(run_begin, i - run_begin) : std::span(run_);
+    if (st.unframed_from == kNoneHeld) st.unframed_from = taken.front().time;
+    st.framer->push_all(taken, ready_);
     earliest_deadline_ = std::min(earliest_deadline_, st.framer->next_deadline());
     if (!ready_.empty()) handle_frames();
   }
@@ -249,7 +288,8 @@ inline bool Pipeline::push_chunk(const ByteRun& run, TimeNs next_time,
       deadline_of_others(run.channel) == std::numeric_limits<TimeNs>::max()) {
     // A sink that takes no records, or decodes them itself, has the frame counted, not decoded
     // here (ready_ is empty: the frame would be handled alone).
-    const bool counted = summary_lane_ && ready_.empty();
+    // (Frames waiting start earlier: they go first, through the reorder stage.)
+    const bool counted = summary_lane_ && ready_.empty() && waiting_.empty();
     // The run's precheck is used only when the channel's decoder made it (TelegramPrecheck).
     if (precheck && precheck->decoder != st.decoder) precheck = nullptr;
     Framer::ChunkFrame taken;
@@ -308,6 +348,7 @@ std::size_t Pipeline::take_quietly(const ByteRun& run, std::size_t i, TimeNs cha
     take = std::min<std::size_t>(take, static_cast<std::size_t>(before));
   }
   if (take == 0) return 0;
+  if (st.unframed_from == kNoneHeld) st.unframed_from = rest.first;
   st.framer->push_run(rest.part(0, take), ready_);
   note_taken(st, rest.event(take - 1));
   earliest_deadline_ = std::min(earliest_deadline_, st.framer->next_deadline());
@@ -395,7 +436,11 @@ void Pipeline::detect(ChannelState& st, ChannelId channel, bool final) {
       "protocol {} (confidence {}; telegrams with a good checksum in the first "
       "{} bytes: {})",
       protocol_label(chosen->protocol()), confidence, st.held.size(), evidence);
-  sink_.on_event(ev);
+  // Handed on just before the channel's first frame (which starts at ev.time), in time order with
+  // the frames of other channels.
+  pending_events_.insert(std::upper_bound(pending_events_.begin(), pending_events_.end(), ev.time,
+                                          [](TimeNs t, const BusEvent& e) { return t < e.time; }),
+                         std::move(ev));
   st.decoder = chosen;
   st.framer = chosen->make_framer(channel, {options_.timing, options_.max_hold});
   std::vector<ByteEvent> held;
@@ -422,20 +467,68 @@ void Pipeline::handle_frames() {
   const auto earlier = [](const Frame& a, const Frame& b) { return a.start() < b.start(); };
   if (!std::is_sorted(ready_.begin(), ready_.end(), earlier))
     std::stable_sort(ready_.begin(), ready_.end(), earlier);
+  for (const Frame& f : ready_) note_framed(f);
+  const TimeNs watermark = output_watermark();
+  if (!waiting_.empty() || ready_.back().start() > watermark) {
+    // Another channel may still close an earlier frame: these wait for it (the reorder stage).
+    for (Frame& f : ready_) waiting_.push(f, states_[f.channel]->decoder);
+    ready_.clear();
+    release_waiting(watermark);
+    return;
+  }
   // Nested calls (none today) would get a batch of their own rather than clobber this one.
   FrameBatch nested;
   FrameBatch& batch = in_batch_ ? nested : batch_;
   const bool outer = !in_batch_;
   in_batch_ = true;
   batch.swap(ready_);
-  for (Frame& f : batch) {
-    if (options_.max_frames > 0 && stats_.frames >= options_.max_frames) break;
-    handle_frame(f);
-  }
+  for (Frame& f : batch) handle_in_order(f, *states_[f.channel]->decoder);
   // The frames keep their storage (a telegram's slot holds the previous one of message_) for
   // the frames the framers build in them next.
   batch.clear();
   if (outer) in_batch_ = false;
+}
+
+void Pipeline::note_framed(const Frame& frame) {
+  ChannelState& st = *states_[frame.channel];
+  // A framer with nothing pending holds no byte; otherwise what it holds follows this frame.
+  st.unframed_from = st.framer && st.framer->next_deadline() != std::numeric_limits<TimeNs>::max()
+                         ? frame.events.back_time() + 1
+                         : kNoneHeld;
+}
+
+TimeNs Pipeline::output_watermark() const {
+  TimeNs earliest = kNoneHeld;
+  for (const auto& s : states_) earliest = std::min(earliest, s->unframed_from);
+  return earliest;
+}
+
+void Pipeline::release_waiting(TimeNs watermark) {
+  while (!waiting_.empty()) {
+    FrameQueue::Slot& slot = waiting_.front();
+    const TimeNs start = slot.frame.start();
+    if (start > watermark && waiting_.size() <= kMaxWaitingFrames &&
+        latest_time_ - start <= kMaxReorderHold)
+      break;
+    handle_in_order(slot.frame, *slot.decoder);
+    waiting_.pop();
+  }
+  if (waiting_.empty()) flush_events(watermark);
+}
+
+void Pipeline::handle_in_order(Frame& frame, const ProtocolDecoder& decoder) {
+  // (Past --count's limit the frames are dropped: `capture -c N` gets exactly N.)
+  if (options_.max_frames > 0 && stats_.frames >= options_.max_frames) return;
+  flush_events(frame.start());
+  handle_frame(frame, decoder);
+}
+
+void Pipeline::flush_some_events(TimeNs until) {
+  std::size_t n = 0;
+  while (n < pending_events_.size() && pending_events_[n].time <= until)
+    sink_.on_event(pending_events_[n++]);
+  pending_events_.erase(pending_events_.begin(),
+                        pending_events_.begin() + static_cast<std::ptrdiff_t>(n));
 }
 
 inline Direction Pipeline::decide_direction(const ProtocolDecoder& decoder, TimeNs start,
@@ -564,7 +657,7 @@ void Pipeline::check_packetization(FrameKind kind, std::uint32_t first, std::uin
   st.last_frame_number = number;
 }
 
-void Pipeline::handle_frame(Frame& frame) {
+void Pipeline::handle_frame(Frame& frame, const ProtocolDecoder& decoder) {
   frame.number = ++frame_counter_;
   // The frame came out of its channel's framer: the channel's state exists.
   ChannelState& st = *states_[frame.channel];
@@ -581,7 +674,7 @@ void Pipeline::handle_frame(Frame& frame) {
     emit_anomaly({AnomalyKind::noise, frame.start(), frame.channel, frame.number,
                   fmt::format(FMT_COMPILE("{} byte{} outside any frame: {}"), frame.size(),
                               frame.size() == 1 ? "" : "s", hex)});
-    if (st.auto_protocol && ++st.failures >= st.redetect_after) st.redetect = true;
+    if (st.detection_reads(decoder) && ++st.failures >= st.redetect_after) st.redetect = true;
     std::vector<Anomaly> uart;
     append_uart_anomalies(frame.events, frame.number, uart);
     for (const Anomaly& a : uart) emit_anomaly(a);
@@ -591,7 +684,6 @@ void Pipeline::handle_frame(Frame& frame) {
   pairer_.expire(frame.start(), transactions_);
   emit_transactions(transactions_);
 
-  const ProtocolDecoder& decoder = *st.decoder;
   const std::span<const std::uint8_t> bytes = frame.events.bytes();
   const ProtocolDecoder::PairingKeys keys = decoder.pairing_keys(bytes);
   const Direction dir = decide_direction(decoder, frame.start(), bytes, keys.address, keys.function,
@@ -621,7 +713,7 @@ void Pipeline::handle_frame(Frame& frame) {
       std::swap(m.drive_info, drive_reading_.text);  // both keep their storage for later frames
     }
   }
-  if (st.auto_protocol) {
+  if (st.detection_reads(decoder)) {
     if (m.checksum.verdict == ChecksumVerdict::good) {
       st.failures = 0;
     } else if (++st.failures >= st.redetect_after) {
@@ -654,6 +746,7 @@ void Pipeline::count_whole_telegram(ChannelState& st, const ByteRun& run,
   const TimeNs start = run.first;
   const TimeNs last_byte = run.time(run.size() - 1);
   const std::span<const std::uint8_t> bytes = run.bytes;
+  flush_events(start);
   pairer_.expire(start, transactions_);
   emit_transactions(transactions_);
   const ProtocolDecoder::PairingKeys keys = decoder.pairing_keys(bytes);
@@ -804,6 +897,8 @@ void Pipeline::finish(bool cut_partial) {
     if (st.framer) st.framer->finish(ready_);
   }
   handle_frames();
+  release_waiting(kNoneHeld);  // (what --count's limit or cut_partial left waiting)
+  flush_events(kNoneHeld);
   pairer_.finish(transactions_);
   emit_transactions(transactions_);
   summarise_drives();
