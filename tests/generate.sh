@@ -38,7 +38,7 @@ cmp -s "$work/a.pcapng" "$work/e.pcapng" || fail "generate -w differs from read 
 truth=$(cat "$work/a.json")
 total=$(grep '^"total"' <<<"$truth")
 [ "$(value frames "$total")" -ge $((frames * 9 / 10)) ] || fail "only $(value frames "$total") frames"
-for k in exceptions timeouts checksum_bad checksum_swapped noise_records parity_errors timing_rule; do
+for k in exceptions timeouts bad_replies checksum_bad checksum_swapped noise_records parity_errors timing_rule; do
   [ "$(value $k "$total")" -gt 0 ] || fail "truth: no $k injected"
 done
 bindings=()
@@ -56,6 +56,7 @@ for file in a.log a.pcapng; do
   check ok "$(value ok "$tx")" "$(value ok "$total")"
   check exceptions "$(value exception "$tx")" "$(value exceptions "$total")"
   check timeouts "$(value timeout "$tx")" "$(value timeouts "$total")"
+  check "bad replies" "$(value bad_reply "$tx")" "$(value bad_replies "$total")"
   check "noise records" "$(value noise_records "$s")" "$(value noise_records "$total")"
   check "noise bytes" "$(value noise_bytes "$s")" "$(value noise_bytes "$total")"
   check bytes "$(value bytes "$s")" "$(value bytes "$total")"
@@ -94,7 +95,7 @@ cmp -s "$work/p.pcapng" "$work/q.pcapng" || fail "generate --plain differs from 
   fail "--plain: $(stat -c %s "$work/p.pcapng") bytes, not under a third of $(stat -c %s "$work/a.pcapng")"
 rich=$("$drivetap" read --stats -T json "${bindings[@]}" "$work/a.pcapng" | grep -o '"summary".*')
 plain=$("$drivetap" read --stats -T json "${bindings[@]}" "$work/p.pcapng" | grep -o '"summary".*')
-for k in frames noise_records noise_bytes bytes good bad swapped total ok exception timeout \
+for k in frames noise_records noise_bytes bytes good bad swapped total ok exception timeout bad_reply \
   checksum_bad checksum_swapped unanswered_request timing_rule; do
   [ "$(value $k "$plain")" = "$(value $k "$rich")" ] ||
     fail "--plain: $k read back $(value $k "$plain"), from the full pcapng $(value $k "$rich")"
@@ -117,6 +118,25 @@ fi
 gen --mix modbus-rtu -o "$work/r.log" --truth "$work/r.json" || fail "generate --mix modbus-rtu exit $?"
 [ "$(grep -c '^{"channel"' "$work/r.json")" = 1 ] || fail "--mix modbus-rtu: more than one link"
 grep -v '^#' "$work/r.log" | grep -qv ' rtu ' && fail "--mix modbus-rtu: a line on another channel"
+
+# Time order across channels (issue 37 §6: 65 frames out of order in text and JSON, 66 negative
+# time deltas in the pcapng, from 3000 frames on four links, three of them detecting at first).
+"$drivetap" generate --frames 3000 -o "$work/o.log" -w "$work/o.pcapng" 2>/dev/null || fail "generate exit $?"
+# out_of_order: how many of the times on stdin (one a line) are earlier than the one before.
+out_of_order() { awk 'NR > 1 && $1 < last { n++ } { last = $1 } END { print n + 0 }'; }
+text=$("$drivetap" read "$work/o.log") || fail "read exit $?"
+times=$(grep -E '^ +[0-9]+ +-?[0-9]+\.[0-9]+ ' <<<"$text" | awk '{ print $2 }')
+[ "$(wc -l <<<"$times")" = 3000 ] || fail "order: $(wc -l <<<"$times") frame lines in the text, 3000 written"
+[ "$(out_of_order <<<"$times")" = 0 ] || fail "order: $(out_of_order <<<"$times") text frames out of time order"
+json=$("$drivetap" read -T json "$work/o.log") || fail "read -T json exit $?"
+times=$(grep -E '^\{"type":"(frame|noise|event)"' <<<"$json" | grep -o '"t":-\?[0-9.]*' | cut -d: -f2)
+[ "$(out_of_order <<<"$times")" = 0 ] || fail "order: $(out_of_order <<<"$times") JSON records out of time order"
+if command -v tshark >/dev/null; then
+  deltas=$(tshark -r "$work/o.pcapng" -T fields -e frame.time_delta 2>/dev/null)
+  [ "$(wc -l <<<"$deltas")" = 3000 ] || fail "order: tshark reads $(wc -l <<<"$deltas") packets, 3000 written"
+  negative=$(awk '$1 < 0' <<<"$deltas" | wc -l)
+  [ "$negative" = 0 ] || fail "order: $negative pcapng packets with a negative time delta (tshark)"
+fi
 
 # 3. Bad options: one line naming the option, exit 2.
 for args in "--frames 0" "--frames 12x" "--frames -5" "--seed abc" "--mix modbus" "--plain" ""; do

@@ -6,6 +6,7 @@
 # verdicts).
 # A capture that must fail (a damaged file) has expected.exit (the exit status) and
 # expected.stderr (the one-line error); what was decoded before the damage is still compared.
+# An input.hex is given to `drivetap decode -` on stdin instead (frames as pasted, one a line).
 #
 #   tests/golden.sh [--update-golden] [--drivetap BIN] CAPTURE_DIR...
 #   tests/golden.sh --update-golden --drivetap build/drivetap captures/*     # rewrite all
@@ -39,9 +40,11 @@ for dir in "${dirs[@]}"; do
   [ -f "$dir/expected.exit" ] && want_exit=$(cat "$dir/expected.exit")
   text_exit=0
   json_exit=0
-  (cd "$dir" && "$drivetap" read "${args[@]}" "$input" > "$tmp/text" 2> "$tmp/text.err") || text_exit=$?
-  (cd "$dir" && "$drivetap" read -T json "${args[@]}" "$input" > "$tmp/json" 2> "$tmp/json.err") || json_exit=$?
-  (cd "$dir" && "$drivetap" read --events "${args[@]}" "$input" > "$tmp/events" 2> /dev/null) || true
+  command=(read); operand="$input"
+  if [ "$input" = input.hex ]; then command=(decode); operand=-; fi
+  (cd "$dir" && "$drivetap" "${command[@]}" "${args[@]}" "$operand" < "$input" > "$tmp/text" 2> "$tmp/text.err") || text_exit=$?
+  (cd "$dir" && "$drivetap" "${command[@]}" -T json "${args[@]}" "$operand" < "$input" > "$tmp/json" 2> "$tmp/json.err") || json_exit=$?
+  (cd "$dir" && "$drivetap" "${command[@]}" --events "${args[@]}" "$operand" < "$input" > "$tmp/events" 2> /dev/null) || true
   kinds=(txt json events.txt)
   case "$input" in
     *.sr | *.vcd)

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Negative corpus (issue 37 §4): lines that carry no drive protocol — captures/negative-*/ (made by
-# scripts/make_negative_captures.py) and the public foreign-line recordings in captures/uart-more/
+# scripts/make_negative_captures.py) and the public foreign-line recordings in captures/foreign-*/
 # (sigrok-dumps, public domain) — must give no good drive telegram and bind no drive, whatever
 # line settings decode them. Checked from the JSON output: the summary's good_telegrams and
 # drives, every protocol_detected and drive_bound event.
@@ -18,8 +18,8 @@ check() {  # check LABEL FILE [OPTIONS...]
   shift 2
   runs=$((runs + 1))
   if ! "$drivetap" read -T json "$@" "$file" > "$tmp/out.json" 2> "$tmp/err.txt"; then
-    # A file drivetap cannot read (the MIDI recording's old session format) decodes nothing.
-    if [ -s "$tmp/out.json" ]; then :; else echo "note $label: not read ($(head -n 1 "$tmp/err.txt"))"; return 0; fi
+    # Every recording is readable (the MIDI one in sigrok 0.2's format too): a refusal fails.
+    if [ -s "$tmp/out.json" ]; then :; else echo "FAIL $label: not read ($(head -n 1 "$tmp/err.txt"))"; failed=1; return 0; fi
   fi
   if ! python3 - "$label" "$tmp/out.json" <<'PY'
 import json, sys
@@ -62,8 +62,8 @@ for dir in "$captures"/negative-*/; do
 done
 # The recordings, with the line detected from the samples and with settings forced (the rules
 # must hold whatever the line settings: the 9600 8N1 hello-world decodes as ASCII text then).
-for file in "$captures"/uart-more/*.sr; do
-  name=$(basename "$file" .sr)
+for file in "$captures"/foreign-*/input.sr; do
+  name=$(basename "$(dirname "$file")")
   check "$name" "$file"
   for settings in "9600 8N1" "9600 8E1" "19200 8N1" "115200 8E1" "250000 8N2"; do
     check "$name -s '$settings'" "$file" -s "$settings"

@@ -420,3 +420,68 @@ TEST(Pairer, MessagesWithoutDirectionAreIgnored) {
   EXPECT_TRUE(out.empty());
   EXPECT_TRUE(p.awaiting_reply(0, 1, 0x03, 21 * kMs));
 }
+
+// Issue 37 §6: a reply with a bad checksum was counted an `ok` transaction.
+TEST(Pairer, BadChecksumReplyIsBadReplyNotOk) {
+  Pairer p(options());
+  std::vector<Transaction> out;
+  Message q = request(1, 0x03, 0, 1);
+  q.checksum.verdict = ChecksumVerdict::good;
+  p.add(0, q, out);
+  Message r = response(1, 0x03, request_end(0) + 4 * kMs, 2);
+  r.checksum.verdict = ChecksumVerdict::bad;
+  p.add(0, r, out);
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].outcome, Outcome::bad_reply);
+  EXPECT_EQ(outcome_id(out[0].outcome), "bad_reply");
+  // It still answers its request: the request is closed and the latency measured.
+  EXPECT_EQ(out[0].request_number, 1u);
+  EXPECT_EQ(out[0].latency, 4 * kMs);
+  EXPECT_FALSE(p.awaiting_reply(0, 1, 0x03, request_end(0) + 5 * kMs));
+  // A corrupted exception reply is a bad reply too; a swapped CRC (data intact) is not.
+  Message q2 = request(1, 0x03, 100 * kMs, 3);
+  p.add(0, q2, out);
+  Message e = response(1, 0x83, request_end(100 * kMs) + 2 * kMs, 4);
+  e.checksum.verdict = ChecksumVerdict::bad;
+  p.add(0, e, out);
+  Message q3 = request(1, 0x03, 200 * kMs, 5);
+  p.add(0, q3, out);
+  Message s = response(1, 0x03, request_end(200 * kMs) + 2 * kMs, 6);
+  s.checksum.verdict = ChecksumVerdict::swapped;
+  p.add(0, s, out);
+  ASSERT_EQ(out.size(), 3u);
+  EXPECT_EQ(out[1].outcome, Outcome::bad_reply);
+  EXPECT_EQ(out[2].outcome, Outcome::ok);
+}
+
+// Issue 37 §6: `drivetap decode` has no clock (its times are made up), yet a lone request was
+// reported `timeout` ("capture ended before a reply"), and two requests in a row "no reply before
+// the next request". Unclocked, requests are never closed as unanswered; replies still pair.
+TEST(Pairer, UnclockedDecodeNeverReportsUnanswered) {
+  PairerOptions o = options(10 * kMs);
+  o.clocked = false;
+  Pairer p(o);
+  std::vector<Transaction> out;
+  Message q1 = request(1, 0x03, 0, 1);
+  p.add(0, q1, out);
+  Message q2 = request(2, 0x03, 500 * kMs, 2);  // far past the 10 ms timeout, and a new request
+  p.add(0, q2, out);
+  p.expire(2000 * kMs, out);
+  EXPECT_TRUE(out.empty());
+  Message r = response(2, 0x03, 3000 * kMs, 3);
+  p.add(0, r, out);
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].outcome, Outcome::ok);
+  EXPECT_EQ(out[0].request_number, 2u);
+  p.finish(out);
+  EXPECT_EQ(out.size(), 1u) << "a request left at the end is not reported";
+  // The same with a clock: both requests are reported.
+  Pairer clocked(options(10 * kMs));
+  std::vector<Transaction> timed;
+  clocked.add(0, q1, timed);
+  clocked.add(0, q2, timed);
+  clocked.finish(timed);
+  ASSERT_EQ(timed.size(), 2u);
+  EXPECT_EQ(timed[0].outcome, Outcome::timeout);
+  EXPECT_EQ(timed[1].outcome, Outcome::timeout);
+}

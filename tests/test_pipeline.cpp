@@ -802,3 +802,96 @@ TEST(Pipeline, BeginMessageTakesItsOwnFrameAsItIs) {
   EXPECT_EQ(m.frame.events.size(), 2u);
   EXPECT_EQ(m.bytes, (std::vector<std::uint8_t>{0x01, 0x03}));
 }
+
+// Issue 37 §6: `decode "01 03 00 00 00 01 84 0A | 01 03 02 00 2A 38 5B"` counted the reply with a
+// bad CRC as an `ok` transaction; it is a `bad_reply`, in the transactions, the summary counts
+// and the frame's text line.
+TEST(Pipeline, BadChecksumReplyIsABadReplyTransaction) {
+  Bus b;
+  auto bad = kReadRsp;
+  bad[bad.size() - 1] ^= 0x40;   // the CRC's high byte changed
+  for (int i = 0; i < 3; ++i) {  // (good exchanges first: detection needs three good telegrams)
+    b.send(kReadReq, 5 * kNsPerMs);
+    b.send(kReadRsp);
+  }
+  b.send(kReadReq, 5 * kNsPerMs);
+  b.send(bad);
+  b.finish();
+  ASSERT_EQ(b.sink.transactions.size(), 4u);
+  EXPECT_EQ(b.sink.transactions[3].outcome, Outcome::bad_reply);
+  EXPECT_EQ(b.sink.transactions[3].request_number, 7u);
+  EXPECT_EQ(b.sink.transactions[3].latency, 5 * kNsPerMs);
+  const Stats& s = b.pipeline->stats();
+  EXPECT_EQ(s.outcomes[static_cast<std::size_t>(Outcome::ok)], 3u);
+  EXPECT_EQ(s.outcomes[static_cast<std::size_t>(Outcome::bad_reply)], 1u);
+  ASSERT_EQ(b.sink.frames.size(), 8u);
+  EXPECT_NE(frame_summary(b.sink.frames[7], true).find("bad reply to #7 in 5.000 ms"),
+            std::string::npos)
+      << frame_summary(b.sink.frames[7], true);
+  EXPECT_NE(frame_summary(b.sink.frames[5], true).find("  reply to #5"), std::string::npos);
+}
+
+namespace {
+// The frames' first bytes, in the order the sink got them.
+std::vector<TimeNs> frame_starts(const RecordingSink& sink) {
+  std::vector<TimeNs> starts;
+  for (const Message& m : sink.frames) starts.push_back(m.frame.start());
+  return starts;
+}
+}  // namespace
+
+// Issue 37 §6: with several channels, the frames of a channel still detecting its protocol came
+// out after later frames of a channel that had decided (`generate --frames 3000`: 65 frames out
+// of time order). Frames now wait in the reorder stage while another channel holds bytes.
+TEST(Pipeline, FramesOfADetectingChannelComeOutInTimeOrder) {
+  Bus b;
+  const ChannelId eds = b.channels.intern("x");  // a bus of its own
+  const std::string text = "~010C00010FA0027C\r";
+  const std::vector<std::uint8_t> eds_frame(text.begin(), text.end());
+  // Modbus RTU on channel 0 and Easydrive on x, interleaved: x's frames start between channel
+  // 0's, and x detects later (its telegrams are longer and fewer).
+  for (int i = 0; i < 12; ++i) {
+    const TimeNs at = b.clock;
+    b.send(kReadReq, 5 * kNsPerMs);
+    b.send(kReadRsp, 5 * kNsPerMs);
+    b.clock = at + 3 * kNsPerMs;
+    b.send(eds_frame, 0, eds);
+    b.clock = std::max(b.clock, at + 60 * kNsPerMs);
+  }
+  b.finish();
+  const std::vector<TimeNs> starts = frame_starts(b.sink);
+  ASSERT_EQ(starts.size(), 36u);
+  EXPECT_TRUE(std::is_sorted(starts.begin(), starts.end()));
+  for (std::size_t i = 0; i < b.sink.frames.size(); ++i)
+    EXPECT_EQ(b.sink.frames[i].frame.number, i + 1) << "frame numbers follow the time order";
+  // Channel 0's replies pair with its requests, x's frames in between notwithstanding.
+  EXPECT_EQ(b.sink.count(Outcome::ok), 12u);
+  EXPECT_EQ(std::count_if(b.sink.frames.begin(), b.sink.frames.end(),
+                          [&](const Message& m) { return m.frame.channel == eds; }),
+            12);
+}
+
+// The hold is bounded: a channel that holds a byte for detection and then goes quiet holds the
+// other channels' frames back for kDetectHold (1 s) at most, not until the end of the capture;
+// without evidence by then it goes on listening without holding them.
+TEST(Pipeline, DetectionHoldsOtherChannelsOneSecondAtMost) {
+  Bus b;
+  const ChannelId quiet = b.channels.intern("x");
+  b.pipeline->push({0, 0x55, 0, quiet});  // one stray byte, then nothing on x
+  b.clock = 1 * kNsPerMs;
+  for (int i = 0; i < 40; ++i) {  // 40 exchanges, 2 s
+    b.send(kReadReq, 5 * kNsPerMs);
+    b.send(kReadRsp, 5 * kNsPerMs);
+    b.clock += 25 * kNsPerMs;
+  }
+  // Before finish(): x had no evidence at its deadline, so it stopped holding the others back:
+  // the frames of the first second came out, in order. x goes on listening.
+  ASSERT_GE(b.sink.frames.size(), 60u);
+  const std::vector<TimeNs> starts = frame_starts(b.sink);
+  EXPECT_TRUE(std::is_sorted(starts.begin(), starts.end()));
+  EXPECT_TRUE(b.sink.noise.empty());
+  b.finish();
+  EXPECT_EQ(b.sink.frames.size(), 80u);
+  ASSERT_EQ(b.sink.noise.size(), 1u);  // x's byte, when its detection ends
+  EXPECT_EQ(b.sink.noise[0].channel, quiet);
+}

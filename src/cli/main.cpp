@@ -541,6 +541,8 @@ int run_decode(const CommonOptions& o, const std::vector<std::string>& args) {
   PipelineOptions p = make_pipeline_options(o, RunSettings{});
   // The frames are the ones the user typed: one good telegram tells their protocol.
   p.detect_min_good = 1;
+  // The times below are made up: no timeout, no unanswered request, no timing rule is reported.
+  p.clocked = false;
   // Frames given separately are laid out with a clean silence between them; bytes run together
   // in one frame text are back to back and get split by content.
   const TimeNs gap = std::max<TimeNs>(p.timing.t35 * 4, 20 * kNsPerMs);

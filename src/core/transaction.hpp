@@ -1,6 +1,7 @@
 // Transaction: a request paired with its response on a half-duplex link (PROTOCOLS.md §1, §2).
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <string>
 
@@ -16,7 +17,9 @@ enum class Outcome : std::uint8_t {
   timeout,      // no response within the timeout, or the master moved on
   broadcast,    // address 0: no response expected
   unsolicited,  // a response with no request waiting for it
+  bad_reply,    // a response to a waiting request, its checksum bad: the master cannot use it
 };
+inline constexpr std::size_t kOutcomeCount = 6;
 
 std::string_view outcome_id(Outcome o);
 

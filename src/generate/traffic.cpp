@@ -788,6 +788,7 @@ void Counts::add(const Record& r) {
   exceptions += r.exception;
   checksum_bad += r.checksum == ChecksumVerdict::bad;
   checksum_swapped += r.checksum == ChecksumVerdict::swapped;
+  bad_replies += r.kind == RecordKind::reply && r.checksum == ChecksumVerdict::bad;
 }
 
 Counts& Counts::operator+=(const Counts& o) {
@@ -797,6 +798,7 @@ Counts& Counts::operator+=(const Counts& o) {
   exceptions += o.exceptions;
   checksum_bad += o.checksum_bad;
   checksum_swapped += o.checksum_swapped;
+  bad_replies += o.bad_replies;
   noise_records += o.noise_records;
   noise_bytes += o.noise_bytes;
   parity_errors += o.parity_errors;
@@ -863,11 +865,11 @@ namespace {
 std::string counts_json(const Counts& c) {
   return fmt::format(
       "\"frames\":{},\"requests\":{},\"replies\":{},\"ok\":{},\"exceptions\":{},\"timeouts\":{},"
-      "\"checksum_bad\":{},\"checksum_swapped\":{},\"noise_records\":{},\"noise_bytes\":{},"
-      "\"parity_errors\":{},\"timing_rule\":{},\"bytes\":{}",
-      c.frames, c.requests, c.replies, c.replies - c.exceptions, c.exceptions, c.timeouts(),
-      c.checksum_bad, c.checksum_swapped, c.noise_records, c.noise_bytes, c.parity_errors,
-      c.timing_rule, c.bytes);
+      "\"bad_replies\":{},\"checksum_bad\":{},\"checksum_swapped\":{},\"noise_records\":{},"
+      "\"noise_bytes\":{},\"parity_errors\":{},\"timing_rule\":{},\"bytes\":{}",
+      c.frames, c.requests, c.replies, c.replies - c.exceptions - c.bad_replies, c.exceptions,
+      c.timeouts(), c.bad_replies, c.checksum_bad, c.checksum_swapped, c.noise_records,
+      c.noise_bytes, c.parity_errors, c.timing_rule, c.bytes);
 }
 }  // namespace
 

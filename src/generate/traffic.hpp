@@ -62,6 +62,7 @@ struct Record {
 struct Counts {
   std::uint64_t frames = 0, requests = 0, replies = 0, exceptions = 0;
   std::uint64_t checksum_bad = 0, checksum_swapped = 0;
+  std::uint64_t bad_replies = 0;  // replies with a bad checksum: the `bad_reply` outcome
   std::uint64_t noise_records = 0, noise_bytes = 0, parity_errors = 0, timing_rule = 0;
   std::uint64_t bytes = 0;
   // Every reply answers one request, and there are no broadcasts: the rest went unanswered.

@@ -251,21 +251,23 @@ void bus_findings(const LineEvidence& e, std::vector<Verdict>& out) {
                        }),
                    "a second master on the bus, a request the tap missed, or a reply after the "
                    "master had given up (raise the master's timeout)"});
-  const std::uint64_t malformed = e.findings[static_cast<std::size_t>(AnomalyKind::malformed)] +
-                                  e.findings[static_cast<std::size_t>(AnomalyKind::implausible)];
+  std::uint64_t malformed = 0;  // on frames without a UART error
+  for (const auto& [address, station] : e.stations) malformed += station.malformed;
   if (malformed > 0)
-    out.push_back({"malformed-frames", "Frames that break their protocol's rules",
-                   fmt::format("{} frames ({} malformed, {} implausible); {}", malformed,
-                               e.findings[static_cast<std::size_t>(AnomalyKind::malformed)],
-                               e.findings[static_cast<std::size_t>(AnomalyKind::implausible)],
-                               per_station(
-                                   e, [](const S& s) { return s.malformed; },
-                                   [](const S& s) {
-                                     return fmt::format("{} frame{}", s.malformed,
-                                                        s.malformed == 1 ? "" : "s");
-                                   })),
-                   "a device speaking another protocol or dialect at these settings (see the "
-                   "protocol detection), or bytes lost or merged by the capture"});
+    out.push_back(
+        {"malformed-frames", "Frames that break their protocol's rules",
+         fmt::format("{} frames without a UART error ({} malformed, {} implausible in "
+                     "all); {}",
+                     malformed, e.findings[static_cast<std::size_t>(AnomalyKind::malformed)],
+                     e.findings[static_cast<std::size_t>(AnomalyKind::implausible)],
+                     per_station(
+                         e, [](const S& s) { return s.malformed; },
+                         [](const S& s) {
+                           return fmt::format("{} frame{}", s.malformed,
+                                              s.malformed == 1 ? "" : "s");
+                         })),
+         "a device speaking another protocol or dialect at these settings (see the "
+         "protocol detection), or bytes lost or merged by the capture"});
   const std::uint64_t clean_noise = e.noise_records - e.flagged_noise_records;
   if (e.findings[static_cast<std::size_t>(AnomalyKind::noise)] > 0 &&
       clean_noise > e.release_noise_records)
@@ -337,8 +339,8 @@ const std::array<FindingCoverage, kAnomalyKindCount> kFindingCoverage = {{
     {AnomalyKind::intra_frame_gap, "timing-t15"},
     {AnomalyKind::short_interframe_gap, "timing-t35"},
     {AnomalyKind::noise, "stray-bytes noise unbiased-bus"},
-    {AnomalyKind::malformed, "malformed-frames"},
-    {AnomalyKind::implausible, "malformed-frames"},
+    {AnomalyKind::malformed, "malformed-frames noise"},
+    {AnomalyKind::implausible, "malformed-frames noise"},
     {AnomalyKind::unanswered_request, "timeouts"},
     {AnomalyKind::unsolicited_response, "unsolicited-replies"},
     {AnomalyKind::uart_framing, "noise unbiased-bus inverted-line"},
@@ -442,6 +444,7 @@ void DiagnosisSink::on_frame(const Message& m) {
   ++evidence_.frames;
   last_frame_ = m.frame.number;
   last_address_ = m.address;
+  last_clean_ = !m.frame.events.any_flags();
   LineEvidence::Station& station = evidence_.stations[m.address];
   ++station.frames;
   const ChecksumVerdict verdict = m.checksum.verdict;
@@ -506,7 +509,8 @@ void DiagnosisSink::on_anomaly(const Anomaly& a) {
   switch (a.kind) {
     case AnomalyKind::malformed:
     case AnomalyKind::implausible:
-      ++evidence_.stations[address].malformed;
+      // A frame damaged on the line breaks its rules because of the damage (the noise verdict).
+      if (a.frame_number != last_frame_ || last_clean_) ++evidence_.stations[address].malformed;
       break;
     case AnomalyKind::intra_frame_gap:
       ++evidence_.intra_frame_gaps;

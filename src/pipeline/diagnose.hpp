@@ -137,6 +137,7 @@ class DiagnosisSink final : public Sink {
   // The frame the anomalies that follow belong to ("anomalies of a frame arrive right after it").
   std::uint64_t last_frame_ = 0;
   int last_address_ = -1;
+  bool last_clean_ = true;  // no byte of it with a UART error
 };
 
 // A whole diagnosis: the source (read_header() done) through the pipeline, nothing printed.

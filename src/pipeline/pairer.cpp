@@ -18,6 +18,8 @@ std::string_view outcome_id(Outcome o) {
       return "broadcast";
     case Outcome::unsolicited:
       return "unsolicited";
+    case Outcome::bad_reply:
+      return "bad_reply";
   }
   return "ok";
 }
@@ -62,6 +64,7 @@ void Pairer::remove_pending(Drop&& drop) {
 }
 
 void Pairer::close_unanswered(const Pending& p, std::string detail, std::vector<Transaction>& out) {
+  if (!options_.clocked) return;  // (no clock: not known to be unanswered, see PairerOptions)
   Transaction t;
   t.outcome = Outcome::timeout;
   t.protocol = p.protocol;
@@ -182,7 +185,11 @@ PairingResult Pairer::add(std::size_t link, const PairingInput& m, std::vector<T
       return false;
     });
     Transaction& t = transaction();
-    t.outcome = m.is_exception ? Outcome::exception : Outcome::ok;
+    // A reply the master cannot trust (its checksum bad) ends the request but is no answer: not
+    // `ok`, and not `exception` either, whatever its corrupted function code says.
+    t.outcome = m.verdict == ChecksumVerdict::bad ? Outcome::bad_reply
+                : m.is_exception                  ? Outcome::exception
+                                                  : Outcome::ok;
     t.channel = channel;
     t.request_number = found.request_number;
     t.request_time = request_time;

@@ -4,11 +4,13 @@
 // same address and function (exception bit ignored). It ends as `timeout` when the timeout passes,
 // or when the master sends another request first (a single-master bus has one request in
 // flight). Address 0 is a broadcast: no reply expected. A response with no request waiting is
-// `unsolicited`. Latency = end of request's last character -> start of the response.
+// `unsolicited`. A reply with a bad checksum pairs as usual but is `bad_reply`. Latency = end of
+// request's last character -> start of the response.
 #pragma once
 
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <span>
 #include <vector>
 
@@ -21,12 +23,17 @@ struct PairerOptions {
   TimeNs timeout = 1 * kNsPerSecond;
   TimeNs character_time = 0;     // to compute where a request ends
   std::size_t max_pending = 64;  // bound on requests in flight per link (hostile input)
+  // False when the times are synthetic (`drivetap decode` lays pasted frames out 20 ms apart): no
+  // request ever times out, and one left without a reply is dropped, not reported `timeout`,
+  // since nothing tells how long the bus really waited.
+  bool clocked = true;
 };
 
 // What pairing reads of a decoded telegram: its head (which the drive level reads too: the
 // pipeline's summary lane fills one for both) and its function. A Message holds it all
 // (pairing_input()); the summary lane, which makes no Message, fills it from the frame it took
-// whole. Pairing reads neither the head's checksum verdict nor its latency.
+// whole. Pairing reads the head's checksum verdict (a reply with a bad one is `bad_reply`), not its
+// latency.
 struct PairingInput : TelegramHead {
   int function = -1;
   bool is_exception = false;
@@ -43,7 +50,9 @@ struct PairingResult {
 
 class Pairer {
  public:
-  explicit Pairer(PairerOptions options) : options_(options) {}
+  explicit Pairer(PairerOptions options) : options_(options) {
+    if (!options_.clocked) options_.timeout = std::numeric_limits<TimeNs>::max();
+  }
 
   // Is a request from `address`/`function` on `link` still waiting for its reply at time `at`?
   [[nodiscard]] bool awaiting_reply(std::size_t link, int address, int function, TimeNs at) const;

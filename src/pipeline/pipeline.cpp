@@ -20,6 +20,16 @@ constexpr std::size_t kDetectEvery = 128;      // re-evaluate after this many mo
 constexpr int kDetectGoodFrames = 3;           // never decide on one lucky checksum
 constexpr int kRedetectFailures = 8;           // bad telegrams/noise in a row: the bus changed?
 constexpr int kMaxRedetectFailures = 8 << 12;  // the back-off's ceiling on a line of noise
+// Detection decides at the latest this long after the first byte it holds (on the evidence so
+// far): frames of other channels wait for it (README "Order of the output").
+constexpr TimeNs kDetectHold = 1 * kNsPerSecond;
+// The reorder stage's bounds: a closed frame waits at most this long (bus time, after the latest
+// byte seen) or behind this many others for an earlier frame of another channel; past them it is
+// handed on, even if an earlier frame comes later (an open frame held longer than its framer's
+// own bounds: a line without silence). Memory: the frames of kMaxReorderHold of traffic.
+constexpr TimeNs kMaxReorderHold = 2 * kNsPerSecond;
+constexpr std::size_t kMaxWaitingFrames = std::size_t{1} << 16;
+constexpr TimeNs kNoneHeld = std::numeric_limits<TimeNs>::max();
 constexpr Protocol kCandidates[] = {Protocol::modbus_rtu, Protocol::modbus_ascii,
                                     Protocol::danfoss_fc, Protocol::easydrive};
 
@@ -69,8 +79,22 @@ struct Pipeline::ChannelState {
   const ProtocolDecoder* decoder = nullptr;
   std::unique_ptr<Framer> framer;
   bool auto_protocol = false;
-  std::vector<ByteEvent> held;   // bytes waiting for detection (bounded by kDetectBytes)
-  std::size_t evaluated_at = 0;  // held.size() at the last evaluation
+  std::vector<ByteEvent> held;  // bytes waiting for detection (bounded by kDetectBytes)
+  // The first byte taken (held for detection or handed to the framer) that is in no emitted frame
+  // yet, or a lower bound of it; kNoneHeld when there is none. No frame of the channel can start
+  // earlier: frames of other channels that do wait (the reorder stage).
+  TimeNs unframed_from = kNoneHeld;
+  // Detection had too little evidence at its deadline (kDetectHold): it goes on listening (to
+  // kDetectBytes or the end) but no longer holds the other channels' frames back.
+  bool detection_overdue = false;
+
+  // Whether a frame cut by `d` counts towards re-detection: in "auto" mode, when the channel still
+  // uses that decoder (a frame that waited in the reorder stage may come after its channel
+  // started detecting afresh).
+  [[nodiscard]] bool detection_reads(const ProtocolDecoder& d) const {
+    return auto_protocol && decoder == &d;
+  }
+  std::size_t evaluated_at = 0;                // held.size() at the last evaluation
   std::vector<DetectionCandidate> candidates;  // while detecting: one per protocol
   int failures = 0;  // consecutive bad telegrams / noise since the last good one
   // Failures in a row that start detection afresh. Each detection that finds no clear protocol
@@ -94,7 +118,8 @@ Pipeline::Pipeline(PipelineOptions options, const ChannelTable& channels, Sink& 
     : options_(options),
       channels_(channels),
       sink_(sink),
-      pairer_(PairerOptions{options.reply_timeout, options.timing.character_time, 64}),
+      pairer_(
+          PairerOptions{options.reply_timeout, options.timing.character_time, 64, options.clocked}),
       earliest_deadline_(std::numeric_limits<TimeNs>::max()),
       binder_(options.auto_candidates) {
   message_.detail = sink.wants_detail();
@@ -143,10 +168,20 @@ Pipeline::ChannelState& Pipeline::state_for(ChannelId id) {
 void Pipeline::advance_all(TimeNs now) {
   if (now < earliest_deadline_) return;
   earliest_deadline_ = std::numeric_limits<TimeNs>::max();
-  for (auto& s : states_) {
-    if (!s->framer) continue;  // still detecting
-    s->framer->advance(now, ready_);
-    earliest_deadline_ = std::min(earliest_deadline_, s->framer->next_deadline());
+  for (std::size_t i = 0; i < states_.size(); ++i) {
+    ChannelState& s = *states_[i];
+    if (!s.framer) {  // detecting: by kDetectHold after its first byte it decides if it can
+      if (s.held.empty() || s.detection_overdue) continue;
+      const TimeNs due = s.held.front().time + kDetectHold;
+      if (now < due) {
+        earliest_deadline_ = std::min(earliest_deadline_, due);
+        continue;
+      }
+      detect(s, static_cast<ChannelId>(i), now, false, true);
+      if (!s.framer) continue;  // still listening (overdue), or an IP flow left out
+    }
+    s.framer->advance(now, ready_);
+    earliest_deadline_ = std::min(earliest_deadline_, s.framer->next_deadline());
   }
   handle_frames();
 }
@@ -178,9 +213,11 @@ void Pipeline::frame_byte(ChannelState& st, const ByteEvent& e) {
     return;
   }
   if (st.redetect) start_detection(st);
+  if (st.unframed_from == kNoneHeld) st.unframed_from = e.time;
   if (!st.framer) {
+    if (st.held.empty()) earliest_deadline_ = std::min(earliest_deadline_, e.time + kDetectHold);
     st.held.push_back(e);
-    detect(st, e.channel, false);
+    detect(st, e.channel, e.time, false);
     if (!ready_.empty()) handle_frames();
     return;
   }
@@ -197,9 +234,14 @@ const ProtocolDecoder* Pipeline::precheck_decoder_of(ChannelId channel) const {
 
 inline TimeNs Pipeline::deadline_of_others(ChannelId channel) const {
   TimeNs earliest = std::numeric_limits<TimeNs>::max();
-  for (std::size_t i = 0; i < states_.size(); ++i)
-    if (i != channel && states_[i]->framer)
-      earliest = std::min(earliest, states_[i]->framer->next_deadline());
+  for (std::size_t i = 0; i < states_.size(); ++i) {
+    if (i == channel) continue;
+    const ChannelState& s = *states_[i];
+    if (s.framer)
+      earliest = std::min(earliest, s.framer->next_deadline());
+    else if (!s.held.empty() && !s.detection_overdue)  // (detection's deadline, advance_all())
+      earliest = std::min(earliest, s.held.front().time + kDetectHold);
+  }
   return earliest;
 }
 
@@ -234,8 +276,10 @@ void Pipeline::push_batch(std::span<const ByteEvent> events) {
       ++i;
     }
     if (i == run_begin) continue;
-    st.framer->push_all(as_given ? events.subspan(run_begin, i - run_begin) : std::span(run_),
-                        ready_);
+    const std::span<const ByteEvent> taken =
+        as_given ? events.subspan(run_begin, i - run_begin) : std::span(run_);
+    if (st.unframed_from == kNoneHeld) st.unframed_from = taken.front().time;
+    st.framer->push_all(taken, ready_);
     earliest_deadline_ = std::min(earliest_deadline_, st.framer->next_deadline());
     if (!ready_.empty()) handle_frames();
   }
@@ -287,7 +331,8 @@ inline bool Pipeline::push_chunk(const ByteRun& run, TimeNs next_time,
       deadline_of_others(run.channel) == std::numeric_limits<TimeNs>::max()) {
     // A sink that takes no records, or decodes them itself, has the frame counted, not decoded
     // here (ready_ is empty: the frame would be handled alone).
-    const bool counted = summary_lane_ && ready_.empty();
+    // (Frames waiting start earlier: they go first, through the reorder stage.)
+    const bool counted = summary_lane_ && ready_.empty() && waiting_.empty();
     // The run's precheck is used only when the channel's decoder made it (TelegramPrecheck).
     if (precheck && precheck->decoder != st.decoder) precheck = nullptr;
     Framer::ChunkFrame taken;
@@ -346,6 +391,7 @@ std::size_t Pipeline::take_quietly(const ByteRun& run, std::size_t i, TimeNs cha
     take = std::min<std::size_t>(take, static_cast<std::size_t>(before));
   }
   if (take == 0) return 0;
+  if (st.unframed_from == kNoneHeld) st.unframed_from = rest.first;
   st.framer->push_run(rest.part(0, take), ready_);
   note_taken(st, rest.event(take - 1));
   earliest_deadline_ = std::min(earliest_deadline_, st.framer->next_deadline());
@@ -397,11 +443,13 @@ void Pipeline::start_detection(ChannelState& st) {
   st.failures = 0;
   st.evaluated_at = 0;
   st.candidates.clear();
+  st.detection_overdue = false;
 }
 
-void Pipeline::detect(ChannelState& st, ChannelId channel, bool final) {
+void Pipeline::detect(ChannelState& st, ChannelId channel, TimeNs now, bool final, bool deadline) {
   if (st.held.empty()) return;
-  if (!final && st.held.size() < kDetectBytes && st.held.size() - st.evaluated_at < kDetectEvery)
+  if (!final && !deadline && st.held.size() < kDetectBytes &&
+      st.held.size() - st.evaluated_at < kDetectEvery)
     return;
   if (st.candidates.empty())
     for (Protocol p : kCandidates) {
@@ -429,10 +477,18 @@ void Pipeline::detect(ChannelState& st, ChannelId channel, bool final) {
     }
   }
   const bool clear = best->good >= kDetectGoodFrames && best->good > 2 * second->good;
-  if (!clear && !last_chance) return;
   // Several good telegrams (checksum and plausibility) decide, never one lucky checksum; on a
   // line that carries both directions, high confidence also wants a request answered.
   const bool found = clear || (best->good >= options_.detect_min_good && best->good > second->good);
+  if (!clear && !last_chance) {
+    // At the deadline the evidence so far decides if it can; else listening goes on (a flow
+    // polled once a second has one telegram by then) without holding up the other channels.
+    if (!deadline) return;
+    if (!found) {
+      st.detection_overdue = true;
+      return;
+    }
+  }
   const bool both_ways = st.role == ChannelRole::bus && options_.detect_min_good > 1;
   const char* confidence =
       !found ? "none"
@@ -442,6 +498,7 @@ void Pipeline::detect(ChannelState& st, ChannelId channel, bool final) {
   st.redetect_after =
       clear ? kRedetectFailures : std::min(st.redetect_after * 2, kMaxRedetectFailures);
   st.candidates.clear();
+  st.detection_overdue = false;
   BusEvent ev;
   ev.time = st.held.front().time;
   ev.channel = channel;
@@ -461,11 +518,20 @@ void Pipeline::detect(ChannelState& st, ChannelId channel, bool final) {
         "no drive protocol: {} (good telegrams, checksum and plausibility: {}){}",
         describe_line(st.held), evidence, st.ip_flow ? "; the flow is left out of the decode" : "");
   }
-  sink_.on_event(ev);
+  // Handed on just before the channel's first frame (which starts at ev.time), in time order with
+  // the frames of other channels.
+  // (Events of one time go in channel order, as frames do.)
+  pending_events_.insert(std::upper_bound(pending_events_.begin(), pending_events_.end(), ev,
+                                          [](const BusEvent& a, const BusEvent& b) {
+                                            return a.time != b.time ? a.time < b.time
+                                                                    : a.channel < b.channel;
+                                          }),
+                         std::move(ev));
   if (!found && st.ip_flow) {
     st.left_out = true;
     st.left_out_bytes += st.held.size();
     st.held.clear();
+    st.unframed_from = kNoneHeld;  // holds nothing back any more
     return;
   }
   const ProtocolDecoder* chosen = found ? best->decoder : decoder_for(Protocol::modbus_rtu);
@@ -474,8 +540,10 @@ void Pipeline::detect(ChannelState& st, ChannelId channel, bool final) {
   std::vector<ByteEvent> held;
   held.swap(st.held);
   st.framer->push_all(held, ready_);
-  // Time has moved on while the bytes were held: let silence close what it closed meanwhile.
-  st.framer->advance(latest_time_, ready_);
+  // Time has moved on while the bytes were held: let silence close what it closed meanwhile. Up
+  // to `now`, what this channel's byte or the clock says, not the latest byte of any channel: a
+  // source that gives a packet at a time (pcapng) has another channel's packet ahead already.
+  st.framer->advance(now, ready_);
   earliest_deadline_ = std::min(earliest_deadline_, st.framer->next_deadline());
 }
 
@@ -492,23 +560,78 @@ void Pipeline::handle_frames() {
   if (ready_.empty()) return;
   // Frames closed together (several channels) go out in order of their first byte. One
   // channel's come in order already: checking is cheaper than a stable sort's buffer and moves.
-  const auto earlier = [](const Frame& a, const Frame& b) { return a.start() < b.start(); };
+  // (Frames that start together, as on the two wires of one pair, go in channel order: the same
+  // order whatever closed them first, so a pcapng written and read back gives the same output.)
+  const auto earlier = [](const Frame& a, const Frame& b) {
+    return a.start() != b.start() ? a.start() < b.start() : a.channel < b.channel;
+  };
   if (!std::is_sorted(ready_.begin(), ready_.end(), earlier))
     std::stable_sort(ready_.begin(), ready_.end(), earlier);
+  for (const Frame& f : ready_) note_framed(f);
+  const TimeNs watermark = output_watermark();
+  // (A frame that starts where another channel still holds bytes waits too: the other may close
+  // one that starts with it and goes first, in channel order.)
+  if (!waiting_.empty() || ready_.back().start() >= watermark) {
+    // Another channel may still close an earlier frame: these wait for it (the reorder stage).
+    for (Frame& f : ready_) waiting_.push(f, states_[f.channel]->decoder);
+    ready_.clear();
+    release_waiting(watermark);
+    return;
+  }
   // Nested calls (none today) would get a batch of their own rather than clobber this one.
   FrameBatch nested;
   FrameBatch& batch = in_batch_ ? nested : batch_;
   const bool outer = !in_batch_;
   in_batch_ = true;
   batch.swap(ready_);
-  for (Frame& f : batch) {
-    if (options_.max_frames > 0 && stats_.frames >= options_.max_frames) break;
-    handle_frame(f);
-  }
+  for (Frame& f : batch) handle_in_order(f, *states_[f.channel]->decoder);
   // The frames keep their storage (a telegram's slot holds the previous one of message_) for
   // the frames the framers build in them next.
   batch.clear();
   if (outer) in_batch_ = false;
+}
+
+void Pipeline::note_framed(const Frame& frame) {
+  ChannelState& st = *states_[frame.channel];
+  // A framer with nothing pending holds no byte; otherwise what it holds follows this frame.
+  st.unframed_from = st.framer && st.framer->next_deadline() != std::numeric_limits<TimeNs>::max()
+                         ? frame.events.back_time() + 1
+                         : kNoneHeld;
+}
+
+TimeNs Pipeline::output_watermark() const {
+  TimeNs earliest = kNoneHeld;
+  for (const auto& s : states_)
+    if (!s->detection_overdue) earliest = std::min(earliest, s->unframed_from);
+  return earliest;
+}
+
+void Pipeline::release_waiting(TimeNs watermark) {
+  while (!waiting_.empty()) {
+    FrameQueue::Slot& slot = waiting_.front();
+    const TimeNs start = slot.frame.start();
+    if (start >= watermark && waiting_.size() <= kMaxWaitingFrames &&
+        latest_time_ - start <= kMaxReorderHold)
+      break;
+    handle_in_order(slot.frame, *slot.decoder);
+    waiting_.pop();
+  }
+  if (waiting_.empty()) flush_events(watermark);
+}
+
+void Pipeline::handle_in_order(Frame& frame, const ProtocolDecoder& decoder) {
+  // (Past --count's limit the frames are dropped: `capture -c N` gets exactly N.)
+  if (options_.max_frames > 0 && stats_.frames >= options_.max_frames) return;
+  flush_events(frame.start());
+  handle_frame(frame, decoder);
+}
+
+void Pipeline::flush_some_events(TimeNs until) {
+  std::size_t n = 0;
+  while (n < pending_events_.size() && pending_events_[n].time <= until)
+    sink_.on_event(pending_events_[n++]);
+  pending_events_.erase(pending_events_.begin(),
+                        pending_events_.begin() + static_cast<std::ptrdiff_t>(n));
 }
 
 inline Direction Pipeline::decide_direction(const ProtocolDecoder& decoder, TimeNs start,
@@ -538,7 +661,7 @@ inline Direction Pipeline::decide_direction(const ProtocolDecoder& decoder, Time
 
 void Pipeline::check_drive_timing(const TelegramHead& m, const DriveProfile& p,
                                   std::vector<Anomaly>& found, bool described) {
-  if (m.bytes.empty()) return;
+  if (m.bytes.empty() || !options_.clocked) return;  // (synthetic times break no rule)
   const TimeNs char_time = options_.timing.character_time;
   // A finding; its text (`describe()`, with the rule's source, "ERMAN E-9P/9G, 000 §5.2") only
   // when `described`: a run that shows no anomaly counts it by its kind.
@@ -637,7 +760,7 @@ void Pipeline::check_packetization(FrameKind kind, std::uint32_t first, std::uin
   st.last_frame_number = number;
 }
 
-void Pipeline::handle_frame(Frame& frame) {
+void Pipeline::handle_frame(Frame& frame, const ProtocolDecoder& decoder) {
   frame.number = ++frame_counter_;
   // The frame came out of its channel's framer: the channel's state exists.
   ChannelState& st = *states_[frame.channel];
@@ -654,7 +777,7 @@ void Pipeline::handle_frame(Frame& frame) {
     emit_anomaly({AnomalyKind::noise, frame.start(), frame.channel, frame.number,
                   fmt::format(FMT_COMPILE("{} byte{} outside any frame: {}"), frame.size(),
                               frame.size() == 1 ? "" : "s", hex)});
-    if (st.auto_protocol && ++st.failures >= st.redetect_after) st.redetect = true;
+    if (st.detection_reads(decoder) && ++st.failures >= st.redetect_after) st.redetect = true;
     std::vector<Anomaly> uart;
     append_uart_anomalies(frame.events, frame.number, uart);
     for (const Anomaly& a : uart) emit_anomaly(a);
@@ -664,7 +787,6 @@ void Pipeline::handle_frame(Frame& frame) {
   pairer_.expire(frame.start(), transactions_);
   emit_transactions(transactions_);
 
-  const ProtocolDecoder& decoder = *st.decoder;
   const std::span<const std::uint8_t> bytes = frame.events.bytes();
   const ProtocolDecoder::PairingKeys keys = decoder.pairing_keys(bytes);
   const Direction dir = decide_direction(decoder, frame.start(), bytes, keys.address, keys.function,
@@ -694,7 +816,7 @@ void Pipeline::handle_frame(Frame& frame) {
       std::swap(m.drive_info, drive_reading_.text);  // both keep their storage for later frames
     }
   }
-  if (st.auto_protocol) {
+  if (st.detection_reads(decoder)) {
     if (good_telegram(head)) {
       st.failures = 0;
     } else if (++st.failures >= st.redetect_after) {
@@ -727,6 +849,7 @@ void Pipeline::count_whole_telegram(ChannelState& st, const ByteRun& run,
   const TimeNs start = run.first;
   const TimeNs last_byte = run.time(run.size() - 1);
   const std::span<const std::uint8_t> bytes = run.bytes;
+  flush_events(start);
   pairer_.expire(start, transactions_);
   emit_transactions(transactions_);
   const ProtocolDecoder::PairingKeys keys = decoder.pairing_keys(bytes);
@@ -750,7 +873,7 @@ void Pipeline::count_whole_telegram(ChannelState& st, const ByteRun& run,
   const std::uint64_t number = ++frame_counter_;
   const bool plausible =
       (summary.other_kinds & (1u << static_cast<unsigned>(AnomalyKind::implausible))) == 0;
-  if (st.auto_protocol) {
+  if (st.detection_reads(decoder)) {
     if (summary.verdict == ChecksumVerdict::good && plausible) {
       st.failures = 0;
     } else if (++st.failures >= st.redetect_after) {
@@ -876,10 +999,12 @@ void Pipeline::finish(bool cut_partial) {
   finished_ = true;
   for (std::size_t i = 0; cut_partial && i < states_.size(); ++i) {
     ChannelState& st = *states_[i];
-    if (!st.framer) detect(st, static_cast<ChannelId>(i), true);
+    if (!st.framer) detect(st, static_cast<ChannelId>(i), latest_time_, true);
     if (st.framer) st.framer->finish(ready_);
   }
   handle_frames();
+  release_waiting(kNoneHeld);  // (what --count's limit or cut_partial left waiting)
+  flush_events(kNoneHeld);
   for (std::size_t i = 0; i < states_.size(); ++i)
     if (states_[i]->left_out && i < channels_.size())
       stats_.source_notes.push_back(

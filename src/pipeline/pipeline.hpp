@@ -3,6 +3,10 @@
 // One framer per channel; the pairing stage per link (ChannelTable). The pipeline also owns the
 // per-channel time discipline: bytes on one wire cannot overlap, so a byte stamped before the
 // previous byte ended (a USB adapter stamping a whole read at once) is moved to right after it.
+// And the order across channels: frames are decoded, paired and handed on in order of their
+// first byte, a closed frame waiting (FrameQueue) while another channel holds bytes that may
+// start an earlier one — an open frame, or bytes held for protocol detection — within the bounds
+// of README "Order of the output".
 #pragma once
 
 #include <limits>
@@ -13,6 +17,7 @@
 #include "core/byte_event.hpp"
 #include "core/protocol.hpp"
 #include "core/serial_config.hpp"
+#include "pipeline/frame_queue.hpp"
 #include "pipeline/pairer.hpp"
 #include "pipeline/stats.hpp"
 #include "profiles/binder.hpp"
@@ -27,6 +32,9 @@ struct PipelineOptions {
   FramingTiming timing;  // usually FramingTiming::from(serial), possibly overridden
   TimeNs max_hold = 100 * kNsPerMs;
   TimeNs reply_timeout = 1 * kNsPerSecond;
+  // False for `drivetap decode`, whose times are synthetic: no timeout or unanswered request, no
+  // drive timing rule (PairerOptions::clocked).
+  bool clocked = true;
   // --protocol: a fixed protocol, or Protocol::unknown to detect it per channel ("auto").
   Protocol protocol = Protocol::unknown;
   // Drive profiles bound to station addresses (--drive 2=e9); the profiles outlive the pipeline.
@@ -109,7 +117,24 @@ class Pipeline {
   // The earliest next_deadline() of the framers of channels other than `channel`.
   [[nodiscard, gnu::always_inline]] TimeNs deadline_of_others(ChannelId channel) const;
   void handle_frames();
-  void handle_frame(Frame& frame);
+  // `decoder`: of the framer that cut the frame (the channel's, unless it is detecting afresh).
+  void handle_frame(Frame& frame, const ProtocolDecoder& decoder);
+  // The reorder stage. Records that `frame` came out of its channel's framer: the channel's bytes
+  // not in a frame yet come after it, or there are none.
+  void note_framed(const Frame& frame);
+  // The earliest time a frame not closed yet can start at: the first byte any channel holds
+  // unframed (in its framer or for detection); max() when none holds any.
+  [[nodiscard]] TimeNs output_watermark() const;
+  // Hands on the waiting frames that start no later than `watermark`, and those the hold's bounds
+  // let go (kMaxReorderHold, kMaxWaitingFrames), in order.
+  void release_waiting(TimeNs watermark);
+  // handle_frame() of a frame in its turn: the events before it first; none past --count's limit.
+  void handle_in_order(Frame& frame, const ProtocolDecoder& decoder);
+  // Hands on the pending events (protocol detection) stamped no later than `until`.
+  void flush_events(TimeNs until) {
+    if (!pending_events_.empty()) flush_some_events(until);
+  }
+  void flush_some_events(TimeNs until);
   // The summary lane: handle_frame() of the frame the framer took whole as `taken` from `run`
   // (Framer::take_chunk), for a sink that takes no records or decodes them itself: what the
   // summary counts, from the decoder's TelegramSummary, with no decode made here (a sink that
@@ -132,7 +157,8 @@ class Pipeline {
   const DriveProfile* read_drive_level(std::size_t link, const TelegramHead& telegram,
                                        std::span<const std::uint8_t> request);
   void summarise_drives();
-  void detect(ChannelState& st, ChannelId channel, bool final);
+  // `now`: the time detection decides at (the byte that made it decide, or the clock).
+  void detect(ChannelState& st, ChannelId channel, TimeNs now, bool final, bool deadline = false);
   void start_detection(ChannelState& st);
   // The direction of a frame starting at `start`; `precheck`: its decoder's, or nullptr.
   [[gnu::always_inline]] Direction decide_direction(const ProtocolDecoder& decoder, TimeNs start,
@@ -158,6 +184,10 @@ class Pipeline {
   // (ready_ swaps with it).
   FrameBatch batch_;
   FrameBatch detection_scratch_;  // frames the detection candidates cut, scored and dropped
+  FrameQueue waiting_;  // closed frames waiting for the channels that may close earlier ones
+  // Protocol detections, handed on in time order with the frames (just before the first frame
+  // they do not follow), oldest first.
+  std::vector<BusEvent> pending_events_;
   bool in_batch_ = false;
   std::vector<ByteEvent> run_;  // push_batch: the run going to a framer at once
   std::vector<Transaction> transactions_;

@@ -34,7 +34,7 @@ struct Stats {
   // Telegrams with a good checksum that keep their protocol's plausibility rules
   // (good_telegram()): what a drive bus is made of; checksum[good] counts the rest too.
   std::uint64_t good_telegrams = 0;
-  std::array<std::uint64_t, 5> outcomes{};  // by Outcome
+  std::array<std::uint64_t, kOutcomeCount> outcomes{};  // by Outcome
   std::uint64_t transactions = 0;
   std::uint64_t latency_count = 0;
   TimeNs latency_sum = 0;

@@ -75,7 +75,8 @@ void append_frame_summary(Out& out, const Message& m, bool with_latency) {
   out += "  ";
   append_checksum_text(out, m.checksum);
   if (m.request_number != 0) {
-    out += "  reply to #";
+    // The pairing's outcome (Outcome::bad_reply): a reply whose checksum fails answers nothing.
+    out += m.checksum.verdict == ChecksumVerdict::bad ? "  bad reply to #" : "  reply to #";
     append_uint(out, m.request_number);
     if (!with_latency) return;
     if (m.latency >= 0) {
@@ -275,10 +276,11 @@ void TextSink::on_summary(const Stats& s) {
   const auto& o = s.outcomes;
   std::string tx = fmt::format(
       FMT_COMPILE(
-          "transactions: {} (ok {}, exception {}, timeout {}, broadcast {}, unsolicited {})"),
+          "transactions: {} (ok {}, exception {}, timeout {}, broadcast {}, unsolicited {}, bad "
+          "reply {})"),
       s.transactions, o[static_cast<int>(Outcome::ok)], o[static_cast<int>(Outcome::exception)],
       o[static_cast<int>(Outcome::timeout)], o[static_cast<int>(Outcome::broadcast)],
-      o[static_cast<int>(Outcome::unsolicited)]);
+      o[static_cast<int>(Outcome::unsolicited)], o[static_cast<int>(Outcome::bad_reply)]);
   if (s.latency_count > 0 && options_.show_time)
     tx += fmt::format(
         FMT_COMPILE("; reply latency min {} / avg {} / max {} ms"), format_ms(s.latency_min),
