@@ -432,3 +432,117 @@ TEST(Diagnosis, ByteLevelEvidence) {
   ASSERT_EQ(diagnose(floating).size(), 1u);
   EXPECT_EQ(diagnose(floating).front().id, "unbiased-bus");
 }
+
+// ---- every finding leads to a verdict or a benign note (issue 37 §5) ----
+
+namespace {
+
+// The evidence a run with findings of `kind` (three of them, at station 2) gathers.
+LineEvidence evidence_with(AnomalyKind kind) {
+  LineEvidence e;
+  e.characters = 1000;
+  e.frames = 100;
+  e.frames_checksum_ok = 90;
+  e.findings[static_cast<std::size_t>(kind)] = 3;
+  LineEvidence::Station& s = e.stations[2];
+  s.frames = 50;
+  s.requests = 25;
+  switch (kind) {
+    case AnomalyKind::checksum_bad:
+      s.bad_checksum = 3;
+      break;
+    case AnomalyKind::checksum_swapped:
+      s.swapped_checksum = 3;
+      break;
+    case AnomalyKind::intra_frame_gap:
+      e.intra_frame_gaps = 3;
+      break;
+    case AnomalyKind::short_interframe_gap:
+      e.short_interframe_gaps = 3;
+      break;
+    case AnomalyKind::noise:
+      e.noise_records = 3;
+      e.noise_bytes = 5;
+      break;
+    case AnomalyKind::malformed:
+    case AnomalyKind::implausible:
+      s.malformed = 3;
+      break;
+    case AnomalyKind::unanswered_request:
+      s.timeouts = 3;
+      break;
+    case AnomalyKind::unsolicited_response:
+      s.unsolicited = 3;
+      break;
+    case AnomalyKind::uart_framing:
+      e.framing_errors = 3;
+      break;
+    case AnomalyKind::uart_parity:
+      e.parity_errors = 3;
+      break;
+    case AnomalyKind::uart_break:
+      e.breaks = 3;
+      break;
+    case AnomalyKind::timing_rule:
+      e.timing_rules["the drive needs 200 ms (ERMAN E-9P/9G, 000 §4)"] = {
+          3, "frame 7: request 171.0 ms after the drive's last reply; the drive needs 200 ms", {}};
+      break;
+    default:  // overrun, clock, packets: the count is all
+      break;
+  }
+  return e;
+}
+
+}  // namespace
+
+TEST(Diagnosis, EveryKindOfFindingLeadsToAVerdictOrABenignNote) {
+  for (std::size_t k = 0; k < kAnomalyKindCount; ++k) {
+    const auto kind = static_cast<AnomalyKind>(k);
+    SCOPED_TRACE(anomaly_id(kind));
+    ASSERT_EQ(kFindingCoverage[k].kind, kind);  // the table follows the enum
+    const std::vector<Verdict> verdicts = diagnose(evidence_with(kind));
+    const std::string covering = std::string(" ") + kFindingCoverage[k].verdict + " ";
+    const bool covered = std::any_of(verdicts.begin(), verdicts.end(), [&](const Verdict& v) {
+      return covering.find(" " + v.id + " ") != std::string::npos;
+    });
+    EXPECT_TRUE(covered) << "verdicts: " << verdicts.size();
+    for (const Verdict& v : verdicts) EXPECT_EQ(v.fix.empty(), v.benign) << v.id;
+  }
+  // And nothing at all is a healthy line.
+  EXPECT_TRUE(diagnose(LineEvidence{}).empty());
+}
+
+TEST(Diagnosis, EachTimingRuleIsItsOwnVerdictWithItsOwnFix) {
+  LineEvidence e;
+  FramingTiming timing;
+  DiagnosisSink sink(e, timing);
+  const char* breaks[] = {
+      "reply 27.0 ms after the request; the drive answers within 20 ms (Danfoss VLT AQUA, 002)",
+      "reply 7.7 ms after the request; the drive keeps at least 10 ms (E5-8200, 004)",
+      "request 171.0 ms after the drive's last reply; the drive needs 200 ms (ERMAN E-9P/9G, 000)",
+      "reply 25.0 ms after the request; the drive answers within 20 ms (Danfoss VLT AQUA, 002)"};
+  std::uint64_t number = 0;
+  for (const char* detail : breaks) {
+    Message m;
+    m.frame.number = ++number;
+    m.address = static_cast<int>(number);
+    sink.on_frame(m);
+    sink.on_anomaly({AnomalyKind::timing_rule, 0, 0, number, detail});
+  }
+  std::vector<const Verdict*> rules;
+  const std::vector<Verdict> verdicts = diagnose(e);
+  for (const Verdict& v : verdicts)
+    if (v.id == "timing-rule") rules.push_back(&v);
+  ASSERT_EQ(rules.size(), 3u);
+  EXPECT_NE(rules[0]->fix, rules[1]->fix);
+  EXPECT_NE(rules[1]->fix, rules[2]->fix);
+  EXPECT_NE(rules[0]->fix, rules[2]->fix);
+  // The VLT's two late replies, at stations 1 and 4, are one verdict.
+  const auto vlt = std::find_if(rules.begin(), rules.end(), [](const Verdict* v) {
+    return v->title.find("VLT") != std::string::npos;
+  });
+  ASSERT_NE(vlt, rules.end());
+  EXPECT_NE((*vlt)->evidence.find("2 times (station 1: 1, station 4: 1"), std::string::npos)
+      << (*vlt)->evidence;
+  EXPECT_NE((*vlt)->fix.find("later than its manual"), std::string::npos);
+}

@@ -9,7 +9,10 @@
 2. sigrok-cli: on each such channel the characters drivetap decodes are the ones sigrok-cli's
    UART decoder reads with the true settings (a character sigrok flags with a frame error where
    the line goes to rest or breaks is no character for drivetap).
-3. Property, over every logic capture in captures/: the settings and polarity diagnose names on a
+3. Findings, on a generated capture whose truth is known (`drivetap generate --truth`): every
+   kind of finding leads to a verdict with the generated counts per station (timeouts, swapped
+   CRCs, timing-rule breaks: one verdict per drive and rule, each with its own fix).
+4. Property, over every logic capture in captures/: the settings and polarity diagnose names on a
    channel decode that channel with the fewest errors of all 36 formats in both polarities at the
    detected rate (recomputed here, one `diagnose -s` per candidate).
 
@@ -160,6 +163,47 @@ def check_truth(drivetap, captures, have_sigrok):
                 fail(f"{rel} with -s: verdicts {ids}, expected unbiased-bus and no inverted-line")
 
 
+def check_generated(drivetap):
+    import re
+    import tempfile
+    with tempfile.TemporaryDirectory() as tmp:
+        log, truth_file = os.path.join(tmp, "gen.log"), os.path.join(tmp, "truth.json")
+        code, _, err = run(drivetap, "generate", "--frames", "3000", "-o", log, "--truth",
+                           truth_file)
+        if code != 0:
+            raise RuntimeError(f"drivetap generate: exit {code}: {err}")
+        truth = json.load(open(truth_file))["total"]
+        report = diagnose(drivetap, log)
+    verdicts = {}
+    for v in report["verdicts"]:
+        verdicts.setdefault(v["id"], []).append(v)
+
+    def station_sum(verdict_id, pattern):
+        if verdict_id not in verdicts:
+            fail(f"generated: no '{verdict_id}' verdict (verdicts: {list(verdicts)})")
+            return -1
+        return sum(int(n) for n in re.findall(pattern, verdicts[verdict_id][0]["evidence"]))
+
+    got = station_sum("timeouts", r"(\d+) of \d+ requests unanswered")
+    if got != truth["timeouts"]:
+        fail(f"generated: timeouts per station sum to {got}, generated {truth['timeouts']}")
+    got = station_sum("swapped-crc", r"(\d+) of \d+ frames with the CRC high byte first")
+    if got != truth["checksum_swapped"]:
+        fail(f"generated: swapped CRCs per station sum to {got}, generated "
+             f"{truth['checksum_swapped']}")
+    rules = verdicts.get("timing-rule", [])
+    breaks = sum(int(re.match(r"(\d+) times", v["evidence"]).group(1)) for v in rules)
+    if breaks != truth["timing_rule"]:
+        fail(f"generated: timing-rule verdicts count {breaks} breaks, generated "
+             f"{truth['timing_rule']}")
+    if len(rules) < 3 or len({v["fix"] for v in rules}) != len(rules):
+        fail(f"generated: {len(rules)} timing-rule verdicts, expected one per drive and rule "
+             f"(three here), each with its own fix")
+    for kind in ("exception-replies", "stray-bytes", "noise", "bad-checksum"):
+        if kind not in verdicts:
+            fail(f"generated: no '{kind}' verdict")
+
+
 FORMATS = [(bits, parity, stops) for bits in (7, 8, 9) for parity in "NEO" for stops in (1, 2)]
 
 
@@ -233,6 +277,7 @@ def main():
         print("FAIL sigrok-cli is required (DRIVETAP_REQUIRE_SIGROK) but not installed")
         return 1
     check_truth(drivetap, captures, have_sigrok)
+    check_generated(drivetap)
     check_property(drivetap, captures)
     if failures:
         print(f"{len(failures)} failures")

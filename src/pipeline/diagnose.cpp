@@ -187,7 +187,8 @@ const char* exception_meaning(int code) {
   }
 }
 
-// The fix for a timing rule, by the rule the pipeline states (pipeline.cpp check_drive_timing).
+// The fix for a timing rule, by what the pipeline says of a break of it (pipeline.cpp
+// check_drive_timing: "request 171.0 ms after the drive's last reply; the drive needs 200 ms").
 const char* timing_rule_fix(const std::string& rule) {
   if (rule.find("keeps at least") != std::string::npos)
     return "the drive answers sooner than its manual's minimum delay: check its response-delay "
@@ -309,7 +310,7 @@ void bus_findings(const LineEvidence& e, std::vector<Verdict>& out) {
     out.push_back({"timing-rule", fmt::format("A drive's timing rule is broken: {}", rule),
                    fmt::format("{} times ({}; first: {})", breaks.count, fmt::join(where, ", "),
                                breaks.first),
-                   timing_rule_fix(rule)});
+                   timing_rule_fix(breaks.first)});
   }
   const std::uint64_t split = e.findings[static_cast<std::size_t>(AnomalyKind::packet_split_frame)];
   const std::uint64_t merged =
