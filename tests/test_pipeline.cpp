@@ -27,8 +27,9 @@ struct Bus {
   TimeNs clock = 0;
   TimeNs ct;
 
-  explicit Bus(const char* serial = "9600 8N1") {
+  explicit Bus(const char* serial = "9600 8N1", Protocol protocol = Protocol::unknown) {
     std::string err;
+    options.protocol = protocol;
     options.serial = *SerialConfig::parse(serial, &err);
     options.timing = FramingTiming::from(options.serial);
     ct = options.timing.character_time;
@@ -127,7 +128,7 @@ TEST(Pipeline, ShortSilenceBeforeReplyIsATimingFinding) {
 }
 
 TEST(Pipeline, UartFlagsBecomeAnomaliesOfTheFrame) {
-  Bus b;
+  Bus b("9600 8N1", Protocol::modbus_rtu);  // (one frame: too little for detection to decide)
   b.send(kReadReq, 20 * kNsPerMs, 0, kUartParityError);
   b.finish();
   EXPECT_EQ(b.sink.count(AnomalyKind::uart_parity), 1u);
@@ -148,7 +149,7 @@ TEST(Pipeline, OverlappingTimestampsAreMovedAfterThePreviousByte) {
 }
 
 TEST(Pipeline, SummaryCountsVerdictsAndNoise) {
-  Bus b;
+  Bus b("9600 8N1", Protocol::modbus_rtu);  // (no good telegram: detection would find nothing)
   auto bad = kReadReq;
   bad[7] ^= 0xFF;
   auto swapped = kReadReq;

@@ -27,6 +27,9 @@ enum UartFlag : std::uint8_t {
   // holds the low 8 bits.
   kUartNinthBit = 1u << 4,
 };
+// The marks that say a character was damaged or lost (the 9th data bit is none of them).
+inline constexpr std::uint8_t kUartErrorFlags =
+    kUartParityError | kUartFramingError | kUartBreak | kUartOverrun;
 
 using ChannelId = std::uint16_t;
 

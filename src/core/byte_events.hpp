@@ -285,6 +285,11 @@ class ByteEvents {
   [[nodiscard]] bool any_flags() const {
     return std::any_of(flags_.begin(), flags_.end(), [](std::uint8_t f) { return f != 0; });
   }
+  // Whether a character was damaged or lost (kUartErrorFlags; a 9th data bit is no error).
+  [[nodiscard]] bool any_uart_errors() const {
+    return std::any_of(flags_.begin(), flags_.end(),
+                       [](std::uint8_t f) { return (f & kUartErrorFlags) != 0; });
+  }
   [[nodiscard]] std::uint32_t origin(std::size_t i) const {
     return stretches_[stretch_of(i)].origin;
   }

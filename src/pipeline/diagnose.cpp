@@ -269,7 +269,17 @@ void bus_findings(const LineEvidence& e, std::vector<Verdict>& out) {
                          })),
          "a device speaking another protocol or dialect at these settings (see the "
          "protocol detection), or bytes lost or merged by the capture"});
-  const std::uint64_t clean_noise = e.noise_records - e.flagged_noise_records;
+  for (const auto& [channel, carries] : e.foreign_lines)
+    out.push_back({"no-drive-protocol", fmt::format("No drive protocol on channel {}", channel),
+                   fmt::format("it carries {}: no Modbus RTU, Modbus ASCII, Danfoss FC or "
+                               "Easydrive telegram passes its checksum and plausibility rules; its "
+                               "bytes are shown as data",
+                               carries),
+                   "check that the tap is on the drives' bus (their RS-485 A/B pair) and the line "
+                   "settings (`drivetap diagnose` on a logic capture measures them)"});
+  const std::uint64_t own_noise = e.noise_records - e.foreign_noise_records;
+  const std::uint64_t clean_noise =
+      own_noise > e.flagged_noise_records ? own_noise - e.flagged_noise_records : 0;
   if (e.findings[static_cast<std::size_t>(AnomalyKind::noise)] > 0 &&
       clean_noise > e.release_noise_records)
     out.push_back({"stray-bytes", "Bytes that fit no frame",
@@ -339,7 +349,7 @@ const std::array<FindingCoverage, kAnomalyKindCount> kFindingCoverage = {{
     {AnomalyKind::checksum_swapped, "swapped-crc"},
     {AnomalyKind::intra_frame_gap, "timing-t15"},
     {AnomalyKind::short_interframe_gap, "timing-t35"},
-    {AnomalyKind::noise, "stray-bytes noise unbiased-bus"},
+    {AnomalyKind::noise, "stray-bytes noise unbiased-bus no-drive-protocol"},
     {AnomalyKind::malformed, "malformed-frames noise"},
     {AnomalyKind::implausible, "malformed-frames noise"},
     {AnomalyKind::unanswered_request, "timeouts"},
@@ -445,7 +455,7 @@ void DiagnosisSink::on_frame(const Message& m) {
   ++evidence_.frames;
   last_frame_ = m.frame.number;
   last_address_ = m.address;
-  last_clean_ = !m.frame.events.any_flags();
+  last_clean_ = !m.frame.events.any_uart_errors();
   LineEvidence::Station& station = evidence_.stations[m.address];
   ++station.frames;
   const ChecksumVerdict verdict = m.checksum.verdict;
@@ -453,14 +463,14 @@ void DiagnosisSink::on_frame(const Message& m) {
   if (verdict == ChecksumVerdict::swapped) ++station.swapped_checksum;
   if (verdict != ChecksumVerdict::bad) return;
   // Without a UART mark on any byte the line delivered what was sent: not the line's fault.
-  const bool clean = !m.frame.events.any_flags();
+  const bool clean = !m.frame.events.any_uart_errors();
   if (m.frame.events.size() < 3) {
     if (clean) ++station.bad_checksum;
     return;
   }
   ++evidence_.frames_checksum_bad;
   const ByteEvent& last = m.frame.events.back();
-  const bool stray = last.byte == 0x00 || last.byte == 0xFF || last.flags != 0;
+  const bool stray = last.byte == 0x00 || last.byte == 0xFF || (last.flags & kUartErrorFlags) != 0;
   const ProtocolDecoder* decoder = decoder_for(m.protocol);
   if (stray && decoder) {
     Frame trimmed = m.frame;
@@ -480,16 +490,34 @@ void DiagnosisSink::on_frame(const Message& m) {
 void DiagnosisSink::on_noise(const Frame& noise) {
   evidence_.noise_bytes += noise.events.size();
   ++evidence_.noise_records;
-  if (noise.events.any_flags()) ++evidence_.flagged_noise_records;
+  if (foreign_.contains(noise.channel)) {
+    ++evidence_.foreign_noise_records;
+    return;
+  }
+  if (noise.events.any_uart_errors()) ++evidence_.flagged_noise_records;
   const bool right_after = noise.gap_before >= 0 && noise.gap_before < timing_.t15;
   const bool stray = !noise.events.empty() && noise.events.size() <= 2 &&
                      std::all_of(noise.events.begin(), noise.events.end(), [](const ByteEvent& e) {
-                       return e.byte == 0x00 || e.byte == 0xFF || e.flags != 0;
+                       return e.byte == 0x00 || e.byte == 0xFF || (e.flags & kUartErrorFlags) != 0;
                      });
   if (right_after && stray) {
     ++evidence_.release_artefacts;
-    if (!noise.events.any_flags()) ++evidence_.release_noise_records;
+    if (!noise.events.any_uart_errors()) ++evidence_.release_noise_records;
   }
+}
+
+void DiagnosisSink::on_event(const BusEvent& event) {
+  if (event.kind != "protocol_detected") return;
+  if (event.protocol != Protocol::unknown) {
+    foreign_.erase(event.channel);
+    return;
+  }
+  // "no drive protocol: 56 bytes of printable ASCII text (good telegrams, ...)": what it carries.
+  std::string carries = event.detail;
+  if (carries.starts_with("no drive protocol: ")) carries.erase(0, 19);
+  if (const std::size_t evidence = carries.find(" (good telegrams"); evidence != std::string::npos)
+    carries.erase(evidence);
+  foreign_[event.channel] = carries;
 }
 
 void DiagnosisSink::on_transaction(const Transaction& t) {
@@ -563,6 +591,10 @@ Diagnosis diagnose_capture(ByteSource& source, const PipelineOptions& options,
   }
   result.error = source.error();
   result.stats = sink.stats();
+  for (const auto& [channel, carries] : sink.foreign())
+    evidence.foreign_lines.emplace_back(
+        channel < channels.size() ? channels.at(channel).name : fmt::format("{}", channel),
+        carries);
   evidence.settings = options.serial.to_string();
   if (const auto* logic = dynamic_cast<const LogicSource*>(&source)) {
     evidence.from_samples = true;

@@ -93,6 +93,10 @@ struct LineEvidence {
     std::map<int, std::uint64_t> stations;
   };
   std::map<std::string, RuleBreaks> timing_rules;
+  // Channels where detection found no drive protocol: name and what the line carries instead
+  // ("56 bytes of printable ASCII text"); their noise records are that line, not stray bytes.
+  std::vector<std::pair<std::string, std::string>> foreign_lines;
+  std::uint64_t foreign_noise_records = 0;
 };
 
 struct Verdict {
@@ -127,8 +131,11 @@ class DiagnosisSink final : public Sink {
   void on_anomaly(const Anomaly& anomaly) override;
   void on_transaction(const Transaction& transaction) override;
   void on_summary(const Stats& stats) override { stats_ = stats; }
+  void on_event(const BusEvent& event) override;
   bool flush() override { return true; }
   [[nodiscard]] const Stats& stats() const { return stats_; }
+  // Channels whose (last) detection found no drive protocol, and what they carry.
+  [[nodiscard]] const std::map<ChannelId, std::string>& foreign() const { return foreign_; }
 
  private:
   LineEvidence& evidence_;
@@ -138,6 +145,7 @@ class DiagnosisSink final : public Sink {
   std::uint64_t last_frame_ = 0;
   int last_address_ = -1;
   bool last_clean_ = true;  // no byte of it with a UART error
+  std::map<ChannelId, std::string> foreign_;
 };
 
 // A whole diagnosis: the source (read_header() done) through the pipeline, nothing printed.

@@ -56,7 +56,7 @@ std::string describe_line(std::span<const ByteEvent> held) {
   for (const ByteEvent& e : held) {
     const std::uint8_t b = e.byte;
     if ((b >= 0x20 && b < 0x7F) || b == '\r' || b == '\n' || b == '\t') ++printable;
-    if (e.flags != 0) ++marked;
+    if ((e.flags & kUartErrorFlags) != 0) ++marked;
     if (b != held.front().byte) constant = false;
   }
   std::string what;
@@ -111,6 +111,9 @@ struct Pipeline::ChannelState {
   // counted, not decoded (a note in the summary says so).
   bool ip_flow = false;
   bool left_out = false;
+  // Detection found no drive protocol on this serial line: its bytes, still cut by silence, are
+  // noise records (raw data), never telegrams of a protocol they are not (no pairing, no drive).
+  bool no_protocol = false;
   std::uint64_t left_out_bytes = 0;
 };
 
@@ -318,7 +321,7 @@ inline bool Pipeline::push_chunk(const ByteRun& run, TimeNs next_time,
       run.step < character_time || run.channel >= states_.size())
     return false;
   ChannelState& st = *states_[run.channel];
-  if (!st.framer || st.redetect || run.first < st.last_end) return false;
+  if (!st.framer || st.redetect || st.no_protocol || run.first < st.last_end) return false;
   // The first byte as push() takes it, up to framing it: time moves on, which closes what its
   // silence closed (on any channel).
   const ByteEvent first = run.event(0);
@@ -479,7 +482,11 @@ void Pipeline::detect(ChannelState& st, ChannelId channel, TimeNs now, bool fina
   const bool clear = best->good >= kDetectGoodFrames && best->good > 2 * second->good;
   // Several good telegrams (checksum and plausibility) decide, never one lucky checksum; on a
   // line that carries both directions, high confidence also wants a request answered.
-  const bool found = clear || (best->good >= options_.detect_min_good && best->good > second->good);
+  // A master or slave channel carries one direction of its link: its request and the other
+  // channel's reply are the pair a shared bus shows on one channel.
+  const int min_good = st.role == ChannelRole::bus ? options_.detect_min_good
+                                                   : std::min(1, options_.detect_min_good);
+  const bool found = clear || (best->good >= min_good && best->good > second->good);
   if (!clear && !last_chance) {
     // At the deadline the evidence so far decides if it can; else listening goes on (a flow
     // polled once a second has one telegram by then) without holding up the other channels.
@@ -512,11 +519,18 @@ void Pipeline::detect(ChannelState& st, ChannelId channel, TimeNs now, bool fina
         protocol_label(ev.protocol), confidence, st.held.size(), evidence);
   } else {
     // No drive protocol: say what the line carries. An IP flow then stays out of the decode; a
-    // serial line is still cut as Modbus RTU (its bytes shown, its findings named), as before.
+    // serial line is still cut by silence, its pieces shown as data (noise records).
+    // Too few good telegrams is no protocol either (never one lucky telegram), said as such.
     ev.protocol = Protocol::unknown;
-    ev.detail = fmt::format(
-        "no drive protocol: {} (good telegrams, checksum and plausibility: {}){}",
-        describe_line(st.held), evidence, st.ip_flow ? "; the flow is left out of the decode" : "");
+    const std::string carries =
+        best->good > 0
+            ? fmt::format("{} bytes with only {} good {} telegram{} (too few to decide)",
+                          st.held.size(), best->good, protocol_label(best->decoder->protocol()),
+                          best->good == 1 ? "" : "s")
+            : describe_line(st.held);
+    ev.detail =
+        fmt::format("no drive protocol: {} (good telegrams, checksum and plausibility: {}){}",
+                    carries, evidence, st.ip_flow ? "; the flow is left out of the decode" : "");
   }
   // Handed on just before the channel's first frame (which starts at ev.time), in time order with
   // the frames of other channels.
@@ -535,6 +549,7 @@ void Pipeline::detect(ChannelState& st, ChannelId channel, TimeNs now, bool fina
     return;
   }
   const ProtocolDecoder* chosen = found ? best->decoder : decoder_for(Protocol::modbus_rtu);
+  st.no_protocol = !found;
   st.decoder = chosen;
   st.framer = chosen->make_framer(channel, {options_.timing, options_.max_hold});
   std::vector<ByteEvent> held;
@@ -765,6 +780,8 @@ void Pipeline::handle_frame(Frame& frame, const ProtocolDecoder& decoder) {
   // The frame came out of its channel's framer: the channel's state exists.
   ChannelState& st = *states_[frame.channel];
   const std::size_t link = st.link;
+  // Cut on a line with no drive protocol (by the fallback framer): data, not a telegram.
+  if (st.no_protocol && st.decoder == &decoder) frame.kind = FrameKind::noise;
   if (frame.kind == FrameKind::noise) {
     pairer_.expire(frame.start(), transactions_);
     emit_transactions(transactions_);
