@@ -10,24 +10,15 @@ every character on it is upright. Written as a sigrok-style VCD at 1 MHz.
 
     python3 scripts/make_unbiased_capture.py captures/unbiased-rs485-modbus/input.vcd
 """
+import os
 import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from wire import with_crc  # noqa: E402
 
 RATE = 1_000_000
 BAUD = 9600
 BIT = RATE / BAUD
-
-
-def crc16(data):
-    crc = 0xFFFF
-    for b in data:
-        crc ^= b
-        for _ in range(8):
-            crc = (crc >> 1) ^ 0xA001 if crc & 1 else crc >> 1
-    return bytes([crc & 0xFF, crc >> 8])
-
-
-def frame(body):
-    return body + crc16(body)
 
 
 def main(path):
@@ -53,10 +44,10 @@ def main(path):
 
     for n in range(44):
         register = 0x0100 + 2 * (n % 8)
-        transmit(frame(bytes([0x01, 0x03, register >> 8, register & 0xFF, 0x00, 0x02])))
+        transmit(with_crc(bytes([0x01, 0x03, register >> 8, register & 0xFF, 0x00, 0x02])))
         t += 3.5e-3 * RATE  # the slave's turnaround
         value = (1500 + 7 * n) & 0xFFFF
-        transmit(frame(bytes([0x01, 0x03, 0x04, value >> 8, value & 0xFF, 0x00, n & 0xFF])))
+        transmit(with_crc(bytes([0x01, 0x03, 0x04, value >> 8, value & 0xFF, 0x00, n & 0xFF])))
         t += 40e-3 * RATE  # the master's poll interval
     end = int(t)
     with open(path, "w") as out:

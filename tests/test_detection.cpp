@@ -7,52 +7,7 @@
 using namespace drivetap;
 using namespace drivetap::testing;
 
-namespace {
-
-struct EventSink final : Sink {
-  RecordingSink frames;
-  std::vector<BusEvent> events;
-  void on_frame(const Message& m) override { frames.on_frame(m); }
-  void on_noise(const Frame& f) override { frames.on_noise(f); }
-  void on_anomaly(const Anomaly& a) override { frames.on_anomaly(a); }
-  void on_transaction(const Transaction& t) override { frames.on_transaction(t); }
-  void on_summary(const Stats& s) override { frames.on_summary(s); }
-  void on_event(const BusEvent& e) override { events.push_back(e); }
-  bool flush() override { return true; }
-};
-
-std::vector<std::uint8_t> fc_telegram(std::uint8_t adr, std::vector<std::uint8_t> data) {
-  std::vector<std::uint8_t> t;
-  t.reserve(data.size() + 4);
-  t.push_back(0x02);
-  t.push_back(static_cast<std::uint8_t>(data.size() + 2));
-  t.push_back(adr);
-  for (std::uint8_t b : data) t.push_back(b);
-  t.push_back(danfoss_fc::bcc(t));
-  return t;
-}
-
-struct AutoRun {
-  ChannelTable channels;
-  EventSink sink;
-  PipelineOptions options;
-  std::unique_ptr<Pipeline> pipeline;
-  TimeNs clock = 0;
-  AutoRun() {
-    channels.intern("bus");
-    options.timing = FramingTiming::from(options.serial);  // protocol stays unknown: auto
-    pipeline = std::make_unique<Pipeline>(options, channels, sink);
-  }
-  void send(const std::vector<std::uint8_t>& bytes) {
-    for (std::uint8_t b : bytes) {
-      pipeline->push({clock, b, 0, 0, 0});
-      clock += options.timing.character_time;
-    }
-    clock += 20 * kNsPerMs;
-  }
-};
-
-}  // namespace
+namespace {}  // namespace
 
 TEST(Detection, ModbusRtuWithHighConfidence) {
   AutoRun r;

@@ -36,53 +36,12 @@ PlausibilityRule eds_rule(std::string_view s, Direction d = Direction::unknown) 
   return easydrive::eds_plausibility(text(s), d, false).broken;
 }
 
-std::vector<std::uint8_t> fc_telegram(std::uint8_t adr, std::vector<std::uint8_t> data) {
-  std::vector<std::uint8_t> t{0x02, static_cast<std::uint8_t>(data.size() + 2), adr};
-  t.insert(t.end(), data.begin(), data.end());
-  t.push_back(danfoss_fc::bcc(t));
-  return t;
-}
-
 Frame frame_of(const std::vector<std::uint8_t>& bytes) {
   Frame f;
   TimeNs t = 0;
   for (std::uint8_t b : bytes) f.events.push_back({t += 1000, b, 0, 0, 0});
   return f;
 }
-
-struct EventSink final : Sink {
-  RecordingSink frames;
-  std::vector<BusEvent> events;
-  Stats summary;
-  void on_frame(const Message& m) override { frames.on_frame(m); }
-  void on_noise(const Frame& f) override { frames.on_noise(f); }
-  void on_anomaly(const Anomaly& a) override { frames.on_anomaly(a); }
-  void on_transaction(const Transaction& t) override { frames.on_transaction(t); }
-  void on_summary(const Stats& s) override { summary = s; }
-  void on_event(const BusEvent& e) override { events.push_back(e); }
-  bool flush() override { return true; }
-};
-
-struct AutoRun {
-  ChannelTable channels;
-  EventSink sink;
-  PipelineOptions options;
-  std::unique_ptr<Pipeline> pipeline;
-  TimeNs clock = 0;
-  explicit AutoRun(bool ip_flow = false) {
-    channels.intern(ip_flow ? "udp 10.0.0.1:1>10.0.0.2:2" : "bus", "link", ChannelRole::bus,
-                    ip_flow);
-    options.timing = FramingTiming::from(options.serial);  // protocol stays unknown: auto
-    pipeline = std::make_unique<Pipeline>(options, channels, sink);
-  }
-  void send(const std::vector<std::uint8_t>& bytes) {
-    for (std::uint8_t b : bytes) {
-      pipeline->push({clock, b, 0, 0, 0});
-      clock += options.timing.character_time;
-    }
-    clock += 20 * kNsPerMs;
-  }
-};
 
 }  // namespace
 

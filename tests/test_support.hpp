@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include "core/checksum.hpp"
+#include "dissectors/danfoss_fc/fc_dissector.hpp"
 #include "pipeline/pipeline.hpp"
 #include "profiles/profile.hpp"
 #include "sources/byte_log.hpp"
@@ -99,5 +100,57 @@ inline bool run_byte_log(const std::string& path, RecordingSink& sink, ChannelTa
   *error = reader.error();
   return error->empty();
 }
+
+// A sink that keeps the frames (RecordingSink), the bus events and the summary.
+struct EventSink final : Sink {
+  RecordingSink frames;
+  std::vector<BusEvent> events;
+  Stats summary;
+  void on_frame(const Message& m) override { frames.on_frame(m); }
+  void on_noise(const Frame& f) override { frames.on_noise(f); }
+  void on_anomaly(const Anomaly& a) override { frames.on_anomaly(a); }
+  void on_transaction(const Transaction& t) override { frames.on_transaction(t); }
+  void on_summary(const Stats& s) override {
+    frames.on_summary(s);
+    summary = s;
+  }
+  void on_event(const BusEvent& e) override { events.push_back(e); }
+  bool flush() override { return true; }
+};
+
+// A Danfoss FC telegram: STX, LGE, ADR, the data, BCC.
+inline std::vector<std::uint8_t> fc_telegram(std::uint8_t adr, std::vector<std::uint8_t> data) {
+  std::vector<std::uint8_t> t;
+  t.reserve(data.size() + 4);
+  t.push_back(0x02);
+  t.push_back(static_cast<std::uint8_t>(data.size() + 2));
+  t.push_back(adr);
+  for (std::uint8_t b : data) t.push_back(b);
+  t.push_back(danfoss_fc::bcc(t));
+  return t;
+}
+
+// One channel with --protocol auto (an IP flow's when `ip_flow`), 9600 8N1; send() puts a
+// telegram on it, 20 ms of silence after.
+struct AutoRun {
+  ChannelTable channels;
+  EventSink sink;
+  PipelineOptions options;
+  std::unique_ptr<Pipeline> pipeline;
+  TimeNs clock = 0;
+  explicit AutoRun(bool ip_flow = false) {
+    channels.intern(ip_flow ? "udp 10.0.0.1:1>10.0.0.2:2" : "bus", "link", ChannelRole::bus,
+                    ip_flow);
+    options.timing = FramingTiming::from(options.serial);  // protocol stays unknown: auto
+    pipeline = std::make_unique<Pipeline>(options, channels, sink);
+  }
+  void send(const std::vector<std::uint8_t>& bytes) {
+    for (std::uint8_t b : bytes) {
+      pipeline->push({clock, b, 0, 0, 0});
+      clock += options.timing.character_time;
+    }
+    clock += 20 * kNsPerMs;
+  }
+};
 
 }  // namespace drivetap::testing

@@ -52,6 +52,16 @@ struct Plausibility {
   PlausibilityRule broken = PlausibilityRule::none;
   std::string why;
   [[nodiscard]] bool ok() const { return broken == PlausibilityRule::none; }
+
+  // The outcome "`rule` is broken", with what was found (`why()`, called only when `describe`:
+  // a run that shows no text builds none).
+  template <typename Why>
+  static Plausibility breaking(PlausibilityRule rule, bool describe, Why&& why) {
+    Plausibility p;
+    p.broken = rule;
+    if (describe) p.why = why();
+    return p;
+  }
 };
 
 // Adds the `implausible` finding of `p` to `m` (nothing when p.ok()), the rule named after what

@@ -123,9 +123,7 @@ Plausibility fc_plausibility(std::span<const std::uint8_t> frame, Direction dire
                              bool describe) {
   Plausibility p;
   auto broken = [&](PlausibilityRule rule, auto&& why) {
-    p.broken = rule;
-    if (describe) p.why = why();
-    return p;
+    return Plausibility::breaking(rule, describe, why);
   };
   if (frame.empty() || frame[0] != kStxByte)
     return broken(PlausibilityRule::fc_stx, [&] {

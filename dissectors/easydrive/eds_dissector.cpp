@@ -73,9 +73,7 @@ std::string status_word(long w) {
 Plausibility eds_plausibility(std::span<const std::uint8_t> f, Direction direction, bool describe) {
   Plausibility p;
   auto broken = [&](PlausibilityRule rule, auto&& why) {
-    p.broken = rule;
-    if (describe) p.why = why();
-    return p;
+    return Plausibility::breaking(rule, describe, why);
   };
   if (f.empty() || f[0] != '~')
     return broken(PlausibilityRule::eds_start, [] { return std::string("no '~' first"); });

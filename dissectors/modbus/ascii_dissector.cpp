@@ -67,9 +67,7 @@ Plausibility ascii_plausibility(std::span<const std::uint8_t> frame, const Ascii
                                 Direction direction, bool describe) {
   Plausibility p;
   auto broken = [&](PlausibilityRule rule, auto&& why) {
-    p.broken = rule;
-    if (describe) p.why = why();
-    return p;
+    return Plausibility::breaking(rule, describe, why);
   };
   if (frame.empty() || frame[0] != ':')
     return broken(PlausibilityRule::ascii_start, [] { return std::string("no ':' first"); });

@@ -52,9 +52,7 @@ Plausibility modbus_plausibility(std::uint8_t address, std::span<const std::uint
                                  Direction direction, bool describe) {
   Plausibility p;
   auto broken = [&](PlausibilityRule rule, auto&& why) {
-    p.broken = rule;
-    if (describe) p.why = why();
-    return p;
+    return Plausibility::breaking(rule, describe, why);
   };
   // Serial line §2.3: 0 broadcast, 1..247 slaves, 248..255 reserved.
   if (address > 247)
