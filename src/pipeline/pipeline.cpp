@@ -1022,6 +1022,7 @@ void Pipeline::finish(bool cut_partial) {
   handle_frames();
   release_waiting(kNoneHeld);  // (what --count's limit or cut_partial left waiting)
   flush_events(kNoneHeld);
+  for (const auto& st : states_) stats_.left_out_bytes += st->left_out_bytes;
   for (std::size_t i = 0; i < states_.size(); ++i)
     if (states_[i]->left_out && i < channels_.size())
       stats_.source_notes.push_back(

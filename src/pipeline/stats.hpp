@@ -48,6 +48,8 @@ struct Stats {
   // What the source says about itself at the end (a serial port's kernel error counters, its
   // USB burst verdict): one line each, shown in the summary; empty for files.
   std::vector<std::string> source_notes;
+  // Bytes of IP flows with no drive protocol, left out of the decode (in no frame or noise).
+  std::uint64_t left_out_bytes = 0;
 
   void count_frame(const Message& m);
   // The same for a telegram of `size` bytes, the first starting at `first`, the last at `last`;
