@@ -273,7 +273,6 @@ LineDetection detect_line(std::span<const std::vector<LevelRun>> channels,
             measured, sample_rate_hz, UartSettings::kMinBaud, UartSettings::kMaxBaud);
       continue;
     }
-    ++d.baud_candidates;
     const double quality = candidates.size() == 1 ? 0
                                                   : framing_quality(channels, sample_rate_hz, baud,
                                                                     options.max_runs_per_channel);
@@ -297,7 +296,6 @@ LineDetection detect_line(std::span<const std::vector<LevelRun>> channels,
         best->single, best->scored, best->width);
     return d;
   }
-  d.samples_per_bit = best->width;
   d.measured_baud = static_cast<double>(sample_rate_hz) / best->width;
   const double baud = decoding_baud(d.measured_baud, &d.baud_standard);
   d.baud_confidence = best->fitting >= 0.95 && best->scored >= 50 && best->single >= 5
@@ -351,7 +349,6 @@ LineDetection detect_line(std::span<const std::vector<LevelRun>> channels,
     by_quality = false;
     inverted = idle_evidence && !rests_high;
   }
-  d.other_polarity = inverted ? upright : upside_down;
   const FormatTrial& chosen = inverted ? upside_down : upright;
   if (idle_evidence)
     d.idle_share = static_cast<double>(inverted ? low_time : high_time) /

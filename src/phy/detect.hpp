@@ -64,9 +64,6 @@ struct LineDetection {
   double measured_baud = 0;  // from the pulse widths, before snapping
   bool baud_standard = false;
 
-  double samples_per_bit = 0;
-  std::uint64_t baud_candidates = 0;  // bit widths trial-decoded
-
   double idle_share = 0;  // share of the idle-gap time at the chosen polarity's mark level
   std::uint64_t idle_gaps = 0;
   Confidence polarity_confidence = Confidence::low;
@@ -74,8 +71,6 @@ struct LineDetection {
   // The line decodes clearly better in the chosen polarity, yet rests at its space level for
   // most of the idle time: nobody drives it between transmissions (no fail-safe bias).
   bool floats_when_idle = false;
-  // The best trial of the other polarity (same baud), for the evidence.
-  FormatTrial other_polarity;
 
   std::uint64_t pulses = 0;   // interior pulses measured
   double pulses_fitting = 0;  // share at a whole multiple of the bit width

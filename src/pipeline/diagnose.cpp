@@ -338,10 +338,6 @@ void bus_findings(const LineEvidence& e, std::vector<Verdict>& out) {
                    "", true});
 }
 
-const LineEvidence::Channel* main_channel(const LineEvidence& e) {
-  return e.channels.empty() ? nullptr : &e.channels.front();
-}
-
 }  // namespace
 
 const std::array<FindingCoverage, kAnomalyKindCount> kFindingCoverage = {{
@@ -550,8 +546,6 @@ void DiagnosisSink::on_anomaly(const Anomaly& a) {
       example(evidence_.first_short_gap);
       break;
     case AnomalyKind::timing_rule: {
-      ++evidence_.timing_rule_breaks;
-      example(evidence_.first_timing_rule);
       // "reply 3.8 ms after the request; the drive keeps at least 10 ms (E5-8200, ...)": what
       // follows the measurement names the drive and its rule.
       const std::size_t cut = a.detail.find("; ");
@@ -701,9 +695,8 @@ std::string diagnosis_json(const std::string& file, const LineEvidence& e,
         json_quote(d.polarity_reason), d.floats_when_idle, format_only(d.settings),
         phy::confidence_name(d.format_confidence), json_quote(d.format_reason));
   };
-  if (const LineEvidence::Channel* c = main_channel(e);
-      c && c->detection && c->detection->found && e.channels.size() == 1)
-    out += ",\"detection\":" + detection_json(*c->detection);
+  if (e.channels.size() == 1 && e.channels.front().detection && e.channels.front().detection->found)
+    out += ",\"detection\":" + detection_json(*e.channels.front().detection);
   if (e.from_samples) {
     out += ",\"channels\":[";
     for (std::size_t i = 0; i < e.channels.size(); ++i) {

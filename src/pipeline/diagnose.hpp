@@ -63,10 +63,9 @@ struct LineEvidence {
   // Bytes with a UART error inside frames whose checksum is good otherwise... and in bad frames.
   std::uint64_t flagged_bytes_in_bad_frames = 0;
   std::uint64_t noise_bytes = 0;
-  std::uint64_t intra_frame_gaps = 0;                               // t1.5 broken
-  std::uint64_t short_interframe_gaps = 0;                          // t3.5 broken
-  std::uint64_t timing_rule_breaks = 0;                             // a drive profile's timing rule
-  std::string first_intra_gap, first_short_gap, first_timing_rule;  // an example of each
+  std::uint64_t intra_frame_gaps = 0;            // t1.5 broken
+  std::uint64_t short_interframe_gaps = 0;       // t3.5 broken
+  std::string first_intra_gap, first_short_gap;  // an example of each
 
   // Every finding the pipeline reported, by kind: each leads to a verdict or is named benign.
   AnomalyCounts findings{};
