@@ -31,9 +31,9 @@
 
 #include <fmt/format.h>
 
-#include "phy/line_sim.hpp"
-#include "phy/uart_decoder.hpp"
-#include "sources/sigrok_file.hpp"
+#include "sources/logic/line_sim.hpp"
+#include "sources/logic/uart_decoder.hpp"
+#include "sources/logic/sigrok_file.hpp"
 
 namespace {
 

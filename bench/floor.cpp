@@ -18,7 +18,7 @@
 #include "core/byte_events.hpp"
 #include "core/checksum.hpp"
 #include "core/serial_config.hpp"
-#include "sources/capture_reader.hpp"
+#include "sources/file/capture_reader.hpp"
 
 int main(int argc, char** argv) {
   if (argc != 2) {

@@ -1,4 +1,4 @@
-// Fuzzes the text `drivetap decode` reads (src/sources/hex_text.hpp, README "Quick start"): each
+// Fuzzes the text `drivetap decode` reads (src/sources/file/hex_text.hpp, README "Quick start"): each
 // line of the input is hex bytes ("01 03 00 00 | 01 83 02") or one ':' / '~' text frame with
 // escapes, parsed by the functions decode uses (decode_text_kind, parse_decode_text); a refused
 // line must say why; the frames are laid out on a synthetic time line (times must not go back) and
@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "fuzz/fuzz_common.hpp"
-#include "sources/hex_text.hpp"
+#include "sources/file/hex_text.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   using namespace drivetap;

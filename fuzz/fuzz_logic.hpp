@@ -1,5 +1,5 @@
 // Shared by the logic-capture fuzz targets (fuzz_vcd, fuzz_sigrok): the temporary file their
-// path-taking readers open, the block contract of src/sources/logic_capture.hpp, and the whole
+// path-taking readers open, the block contract of src/sources/logic/logic_capture.hpp, and the whole
 // logic path (LogicSource: channel choice, line detection, UART decoding, time-ordered merge).
 #pragma once
 
@@ -13,8 +13,8 @@
 #include <string_view>
 
 #include "fuzz/fuzz_common.hpp"
-#include "sources/logic_capture.hpp"
-#include "sources/logic_source.hpp"
+#include "sources/logic/logic_capture.hpp"
+#include "sources/logic/logic_source.hpp"
 
 namespace drivetap::fuzz {
 

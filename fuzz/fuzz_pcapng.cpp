@@ -4,7 +4,7 @@
 #include <vector>
 
 #include "fuzz/fuzz_common.hpp"
-#include "sources/capture_reader.hpp"
+#include "sources/file/capture_reader.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   if (size == 0) return 0;  // the CLI stops at an empty file before choosing a reader

@@ -1,4 +1,4 @@
-// Fuzzes drive profiles (TOML, src/profiles/profile.hpp, README "Drive profiles"): the input up
+// Fuzzes drive profiles (TOML, src/drive/profile.hpp, README "Drive profiles"): the input up
 // to its first NUL is a profile file; a profile that loads is then the only `--drive auto`
 // candidate of a pipeline fed the rest of the input as bus bytes (0xFE b = b ms of silence), with
 // its protocol fixed, so that its registers, enums, scales and timing rules meet hostile frames.
@@ -9,7 +9,7 @@
 #include <string_view>
 
 #include "fuzz/fuzz_common.hpp"
-#include "profiles/profile.hpp"
+#include "drive/profile.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   using namespace drivetap;

@@ -25,7 +25,7 @@
 
 #include "core/checksum.hpp"
 #include "fuzz/fuzz_common.hpp"
-#include "profiles/annotate.hpp"
+#include "drive/annotate.hpp"
 
 namespace {
 

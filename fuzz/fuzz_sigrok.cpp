@@ -1,4 +1,4 @@
-// Fuzzes SigrokFile (sigrok session .sr, src/sources/sigrok_file.hpp) and the logic path behind
+// Fuzzes SigrokFile (sigrok session .sr, src/sources/logic/sigrok_file.hpp) and the logic path behind
 // it. Inputs with an even first byte are written as the file itself (a zip, damaged or not);
 // with an odd one they are a recipe the target zips with libzip, so that mutations reach the
 // reader's own parsing instead of dying in zip's checks:
@@ -9,7 +9,7 @@
 //           three chunks at 0xA5 0x5A markers.
 //
 // Every channel is selected and every block read, with the block contract of
-// src/sources/logic_capture.hpp checked (fuzz_logic.hpp); errors must name the file.
+// src/sources/logic/logic_capture.hpp checked (fuzz_logic.hpp); errors must name the file.
 #include <zip.h>
 
 #include <cstdint>
@@ -19,7 +19,7 @@
 
 #include "fuzz/fuzz_logic.hpp"
 #include "fuzz/structured_mutators.hpp"
-#include "sources/sigrok_file.hpp"
+#include "sources/logic/sigrok_file.hpp"
 
 namespace {
 

@@ -14,7 +14,7 @@
 #include <vector>
 
 #include "fuzz/fuzz_common.hpp"
-#include "profiles/profile.hpp"
+#include "drive/profile.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   using namespace drivetap;

@@ -1,6 +1,6 @@
-// Fuzzes VcdFile (Value Change Dump, src/sources/vcd_file.hpp). The reader takes a path, so the
+// Fuzzes VcdFile (Value Change Dump, src/sources/logic/vcd_file.hpp). The reader takes a path, so the
 // input goes to a temporary file first. Every channel is selected and every block read, with the
-// block contract of src/sources/logic_capture.hpp checked; a second select() of the first channel
+// block contract of src/sources/logic/logic_capture.hpp checked; a second select() of the first channel
 // alone, in blocks of a few tokens, must give that channel's levels again (select() starts over,
 // channels are independent, where blocks end changes nothing).
 #include <cstdint>
@@ -9,7 +9,7 @@
 
 #include "fuzz/fuzz_logic.hpp"
 #include "fuzz/structured_mutators.hpp"
-#include "sources/vcd_file.hpp"
+#include "sources/logic/vcd_file.hpp"
 
 namespace {
 

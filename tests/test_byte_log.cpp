@@ -11,7 +11,7 @@
 
 #include "core/anomaly.hpp"
 #include "core/byte_event.hpp"
-#include "sources/byte_log.hpp"
+#include "sources/file/byte_log.hpp"
 
 using namespace drivetap;
 

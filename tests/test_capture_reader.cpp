@@ -13,7 +13,7 @@
 #include "formats/pcapng.hpp"
 #include "formats/upper_pdu.hpp"
 #include "sinks/capture_sink.hpp"
-#include "sources/capture_reader.hpp"
+#include "sources/file/capture_reader.hpp"
 #include "test_support.hpp"
 
 using namespace drivetap;

@@ -1,5 +1,5 @@
-// Unit tests: line detection (src/phy/detect.hpp) and diagnosis verdicts
-// (src/pipeline/diagnose.hpp) on simulated lines — every verdict present where its fault is
+// Unit tests: line detection (src/sources/logic/detect.hpp) and diagnosis verdicts
+// (src/app/diagnose.hpp) on simulated lines — every verdict present where its fault is
 // simulated and absent on the clean line — and on byte-level evidence.
 #include <gtest/gtest.h>
 
@@ -7,10 +7,10 @@
 #include <random>
 
 #include "core/checksum.hpp"
-#include "phy/detect.hpp"
-#include "phy/line_sim.hpp"
-#include "pipeline/diagnose.hpp"
-#include "sources/logic_source.hpp"
+#include "sources/logic/detect.hpp"
+#include "sources/logic/line_sim.hpp"
+#include "app/diagnose.hpp"
+#include "sources/logic/logic_source.hpp"
 
 using namespace drivetap;
 using namespace drivetap::phy;

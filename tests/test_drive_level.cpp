@@ -11,10 +11,10 @@
 #include <vector>
 
 #include "core/protocol.hpp"
-#include "profiles/annotate.hpp"
-#include "profiles/binder.hpp"
-#include "profiles/profile.hpp"
-#include "profiles/timeline.hpp"
+#include "drive/annotate.hpp"
+#include "drive/binder.hpp"
+#include "drive/profile.hpp"
+#include "drive/timeline.hpp"
 #include "test_support.hpp"
 
 using namespace drivetap;

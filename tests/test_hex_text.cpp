@@ -6,7 +6,7 @@
 #include <vector>
 
 #include "core/byte_event.hpp"
-#include "sources/hex_text.hpp"
+#include "sources/file/hex_text.hpp"
 
 using namespace drivetap;
 

@@ -1,7 +1,7 @@
 // Unit tests: drive profiles — built-in files load, errors name file, line and key.
 #include <gtest/gtest.h>
 
-#include "profiles/profile.hpp"
+#include "drive/profile.hpp"
 #include "sinks/threaded_sink.hpp"
 #include "test_support.hpp"
 

@@ -5,7 +5,7 @@
 
 #include "pipeline/pipeline.hpp"
 #include "sinks/ring_capture_sink.hpp"
-#include "sources/capture_reader.hpp"
+#include "sources/file/capture_reader.hpp"
 #include "test_support.hpp"
 
 using namespace drivetap;

@@ -1,4 +1,4 @@
-// Unit tests: the serial-port capture source (src/sources/serial_port.hpp) — PARMRK unmarking,
+// Unit tests: the serial-port capture source (src/sources/live/serial_port.hpp) — PARMRK unmarking,
 // per-byte time back-dating, the USB burst rule, open() errors, and a real pseudo-terminal.
 #include <gtest/gtest.h>
 
@@ -25,7 +25,7 @@
 
 #include "core/byte_event.hpp"
 #include "core/serial_config.hpp"
-#include "sources/serial_port.hpp"
+#include "sources/live/serial_port.hpp"
 
 using namespace drivetap;
 

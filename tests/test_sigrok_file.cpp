@@ -5,8 +5,8 @@
 
 #include <fmt/format.h>
 
-#include "sources/logic_source.hpp"
-#include "sources/sigrok_file.hpp"
+#include "sources/logic/logic_source.hpp"
+#include "sources/logic/sigrok_file.hpp"
 
 using namespace drivetap;
 

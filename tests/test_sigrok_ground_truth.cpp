@@ -6,8 +6,8 @@
 #include <fstream>
 #include <sstream>
 
-#include "sources/logic_source.hpp"
-#include "sources/sigrok_file.hpp"
+#include "sources/logic/logic_source.hpp"
+#include "sources/logic/sigrok_file.hpp"
 #include "test_support.hpp"
 
 using namespace drivetap;

@@ -1,4 +1,4 @@
-// Unit tests: the sigrok reader's logic scan (src/sources/sigrok_file.cpp, scan_logic) against a
+// Unit tests: the sigrok reader's logic scan (src/sources/logic/sigrok_file.cpp, scan_logic) against a
 // sample-by-sample reference, on sessions written here with libzip: every unit size 1..8 (eight
 // bytes compared at once for 1, 2, 4 and 8; one sample at a time for the others), changes sparse
 // and dense, at the first and last sample of a read and of a chunk, selections in any order.
@@ -14,7 +14,7 @@
 
 #include <fmt/format.h>
 
-#include "sources/sigrok_file.hpp"
+#include "sources/logic/sigrok_file.hpp"
 
 using namespace drivetap;
 

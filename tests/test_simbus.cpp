@@ -17,7 +17,7 @@
 #include <vector>
 
 #include "core/checksum.hpp"
-#include "sources/byte_log.hpp"
+#include "sources/file/byte_log.hpp"
 #include "tools/simbus_core.hpp"
 
 using namespace drivetap;

@@ -10,8 +10,8 @@
 #include "core/checksum.hpp"
 #include "dissectors/danfoss_fc/fc_dissector.hpp"
 #include "pipeline/pipeline.hpp"
-#include "profiles/profile.hpp"
-#include "sources/byte_log.hpp"
+#include "drive/profile.hpp"
+#include "sources/file/byte_log.hpp"
 
 namespace drivetap::testing {
 

@@ -10,7 +10,7 @@
 
 #include "sinks/capture_sink.hpp"
 #include "sinks/text_sink.hpp"
-#include "sources/capture_reader.hpp"
+#include "sources/file/capture_reader.hpp"
 #include "test_support.hpp"
 
 using namespace drivetap;

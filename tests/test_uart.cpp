@@ -12,8 +12,8 @@
 #include <string>
 #include <vector>
 
-#include "phy/line_sim.hpp"
-#include "phy/uart_decoder.hpp"
+#include "sources/logic/line_sim.hpp"
+#include "sources/logic/uart_decoder.hpp"
 
 using namespace drivetap;
 using namespace drivetap::phy;

@@ -1,4 +1,4 @@
-// Unit tests: Value Change Dump reader (src/sources/vcd_file.hpp) on hand-written VCDs and on
+// Unit tests: Value Change Dump reader (src/sources/logic/vcd_file.hpp) on hand-written VCDs and on
 // sigrok-cli's exports of the .sr captures (captures/vcd/), which must give the same runs.
 #include <gtest/gtest.h>
 
@@ -8,10 +8,10 @@
 
 #include <fmt/format.h>
 
-#include "phy/line_sim.hpp"
-#include "phy/uart_decoder.hpp"
-#include "sources/sigrok_file.hpp"
-#include "sources/vcd_file.hpp"
+#include "sources/logic/line_sim.hpp"
+#include "sources/logic/uart_decoder.hpp"
+#include "sources/logic/sigrok_file.hpp"
+#include "sources/logic/vcd_file.hpp"
 
 using namespace drivetap;
 using phy::LevelRun;
@@ -533,7 +533,7 @@ TEST(VcdFile, HelloWorldDecodesAt115200_7O1) {
   EXPECT_EQ(text, "Hello World!\r\nHello World!\r\nHello World!\r\nHello World!\r\n");
 }
 
-// The line simulator's VCD (sigrok's layout, src/phy/line_sim.hpp) reads back as the very runs
+// The line simulator's VCD (sigrok's layout, src/sources/logic/line_sim.hpp) reads back as the very runs
 // it was written from, also at 3 and 24 MHz, whose sample times it rounds to 1 ns and 100 ps.
 TEST(VcdFile, LineSimulatorVcdRoundTrip) {
   const std::vector<std::uint8_t> bytes = {0x01, 0x03, 0x00, 0x00, 0x00, 0x0A, 0xC5, 0xCD, 0x55};

@@ -15,7 +15,7 @@
 
 namespace drivetap {
 
-struct DriveProfile;  // profiles/profile.hpp
+struct DriveProfile;  // drive/profile.hpp
 
 enum class Protocol : std::uint8_t { unknown, modbus_rtu, modbus_ascii, danfoss_fc, easydrive };
 enum class Direction : std::uint8_t { unknown, request, response };
@@ -43,7 +43,7 @@ struct Message {
   std::string drive_info;
   // Set instead of drive_info when the sink writes the annotation on a thread of its own
   // (Sink::completes_drive_info(): the ThreadedSink's writer): the profile that reads the frame.
-  // complete_drive_info() (profiles/annotate.hpp) turns it into drive_info.
+  // complete_drive_info() (drive/annotate.hpp) turns it into drive_info.
   const DriveProfile* drive_profile = nullptr;
   // With drive_profile, for a reply: the bytes of the request it answers, empty when none.
   std::vector<std::uint8_t> request;

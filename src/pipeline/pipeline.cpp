@@ -2,7 +2,7 @@
 #include "pipeline/pipeline.hpp"
 
 #include "dissectors/common/plausibility.hpp"
-#include "profiles/annotate.hpp"
+#include "drive/annotate.hpp"
 
 #include <fmt/compile.h>
 #include <fmt/format.h>

@@ -19,10 +19,10 @@
 #include "core/serial_config.hpp"
 #include "pipeline/frame_queue.hpp"
 #include "pipeline/pairer.hpp"
-#include "pipeline/stats.hpp"
-#include "profiles/binder.hpp"
-#include "profiles/profile.hpp"
-#include "profiles/timeline.hpp"
+#include "core/stats.hpp"
+#include "drive/binder.hpp"
+#include "drive/profile.hpp"
+#include "drive/timeline.hpp"
 #include "sinks/sink.hpp"
 
 namespace drivetap {

@@ -16,7 +16,7 @@
 #include "core/message.hpp"
 #include "core/protocol.hpp"
 #include "core/transaction.hpp"
-#include "pipeline/stats.hpp"
+#include "core/stats.hpp"
 
 namespace drivetap {
 

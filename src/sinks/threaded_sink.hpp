@@ -35,7 +35,7 @@
 #include <thread>
 #include <vector>
 
-#include "profiles/annotate.hpp"
+#include "drive/annotate.hpp"
 #include "sinks/sink.hpp"
 
 namespace drivetap {

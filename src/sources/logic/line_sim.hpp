@@ -15,7 +15,7 @@
 #include <string_view>
 #include <vector>
 
-#include "phy/uart_decoder.hpp"
+#include "sources/logic/uart_decoder.hpp"
 
 namespace drivetap::phy {
 

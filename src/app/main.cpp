@@ -32,24 +32,24 @@
 #include "formats/shared_libraries.hpp"
 #include "generate/byte_log_writer.hpp"
 #include "generate/traffic.hpp"
-#include "pipeline/diagnose.hpp"
+#include "app/diagnose.hpp"
 #include "pipeline/options.hpp"
 #include "pipeline/pipeline.hpp"
-#include "profiles/profile.hpp"
+#include "drive/profile.hpp"
 #include "sinks/capture_sink.hpp"
 #include "sinks/json_sink.hpp"
 #include "sinks/ring_capture_sink.hpp"
 #include "sinks/text_sink.hpp"
 #include "sinks/threaded_sink.hpp"
-#include "sources/byte_log.hpp"
-#include "sources/capture_reader.hpp"
-#include "sources/hex_text.hpp"
+#include "sources/file/byte_log.hpp"
+#include "sources/file/capture_reader.hpp"
+#include "sources/file/hex_text.hpp"
 #include "sources/input_file.hpp"
-#include "sources/logic_source.hpp"
+#include "sources/logic/logic_source.hpp"
 #include "sources/read_ahead.hpp"
-#include "sources/serial_port.hpp"
-#include "sources/sigrok_file.hpp"
-#include "sources/vcd_file.hpp"
+#include "sources/live/serial_port.hpp"
+#include "sources/logic/sigrok_file.hpp"
+#include "sources/logic/vcd_file.hpp"
 
 namespace {
 
@@ -735,7 +735,7 @@ int run_read(const CommonOptions& o, const std::string& path) {
 }
 
 // `drivetap diagnose FILE`: runs the capture through the pipeline with nothing printed, then gives
-// the line's verdicts (src/pipeline/diagnose.hpp). Any capture: a logic capture gives sample
+// the line's verdicts (src/app/diagnose.hpp). Any capture: a logic capture gives sample
 // evidence (detection, polarity, glitches), the others the UART flags and byte patterns.
 int run_diagnose(const CommonOptions& o, const std::string& path) {
   InputFile in;

@@ -1,5 +1,5 @@
 // Byte log reader (format: README "Byte log format"; hand-written, see README design notes).
-#include "sources/byte_log.hpp"
+#include "sources/file/byte_log.hpp"
 
 #include <fmt/format.h>
 

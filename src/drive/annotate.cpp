@@ -1,6 +1,6 @@
 // Drive-level reading of Modbus, Danfoss FC and Easydrive frames from a drive profile
 // (dissectors/profiles/README.md; frame layouts PROTOCOLS.md §2-§5).
-#include "profiles/annotate.hpp"
+#include "drive/annotate.hpp"
 
 #include <fmt/compile.h>
 #include <fmt/format.h>

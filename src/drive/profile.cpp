@@ -1,6 +1,6 @@
 // Drive profile loader (schema: dissectors/profiles/README.md), on toml++ (Debian's
 // libtomlplusplus): every key is checked; errors name the file, line and key.
-#include "profiles/profile.hpp"
+#include "drive/profile.hpp"
 
 #include <fmt/format.h>
 

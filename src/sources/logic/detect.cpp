@@ -1,5 +1,5 @@
-// Line settings detection from sampled levels (src/phy/detect.hpp; PROTOCOLS.md §1).
-#include "phy/detect.hpp"
+// Line settings detection from sampled levels (src/sources/logic/detect.hpp; PROTOCOLS.md §1).
+#include "sources/logic/detect.hpp"
 
 #include <fmt/format.h>
 

@@ -1,5 +1,5 @@
 // Hex text input for `drivetap decode`.
-#include "sources/hex_text.hpp"
+#include "sources/file/hex_text.hpp"
 
 #include <fmt/format.h>
 

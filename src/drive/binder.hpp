@@ -19,7 +19,7 @@
 
 #include "core/bus_event.hpp"
 #include "core/message.hpp"
-#include "profiles/profile.hpp"
+#include "drive/profile.hpp"
 
 namespace drivetap {
 

@@ -15,8 +15,8 @@
 
 #include "core/bus_event.hpp"
 #include "core/message.hpp"
-#include "profiles/annotate.hpp"
-#include "profiles/profile.hpp"
+#include "drive/annotate.hpp"
+#include "drive/profile.hpp"
 
 namespace drivetap {
 

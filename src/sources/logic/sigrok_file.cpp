@@ -1,5 +1,5 @@
-// sigrok session file (.sr) reader (src/sources/sigrok_file.hpp), on libzip.
-#include "sources/sigrok_file.hpp"
+// sigrok session file (.sr) reader (src/sources/logic/sigrok_file.hpp), on libzip.
+#include "sources/logic/sigrok_file.hpp"
 
 #include <fmt/format.h>
 #include <zip.h>

@@ -4,7 +4,7 @@
 //
 //   logic sample = unitsize bytes, little-endian; bit i = channel probe(i+1)
 //
-// The reader hands out level runs block by block (src/sources/logic_capture.hpp); it never holds
+// The reader hands out level runs block by block (src/sources/logic/logic_capture.hpp); it never holds
 // the whole capture in memory. An analog channel is turned into levels by a Schmitt trigger
 // around the middle of its range (a first pass finds the range).
 #pragma once
@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-#include "sources/logic_capture.hpp"
+#include "sources/logic/logic_capture.hpp"
 
 namespace drivetap {
 

@@ -1,5 +1,5 @@
-// Drive-state timeline (src/profiles/timeline.hpp): state changes become events.
-#include "profiles/timeline.hpp"
+// Drive-state timeline (src/drive/timeline.hpp): state changes become events.
+#include "drive/timeline.hpp"
 
 #include <fmt/compile.h>
 #include <fmt/format.h>

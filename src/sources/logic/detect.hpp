@@ -20,7 +20,7 @@
 #include <string>
 #include <vector>
 
-#include "phy/uart_decoder.hpp"
+#include "sources/logic/uart_decoder.hpp"
 
 namespace drivetap::phy {
 

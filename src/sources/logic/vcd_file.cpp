@@ -1,5 +1,5 @@
-// Value Change Dump reader (src/sources/vcd_file.hpp).
-#include "sources/vcd_file.hpp"
+// Value Change Dump reader (src/sources/logic/vcd_file.hpp).
+#include "sources/logic/vcd_file.hpp"
 
 #include <fmt/format.h>
 
@@ -13,7 +13,7 @@
 #include <sys/stat.h>
 
 #include "core/time.hpp"
-#include "sources/sigrok_file.hpp"  // parse_sample_rate, for sigrok's "... at 2 MHz" comment
+#include "sources/logic/sigrok_file.hpp"  // parse_sample_rate, for sigrok's "... at 2 MHz" comment
 
 namespace drivetap {
 

@@ -1,5 +1,5 @@
 // UART decoder over sampled logic levels (PROTOCOLS.md §1 line settings; see uart_decoder.hpp).
-#include "phy/uart_decoder.hpp"
+#include "sources/logic/uart_decoder.hpp"
 
 #include <fmt/format.h>
 

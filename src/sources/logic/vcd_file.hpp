@@ -56,7 +56,7 @@
 #include <string_view>
 #include <vector>
 
-#include "sources/logic_capture.hpp"
+#include "sources/logic/logic_capture.hpp"
 
 namespace drivetap {
 

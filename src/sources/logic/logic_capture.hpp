@@ -1,6 +1,6 @@
 // Logic-analyser capture as level runs per channel: the contract between the sampled-capture
-// readers (sigrok session .sr, VCD) and what decodes them (src/sources/logic_source.hpp,
-// src/phy/detect.hpp). Issue 6 / PROTOCOLS.md §1 (the line under the bytes).
+// readers (sigrok session .sr, VCD) and what decodes them (src/sources/logic/logic_source.hpp,
+// src/sources/logic/detect.hpp). Issue 6 / PROTOCOLS.md §1 (the line under the bytes).
 //
 // A reader hands out the capture block by block. Every block covers the same samples
 // [begin, end) for each selected channel, as run-length levels:
@@ -16,7 +16,7 @@
 #include <string>
 #include <vector>
 
-#include "phy/uart_decoder.hpp"
+#include "sources/logic/uart_decoder.hpp"
 
 namespace drivetap {
 

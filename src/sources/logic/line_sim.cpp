@@ -1,5 +1,5 @@
 // RS-485 line simulator and VCD writer (PROTOCOLS.md §1; IEEE 1364 §18; see line_sim.hpp).
-#include "phy/line_sim.hpp"
+#include "sources/logic/line_sim.hpp"
 
 #include <fmt/format.h>
 

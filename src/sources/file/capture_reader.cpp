@@ -1,5 +1,5 @@
 // Capture reader: pcapng (ours) and classic pcap (libpcap) into byte events (README "pcap").
-#include "sources/capture_reader.hpp"
+#include "sources/file/capture_reader.hpp"
 
 #include <fmt/format.h>
 #include <pcap/pcap.h>

@@ -1,5 +1,5 @@
-// Logic-analyser captures as a byte source (src/sources/logic_source.hpp).
-#include "sources/logic_source.hpp"
+// Logic-analyser captures as a byte source (src/sources/logic/logic_source.hpp).
+#include "sources/logic/logic_source.hpp"
 
 #include <fmt/format.h>
 

@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "core/message.hpp"
-#include "profiles/profile.hpp"
+#include "drive/profile.hpp"
 
 namespace drivetap {
 

@@ -1,5 +1,5 @@
 // Counting for the closing summary.
-#include "pipeline/stats.hpp"
+#include "core/stats.hpp"
 
 #include <algorithm>
 

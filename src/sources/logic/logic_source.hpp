@@ -1,9 +1,9 @@
 // Logic-analyser captures as a byte source: any LogicCapture (sigrok .sr, VCD;
-// src/sources/logic_capture.hpp) decoded by drivetap's own UART decoder (src/phy/uart_decoder.hpp),
+// src/sources/logic/logic_capture.hpp) decoded by drivetap's own UART decoder (src/sources/logic/uart_decoder.hpp),
 // one decoder per chosen channel, the characters of all channels merged in time order (channel =
 // direction on a 4-wire link). Byte times are the start bits' first samples; UART errors ride on
 // the events. Line settings not given are detected from the first runs of each channel on its own
-// (src/phy/detect.hpp): the two sides of a converter differ in polarity, a clock or enable line
+// (src/sources/logic/detect.hpp): the two sides of a converter differ in polarity, a clock or enable line
 // beside the data is no UART at all.
 //
 // Streaming: the capture is decoded block by block; a character is handed out once no channel
@@ -16,9 +16,9 @@
 #include <string>
 #include <vector>
 
-#include "phy/detect.hpp"
-#include "phy/uart_decoder.hpp"
-#include "sources/logic_capture.hpp"
+#include "sources/logic/detect.hpp"
+#include "sources/logic/uart_decoder.hpp"
+#include "sources/logic/logic_capture.hpp"
 #include "sources/source.hpp"
 
 namespace drivetap {

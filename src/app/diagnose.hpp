@@ -18,9 +18,9 @@
 #include <vector>
 
 #include "core/protocol.hpp"
-#include "phy/detect.hpp"
+#include "sources/logic/detect.hpp"
 #include "pipeline/options.hpp"
-#include "pipeline/stats.hpp"
+#include "core/stats.hpp"
 #include "sinks/sink.hpp"
 #include "sources/source.hpp"
 

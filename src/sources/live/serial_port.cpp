@@ -1,5 +1,5 @@
-// Serial-port capture source (src/sources/serial_port.hpp; issue 7 part 1, PROTOCOLS.md §1).
-#include "sources/serial_port.hpp"
+// Serial-port capture source (src/sources/live/serial_port.hpp; issue 7 part 1, PROTOCOLS.md §1).
+#include "sources/live/serial_port.hpp"
 
 // The kernel's termios2 (asm/termbits.h), not glibc's <termios.h>: only termios2 carries any
 // integer baud rate (BOTHER). The two define `struct termios` differently, so <termios.h> must

@@ -1,5 +1,5 @@
-// Line diagnosis: evidence -> verdicts (src/pipeline/diagnose.hpp; PROTOCOLS.md §1, §2).
-#include "pipeline/diagnose.hpp"
+// Line diagnosis: evidence -> verdicts (src/app/diagnose.hpp; PROTOCOLS.md §1, §2).
+#include "app/diagnose.hpp"
 
 #include <fmt/format.h>
 
@@ -9,7 +9,7 @@
 #include "core/printable.hpp"
 #include "pipeline/pipeline.hpp"
 #include "sinks/json_sink.hpp"
-#include "sources/logic_source.hpp"
+#include "sources/logic/logic_source.hpp"
 
 namespace drivetap {
 namespace {

@@ -1,11 +1,11 @@
-// Drive binding by guess (src/profiles/binder.hpp): per-station evidence for each family profile.
-#include "profiles/binder.hpp"
+// Drive binding by guess (src/drive/binder.hpp): per-station evidence for each family profile.
+#include "drive/binder.hpp"
 
 #include <fmt/format.h>
 
 #include <algorithm>
 
-#include "profiles/annotate.hpp"
+#include "drive/annotate.hpp"
 
 namespace drivetap {
 namespace {
