@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Builds the libFuzzer targets of fuzz/ with clang (ASan + UBSan) in build-fuzz/ and runs each
-# for a while, from a seed corpus made of captures/ (README "Captures and tests").
+# for a while, from a seed corpus made of captures/ (docs/testing.md, "Fuzzing").
 #
 #   bash scripts/fuzz.sh [SECONDS_PER_TARGET] [TARGET...]     (default 30 s, every target)
 #   bash scripts/fuzz.sh 120 pcapng byte_log
@@ -202,8 +202,8 @@ PY
     { cat "$toml"; printf '\0'; cat "$seeds/modbus_pdu/"seed-* 2> /dev/null | head -c 2048; } \
       > "$seeds/profile/$name-with-frames"
   done
-  # `drivetap decode` text: the README's examples, and each telegram seed written as hex.
-  grep -ho 'decode "[^"]*"' README.md tests/*.sh | sed 's/^decode "//; s/"$//' | sort -u |
+  # `drivetap decode` text: the documentation's examples, and each telegram seed written as hex.
+  grep -ho 'decode "[^"]*"' README.md docs/*.md tests/*.sh | sed 's/^decode "//; s/"$//' | sort -u |
     awk -v dir="$seeds/hex_text" '{ print > (dir "/example-" NR) }'
   printf '01 03 00 00 00 01 84 0A | 0x01,0x83;02 C0 F1\n:010300000001FB\\r\\n\n~010C00010FA0027C\\x0d\n' \
     > "$seeds/hex_text/mixed"

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The README's first command: installs dependencies, builds drivetap and decodes a bundled capture
-# (the ERMAN E-9 manual's worked examples, with their checksum errata).
+# (captures/session-e9: a master polling an ERMAN E-9, a fault appearing and cleared).
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 bash scripts/install-deps.sh
