@@ -3,6 +3,7 @@
 #pragma once
 
 #include <functional>
+#include <string>
 
 namespace CLI {
 class App;
@@ -16,6 +17,13 @@ struct Command {
   CLI::App* given = nullptr;
   std::function<int()> run;
 };
+
+struct CommonOptions;
+
+// A subcommand that takes the common options and one capture file (read, diagnose).
+Command add_file_command(CLI::App& app, const std::string& name, const std::string& description,
+                         const std::string& file_help,
+                         int (*run)(const CommonOptions& o, const std::string& path));
 
 Command add_decode_command(CLI::App& app);    // decode.cpp: frames given as hex
 Command add_read_command(CLI::App& app);      // read.cpp: a capture file

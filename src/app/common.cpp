@@ -15,7 +15,9 @@
 #include <cstring>
 #include <deque>
 #include <filesystem>
+#include <memory>
 
+#include "app/commands.hpp"
 #include "core/printable.hpp"
 #include "core/protocol.hpp"
 #include "dissectors/common/plausibility.hpp"
@@ -117,6 +119,17 @@ void add_common_options(CLI::App* cmd, CommonOptions& o) {
   cmd->add_option("--dlt", o.dlt,
                   "With -w: link type upper-pdu (252, Wireshark decodes it as is) or user0 (147)")
       ->check(CLI::IsMember({"upper-pdu", "user0"}));
+}
+
+Command add_file_command(CLI::App& app, const std::string& name, const std::string& description,
+                         const std::string& file_help,
+                         int (*run)(const CommonOptions& o, const std::string& path)) {
+  auto o = std::make_shared<CommonOptions>();
+  auto path = std::make_shared<std::string>();
+  CLI::App* command = app.add_subcommand(name, description);
+  add_common_options(command, *o);
+  command->add_option("file", *path, file_help)->required();
+  return {command, [o, path, run] { return run(*o, *path); }};
 }
 
 // One line on stderr, "drivetap: MESSAGE": whole (a NUL in a name taken from a file would cut

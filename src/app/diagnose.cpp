@@ -156,14 +156,10 @@ int run_diagnose(const CommonOptions& o, const std::string& path) {
 }  // namespace
 
 Command add_diagnose_command(CLI::App& app) {
-  auto o = std::make_shared<CommonOptions>();
-  auto path = std::make_shared<std::string>();
-  CLI::App* diagnose = app.add_subcommand(
-      "diagnose",
-      "Diagnose the line: swapped A/B, wrong baud or parity, noise, missing bias, timing");
-  add_common_options(diagnose, *o);
-  diagnose->add_option("file", *path, "Capture file (a logic capture gives most)")->required();
-  return {diagnose, [o, path] { return run_diagnose(*o, *path); }};
+  return add_file_command(
+      app, "diagnose",
+      "Diagnose the line: swapped A/B, wrong baud or parity, noise, missing bias, timing",
+      "Capture file (a logic capture gives most)", run_diagnose);
 }
 
 }  // namespace drivetap::app

@@ -89,13 +89,9 @@ int run_read(const CommonOptions& o, const std::string& path) {
 }  // namespace
 
 Command add_read_command(CLI::App& app) {
-  auto o = std::make_shared<CommonOptions>();
-  auto path = std::make_shared<std::string>();
-  CLI::App* read = app.add_subcommand(
-      "read", "Decode a capture: pcapng, pcap, byte log, sigrok session or VCD; '-' for stdin");
-  add_common_options(read, *o);
-  read->add_option("file", *path, "Capture file")->required();
-  return {read, [o, path] { return run_read(*o, *path); }};
+  return add_file_command(
+      app, "read", "Decode a capture: pcapng, pcap, byte log, sigrok session or VCD; '-' for stdin",
+      "Capture file", run_read);
 }
 
 }  // namespace drivetap::app
