@@ -99,7 +99,7 @@ inline const std::vector<const DriveProfile*>& builtin_candidates() {
   return pointers;
 }
 
-// The loop of `drivetap read` (src/app/main.cpp, run_read) over one source.
+// The loop of `drivetap read` (src/app/read.cpp, run_read) over one source.
 inline void run_source(ByteSource& source, ChannelTable& channels) {
   if (!source.read_header()) return;
   std::string error;

@@ -1,5 +1,5 @@
 // Unit tests: line detection (src/sources/logic/detect.hpp) and diagnosis verdicts
-// (src/app/diagnose.hpp) on simulated lines — every verdict present where its fault is
+// (src/diagnose/line_diagnosis.hpp) on simulated lines — every verdict present where its fault is
 // simulated and absent on the clean line — and on byte-level evidence.
 #include <gtest/gtest.h>
 
@@ -7,9 +7,9 @@
 #include <random>
 
 #include "core/checksum.hpp"
+#include "diagnose/line_diagnosis.hpp"
 #include "sources/logic/detect.hpp"
 #include "sources/logic/line_sim.hpp"
-#include "app/diagnose.hpp"
 #include "sources/logic/logic_source.hpp"
 
 using namespace drivetap;

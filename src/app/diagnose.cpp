@@ -1,621 +1,25 @@
-// Line diagnosis: evidence -> verdicts (src/app/diagnose.hpp; PROTOCOLS.md §1, §2).
-#include "app/diagnose.hpp"
-
+// `drivetap diagnose FILE`: the line's health (src/diagnose/line_diagnosis.hpp; PROTOCOLS.md §1,
+// §2) and its report, text for a person or one JSON object (README "Command reference").
 #include <fmt/format.h>
+#include <CLI/CLI.hpp>
 
 #include <algorithm>
-#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <string>
+#include <vector>
 
-#include "core/printable.hpp"
-#include "pipeline/pipeline.hpp"
+#include "app/commands.hpp"
+#include "app/common.hpp"
+#include "app/inputs.hpp"
+#include "app/stop_signals.hpp"
+#include "diagnose/line_diagnosis.hpp"
 #include "sinks/json_sink.hpp"
-#include "sources/logic/logic_source.hpp"
 
-namespace drivetap {
+namespace drivetap::app {
 namespace {
 
-double percent(std::uint64_t part, std::uint64_t whole) {
-  return whole ? 100.0 * static_cast<double>(part) / static_cast<double>(whole) : 0.0;
-}
-
-std::string format_only(const phy::UartSettings& s) {
-  phy::UartSettings upright = s;
-  upright.inverted = false;
-  const std::string text = phy::settings_text(upright);
-  return text.substr(text.find(' ') + 1);  // "8E1"
-}
-
-std::string trial_errors(const phy::FormatTrial& t) {
-  return fmt::format(
-      "{} characters, {} framing errors, {} parity errors, {} breaks, {} false start bits",
-      t.stats.characters, t.stats.framing_errors, t.stats.parity_errors, t.stats.breaks,
-      t.stats.false_starts);
-}
-
-// The UART errors on a byte-level capture: which setting is probably wrong.
-void byte_level_settings(const LineEvidence& e, std::vector<Verdict>& out) {
-  if (e.characters < 20) return;
-  const std::uint64_t framing = e.framing_errors + e.breaks;
-  const double parity_share = percent(e.parity_errors, e.characters);
-  const double framing_share = percent(framing, e.characters);
-  if (parity_share >= 20 && framing_share < 5) {
-    out.push_back(
-        {"parity-mismatch", "Parity errors on many bytes: the bus uses another parity",
-         fmt::format("{} of {} bytes ({:.0f} %) have parity errors, only {} framing errors; "
-                     "captured as {}",
-                     e.parity_errors, e.characters, parity_share, framing, e.settings),
-         "capture again with the parity the drives use (E, O or N: their communication "
-         "parameters say which; about half the bytes failing means none vs. even/odd, every "
-         "byte failing means even vs. odd)"});
-  } else if (framing_share >= 20) {
-    out.push_back(
-        {"settings-mismatch", "Framing errors on many bytes: baud rate, format or polarity wrong",
-         fmt::format("{} of {} bytes ({:.0f} %) have framing errors or breaks; captured as {}",
-                     framing, e.characters, framing_share, e.settings),
-         "record the line with a logic analyser and run `drivetap diagnose` on it (it measures "
-         "the baud rate and the polarity), or check the A/B wiring and the drives' baud "
-         "parameter"});
-  }
-}
-
-// Given settings against what the samples show, and each channel's polarity.
-void sampled_settings(const LineEvidence& e, const LineEvidence::Channel& c,
-                      std::vector<Verdict>& out) {
-  const phy::LineDetection& d = *c.detection;
-  if (!d.found) return;
-  const phy::UartSettings& found = d.settings;
-  const std::string works =
-      fmt::format("{} decodes with {} errors in {} characters", phy::settings_text(found),
-                  d.best().errors(), d.best().stats.characters);
-  const bool inverted_line = found.inverted && d.polarity_confidence != phy::Confidence::low;
-  if (inverted_line && (!e.given || !e.given->inverted)) {
-    // drivetap sees the same waveform either way: a swapped pair, or a probe on the RS-232 or
-    // TTL side of a converter (RS-232 is inverted by definition).
-    out.push_back(
-        {"inverted-line",
-         "The line is inverted: A and B swapped, or the probe is on the RS-232/TTL side of a "
-         "converter",
-         fmt::format("the polarity {}; {}", d.polarity_reason, works),
-         "on an RS-485 pair: swap the A and B wires of the tap (the drives are not affected if "
-         "only the tap is swapped; if a drive is, it sees framing errors on every frame); on the "
-         "RS-232 side of a converter the inversion is normal; either way decode with --invert"});
-  }
-  if (d.floats_when_idle)
-    out.push_back(
-        {"unbiased-bus", "Bus not biased: the line floats when no transmitter drives it",
-         fmt::format("between transmissions the line rests at the space level ({:.0f} % of the "
-                     "time in {} idle gaps), yet every transmission on it reads {}: {}",
-                     (1 - d.idle_share) * 100, d.idle_gaps, found.inverted ? "inverted" : "upright",
-                     d.polarity_reason),
-         "add fail-safe bias at one point of the bus (about 680 ohm pull-up on B/D+ and "
-         "pull-down on A/D-, or the master's or an adapter's bias switch), and check the 120 "
-         "ohm terminations: two, one at each end"});
-  if (!e.given || !c.given_trial || c.given_trial->error_rate() <= 0.05) return;
-  const phy::UartSettings& given = *e.given;
-  const std::string given_text = fmt::format(
-      "decoding as given ({}): {}", phy::settings_text(given), trial_errors(*c.given_trial));
-  if (std::abs(given.baud - found.baud) > found.baud * 0.03) {
-    out.push_back(
-        {"baud-mismatch",
-         fmt::format("Baud rate mismatch: the line runs at {:g}, not {:g}", found.baud, given.baud),
-         fmt::format("{}; the pulse widths measure {:.0f} baud and {}", given_text, d.measured_baud,
-                     works),
-         fmt::format("set {:g} baud (-s \"{:g} {}\"), and check the baud parameter of "
-                     "any drive that must talk on this bus",
-                     found.baud, found.baud, format_only(found))});
-  } else if (given.parity != found.parity || given.data_bits != found.data_bits) {
-    out.push_back({"parity-mismatch",
-                   fmt::format("Format mismatch: the line uses {}, not {}", format_only(found),
-                               format_only(given)),
-                   fmt::format("{}; {}", given_text, works),
-                   fmt::format("set {} (-s \"{:g} {}\") and the same parity in every drive's "
-                               "communication parameters",
-                               format_only(found), found.baud, format_only(found))});
-  } else if (given.inverted != found.inverted && !inverted_line) {
-    out.push_back({"settings-mismatch", "Polarity given wrong: the line is not inverted",
-                   fmt::format("{}; {}", given_text, works), "decode without --invert"});
-  }
-}
-
-// Each channel's verdicts: one verdict where every channel has it (a file-level verdict where
-// the channels agree), else one per channel, named.
-void merge_channel_verdicts(const LineEvidence& e,
-                            const std::vector<std::vector<Verdict>>& per_channel,
-                            std::vector<Verdict>& out) {
-  if (e.channels.size() == 1) {
-    out.insert(out.end(), per_channel.front().begin(), per_channel.front().end());
-    return;
-  }
-  std::vector<std::string> ids;
-  for (const auto& verdicts : per_channel)
-    for (const Verdict& v : verdicts)
-      if (std::find(ids.begin(), ids.end(), v.id) == ids.end()) ids.push_back(v.id);
-  for (const std::string& id : ids) {
-    std::vector<std::pair<std::size_t, const Verdict*>> having;
-    for (std::size_t k = 0; k < per_channel.size(); ++k)
-      for (const Verdict& v : per_channel[k])
-        if (v.id == id) having.emplace_back(k, &v);
-    const bool all_agree = having.size() == e.channels.size() &&
-                           std::all_of(having.begin(), having.end(), [&](const auto& h) {
-                             return h.second->title == having.front().second->title;
-                           });
-    if (all_agree) {
-      Verdict merged = *having.front().second;
-      std::vector<std::string> evidence;
-      for (const auto& [k, v] : having)
-        evidence.push_back(fmt::format("channel {}: {}", e.channels[k].name, v->evidence));
-      merged.evidence = fmt::format("{}", fmt::join(evidence, "; "));
-      out.push_back(std::move(merged));
-      continue;
-    }
-    for (const auto& [k, v] : having) {
-      Verdict named = *v;
-      named.title = fmt::format("Channel {}: {}", e.channels[k].name, v->title);
-      out.push_back(std::move(named));
-    }
-  }
-}
-
-// "station 2: 5 of 20; station 7: 1 of 3", the stations with a count, by address.
-template <typename Count, typename Text>
-std::string per_station(const LineEvidence& e, Count count, Text text) {
-  std::vector<std::string> parts;
-  for (const auto& [address, station] : e.stations)
-    if (count(station) > 0)
-      parts.push_back(fmt::format(
-          "{}: {}", address < 0 ? std::string("no address") : fmt::format("station {}", address),
-          text(station)));
-  return fmt::format("{}", fmt::join(parts, "; "));
-}
-
-const char* exception_meaning(int code) {
-  switch (code) {
-    case 1:
-      return "function not supported";
-    case 2:
-      return "no such register";
-    case 3:
-      return "value out of range";
-    case 4:
-      return "the drive failed";
-    case 5:
-      return "acknowledged, still working";
-    case 6:
-      return "busy";
-    default:
-      return "vendor code";
-  }
-}
-
-// The fix for a timing rule, by what the pipeline says of a break of it (pipeline.cpp
-// check_drive_timing: "request 171.0 ms after the drive's last reply; the drive needs 200 ms").
-const char* timing_rule_fix(const std::string& rule) {
-  if (rule.find("keeps at least") != std::string::npos)
-    return "the drive answers sooner than its manual's minimum delay: check its response-delay "
-           "parameter; a master that turns its transmitter around slowly collides with such a "
-           "reply";
-  if (rule.find("answers within") != std::string::npos)
-    return "the drive answers later than its manual promises (overloaded, or its response delay "
-           "set high): lower that parameter, and keep the master's timeout above the delay";
-  if (rule.find("after the drive's last reply") != std::string::npos)
-    return "the master polls this drive sooner after its reply than the manual allows: add the "
-           "required pause before the next request to it";
-  return "the master leaves less silence before its requests than the drive needs: raise the "
-         "master's delay between frames to the manual's minimum";
-}
-
-// Findings of the conversation (checksums, replies, exceptions, timing rules) and of the capture
-// tool: each kind leads to a verdict with evidence per station or drive, or to a benign note.
-void bus_findings(const LineEvidence& e, std::vector<Verdict>& out) {
-  using S = LineEvidence::Station;
-  if (e.findings[static_cast<std::size_t>(AnomalyKind::unanswered_request)] > 0)
-    out.push_back(
-        {"timeouts", "Requests without a reply",
-         per_station(
-             e, [](const S& s) { return s.timeouts; },
-             [](const S& s) {
-               return fmt::format("{} of {} requests unanswered", s.timeouts, s.requests);
-             }),
-         "a station that never answers: its address, baud rate and parity, its wiring and power; "
-         "one that answers some: noise on its segment, or replies slower than the master's "
-         "timeout"});
-  if (e.findings[static_cast<std::size_t>(AnomalyKind::checksum_swapped)] > 0)
-    out.push_back({"swapped-crc", "CRC sent in the wrong byte order",
-                   per_station(
-                       e, [](const S& s) { return s.swapped_checksum; },
-                       [](const S& s) {
-                         return fmt::format("{} of {} frames with the CRC high byte first",
-                                            s.swapped_checksum, s.frames);
-                       }),
-                   "the sender writes its CRC in the wrong byte order (Modbus RTU sends the low "
-                   "byte first): fix it in the master's Modbus library or the drive's firmware; a "
-                   "strict receiver drops these frames"});
-  std::uint64_t clean_bad = 0;
-  for (const auto& [address, station] : e.stations) clean_bad += station.bad_checksum;
-  if (clean_bad > 0)
-    out.push_back(
-        {"bad-checksum", "Bad checksums without a UART error",
-         per_station(
-             e, [](const S& s) { return s.bad_checksum; },
-             [](const S& s) { return fmt::format("{} of {} frames", s.bad_checksum, s.frames); }),
-         "the bytes arrived without a UART error, so the line is not to blame: the "
-         "sender computes its checksum over other bytes (firmware, a dialect), or the "
-         "capture lost or merged bytes (a loaded USB adapter): compare with a second "
-         "capture"});
-  if (e.findings[static_cast<std::size_t>(AnomalyKind::unsolicited_response)] > 0)
-    out.push_back({"unsolicited-replies", "Replies without a request",
-                   per_station(
-                       e, [](const S& s) { return s.unsolicited; },
-                       [](const S& s) {
-                         return fmt::format("{} repl{}", s.unsolicited,
-                                            s.unsolicited == 1 ? "y" : "ies");
-                       }),
-                   "a second master on the bus, a request the tap missed, or a reply after the "
-                   "master had given up (raise the master's timeout)"});
-  std::uint64_t malformed = 0;  // on frames without a UART error
-  for (const auto& [address, station] : e.stations) malformed += station.malformed;
-  if (malformed > 0)
-    out.push_back(
-        {"malformed-frames", "Frames that break their protocol's rules",
-         fmt::format("{} frames without a UART error ({} malformed, {} implausible in "
-                     "all); {}",
-                     malformed, e.findings[static_cast<std::size_t>(AnomalyKind::malformed)],
-                     e.findings[static_cast<std::size_t>(AnomalyKind::implausible)],
-                     per_station(
-                         e, [](const S& s) { return s.malformed; },
-                         [](const S& s) {
-                           return fmt::format("{} frame{}", s.malformed,
-                                              s.malformed == 1 ? "" : "s");
-                         })),
-         "a device speaking another protocol or dialect at these settings (see the "
-         "protocol detection), or bytes lost or merged by the capture"});
-  for (const auto& [channel, carries] : e.foreign_lines)
-    out.push_back({"no-drive-protocol", fmt::format("No drive protocol on channel {}", channel),
-                   fmt::format("it carries {}: no Modbus RTU, Modbus ASCII, Danfoss FC or "
-                               "Easydrive telegram passes its checksum and plausibility rules; its "
-                               "bytes are shown as data",
-                               carries),
-                   "check that the tap is on the drives' bus (their RS-485 A/B pair) and the line "
-                   "settings (`drivetap diagnose` on a logic capture measures them)"});
-  const std::uint64_t own_noise = e.noise_records - e.foreign_noise_records;
-  const std::uint64_t clean_noise =
-      own_noise > e.flagged_noise_records ? own_noise - e.flagged_noise_records : 0;
-  if (e.findings[static_cast<std::size_t>(AnomalyKind::noise)] > 0 &&
-      clean_noise > e.release_noise_records)
-    out.push_back({"stray-bytes", "Bytes that fit no frame",
-                   fmt::format("{} noise records ({} bytes), {} without a UART error",
-                               e.noise_records, e.noise_bytes, clean_noise),
-                   "another device or protocol on the bus, an echo of a transmitter (an adapter's "
-                   "echo setting), or reflections on an unterminated line: check the devices on "
-                   "the bus and the 120 ohm terminations"});
-  std::uint64_t exceptions = 0;
-  for (const auto& [address, station] : e.stations)
-    for (const auto& [key, count] : station.exceptions) exceptions += count;
-  if (exceptions > 0)
-    out.push_back({"exception-replies", "Drives refuse requests (exception replies)",
-                   per_station(
-                       e, [](const S& s) { return s.exceptions.size(); },
-                       [](const S& s) {
-                         std::vector<std::string> kinds;
-                         for (const auto& [key, count] : s.exceptions)
-                           kinds.push_back(fmt::format("function {:02X} exception {} ({}) x{}",
-                                                       key.first, key.second,
-                                                       exception_meaning(key.second), count));
-                         return fmt::format("{}", fmt::join(kinds, ", "));
-                       }),
-                   "the master asks for what the drive refuses: a function it lacks (1), a "
-                   "register it does not have (2: check the register map; PDU addresses count "
-                   "from 0), a value out of range (3); busy (6): poll it slower"});
-  if (e.findings[static_cast<std::size_t>(AnomalyKind::uart_overrun)] > 0)
-    out.push_back({"tap-overrun", "The capturing adapter lost bytes (UART overrun)",
-                   fmt::format("{} overruns",
-                               e.findings[static_cast<std::size_t>(AnomalyKind::uart_overrun)]),
-                   "the tap, not the bus, lost them: a lower latency timer, a less loaded host, "
-                   "or a logic analyser"});
-  // One verdict per drive and rule: each rule has its own fix.
-  for (const auto& [rule, breaks] : e.timing_rules) {
-    std::vector<std::string> where;
-    for (const auto& [address, count] : breaks.stations)
-      where.push_back(fmt::format("station {}: {}", address, count));
-    out.push_back({"timing-rule", fmt::format("A drive's timing rule is broken: {}", rule),
-                   fmt::format("{} times ({}; first: {})", breaks.count, fmt::join(where, ", "),
-                               breaks.first),
-                   timing_rule_fix(breaks.first)});
-  }
-  const std::uint64_t split = e.findings[static_cast<std::size_t>(AnomalyKind::packet_split_frame)];
-  const std::uint64_t merged =
-      e.findings[static_cast<std::size_t>(AnomalyKind::packet_merged_frames)];
-  if (split + merged > 0)
-    out.push_back({"capture-packets", "The capture tool's packets do not follow the frames",
-                   fmt::format("{} packets held part of a frame, {} held several", split, merged),
-                   "", true});
-  if (const std::uint64_t back = e.findings[static_cast<std::size_t>(AnomalyKind::time_reversed)];
-      back > 0)
-    out.push_back({"capture-clock", "The capture's timestamps went backwards",
-                   fmt::format("{} times: the capturing tool's clock, not the bus (timing "
-                               "findings next to them are unreliable)",
-                               back),
-                   "", true});
-}
-
-}  // namespace
-
-const std::array<FindingCoverage, kAnomalyKindCount> kFindingCoverage = {{
-    {AnomalyKind::checksum_bad, "bad-checksum noise unbiased-bus"},
-    {AnomalyKind::checksum_swapped, "swapped-crc"},
-    {AnomalyKind::intra_frame_gap, "timing-t15"},
-    {AnomalyKind::short_interframe_gap, "timing-t35"},
-    {AnomalyKind::noise, "stray-bytes noise unbiased-bus no-drive-protocol"},
-    {AnomalyKind::malformed, "malformed-frames noise"},
-    {AnomalyKind::implausible, "malformed-frames noise"},
-    {AnomalyKind::unanswered_request, "timeouts"},
-    {AnomalyKind::unsolicited_response, "unsolicited-replies"},
-    {AnomalyKind::uart_framing, "noise unbiased-bus inverted-line"},
-    {AnomalyKind::uart_parity, "noise"},
-    {AnomalyKind::uart_break, "noise unbiased-bus"},
-    {AnomalyKind::uart_overrun, "tap-overrun"},
-    {AnomalyKind::time_reversed, "capture-clock"},
-    {AnomalyKind::packet_split_frame, "capture-packets"},
-    {AnomalyKind::packet_merged_frames, "capture-packets"},
-    {AnomalyKind::timing_rule, "timing-rule"},
-}};
-
-std::vector<Verdict> diagnose(const LineEvidence& e) {
-  std::vector<Verdict> out;
-  std::vector<std::vector<Verdict>> per_channel;
-  for (const LineEvidence::Channel& c : e.channels) {
-    std::vector<Verdict>& mine = per_channel.emplace_back();
-    if (!c.detection) continue;
-    sampled_settings(e, c, mine);
-    if (!c.detection->found || c.detection->baud_standard) continue;
-    const phy::LineDetection& d = *c.detection;
-    mine.push_back({"non-standard-baud",
-                    fmt::format("Non-standard baud rate: {:g} (measured {:.0f})", d.settings.baud,
-                                d.measured_baud),
-                    fmt::format("the pulse widths measure {:.0f} baud, more than 3 % from every "
-                                "standard rate ({} pulses, {:.0f} % at whole bit widths)",
-                                d.measured_baud, d.pulses, d.pulses_fitting * 100),
-                    "a device at a standard rate will see framing errors: check the sender's "
-                    "clock source and baud divisor (an MCU's internal RC oscillator drifts)"});
-  }
-  if (e.from_samples && !per_channel.empty())
-    merge_channel_verdicts(e, per_channel, out);
-  else if (!e.from_samples)
-    byte_level_settings(e, out);
-
-  auto found = [&](std::initializer_list<std::string_view> wanted) {
-    return std::any_of(out.begin(), out.end(), [&](const Verdict& v) {
-      return std::find(wanted.begin(), wanted.end(), v.id) != wanted.end();
-    });
-  };
-  // Unbiased bus: the driver releases the line and it floats, read as a 0x00/0xFF byte with a
-  // framing error right after the frame (the samples may have said so already).
-  if (!found({"unbiased-bus"}) && e.release_artefacts >= 2 && e.release_artefacts * 20 >= e.frames)
-    out.push_back(
-        {"unbiased-bus", "Bus not biased: the line floats when a transmitter lets go",
-         fmt::format("{} of {} frames end in a stray 0x00/0xFF or damaged byte without which "
-                     "their checksum is good",
-                     e.release_artefacts, e.frames),
-         "add fail-safe bias at one point of the bus (about 680 ohm pull-up on B/D+ and "
-         "pull-down on A/D-, or the master's or an adapter's bias switch), and check the 120 "
-         "ohm terminations: two, one at each end"});
-
-  // Noise: a few damaged characters inside traffic that otherwise decodes.
-  const std::uint64_t bad_chars = e.framing_errors + e.parity_errors + e.breaks;
-  const std::uint64_t noise_chars =
-      bad_chars > e.release_artefacts ? bad_chars - e.release_artefacts : 0;
-  // Decoded with the wrong settings: the errors are theirs, not noise, and the framing and its
-  // gaps (measured in their character times) mean nothing until they are fixed.
-  const bool decoded_wrong = found({"settings-mismatch", "baud-mismatch", "parity-mismatch"});
-  const bool settings_wrong = decoded_wrong || (e.given && found({"inverted-line"}));
-  const std::uint64_t noise_events = noise_chars + e.glitches + e.false_starts;
-  // On samples the settings are measured: whatever errors remain are the line's. On bytes, many
-  // errors are more likely a wrong setting (reported above) than noise.
-  if (!settings_wrong && noise_events > 0 &&
-      (e.from_samples || percent(noise_chars, e.characters) < 20))
-    out.push_back(
-        {"noise", "Noise on the line: damaged characters inside valid traffic",
-         fmt::format("{} of {} characters damaged ({} framing, {} parity, {} breaks){}; {} "
-                     "frames with a bad checksum of {}",
-                     noise_chars, e.characters, e.framing_errors, e.parity_errors, e.breaks,
-                     e.from_samples ? fmt::format("; {} glitches under 1/8 bit filtered, {} "
-                                                  "false start bits",
-                                                  e.glitches, e.false_starts)
-                                    : std::string(),
-                     e.frames_checksum_bad, e.frames),
-         "check the cable: twisted pair with its shield grounded at one end, away from motor "
-         "and mains cables; terminations (120 ohm at both ends, nowhere else); the common (0 V) "
-         "wire between all devices"});
-
-  if (decoded_wrong) return out;
-  if (e.intra_frame_gaps > 0)
-    out.push_back({"timing-t15", "Pauses inside frames longer than t1.5",
-                   fmt::format("{} frames have a silence over 1.5 character times between two "
-                               "bytes (first: {})",
-                               e.intra_frame_gaps, e.first_intra_gap),
-                   "a strict Modbus RTU receiver drops these frames: check the sender's UART "
-                   "feeding (a USB adapter or a busy master leaves gaps); if the gaps are the "
-                   "tap's own (USB latency), set its latency_timer to 1 ms"});
-  if (e.short_interframe_gaps > 0)
-    out.push_back({"timing-t35", "Silence between frames shorter than t3.5",
-                   fmt::format("{} frames start less than 3.5 character times after the "
-                               "previous one (first: {})",
-                               e.short_interframe_gaps, e.first_short_gap),
-                   "receivers may merge the two frames: raise the replying drive's response "
-                   "delay parameter or the master's delay between polls"});
-  bus_findings(e, out);
-  return out;
-}
-
-void DiagnosisSink::on_frame(const Message& m) {
-  ++evidence_.frames;
-  last_frame_ = m.frame.number;
-  last_address_ = m.address;
-  last_clean_ = !m.frame.events.any_uart_errors();
-  LineEvidence::Station& station = evidence_.stations[m.address];
-  ++station.frames;
-  const ChecksumVerdict verdict = m.checksum.verdict;
-  if (verdict == ChecksumVerdict::good) ++evidence_.frames_checksum_ok;
-  if (verdict == ChecksumVerdict::swapped) ++station.swapped_checksum;
-  if (verdict != ChecksumVerdict::bad) return;
-  // Without a UART mark on any byte the line delivered what was sent: not the line's fault.
-  const bool clean = !m.frame.events.any_uart_errors();
-  if (m.frame.events.size() < 3) {
-    if (clean) ++station.bad_checksum;
-    return;
-  }
-  ++evidence_.frames_checksum_bad;
-  const ByteEvent& last = m.frame.events.back();
-  const bool stray = last.byte == 0x00 || last.byte == 0xFF || (last.flags & kUartErrorFlags) != 0;
-  const ProtocolDecoder* decoder = decoder_for(m.protocol);
-  if (stray && decoder) {
-    Frame trimmed = m.frame;
-    trimmed.events.pop_back();
-    trimmed.checksum_kind = FrameChecksum::none;  // the framer's CRC was of the untrimmed bytes
-    const Message again = decoder->dissect(std::move(trimmed), Direction::unknown, FramingTiming{});
-    if (again.checksum.verdict == ChecksumVerdict::good) {
-      ++evidence_.release_artefacts;
-      return;
-    }
-  }
-  if (clean) ++station.bad_checksum;
-}
-
-// A stray byte or two right after a frame (the framer knew the frame's length and left them out):
-// the same artefact of a line left floating.
-void DiagnosisSink::on_noise(const Frame& noise) {
-  evidence_.noise_bytes += noise.events.size();
-  ++evidence_.noise_records;
-  if (foreign_.contains(noise.channel)) {
-    ++evidence_.foreign_noise_records;
-    return;
-  }
-  if (noise.events.any_uart_errors()) ++evidence_.flagged_noise_records;
-  const bool right_after = noise.gap_before >= 0 && noise.gap_before < timing_.t15;
-  const bool stray = !noise.events.empty() && noise.events.size() <= 2 &&
-                     std::all_of(noise.events.begin(), noise.events.end(), [](const ByteEvent& e) {
-                       return e.byte == 0x00 || e.byte == 0xFF || (e.flags & kUartErrorFlags) != 0;
-                     });
-  if (right_after && stray) {
-    ++evidence_.release_artefacts;
-    if (!noise.events.any_uart_errors()) ++evidence_.release_noise_records;
-  }
-}
-
-void DiagnosisSink::on_event(const BusEvent& event) {
-  if (event.kind != "protocol_detected") return;
-  if (event.protocol != Protocol::unknown) {
-    foreign_.erase(event.channel);
-    return;
-  }
-  // "no drive protocol: 56 bytes of printable ASCII text (good telegrams, ...)": what it carries.
-  std::string carries = event.detail;
-  if (carries.starts_with("no drive protocol: ")) carries.erase(0, 19);
-  if (const std::size_t evidence = carries.find(" (good telegrams"); evidence != std::string::npos)
-    carries.erase(evidence);
-  foreign_[event.channel] = carries;
-}
-
-void DiagnosisSink::on_transaction(const Transaction& t) {
-  LineEvidence::Station& station = evidence_.stations[t.address];
-  if (t.request_number > 0) ++station.requests;
-  if (t.outcome == Outcome::timeout) ++station.timeouts;
-  if (t.outcome == Outcome::unsolicited) ++station.unsolicited;
-  if (t.outcome == Outcome::exception) ++station.exceptions[{t.function, t.exception_code}];
-}
-
-void DiagnosisSink::on_anomaly(const Anomaly& a) {
-  auto example = [&](std::string& slot) {
-    if (slot.empty()) slot = fmt::format("frame {}: {}", a.frame_number, a.detail);
-  };
-  ++evidence_.findings[static_cast<std::size_t>(a.kind)];
-  // A frame's findings arrive right after it: its station.
-  const int address = a.frame_number != 0 && a.frame_number == last_frame_ ? last_address_ : -1;
-  switch (a.kind) {
-    case AnomalyKind::malformed:
-    case AnomalyKind::implausible:
-      // A frame damaged on the line breaks its rules because of the damage (the noise verdict).
-      if (a.frame_number != last_frame_ || last_clean_) ++evidence_.stations[address].malformed;
-      break;
-    case AnomalyKind::intra_frame_gap:
-      ++evidence_.intra_frame_gaps;
-      example(evidence_.first_intra_gap);
-      break;
-    case AnomalyKind::short_interframe_gap:
-      ++evidence_.short_interframe_gaps;
-      example(evidence_.first_short_gap);
-      break;
-    case AnomalyKind::timing_rule: {
-      // "reply 3.8 ms after the request; the drive keeps at least 10 ms (E5-8200, ...)": what
-      // follows the measurement names the drive and its rule.
-      const std::size_t cut = a.detail.find("; ");
-      auto& rule =
-          evidence_.timing_rules[cut == std::string::npos ? a.detail : a.detail.substr(cut + 2)];
-      ++rule.count;
-      ++rule.stations[address];
-      if (rule.first.empty()) rule.first = fmt::format("frame {}: {}", a.frame_number, a.detail);
-      break;
-    }
-    default:
-      break;
-  }
-}
-
-Diagnosis diagnose_capture(ByteSource& source, const PipelineOptions& options,
-                           ChannelTable& channels, const volatile std::sig_atomic_t* stop) {
-  Diagnosis result;
-  LineEvidence& evidence = result.evidence;
-  DiagnosisSink sink(evidence, options.timing);
-  {
-    Pipeline pipeline(options, channels, sink);
-    ByteEvent e;
-    while (source.next(e)) {
-      for (const Anomaly& a : source.take_findings()) pipeline.report(a);
-      pipeline.push(e);
-      ++evidence.characters;
-      if (e.flags & kUartParityError) ++evidence.parity_errors;
-      if (e.flags & kUartFramingError) ++evidence.framing_errors;
-      if (e.flags & kUartBreak) ++evidence.breaks;
-      if (stop && *stop) {
-        result.interrupted = true;
-        break;
-      }
-    }
-    pipeline.finish();
-  }
-  result.error = source.error();
-  result.stats = sink.stats();
-  for (const auto& [channel, carries] : sink.foreign())
-    evidence.foreign_lines.emplace_back(
-        channel < channels.size() ? channels.at(channel).name : fmt::format("{}", channel),
-        carries);
-  evidence.settings = options.serial.to_string();
-  if (const auto* logic = dynamic_cast<const LogicSource*>(&source)) {
-    evidence.from_samples = true;
-    evidence.settings = phy::settings_text(logic->uart());
-    evidence.dropped_channels = logic->dropped();
-    const std::vector<phy::UartDecoderStats> decoded = logic->decoder_stats();
-    for (std::size_t k = 0; k < logic->lines().size(); ++k) {
-      const LogicSource::ChannelLine& line = logic->lines()[k];
-      LineEvidence::Channel c;
-      c.name = printable_bounded(line.name, ChannelTable::kMaxNameBytes);
-      c.settings = phy::settings_text(line.uart);
-      c.detection = line.detection;
-      c.given_trial = line.given_trial;
-      if (k < decoded.size()) c.decoded = decoded[k];
-      evidence.glitches += c.decoded.glitches;
-      evidence.false_starts += c.decoded.false_starts;
-      if (line.given_trial) evidence.given = line.uart;
-      evidence.channels.push_back(std::move(c));
-    }
-    // One file-level line only where every channel agrees.
-    for (const LineEvidence::Channel& c : evidence.channels)
-      if (c.settings != evidence.channels.front().settings) evidence.settings = "per channel";
-  }
-  result.verdicts = diagnose(evidence);
-  return result;
-}
-
+// The report: text for a person, or one JSON object.
 std::string diagnosis_text(const std::string& file, const LineEvidence& e,
                            const std::vector<Verdict>& verdicts, const Stats& stats) {
   std::string out = fmt::format("drivetap diagnose: {}\n", file);
@@ -630,7 +34,7 @@ std::string diagnosis_text(const std::string& file, const LineEvidence& e,
     text += fmt::format("{}polarity {}, confidence {}: {}\n", indent,
                         d.settings.inverted ? "inverted" : "normal",
                         phy::confidence_name(d.polarity_confidence), d.polarity_reason);
-    text += fmt::format("{}format   {}, confidence {}: {}\n", indent, format_only(d.settings),
+    text += fmt::format("{}format   {}, confidence {}: {}\n", indent, frame_format_text(d.settings),
                         phy::confidence_name(d.format_confidence), d.format_reason);
     return text;
   };
@@ -692,7 +96,7 @@ std::string diagnosis_json(const std::string& file, const LineEvidence& e,
         "\"format_confidence\":\"{}\",\"format_reason\":{}}}",
         d.settings.baud, d.measured_baud, d.baud_standard, phy::confidence_name(d.baud_confidence),
         d.settings.inverted, phy::confidence_name(d.polarity_confidence),
-        json_quote(d.polarity_reason), d.floats_when_idle, format_only(d.settings),
+        json_quote(d.polarity_reason), d.floats_when_idle, frame_format_text(d.settings),
         phy::confidence_name(d.format_confidence), json_quote(d.format_reason));
   };
   if (e.channels.size() == 1 && e.channels.front().detection && e.channels.front().detection->found)
@@ -728,4 +132,34 @@ std::string diagnosis_json(const std::string& file, const LineEvidence& e,
   return out;
 }
 
-}  // namespace drivetap
+// `drivetap diagnose FILE`: runs the capture through the pipeline with nothing printed, then gives
+// the line's verdicts (src/diagnose/line_diagnosis.hpp). Any capture: a logic capture gives sample
+// evidence (detection, polarity, glitches), the others the UART flags and byte patterns.
+int run_diagnose(const CommonOptions& o, const std::string& path) {
+  InputFile in;
+  ChannelTable channels;
+  std::unique_ptr<ByteSource> source = open_source(o, path, in, channels);
+  catch_stop_signals();
+  const PipelineOptions p = start_source(o, *source);
+  const Diagnosis d = diagnose_capture(*source, p, channels, &g_stop);
+  if (!d.error.empty()) die(d.error, 1);
+  if (d.interrupted) die("interrupted", 130);
+  const std::string report = o.format == "json"
+                                 ? diagnosis_json(path, d.evidence, d.verdicts, d.stats)
+                                 : diagnosis_text(path, d.evidence, d.verdicts, d.stats);
+  std::fputs(report.c_str(), stdout);
+  std::fflush(stdout);
+  close_input(in);
+  return 0;
+}
+
+}  // namespace
+
+Command add_diagnose_command(CLI::App& app) {
+  return add_file_command(
+      app, "diagnose",
+      "Diagnose the line: swapped A/B, wrong baud or parity, noise, missing bias, timing",
+      "Capture file (a logic capture gives most)", run_diagnose);
+}
+
+}  // namespace drivetap::app

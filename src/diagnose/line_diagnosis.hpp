@@ -18,10 +18,10 @@
 #include <vector>
 
 #include "core/protocol.hpp"
-#include "sources/logic/detect.hpp"
-#include "pipeline/options.hpp"
 #include "core/stats.hpp"
+#include "pipeline/options.hpp"
 #include "sinks/sink.hpp"
+#include "sources/logic/detect.hpp"
 #include "sources/source.hpp"
 
 namespace drivetap {
@@ -120,6 +120,9 @@ extern const std::array<FindingCoverage, kAnomalyKindCount> kFindingCoverage;
 
 std::vector<Verdict> diagnose(const LineEvidence& evidence);
 
+// The character format alone, "8E1" (the polarity left out).
+std::string frame_format_text(const phy::UartSettings& settings);
+
 // Collects the frame-level evidence while the pipeline runs (it prints nothing).
 class DiagnosisSink final : public Sink {
  public:
@@ -158,11 +161,5 @@ struct Diagnosis {
 Diagnosis diagnose_capture(ByteSource& source, const PipelineOptions& options,
                            ChannelTable& channels,
                            const volatile std::sig_atomic_t* stop = nullptr);
-
-// The report: text for a person, or one JSON object.
-std::string diagnosis_text(const std::string& file, const LineEvidence& evidence,
-                           const std::vector<Verdict>& verdicts, const Stats& stats);
-std::string diagnosis_json(const std::string& file, const LineEvidence& evidence,
-                           const std::vector<Verdict>& verdicts, const Stats& stats);
 
 }  // namespace drivetap

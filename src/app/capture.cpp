@@ -1,0 +1,244 @@
+// `drivetap capture`: live, listen-only capture from serial ports, and `capture --scan`, which
+// tries each standard line setting in turn (README "Live capture").
+#include <fmt/format.h>
+#include <CLI/CLI.hpp>
+
+#include <poll.h>
+
+#include <cstdio>
+#include <cstring>
+#include <memory>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "app/commands.hpp"
+#include "app/common.hpp"
+#include "app/outputs.hpp"
+#include "app/stop_signals.hpp"
+#include "diagnose/line_diagnosis.hpp"
+#include "pipeline/pipeline.hpp"
+#include "sinks/ring_capture_sink.hpp"
+#include "sources/live/live_capture.hpp"
+#include "sources/live/serial_port.hpp"
+
+namespace drivetap::app {
+namespace {
+
+// Options of `drivetap capture` besides the common ones.
+struct CaptureOptions {
+  std::vector<std::string> ports;     // -i
+  std::uint64_t max_frames = 0;       // -c
+  std::vector<std::string> autostop;  // -a duration:S
+  std::vector<std::string> ring;      // -b filesize:MB|duration:S|files:N
+  bool reconnect = false;
+  bool scan = false;
+  double scan_seconds = 2;
+};
+
+// One setting of `capture --scan`: what listening `seconds` at `serial` gave.
+struct ScanResult {
+  SerialConfig serial;
+  std::uint64_t bytes = 0, uart_errors = 0, frames = 0, frames_ok = 0;
+  std::string error;
+};
+
+ScanResult scan_one(const CommonOptions& o, const std::string& path, const SerialConfig& serial,
+                    double seconds) {
+  ScanResult r;
+  r.serial = serial;
+  ChannelTable channels;
+  SerialPortOptions so;
+  so.path = path;
+  so.serial = serial;
+  auto port = SerialPort::open(so, channels, &r.error);
+  if (!port) return r;
+  CommonOptions line = o;
+  line.serial = serial.to_string();
+  PipelineOptions p = make_pipeline_options(line, RunSettings{});
+  p.drives.clear();
+  p.auto_candidates.clear();
+  LineEvidence evidence;
+  DiagnosisSink sink(evidence, p.timing);
+  Pipeline pipeline(p, channels, sink);
+  const TimeNs end = CaptureClock::monotonic() + static_cast<TimeNs>(seconds * 1e9);
+  std::vector<ByteEvent> events;
+  while (!g_stop && CaptureClock::monotonic() < end) {
+    pollfd fd{port->fd(), POLLIN, 0};
+    ::poll(&fd, 1, 50);
+    events.clear();
+    const bool alive = port->read_available(events);
+    for (const ByteEvent& e : events) {
+      pipeline.push(e);
+      ++r.bytes;
+      if (e.flags) ++r.uart_errors;
+    }
+    if (!alive) {
+      r.error = port->error();
+      break;
+    }
+  }
+  pipeline.finish();
+  r.frames = evidence.frames;
+  r.frames_ok = evidence.frames_checksum_ok;
+  return r;
+}
+
+// `drivetap capture --scan -i PORT`: listens at each standard rate and format in turn and says
+// which gives frames with good checksums (for a tap on a bus whose settings nobody knows).
+int run_scan(const CommonOptions& o, const CaptureOptions& c) {
+  if (c.ports.size() != 1) die("--scan: give exactly one port with -i");
+  if (!(c.scan_seconds > 0) || c.scan_seconds > 3600)
+    die(fmt::format("--scan-time {}: expected seconds between 0 and 3600", c.scan_seconds));
+  const std::string path = c.ports.front().substr(0, c.ports.front().find('='));
+  catch_stop_signals();
+  std::printf("scan %s: %g s per setting (listen only)\n", path.c_str(), c.scan_seconds);
+  std::fflush(stdout);
+  std::optional<ScanResult> best;
+  for (std::uint32_t baud : {9600u, 19200u, 38400u, 57600u, 115200u, 4800u, 2400u, 1200u}) {
+    for (Parity parity : {Parity::none, Parity::even, Parity::odd}) {
+      if (g_stop) break;
+      SerialConfig serial;
+      serial.baud = baud;
+      serial.parity = parity;
+      const ScanResult r = scan_one(o, path, serial, c.scan_seconds);
+      if (!r.error.empty() && r.bytes == 0) die(r.error, 1);
+      std::printf("  %-11s %6llu bytes, %5llu with UART errors, %4llu frames, %4llu checksum ok\n",
+                  serial.to_string().c_str(), static_cast<unsigned long long>(r.bytes),
+                  static_cast<unsigned long long>(r.uart_errors),
+                  static_cast<unsigned long long>(r.frames),
+                  static_cast<unsigned long long>(r.frames_ok));
+      std::fflush(stdout);
+      // Best: most good frames, then fewest UART errors.
+      if (r.frames_ok > 0 &&
+          (!best || r.frames_ok > best->frames_ok ||
+           (r.frames_ok == best->frames_ok && r.uart_errors < best->uart_errors)))
+        best = r;
+    }
+  }
+  if (g_stop) {
+    std::printf("interrupted\n");
+    return 130;
+  }
+  if (!best) {
+    std::printf(
+        "no setting gave a frame with a good checksum (check the wiring: drivetap "
+        "diagnose on a logic-analyser capture tells more)\n");
+    return 1;
+  }
+  std::printf(
+      "best: %s (%llu frames with a good checksum, %llu UART errors); capture with -s \"%s\"\n",
+      best->serial.to_string().c_str(), static_cast<unsigned long long>(best->frames_ok),
+      static_cast<unsigned long long>(best->uart_errors), best->serial.to_string().c_str());
+  return 0;
+}
+
+// `drivetap capture -i PORT...`: live, listen-only capture from serial ports (src/sources/live/
+// live_capture.hpp). A frame is printed about t3.5 + 3 ms after its last byte and every output is
+// flushed each round; Ctrl-C, SIGTERM, -c, -a, an unplugged adapter (without --reconnect) or a
+// failed write end the run with every file closed valid.
+int run_capture(const CommonOptions& o, const CaptureOptions& c) {
+  if (c.ports.empty()) die("capture: give at least one port with -i (e.g. -i /dev/ttyUSB0)");
+  refuse_shared_files({{"-o", o.output}, {"-w", o.write}});
+  TimeNs autostop = 0;
+  for (const std::string& a : c.autostop) {
+    if (!a.starts_with("duration:")) die(fmt::format("-a {}: expected duration:SECONDS", a));
+    double seconds = 0;
+    std::size_t used = 0;
+    try {
+      seconds = std::stod(a.substr(9), &used);
+    } catch (...) {
+      used = 0;
+    }
+    if (used == 0 || used != a.size() - 9 || !(seconds > 0) || seconds > 1e9)
+      die(fmt::format("-a {}: expected duration:SECONDS (e.g. duration:60)", a));
+    autostop = static_cast<TimeNs>(seconds * 1e9);
+  }
+  std::optional<RingOptions> ring;
+  for (const std::string& b : c.ring) {
+    if (!ring) ring.emplace();
+    if (const std::string why = parse_ring_option(b, *ring); !why.empty()) die(why);
+  }
+  RunSettings given;
+  PipelineOptions p = make_pipeline_options(o, given);
+  p.max_frames = c.max_frames;
+  ChannelTable channels;
+  LiveCaptureOptions live_options;
+  live_options.ports = c.ports;
+  live_options.serial = p.serial;
+  live_options.max_frames = c.max_frames;
+  live_options.duration = autostop;
+  live_options.reconnect = c.reconnect;
+  LiveCapture live(std::move(live_options), channels);
+  for (std::size_t k = 0; k < c.ports.size(); ++k) {
+    std::string error;
+    if (!live.open_port(k, &error)) die(error, 1);
+    for (const std::string& w : live.port(k).warnings()) say("warning: " + w);
+  }
+  std::fprintf(stderr, "drivetap: capturing on %s at %s (listen only; Ctrl-C stops)\n",
+               fmt::format("{}", fmt::join(c.ports, ", ")).c_str(), p.serial.to_string().c_str());
+  Outputs out(o, channels, p, /*timed=*/true, ring ? &*ring : nullptr);
+  Pipeline pipeline(p, channels, out.sink());
+  catch_stop_signals();
+
+  LiveCaptureHooks hooks;
+  hooks.port_lost = [](const std::string& error) { say(error); };
+  hooks.port_back = [](const std::string& port) {
+    std::fprintf(stderr, "drivetap: %s: reconnected\n", port.c_str());
+  };
+  hooks.flush = [&out] { return out.flush(); };
+  const LiveCaptureEnd end = live.run(pipeline, hooks, g_stop);
+  out.close();
+  if (g_stop) {
+    std::fprintf(stderr, "drivetap: interrupted; output flushed and closed\n");
+    return 130;
+  }
+  switch (end) {
+    case LiveCaptureEnd::stopped:
+      return 0;
+    case LiveCaptureEnd::duration_reached:
+      say("capture stopped: autostop duration reached");
+      return 0;
+    case LiveCaptureEnd::frame_limit:
+      say(fmt::format("capture stopped: {} frames captured (-c)", c.max_frames));
+      return 0;
+    case LiveCaptureEnd::adapter_lost:
+      say("capture stopped: adapter lost");
+      return 1;
+    case LiveCaptureEnd::poll_failed:
+      say(fmt::format("capture stopped: poll: {}", std::strerror(live.poll_errno())));
+      return 1;
+    case LiveCaptureEnd::output_failed:
+      say("capture stopped: output write failed");
+      return 1;
+  }
+  return 1;
+}
+
+}  // namespace
+
+Command add_capture_command(CLI::App& app) {
+  auto o = std::make_shared<CommonOptions>();
+  auto c = std::make_shared<CaptureOptions>();
+  CLI::App* capture = app.add_subcommand(
+      "capture", "Capture live from serial ports (listen only), decode as it comes");
+  add_common_options(capture, *o);
+  capture
+      ->add_option("-i,--interface", c->ports,
+                   "Serial port to listen on, PATH or PATH=NAME (repeatable; NAME line.m and "
+                   "line.s: the master and slave pairs of one 4-wire link)")
+      ->allow_extra_args(false);
+  capture->add_option("-c,--count", c->max_frames, "Stop after N frames");
+  capture->add_option("-a,--autostop", c->autostop, "Stop after duration:SECONDS");
+  capture->add_option("-b,--ring-buffer", c->ring,
+                      "With -w FILE: a ring of files, filesize:MB, duration:S, files:N");
+  capture->add_flag("--reconnect", c->reconnect,
+                    "Wait for an unplugged adapter to come back and go on");
+  capture->add_flag("--scan", c->scan,
+                    "Listen at each standard rate and parity in turn, say which gives frames");
+  capture->add_option("--scan-time", c->scan_seconds, "--scan: seconds per setting (default 2)");
+  return {capture, [o, c] { return c->scan ? run_scan(*o, *c) : run_capture(*o, *c); }};
+}
+
+}  // namespace drivetap::app

@@ -1,0 +1,35 @@
+// drivetap command line: the subcommands (README "Command reference"). Each registers its own
+// options on the command line and says how it runs; main() parses and runs the one given.
+#pragma once
+
+#include <functional>
+#include <string>
+
+namespace CLI {
+class App;
+}
+
+namespace drivetap::app {
+
+// One registered subcommand: run() when `given` was on the command line; it returns the exit
+// status.
+struct Command {
+  CLI::App* given = nullptr;
+  std::function<int()> run;
+};
+
+struct CommonOptions;
+
+// A subcommand that takes the common options and one capture file (read, diagnose).
+Command add_file_command(CLI::App& app, const std::string& name, const std::string& description,
+                         const std::string& file_help,
+                         int (*run)(const CommonOptions& o, const std::string& path));
+
+Command add_decode_command(CLI::App& app);    // decode.cpp: frames given as hex
+Command add_read_command(CLI::App& app);      // read.cpp: a capture file
+Command add_diagnose_command(CLI::App& app);  // diagnose.cpp: the line's health
+Command add_capture_command(CLI::App& app);   // capture.cpp: live from serial ports, --scan
+Command add_generate_command(CLI::App& app);  // generate.cpp: a large reproducible capture
+Command add_profiles_command(CLI::App& app);  // profiles.cpp: list and check drive profiles
+
+}  // namespace drivetap::app

@@ -1,0 +1,246 @@
+// drivetap command line: the common options, messages and exit codes, the drive profiles and the
+// run's pipeline options (src/app/common.hpp; README "Command reference").
+#include "app/common.hpp"
+
+#include <fmt/format.h>
+#include <CLI/CLI.hpp>
+
+#include <sys/stat.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <csignal>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <deque>
+#include <filesystem>
+#include <memory>
+
+#include "app/commands.hpp"
+#include "core/printable.hpp"
+#include "core/protocol.hpp"
+#include "dissectors/common/plausibility.hpp"
+#include "drive/profile.hpp"
+
+namespace drivetap::app {
+namespace {
+
+// Profiles loaded for this run (built in and --profile files); bound drives point into it.
+std::deque<DriveProfile> g_profiles;
+
+// The built-in profiles (when `builtins_wanted`), then --profile-dir and --profile files (a user
+// profile with a built-in id replaces it). A bad file ends the run with its file:line: key error.
+void load_profiles(const CommonOptions& o, bool builtins_wanted) {
+  auto add = [](DriveProfile profile) {
+    for (DriveProfile& known : g_profiles)
+      if (known.id == profile.id) {
+        known = std::move(profile);
+        return;
+      }
+    g_profiles.push_back(std::move(profile));
+  };
+  if (builtins_wanted) {
+    ProfileError builtin_error;
+    auto builtins = load_builtin_profiles(&builtin_error);
+    if (!builtins) die(fmt::format("built-in profile {}", builtin_error.text()), 1);
+    for (DriveProfile& profile : *builtins) add(std::move(profile));
+  }
+  std::vector<std::string> files;
+  for (const std::string& dir : o.profile_dirs) {
+    std::error_code ec;
+    std::vector<std::string> found;
+    for (std::filesystem::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec))
+      if (it->path().extension() == ".toml") found.push_back(it->path().string());
+    if (ec) die(fmt::format("--profile-dir {}: {}", dir, ec.message()), 1);
+    std::sort(found.begin(), found.end());
+    files.insert(files.end(), found.begin(), found.end());
+  }
+  files.insert(files.end(), o.profiles.begin(), o.profiles.end());
+  for (const std::string& f : files) {
+    ProfileError e;
+    auto profile = load_profile_file(f, &e);
+    if (!profile) die(fmt::format("profile {}", e.text()), 1);
+    add(std::move(*profile));
+  }
+}
+}  // namespace
+
+void add_common_options(CLI::App* cmd, CommonOptions& o) {
+  cmd->add_option("-T,--format", o.format, "Output format: text or json (JSON lines)")
+      ->check(CLI::IsMember({"text", "json"}));
+  cmd->add_flag("-V,--verbose", o.verbose, "Text: show each frame's field tree with byte offsets");
+  cmd->add_option("-s,--serial", o.serial,
+                  "Line settings, e.g. \"19200 8E1\" (default: the capture's, else 9600 8N1)");
+  cmd->add_option("--t15", o.t15, "Inter-character limit t1.5: 1.5c, 750us, 1ms (default: Modbus)");
+  cmd->add_option("--t35", o.t35, "Inter-frame silence t3.5: 3.5c, 1750us, 2ms (default: Modbus)");
+  cmd->add_option("--timeout", o.timeout,
+                  "Reply timeout before a request counts as unanswered (default 1s)");
+  cmd->add_option("--max-hold", o.max_hold,
+                  "Longest wait for the rest of a frame split by a silence (default 100ms)");
+  cmd->add_option("-P,--protocol", o.protocol,
+                  "Protocol on the bus: auto (default: detected per channel from the first "
+                  "frames), rtu (Modbus RTU), ascii (Modbus ASCII), fc (Danfoss FC protocol), "
+                  "eds (Easydrive '~' protocol)")
+      ->check(CLI::IsMember({"auto", "rtu", "ascii", "fc", "eds"}));
+  cmd->add_option("--drive", o.drives,
+                  "Bind a station address to a drive profile, e.g. 2=e9 (see `drivetap profiles`); "
+                  "auto (default): guess each station's family from its traffic; none: no guessing")
+      ->allow_extra_args(false);  // repeatable, one value each: `--drive 2=e9 FILE` keeps FILE
+  cmd->add_option("--profile", o.profiles,
+                  "Load a drive profile file (TOML) besides the built-in ones; same id replaces")
+      ->allow_extra_args(false);
+  cmd->add_option("--profile-dir", o.profile_dirs, "Load every *.toml drive profile in DIR")
+      ->allow_extra_args(false);
+  cmd->add_option("--channels", o.logic_channels,
+                  "Logic-analyser captures: the channels to decode as UART, by name or index, "
+                  "e.g. RX,TX (default: every channel whose line moves)")
+      ->delimiter(',')
+      ->allow_extra_args(false);
+  cmd->add_flag("--invert", o.invert,
+                "Logic-analyser captures, with -s: the line idles low (A/B swapped, RS-232 side); "
+                "without -s polarity and settings are detected");
+  cmd->add_option("--logic-max", o.logic_max,
+                  "sigrok sessions: the most sample data to decompress, e.g. 4G (default 1G; 0: "
+                  "no limit), a guard against zip bombs")
+      ->transform(CLI::AsSizeValue(false));
+  cmd->add_flag("--events", o.events_only,
+                "Print only the events: drive-state timeline, drive bindings, protocol detection");
+  cmd->add_flag("--no-summary", o.no_summary, "Do not print the closing summary");
+  cmd->add_flag("--stats", o.stats_only,
+                "Decode everything, print only the closing summary (text or JSON)");
+  cmd->add_option("-o,--output", o.output, "Write the text/JSON output to FILE instead of stdout");
+  cmd->add_option("-w,--write", o.write,
+                  "Write every frame as a packet to a pcapng FILE ('-' for stdout)");
+  cmd->add_flag("--pcap", o.classic_pcap, "With -w: classic pcap instead of pcapng");
+  cmd->add_flag("--plain", o.plain,
+                "With -w: pcapng of the frames alone (no comments, flags or per-byte times), "
+                "packets stamped at their last byte");
+  cmd->add_option("--dlt", o.dlt,
+                  "With -w: link type upper-pdu (252, Wireshark decodes it as is) or user0 (147)")
+      ->check(CLI::IsMember({"upper-pdu", "user0"}));
+}
+
+Command add_file_command(CLI::App& app, const std::string& name, const std::string& description,
+                         const std::string& file_help,
+                         int (*run)(const CommonOptions& o, const std::string& path)) {
+  auto o = std::make_shared<CommonOptions>();
+  auto path = std::make_shared<std::string>();
+  CLI::App* command = app.add_subcommand(name, description);
+  add_common_options(command, *o);
+  command->add_option("file", *path, file_help)->required();
+  return {command, [o, path, run] { return run(*o, *path); }};
+}
+
+// One line on stderr, "drivetap: MESSAGE": whole (a NUL in a name taken from a file would cut
+// a %s), with whatever is not printable UTF-8 escaped (a name may hold a newline or ESC).
+void say(std::string_view message) {
+  const std::string line = fmt::format("drivetap: {}\n", printable(message, false));
+  std::fwrite(line.data(), 1, line.size(), stderr);
+}
+
+[[noreturn]] void die(const std::string& message, int code) {
+  std::fflush(stdout);
+  say(message);
+  std::exit(code);
+}
+
+// Standard output flushed at the end of any command: a failed write is one line and exit 1 (a full
+// disk), or, when the reader went away (EPIPE), the silent exit status of a process that SIGPIPE
+// ended, as the shell expects of `drivetap ... | head`.
+void finish_stdout() {
+  if (std::fflush(stdout) == 0 && !std::ferror(stdout)) return;
+  if (errno == EPIPE) std::_Exit(128 + SIGPIPE);
+  die(fmt::format("standard output: write failed: {}", std::strerror(errno)), 1);
+}
+
+// Refuses (exit 2) an output that is an input or another output: `read Y.pcapng -w Y.pcapng`
+// would truncate the capture before reading it, `-o F -w F` would mix two formats in one file.
+// Files are compared by device and inode, as tshark does, when they exist, else by their
+// normalised path; "-" and devices (/dev/null twice) are not files to protect.
+// `files`: {option, path}, the inputs first.
+void refuse_shared_files(const std::vector<std::pair<std::string, std::string>>& files) {
+  struct Seen {
+    std::string option, path;
+    bool exists = false;
+    dev_t device = 0;
+    ino_t inode = 0;
+    std::string normalised;
+  };
+  std::vector<Seen> seen;
+  for (const auto& [option, path] : files) {
+    if (path.empty() || path == "-") continue;
+    Seen f;
+    f.option = option;
+    f.path = path;
+    struct stat st {};
+    if (::stat(path.c_str(), &st) == 0) {
+      if (!S_ISREG(st.st_mode) && !S_ISDIR(st.st_mode)) continue;
+      f.exists = true;
+      f.device = st.st_dev;
+      f.inode = st.st_ino;
+    } else {
+      std::error_code ec;
+      f.normalised = std::filesystem::weakly_canonical(path, ec).string();
+      if (ec) f.normalised = std::filesystem::absolute(path, ec).lexically_normal().string();
+    }
+    for (const Seen& before : seen) {
+      const bool same = f.exists
+                            ? before.exists && before.device == f.device && before.inode == f.inode
+                            : !before.exists && before.normalised == f.normalised;
+      if (same)
+        die(fmt::format("{} {}: is the same file as {} {}: refusing to overwrite it", option, path,
+                        before.option, before.path));
+    }
+    seen.push_back(std::move(f));
+  }
+}
+
+// Line settings and timing: the capture's own settings first, the command line over them.
+PipelineOptions make_pipeline_options(const CommonOptions& o, const RunSettings& capture) {
+  std::string err;
+  auto p = resolve_pipeline_options(capture, {o.serial, o.t15, o.t35, o.timeout, o.max_hold}, &err);
+  if (!p) die(err);
+  if (!o.protocol.empty()) p->protocol = protocol_from_option(o.protocol);
+  // The built-in profiles are parsed even for `--drive none` (a few ms): their vendor exception
+  // codes are plausible Modbus exceptions whether or not a drive is bound (before anything
+  // decodes).
+  load_profiles(o, true);
+  for (const DriveProfile& profile : g_profiles)
+    for (const auto& [code, meaning] : profile.exceptions)
+      if (code <= 0xFF) allow_vendor_exception_code(static_cast<std::uint8_t>(code));
+  bool guess = true;
+  for (const std::string& binding : o.drives) {
+    if (binding == "auto") continue;
+    if (binding == "none") {
+      guess = false;
+      continue;
+    }
+    const std::size_t eq = binding.find('=');
+    int address = -1;
+    if (eq != std::string::npos) {
+      try {
+        std::size_t used = 0;
+        address = std::stoi(binding.substr(0, eq), &used);
+        if (used != eq) address = -1;
+      } catch (...) {
+        address = -1;
+      }
+    }
+    if (address < 0 || address > 255)
+      die(fmt::format("--drive {}: expected ADDRESS=PROFILE (e.g. 2=e9), auto or none", binding));
+    const std::string id = binding.substr(eq + 1);
+    const DriveProfile* found = nullptr;
+    std::string known;
+    for (const DriveProfile& profile : g_profiles) {
+      if (profile.id == id) found = &profile;
+      known += (known.empty() ? "" : ", ") + profile.id;
+    }
+    if (!found) die(fmt::format("--drive {}: no profile '{}' (known: {})", binding, id, known));
+    p->drives[address] = found;
+  }
+  if (guess)
+    for (const DriveProfile& profile : g_profiles) p->auto_candidates.push_back(&profile);
+  return *p;
+}
+}  // namespace drivetap::app

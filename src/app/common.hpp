@@ -1,0 +1,63 @@
+// drivetap command line, what every subcommand shares: the common options (README "Command
+// reference"), messages and exit codes, refusing to overwrite an input, and the run's pipeline
+// options with the drive profiles bound.
+#pragma once
+
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+#include "pipeline/options.hpp"
+#include "sources/logic/sigrok_file.hpp"
+
+namespace CLI {
+class App;
+}
+
+namespace drivetap::app {
+
+// The options of every subcommand that decodes (decode, read, diagnose, capture).
+struct CommonOptions {
+  std::string format = "text";
+  bool verbose = false;
+  std::string serial;
+  std::string t15;
+  std::string t35;
+  std::string timeout;
+  std::string max_hold;
+  bool no_summary = false;
+  std::string output;
+  std::string write;
+  bool classic_pcap = false;
+  bool plain = false;  // --plain
+  std::string dlt = "upper-pdu";
+  std::string protocol;               // empty: rtu for captures; decode infers it from the text
+  std::vector<std::string> drives;    // "2=e9", "auto", "none"
+  std::vector<std::string> profiles;  // user profile files
+  std::vector<std::string> profile_dirs;
+  bool events_only = false;
+  bool stats_only = false;                  // --stats
+  std::vector<std::string> logic_channels;  // --channels RX,TX
+  bool invert = false;
+  std::uint64_t logic_max = SigrokFile::kDefaultMaxSampleBytes;  // --logic-max
+};
+
+// -T, -s, -P, --drive, -o, -w and the others every decoding subcommand takes.
+void add_common_options(CLI::App* cmd, CommonOptions& o);
+
+// One line on stderr, "drivetap: MESSAGE", with whatever is not printable UTF-8 escaped.
+void say(std::string_view message);
+// say(), then exit with `code` (2: a usage error, 1: a failed input or output, 130: interrupted).
+[[noreturn]] void die(const std::string& message, int code = 2);
+// Standard output flushed at the end of any command (a failed write: exit 1; EPIPE: as SIGPIPE).
+void finish_stdout();
+// Refuses (exit 2) an output that is an input or another output. `files`: {option, path}, the
+// inputs first.
+void refuse_shared_files(const std::vector<std::pair<std::string, std::string>>& files);
+
+// Line settings and timing: the capture's own settings first, the command line over them; the
+// drive profiles loaded and --drive bound.
+PipelineOptions make_pipeline_options(const CommonOptions& o, const RunSettings& capture);
+
+}  // namespace drivetap::app

@@ -1,0 +1,94 @@
+// drivetap command line: capture files as sources (src/app/inputs.hpp).
+#include "app/inputs.hpp"
+
+#include <fmt/format.h>
+
+#include "app/stop_signals.hpp"
+#include "sources/file/byte_log.hpp"
+#include "sources/file/capture_reader.hpp"
+#include "sources/logic/logic_source.hpp"
+#include "sources/logic/sigrok_file.hpp"
+#include "sources/logic/vcd_file.hpp"
+
+namespace drivetap::app {
+namespace {
+
+// -s and --invert for a logic capture: given settings are used as given; without -s the line is
+// detected (and --invert alone is refused: detection finds the polarity itself).
+LogicSourceOptions logic_source_options(const CommonOptions& o) {
+  LogicSourceOptions so;
+  so.channels = o.logic_channels;
+  if (!o.serial.empty()) {
+    const PipelineOptions line = make_pipeline_options(o, RunSettings{});
+    so.uart = phy::UartSettings::from(line.serial);
+    so.uart->inverted = o.invert;
+  } else if (o.invert) {
+    die("--invert: give the line settings too (-s \"19200 8E1\"), or neither: both are detected");
+  }
+  return so;
+}
+
+}  // namespace
+
+// The source for a capture file of any supported format (the format is read from its first bytes).
+std::unique_ptr<ByteSource> open_source(const CommonOptions& o, const std::string& path,
+                                        InputFile& in, ChannelTable& channels) {
+  std::string err;
+  if (!open_input(path, &in, &err)) die(err, 1);
+  std::unique_ptr<ByteSource> source;
+  switch (in.format) {
+    case InputFormat::byte_log:
+      source = std::make_unique<ByteLogReader>(in.file, in.name, channels);
+      break;
+    case InputFormat::pcapng:
+      source = std::make_unique<CaptureReader>(in.file, in.name, true, channels);
+      break;
+    case InputFormat::pcap:
+      source = std::make_unique<CaptureReader>(in.file, in.name, false, channels);
+      in.file = nullptr;  // libpcap owns and closes it
+      break;
+    case InputFormat::sigrok:
+    case InputFormat::vcd: {
+      // Logic captures are read by name: a zip (libzip) cannot come through stdin, and detection
+      // reads the start of either twice.
+      if (in.name == "<stdin>")
+        die(fmt::format("<stdin>: a {} must be read by name", input_format_name(in.format)), 1);
+      const InputFormat format = in.format;
+      close_input(in);
+      std::string error;
+      std::unique_ptr<LogicCapture> file;
+      if (format == InputFormat::sigrok) {
+        auto sigrok = SigrokFile::open(path, &error);
+        if (sigrok) sigrok->set_max_sample_bytes(o.logic_max);
+        file = std::move(sigrok);
+      } else {
+        file = VcdFile::open(path, &error);
+      }
+      if (!file) die(error, 1);
+      source =
+          std::make_unique<LogicSource>(std::move(file), path, channels, logic_source_options(o));
+      break;
+    }
+    case InputFormat::empty:
+      die(fmt::format("{}: empty file", in.name), 1);
+    case InputFormat::unknown:
+      die(fmt::format("{}: offset 0: not a recognised capture format (first byte 0x{:02X}); "
+                      "expected pcapng, pcap, a sigrok session, a VCD or a drivetap byte log",
+                      in.name, in.head[0]),
+          1);
+  }
+  return source;
+}
+
+// Reads the source's header and settles the run's options: the capture's settings, overridden by
+// the command line's.
+PipelineOptions start_source(const CommonOptions& o, ByteSource& source) {
+  source.set_stop_flag(&g_stop);  // reading ahead for detection may take long (catch_stop_signals)
+  if (!source.read_header()) die(source.error(), 1);
+  if (g_stop) die("interrupted", 130);
+  PipelineOptions p = make_pipeline_options(o, source.settings());
+  source.set_character_time(p.timing.character_time);
+  return p;
+}
+
+}  // namespace drivetap::app

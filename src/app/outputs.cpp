@@ -1,0 +1,159 @@
+// drivetap command line: the outputs of a run (src/app/outputs.hpp).
+#include "app/outputs.hpp"
+
+#include <fmt/format.h>
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <csignal>
+#include <cstdlib>
+#include <cstring>
+#include <string>
+#include <thread>
+
+#include "app/stop_signals.hpp"
+#include "formats/shared_libraries.hpp"
+#include "sinks/json_sink.hpp"
+#include "sinks/text_sink.hpp"
+#include "sources/file/capture_reader.hpp"
+
+namespace drivetap::app {
+
+CaptureSinkOptions capture_options(const CommonOptions& o, const PipelineOptions& p) {
+  if (o.plain && o.classic_pcap)
+    die("--plain: only with pcapng (classic pcap has no comments or per-byte times to leave out)");
+  if (o.classic_pcap && !pcap_library().loaded)
+    die(fmt::format("--pcap: {}", pcap_library().error));
+  CaptureSinkOptions c;
+  c.format = o.classic_pcap ? CaptureFormat::pcap : CaptureFormat::pcapng;
+  c.link_type = o.dlt == "user0" ? CaptureLinkType::user0 : CaptureLinkType::upper_pdu;
+  c.plain = o.plain;
+  c.serial = p.serial;
+  c.character_time = p.timing.character_time;
+  c.settings = encode_settings(p.timing.t15, p.timing.t35, p.reply_timeout, p.max_hold, p.protocol);
+  return c;
+}
+
+Outputs::Outputs(const CommonOptions& o, const ChannelTable& channels, const PipelineOptions& p,
+                 bool timed, const RingOptions* ring)
+    : options_(o) {
+  const bool capture_to_stdout = o.write == "-";
+  if (o.plain && o.write.empty()) die("--plain: only with -w FILE (it is a kind of pcapng)");
+  if (capture_to_stdout && (o.output.empty() || o.output == "-") && o.format == "json")
+    die("-w - and JSON output cannot share stdout: add -o FILE for the JSON");
+  if (!o.output.empty() && o.output != "-") {
+    text_file_ = open_output_file(o.output);
+    if (!text_file_) die(fmt::format("-o {}: cannot create: {}", o.output, std::strerror(errno)));
+  } else {
+    // With the capture on stdout, the text goes to stderr as a summary only (like tcpdump).
+    text_file_ = capture_to_stdout ? stderr : stdout;
+  }
+  if (ring) {
+    if (o.write.empty() || capture_to_stdout) die("-b: needs -w FILE (a file name, not -)");
+    ring_ = std::make_unique<RingCaptureSink>(o.write, channels, capture_options(o, p), *ring);
+    std::string error;
+    if (!ring_->open(&error)) die(error, 1);
+    tee_.add(ring_.get());
+  } else if (!o.write.empty()) {
+    capture_file_ = capture_to_stdout ? stdout : open_output_file(o.write);
+    if (!capture_file_) die(fmt::format("-w {}: cannot create: {}", o.write, std::strerror(errno)));
+    capture_ = std::make_unique<CaptureSink>(capture_file_, channels, capture_options(o, p));
+    tee_.add(capture_.get());
+  }
+  // The text or JSON sink; with no file, one of its helpers (writing into memory).
+  const auto make_text = [&](std::FILE* file) -> std::unique_ptr<Sink> {
+    if (o.format == "json")
+      return std::make_unique<JsonSink>(file, channels, p.timing.character_time, timed);
+    TextSinkOptions t;
+    t.verbose = o.verbose;
+    t.show_time = timed;
+    t.summary = !o.no_summary;
+    t.frames = !(capture_to_stdout && text_file_ == stderr);
+    return std::make_unique<TextSink>(file, channels, t);
+  };
+  text_ = make_text(text_file_);
+  // Text or JSON alone, to a file or a pipe, is formatted a batch at a time by as many threads
+  // as there are cores, the decoding thread among them when it is ahead (ThreadedSink helpers),
+  // and written in order: formatting is most of a run's work. A terminal gets each line as it
+  // comes from the one writer; a capture file has its own order of blocks to keep.
+  const unsigned cores = std::thread::hardware_concurrency();
+  if (!ring && o.write.empty() && !o.stats_only && !o.events_only && cores >= 2 &&
+      ::isatty(::fileno(text_file_)) != 1)
+    for (unsigned i = 0; i < std::min(cores, 4u); ++i) helpers_.push_back(make_text(nullptr));
+  if (o.stats_only && o.no_summary) die("--stats and --no-summary leave nothing to print");
+  if (o.stats_only) {
+    summary_only_ = std::make_unique<SummaryOnlySink>(*text_);
+    tee_.add(summary_only_.get());
+  } else if (o.events_only) {
+    events_only_ = std::make_unique<EventsOnlySink>(*text_);
+    tee_.add(events_only_.get());
+  } else {
+    tee_.add(text_.get());
+  }
+}
+
+void Outputs::write_on_second_thread() {
+  if (!helpers_.empty()) {
+    std::vector<Sink*> helpers;
+    for (const std::unique_ptr<Sink>& helper : helpers_) helpers.push_back(helper.get());
+    threaded_ = std::make_unique<ThreadedSink>(*text_, std::move(helpers));  // (tee_: text_)
+  } else if ((!options_.stats_only && !options_.events_only) || capture_) {
+    threaded_ = std::make_unique<ThreadedSink>(tee_);
+  }
+}
+
+bool Outputs::flush() {
+  const bool ok = threaded_ ? threaded_->flush() : tee_.flush();
+  if (!ok && ring_ && !ring_->error().empty()) die(ring_->error(), 1);
+  if (capture_file_ && capture_file_ != stdout) {
+    if (ok) {
+      capture_good_size_ = std::ftell(capture_file_);
+    } else if (!capture_failed_) {
+      capture_failed_ = true;
+      capture_errno_ = errno;
+    }
+  }
+  return ok;
+}
+
+void Outputs::close() {
+  if (threaded_) threaded_->finish();  // every record replayed; the sinks are this thread's
+  // Each failure's errno is kept where it happens: cutting the file back and closing it
+  // overwrite errno, and the message must give the write's own reason ("No space left").
+  const bool text_ok = text_->flush();
+  const int text_errno = errno;
+  const bool capture_ok = !capture_failed_ && (!capture_ || capture_->flush());
+  const int capture_errno = capture_failed_ ? capture_errno_ : errno;
+  if (ring_ && !ring_->close()) die(ring_->error(), 1);
+  capture_.reset();
+  // A failed write (disk full) leaves the file cut back to its last whole block: valid, with
+  // every packet that reached the disk.
+  if (!capture_ok && capture_file_ && capture_file_ != stdout)
+    cut_back_to(capture_file_, capture_good_size_,
+                options_.classic_pcap ? CaptureFormat::pcap : CaptureFormat::pcapng);
+  const bool capture_closed =
+      !capture_file_ || capture_file_ == stdout || std::fclose(capture_file_) == 0;
+  if (!capture_ok)
+    die(fmt::format("-w {}: write failed: {}", options_.write, std::strerror(capture_errno)), 1);
+  if (!capture_closed)
+    die(fmt::format("-w {}: write failed: {}", options_.write, std::strerror(errno)), 1);
+  const bool to_file = text_file_ != stdout && text_file_ != stderr;
+  const std::string text_name = to_file                ? "-o " + options_.output
+                                : text_file_ == stdout ? std::string("standard output")
+                                                       : std::string("standard error");
+  if (!text_ok) {
+    // Half a line (half a JSON record) would mislead whoever reads the file: cut it off.
+    if (to_file) cut_back_to_last_line(text_file_);
+    if (!to_file && text_errno == EPIPE) std::_Exit(128 + SIGPIPE);  // `| head`: as SIGPIPE
+    if (g_stop && text_errno == EINTR)
+      die(fmt::format("interrupted; {} blocked (nobody read it): the rest of its output is lost",
+                      text_name),
+          130);
+    die(fmt::format("{}: write failed: {}", text_name, std::strerror(text_errno)), 1);
+  }
+  if (to_file && std::fclose(text_file_) != 0)
+    die(fmt::format("{}: write failed: {}", text_name, std::strerror(errno)), 1);
+}
+}  // namespace drivetap::app

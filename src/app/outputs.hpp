@@ -1,0 +1,62 @@
+// drivetap command line: the outputs of a run, text or JSON (-T, -o) and a capture file (-w, a
+// ring of files with -b), flushed as a live capture runs and closed valid whatever ends the run.
+#pragma once
+
+#include <cstdio>
+#include <memory>
+#include <vector>
+
+#include "app/common.hpp"
+#include "core/byte_event.hpp"
+#include "pipeline/options.hpp"
+#include "sinks/capture_sink.hpp"
+#include "sinks/ring_capture_sink.hpp"
+#include "sinks/sink.hpp"
+#include "sinks/threaded_sink.hpp"
+
+namespace drivetap::app {
+
+// The capture file's options for -w (format, link type, the run's settings in each interface).
+CaptureSinkOptions capture_options(const CommonOptions& o, const PipelineOptions& p);
+
+// Owns the output files and the sinks chosen by -T, -o and -w.
+class Outputs {
+ public:
+  // Opens -o and -w (a ring of files with `ring`); `timed`: the records have real times.
+  Outputs(const CommonOptions& o, const ChannelTable& channels, const PipelineOptions& p,
+          bool timed, const RingOptions* ring = nullptr);
+  // From now on the records are formatted and written on a second thread (ThreadedSink) while
+  // this one decodes: `read`, when some sink shows or writes every frame (not --stats or
+  // --events without -w, whose sinks drop nearly every record: copying them would cost more
+  // than it saves).
+  void write_on_second_thread();
+  Sink& sink() { return threaded_ ? static_cast<Sink&>(*threaded_) : tee_; }
+  // Whether nothing written from now on reaches anybody: the text output failed (its reader went
+  // away, `| head`) and there is no capture file to complete. Reading on would be wasted.
+  [[nodiscard]] bool unread() const { return !capture_ && !ring_ && std::ferror(text_file_); }
+  // Live capture: everything written so far reaches its file (a text line per frame as it
+  // completes; pcapng packets readable while the capture runs). False when a write failed.
+  bool flush();
+
+  // Flushes and closes every output; a failed write (disk full, closed pipe) is an error.
+  void close();
+
+ private:
+  const CommonOptions& options_;
+  std::FILE* text_file_ = stdout;
+  std::FILE* capture_file_ = nullptr;
+  int capture_errno_ = 0;  // why the first failed flush failed
+  std::unique_ptr<Sink> text_;
+  std::vector<std::unique_ptr<Sink>> helpers_;  // text_'s kind, writing into memory
+  std::unique_ptr<Sink> events_only_;
+  std::unique_ptr<Sink> summary_only_;
+  std::unique_ptr<CaptureSink> capture_;
+  std::unique_ptr<RingCaptureSink> ring_;
+  TeeSink tee_;
+  long capture_good_size_ = 0;  // the capture file up to its last packet flushed whole
+  bool capture_failed_ = false;
+  // Last: destroyed first, its thread joined before the sinks it writes to go.
+  std::unique_ptr<ThreadedSink> threaded_;
+};
+
+}  // namespace drivetap::app
