@@ -388,7 +388,7 @@ class Outputs {
       tee_.add(capture_.get());
     }
     // The text or JSON sink; with no file, one of its helpers (writing into memory).
-    const auto make_text = [&](std::FILE* file) -> std::unique_ptr<Sink> {
+    const auto make_text = [&](std::FILE* file) -> std::unique_ptr<FormattingSink> {
       if (o.format == "json")
         return std::make_unique<JsonSink>(file, channels, p.timing.character_time, timed);
       TextSinkOptions t;
@@ -424,8 +424,9 @@ class Outputs {
   // than it saves).
   void write_on_second_thread() {
     if (!helpers_.empty()) {
-      std::vector<Sink*> helpers;
-      for (const std::unique_ptr<Sink>& helper : helpers_) helpers.push_back(helper.get());
+      std::vector<FormattingSink*> helpers;
+      for (const std::unique_ptr<FormattingSink>& helper : helpers_)
+        helpers.push_back(helper.get());
       threaded_ = std::make_unique<ThreadedSink>(*text_, std::move(helpers));  // (tee_: text_)
     } else if ((!options_.stats_only && !options_.events_only) || capture_) {
       threaded_ = std::make_unique<ThreadedSink>(tee_);
@@ -496,8 +497,8 @@ class Outputs {
   std::FILE* text_file_ = stdout;
   std::FILE* capture_file_ = nullptr;
   int capture_errno_ = 0;  // why the first failed flush failed
-  std::unique_ptr<Sink> text_;
-  std::vector<std::unique_ptr<Sink>> helpers_;  // text_'s kind, writing into memory
+  std::unique_ptr<FormattingSink> text_;
+  std::vector<std::unique_ptr<FormattingSink>> helpers_;  // text_'s kind, writing into memory
   std::unique_ptr<Sink> events_only_;
   std::unique_ptr<Sink> summary_only_;
   std::unique_ptr<CaptureSink> capture_;
