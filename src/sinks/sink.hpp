@@ -1,6 +1,8 @@
 // Sink: where the pipeline's records go (text, JSON, pcapng). Sinks walk the generic field
 // tree; they know no protocol. Records arrive in bus order: for each frame, the timeouts it
 // revealed, then the frame (or noise), then its anomalies, then the transaction it completed.
+// The contract is a handful of event methods and one description of what the sink needs
+// (SinkNeeds); formatting on several threads is a separate, smaller one (FormattingSink).
 #pragma once
 
 #include <cerrno>
