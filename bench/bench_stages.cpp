@@ -6,7 +6,7 @@
 //
 //   BM_Crc16 / BM_Lrc / BM_Bcc       the checksums on 1 KiB .. 1 MiB of random bytes
 //   BM_RtuFramer/1, /4096            the Modbus RTU framer on the ByteEvents of polling traffic,
-//                                    one event per call or runs of 4096 (push_all)
+//                                    one event per call or runs of 4096 (push(events))
 //   BM_Dissect_<protocol>            each dissector on valid frames (the Frame copy included)
 //   BM_Framer_<protocol>             the Modbus ASCII, FC and Easydrive framers on those frames
 //   BM_Pairer                        pairing the RTU traffic's dissected requests and replies
@@ -17,7 +17,7 @@
 //                                    (as `read`: a run per frame, whole frames taken at once)
 //   BM_Pipeline_RtuBatchedSummaryOnly  the same into a sink that shows no decode but takes records
 //   BM_Pipeline_RtuSummaryLane       the same into a sink that takes no records (`read --stats`):
-//                                    whole telegrams counted without a decode (the summary lane)
+//                                    whole telegrams dissected to their head
 //   BM_Pipeline_RtuSummaryLaneAutoDrives  the same with every built-in profile as --drive auto
 //                                    candidate (`read --stats`'s default: binding, observations,
 //                                    timing rules and the timeline on the lane)
@@ -222,7 +222,7 @@ struct Reframed {
 };
 
 // A fresh framer from `decoder` re-frames `events`: a push per event with run 1 (what the
-// pipeline does), else Framer::push_all on runs of `run` events (as a reader's buffer would);
+// pipeline does), else Framer::push on runs of `run` events (as a reader's buffer would);
 // frames are counted as they come out, and the batch is cleared (keeping their storage for the
 // next frames), as the pipeline does.
 [[gnu::noinline]] Reframed reframe(const ProtocolDecoder& decoder, const FramerSettings& settings,
@@ -244,7 +244,7 @@ struct Reframed {
     }
   } else {
     for (std::size_t i = 0; i < events.size(); i += run) {
-      framer->push_all(events.subspan(i, std::min(run, events.size() - i)), out);
+      framer->push(events.subspan(i, std::min(run, events.size() - i)), out);
       drain();
     }
   }
@@ -456,7 +456,7 @@ void BM_Pairer(benchmark::State& state) {
     FramerSettings settings;
     settings.timing = t.timing;
     auto framer = decoder->make_framer(0, settings);
-    framer->push_all(t.events, frames);
+    framer->push(t.events, frames);
     framer->finish(frames);
   }
   std::vector<Message> messages;
@@ -501,11 +501,15 @@ void BM_Pairer(benchmark::State& state) {
 struct CountingSink final : Sink {
   std::uint64_t frames = 0, noise = 0, anomalies = 0, transactions = 0, ok = 0;
   bool detail = true;  // false: like `read --stats`, no field trees or info lines are built
-  // false: no records at all, like `read --stats`' sink (the pipeline's summary lane counts
-  // telegrams taken whole without decoding them); the counts then come from the summary.
+  // false: no records at all, like `read --stats`' sink (the pipeline dissects telegrams only to
+  // their head); the counts then come from the summary.
   bool records = true;
-  [[nodiscard]] bool wants_detail() const override { return detail; }
-  [[nodiscard]] bool wants_records() const override { return records; }
+  [[nodiscard]] SinkNeeds needs() const override {
+    SinkNeeds n;
+    n.detail = detail;
+    n.records = records;
+    return n;
+  }
   void on_frame(const Message&) override { ++frames; }
   void on_noise(const Frame&) override { ++noise; }
   void on_anomaly(const Anomaly&) override { ++anomalies; }

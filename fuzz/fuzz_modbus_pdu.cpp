@@ -1,7 +1,7 @@
 // Fuzzes the Modbus PDU/RTU layer: dissect_pdu (every direction), predict_pdu_length, pdu_fits,
 // rtu_direction_fit and dissect_rtu on a Frame built from the data; pdu_findings and the RTU
-// decoder's summary (the pipeline's summary lane) against what the dissectors find, and the same
-// summary made with the decoder's precheck (the read-ahead thread's) against it.
+// decoder's dissection to the head (DissectDepth::head) against what the dissectors find, and the
+// same made with the decoder's precheck (the read-ahead thread's) against it.
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -18,7 +18,7 @@ using namespace drivetap;
 constexpr Direction kDirections[] = {Direction::unknown, Direction::request, Direction::response};
 
 // Dissects frame[offset, offset + length) and checks the field tree stays inside the frame, and
-// that pdu_findings() finds what the dissector finds (the summary lane counts by it).
+// that pdu_findings() finds what the dissector finds (dissection to the head counts by it).
 void dissect(std::span<const std::uint8_t> frame, std::size_t offset, std::size_t length,
              Direction dir) {
   FieldTree nodes;
@@ -34,16 +34,18 @@ void dissect(std::span<const std::uint8_t> frame, std::size_t offset, std::size_
     fuzz::contract_broken("pdu_findings: not what dissect_pdu finds");
 }
 
-// The RTU decoder's summary of a telegram taken whole (the pipeline's summary lane) must be what
-// dissect_rtu() gives the Message: verdict, pairing members and every anomaly by kind.
+// The RTU decoder's dissection to the head of a telegram taken whole (DissectDepth::head) must be
+// what dissect_rtu() gives the Message: verdict, pairing members and every anomaly by kind.
 void check_summary(const Frame& frame, Direction dir, const FramingTiming& timing) {
   const Message m = modbus::dissect_rtu(frame, dir, timing);
-  Framer::ChunkFrame taken;
-  taken.timing = {frame.gap_before, frame.max_intra_gap, frame.max_intra_gap_at};
-  ProtocolDecoder::TelegramSummary s;
+  TelegramView t;
+  t.run.bytes = m.bytes;
+  t.taken.timing = {frame.gap_before, frame.max_intra_gap, frame.max_intra_gap_at};
+  TelegramFindings s;
   const modbus::RtuDecoder decoder;
-  if (!decoder.summarise(m.bytes, dir, taken, timing, nullptr, &s)) {
-    if (m.bytes.size() >= 4) fuzz::contract_broken("summarise: no summary of a 4-byte frame");
+  Message detailed;
+  if (decoder.dissect(t, dir, timing, {}, DissectDepth::head, detailed, &s)) {
+    if (m.bytes.size() >= 4) fuzz::contract_broken("dissect: no head of a 4-byte frame");
     return;
   }
   std::size_t malformed = 0;
@@ -57,7 +59,7 @@ void check_summary(const Frame& frame, Direction dir, const FramingTiming& timin
   if (s.verdict != m.checksum.verdict || s.address != m.address || s.function != m.function ||
       s.is_exception != m.is_exception || s.exception_code != m.exception_code ||
       s.malformed != malformed || s.other_kinds != kinds)
-    fuzz::contract_broken("summarise: not what dissect_rtu gives");
+    fuzz::contract_broken("dissect: head not what dissect_rtu gives");
   // With the precheck of a telegram the framer would take whole: the same summary.
   TelegramPrecheck made;
   if (!decoder.precheck(m.bytes, &made)) fuzz::contract_broken("precheck: none made");
@@ -67,11 +69,12 @@ void check_summary(const Frame& frame, Direction dir, const FramingTiming& timin
       made.always_response != decoder.always_response(m.bytes))
     fuzz::contract_broken("precheck: not the decoder's direction answers");
   made.decoder = &decoder;
-  ProtocolDecoder::TelegramSummary with;
-  if (!decoder.summarise(m.bytes, dir, taken, timing, &made, &with) || with.verdict != s.verdict ||
-      with.exception_code != s.exception_code || with.malformed != s.malformed ||
-      with.other_kinds != s.other_kinds)
-    fuzz::contract_broken("summarise: not the same with the precheck");
+  TelegramFindings with;
+  t.precheck = &made;
+  if (decoder.dissect(t, dir, timing, {}, DissectDepth::head, detailed, &with) ||
+      with.verdict != s.verdict || with.exception_code != s.exception_code ||
+      with.malformed != s.malformed || with.other_kinds != s.other_kinds)
+    fuzz::contract_broken("dissect: head not the same with the precheck");
 }
 
 }  // namespace

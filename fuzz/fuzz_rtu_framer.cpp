@@ -1,6 +1,6 @@
 // Fuzzes RtuFramer, the Modbus RTU dissector and the pairer: data is a stream of (time delta,
 // byte, flags) records turned into ByteEvents and pushed through the Pipeline; then, as runs,
-// through the summary lane (counted and handed over undissected) against decoding every frame.
+// dissected to their head (counted, or handed over undecoded) against decoding every frame.
 //
 //   header (3 bytes, missing bytes read as 0):
 //     [0] bits 0-2 baud (1200..115200), bit 3-4 parity N/E/O, bit 5 7 data bits, bit 6 2 stop
@@ -57,14 +57,14 @@ PipelineOptions options_from(std::uint8_t line, std::uint8_t timing) {
   return p;
 }
 
-// Records as text: what the summary lane must keep as decoding every frame gives it. A sink that
-// decodes (`decodes`) also writes the drive annotation, as the threaded sink does.
+// Records as text: what dissecting to the head must keep as decoding every frame gives it. A sink
+// that decodes (`decodes`) also writes the drive annotation, as the threaded sink does.
 struct DigestSink final : Sink {
   explicit DigestSink(bool records, bool decodes) : records_(records), decodes_(decodes) {}
   std::string digest;
   std::string events;  // the events alone (a sink without records gets them too)
   void on_frame(const Message& m) override {
-    if (m.drive_profile) {  // (only a sink that completes_drive_info() gets one)
+    if (m.drive_profile) {  // (only a sink whose needs say drive_info gets one)
       read_for_drive_into(*m.drive_profile, m, m.request, DriveReadingWants::text, reading_);
       digest += "D" + reading_.text + ";";
     } else {
@@ -103,21 +103,25 @@ struct DigestSink final : Sink {
     for (const std::uint64_t n : st.anomalies) digest += "," + std::to_string(n);
   }
   bool flush() override { return true; }
-  [[nodiscard]] bool wants_records() const override { return records_; }
-  [[nodiscard]] bool completes_decode() const override { return decodes_; }
-  [[nodiscard]] bool completes_drive_info() const override { return decodes_; }
+  [[nodiscard]] SinkNeeds needs() const override {
+    SinkNeeds n;
+    n.records = records_;
+    n.deferred_decode = decodes_;
+    n.drive_info = decodes_;
+    return n;
+  }
 
  private:
   bool records_, decodes_;
   DriveReading reading_;
 };
 
-// The summary lane (Pipeline::count_whole_telegram: `read --stats`, and `read` handing telegrams
-// over undissected): the events as runs through push_runs(), as `read` gives a capture's packets,
-// once decoded frame by frame, once counted, once handed over undissected, without and with
-// drive profiles (bindings, observations, timing rules and the timeline on the lane). The counts
-// must be those of decoding, the events the same events, and the records handed over
-// undissected the same records.
+// Telegrams dissected to their head (Pipeline::handle_telegram: `read --stats`, and `read` handing
+// telegrams over undecoded): the events as runs through push_runs(), as `read` gives a capture's
+// packets, once decoded frame by frame, once counted, once handed over undecoded, without and
+// with drive profiles (bindings, observations, timing rules and the timeline from the head). The
+// counts must be those of decoding, the events the same events, and the records handed over
+// undecoded the same records.
 void check_summary_lane(const PipelineOptions& options, const ChannelTable& channels,
                         std::span<const ByteEvent> events) {
   RunBatch runs;
@@ -131,14 +135,14 @@ void check_summary_lane(const PipelineOptions& options, const ChannelTable& chan
       pipeline.push_runs(runs);
       pipeline.finish();
     }
-    const std::string what = drives ? "summary lane with drive profiles" : "summary lane";
+    const std::string what = drives ? "head dissection with drive profiles" : "head dissection";
     const std::size_t summary = decoded.digest.rfind('S');
     if (summary == std::string::npos || counted.events != decoded.events ||
         counted.digest.substr(counted.digest.rfind('S')) != decoded.digest.substr(summary))
       fuzz::contract_broken(
           (what + ": counts or events not those of decoding every frame").c_str());
     if (handed_over.digest != decoded.digest)
-      fuzz::contract_broken((what + ": records handed over undissected differ").c_str());
+      fuzz::contract_broken((what + ": records handed over undecoded differ").c_str());
   }
 }
 

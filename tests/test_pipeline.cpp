@@ -221,16 +221,20 @@ struct TranscriptSink final : Sink {
           fmt::format(" | drive {} {} '{}' {} events", d.address, d.profile, d.state, d.events);
   }
   bool flush() override { return true; }
-  [[nodiscard]] bool wants_detail() const override { return detail; }
-  [[nodiscard]] bool wants_fields() const override { return fields; }
-  [[nodiscard]] bool wants_transactions() const override { return transactions; }
-  [[nodiscard]] bool wants_records() const override { return records_wanted; }
-  [[nodiscard]] bool completes_decode() const override { return decodes; }
-  [[nodiscard]] bool wants_events() const override { return events_wanted; }
+  [[nodiscard]] SinkNeeds needs() const override {
+    SinkNeeds n;
+    n.detail = detail;
+    n.fields = fields;
+    n.transactions = transactions;
+    n.records = records_wanted;
+    n.deferred_decode = decodes;
+    n.events = events_wanted;
+    return n;
+  }
   bool transactions = true;
   bool records_wanted = true;
   bool events_wanted = true;
-  bool decodes = false;  // takes telegrams undissected (decoded by Sink::on_undissected())
+  bool decodes = false;  // takes telegrams undecoded (decoded by Sink::on_deferred_frame())
 };
 
 // What the pipeline must adjust before framing (Pipeline::as_on_the_wire): bytes stamped inside
@@ -332,7 +336,7 @@ void set_prechecks(RunBatch& runs, const Pipeline& pipeline, Prechecks kind) {
 
 // The same traffic as runs, one per record (a pcapng's packets), through push_runs() in batches
 // of `batch` runs (0: each byte pushed on its own): a whole frame between two silences goes to the
-// framer at once when the next run of the batch shows the silence after it (Pipeline::push_chunk).
+// framer at once when the next run of the batch shows the silence after it (Pipeline::push_whole).
 // One-stamp reads, 7 data bits and early starts give runs that need the byte-by-byte way.
 // `prechecks`: what the batches carry; *prechecked counts the runs that carried one.
 // `drives`: with every built-in profile a candidate for binding (GeneratedBus).
@@ -414,10 +418,10 @@ TEST(Pipeline, PushRunsFindsWhatPushFinds) {
   }
 }
 
-// A sink that takes no records (`read --stats`) has the telegrams the framer takes whole counted
-// without a Frame or Message (Pipeline::count_whole_telegram): the summary must be what decoding
-// every frame gives, on every link and with the bytes that need the byte-by-byte way.
-TEST(Pipeline, SummaryLaneCountsWhatDecodingFinds) {
+// A sink that takes no records (`read --stats`) has the telegrams dissected to their head only,
+// without a Message (Pipeline::handle_telegram, DissectDepth::head): the summary must be what
+// decoding every frame gives, on every link and with the bytes that need the byte-by-byte way.
+TEST(Pipeline, HeadDissectionCountsWhatDecodingFinds) {
   for (const generate::Mix mix : {generate::Mix::modbus_rtu, generate::Mix::all}) {
     for (const Adjust adjust :
          {Adjust::none, Adjust::one_stamp_reads, Adjust::seven_bits, Adjust::early_starts,
@@ -478,7 +482,7 @@ TEST(Pipeline, SummaryLaneCountsWhatDecodingFinds) {
 }
 
 // The reader's prechecks (TelegramPrecheck, ReadAhead::precheck_with) stand in for the framer's
-// check and the summary's findings on the summary lane: the summary must be what decoding every
+// check and the head's findings of telegrams taken whole: the summary must be what decoding every
 // frame gives. Falsified ones credited to another decoder must be ignored; credited to the
 // channel's own decoder they are used, and the summary shows it (the test can fail).
 TEST(Pipeline, PrechecksGiveTheSameSummary) {
@@ -532,8 +536,8 @@ TEST(Pipeline, PrechecksAreAskedForOnlyWhenNoRecordsAreTaken) {
   }
 }
 
-// A sink that decodes what the pipeline hands over undissected (the ThreadedSink on its writer
-// thread; Sink::on_undissected() on the caller's) must get every record exactly as the pipeline
+// A sink that decodes what the pipeline hands over undecoded (the ThreadedSink on its writer
+// thread; Sink::on_deferred_frame() on the caller's) must get every record exactly as the pipeline
 // decoding every frame hands them over: frames with their pairing and anomalies, in order.
 TEST(Pipeline, TelegramsHandedOverUndissectedAreWhatThePipelineHandsOver) {
   for (const generate::Mix mix : {generate::Mix::modbus_rtu, generate::Mix::all}) {
@@ -584,7 +588,7 @@ TEST(Pipeline, TelegramsHandedOverUndissectedAreWhatThePipelineHandsOver) {
   }
 }
 
-// `read` to a file: the pipeline hands telegrams over undissected to a ThreadedSink whose helpers
+// `read` to a file: the pipeline hands telegrams over undecoded to a ThreadedSink whose helpers
 // decode and format batches on two threads; the text (plain and -V) and the JSON must be byte for
 // byte what one sink writes, given every frame decoded by the pipeline.
 TEST(Pipeline, FormattedOnSeveralThreadsAsByOne) {
@@ -598,16 +602,16 @@ TEST(Pipeline, FormattedOnSeveralThreadsAsByOne) {
       std::size_t size = 0;
       std::FILE* file = open_memstream(&data, &size);
       ASSERT_NE(file, nullptr);
-      auto make = [&](std::FILE* f) -> std::unique_ptr<Sink> {
+      auto make = [&](std::FILE* f) -> std::unique_ptr<FormattingSink> {
         if (kind == 2) return std::make_unique<JsonSink>(f, channels, 1000, true);
         TextSinkOptions options;
         options.verbose = kind == 1;
         return std::make_unique<TextSink>(f, channels, options);
       };
       {
-        const std::unique_ptr<Sink> inner = make(file);
-        std::vector<std::unique_ptr<Sink>> helpers;
-        std::vector<Sink*> pointers;
+        const std::unique_ptr<FormattingSink> inner = make(file);
+        std::vector<std::unique_ptr<FormattingSink>> helpers;
+        std::vector<FormattingSink*> pointers;
         for (int i = 0; i < 2; ++i) {
           helpers.push_back(make(nullptr));
           pointers.push_back(helpers.back().get());
@@ -792,7 +796,7 @@ TEST(Pipeline, BeginMessageLeavesTheFrameHoldingThePreviousOne) {
 }
 
 TEST(Pipeline, BeginMessageTakesItsOwnFrameAsItIs) {
-  // decode_undissected() builds the frame in the message and hands it over in place: a swap of
+  // TelegramView::frame_for() builds the frame in the message and hands it over in place: a swap of
   // the frame with itself would leave it without its events.
   Message m;
   m.frame.events = {{100, 0x01, 0, 0, 0}, {200, 0x03, 0, 0, 0}};

@@ -117,7 +117,11 @@ struct DeferringSink final : Sink {
   void on_transaction(const Transaction& t) override { inner.on_transaction(t); }
   void on_summary(const Stats& s) override { inner.on_summary(s); }
   bool flush() override { return true; }
-  [[nodiscard]] bool completes_drive_info() const override { return true; }
+  [[nodiscard]] SinkNeeds needs() const override {
+    SinkNeeds n;
+    n.drive_info = true;
+    return n;
+  }
 };
 
 // E-9 traffic for station 2 (read, reply, write, write, vendor error) through `sink`, the
@@ -185,7 +189,7 @@ TEST(DriveAnnotation, WrittenOnTheWriterThreadAsOnTheDecodingOne) {
     drivetap::testing::RecordingSink replayed;
     {
       ThreadedSink threaded(replayed);
-      EXPECT_TRUE(threaded.completes_drive_info());
+      EXPECT_TRUE(threaded.needs().drive_info);
       run_e9_traffic(e9, threaded, finish_first ? &threaded : nullptr);
     }
     ASSERT_EQ(replayed.frames.size(), 5u);

@@ -165,8 +165,10 @@ class SizeStampingDecoder final : public ProtocolDecoder {
   [[nodiscard]] PairingKeys pairing_keys(std::span<const std::uint8_t>) const override {
     return {};
   }
-  void dissect_into(Message&, Frame&&, Direction, const FramingTiming&,
-                    std::span<const std::uint8_t>) const override {}
+  bool dissect(TelegramView&, Direction, const FramingTiming&, std::span<const std::uint8_t>,
+               DissectDepth, Message&, TelegramFindings*) const override {
+    return true;
+  }
   bool precheck(std::span<const std::uint8_t> bytes, TelegramPrecheck* out) const override {
     out->whole_frame = true;
     out->checksum = static_cast<std::uint32_t>(bytes.size());

@@ -55,15 +55,15 @@ void append_bytes(std::vector<ByteEvent>& events, TimeNs& clock,
   clock += silence;
 }
 
-// `events` through one framer byte by byte (push) and through another in one push_all call:
+// `events` through one framer byte by byte (push) and through another in one push() call:
 // the same frames must come out. Returns them.
-std::vector<Frame> frames_alike_by_push_and_push_all(const std::vector<ByteEvent>& events) {
+std::vector<Frame> frames_alike_by_push_and_push_span(const std::vector<ByteEvent>& events) {
   RtuFramer one_by_one(0, RtuFramerOptions{FramingTiming::from(k9600)});
   RtuFramer at_once(0, RtuFramerOptions{FramingTiming::from(k9600)});
   FrameBatch expected, got;
   for (const ByteEvent& e : events) one_by_one.push(e, expected);
   one_by_one.finish(expected);
-  at_once.push_all(events, got);
+  at_once.push(events, got);
   at_once.finish(got);
   EXPECT_EQ(got.size(), expected.size());
   for (std::size_t i = 0; i < got.size() && i < expected.size(); ++i) {
@@ -292,7 +292,7 @@ TEST(RtuFramer, EveryByteAccountedForUnderRandomNoise) {
   EXPECT_EQ(intact, good_frames);
 }
 
-// A pressure close that emits everything the framer holds as one frame, inside push_all(): the
+// A pressure close that emits everything the framer holds as one frame, inside push(events): the
 // bytes appended in bulk after it start a new run, whose timing must not carry the old one's
 // (found in review: the second frame came out with the first one's 1 ms gap).
 TEST(RtuFramer, PressureCloseOfOneFrameStartsTheNextTimingAfresh) {
@@ -312,7 +312,7 @@ TEST(RtuFramer, PressureCloseOfOneFrameStartsTheNextTimingAfresh) {
   FrameBatch expected, got;
   for (const ByteEvent& e : events) one_by_one.push(e, expected);
   one_by_one.finish(expected);
-  in_one_run.push_all(events, got);
+  in_one_run.push(events, got);
   in_one_run.finish(got);
   ASSERT_EQ(got.size(), 2u);
   ASSERT_EQ(expected.size(), 2u);
@@ -329,7 +329,7 @@ TEST(RtuFramer, PressureCloseOfOneFrameStartsTheNextTimingAfresh) {
 TEST(RtuFramer, RunOfARequestAndMoreIsNotTakenWholeForItsLength) {
   // A request whose start address begins 0x0A also reads as the start of a 15-byte reply (byte
   // count 10). Its 8 bytes and 7 more arrive as one evenly spaced run between silences, so the
-  // run's length is a predicted one, but its last two bytes are no CRC of it: push_all() must
+  // run's length is a predicted one, but its last two bytes are no CRC of it: push(events) must
   // not take it as one frame, and cuts the request off as push() of each byte does.
   const std::vector<std::uint8_t> request = with_crc({0x01, 0x03, 0x0A, 0x00, 0x00, 0x02});
   std::vector<std::uint8_t> run = request;
@@ -343,14 +343,14 @@ TEST(RtuFramer, RunOfARequestAndMoreIsNotTakenWholeForItsLength) {
   append_bytes(events, clock, run, 5 * kNsPerMs);
   append_bytes(events, clock, run, 5 * kNsPerMs);
   append_bytes(events, clock, kRequest);  // a byte after the second run's silence, in the call
-  const std::vector<Frame> expected = frames_alike_by_push_and_push_all(events);
+  const std::vector<Frame> expected = frames_alike_by_push_and_push_span(events);
   ASSERT_GE(expected.size(), 3u);
   EXPECT_EQ(expected[0].bytes(), request);
 }
 
 TEST(RtuFramer, RunLongerThanTheLongestFrameComesOutAsPushMakesIt) {
   // A read reply of byte count 252 would be 257 bytes, one more than an RTU frame can be, so
-  // push_all() cannot take such a run whole for its predicted length; with a good CRC between
+  // push(events) cannot take such a run whole for its predicted length; with a good CRC between
   // silences it must still come out as push() of each byte makes it (one frame of all 257 bytes,
   // closed by the silence).
   std::vector<std::uint8_t> body = {0x01, 0x03, 252};
@@ -361,13 +361,13 @@ TEST(RtuFramer, RunLongerThanTheLongestFrameComesOutAsPushMakesIt) {
   TimeNs clock = 0;
   append_bytes(events, clock, run, 5 * kNsPerMs);
   append_bytes(events, clock, kRequest);
-  const std::vector<Frame> expected = frames_alike_by_push_and_push_all(events);
+  const std::vector<Frame> expected = frames_alike_by_push_and_push_span(events);
   ASSERT_FALSE(expected.empty());
   EXPECT_EQ(expected[0].size(), 257u);
 }
 
 TEST(RtuFramer, PushAllGivesTheFramesOfPushingOneByOne) {
-  // Framer::push_all appends runs without silence in bulk; it must cut exactly where push()
+  // Framer::push(events) appends runs without silence in bulk; it must cut exactly where push()
   // does: silences of every length, one-stamp bursts, noise, UART marks, and the pressure mark
   // (set low so that runs meet it).
   std::mt19937 rng(2026);
@@ -405,7 +405,7 @@ TEST(RtuFramer, PushAllGivesTheFramesOfPushingOneByOne) {
   one_by_one.finish(expected);
   for (std::size_t i = 0; i < events.size();) {
     const std::size_t run = std::min<std::size_t>(1 + rng() % 300, events.size() - i);
-    in_runs.push_all(std::span(events).subspan(i, run), got);
+    in_runs.push(std::span(events).subspan(i, run), got);
     i += run;
   }
   in_runs.finish(got);
@@ -446,7 +446,7 @@ TEST(RtuFramer, PushAllGivesTheFramesOfPushingOneByOne) {
   EXPECT_LT(telegrams, got.size());
 }
 
-// A frame push_all() takes whole between two silences carries the CRC-16 the framer computed over
+// A frame push(events) takes whole between two silences carries the CRC-16 the framer computed over
 // exactly its bytes (also when the frame's own is byte-swapped); frames cut another way carry
 // none. The dissector's verdicts are the same either way.
 TEST(RtuFramer, AFrameTakenWholeCarriesTheCrcComputedOverIt) {
@@ -459,7 +459,7 @@ TEST(RtuFramer, AFrameTakenWholeCarriesTheCrcComputedOverIt) {
   append_bytes(events, clock, kRequest);  // a byte after the silence shows it, in the same call
   RtuFramer framer(0, RtuFramerOptions{FramingTiming::from(k9600)});
   FrameBatch frames;
-  framer.push_all(events, frames);
+  framer.push(events, frames);
   framer.finish(frames);
   ASSERT_EQ(frames.size(), 3u);
   for (std::size_t i = 0; i < 2; ++i) {
@@ -500,11 +500,11 @@ TEST(RtuFramer, TheDissectorReadsTheCarriedCrc) {
             ChecksumVerdict::good);
 }
 
-// take_chunk() is push_chunk() without the frame: on a stream of whole frames, cut ones, noise,
-// one-stamp bursts, short and long silences, a framer taking chunks must agree with one pushing
-// them on every run (taken or not), and the frame add_chunk_frame() makes of what it took must be
-// the one push_chunk() emitted, timing and carried CRC included; what follows is then the same.
-TEST(RtuFramer, TakeChunkIsPushChunkWithoutTheFrame) {
+// take_whole() is push() of the run and of the byte after the silence, without the frame: on a
+// stream of whole frames, cut ones, noise, one-stamp bursts, short and long silences, a framer
+// taking runs whole where it can must emit, with the frames add_whole_frame() makes of what it
+// took, exactly the frames of one pushing every run, timing included, and carry the right CRC.
+TEST(RtuFramer, TakeWholeIsPushWithoutTheFrame) {
   std::mt19937 rng(77);
   const FramingTiming timing = FramingTiming::from(k9600);
   const TimeNs gaps[] = {0, timing.t15 + 1, timing.t35 - 1, timing.t35 + 1, 10 * kNsPerMs};
@@ -537,17 +537,18 @@ TEST(RtuFramer, TakeChunkIsPushChunkWithoutTheFrame) {
     const TimeNs next = k + 1 < runs.size() ? runs[k + 1].first : clock + kNsPerSecond;
     pushing.advance(run.first, pushed);
     taking.advance(run.first, taken_frames);
-    Framer::ChunkFrame chunk;
-    const bool took = taking.take_chunk(run, next, &chunk);
-    ASSERT_EQ(pushing.push_chunk(run, next, pushed), took);
-    if (took) {
+    pushing.push(run, pushed);
+    Framer::WholeFrame whole;
+    if (taking.take_whole(run, next, &whole)) {
       ++taken;
-      add_chunk_frame(taken_frames, 0, run, chunk);
+      add_whole_frame(taken_frames, 0, run, whole);
       continue;
     }
-    pushing.push_run(run, pushed);
-    taking.push_run(run, taken_frames);
+    taking.push(run, taken_frames);
   }
+  // (The last run was taken as if a byte came a second later: that silence closes it.)
+  pushing.advance(clock + kNsPerSecond, pushed);
+  taking.advance(clock + kNsPerSecond, taken_frames);
   pushing.finish(pushed);
   taking.finish(taken_frames);
   EXPECT_GT(taken, 1000u);
@@ -560,14 +561,25 @@ TEST(RtuFramer, TakeChunkIsPushChunkWithoutTheFrame) {
     EXPECT_EQ(pushed[i].gap_before, taken_frames[i].gap_before);
     EXPECT_EQ(pushed[i].max_intra_gap, taken_frames[i].max_intra_gap);
     EXPECT_EQ(pushed[i].max_intra_gap_at, taken_frames[i].max_intra_gap_at);
-    EXPECT_EQ(pushed[i].checksum_kind, taken_frames[i].checksum_kind);
-    EXPECT_EQ(pushed[i].checksum, taken_frames[i].checksum);
+    // A frame taken whole carries the CRC the framer computed over it (pushed byte by byte it
+    // may carry none); where both carry one it is the same.
+    const Frame& t = taken_frames[i];
+    if (t.checksum_kind == FrameChecksum::crc16_modbus) {
+      const std::span<const std::uint8_t> bytes = t.events.bytes();
+      ASSERT_GE(bytes.size(), 2u);
+      EXPECT_EQ(t.checksum, crc16_modbus(bytes.first(bytes.size() - 2)));
+    }
+    if (pushed[i].checksum_kind != FrameChecksum::none && t.checksum_kind != FrameChecksum::none) {
+      EXPECT_EQ(pushed[i].checksum_kind, t.checksum_kind);
+      EXPECT_EQ(pushed[i].checksum, t.checksum);
+    }
   }
 }
 
 // The precheck the read-ahead thread makes (RtuDecoder::precheck, TelegramPrecheck) must be what
-// the framer's check of a run taken whole and the summary find, on well-formed telegrams of every
-// function code each way, exceptions, cut and padded ones, swapped CRCs and noise.
+// the framer's check of a run taken whole and the dissection to its head find, on well-formed
+// telegrams of every function code each way, exceptions, cut and padded ones, swapped CRCs and
+// noise.
 TEST(RtuDecoder, PrecheckIsWhatTheFramerAndTheSummaryFind) {
   std::mt19937 rng(2026);
   const RtuDecoder decoder;
@@ -599,15 +611,19 @@ TEST(RtuDecoder, PrecheckIsWhatTheFramerAndTheSummaryFind) {
     EXPECT_EQ(made.fit.request, decoder.direction_fit(frame).request);
     EXPECT_EQ(made.fit.response, decoder.direction_fit(frame).response);
     EXPECT_EQ(made.always_response, decoder.always_response(frame));
-    // summarise() with the precheck is summarise() without it, each way.
-    Framer::ChunkFrame taken;
-    taken.checksum_kind = FrameChecksum::crc16_modbus;
-    taken.checksum = checksum;
+    // The head with the precheck is the head without it, each way.
+    TelegramView t;
+    t.run = ByteRun{frame, 0, kChar, 0, 0, {}};
+    t.taken.checksum_kind = FrameChecksum::crc16_modbus;
+    t.taken.checksum = checksum;
     for (const Direction way : {Direction::request, Direction::response}) {
       made.decoder = &decoder;
-      ProtocolDecoder::TelegramSummary with, without;
-      ASSERT_TRUE(decoder.summarise(frame, way, taken, timing, &made, &with));
-      ASSERT_TRUE(decoder.summarise(frame, way, taken, timing, nullptr, &without));
+      TelegramFindings with, without;
+      Message unused;
+      t.precheck = &made;
+      ASSERT_FALSE(decoder.dissect(t, way, timing, {}, DissectDepth::head, unused, &with));
+      t.precheck = nullptr;
+      ASSERT_FALSE(decoder.dissect(t, way, timing, {}, DissectDepth::head, unused, &without));
       EXPECT_EQ(with.exception_code, without.exception_code);
       EXPECT_EQ(with.malformed, without.malformed);
       EXPECT_EQ(with.verdict, without.verdict);

@@ -1,5 +1,5 @@
 // Unit tests: ThreadedSink — the inner sink gets every record, whole and in order, on the writer
-// thread; flush() and finish() wait for it; wants_detail() is the inner sink's.
+// thread; flush() and finish() wait for it; its needs() are the inner sink's.
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -58,7 +58,11 @@ class RecordingSink final : public Sink {
     ++flushes;
     return true;
   }
-  [[nodiscard]] bool wants_detail() const override { return detail_; }
+  [[nodiscard]] SinkNeeds needs() const override {
+    SinkNeeds n;
+    n.detail = detail_;
+    return n;
+  }
 
   std::vector<std::string> lines;
   std::vector<std::thread::id> threads;
@@ -166,19 +170,19 @@ TEST(ThreadedSink, DestructionReplaysWhatIsLeftAndKeepsTheInnerSinksDetail) {
   RecordingSink inner(/*detail=*/false);
   {
     ThreadedSink threaded(inner);
-    EXPECT_FALSE(threaded.wants_detail());
-    EXPECT_FALSE(threaded.wants_fields());
+    EXPECT_FALSE(threaded.needs().detail);
+    EXPECT_FALSE(threaded.needs().fields);
     play(threaded, 3 * ThreadedSink::kBatchRecords);
   }  // no finish(): the destructor does it
   RecordingSink direct;
   play(direct, 3 * ThreadedSink::kBatchRecords);
   EXPECT_EQ(inner.lines, direct.lines);
   RecordingSink detailed;
-  EXPECT_TRUE(ThreadedSink(detailed).wants_detail());
-  EXPECT_TRUE(ThreadedSink(detailed).wants_fields());
-  EXPECT_TRUE(ThreadedSink(detailed).wants_transactions());
+  EXPECT_TRUE(ThreadedSink(detailed).needs().detail);
+  EXPECT_TRUE(ThreadedSink(detailed).needs().fields);
+  EXPECT_TRUE(ThreadedSink(detailed).needs().transactions);
   SummaryOnlySink summary_only(detailed);  // a sink that drops transactions
-  EXPECT_FALSE(ThreadedSink(summary_only).wants_transactions());
+  EXPECT_FALSE(ThreadedSink(summary_only).needs().transactions);
 }
 
 namespace {
@@ -424,7 +428,7 @@ TEST(ThreadedSink, HelpersFormatingBatchesWriteWhatOneSinkWrites) {
   TextSinkOptions options;
   for (const bool json : {false, true}) {
     for (const bool heavy : {false, true}) {
-      auto make = [&](std::FILE* f) -> std::unique_ptr<Sink> {
+      auto make = [&](std::FILE* f) -> std::unique_ptr<FormattingSink> {
         if (json) return std::make_unique<JsonSink>(f, channels, 1000, true);
         return std::make_unique<TextSink>(f, channels, options);
       };
@@ -441,9 +445,9 @@ TEST(ThreadedSink, HelpersFormatingBatchesWriteWhatOneSinkWrites) {
       for (const std::size_t count : {1u, 2u, 3u}) {
         SCOPED_TRACE(fmt::format("json {} heavy {} helpers {}", json, heavy, count));
         MemoryFile file;
-        const std::unique_ptr<Sink> inner = make(file.file());
-        std::vector<std::unique_ptr<Sink>> helpers;
-        std::vector<Sink*> pointers;
+        const std::unique_ptr<FormattingSink> inner = make(file.file());
+        std::vector<std::unique_ptr<FormattingSink>> helpers;
+        std::vector<FormattingSink*> pointers;
         for (std::size_t i = 0; i < count; ++i) {
           helpers.push_back(make(nullptr));
           pointers.push_back(helpers.back().get());

@@ -27,7 +27,7 @@ void DelimitedFramer::close(FrameKind kind, FrameClose why, FrameBatch& out) {
   in_frame_ = false;
 }
 
-void DelimitedFramer::push(const ByteEvent& e, FrameBatch& out) {
+void DelimitedFramer::push_byte(const ByteEvent& e, FrameBatch& out) {
   if (!pending_.empty() && e.time - last_end_ > options_.inter_character_timeout)
     close(in_frame_ ? FrameKind::telegram : FrameKind::noise, FrameClose::silence, out);
   if (e.byte == options_.start) {

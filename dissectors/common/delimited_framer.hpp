@@ -37,12 +37,16 @@ class DelimitedFramer final : public Framer {
  public:
   DelimitedFramer(ChannelId channel, DelimitedFramerOptions options)
       : channel_(channel), options_(options) {}
-  void push(const ByteEvent& event, FrameBatch& out) override;
+  using Framer::push;
+  void push(std::span<const ByteEvent> events, FrameBatch& out) override {
+    for (const ByteEvent& e : events) push_byte(e, out);
+  }
   void advance(TimeNs now, FrameBatch& out) override;
   void finish(FrameBatch& out) override;
   [[nodiscard]] TimeNs next_deadline() const override;
 
  private:
+  void push_byte(const ByteEvent& event, FrameBatch& out);
   void close(FrameKind kind, FrameClose why, FrameBatch& out);
 
   ChannelId channel_;

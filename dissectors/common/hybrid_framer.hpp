@@ -81,7 +81,7 @@ class HybridFrameRules {
 // good_frame_in(frame) == frame.size() of a hybrid framer with these rules: all of `frame` is a
 // frame of a predicted length with a good checksum (no other length tried); *computed is that
 // checksum (Rules::check_checksum()). On the bytes alone: the framer's check of a run taken whole
-// (take_chunk) and a decoder's precheck of it (TelegramPrecheck::whole_frame) are this one.
+// (take_whole) and a decoder's precheck of it (TelegramPrecheck::whole_frame) are this one.
 template <class Rules>
 [[gnu::always_inline]] inline bool is_good_hybrid_frame(const Rules& rules,
                                                         std::span<const std::uint8_t> frame,
@@ -109,18 +109,15 @@ class HybridFramer final : public Framer {
   // `rules` must outlive the framer (decoders keep them as static objects).
   HybridFramer(ChannelId channel, HybridFramerOptions options, const Rules& rules);
 
-  // Adds one byte; frames that it completes are appended to `out`.
-  void push(const ByteEvent& event, FrameBatch& out) override;
-  // The same, a run at a time: bytes that close nothing (no silence before them, no pressure)
-  // are appended in bulk.
-  void push_all(std::span<const ByteEvent> events, FrameBatch& out) override;
+  using Framer::push;
+  // Adds bytes: those that close nothing (no silence before them, no pressure) are appended in
+  // bulk, a run that is a whole frame between two silences is taken at once.
+  void push(std::span<const ByteEvent> events, FrameBatch& out) override;
   // A run (a source packet): its first byte the single-byte way, the rest appended in bulk up to
   // the pressure mark.
-  void push_run(const ByteRun& run, FrameBatch& out) override;
-  // A run that is a whole frame between two silences, taken at once (see Framer::push_chunk).
-  bool push_chunk(const ByteRun& run, TimeNs next_time, FrameBatch& out) override;
-  // The same without the frame (see Framer::take_chunk).
-  bool take_chunk(const ByteRun& run, TimeNs next_time, ChunkFrame* taken,
+  void push(const ByteRun& run, FrameBatch& out) override;
+  // A run that is a whole frame between two silences, taken at once (see Framer::take_whole).
+  bool take_whole(const ByteRun& run, TimeNs next_time, WholeFrame* taken,
                   const TelegramPrecheck* precheck = nullptr) override;
   // Time has reached `now` on the bus; closes what silence or the hold limit has completed.
   void advance(TimeNs now, FrameBatch& out) override;
@@ -137,6 +134,10 @@ class HybridFramer final : public Framer {
 
  private:
   enum class Mode { silence, pressure, flush, end_of_input };
+  // Adds one byte.
+  void push_byte(const ByteEvent& event, FrameBatch& out);
+  // take_whole(), the frame appended to `out`.
+  bool push_whole(const ByteRun& run, TimeNs next_time, FrameBatch& out);
   void process(Mode mode, TimeNs now, FrameBatch& out);
 
   // Segmentation helpers over pending_.bytes()[0, n).
@@ -168,7 +169,7 @@ class HybridFramer final : public Framer {
   ByteRunTiming pending_run_;
   bool pending_run_whole_ = false;
   std::vector<std::size_t> hard_;        // indices in pending_ preceded by silence > t3.5
-  std::vector<std::uint8_t> run_bytes_;  // push_all(): the bytes of the run being pushed
+  std::vector<std::uint8_t> run_bytes_;  // push(events): the bytes of the run being pushed
   TimeNs last_end_ = std::numeric_limits<TimeNs>::min();  // end of the latest byte pushed
   TimeNs emitted_end_ = -1;  // end of the last byte of the last emitted frame; -1 none yet
   bool have_emitted_ = false;

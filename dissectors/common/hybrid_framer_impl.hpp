@@ -16,7 +16,7 @@ HybridFramer<Rules>::HybridFramer(ChannelId channel, HybridFramerOptions options
     : channel_(channel), options_(options), rules_(rules) {}
 
 template <class Rules>
-void HybridFramer<Rules>::push(const ByteEvent& event, FrameBatch& out) {
+void HybridFramer<Rules>::push_byte(const ByteEvent& event, FrameBatch& out) {
   if (!pending_.empty() || have_emitted_) {
     const TimeNs gap = event.time - last_end_;
     if (gap > options_.timing.t35) {
@@ -37,20 +37,21 @@ void HybridFramer<Rules>::push(const ByteEvent& event, FrameBatch& out) {
 }
 
 template <class Rules>
-void HybridFramer<Rules>::push_all(std::span<const ByteEvent> events, FrameBatch& out) {
+void HybridFramer<Rules>::push(std::span<const ByteEvent> events, FrameBatch& out) {
+  if (events.size() == 1) return push_byte(events[0], out);
   // Room for the longest run at once (the buffer only grows), so the scan stores each byte as it
   // passes it.
   if (run_bytes_.size() < events.size()) run_bytes_.resize(events.size());
   const std::span<std::uint8_t> bytes(run_bytes_);
   std::size_t i = 0;
   // Every pass pushes at least the byte at i: evenly spaced, unmarked bytes (a byte log's line, a
-  // packet) as one run, which push_run() appends in bulk where push() of each would only append.
+  // packet) as one run, which push(run) appends in bulk where push() of each would only append.
   while (i < events.size()) {
     TimeNs step = 0;
     const std::size_t n = scan_uniform_run(
         events.subspan(i), &step, [bytes](std::size_t k, std::uint8_t b) { bytes[k] = b; });
     if (n == 1) {
-      push(events[i++], out);
+      push_byte(events[i++], out);
       continue;
     }
     const ByteRun run{bytes.first(n),    events[i].time,   step,
@@ -63,23 +64,23 @@ void HybridFramer<Rules>::push_all(std::span<const ByteEvent> events, FrameBatch
         process(Mode::silence, run.first, out);
         processed_since_last_byte_ = true;  // push() of the first byte must not process again
       }
-      if (push_chunk(run, events[i + n].time, out)) {
+      if (push_whole(run, events[i + n].time, out)) {
         i += n;
         continue;
       }
     }
-    push_run(run, out);
+    push(run, out);
     i += n;
   }
 }
 
 template <class Rules>
-bool HybridFramer<Rules>::take_chunk(const ByteRun& run, TimeNs next_time, ChunkFrame* taken,
+bool HybridFramer<Rules>::take_whole(const ByteRun& run, TimeNs next_time, WholeFrame* taken,
                                      const TelegramPrecheck* precheck) {
   const TimeNs character_time = options_.timing.character_time;
   const TimeNs t35 = options_.timing.t35;
   const std::size_t n = run.size();
-  // Nothing pending, and a run that push_run() would append in bulk (evenly spaced, no silence
+  // Nothing pending, and a run that push(run) would append in bulk (evenly spaced, no silence
   // inside, no UART marks, below the pressure mark) long enough to be a frame: pushing it and
   // then the byte at next_time, after a silence, has process() find it all that is pending, and
   // emit it whole when its predicted length is all of it with a good checksum (rule 1 at the
@@ -99,7 +100,7 @@ bool HybridFramer<Rules>::take_chunk(const ByteRun& run, TimeNs next_time, Chunk
   }
   taken->checksum_kind = rules_.checksum_kind();  // computed over exactly the frame's bytes
   taken->checksum = checksum;
-  // The run's timing as push_run() would have kept it (not timing_of(): no second look).
+  // The run's timing as push(run) would have kept it (not timing_of(): no second look).
   ByteRunTiming timing;
   timing.start(run.first, character_time);
   timing.add_stretch(run.first + run.step, run.step, 1, n - 1, character_time);
@@ -110,28 +111,28 @@ bool HybridFramer<Rules>::take_chunk(const ByteRun& run, TimeNs next_time, Chunk
 }
 
 template <class Rules>
-bool HybridFramer<Rules>::push_chunk(const ByteRun& run, TimeNs next_time, FrameBatch& out) {
-  ChunkFrame taken;
-  if (!take_chunk(run, next_time, &taken)) return false;
-  add_chunk_frame(out, channel_, run, taken);
+bool HybridFramer<Rules>::push_whole(const ByteRun& run, TimeNs next_time, FrameBatch& out) {
+  WholeFrame taken;
+  if (!take_whole(run, next_time, &taken)) return false;
+  add_whole_frame(out, channel_, run, taken);
   return true;
 }
 
 template <class Rules>
-void HybridFramer<Rules>::push_run(const ByteRun& run, FrameBatch& out) {
+void HybridFramer<Rules>::push(const ByteRun& run, FrameBatch& out) {
   const std::size_t n = run.size();
   if (n == 0) return;
   // Bytes further apart than t3.5 are silences inside the run, and bytes going back in time are
   // no run to append in bulk: those go byte by byte.
   if (n > 1 && (run.step < 0 || run.step - options_.timing.character_time > options_.timing.t35)) {
-    for (std::size_t i = 0; i < n; ++i) push(run.event(i), out);
+    for (std::size_t i = 0; i < n; ++i) push_byte(run.event(i), out);
     return;
   }
   // The first byte goes the single-byte way when a silence > t3.5 comes before it (it may close
   // something); otherwise push() would only append it, as the rest.
   std::size_t i = 0;
   if ((!pending_.empty() || have_emitted_) && run.first - last_end_ > options_.timing.t35) {
-    push(run.event(0), out);
+    push_byte(run.event(0), out);
     i = 1;
   }
   // Every pass takes at least one byte: in bulk up to the pressure mark, at the mark the
@@ -139,7 +140,7 @@ void HybridFramer<Rules>::push_run(const ByteRun& run, FrameBatch& out) {
   while (i < n) {
     const std::size_t take = std::min(quiet_room(), n - i);
     if (take == 0) {
-      push(run.event(i), out);
+      push_byte(run.event(i), out);
       ++i;
       continue;
     }
@@ -161,7 +162,7 @@ inline void HybridFramer<Rules>::append_quietly(const ByteRun& run, std::size_t 
     pending_run_.add_stretch(part.first, part.step, pending_.size(), count, character_time);
   }
   pending_.append_run(part);
-  // step >= 0 (push_run): the last byte ends last.
+  // step >= 0 (push(run)): the last byte ends last.
   last_end_ = std::max(last_end_, part.time(count - 1) + character_time);
   processed_since_last_byte_ = false;
 }

@@ -43,11 +43,17 @@ class EdsDecoder final : public ProtocolDecoder {
   [[nodiscard]] bool always_response(std::span<const std::uint8_t> frame) const override;
   [[nodiscard]] bool recognisable(std::span<const std::uint8_t> frame) const override;
   [[nodiscard]] PairingKeys pairing_keys(std::span<const std::uint8_t> frame) const override;
-  void dissect_into(Message& out, Frame&& frame, Direction direction, const FramingTiming& timing,
-                    std::span<const std::uint8_t> request = {}) const override {
-    dissect_eds(out, std::move(frame), direction, timing, request);
+  using ProtocolDecoder::dissect;
+  // Always in detail (no head reading of its own).
+  bool dissect(TelegramView& t, Direction direction, const FramingTiming& timing,
+               std::span<const std::uint8_t> request, DissectDepth depth, Message& out,
+               TelegramFindings* head) const override {
+    (void)depth;
+    (void)head;
+    // (`request`: its replies echo the request's index.)
+    dissect_eds(out, t.frame_for(out), direction, timing, request);
+    return true;
   }
-  [[nodiscard]] bool reads_request() const override { return true; }  // replies echo its index
 };
 
 }  // namespace drivetap::easydrive

@@ -46,10 +46,16 @@ class AsciiDecoder final : public ProtocolDecoder {
   [[nodiscard]] bool always_response(std::span<const std::uint8_t> frame) const override;
   [[nodiscard]] bool recognisable(std::span<const std::uint8_t> frame) const override;
   [[nodiscard]] PairingKeys pairing_keys(std::span<const std::uint8_t> frame) const override;
-  void dissect_into(Message& out, Frame&& frame, Direction direction, const FramingTiming& timing,
-                    std::span<const std::uint8_t> request = {}) const override {
+  using ProtocolDecoder::dissect;
+  // Always in detail (no head reading of its own).
+  bool dissect(TelegramView& t, Direction direction, const FramingTiming& timing,
+               std::span<const std::uint8_t> request, DissectDepth depth, Message& out,
+               TelegramFindings* head) const override {
     (void)request;  // replies of this protocol stand on their own
-    dissect_ascii(out, std::move(frame), direction, timing);
+    (void)depth;
+    (void)head;
+    dissect_ascii(out, t.frame_for(out), direction, timing);
+    return true;
   }
 };
 

@@ -108,41 +108,56 @@ void dissect_rtu(Message& m, Frame&& frame, Direction direction, const FramingTi
   append_uart_anomalies(m.frame.events, 0, m.anomalies);
 }
 
-bool RtuDecoder::summarise(std::span<const std::uint8_t> bytes, Direction direction,
-                           const Framer::ChunkFrame& taken, const FramingTiming& timing,
-                           const TelegramPrecheck* precheck, TelegramSummary* out) const {
-  // dissect_rtu()'s members and findings for a frame of 4 bytes or more (the framer's shortest
-  // telegram; the shorter fragment's finding is left to it), in the same order.
-  if (bytes.size() < 4) return false;
-  out->address = bytes[0];
-  out->function = bytes[1];
-  out->is_exception = (bytes[1] & 0x80) != 0;
+bool RtuDecoder::dissect(TelegramView& t, Direction direction, const FramingTiming& timing,
+                         std::span<const std::uint8_t> request, DissectDepth depth, Message& out,
+                         TelegramFindings* head) const {
+  (void)request;
+  const std::span<const std::uint8_t> bytes = t.bytes();
+  // The head: dissect_rtu()'s members and findings for a frame of 4 bytes or more (the framer's
+  // shortest telegram; the shorter fragment's findings are left to it), in the same order. A
+  // frame with UART marks is read in detail (its marks are findings too).
+  if (depth == DissectDepth::detail || bytes.size() < 4 ||
+      (t.frame && t.frame->events.any_flags())) {
+    dissect_rtu(out, t.frame_for(out), direction, timing);
+    return true;
+  }
+  // The framer's record of the telegram's timing and carried checksum.
+  const FrameTiming frame_timing =
+      t.frame ? FrameTiming{t.frame->gap_before, t.frame->max_intra_gap, t.frame->max_intra_gap_at}
+              : t.taken.timing;
+  const FrameChecksum checksum_kind = t.frame ? t.frame->checksum_kind : t.taken.checksum_kind;
+  const std::uint32_t checksum = t.frame ? t.frame->checksum : t.taken.checksum;
+  head->address = bytes[0];
+  head->function = bytes[1];
+  head->is_exception = (bytes[1] & 0x80) != 0;
   PduFindings found;
-  if (precheck && direction != Direction::unknown) {
-    found.exception_code = precheck->exception_code[precheck_slot(direction)];
-    found.problems = precheck->malformed[precheck_slot(direction)];
+  if (t.precheck && direction != Direction::unknown) {
+    found.exception_code = t.precheck->exception_code[precheck_slot(direction)];
+    found.problems = t.precheck->malformed[precheck_slot(direction)];
   } else {
     found = pdu_findings(bytes.subspan(1, bytes.size() - 3), direction);
   }
-  out->exception_code = found.exception_code;
-  out->malformed = found.problems;
-  out->verdict = (taken.checksum_kind == FrameChecksum::crc16_modbus
-                      ? check_rtu_crc(bytes, static_cast<std::uint16_t>(taken.checksum))
-                      : check_rtu_crc(bytes))
-                     .verdict;
-  auto found_one = [&](AnomalyKind kind) { out->other_kinds |= 1u << static_cast<unsigned>(kind); };
-  out->other_kinds = 0;
-  if (out->verdict == ChecksumVerdict::bad) found_one(AnomalyKind::checksum_bad);
-  if (out->verdict == ChecksumVerdict::swapped) found_one(AnomalyKind::checksum_swapped);
+  head->exception_code = found.exception_code;
+  head->malformed = found.problems;
+  head->verdict = (checksum_kind == FrameChecksum::crc16_modbus
+                       ? check_rtu_crc(bytes, static_cast<std::uint16_t>(checksum))
+                       : check_rtu_crc(bytes))
+                      .verdict;
+  auto found_one = [&](AnomalyKind kind) {
+    head->other_kinds |= 1u << static_cast<unsigned>(kind);
+  };
+  head->other_kinds = 0;
+  if (head->verdict == ChecksumVerdict::bad) found_one(AnomalyKind::checksum_bad);
+  if (head->verdict == ChecksumVerdict::swapped) found_one(AnomalyKind::checksum_swapped);
   if (!rtu_plausibility(bytes, direction, false).ok()) found_one(AnomalyKind::implausible);
-  if (taken.timing.max_intra_gap > timing.t15) found_one(AnomalyKind::intra_frame_gap);
-  if (taken.timing.gap_before > 0 && taken.timing.gap_before < timing.t35)
+  if (frame_timing.max_intra_gap > timing.t15) found_one(AnomalyKind::intra_frame_gap);
+  if (frame_timing.gap_before > 0 && frame_timing.gap_before < timing.t35)
     found_one(AnomalyKind::short_interframe_gap);
-  return true;
+  return false;
 }
 
 bool RtuDecoder::precheck(std::span<const std::uint8_t> bytes, TelegramPrecheck* out) const {
-  // The framer's check; for a telegram it would take whole, summarise()'s findings each way and
+  // The framer's check; for a telegram it would take whole, the head's findings each way and
   // the pipeline's questions for its direction (a run that is no such telegram needs no more).
   out->whole_frame = is_good_hybrid_frame(RtuFramer::rules(), bytes, &out->checksum);
   if (!out->whole_frame) return true;

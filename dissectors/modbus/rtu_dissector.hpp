@@ -46,14 +46,12 @@ class RtuDecoder final : public ProtocolDecoder {
   [[nodiscard]] PairingKeys pairing_keys(std::span<const std::uint8_t> frame) const override {
     return {frame.empty() ? -1 : frame[0], frame.size() < 2 ? -1 : frame[1]};
   }
-  void dissect_into(Message& out, Frame&& frame, Direction direction, const FramingTiming& timing,
-                    std::span<const std::uint8_t> request = {}) const override {
-    (void)request;  // replies of this protocol stand on their own
-    dissect_rtu(out, std::move(frame), direction, timing);
-  }
-  bool summarise(std::span<const std::uint8_t> bytes, Direction direction,
-                 const Framer::ChunkFrame& taken, const FramingTiming& timing,
-                 const TelegramPrecheck* precheck, TelegramSummary* out) const override;
+  using ProtocolDecoder::dissect;
+  // Replies of this protocol stand on their own (`request` is not read). To DissectDepth::head
+  // a telegram of 4 bytes or more is read without a Message.
+  bool dissect(TelegramView& t, Direction direction, const FramingTiming& timing,
+               std::span<const std::uint8_t> request, DissectDepth depth, Message& out,
+               TelegramFindings* head) const override;
   bool precheck(std::span<const std::uint8_t> bytes, TelegramPrecheck* out) const override;
 };
 

@@ -55,17 +55,14 @@ using RtuFramerOptions = HybridFramerOptions;
 class RtuFramer final : public Framer {
  public:
   RtuFramer(ChannelId channel, RtuFramerOptions options) : framer_(channel, options, rules()) {}
-  void push(const ByteEvent& e, FrameBatch& out) override { framer_.push(e, out); }
-  void push_all(std::span<const ByteEvent> events, FrameBatch& out) override {
-    framer_.push_all(events, out);
+  using Framer::push;
+  void push(std::span<const ByteEvent> events, FrameBatch& out) override {
+    framer_.push(events, out);
   }
-  void push_run(const ByteRun& run, FrameBatch& out) override { framer_.push_run(run, out); }
-  bool push_chunk(const ByteRun& run, TimeNs next_time, FrameBatch& out) override {
-    return framer_.push_chunk(run, next_time, out);
-  }
-  bool take_chunk(const ByteRun& run, TimeNs next_time, ChunkFrame* taken,
+  void push(const ByteRun& run, FrameBatch& out) override { framer_.push(run, out); }
+  bool take_whole(const ByteRun& run, TimeNs next_time, WholeFrame* taken,
                   const TelegramPrecheck* precheck = nullptr) override {
-    return framer_.take_chunk(run, next_time, taken, precheck);
+    return framer_.take_whole(run, next_time, taken, precheck);
   }
   void advance(TimeNs now, FrameBatch& out) override { framer_.advance(now, out); }
   void finish(FrameBatch& out) override { framer_.finish(out); }

@@ -63,7 +63,7 @@ Outputs::Outputs(const CommonOptions& o, const ChannelTable& channels, const Pip
     tee_.add(capture_.get());
   }
   // The text or JSON sink; with no file, one of its helpers (writing into memory).
-  const auto make_text = [&](std::FILE* file) -> std::unique_ptr<Sink> {
+  const auto make_text = [&](std::FILE* file) -> std::unique_ptr<FormattingSink> {
     if (o.format == "json")
       return std::make_unique<JsonSink>(file, channels, p.timing.character_time, timed);
     TextSinkOptions t;
@@ -96,8 +96,8 @@ Outputs::Outputs(const CommonOptions& o, const ChannelTable& channels, const Pip
 
 void Outputs::write_on_second_thread() {
   if (!helpers_.empty()) {
-    std::vector<Sink*> helpers;
-    for (const std::unique_ptr<Sink>& helper : helpers_) helpers.push_back(helper.get());
+    std::vector<FormattingSink*> helpers;
+    for (const std::unique_ptr<FormattingSink>& helper : helpers_) helpers.push_back(helper.get());
     threaded_ = std::make_unique<ThreadedSink>(*text_, std::move(helpers));  // (tee_: text_)
   } else if ((!options_.stats_only && !options_.events_only) || capture_) {
     threaded_ = std::make_unique<ThreadedSink>(tee_);

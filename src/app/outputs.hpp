@@ -46,8 +46,8 @@ class Outputs {
   std::FILE* text_file_ = stdout;
   std::FILE* capture_file_ = nullptr;
   int capture_errno_ = 0;  // why the first failed flush failed
-  std::unique_ptr<Sink> text_;
-  std::vector<std::unique_ptr<Sink>> helpers_;  // text_'s kind, writing into memory
+  std::unique_ptr<FormattingSink> text_;
+  std::vector<std::unique_ptr<FormattingSink>> helpers_;  // text_'s kind, writing into memory
   std::unique_ptr<Sink> events_only_;
   std::unique_ptr<Sink> summary_only_;
   std::unique_ptr<CaptureSink> capture_;

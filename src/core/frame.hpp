@@ -168,7 +168,7 @@ class FrameBatch {
     return frames;
   }
 
-  // A push_all() of 4096 bytes of short telegrams makes some 300 frames.
+  // A push() of 4096 bytes of short telegrams makes some 300 frames.
   static constexpr std::size_t kKeptFrames = 1024;
 
  private:

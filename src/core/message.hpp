@@ -42,7 +42,7 @@ struct Message {
   // What the frame means to its drive, from the bound drive profile; empty when none is bound.
   std::string drive_info;
   // Set instead of drive_info when the sink writes the annotation on a thread of its own
-  // (Sink::completes_drive_info(): the ThreadedSink's writer): the profile that reads the frame.
+  // (SinkNeeds::drive_info: the ThreadedSink's writer): the profile that reads the frame.
   // complete_drive_info() (drive/annotate.hpp) turns it into drive_info.
   const DriveProfile* drive_profile = nullptr;
   // With drive_profile, for a reply: the bytes of the request it answers, empty when none.
@@ -69,8 +69,8 @@ struct Message {
 };
 
 // What the drive level reads of a telegram (DriveBinder, read_for_drive_into(), DriveTimeline,
-// the profiles' timing rules): a Message's head, which the pipeline's summary lane also has for
-// a telegram it does not decode (from the decoder's TelegramSummary). `bytes` are the Message's
+// the profiles' timing rules): a Message's head, which the pipeline also has for a telegram it
+// dissects to its head only (from the decoder's TelegramFindings). `bytes` are the Message's
 // (as on the wire); `latency` is set once the telegram is paired.
 struct TelegramHead {
   Protocol protocol = Protocol::unknown;
@@ -119,7 +119,7 @@ inline constexpr std::size_t kTypicalFieldCount = 16;
 // The vectors and strings `m` held keep their storage (the pipeline decodes every frame of a run
 // into one Message, so the hot path does not allocate); `m.detail` and `m.tree` are kept. The
 // frame is swapped in: `frame` is left holding m's previous frame, whose storage its batch builds
-// a later frame in. `frame` may be m.frame itself, built in place (decode_undissected()): it is
+// a later frame in. `frame` may be m.frame itself, built in place (TelegramView::frame_for()): it is
 // then taken as it is.
 inline void begin_message(Message& m, Frame&& frame, Protocol protocol, Direction direction) {
   // Every member of Message is set here (tests/test_pipeline.cpp BeginMessageResetsEveryMember).

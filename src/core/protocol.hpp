@@ -1,5 +1,6 @@
 // ProtocolDecoder: what the pipeline needs of each protocol — a framer, the directions a frame's
-// layout allows, and the dissector (Frame -> Message). One implementation per protocol under
+// layout allows, and one dissection (a telegram -> its head, or a Message in detail), with the
+// read-ahead thread's precheck of the framer's fast take. One implementation per protocol under
 // dissectors/<protocol>/, listed in one explicit table (dissectors/protocols.cpp).
 #pragma once
 
@@ -18,6 +19,46 @@ namespace drivetap {
 struct FramerSettings {
   FramingTiming timing;
   TimeNs max_hold = 100 * kNsPerMs;
+};
+
+// How far dissect() goes.
+enum class DissectDepth {
+  head,    // the keys, checksum verdict and findings (TelegramFindings), no Message
+  detail,  // the Message, as detailed as Message::detail and Message::tree ask
+};
+
+// What dissect() to DissectDepth::head gives of a telegram: what the Message would say of its
+// checksum, pairing keys and findings, without building one.
+struct TelegramFindings {
+  ChecksumVerdict verdict = ChecksumVerdict::none;
+  int address = -1;
+  int function = -1;
+  bool is_exception = false;
+  int exception_code = -1;
+  std::size_t malformed = 0;      // `malformed` findings (a telegram may break several rules)
+  std::uint32_t other_kinds = 0;  // bit k: one finding of AnomalyKind k, besides those
+};
+static_assert(kAnomalyKindCount <= 32, "TelegramFindings::other_kinds has a bit per kind");
+
+// A telegram as its framer cut it, light: the framer's Frame, or the run the framer took whole
+// (Framer::take_whole) with what it carried (timing, checksum) and, when the read-ahead thread
+// made one, the run's precheck. dissect() builds a Frame of a run only when it needs one.
+struct TelegramView {
+  Frame* frame = nullptr;  // nullptr: taken whole
+  ByteRun run;
+  Framer::WholeFrame taken;
+  const TelegramPrecheck* precheck = nullptr;  // of the decoder that dissects it, or nullptr
+
+  [[nodiscard]] std::span<const std::uint8_t> bytes() const {
+    return frame ? frame->events.bytes() : run.bytes;
+  }
+  // The telegram as a Frame, for a dissector that builds a Message in `out`: the framer's, or
+  // made in out.frame from the run (dissectors take their frame from out.frame in place).
+  [[nodiscard]] Frame&& frame_for(Message& out) {
+    if (frame) return std::move(*frame);
+    add_whole_frame_into(out.frame, run.channel, run, taken);
+    return std::move(out.frame);
+  }
 };
 
 class ProtocolDecoder {
@@ -40,100 +81,45 @@ class ProtocolDecoder {
     int function = -1;
   };
   [[nodiscard]] virtual PairingKeys pairing_keys(std::span<const std::uint8_t> frame) const = 0;
-  // Decodes the frame into `out` (reusing its storage, honouring out.detail); `frame` is left
-  // holding out's previous frame, storage and all (so a FrameBatch keeps it for its next frame).
-  // Message::address/function are the pairing keys (function -1: none). `request`: for a
-  // reply, the bytes of the request it answers (empty when unknown), for protocols whose
-  // replies mean nothing without it.
-  virtual void dissect_into(Message& out, Frame&& frame, Direction direction,
-                            const FramingTiming& timing,
-                            std::span<const std::uint8_t> request = {}) const = 0;
-  // Whether dissect_into() reads `request` at all: a caller that would look the request up for
-  // it alone (the pipeline's summary lane) leaves it out when not.
-  [[nodiscard]] virtual bool reads_request() const { return false; }
-  // The same into a new Message, decoded in detail.
+  // The one dissection of a telegram travelling in `direction`, to `depth`:
+  // - DissectDepth::detail: decodes it into `out` (reusing its storage, honouring out.detail and
+  //   out.tree) and returns true. Message::address/function are the pairing keys (function -1:
+  //   none). The telegram's frame is moved into `out` (t.frame then holds out's previous frame,
+  //   storage and all, so a FrameBatch keeps it for its next frame), or made there from the run
+  //   it was taken whole from.
+  // - DissectDepth::head: fills only *head (keys, checksum verdict, findings counted by kind:
+  //   what the closing summary, pairing and the drive level read) and returns false, leaving
+  //   `out` alone; a protocol with no such reading of the telegram dissects in detail instead
+  //   (returns true). The findings are exactly those the detail dissection would make.
+  // `request`: for a reply, the bytes of the request it answers (empty when unknown), for
+  // protocols whose replies mean nothing without it.
+  virtual bool dissect(TelegramView& t, Direction direction, const FramingTiming& timing,
+                       std::span<const std::uint8_t> request, DissectDepth depth, Message& out,
+                       TelegramFindings* head) const = 0;
+  // dissect() of a Frame in detail into `out`.
+  void dissect_into(Message& out, Frame&& frame, Direction direction, const FramingTiming& timing,
+                    std::span<const std::uint8_t> request = {}) const {
+    TelegramView t;
+    t.frame = &frame;
+    dissect(t, direction, timing, request, DissectDepth::detail, out, nullptr);
+  }
+  // The same into a new Message.
   [[nodiscard]] Message dissect(Frame frame, Direction direction, const FramingTiming& timing,
                                 std::span<const std::uint8_t> request = {}) const {
     Message m;
     dissect_into(m, std::move(frame), direction, timing, request);
     return m;
   }
-  // What the closing summary takes of a telegram that its framer took whole (Framer::take_chunk)
-  // and that nobody reads in detail (the pipeline's summary lane): what dissect_into() would give
-  // the Message (its checksum verdict, pairing members and anomalies), without building one.
-  struct TelegramSummary {
-    ChecksumVerdict verdict = ChecksumVerdict::none;
-    int address = -1;
-    int function = -1;
-    bool is_exception = false;
-    int exception_code = -1;
-    std::size_t malformed = 0;      // `malformed` anomalies (a telegram may break several rules)
-    std::uint32_t other_kinds = 0;  // bit k: one anomaly of AnomalyKind k, besides those
-  };
-  static_assert(kAnomalyKindCount <= 32, "TelegramSummary::other_kinds has a bit per kind");
-  // Fills *out for `bytes`, a telegram travelling in `direction` that its framer took whole as
-  // `taken` (so with no UART marks); false when the protocol has no such summary (its telegrams
-  // are then dissected as usual). `precheck`: this decoder's precheck() of the bytes, or nullptr.
-  virtual bool summarise(std::span<const std::uint8_t> bytes, Direction direction,
-                         const Framer::ChunkFrame& taken, const FramingTiming& timing,
-                         const TelegramPrecheck* precheck, TelegramSummary* out) const {
-    (void)bytes;
-    (void)direction;
-    (void)taken;
-    (void)timing;
-    (void)precheck;
-    (void)out;
-    return false;
-  }
-  // Fills *out with what this protocol's framer and summary find in `bytes` taken as one
-  // telegram (TelegramPrecheck; out->decoder is left to the caller), made on the read-ahead
-  // thread from the bytes alone; false when the protocol makes none.
+  // Fills *out with what the fast take (Framer::take_whole) of this protocol's framer and
+  // dissect() to DissectDepth::head find in `bytes` taken as one telegram (TelegramPrecheck;
+  // out->decoder is left to the caller), made on the read-ahead thread from the bytes alone;
+  // false when the protocol makes none.
   virtual bool precheck(std::span<const std::uint8_t> bytes, TelegramPrecheck* out) const {
     (void)bytes;
     (void)out;
     return false;
   }
 };
-
-// A telegram the pipeline counted without decoding it (its summary lane: a run its framer took
-// whole, Framer::take_chunk), for a sink that decodes it itself (Sink::completes_decode()): what
-// only the pipeline knows of it. Spans are valid for the call that hands it over.
-struct UndissectedTelegram {
-  const ProtocolDecoder* decoder = nullptr;
-  FramingTiming timing;      // the run's, which the decoder judges gaps by
-  ByteRun run;               // the telegram's bytes and times (no UART marks)
-  Framer::ChunkFrame taken;  // its timing and carried checksum
-  std::uint64_t number = 0;  // the frame's number
-  Direction direction = Direction::unknown;
-  TimeNs latency = -1;  // pairing, for a reply
-  std::uint64_t request_number = 0;
-  std::span<const std::uint8_t> request;  // for a reply: the request it answers, if known
-  // With drive profiles: the profile whose annotation the sink writes (Message::drive_profile,
-  // Sink::completes_drive_info()), nullptr for none; and what the pipeline found of the
-  // telegram's timing under the profile's rules, numbered with the frame, which follow the
-  // decode's own anomalies.
-  const DriveProfile* drive_profile = nullptr;
-  std::span<const Anomaly> anomalies;
-};
-
-// What the pipeline would have handed over for `t` (handle_frame()): the Message its decoder
-// makes of its frame, with the pipeline's numbers, pairing and drive-level findings, each anomaly
-// numbered with the frame, and the profile whose annotation is still to write. `out`'s storage is
-// reused: the frame is built in out.frame, which dissect_into() takes in place (begin_message()).
-inline void decode_undissected(const UndissectedTelegram& t, Message& out) {
-  add_chunk_frame_into(out.frame, t.run.channel, t.run, t.taken);
-  out.frame.number = t.number;
-  t.decoder->dissect_into(out, std::move(out.frame), t.direction, t.timing, t.request);
-  out.latency = t.latency;
-  out.request_number = t.request_number;
-  for (Anomaly& a : out.anomalies) a.frame_number = t.number;
-  if (!t.anomalies.empty())
-    out.anomalies.insert(out.anomalies.end(), t.anomalies.begin(), t.anomalies.end());
-  if (t.drive_profile) {
-    out.drive_profile = t.drive_profile;
-    out.request.assign(t.request.begin(), t.request.end());
-  }
-}
 
 // The decoder of `protocol`, from the explicit table; nullptr for Protocol::unknown.
 const ProtocolDecoder* decoder_for(Protocol protocol);

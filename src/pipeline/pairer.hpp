@@ -29,11 +29,10 @@ struct PairerOptions {
   bool clocked = true;
 };
 
-// What pairing reads of a decoded telegram: its head (which the drive level reads too: the
-// pipeline's summary lane fills one for both) and its function. A Message holds it all
-// (pairing_input()); the summary lane, which makes no Message, fills it from the frame it took
-// whole. Pairing reads the head's checksum verdict (a reply with a bad one is `bad_reply`), not its
-// latency.
+// What pairing reads of a decoded telegram: its head (which the drive level reads too) and its
+// function. A Message holds it all (pairing_input()); a telegram dissected to its head only
+// (DissectDepth::head) has it from its TelegramFindings. Pairing reads the head's checksum verdict
+// (a reply with a bad one is `bad_reply`), not its latency.
 struct PairingInput : TelegramHead {
   int function = -1;
   bool is_exception = false;

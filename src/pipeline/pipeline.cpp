@@ -125,18 +125,19 @@ Pipeline::Pipeline(PipelineOptions options, const ChannelTable& channels, Sink& 
           PairerOptions{options.reply_timeout, options.timing.character_time, 64, options.clocked}),
       earliest_deadline_(std::numeric_limits<TimeNs>::max()),
       binder_(options.auto_candidates) {
-  message_.detail = sink.wants_detail();
-  message_.tree = message_.detail && sink.wants_fields();
-  hand_over_transactions_ = sink.wants_transactions();
-  defer_drive_info_ = message_.detail && sink.completes_drive_info();
-  hand_over_records_ = sink.wants_records();
-  hand_over_events_ = sink.wants_events();
+  const SinkNeeds needs = sink.needs();
+  message_.detail = needs.detail;
+  message_.tree = needs.detail && needs.fields;
+  hand_over_transactions_ = needs.transactions;
+  defer_drive_info_ = needs.detail && needs.drive_info;
+  hand_over_records_ = needs.records;
+  hand_over_events_ = needs.events;
   drive_level_ = !options_.drives.empty() || !options_.auto_candidates.empty();
   // With drive profiles, a sink that takes records must write their annotation itself
-  // (defer_drive_info_): the lane makes only the observation. (Without detail, handle_frame()
-  // still hands over the text an observation makes of an exception reply.)
-  summary_lane_ =
-      (!hand_over_records_ || (sink.completes_decode() && (!drive_level_ || defer_drive_info_))) &&
+  // (defer_drive_info_): only the observation is made here. (Without detail, a Message still
+  // carries the text an observation makes of an exception reply.)
+  whole_telegrams_direct_ =
+      (!hand_over_records_ || (needs.deferred_decode && (!drive_level_ || defer_drive_info_))) &&
       options_.max_frames == 0;
   // The sink may read the profiles on its own thread: their lookup tables are built here, before
   // it gets any message (after this they are only read).
@@ -230,7 +231,7 @@ void Pipeline::frame_byte(ChannelState& st, const ByteEvent& e) {
 }
 
 const ProtocolDecoder* Pipeline::precheck_decoder_of(ChannelId channel) const {
-  if (!summary_lane_ || hand_over_records_ || channel >= states_.size()) return nullptr;
+  if (!whole_telegrams_direct_ || hand_over_records_ || channel >= states_.size()) return nullptr;
   const ChannelState& st = *states_[channel];
   return st.framer && !st.redetect ? st.decoder : nullptr;
 }
@@ -282,7 +283,7 @@ void Pipeline::push_batch(std::span<const ByteEvent> events) {
     const std::span<const ByteEvent> taken =
         as_given ? events.subspan(run_begin, i - run_begin) : std::span(run_);
     if (st.unframed_from == kNoneHeld) st.unframed_from = taken.front().time;
-    st.framer->push_all(taken, ready_);
+    st.framer->push(taken, ready_);
     earliest_deadline_ = std::min(earliest_deadline_, st.framer->next_deadline());
     if (!ready_.empty()) handle_frames();
   }
@@ -305,14 +306,14 @@ void Pipeline::push_runs_as(const RunBatch& runs) {
     if (k + 1 < runs.size()) {
       const ByteRun next = runs[k + 1];
       if (next.channel == run.channel &&
-          push_chunk(run, next.first, Prechecked ? runs.precheck(k) : nullptr))
+          push_whole(run, next.first, Prechecked ? runs.precheck(k) : nullptr))
         continue;
     }
     push_run(run);
   }
 }
 
-inline bool Pipeline::push_chunk(const ByteRun& run, TimeNs next_time,
+inline bool Pipeline::push_whole(const ByteRun& run, TimeNs next_time,
                                  const TelegramPrecheck* precheck) {
   const TimeNs character_time = options_.timing.character_time;
   // push() of each byte would take them as they are: as_on_the_wire() changes none (8 data bits;
@@ -332,21 +333,27 @@ inline bool Pipeline::push_chunk(const ByteRun& run, TimeNs next_time,
   // nothing asks for the byte-by-byte way.
   if (!st.redetect && st.framer &&
       deadline_of_others(run.channel) == std::numeric_limits<TimeNs>::max()) {
-    // A sink that takes no records, or decodes them itself, has the frame counted, not decoded
-    // here (ready_ is empty: the frame would be handled alone).
-    // (Frames waiting start earlier: they go first, through the reorder stage.)
-    const bool counted = summary_lane_ && ready_.empty() && waiting_.empty();
+    // A sink that takes no records, or decodes them itself, has the telegram handled here at
+    // once, not decoded in detail (ready_ is empty: the frame would be handled alone; frames
+    // waiting start earlier and go first, through the reorder stage).
+    const bool direct = whole_telegrams_direct_ && ready_.empty() && waiting_.empty();
     // The run's precheck is used only when the channel's decoder made it (TelegramPrecheck).
     if (precheck && precheck->decoder != st.decoder) precheck = nullptr;
-    Framer::ChunkFrame taken;
-    if (counted ? st.framer->take_chunk(run, next_time, &taken, precheck)
-                : st.framer->push_chunk(run, next_time, ready_)) {
+    Framer::WholeFrame taken;
+    if (st.framer->take_whole(run, next_time, &taken, direct ? precheck : nullptr)) {
       note_taken(st, run.event(run.size() - 1));
       earliest_deadline_ = std::min(earliest_deadline_, st.framer->next_deadline());
-      if (counted)
-        count_whole_telegram(st, run, taken, precheck);
-      else
+      if (direct) {
+        TelegramView t;
+        t.run = run;
+        t.taken = taken;
+        t.precheck = precheck;
+        flush_events(run.first);
+        handle_telegram(t, *st.decoder, st);
+      } else {
+        add_whole_frame(ready_, run.channel, run, taken);
         handle_frames();
+      }
       return true;
     }
   }
@@ -395,7 +402,7 @@ std::size_t Pipeline::take_quietly(const ByteRun& run, std::size_t i, TimeNs cha
   }
   if (take == 0) return 0;
   if (st.unframed_from == kNoneHeld) st.unframed_from = rest.first;
-  st.framer->push_run(rest.part(0, take), ready_);
+  st.framer->push(rest.part(0, take), ready_);
   note_taken(st, rest.event(take - 1));
   earliest_deadline_ = std::min(earliest_deadline_, st.framer->next_deadline());
   if (!ready_.empty()) handle_frames();
@@ -409,7 +416,7 @@ namespace {
 void score(DetectionCandidate& c, std::span<const ByteEvent> events, bool close,
            const PipelineOptions& options, FrameBatch& scratch) {
   scratch.clear();
-  c.framer->push_all(events, scratch);
+  c.framer->push(events, scratch);
   if (close) c.framer->finish(scratch);
   for (Frame& f : scratch) {
     if (f.kind != FrameKind::telegram) continue;
@@ -554,7 +561,7 @@ void Pipeline::detect(ChannelState& st, ChannelId channel, TimeNs now, bool fina
   st.framer = chosen->make_framer(channel, {options_.timing, options_.max_hold});
   std::vector<ByteEvent> held;
   held.swap(st.held);
-  st.framer->push_all(held, ready_);
+  st.framer->push(held, ready_);
   // Time has moved on while the bytes were held: let silence close what it closed meanwhile. Up
   // to `now`, what this channel's byte or the clock says, not the latest byte of any channel: a
   // source that gives a packet at a time (pcapng) has another channel's packet ahead already.
@@ -724,16 +731,6 @@ void Pipeline::check_drive_timing(const TelegramHead& m, const DriveProfile& p,
   }
 }
 
-const DriveProfile* Pipeline::read_drive_level(std::size_t link, const TelegramHead& head,
-                                               std::span<const std::uint8_t> request) {
-  const DriveProfile* profile = drive_profile_for(link, head);
-  // The observation only: a sink that takes records writes the annotation (the lane's
-  // condition, in the constructor).
-  if (profile)
-    read_for_drive_into(*profile, head, request, DriveReadingWants::observation, drive_reading_);
-  return profile;
-}
-
 const DriveProfile* Pipeline::drive_profile_for(std::size_t link, const TelegramHead& telegram) {
   if (const auto drive = options_.drives.find(telegram.address); drive != options_.drives.end())
     return drive->second;
@@ -779,7 +776,6 @@ void Pipeline::handle_frame(Frame& frame, const ProtocolDecoder& decoder) {
   frame.number = ++frame_counter_;
   // The frame came out of its channel's framer: the channel's state exists.
   ChannelState& st = *states_[frame.channel];
-  const std::size_t link = st.link;
   // Cut on a line with no drive protocol (by the fallback framer): data, not a telegram.
   if (st.no_protocol && st.decoder == &decoder) frame.kind = FrameKind::noise;
   if (frame.kind == FrameKind::noise) {
@@ -801,165 +797,151 @@ void Pipeline::handle_frame(Frame& frame, const ProtocolDecoder& decoder) {
     check_packetization(frame, st);
     return;
   }
-  pairer_.expire(frame.start(), transactions_);
-  emit_transactions(transactions_);
+  TelegramView t;
+  t.frame = &frame;
+  handle_telegram(t, decoder, st);
+}
 
-  const std::span<const std::uint8_t> bytes = frame.events.bytes();
+void Pipeline::handle_telegram(TelegramView& t, const ProtocolDecoder& decoder, ChannelState& st) {
+  const std::size_t link = st.link;
+  // What the steps below read of the telegram, taken before dissect() moves its frame.
+  const bool whole = t.frame == nullptr;
+  const std::span<const std::uint8_t> bytes = t.bytes();
+  const ChannelId channel = whole ? t.run.channel : t.frame->channel;
+  const TimeNs start = whole ? t.run.first : t.frame->start();
+  const std::uint64_t number = whole ? ++frame_counter_ : t.frame->number;
+  pairer_.expire(start, transactions_);
+  emit_transactions(transactions_);
   const ProtocolDecoder::PairingKeys keys = decoder.pairing_keys(bytes);
-  const Direction dir = decide_direction(decoder, frame.start(), bytes, keys.address, keys.function,
-                                         link, st.role, nullptr);
-  // A reply is dissected in the light of the request it answers: the pairer's own copy, which
-  // stays as it is until pairer_.add() below.
+  const Direction dir = decide_direction(decoder, start, bytes, keys.address, keys.function, link,
+                                         st.role, t.precheck);
+  // A reply is dissected in the light of the request it answers (the drive level reads it
+  // too): the pairer's own copy, which stays as it is until pairer_.add() below.
   std::span<const std::uint8_t> request;
   if (dir == Direction::response)
-    request = pairer_.awaited_request(link, keys.address, keys.function, frame.start());
+    request = pairer_.awaited_request(link, keys.address, keys.function, start);
+  // The Message only where a sink takes it from here: a sink that takes no records has the
+  // telegram's head counted, one that decodes telegrams itself gets those taken whole undecoded
+  // (its needs' deferred_decode).
+  const bool deferred = whole && hand_over_records_;
+  const DissectDepth depth =
+      !hand_over_records_ || deferred ? DissectDepth::head : DissectDepth::detail;
   Message& m = message_;
-  decoder.dissect_into(m, std::move(frame), dir, options_.timing, request);
+  TelegramFindings found;
+  PairingInput in;
+  const bool detailed = decoder.dissect(t, dir, options_.timing, request, depth, m, &found);
+  if (detailed) {
+    m.frame.number = number;
+    in = pairing_input(m);
+  } else {
+    // The telegram's head (for pairing and the drive level) and function, from its findings.
+    in.direction = dir;
+    in.protocol = decoder.protocol();
+    in.address = found.address;
+    in.verdict = found.verdict;
+    in.plausible =
+        (found.other_kinds & (1u << static_cast<unsigned>(AnomalyKind::implausible))) == 0;
+    in.function = found.function;
+    in.is_exception = found.is_exception;
+    in.exception_code = found.exception_code;
+    in.number = number;
+    in.channel = channel;
+    in.start = start;
+    in.last_byte = whole ? t.run.time(t.run.size() - 1) : t.frame->events.back_time();
+    in.gap_before = whole ? t.taken.timing.gap_before : t.frame->gap_before;
+    in.bytes = bytes;
+  }
   // Drive level: the station's profile (bound on the command line or guessed from its traffic),
-  // what the frame means to it, and the state changes it shows.
-  TelegramHead head = head_of(m);
-  const DriveProfile* profile = drive_profile_for(link, head);
+  // what the telegram means to it, and the state changes it shows.
+  const DriveProfile* profile = drive_level_ ? drive_profile_for(link, in) : nullptr;
   if (profile) {
     // The annotation's text is written here, or by the sink on its own thread (then only the
     // observation is made here: the timeline needs it now).
-    read_for_drive_into(*profile, head, request,
-                        m.detail && !defer_drive_info_ ? DriveReadingWants::text_and_observation
-                                                       : DriveReadingWants::observation,
+    read_for_drive_into(*profile, in, request,
+                        detailed && m.detail && !defer_drive_info_
+                            ? DriveReadingWants::text_and_observation
+                            : DriveReadingWants::observation,
                         drive_reading_);
-    if (defer_drive_info_) {
+    if (detailed && defer_drive_info_) {
       m.drive_profile = profile;
       m.request.assign(request.begin(), request.end());
-    } else {
+    } else if (detailed) {
       std::swap(m.drive_info, drive_reading_.text);  // both keep their storage for later frames
     }
   }
   if (st.detection_reads(decoder)) {
-    if (good_telegram(head)) {
+    if (good_telegram(in)) {
       st.failures = 0;
     } else if (++st.failures >= st.redetect_after) {
       st.redetect = true;
     }
   }
-  pairer_.add(link, m, transactions_);
-  head.latency = m.latency;  // (what pairing set of the message)
-  if (profile) check_drive_timing(head, *profile, m.anomalies, true);
-  for (Anomaly& a : m.anomalies) a.frame_number = m.frame.number;
-  stats_.count_frame(m);
-  sink_.on_frame(m);
-  for (const Anomaly& a : m.anomalies) emit_anomaly(a);
-  check_packetization(m.frame, st);
-  // A corrupted or implausible frame says nothing reliable about the drive's state.
-  if (profile && good_telegram(head))
-    for (const BusEvent& e :
-         timeline_.observe(link, head, *profile, drive_reading_.observed, hand_over_events_))
-      sink_.on_event(e);
-  emit_transactions(transactions_);
-}
-
-void Pipeline::count_whole_telegram(ChannelState& st, const ByteRun& run,
-                                    const Framer::ChunkFrame& taken,
-                                    const TelegramPrecheck* precheck) {
-  // handle_frame()'s steps for this frame, in its order, with the decode left out: the sink takes
-  // no records, or gets the telegram undissected (Sink::on_undissected). The drive level reads
-  // the telegram's head (TelegramHead), which the summary gives.
-  const ProtocolDecoder& decoder = *st.decoder;
-  const TimeNs start = run.first;
-  const TimeNs last_byte = run.time(run.size() - 1);
-  const std::span<const std::uint8_t> bytes = run.bytes;
-  flush_events(start);
-  pairer_.expire(start, transactions_);
-  emit_transactions(transactions_);
-  const ProtocolDecoder::PairingKeys keys = decoder.pairing_keys(bytes);
-  const Direction dir = decide_direction(decoder, start, bytes, keys.address, keys.function,
-                                         st.link, st.role, precheck);
-  // A reply is decoded in the light of the request it answers (the pairer's copy, as it is until
-  // pairer_.add() below): the sink that decodes it gets its bytes, if its decoder reads them.
-  // (The drive level reads a reply with its request too.)
-  std::span<const std::uint8_t> request;
-  if (dir == Direction::response &&
-      ((hand_over_records_ && decoder.reads_request()) || drive_level_))
-    request = pairer_.awaited_request(st.link, keys.address, keys.function, start);
-  ProtocolDecoder::TelegramSummary summary;
-  if (!decoder.summarise(bytes, dir, taken, options_.timing, precheck, &summary)) {
-    // No summary for this telegram: the frame, decoded as usual (expiring and handing over
-    // transactions again at the same time changes nothing).
-    add_chunk_frame(ready_, run.channel, run, taken);
-    handle_frames();
-    return;
-  }
-  const std::uint64_t number = ++frame_counter_;
-  const bool plausible =
-      (summary.other_kinds & (1u << static_cast<unsigned>(AnomalyKind::implausible))) == 0;
-  if (st.detection_reads(decoder)) {
-    if (summary.verdict == ChecksumVerdict::good && plausible) {
-      st.failures = 0;
-    } else if (++st.failures >= st.redetect_after) {
-      st.redetect = true;
-    }
-  }
-  // The telegram's head (for pairing and the drive level) and function.
-  PairingInput in;
-  in.direction = dir;
-  in.protocol = decoder.protocol();
-  in.address = summary.address;
-  in.verdict = summary.verdict;
-  in.plausible = plausible;
-  in.function = summary.function;
-  in.is_exception = summary.is_exception;
-  in.exception_code = summary.exception_code;
-  in.number = number;
-  in.channel = run.channel;
-  in.start = start;
-  in.last_byte = last_byte;
-  in.gap_before = taken.timing.gap_before;
-  in.bytes = bytes;
-  const DriveProfile* profile = drive_level_ ? read_drive_level(st.link, in, request) : nullptr;
-  // (The request's bytes copied for the sink: the pairer's storage may be reused once
-  // pairer_.add() has dropped them.)
-  if (hand_over_records_) {
+  // (The request's bytes copied for a deferred hand-over: the pairer's storage may be reused
+  // once pairer_.add() has dropped them.)
+  if (deferred && !detailed) {
     if (request.empty())
-      request_.clear();  // (most telegrams: a request, or a reply its decoder reads alone)
+      request_.clear();  // (most telegrams: a request)
     else
       request_.assign(request.begin(), request.end());
   }
-  const PairingResult paired = pairer_.add(st.link, in, transactions_);
-  stats_.count_telegram(run.size(), summary.verdict, plausible, start, last_byte);
-  // The message's anomalies, counted (the sink that decodes the message hands them on).
-  for (std::size_t i = 0; i < summary.malformed; ++i) stats_.count_anomaly(AnomalyKind::malformed);
-  // Each pass counts the lowest kind left.
-  for (std::uint32_t kinds = summary.other_kinds; kinds != 0; kinds &= kinds - 1)
-    stats_.count_anomaly(static_cast<AnomalyKind>(std::countr_zero(kinds)));
-  if (profile) {
-    drive_anomalies_.clear();
-    if (paired.paired) in.latency = paired.latency;
-    // (A sink without records shows no anomaly: the findings are counted, not described.)
-    check_drive_timing(in, *profile, drive_anomalies_, hand_over_records_);
-    for (const Anomaly& a : drive_anomalies_) stats_.count_anomaly(a);
-  }
-  if (hand_over_records_) {
-    // What the sink decodes, with what only the pipeline knows.
-    UndissectedTelegram telegram;
-    telegram.decoder = &decoder;
-    telegram.timing = options_.timing;
-    telegram.run = run;
-    telegram.taken = taken;
-    telegram.number = number;
-    telegram.direction = dir;
-    telegram.request = request_;
-    if (paired.paired) {
-      telegram.latency = paired.latency;
-      telegram.request_number = paired.request_number;
+  const PairingResult paired = pairer_.add(link, in, transactions_);
+  if (paired.paired) {
+    in.latency = paired.latency;
+    if (detailed) {
+      m.latency = paired.latency;
+      m.request_number = paired.request_number;
     }
+  }
+  if (detailed) {
+    if (profile) check_drive_timing(in, *profile, m.anomalies, true);
+    for (Anomaly& a : m.anomalies) a.frame_number = number;
+    stats_.count_frame(m);
+    sink_.on_frame(m);
+    for (const Anomaly& a : m.anomalies) emit_anomaly(a);
+    check_packetization(m.frame, st);
+  } else {
+    stats_.count_telegram(bytes.size(), in.verdict, in.plausible, start, in.last_byte);
+    // The message's findings, counted (a sink that decodes the message hands them on).
+    for (std::size_t i = 0; i < found.malformed; ++i) stats_.count_anomaly(AnomalyKind::malformed);
+    // Each pass counts the lowest kind left.
+    for (std::uint32_t kinds = found.other_kinds; kinds != 0; kinds &= kinds - 1)
+      stats_.count_anomaly(static_cast<AnomalyKind>(std::countr_zero(kinds)));
     if (profile) {
-      if (defer_drive_info_) telegram.drive_profile = profile;
-      telegram.anomalies = drive_anomalies_;
+      drive_anomalies_.clear();
+      // (A sink without records shows no anomaly: the findings are counted, not described.)
+      check_drive_timing(in, *profile, drive_anomalies_, hand_over_records_);
+      for (const Anomaly& a : drive_anomalies_) stats_.count_anomaly(a);
     }
-    sink_.on_undissected(telegram);
+    if (deferred) {
+      // What the sink decodes, with what only the pipeline knows.
+      DeferredTelegram telegram;
+      telegram.decoder = &decoder;
+      telegram.timing = options_.timing;
+      telegram.run = t.run;
+      telegram.taken = t.taken;
+      telegram.number = number;
+      telegram.direction = dir;
+      telegram.request = request_;
+      if (paired.paired) {
+        telegram.latency = paired.latency;
+        telegram.request_number = paired.request_number;
+      }
+      if (profile) {
+        if (defer_drive_info_) telegram.drive_profile = profile;
+        telegram.anomalies = drive_anomalies_;
+      }
+      sink_.on_deferred_frame(telegram);
+    }
+    if (whole)
+      check_packetization(FrameKind::telegram, t.run.origin, t.run.origin, number, start, channel,
+                          st);
+    else
+      check_packetization(*t.frame, st);
   }
-  check_packetization(FrameKind::telegram, run.origin, run.origin, number, start, run.channel, st);
+  // A corrupted or implausible telegram says nothing reliable about the drive's state.
   if (profile && good_telegram(in))
     for (const BusEvent& e :
-         timeline_.observe(st.link, in, *profile, drive_reading_.observed, hand_over_events_))
+         timeline_.observe(link, in, *profile, drive_reading_.observed, hand_over_events_))
       sink_.on_event(e);
   emit_transactions(transactions_);
 }

@@ -79,8 +79,8 @@ class Pipeline {
   [[nodiscard]] const Stats& stats() const { return stats_; }
   // The decoder whose prechecks a reader on another thread should make for channel `channel`'s
   // runs (ReadAhead::precheck_with), channels [0, channel_count()): the channel's decoder now,
-  // when this thread alone decodes — the sink takes no records, the summary lane counts every
-  // telegram taken whole — and the reader's core would otherwise wait; nullptr otherwise (no
+  // when this thread alone decodes — the sink takes no records, every telegram taken whole is
+  // dissected to its head — and the reader's core would otherwise wait; nullptr otherwise (no
   // decoder yet, re-detecting, or a sink whose writers keep both cores busy, where a precheck,
   // which works out both directions' findings, is more work in all).
   [[nodiscard]] const ProtocolDecoder* precheck_decoder_of(ChannelId channel) const;
@@ -98,12 +98,13 @@ class Pipeline {
   void frame_byte(ChannelState& st, const ByteEvent& e);
   // push_run() of `run` when the next byte on its channel, with nothing else pushed before it,
   // starts at next_time: a whole frame between two silences goes to the framer at once
-  // (Framer::push_chunk). False when the run was not taken (push_run() it).
-  // This and the two other always_inline members below run once a telegram on the summary lane:
+  // (Framer::take_whole), and is handled at once when it would be handled alone. False when the
+  // run was not taken (push_run() it).
+  // This and the two other always_inline members below run once a telegram taken whole:
   // inlined as a profile-guided build inlines them, --stats takes 3.5 % fewer instructions
   // (bench/README "Compiler options"). Defined inline in pipeline.cpp, their only user.
   // `precheck`: the run's (RunBatch::precheck), or nullptr.
-  [[gnu::always_inline]] bool push_chunk(const ByteRun& run, TimeNs next_time,
+  [[gnu::always_inline]] bool push_whole(const ByteRun& run, TimeNs next_time,
                                          const TelegramPrecheck* precheck);
   // push_run() from byte i on, byte i - 1 having been pushed.
   void push_rest(const ByteRun& run, std::size_t i);
@@ -118,7 +119,13 @@ class Pipeline {
   [[nodiscard, gnu::always_inline]] TimeNs deadline_of_others(ChannelId channel) const;
   void handle_frames();
   // `decoder`: of the framer that cut the frame (the channel's, unless it is detecting afresh).
+  // Noise here; a telegram goes on to handle_telegram().
   void handle_frame(Frame& frame, const ProtocolDecoder& decoder);
+  // The one per-telegram path: direction, dissection (in detail, or only its head when no sink
+  // takes the Message from here), drive level, pairing, counting, findings and hand-over. `t`: a
+  // frame out of the framer (numbered), or a run the framer took whole (numbered here; its
+  // events before it handed on already).
+  void handle_telegram(TelegramView& t, const ProtocolDecoder& decoder, ChannelState& st);
   // The reorder stage. Records that `frame` came out of its channel's framer: the channel's bytes
   // not in a frame yet come after it, or there are none.
   void note_framed(const Frame& frame);
@@ -135,12 +142,6 @@ class Pipeline {
     if (!pending_events_.empty()) flush_some_events(until);
   }
   void flush_some_events(TimeNs until);
-  // The summary lane: handle_frame() of the frame the framer took whole as `taken` from `run`
-  // (Framer::take_chunk), for a sink that takes no records or decodes them itself: what the
-  // summary counts, from the decoder's TelegramSummary, with no decode made here (a sink that
-  // takes records gets the telegram undissected, Sink::on_undissected).
-  void count_whole_telegram(ChannelState& st, const ByteRun& run, const Framer::ChunkFrame& taken,
-                            const TelegramPrecheck* precheck);
   void check_packetization(const Frame& frame, ChannelState& st);
   // The same for a record of `kind` whose bytes came from source packets first..last.
   void check_packetization(FrameKind kind, std::uint32_t first, std::uint32_t last,
@@ -152,10 +153,6 @@ class Pipeline {
   // The profile of the telegram's station: bound with --drive, or by the binder (which learns
   // from the telegram first, and hands a change of binding to the sink); nullptr for none.
   const DriveProfile* drive_profile_for(std::size_t link, const TelegramHead& telegram);
-  // count_whole_telegram()'s drive level before pairing: the telegram's profile
-  // (drive_profile_for()) and the observation of it in drive_reading_; the profile.
-  const DriveProfile* read_drive_level(std::size_t link, const TelegramHead& telegram,
-                                       std::span<const std::uint8_t> request);
   void summarise_drives();
   // `now`: the time detection decides at (the byte that made it decide, or the clock).
   void detect(ChannelState& st, ChannelId channel, TimeNs now, bool final, bool deadline = false);
@@ -192,18 +189,18 @@ class Pipeline {
   std::vector<ByteEvent> run_;  // push_batch: the run going to a framer at once
   std::vector<Transaction> transactions_;
   Message message_;  // every frame is decoded into this one (its storage is reused)
-  std::vector<std::uint8_t> request_;   // count_whole_telegram(): a reply's request, handed over
-  bool hand_over_transactions_ = true;  // the sink's wants_transactions()
-  bool defer_drive_info_ = false;       // the sink's completes_drive_info(), with detail
-  // Telegrams taken whole are counted, not decoded (count_whole_telegram): the sink takes no
+  std::vector<std::uint8_t> request_;   // a deferred reply's request, handed over
+  bool hand_over_transactions_ = true;  // the sink's needs' transactions
+  bool defer_drive_info_ = false;       // the sink's needs' drive_info, with detail
+  // Telegrams taken whole are handled at once, not decoded in detail here: the sink takes no
   // records or decodes them itself (and, with drive profiles, writes their annotation), and no
   // frame limit stops the run.
-  bool summary_lane_ = false;
+  bool whole_telegrams_direct_ = false;
   bool drive_level_ = false;  // profiles bound with --drive, or candidates for binding by guess
-  // count_whole_telegram() with drive profiles: the telegram's timing-rule findings.
+  // A telegram dissected to its head, with drive profiles: its timing-rule findings.
   std::vector<Anomaly> drive_anomalies_;
-  bool hand_over_records_ = true;  // the sink's wants_records()
-  bool hand_over_events_ = true;   // the sink's wants_events(): drive state changes as events
+  bool hand_over_records_ = true;  // the sink's needs' records
+  bool hand_over_events_ = true;   // the sink's needs' events: drive state changes as events
   TimeNs earliest_deadline_;
   std::uint64_t frame_counter_ = 0;
   TimeNs latest_time_ = std::numeric_limits<TimeNs>::min();

@@ -77,8 +77,11 @@ class CaptureSink final : public Sink {
   void on_summary(const Stats&) override {}
   bool flush() override;
   // Packets carry the bytes and the info line as a comment, not the field tree.
-  [[nodiscard]] bool wants_fields() const override { return false; }
-  [[nodiscard]] bool wants_transactions() const override { return false; }
+  [[nodiscard]] SinkNeeds needs() const override {
+    SinkNeeds n;
+    n.fields = n.transactions = false;
+    return n;
+  }
   [[nodiscard]] std::uint64_t packets() const { return packets_; }
 
  private:

@@ -17,7 +17,7 @@ namespace drivetap {
 
 // On cache lines of its own: the helpers of a ThreadedSink, one per thread, each write theirs for
 // every record, and are made one after the other on the heap.
-class alignas(kCacheLineBytes) JsonSink final : public Sink {
+class alignas(kCacheLineBytes) JsonSink final : public FormattingSink {
  public:
   JsonSink(std::FILE* out, const ChannelTable& channels, TimeNs character_time,
            bool show_latency = true);
@@ -28,7 +28,8 @@ class alignas(kCacheLineBytes) JsonSink final : public Sink {
   void on_summary(const Stats& stats) override;
   void on_event(const BusEvent& event) override;
   bool flush() override;
-  // Made with no file (nullptr): writes into memory, for a ThreadedSink's helpers (sink.hpp).
+  // Made with no file (nullptr): writes into memory, for a ThreadedSink's helpers
+  // (FormattingSink, sink.hpp).
   // (Each record stands on its own: nothing to follow.)
   LineBuffer* formatted() override { return lines_.gathered(); }
   void write_formatted(std::string_view text) override { lines_.write_lines(text); }

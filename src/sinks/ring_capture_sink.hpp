@@ -40,8 +40,11 @@ class RingCaptureSink final : public Sink {
   void on_transaction(const Transaction&) override {}
   void on_summary(const Stats&) override {}
   bool flush() override;
-  [[nodiscard]] bool wants_fields() const override { return false; }  // as CaptureSink
-  [[nodiscard]] bool wants_transactions() const override { return false; }
+  [[nodiscard]] SinkNeeds needs() const override {
+    SinkNeeds n;
+    n.fields = n.transactions = false;
+    return n;
+  }
   // Flushes and closes the current file; false when a write failed (disk full).
   bool close();
   [[nodiscard]] const std::string& error() const { return error_; }

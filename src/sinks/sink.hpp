@@ -1,11 +1,15 @@
-// Sink: where the pipeline's records go (text, JSON, later pcapng). Sinks walk the generic field
+// Sink: where the pipeline's records go (text, JSON, pcapng). Sinks walk the generic field
 // tree; they know no protocol. Records arrive in bus order: for each frame, the timeouts it
 // revealed, then the frame (or noise), then its anomalies, then the transaction it completed.
+// The contract is a handful of event methods and one description of what the sink needs
+// (SinkNeeds); formatting on several threads is a separate, smaller one (FormattingSink).
 #pragma once
 
 #include <cerrno>
 #include <cstddef>
 #include <cstdio>
+#include <span>
+#include <string_view>
 #include <vector>
 
 #include "core/anomaly.hpp"
@@ -46,6 +50,92 @@ class WriteStatus {
   int errno_ = 0;
 };
 
+// A frame record handed over undecoded, for a sink that decodes it itself, off the decoding
+// thread (SinkNeeds::deferred_decode): a telegram its framer took whole (Framer::take_whole), with
+// what only the pipeline knows of it. Spans are valid for the call that hands it over.
+struct DeferredTelegram {
+  const ProtocolDecoder* decoder = nullptr;
+  FramingTiming timing;      // the run's, which the decoder judges gaps by
+  ByteRun run;               // the telegram's bytes and times (no UART marks)
+  Framer::WholeFrame taken;  // its timing and carried checksum
+  std::uint64_t number = 0;  // the frame's number
+  Direction direction = Direction::unknown;
+  TimeNs latency = -1;  // pairing, for a reply
+  std::uint64_t request_number = 0;
+  std::span<const std::uint8_t> request;  // for a reply: the request it answers, if known
+  // With drive profiles: the profile whose annotation the sink writes (Message::drive_profile,
+  // SinkNeeds::drive_info), nullptr for none; and what the pipeline found of the telegram's
+  // timing under the profile's rules, numbered with the frame, which follow the decode's own
+  // anomalies.
+  const DriveProfile* drive_profile = nullptr;
+  std::span<const Anomaly> anomalies;
+
+  // The Message the pipeline would have handed over: its decoder's dissection of the frame, with
+  // the pipeline's numbers, pairing and drive-level findings, each anomaly numbered with the
+  // frame, and the profile whose annotation is still to write. `out`'s storage is reused.
+  void decode_into(Message& out) const {
+    TelegramView t;
+    t.run = run;
+    t.taken = taken;
+    decoder->dissect(t, direction, timing, request, DissectDepth::detail, out, nullptr);
+    out.frame.number = number;
+    out.latency = latency;
+    out.request_number = request_number;
+    for (Anomaly& a : out.anomalies) a.frame_number = number;
+    if (!anomalies.empty())
+      out.anomalies.insert(out.anomalies.end(), anomalies.begin(), anomalies.end());
+    if (drive_profile) {
+      out.drive_profile = drive_profile;
+      out.request.assign(request.begin(), request.end());
+    }
+  }
+};
+
+// What a sink needs of the pipeline, fixed for the sink's lifetime: the pipeline reads it once
+// (Sink::needs()) and skips the work no sink asks for. The defaults are a sink that shows
+// everything and completes nothing itself.
+struct SinkNeeds {
+  // on_frame(), on_noise(), on_anomaly() and on_transaction() do something; when not, the
+  // pipeline counts what the summary needs of a telegram without decoding it in detail
+  // (`read --stats`).
+  bool records = true;
+  // Messages' field trees and info lines (Message::detail); dissectors skip them otherwise.
+  bool detail = true;
+  // Messages' field trees (Message::tree); read only with `detail`.
+  bool fields = true;
+  // on_transaction() does something; transactions are still counted when not.
+  bool transactions = true;
+  // on_event() does something; drive state is still kept and its changes counted when not.
+  bool events = true;
+  // The sink writes the drive annotation of the messages it gets (Message::drive_profile ->
+  // drive_info) before anything reads them (the ThreadedSink, on its writer thread).
+  bool drive_info = false;
+  // The sink decodes telegrams handed over undecoded (Sink::on_deferred_frame()) more cheaply
+  // than the pipeline would (the ThreadedSink, on its writer thread).
+  bool deferred_decode = false;
+
+  // What a sink handing every record to both `a` and `b` needs: all either asks for, and
+  // nothing completed by the sink (each member gets the same, completed, record).
+  [[nodiscard]] static SinkNeeds either(const SinkNeeds& a, const SinkNeeds& b) {
+    SinkNeeds n;
+    n.records = a.records || b.records;
+    n.detail = a.detail || b.detail;
+    n.fields = (a.detail && a.fields) || (b.detail && b.fields);
+    n.transactions = a.transactions || b.transactions;
+    n.events = a.events || b.events;
+    return n;
+  }
+  // Nothing at all (the start of either() over a set of sinks).
+  [[nodiscard]] static SinkNeeds none() {
+    SinkNeeds n;
+    n.records = n.detail = n.fields = n.transactions = n.events = false;
+    return n;
+  }
+};
+
+// The contract: the pipeline's records, in bus order, and one description of what the sink
+// needs (needs()). Records may arrive on another thread than the one that made the sink only
+// through a ThreadedSink.
 class Sink {
  public:
   virtual ~Sink() = default;
@@ -59,52 +149,35 @@ class Sink {
   virtual void on_event(const BusEvent& event) { (void)event; }
   // Pushes buffered output to its file; returns false when a write failed, with errno saying why.
   virtual bool flush() = 0;
-  // Whether the sink shows messages' field trees and info lines; when no sink of a run does,
-  // dissectors skip building them (Message::detail). Fixed for the sink's lifetime.
-  [[nodiscard]] virtual bool wants_detail() const { return true; }
-  // Whether the sink reads messages' field trees (Message::tree); only with wants_detail().
-  [[nodiscard]] virtual bool wants_fields() const { return wants_detail(); }
-  // Whether on_transaction() does anything; when not, the pipeline still counts transactions but
-  // does not hand them over (a writer thread would copy each). Fixed for the sink's lifetime.
-  [[nodiscard]] virtual bool wants_transactions() const { return true; }
-  // Whether the sink writes the drive annotation of the messages it gets (Message::drive_profile
-  // -> drive_info) before anything reads them; the pipeline then leaves that to it (the
-  // ThreadedSink does it on its writer thread, off the decoding one). Fixed for its lifetime.
-  [[nodiscard]] virtual bool completes_drive_info() const { return false; }
-  // A telegram the pipeline counted without decoding it (only when completes_decode()): its
-  // Message (decode_undissected()) as on_frame() and that message's anomalies as on_anomaly(),
-  // which is what the pipeline would have handed over. This default decodes it here.
-  virtual void on_undissected(const UndissectedTelegram& telegram) {
+  [[nodiscard]] virtual SinkNeeds needs() const { return {}; }
+  // The frame record handed over undecoded (only to a sink whose needs() say deferred_decode):
+  // its Message (DeferredTelegram::decode_into()) as on_frame() and that message's anomalies as
+  // on_anomaly(), exactly what the pipeline would have handed over. This default decodes here.
+  virtual void on_deferred_frame(const DeferredTelegram& telegram) {
+    const SinkNeeds n = needs();
     Message m;
-    m.detail = wants_detail();
-    m.tree = m.detail && wants_fields();
-    decode_undissected(telegram, m);
+    m.detail = n.detail;
+    m.tree = n.detail && n.fields;
+    telegram.decode_into(m);
     on_frame(m);
     for (const Anomaly& a : m.anomalies) on_anomaly(a);
   }
-  // Whether the sink takes telegrams undissected (on_undissected()) where it can decode them
-  // more cheaply than the pipeline (the ThreadedSink, on its writer thread): the pipeline then
-  // counts the telegrams its framers take whole without decoding them (its summary lane) and
-  // hands them over so. Fixed for the sink's lifetime.
-  [[nodiscard]] virtual bool completes_decode() const { return false; }
-  // Formatting on several threads (a ThreadedSink with helpers: sinks like its inner one, each
-  // writing a batch of records into memory while the others write theirs):
-  // - formatted(): a sink made to write into memory gives the text it wrote since it was last
-  //   cleared (the caller writes it elsewhere and clears it); nullptr for other sinks;
-  // - write_formatted(): appends text that such a sink of the same kind formatted for the
-  //   records that come next, as this sink would have written them;
-  // - follow(): the records that come next follow the frame or noise record numbered `number`
-  //   (what a sink shows differently right after its frame, e.g. the frame's anomalies).
-  virtual LineBuffer* formatted() { return nullptr; }
-  virtual void write_formatted(std::string_view text) { (void)text; }
+};
+
+// A sink that can format on several threads (the text and JSON sinks, for a ThreadedSink with
+// helpers: sinks like its inner one, each writing a batch of records into memory while the
+// others write theirs):
+// - formatted(): a sink made to write into memory gives the text it wrote since it was last
+//   cleared (the caller writes it elsewhere and clears it); nullptr for other sinks;
+// - write_formatted(): appends text that such a sink of the same kind formatted for the
+//   records that come next, as this sink would have written them;
+// - follow(): the records that come next follow the frame or noise record numbered `number`
+//   (what a sink shows differently right after its frame, e.g. the frame's anomalies).
+class FormattingSink : public Sink {
+ public:
+  virtual LineBuffer* formatted() = 0;
+  virtual void write_formatted(std::string_view text) = 0;
   virtual void follow(std::uint64_t number) { (void)number; }
-  // Whether on_frame(), on_noise(), on_anomaly() and on_transaction() do anything; when not, the
-  // pipeline may count what the summary needs of a telegram without decoding it into a Message
-  // (its summary lane: `read --stats`). Fixed for the sink's lifetime.
-  [[nodiscard]] virtual bool wants_records() const { return true; }
-  // Whether on_event() does anything; when not, the pipeline still keeps each drive's state and
-  // counts its changes, but writes no event's text (`read --stats`). Fixed for its lifetime.
-  [[nodiscard]] virtual bool wants_events() const { return true; }
 };
 
 // Sends every record to several sinks.
@@ -134,21 +207,13 @@ class TeeSink final : public Sink {
     for (Sink* s : sinks_) ok = s->flush() && ok;
     return ok;
   }
-  [[nodiscard]] bool wants_detail() const override { return any_wants(&Sink::wants_detail); }
-  [[nodiscard]] bool wants_fields() const override { return any_wants(&Sink::wants_fields); }
-  [[nodiscard]] bool wants_transactions() const override {
-    return any_wants(&Sink::wants_transactions);
+  [[nodiscard]] SinkNeeds needs() const override {
+    SinkNeeds n = SinkNeeds::none();
+    for (const Sink* s : sinks_) n = SinkNeeds::either(n, s->needs());
+    return n;
   }
-  [[nodiscard]] bool wants_records() const override { return any_wants(&Sink::wants_records); }
-  [[nodiscard]] bool wants_events() const override { return any_wants(&Sink::wants_events); }
 
  private:
-  // Whether any member sink answers yes to `wants`.
-  [[nodiscard]] bool any_wants(bool (Sink::*wants)() const) const {
-    for (const Sink* s : sinks_)
-      if ((s->*wants)()) return true;
-    return false;
-  }
   std::vector<Sink*> sinks_;
 };
 
@@ -163,11 +228,7 @@ class SummaryOnlySink final : public Sink {
   void on_transaction(const Transaction&) override {}
   void on_summary(const Stats& s) override { inner_.on_summary(s); }
   bool flush() override { return inner_.flush(); }
-  [[nodiscard]] bool wants_detail() const override { return false; }
-  [[nodiscard]] bool wants_fields() const override { return false; }
-  [[nodiscard]] bool wants_transactions() const override { return false; }
-  [[nodiscard]] bool wants_records() const override { return false; }
-  [[nodiscard]] bool wants_events() const override { return false; }
+  [[nodiscard]] SinkNeeds needs() const override { return SinkNeeds::none(); }
 
  private:
   Sink& inner_;
@@ -185,9 +246,11 @@ class EventsOnlySink final : public Sink {
   void on_summary(const Stats&) override {}
   void on_event(const BusEvent& e) override { inner_.on_event(e); }
   bool flush() override { return inner_.flush(); }
-  [[nodiscard]] bool wants_fields() const override { return false; }
-  [[nodiscard]] bool wants_transactions() const override { return false; }
-  [[nodiscard]] bool wants_records() const override { return false; }
+  [[nodiscard]] SinkNeeds needs() const override {
+    SinkNeeds n;
+    n.records = n.fields = n.transactions = false;
+    return n;
+  }
 
  private:
   Sink& inner_;

@@ -23,7 +23,7 @@ struct TextSinkOptions {
 
 // On cache lines of its own: the helpers of a ThreadedSink, one per thread, each write theirs for
 // every record, and are made one after the other on the heap.
-class alignas(kCacheLineBytes) TextSink final : public Sink {
+class alignas(kCacheLineBytes) TextSink final : public FormattingSink {
  public:
   TextSink(std::FILE* out, const ChannelTable& channels, TextSinkOptions options);
   void on_frame(const Message& message) override;
@@ -33,13 +33,18 @@ class alignas(kCacheLineBytes) TextSink final : public Sink {
   void on_summary(const Stats& stats) override;
   void on_event(const BusEvent& event) override;
   bool flush() override;
-  // Made with no file (nullptr): writes into memory, for a ThreadedSink's helpers (sink.hpp).
+  // Made with no file (nullptr): writes into memory, for a ThreadedSink's helpers
+  // (FormattingSink, sink.hpp).
   LineBuffer* formatted() override { return lines_.gathered(); }
   void write_formatted(std::string_view text) override { lines_.write_lines(text); }
   void follow(std::uint64_t number) override { last_frame_number_ = number; }
-  // The field tree is shown only with -V.
-  [[nodiscard]] bool wants_fields() const override { return options_.verbose; }
-  [[nodiscard]] bool wants_transactions() const override { return false; }  // see on_transaction
+  // The field tree is shown only with -V; transactions not at all (see on_transaction).
+  [[nodiscard]] SinkNeeds needs() const override {
+    SinkNeeds n;
+    n.fields = options_.verbose;
+    n.transactions = false;
+    return n;
+  }
 
  private:
   // append_text_prefix() of a record of `channel`.

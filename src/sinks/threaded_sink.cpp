@@ -9,13 +9,30 @@
 
 namespace drivetap {
 
-ThreadedSink::ThreadedSink(Sink& inner, std::vector<Sink*> helpers)
+namespace {
+
+// The inner sink's needs, completed by the ThreadedSink (the drive annotation, the deferred
+// decode), the field tree only with detail.
+SinkNeeds threaded_needs(const Sink& inner) {
+  SinkNeeds n = inner.needs();
+  n.fields = n.detail && n.fields;
+  n.drive_info = true;
+  n.deferred_decode = true;
+  return n;
+}
+
+}  // namespace
+
+ThreadedSink::ThreadedSink(Sink& inner) : ThreadedSink(inner, nullptr, {}) {}
+
+ThreadedSink::ThreadedSink(FormattingSink& inner, std::vector<FormattingSink*> helpers)
+    : ThreadedSink(inner, &inner, std::move(helpers)) {}
+
+ThreadedSink::ThreadedSink(Sink& inner, FormattingSink* formatting_inner,
+                           std::vector<FormattingSink*> helpers)
     : inner_(inner),
-      wants_detail_(inner.wants_detail()),
-      wants_fields_(inner.wants_fields()),
-      wants_transactions_(inner.wants_transactions()),
-      wants_records_(inner.wants_records()),
-      wants_events_(inner.wants_events()),
+      formatting_inner_(formatting_inner),
+      needs_(threaded_needs(inner)),
       helpers_(std::move(helpers)),
       assist_(helpers_.size() >= 2),
       scratch_(std::max<std::size_t>(1, helpers_.size())),
@@ -94,7 +111,7 @@ void ThreadedSink::run(std::size_t writer) {
   // Without helpers, the one writer replays into the inner sink. With them, each writer replays
   // its batches into its helper, which writes them into memory, and the text goes to the inner
   // sink in the batches' order (commit()).
-  Sink& target = helpers_.empty() ? inner_ : *helpers_[writer];
+  Sink& target = helpers_.empty() ? inner_ : static_cast<Sink&>(*helpers_[writer]);
   Scratch& scratch = scratch_[writer];
   for (;;) {
     std::unique_ptr<Batch> batch;
@@ -116,7 +133,8 @@ void ThreadedSink::run(std::size_t writer) {
 }
 
 void ThreadedSink::replay(Batch& batch, Sink& target, Scratch& scratch) {
-  if (!helpers_.empty()) target.follow(batch.follows);
+  // With helpers, `target` is one of them (run(), publish()).
+  if (!helpers_.empty()) static_cast<FormattingSink&>(target).follow(batch.follows);
   for (const Entry& entry : batch.order) {
     switch (entry.kind) {
       case Kind::frame: {
@@ -160,7 +178,7 @@ void ThreadedSink::replay(Batch& batch, Sink& target, Scratch& scratch) {
     }
   }
   // (A helper is made to write into memory: formatted() is its text.)
-  if (!helpers_.empty()) batch.text.swap(*target.formatted());
+  if (!helpers_.empty()) batch.text.swap(*static_cast<FormattingSink&>(target).formatted());
 }
 
 void ThreadedSink::recycle(std::unique_ptr<Batch> batch) {
@@ -185,7 +203,7 @@ void ThreadedSink::commit(std::unique_ptr<Batch> batch) {
     std::unique_ptr<Batch> ready = std::move(*next);
     formatted_.erase(next);
     lock.unlock();
-    inner_.write_formatted(ready->text.view());
+    formatting_inner_->write_formatted(ready->text.view());
     ready->clear();
     lock.lock();
     ++committed_;
@@ -201,19 +219,19 @@ void ThreadedSink::weigh(std::size_t bytes) {
   if (current_->storage_bytes >= kBatchBytes) publish();
 }
 
-void ThreadedSink::replay_undissected(const UndissectedTelegram& telegram, Sink& target,
+void ThreadedSink::replay_undissected(const DeferredTelegram& telegram, Sink& target,
                                       Scratch& scratch) const {
   Message& decoded = scratch.decoded;
-  decoded.detail = wants_detail_;
-  decoded.tree = wants_detail_ && wants_fields_;
-  decode_undissected(telegram, decoded);
+  decoded.detail = needs_.detail;
+  decoded.tree = needs_.fields;
+  telegram.decode_into(decoded);
   if (decoded.drive_profile) complete_drive_info(decoded, scratch.drive);
   target.on_frame(decoded);
   // The message's anomalies follow it, as the pipeline hands them on.
   for (const Anomaly& a : decoded.anomalies) target.on_anomaly(a);
 }
 
-void ThreadedSink::on_undissected(const UndissectedTelegram& telegram) {
+void ThreadedSink::on_deferred_frame(const DeferredTelegram& telegram) {
   if (finished_) {  // the writers have stopped: decoded here
     replay_undissected(telegram, inner_, scratch_[0]);
     given(telegram.number);
@@ -289,7 +307,7 @@ void ThreadedSink::finish() {
   for (std::thread& writer : writers_) writer.join();
   finished_ = true;
   // Records from now on go straight to the inner sink, after the last one a writer replayed.
-  if (!helpers_.empty()) inner_.follow(last_number_);
+  if (!helpers_.empty()) formatting_inner_->follow(last_number_);
 }
 
 }  // namespace drivetap

@@ -7,7 +7,7 @@
 //                     the batch goes back for reuse
 //
 // With drive profiles the writer also writes each frame's drive annotation (Message::drive_profile
-// -> drive_info, completes_drive_info()): the profiles, which the pipeline indexed before the first
+// -> drive_info, SinkNeeds::drive_info): the profiles, which the pipeline indexed before the first
 // frame, are then read on both threads and changed on neither.
 // Records are copied: the pipeline reuses its Message for the next frame at once. A batch's
 // records keep their storage from one use to the next, so the copies do not allocate once the
@@ -22,8 +22,7 @@
 // stops the thread; records after it go straight to the inner sink. The worker thread runs with
 // SIGINT and SIGTERM blocked. The inner sink and everything its records name (the ChannelTable)
 // must outlive this one, and so must the drive profiles its messages name; only the writer thread
-// calls the inner sink between construction and finish(), except wants_detail(), wants_fields(),
-// wants_transactions() and wants_records(), read once here.
+// calls the inner sink between construction and finish(), except needs(), read once here.
 #pragma once
 
 #include <condition_variable>
@@ -55,13 +54,15 @@ class alignas(kCacheLineBytes) ThreadedSink final : public Sink {
   // noise with a time stamp a byte holds some 70 KiB), however few they are.
   static constexpr std::size_t kBatchBytes = 1024 * 1024;
 
-  // With `helpers` (sinks like `inner`, made to write into memory: Sink::formatted()), batches are
-  // formatted whole by several threads, each with a helper of its own, and their text goes to
-  // `inner` (Sink::write_formatted()) in the batches' order: one writer thread per helper but the
-  // last, which is the pipeline thread's when its next batch would otherwise wait for a writer
-  // (one helper: one writer thread, no help). Without helpers, one writer replays into `inner`.
-  // The helpers must outlive this sink.
-  explicit ThreadedSink(Sink& inner, std::vector<Sink*> helpers = {});
+  // One writer replays into `inner`.
+  explicit ThreadedSink(Sink& inner);
+  // With `helpers` (sinks like `inner`, made to write into memory: FormattingSink::formatted()),
+  // batches are formatted whole by several threads, each with a helper of its own, and their text
+  // goes to `inner` (FormattingSink::write_formatted()) in the batches' order: one writer thread
+  // per helper but the last, which is the pipeline thread's when its next batch would otherwise
+  // wait for a writer (one helper: one writer thread, no help). No helpers: as above. The helpers
+  // must outlive this sink.
+  ThreadedSink(FormattingSink& inner, std::vector<FormattingSink*> helpers);
   ~ThreadedSink() override;
   ThreadedSink(const ThreadedSink&) = delete;
   ThreadedSink& operator=(const ThreadedSink&) = delete;
@@ -74,19 +75,13 @@ class alignas(kCacheLineBytes) ThreadedSink final : public Sink {
   void on_event(const BusEvent& event) override;
   // Waits for the writer to replay everything, then flushes the inner sink (on this thread).
   bool flush() override;
-  [[nodiscard]] bool wants_detail() const override { return wants_detail_; }
-  [[nodiscard]] bool wants_fields() const override { return wants_fields_; }
-  [[nodiscard]] bool wants_transactions() const override { return wants_transactions_; }
-  [[nodiscard]] bool wants_records() const override { return wants_records_; }
-  [[nodiscard]] bool wants_events() const override { return wants_events_; }
-  // The drive annotation (Message::drive_profile) is written on the writer thread, before the
-  // inner sink gets the message: formatting it is a third of the decoding thread's work with
-  // drive profiles (bench/README.md).
-  [[nodiscard]] bool completes_drive_info() const override { return true; }
-  // Telegrams the pipeline counted without decoding them are copied as they come and decoded on
-  // the writer thread, before the inner sink gets them and their anomalies.
-  void on_undissected(const UndissectedTelegram& telegram) override;
-  [[nodiscard]] bool completes_decode() const override { return true; }
+  // The inner sink's needs, and: the drive annotation (Message::drive_profile) is written on the
+  // writer thread, before the inner sink gets the message (formatting it is a third of the
+  // decoding thread's work with drive profiles, bench/README.md); telegrams handed over
+  // undecoded are copied as they come and decoded on the writer thread, before the inner sink
+  // gets them and their anomalies.
+  [[nodiscard]] SinkNeeds needs() const override { return needs_; }
+  void on_deferred_frame(const DeferredTelegram& telegram) override;
   // Replays what is left and stops the writer thread; the inner sink is the caller's again.
   void finish();
   // Waits until the writer is idle, then counts the storage its records' frames keep for reuse:
@@ -96,6 +91,7 @@ class alignas(kCacheLineBytes) ThreadedSink final : public Sink {
   [[nodiscard]] std::size_t kept_storage_bytes();
 
  private:
+  ThreadedSink(Sink& inner, FormattingSink* formatting_inner, std::vector<FormattingSink*> helpers);
   enum class Kind : unsigned char {
     frame,
     undissected,
@@ -105,10 +101,10 @@ class alignas(kCacheLineBytes) ThreadedSink final : public Sink {
     summary,
     event
   };
-  // An UndissectedTelegram whose bytes, and then its request's, were copied into the batch's
+  // A DeferredTelegram whose bytes, and then its request's, were copied into the batch's
   // `bytes` from `bytes_at`: its spans are set to them when replayed.
   struct Undissected {
-    UndissectedTelegram telegram;
+    DeferredTelegram telegram;
     std::size_t bytes_at = 0;
     std::uint32_t anomalies_at = 0;  // telegram.anomalies' in Batch::anomalies
   };
@@ -200,8 +196,7 @@ class alignas(kCacheLineBytes) ThreadedSink final : public Sink {
   void given(std::uint64_t number) { last_number_ = number; }
   // An undissected telegram to `target`: decoded into scratch.decoded (its drive annotation
   // written with scratch.drive), then it and its anomalies.
-  void replay_undissected(const UndissectedTelegram& telegram, Sink& target,
-                          Scratch& scratch) const;
+  void replay_undissected(const DeferredTelegram& telegram, Sink& target, Scratch& scratch) const;
   void publish();                // hands the current batch, if it holds records, to the writer
   void wait_until_idle();        // until every published batch has been replayed
   void run(std::size_t writer);  // a writer thread
@@ -215,17 +210,15 @@ class alignas(kCacheLineBytes) ThreadedSink final : public Sink {
 
   // Members in three groups, each on cache lines of its own: read by every thread; written by
   // the pipeline thread for every record; shared under the mutex. With the members in one run
-  // (the writers read wants_detail_ for every record they decode, the pipeline thread writes
+  // (the writers read needs_ for every record they decode, the pipeline thread writes
   // last_number_ for every record it gives), text and JSON ran a quarter slower whenever the
   // heap placed the object so that such members shared a line: with an input file name of 24
   // to 39 characters (bench/README.md).
   Sink& inner_;
-  const bool wants_detail_;
-  const bool wants_fields_;
-  const bool wants_transactions_;
-  const bool wants_records_;
-  const bool wants_events_;
-  std::vector<Sink*> helpers_;
+  // With helpers: the inner sink, which writes their text.
+  FormattingSink* const formatting_inner_;
+  const SinkNeeds needs_;
+  std::vector<FormattingSink*> helpers_;
   const bool assist_;  // the pipeline thread formats with the last helper when it would wait
   std::vector<Scratch> scratch_;  // one per helper (after finish(), the first is the caller's)
   std::vector<std::thread> writers_;

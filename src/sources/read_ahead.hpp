@@ -13,7 +13,7 @@
 //
 // The reader also makes each run's precheck (TelegramPrecheck, core/precheck.hpp) for a channel
 // whose decoder the caller has named (precheck_with(): the pipeline's, once it has detected the
-// protocol): the framer's check and the summary's findings, worked out from the bytes alone on
+// protocol): the framer's check and the head's findings, worked out from the bytes alone on
 // the second core instead of the decoding thread's.
 #pragma once
 
