@@ -64,6 +64,8 @@ class FcDecoder final : public ProtocolDecoder {
     (void)request;  // replies of this protocol stand on their own
     dissect_fc(out, std::move(frame), direction, timing);
   }
+  void read_drive_records(const TelegramHead& telegram, std::span<const std::uint8_t> request,
+                          DriveRecords& out) const override;  // drive_reading.cpp
 };
 
 }  // namespace drivetap::danfoss_fc

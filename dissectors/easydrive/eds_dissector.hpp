@@ -48,6 +48,8 @@ class EdsDecoder final : public ProtocolDecoder {
     dissect_eds(out, std::move(frame), direction, timing, request);
   }
   [[nodiscard]] bool reads_request() const override { return true; }  // replies echo its index
+  void read_drive_records(const TelegramHead& telegram, std::span<const std::uint8_t> request,
+                          DriveRecords& out) const override;  // drive_reading.cpp
 };
 
 }  // namespace drivetap::easydrive

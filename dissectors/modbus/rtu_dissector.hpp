@@ -51,6 +51,8 @@ class RtuDecoder final : public ProtocolDecoder {
     (void)request;  // replies of this protocol stand on their own
     dissect_rtu(out, std::move(frame), direction, timing);
   }
+  void read_drive_records(const TelegramHead& telegram, std::span<const std::uint8_t> request,
+                          DriveRecords& out) const override;  // drive_reading.cpp
   bool summarise(std::span<const std::uint8_t> bytes, Direction direction,
                  const Framer::ChunkFrame& taken, const FramingTiming& timing,
                  const TelegramPrecheck* precheck, TelegramSummary* out) const override;
