@@ -112,6 +112,13 @@ struct DriveRecords {
     values.push_back(value);
     ++records.back().values_size;
   }
+  // Room for `n` more values of `r`, the last record added (to be written, all of them).
+  std::uint32_t* add_values(DriveRecord& r, std::size_t n) {
+    const std::size_t at = values.size();
+    values.resize(at + n);
+    r.values_size += static_cast<std::uint32_t>(n);
+    return values.data() + at;
+  }
 };
 
 }  // namespace drivetap

@@ -12,7 +12,6 @@
 #include <vector>
 
 #include "core/format.hpp"
-#include "core/protocol.hpp"
 
 namespace drivetap {
 namespace {
@@ -561,10 +560,7 @@ void read_for_drive_into(const DriveProfile& p, const TelegramHead& m,
   const bool lead_first = wants != DriveReadingWants::observation;
   if (lead_first) append_lead(text);
   const std::size_t lead = text.size();
-  if (const ProtocolDecoder* decoder = decoder_for(m.protocol)) {
-    decoder->read_drive_records(m, request, out.records);
-    read_records(p, m.direction, out.records, wants, text, out.observed);
-  }
+  read_records(p, m.direction, out.records.read(m, request), wants, text, out.observed);
   if (text.size() == lead) {
     text.clear();
   } else if (!lead_first) {

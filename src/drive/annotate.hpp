@@ -12,9 +12,9 @@
 #include <string>
 #include <vector>
 
-#include "core/drive_records.hpp"
 #include "core/message.hpp"
 #include "drive/profile.hpp"
+#include "drive/records.hpp"
 
 namespace drivetap {
 
@@ -92,7 +92,7 @@ struct DriveObservation {
 struct DriveReading {
   std::string text;  // "drive 2 (ERMAN E-9P/9G): ..." or empty when the profile says nothing
   DriveObservation observed;
-  DriveRecords records;  // what the telegram said, as its decoder read it (the reading's storage)
+  DriveRecordReader records;  // what the telegram said, as its decoder read it
 };
 
 // `request`: for a reply, the bytes of its request (as on the wire), empty when unknown.

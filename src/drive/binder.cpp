@@ -5,8 +5,6 @@
 
 #include <algorithm>
 
-#include "core/protocol.hpp"
-
 namespace drivetap {
 namespace {
 
@@ -127,7 +125,8 @@ std::span<const double> DriveBinder::request_evidence(std::uint64_t key) {
   const auto [it, fresh] = request_evidence_.try_emplace(key, evidence_pool_.size());
   if (fresh)
     for (const DriveProfile* candidate : candidates_)
-      evidence_pool_.push_back(telegram_evidence(*candidate, Direction::request, records_));
+      evidence_pool_.push_back(
+          telegram_evidence(*candidate, Direction::request, records_.records()));
   return std::span<const double>(evidence_pool_).subspan(it->second, candidates_.size());
 }
 
@@ -202,13 +201,14 @@ const DriveProfile* DriveBinder::learn_bound(std::size_t link, const TelegramHea
     st.excluded.assign(candidates_.size(), 0);
   }
   ++st.frames;
-  if (const ProtocolDecoder* decoder = decoder_for(m.protocol))
-    decoder->read_drive_records(m, {}, records_);  // (no reply is read with its request here)
-  else
-    records_.clear();
+  // (No reply is read with its request here: only an exception says anything of a reply.)
+  const DriveRecords& records = records_.read(m, {});
   // The same poll repeats all day: a request's evidence is remembered.
   const std::optional<std::uint64_t> key =
-      m.direction == Direction::request ? request_key(records_) : std::nullopt;
+      m.direction == Direction::request ? request_key(records) : std::nullopt;
+  // A telegram with nothing to weigh (a reply that is no exception) scores nothing.
+  const bool weighs = key || !records.records.empty() ||
+                      (m.direction == Direction::request && records.family_protocol);
   const std::span<const double> request_scores =
       key ? request_evidence(*key) : std::span<const double>();
   const std::uint32_t protocol = protocol_bit(m.protocol);
@@ -218,7 +218,10 @@ const DriveProfile* DriveBinder::learn_bound(std::size_t link, const TelegramHea
       st.excluded[i] = 1;
       continue;
     }
-    st.score[i] += key ? request_scores[i] : telegram_evidence(p, m.direction, records_);
+    if (key)
+      st.score[i] += request_scores[i];
+    else if (weighs)
+      st.score[i] += telegram_evidence(p, m.direction, records);
   }
   const auto [best, second] = best_of(st);
   if (best < 0) return bound_now();

@@ -18,9 +18,9 @@
 #include <vector>
 
 #include "core/bus_event.hpp"
-#include "core/drive_records.hpp"
 #include "core/message.hpp"
 #include "drive/profile.hpp"
+#include "drive/records.hpp"
 
 namespace drivetap {
 
@@ -58,8 +58,8 @@ class DriveBinder {
   // Ranks the candidates of a station: best index and the runner-up's score.
   std::pair<int, std::optional<double>> best_of(const Station& station) const;
 
-  // Evidence of the request in records_ for each candidate, in candidate order: the same poll
-  // repeats all day, and the evidence depends only on the candidate and `key` (the function,
+  // Evidence of the request read last (records_) for each candidate, in candidate order: the same
+  // poll repeats all day, and the evidence depends only on the candidate and `key` (the function,
   // space, start and count), so it is worked out once a request for all candidates and looked up
   // once a frame.
   std::span<const double> request_evidence(std::uint64_t key);
@@ -70,7 +70,7 @@ class DriveBinder {
   std::vector<const DriveProfile*> candidates_;
   std::vector<std::uint32_t> protocols_;  // per candidate: protocol_bit() of each it speaks
   std::map<Key, Station> stations_;
-  DriveRecords records_;  // the telegram's, read by its decoder (storage kept between frames)
+  DriveRecordReader records_;  // the telegram's
   // Request key -> offset in evidence_pool_ of its candidates' evidence
   // (kMaxRememberedRequests at most).
   std::unordered_map<std::uint64_t, std::size_t> request_evidence_;
