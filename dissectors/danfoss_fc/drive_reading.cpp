@@ -11,6 +11,22 @@ std::uint16_t be16(std::span<const std::uint8_t> b, std::size_t at) {
   return static_cast<std::uint16_t>((b[at] << 8) | b[at + 1]);
 }
 
+// What each AK means (PROTOCOLS.md §4), to the drive (requests) and from it (replies); an AK
+// not listed is an access of no known meaning (AccessOp::other).
+struct AkMeaning {
+  bool to_drive;
+  unsigned ak;
+  AccessOp op;
+  bool double_word;
+};
+constexpr AkMeaning kAkMeanings[] = {
+    {true, 0x1, AccessOp::read, false},     {true, 0x2, AccessOp::write, false},
+    {true, 0xE, AccessOp::write, false},    {true, 0x3, AccessOp::write, true},
+    {true, 0xD, AccessOp::write, true},     {true, 0xF, AccessOp::text, false},
+    {false, 0x1, AccessOp::value, false},   {false, 0x2, AccessOp::value, true},
+    {false, 0x7, AccessOp::refused, false}, {false, 0xF, AccessOp::text, false},
+};
+
 // The parameter block's access (`to_drive`: a request's AK, else a reply's); none for AK 0.
 void add_parameter_access(std::span<const std::uint8_t> b, bool to_drive, DriveRecords& out) {
   const std::uint16_t pke = be16(b, 3);
@@ -18,48 +34,15 @@ void add_parameter_access(std::span<const std::uint8_t> b, bool to_drive, DriveR
   if (ak == 0) return;
   const std::uint32_t pnu = pke & 0x0FFF;
   const std::uint32_t pwe = static_cast<std::uint32_t>(be16(b, 7)) << 16 | be16(b, 9);
-  AccessOp op = AccessOp::other;
-  bool double_word = false;
-  if (to_drive) {
-    switch (ak) {
-      case 0x1:
-        op = AccessOp::read;
-        break;
-      case 0x2:
-      case 0xE:
-      case 0x3:
-      case 0xD:
-        op = AccessOp::write;
-        double_word = ak == 0x3 || ak == 0xD;
-        break;
-      case 0xF:
-        op = AccessOp::text;
-        break;
-      default:
-        break;
-    }
-  } else {
-    switch (ak) {
-      case 0x1:
-      case 0x2:
-        op = AccessOp::value;
-        double_word = ak == 0x2;
-        break;
-      case 0x7:
-        op = AccessOp::refused;
-        break;
-      case 0xF:
-        op = AccessOp::text;
-        break;
-      default:
-        break;
-    }
-  }
-  DriveRecord& r = out.add_access(RegisterKind::parameter, op, pnu);
-  r.double_word = double_word;
-  r.permanent = to_drive && ak >= 0xD;  // D, E: RAM and EEPROM
-  if (op == AccessOp::write || op == AccessOp::value || op == AccessOp::refused)
-    out.add_value(double_word ? pwe : (pwe & 0xFFFF));
+  AkMeaning meaning{to_drive, ak, AccessOp::other, false};
+  for (const AkMeaning& m : kAkMeanings)
+    if (m.to_drive == to_drive && m.ak == ak) meaning = m;
+  DriveRecord& r = out.add_access(RegisterKind::parameter, meaning.op, pnu);
+  r.double_word = meaning.double_word;
+  r.permanent = meaning.op == AccessOp::write && ak >= 0xD;  // D, E: RAM and EEPROM
+  if (meaning.op == AccessOp::write || meaning.op == AccessOp::value ||
+      meaning.op == AccessOp::refused)
+    out.add_value(meaning.double_word ? pwe : (pwe & 0xFFFF));
 }
 
 }  // namespace

@@ -122,23 +122,40 @@ void append_display_name(std::string& out, const RegisterDef& r) {
   out += r.name;
 }
 
+// Sets `state` from the bits of a control or status word when the profile names any
+// (`inverted`: set when none of them is, a forward bit read as reverse).
+void observe_bits(std::optional<bool>& state, const std::vector<int>& bits, std::uint32_t raw,
+                  bool inverted = false) {
+  if (!bits.empty()) state = any_bit(bits, raw) != inverted;
+}
+
+// The quantities a drive reports, by the role of the register that holds them.
+struct ReportedQuantity {
+  RegisterRole role;
+  std::optional<Quantity> DriveObservation::*member;
+};
+constexpr ReportedQuantity kReportedQuantities[] = {
+    {RegisterRole::setpoint, &DriveObservation::setpoint},
+    {RegisterRole::output_frequency, &DriveObservation::output_frequency},
+    {RegisterRole::current, &DriveObservation::current},
+    {RegisterRole::voltage, &DriveObservation::voltage},
+};
+
 // Applies one value to the observation by the register's role. `written`: the master wrote it
-// (a command), else the drive reported it.
+// (a command), else the drive reported it. (A quantity's text is made only when shown.)
 void observe(const DriveProfile& p, const RegisterDef& r, std::uint32_t raw, bool double_word,
              bool written, DriveObservation& o) {
   const StateBits& s = r.state;
-  // (The quantity's text is made only when shown.)
-  auto set_quantity = [&](std::optional<Quantity>& q) { q = Quantity::of(p, r, raw, double_word); };
   if (written) {
     switch (r.role) {
       case RegisterRole::control:
-        if (!s.run.empty()) o.run_command = any_bit(s.run, raw);
-        if (!s.reverse.empty()) o.reverse_command = any_bit(s.reverse, raw);
-        if (!s.forward.empty()) o.reverse_command = !any_bit(s.forward, raw);
+        observe_bits(o.run_command, s.run, raw);
+        observe_bits(o.reverse_command, s.reverse, raw);
+        observe_bits(o.reverse_command, s.forward, raw, true);
         if (any_bit(s.reset, raw)) o.reset_command = true;
         break;
       case RegisterRole::setpoint:
-        set_quantity(o.setpoint_command);
+        o.setpoint_command = Quantity::of(p, r, raw, double_word);
         break;
       case RegisterRole::start:
         if (raw) o.run_command = true;
@@ -154,32 +171,18 @@ void observe(const DriveProfile& p, const RegisterDef& r, std::uint32_t raw, boo
     }
     return;
   }
-  switch (r.role) {
-    case RegisterRole::status:
-      if (!s.running.empty()) o.running = any_bit(s.running, raw);
-      if (!s.reverse.empty()) o.reverse = any_bit(s.reverse, raw);
-      if (!s.forward.empty()) o.reverse = !any_bit(s.forward, raw);
-      if (!s.fault.empty()) o.fault_active = any_bit(s.fault, raw);
-      if (!s.warning.empty()) o.warning = any_bit(s.warning, raw);
-      break;
-    case RegisterRole::setpoint:
-      set_quantity(o.setpoint);
-      break;
-    case RegisterRole::output_frequency:
-      set_quantity(o.output_frequency);
-      break;
-    case RegisterRole::current:
-      set_quantity(o.current);
-      break;
-    case RegisterRole::voltage:
-      set_quantity(o.voltage);
-      break;
-    case RegisterRole::fault:
-      o.fault_code = raw;
-      o.fault = Quantity::of(p, r, raw, double_word);
-      break;
-    default:
-      break;
+  if (r.role == RegisterRole::status) {
+    observe_bits(o.running, s.running, raw);
+    observe_bits(o.reverse, s.reverse, raw);
+    observe_bits(o.reverse, s.forward, raw, true);
+    observe_bits(o.fault_active, s.fault, raw);
+    observe_bits(o.warning, s.warning, raw);
+  } else if (r.role == RegisterRole::fault) {
+    o.fault_code = raw;
+    o.fault = Quantity::of(p, r, raw, double_word);
+  } else {
+    for (const ReportedQuantity& q : kReportedQuantities)
+      if (q.role == r.role) o.*q.member = Quantity::of(p, r, raw, double_word);
   }
 }
 
