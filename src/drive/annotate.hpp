@@ -97,7 +97,7 @@ struct DriveReading {
 
 // `request`: for a reply, the bytes of its request (as on the wire), empty when unknown.
 // `want_text` false: the observation only, no text (no sink shows it: `read --stats`; or the
-// sink writes it on its own thread: complete_drive_info()). A Modbus exception reply the profile
+// sink writes it on its own thread: complete_drive_info()). An exception reply the profile
 // names still gets its "error 0x.." text.
 DriveReading read_for_drive(const DriveProfile& profile, const Message& message,
                             std::span<const std::uint8_t> request, bool want_text = true);
