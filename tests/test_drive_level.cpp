@@ -18,6 +18,8 @@
 #include "test_support.hpp"
 
 using namespace drivetap;
+using drivetap::testing::ascii_frame;
+using drivetap::testing::eds_frame;
 using drivetap::testing::with_crc;
 
 namespace {
@@ -77,22 +79,6 @@ std::vector<std::uint8_t> with_bcc(std::vector<std::uint8_t> b) {
   for (std::uint8_t c : b) x ^= c;
   b.push_back(x);
   return b;
-}
-
-// Easydrive frame: '~' body SUM CR, SUM = 16-bit sum of the body's ASCII codes, 4 hex digits.
-std::vector<std::uint8_t> eds_frame(std::string_view body) {
-  unsigned sum = 0;
-  for (char c : body) sum += static_cast<unsigned char>(c);
-  const std::string text = fmt::format("~{}{:04X}\r", body, sum & 0xFFFF);
-  return {text.begin(), text.end()};
-}
-
-// Modbus ASCII frame: ':' hex(ADDR..DATA) LRC CR LF.
-std::vector<std::uint8_t> ascii_frame(const std::vector<std::uint8_t>& binary) {
-  std::string text = ":";
-  for (std::uint8_t b : binary) text += fmt::format("{:02X}", b);
-  text += fmt::format("{:02X}\r\n", lrc8(binary));
-  return {text.begin(), text.end()};
 }
 
 std::string load_error(std::string_view toml) {
@@ -807,21 +793,31 @@ TEST(DriveReading, VltAquaModbusMapping) {
 
 TEST(DriveReading, ErgCoilsAndState) {
   const DriveProfile erg = builtin_profile("erg.toml");
-  const DriveReading reset =
-      read_for_drive(erg, rtu({0x01, 0x05, 0x00, 0x09, 0xFF, 0x00}, Direction::request), {});
-  EXPECT_EQ(reset.text, "drive 1 (ERMAN ER-G): set fault reset command ON");
-  EXPECT_TRUE(reset.observed.reset_command);
-  EXPECT_FALSE(reset.observed.run_command);
-  const DriveReading start =
-      read_for_drive(erg, rtu({0x01, 0x05, 0x00, 0x00, 0xFF, 0x00}, Direction::request), {});
-  EXPECT_EQ(start.observed.run_command, true);
-  const DriveReading stop =
-      read_for_drive(erg, rtu({0x01, 0x05, 0x00, 0x01, 0xFF, 0x00}, Direction::request), {});
-  EXPECT_EQ(stop.observed.run_command, false);
-  // A start coil written OFF commands nothing.
-  const DriveReading off =
-      read_for_drive(erg, rtu({0x01, 0x05, 0x00, 0x00, 0x00, 0x00}, Direction::request), {});
-  EXPECT_FALSE(off.observed.run_command);
+  struct CoilWrite {
+    const char* what;
+    std::uint8_t coil, on;
+    const char* text;  // nullptr: not checked
+    std::optional<bool> run_command;
+    bool reset_command;
+  };
+  const CoilWrite writes[] = {
+      {"fault reset", 0x09, 0xFF, "drive 1 (ERMAN ER-G): set fault reset command ON", std::nullopt,
+       true},
+      {"start", 0x00, 0xFF, nullptr, true, false},
+      {"stop", 0x01, 0xFF, nullptr, false, false},
+      // A start coil written OFF commands nothing.
+      {"start written OFF", 0x00, 0x00, nullptr, std::nullopt, false},
+  };
+  for (const CoilWrite& w : writes) {
+    SCOPED_TRACE(w.what);
+    const DriveReading r =
+        read_for_drive(erg, rtu({0x01, 0x05, 0x00, w.coil, w.on, 0x00}, Direction::request), {});
+    if (w.text) {
+      EXPECT_EQ(r.text, w.text);
+    }
+    EXPECT_EQ(r.observed.run_command, w.run_command);
+    EXPECT_EQ(r.observed.reset_command, w.reset_command);
+  }
 
   // FC 04 0x0400: state 2 = running, accelerating; output frequency 0x0001 at 0.1 Hz.
   const Message q = rtu({0x01, 0x04, 0x04, 0x00, 0x00, 0x01}, Direction::request);
@@ -915,29 +911,34 @@ TEST(DriveReading, EasydriveRunAndStatus) {
   EXPECT_EQ(hex.observed.fault.text(), "16 (RS485 communication fault)");
   EXPECT_EQ(hex.observed.reverse, true);  // status bit 2
 
-  // Stop, fault reset, run reverse.
-  EXPECT_EQ(read_for_drive(
-                eds, decode(Protocol::easydrive, eds_frame("010C0007"), Direction::request), {})
-                .observed.run_command,
-            false);
-  EXPECT_TRUE(read_for_drive(
-                  eds, decode(Protocol::easydrive, eds_frame("010C000C"), Direction::request), {})
-                  .observed.reset_command);
-  const DriveReading rev = read_for_drive(
-      eds, decode(Protocol::easydrive, eds_frame("010C0004"), Direction::request), {});
-  EXPECT_EQ(rev.observed.run_command, true);
-  EXPECT_EQ(rev.observed.reverse_command, true);
-
-  // Write F0.08 = 03E8: 100.0 s at 0.1 s.
-  EXPECT_EQ(read_for_drive(
-                eds, decode(Protocol::easydrive, eds_frame("010E000803E8"), Direction::request), {})
-                .text,
-            "drive 1 (Easydrive EDS1000): set F0.08 acceleration time 1 = 100.0 s");
-  // Read of F2.11, which the profile does not name: labelled by the rule.
-  EXPECT_EQ(read_for_drive(
-                eds, decode(Protocol::easydrive, eds_frame("010D020B"), Direction::request), {})
-                .text,
-            "drive 1 (Easydrive EDS1000): read function code F2.11");
+  // Stop, fault reset, run reverse; write F0.08 = 03E8 (100.0 s at 0.1 s); read F2.11, which
+  // the profile does not name: labelled by the rule.
+  struct Request {
+    const char* body;
+    const char* text;  // nullptr: not checked
+    std::optional<bool> run_command, reverse_command;
+    bool reset_command;
+  };
+  const Request requests[] = {
+      {"010C0007", nullptr, false, std::nullopt, false},
+      {"010C000C", nullptr, std::nullopt, std::nullopt, true},
+      {"010C0004", nullptr, true, true, false},
+      {"010E000803E8", "drive 1 (Easydrive EDS1000): set F0.08 acceleration time 1 = 100.0 s",
+       std::nullopt, std::nullopt, false},
+      {"010D020B", "drive 1 (Easydrive EDS1000): read function code F2.11", std::nullopt,
+       std::nullopt, false},
+  };
+  for (const Request& q : requests) {
+    SCOPED_TRACE(q.body);
+    const DriveReading r =
+        read_for_drive(eds, decode(Protocol::easydrive, eds_frame(q.body), Direction::request), {});
+    if (q.text) {
+      EXPECT_EQ(r.text, q.text);
+    }
+    EXPECT_EQ(r.observed.run_command, q.run_command);
+    EXPECT_EQ(r.observed.reverse_command, q.reverse_command);
+    EXPECT_EQ(r.observed.reset_command, q.reset_command);
+  }
 }
 
 // ---------------------------------------------------------------------------------------------

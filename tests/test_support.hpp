@@ -3,14 +3,16 @@
 
 #include <cstdio>
 #include <string>
+#include <string_view>
 #include <vector>
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include "core/checksum.hpp"
 #include "dissectors/danfoss_fc/fc_dissector.hpp"
-#include "pipeline/pipeline.hpp"
 #include "drive/profile.hpp"
+#include "pipeline/pipeline.hpp"
 #include "sources/file/byte_log.hpp"
 
 namespace drivetap::testing {
@@ -61,6 +63,22 @@ inline std::vector<std::uint8_t> with_crc(std::vector<std::uint8_t> b) {
   b.push_back(static_cast<std::uint8_t>(c & 0xFF));
   b.push_back(static_cast<std::uint8_t>(c >> 8));
   return b;
+}
+
+// Modbus ASCII frame: ':' hex(ADDR..DATA) LRC CR LF.
+inline std::vector<std::uint8_t> ascii_frame(const std::vector<std::uint8_t>& binary) {
+  std::string text = ":";
+  for (std::uint8_t b : binary) text += fmt::format("{:02X}", b);
+  text += fmt::format("{:02X}\r\n", lrc8(binary));
+  return {text.begin(), text.end()};
+}
+
+// Easydrive frame: '~' body SUM CR, SUM = 16-bit sum of the body's ASCII codes, 4 hex digits.
+inline std::vector<std::uint8_t> eds_frame(std::string_view body) {
+  unsigned sum = 0;
+  for (char c : body) sum += static_cast<unsigned char>(c);
+  const std::string text = fmt::format("~{}{:04X}\r", body, sum & 0xFFFF);
+  return {text.begin(), text.end()};
 }
 
 inline std::string hex_of(const std::vector<std::uint8_t>& bytes) {

@@ -70,6 +70,8 @@ class FcDecoder final : public ProtocolDecoder {
     dissect_fc(out, t.frame_for(out), direction, timing);
     return true;
   }
+  void read_drive_records(const TelegramHead& telegram, std::span<const std::uint8_t> request,
+                          DriveRecords& out) const override;  // drive_reading.cpp
 };
 
 }  // namespace drivetap::danfoss_fc

@@ -54,6 +54,8 @@ class EdsDecoder final : public ProtocolDecoder {
     dissect_eds(out, t.frame_for(out), direction, timing, request);
     return true;
   }
+  void read_drive_records(const TelegramHead& telegram, std::span<const std::uint8_t> request,
+                          DriveRecords& out) const override;  // drive_reading.cpp
 };
 
 }  // namespace drivetap::easydrive

@@ -24,42 +24,57 @@ int hex_digit(std::uint8_t c, bool* lower) {
 
 }  // namespace
 
-AsciiHex decode_ascii_hex(std::span<const std::uint8_t> frame) {
-  AsciiHex out;
+void spell_ascii_hex(std::span<const std::uint8_t> frame, std::vector<std::uint8_t>& binary,
+                     AsciiHex* report) {
+  binary.clear();
+  auto problem = [&](auto&& make) {
+    if (report) report->problems.push_back(make());
+  };
   std::size_t end = frame.size();
   if (end >= 2 && frame[end - 2] == '\r' && frame[end - 1] == '\n') {
-    out.terminated = true;
+    if (report) report->terminated = true;
     end -= 2;
   } else if (end >= 1 && (frame[end - 1] == '\n' || frame[end - 1] == '\r')) {
-    out.problems.push_back("ends with a lone CR or LF instead of CR LF");
+    problem([] { return std::string("ends with a lone CR or LF instead of CR LF"); });
     end -= 1;
   } else {
-    out.problems.push_back("no CR LF at the end: frame cut");
+    problem([] { return std::string("no CR LF at the end: frame cut"); });
   }
   if (frame.empty() || frame[0] != ':') {
-    out.problems.push_back("does not start with ':'");
-    return out;
+    problem([] { return std::string("does not start with ':'"); });
+    return;
   }
+  bool lower_case = false;
   // Each pass consumes two characters.
   for (std::size_t i = 1; i + 1 < end + 1 && i < end; i += 2) {
     if (i + 1 >= end) {
-      out.problems.push_back(
-          fmt::format(FMT_COMPILE("odd number of hex characters (stray '{}' at {})"),
-                      static_cast<char>(frame[i]), i));
+      problem([&] {
+        return fmt::format(FMT_COMPILE("odd number of hex characters (stray '{}' at {})"),
+                           static_cast<char>(frame[i]), i);
+      });
       break;
     }
-    const int hi = hex_digit(frame[i], &out.lower_case);
-    const int lo = hex_digit(frame[i + 1], &out.lower_case);
+    const int hi = hex_digit(frame[i], &lower_case);
+    const int lo = hex_digit(frame[i + 1], &lower_case);
     if (hi < 0 || lo < 0) {
       const std::size_t at = hi < 0 ? i : i + 1;
-      out.problems.push_back(
-          fmt::format(FMT_COMPILE("character 0x{:02X} at {} is not a hex digit"), frame[at], at));
+      problem([&] {
+        return fmt::format(FMT_COMPILE("character 0x{:02X} at {} is not a hex digit"), frame[at],
+                           at);
+      });
       break;
     }
-    out.binary.push_back(static_cast<std::uint8_t>((hi << 4) | lo));
+    binary.push_back(static_cast<std::uint8_t>((hi << 4) | lo));
   }
-  if (out.lower_case)
-    out.problems.push_back("lower-case hex digits (the protocol uses upper case)");
+  if (lower_case && report) {
+    report->lower_case = true;
+    report->problems.push_back("lower-case hex digits (the protocol uses upper case)");
+  }
+}
+
+AsciiHex decode_ascii_hex(std::span<const std::uint8_t> frame) {
+  AsciiHex out;
+  spell_ascii_hex(frame, out.binary, &out);
   return out;
 }
 

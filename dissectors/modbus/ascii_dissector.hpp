@@ -25,6 +25,10 @@ struct AsciiHex {
   bool terminated = false;  // ended with CR LF
 };
 AsciiHex decode_ascii_hex(std::span<const std::uint8_t> frame);
+// The same into `binary` (its storage reused), with what was wrong with the text in *report
+// unless it is nullptr.
+void spell_ascii_hex(std::span<const std::uint8_t> frame, std::vector<std::uint8_t>& binary,
+                     AsciiHex* report);
 
 // The Modbus ASCII plausibility rules (dissectors/common/plausibility.hpp): ':' first, hex digits
 // (either case: lower case is a `malformed` finding, not another protocol), an even count of them
@@ -57,6 +61,8 @@ class AsciiDecoder final : public ProtocolDecoder {
     dissect_ascii(out, t.frame_for(out), direction, timing);
     return true;
   }
+  void read_drive_records(const TelegramHead& telegram, std::span<const std::uint8_t> request,
+                          DriveRecords& out) const override;  // drive_reading.cpp
 };
 
 }  // namespace drivetap::modbus

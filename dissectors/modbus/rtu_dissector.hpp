@@ -52,6 +52,8 @@ class RtuDecoder final : public ProtocolDecoder {
   bool dissect(TelegramView& t, Direction direction, const FramingTiming& timing,
                std::span<const std::uint8_t> request, DissectDepth depth, Message& out,
                TelegramFindings* head) const override;
+  void read_drive_records(const TelegramHead& telegram, std::span<const std::uint8_t> request,
+                          DriveRecords& out) const override;  // drive_reading.cpp
   bool precheck(std::span<const std::uint8_t> bytes, TelegramPrecheck* out) const override;
 };
 

@@ -9,6 +9,7 @@
 #include <string_view>
 #include <vector>
 
+#include "core/drive_records.hpp"
 #include "core/framer.hpp"
 #include "core/message.hpp"
 #include "core/precheck.hpp"
@@ -103,7 +104,16 @@ class ProtocolDecoder {
     t.frame = &frame;
     dissect(t, direction, timing, request, DissectDepth::detail, out, nullptr);
   }
-  // The same into a new Message.
+  // What the telegram says to or of its drive (core/drive_records.hpp), for the drive level:
+  // `out` is cleared and filled, its storage reused. `request`: for a reply, the bytes of the
+  // request it answers (empty when unknown). A protocol with nothing for drives leaves it empty.
+  virtual void read_drive_records(const TelegramHead& telegram,
+                                  std::span<const std::uint8_t> request, DriveRecords& out) const {
+    (void)telegram;
+    (void)request;
+    out.clear();
+  }
+  // The same into a new Message, decoded in detail.
   [[nodiscard]] Message dissect(Frame frame, Direction direction, const FramingTiming& timing,
                                 std::span<const std::uint8_t> request = {}) const {
     Message m;

@@ -1,5 +1,5 @@
-// Drive-level reading of Modbus, Danfoss FC and Easydrive frames from a drive profile
-// (dissectors/profiles/README.md; frame layouts PROTOCOLS.md §2-§5).
+// Drive-level reading of a telegram's drive records (core/drive_records.hpp, read by its
+// protocol's decoder) from a drive profile (dissectors/profiles/README.md).
 #include "drive/annotate.hpp"
 
 #include <fmt/compile.h>
@@ -12,15 +12,9 @@
 #include <vector>
 
 #include "core/format.hpp"
-#include "dissectors/easydrive/eds_dissector.hpp"
-#include "dissectors/modbus/ascii_dissector.hpp"
 
 namespace drivetap {
 namespace {
-
-std::uint16_t be16(std::span<const std::uint8_t> b, std::size_t at) {
-  return static_cast<std::uint16_t>((b[at] << 8) | b[at + 1]);
-}
 
 // Decimals a scaled value is shown with: those of a decimal scale (0.01 -> 2), else 2 (a
 // binary scale such as Danfoss's 100/16384 % would print noise digits).
@@ -87,22 +81,22 @@ bool any_bit(const std::vector<int>& bits, std::uint32_t raw) {
 }
 
 // The "; "-separated parts of an annotation, appended in place to the reading's text (whose
-// storage the pipeline reuses from frame to frame); `lead` goes before the first part ("set ").
+// storage the pipeline reuses from frame to frame).
 // Off (nothing written) when no sink shows the text: the observation is still made. It also
 // carries whether the observation is wanted (observing(): the readers apply the register roles
 // only then; the text never depends on them).
 class Parts {
  public:
-  Parts(std::string& out, DriveReadingWants wants, std::string_view lead = {})
+  Parts(std::string& out, DriveReadingWants wants)
       : out_(out),
         enabled_(wants != DriveReadingWants::observation),
-        observing_(wants != DriveReadingWants::text),
-        lead_(lead) {}
+        observing_(wants != DriveReadingWants::text) {}
   [[nodiscard]] bool enabled() const { return enabled_; }
   [[nodiscard]] bool observing() const { return observing_; }
-  // The text with the lead or a separator appended: append the next part to it.
-  std::string& next() {
-    out_ += count_++ > 0 ? std::string_view("; ") : lead_;
+  // The text with a separator appended, or `lead` before the first part ("set "): append the
+  // next part to it.
+  std::string& next(std::string_view lead = {}) {
+    out_ += count_++ > 0 ? std::string_view("; ") : lead;
     return out_;
   }
   void add(std::string_view part) {
@@ -117,7 +111,6 @@ class Parts {
   std::string& out_;
   bool enabled_;
   bool observing_;
-  std::string_view lead_;
   std::size_t count_ = 0;
 };
 
@@ -129,23 +122,40 @@ void append_display_name(std::string& out, const RegisterDef& r) {
   out += r.name;
 }
 
+// Sets `state` from the bits of a control or status word when the profile names any
+// (`inverted`: set when none of them is, a forward bit read as reverse).
+void observe_bits(std::optional<bool>& state, const std::vector<int>& bits, std::uint32_t raw,
+                  bool inverted = false) {
+  if (!bits.empty()) state = any_bit(bits, raw) != inverted;
+}
+
+// The quantities a drive reports, by the role of the register that holds them.
+struct ReportedQuantity {
+  RegisterRole role;
+  std::optional<Quantity> DriveObservation::*member;
+};
+constexpr ReportedQuantity kReportedQuantities[] = {
+    {RegisterRole::setpoint, &DriveObservation::setpoint},
+    {RegisterRole::output_frequency, &DriveObservation::output_frequency},
+    {RegisterRole::current, &DriveObservation::current},
+    {RegisterRole::voltage, &DriveObservation::voltage},
+};
+
 // Applies one value to the observation by the register's role. `written`: the master wrote it
-// (a command), else the drive reported it.
+// (a command), else the drive reported it. (A quantity's text is made only when shown.)
 void observe(const DriveProfile& p, const RegisterDef& r, std::uint32_t raw, bool double_word,
              bool written, DriveObservation& o) {
   const StateBits& s = r.state;
-  // (The quantity's text is made only when shown.)
-  auto set_quantity = [&](std::optional<Quantity>& q) { q = Quantity::of(p, r, raw, double_word); };
   if (written) {
     switch (r.role) {
       case RegisterRole::control:
-        if (!s.run.empty()) o.run_command = any_bit(s.run, raw);
-        if (!s.reverse.empty()) o.reverse_command = any_bit(s.reverse, raw);
-        if (!s.forward.empty()) o.reverse_command = !any_bit(s.forward, raw);
+        observe_bits(o.run_command, s.run, raw);
+        observe_bits(o.reverse_command, s.reverse, raw);
+        observe_bits(o.reverse_command, s.forward, raw, true);
         if (any_bit(s.reset, raw)) o.reset_command = true;
         break;
       case RegisterRole::setpoint:
-        set_quantity(o.setpoint_command);
+        o.setpoint_command = Quantity::of(p, r, raw, double_word);
         break;
       case RegisterRole::start:
         if (raw) o.run_command = true;
@@ -161,40 +171,55 @@ void observe(const DriveProfile& p, const RegisterDef& r, std::uint32_t raw, boo
     }
     return;
   }
-  switch (r.role) {
-    case RegisterRole::status:
-      if (!s.running.empty()) o.running = any_bit(s.running, raw);
-      if (!s.reverse.empty()) o.reverse = any_bit(s.reverse, raw);
-      if (!s.forward.empty()) o.reverse = !any_bit(s.forward, raw);
-      if (!s.fault.empty()) o.fault_active = any_bit(s.fault, raw);
-      if (!s.warning.empty()) o.warning = any_bit(s.warning, raw);
-      break;
-    case RegisterRole::setpoint:
-      set_quantity(o.setpoint);
-      break;
-    case RegisterRole::output_frequency:
-      set_quantity(o.output_frequency);
-      break;
-    case RegisterRole::current:
-      set_quantity(o.current);
-      break;
-    case RegisterRole::voltage:
-      set_quantity(o.voltage);
-      break;
-    case RegisterRole::fault:
-      o.fault_code = raw;
-      o.fault = Quantity::of(p, r, raw, double_word);
-      break;
-    default:
-      break;
+  if (r.role == RegisterRole::status) {
+    observe_bits(o.running, s.running, raw);
+    observe_bits(o.reverse, s.reverse, raw);
+    observe_bits(o.reverse, s.forward, raw, true);
+    observe_bits(o.fault_active, s.fault, raw);
+    observe_bits(o.warning, s.warning, raw);
+  } else if (r.role == RegisterRole::fault) {
+    o.fault_code = raw;
+    o.fault = Quantity::of(p, r, raw, double_word);
+  } else {
+    for (const ReportedQuantity& q : kReportedQuantities)
+      if (q.role == r.role) o.*q.member = Quantity::of(p, r, raw, double_word);
   }
 }
 
-// Reads consecutive 16-bit values starting at `start` in the register space of `kind` (holding
-// registers also reach parameters through the addressing rule); collects "name value" parts.
+// The text of a parameter the profile does not name: "parameter 4-14", or under Easydrive's
+// rule the manual's "function code F2.11" (profile data: the rule says how the manual numbers
+// its parameters).
+std::string_view unnamed_parameter_noun(const DriveProfile& p) {
+  return p.parameter_rule == ParameterRule::easydrive ? "function code " : "parameter ";
+}
+
+// "frequency setpoint", "16-13 frequency", "parameter 4-14", "register 0x0123", appended: how
+// the profile names `address` of `kind`. An address it does not name reads as the parameter
+// the addressing rule puts there, else as a register's number.
+void append_name_at(std::string& out, const DriveProfile& p, RegisterKind kind,
+                    std::uint32_t address) {
+  std::string label;
+  const RegisterDef* r =
+      kind == RegisterKind::holding ? p.find_holding(address, &label) : p.find(kind, address);
+  if (r) {
+    append_display_name(out, *r);
+  } else if (kind == RegisterKind::parameter) {
+    out += unnamed_parameter_noun(p);
+    out += p.parameter_label(address);
+  } else if (!label.empty()) {
+    out += "parameter ";
+    out += label;
+  } else {
+    fmt::format_to(std::back_inserter(out), FMT_COMPILE("register 0x{:04X}"), address);
+  }
+}
+
+// Reads consecutive values from `start` in the space of `kind` (holding registers also reach
+// parameters through the addressing rule); collects "name value" parts, the first after `lead`.
+// A register of two words takes the next value as its low word.
 void read_registers(const DriveProfile& p, RegisterKind kind, std::uint32_t start,
-                    std::span<const std::uint16_t> values, bool written, Parts& parts,
-                    DriveObservation& o) {
+                    std::span<const std::uint32_t> values, bool written, std::string_view lead,
+                    Parts& parts, DriveObservation& o) {
   DriveProfile::Walk walk(p, kind, start);
   for (std::size_t i = 0; i < values.size(); ++i) {
     const std::uint32_t address = start + static_cast<std::uint32_t>(i);
@@ -205,7 +230,7 @@ void read_registers(const DriveProfile& p, RegisterKind kind, std::uint32_t star
     const bool double_word = r->words == 2 && i + 1 < values.size();
     if (double_word) raw = raw << 16 | values[++i];
     if (parts.enabled()) {
-      std::string& text = parts.next();
+      std::string& text = parts.next(lead);
       append_display_name(text, *r);
       text += ' ';
       append_value(text, p, *r, raw, double_word);
@@ -214,327 +239,216 @@ void read_registers(const DriveProfile& p, RegisterKind kind, std::uint32_t star
   }
 }
 
-void read_coils(const DriveProfile& p, std::uint32_t start, std::size_t count,
-                std::span<const std::uint8_t> packed, bool written, Parts& parts,
-                DriveObservation& o) {
-  for (std::size_t i = 0; i < count && i / 8 < packed.size(); ++i) {
-    const RegisterDef* r = p.find(RegisterKind::coil, start + static_cast<std::uint32_t>(i));
+// Coils from `start`, one value (0 or 1) each: "name ON" parts.
+void read_coils(const DriveProfile& p, RegisterKind kind, std::uint32_t start,
+                std::span<const std::uint32_t> values, bool written, std::string_view lead,
+                Parts& parts, DriveObservation& o) {
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    const RegisterDef* r = p.find(kind, start + static_cast<std::uint32_t>(i));
     if (!r) continue;
-    const bool on = (packed[i / 8] >> (i % 8)) & 1;
-    parts.add("{} {}", r->name, on ? "ON" : "OFF");
-    if (parts.observing()) observe(p, *r, on, false, written, o);
-  }
-}
-
-// "frequency setpoint", "16-13 frequency", "parameter 4-14", "register 0x0123", appended.
-void append_name_at(std::string& out, const DriveProfile& p, RegisterKind kind,
-                    std::uint32_t address) {
-  std::string label;
-  const RegisterDef* r =
-      kind == RegisterKind::holding ? p.find_holding(address, &label) : p.find(kind, address);
-  if (r) {
-    append_display_name(out, *r);
-  } else if (!label.empty()) {
-    out += "parameter ";
-    out += label;
-  } else {
-    fmt::format_to(std::back_inserter(out), FMT_COMPILE("register 0x{:04X}"), address);
-  }
-}
-
-// The big-endian 16-bit values of b[from, end): in `small` when they fit (any frame within
-// Modbus's 256 bytes), else in `large`. No allocation for the frames of a poll.
-std::span<const std::uint16_t> words_of(std::span<const std::uint8_t> b, std::size_t from,
-                                        std::size_t end, std::array<std::uint16_t, 128>& small,
-                                        std::vector<std::uint16_t>& large) {
-  const std::size_t n = end > from ? (end - from) / 2 : 0;
-  std::uint16_t* out = small.data();
-  if (n > small.size()) {
-    large.resize(n);
-    out = large.data();
-  }
-  for (std::size_t k = 0; k < n; ++k) out[k] = be16(b, from + 2 * k);
-  return {out, n};
-}
-
-// The readers below append the annotation to `out` (after the caller's "drive N (name): ") and
-// fill the observation.
-void read_modbus(const DriveProfile& p, const TelegramHead& m,
-                 std::span<const std::uint8_t> request, DriveReadingWants wants, std::string& out,
-                 DriveObservation& o) {
-  std::vector<std::uint8_t> decoded;
-  const std::span<const std::uint8_t> b = modbus_binary(m.protocol, m.bytes, decoded);
-  if (b.size() < 4) return;
-  const std::uint8_t fc = b[1];
-  const std::size_t end = b.size() - (m.protocol == Protocol::modbus_rtu ? 2 : 1);  // before check
-  if (fc & 0x80) {
-    const auto it = p.exceptions.find(b[2]);
-    if (it != p.exceptions.end())
-      fmt::format_to(std::back_inserter(out), FMT_COMPILE("error 0x{:02X}: {}"), b[2], it->second);
-    return;
-  }
-  // A request's parts say what the master sets.
-  Parts parts(out, wants, m.direction == Direction::request ? "set " : "");
-  if (m.direction == Direction::request) {
-    if ((fc == 0x03 || fc == 0x04) && end >= 6) {
-      const RegisterKind kind = fc == 0x03 ? RegisterKind::holding : RegisterKind::input;
-      const std::uint16_t start = be16(b, 2), count = be16(b, 4);
-      if (!parts.enabled()) return;
-      out += "read ";
-      append_name_at(out, p, kind, start);
-      if (count > 1) {
-        out += " .. ";
-        append_name_at(out, p, kind, static_cast<std::uint32_t>(start) + count - 1);
-      }
-      return;
+    if (parts.enabled()) {
+      std::string& text = parts.next(lead);
+      text += r->name;
+      text += values[i] ? " ON" : " OFF";
     }
-    if (fc == 0x06 && end >= 6) {
-      const std::uint16_t values[] = {be16(b, 4)};
-      read_registers(p, RegisterKind::holding, be16(b, 2), values, true, parts, o);
-    } else if (fc == 0x10 && end >= 7) {
-      std::array<std::uint16_t, 128> small;
-      std::vector<std::uint16_t> large;
-      read_registers(p, RegisterKind::holding, be16(b, 2), words_of(b, 7, end, small, large), true,
-                     parts, o);
-    } else if (fc == 0x05 && end >= 6) {
-      const std::uint8_t on = b[4] == 0xFF ? 1 : 0;
-      read_coils(p, be16(b, 2), 1, std::span(&on, 1), true, parts, o);
-    } else if (fc == 0x0F && end >= 7) {
-      read_coils(p, be16(b, 2), be16(b, 4), std::span(b).subspan(7, end - 7), true, parts, o);
-    }
-    return;
-  }
-  if (m.direction != Direction::response || request.empty()) return;
-  std::vector<std::uint8_t> request_decoded;
-  const std::span<const std::uint8_t> q = modbus_binary(m.protocol, request, request_decoded);
-  if (q.size() < 6 || q[1] != fc) return;
-  if ((fc == 0x03 || fc == 0x04) && end >= 3) {
-    std::array<std::uint16_t, 128> small;
-    std::vector<std::uint16_t> large;
-    read_registers(p, fc == 0x03 ? RegisterKind::holding : RegisterKind::input, be16(q, 2),
-                   words_of(b, 3, end, small, large), false, parts, o);
-  } else if ((fc == 0x01 || fc == 0x02) && end >= 3) {
-    read_coils(p, be16(q, 2), be16(q, 4), std::span(b).subspan(3, end - 3), false, parts, o);
+    if (parts.observing()) observe(p, *r, values[i], false, written, o);
   }
 }
 
-// Danfoss FC protocol (PROTOCOLS.md §4):
-//   STX LGE ADR [PKE IND PWEhigh PWElow] PCD1 PCD2 BCC        (LGE 6: PCD only; 14: with PKE)
-//   PKE = AK(4 bits) PNU(12 bits); PCD1/PCD2 = CTW/REF to the drive, STW/MAV from it.
-void read_fc(const DriveProfile& p, const TelegramHead& m, DriveReadingWants wants,
-             std::string& out, DriveObservation& o) {
-  const std::span<const std::uint8_t> b = m.bytes;
-  if (b.size() < 4 || b[0] != 0x02) return;
-  const std::size_t lge = b[1];
-  if (b.size() != lge + 2 || (lge != 6 && lge != 14)) return;
-  const bool to_drive = m.direction == Direction::request;
-  if (m.direction == Direction::unknown) return;
-  Parts parts(out, wants);
-  if (lge == 14) {
-    const std::uint16_t pke = be16(b, 3);
-    const unsigned ak = pke >> 12;
-    const std::uint32_t pnu = pke & 0x0FFF;
-    const std::uint32_t pwe = static_cast<std::uint32_t>(be16(b, 7)) << 16 | be16(b, 9);
-    const RegisterDef* r = p.find(RegisterKind::parameter, pnu);
-    const std::string name = r ? display_name(*r) : "parameter " + p.parameter_label(pnu);
-    auto value = [&](bool double_word) {
-      const std::uint32_t raw = double_word ? pwe : (pwe & 0xFFFF);
-      if (!r) return fmt::format(FMT_COMPILE("{}"), raw);
-      return describe_value(p, *r, raw, double_word);
-    };
-    if (to_drive) {
-      switch (ak) {
-        case 0x1:
-          parts.add("read {}", name);
-          break;
-        case 0x2:
-        case 0xE:
-        case 0x3:
-        case 0xD: {
-          const bool dw = ak == 0x3 || ak == 0xD;
-          if (parts.enabled())
-            parts.add("set {} = {}{}", name, value(dw), ak >= 0xD ? " (RAM and EEPROM)" : "");
-          if (r && parts.observing()) observe(p, *r, dw ? pwe : (pwe & 0xFFFF), dw, true, o);
-          break;
-        }
-        case 0xF:
-          parts.add("text of {}", name);
-          break;
-        default:
-          break;
-      }
-    } else {
-      switch (ak) {
-        case 0x1:
-        case 0x2: {
-          const bool dw = ak == 0x2;
-          if (parts.enabled()) parts.add("{} {}", name, value(dw));
-          if (r && parts.observing()) observe(p, *r, dw ? pwe : (pwe & 0xFFFF), dw, false, o);
-          break;
-        }
-        case 0x7: {
-          const std::uint32_t error = pwe & 0xFFFF;
-          const auto it = p.parameter_errors.find(error);
-          parts.add("cannot execute on {}: error {}{}", name, error,
-                    it == p.parameter_errors.end() ? "" : " (" + it->second + ")");
-          break;
-        }
-        case 0xF:
-          parts.add("text of {}", name);
-          break;
-        default:
-          break;
-      }
-    }
+// A read request: "read frequency setpoint .. output current". Coils are not announced (the
+// reply shows each one's state), nor a running value the profile does not name.
+void announce_read(const DriveProfile& p, const DriveRecord& a, Parts& parts) {
+  if (!parts.enabled() || a.kind == RegisterKind::coil || a.kind == RegisterKind::discrete) return;
+  if (a.kind == RegisterKind::running && !p.find(a.kind, a.first)) return;
+  std::string& text = parts.next();
+  text += "read ";
+  append_name_at(text, p, a.kind, a.first);
+  if (a.count > 1) {
+    text += " .. ";
+    append_name_at(text, p, a.kind, a.first + a.count - 1);
   }
-  const std::vector<std::uint32_t>& pcd = to_drive ? p.pcd_to_drive : p.pcd_from_drive;
-  const std::size_t at = lge == 14 ? 11 : 3;
-  for (std::size_t i = 0; i < pcd.size() && i < 2; ++i) {
-    const RegisterDef* r = p.find(RegisterKind::holding, pcd[i]);
+}
+
+// A parameter's value written or reported: "set 4-14 ... = 100.0 Hz (RAM and EEPROM)", "4-14
+// ... 100.0 Hz". A parameter the profile does not name shows its raw value, unless the reply
+// does not carry its number.
+void read_parameter_value(const DriveProfile& p, const DriveRecord& a, std::uint32_t raw,
+                          Parts& parts, DriveObservation& o) {
+  const RegisterDef* r = p.find(RegisterKind::parameter, a.first);
+  const bool written = a.op == AccessOp::write;
+  if (!r && a.addressed_by_request) return;
+  if (parts.enabled()) {
+    std::string& text = parts.next();
+    if (written) text += "set ";
+    append_name_at(text, p, RegisterKind::parameter, a.first);
+    text += written ? " = " : " ";
+    if (r)
+      append_value(text, p, *r, raw, a.double_word);
+    else
+      append_uint(text, raw);
+    if (a.permanent) text += " (RAM and EEPROM)";
+  }
+  if (r && parts.observing()) observe(p, *r, raw, a.double_word, written, o);
+}
+
+void read_access(const DriveProfile& p, const DriveRecord& a, std::span<const std::uint32_t> values,
+                 Parts& parts, DriveObservation& o) {
+  switch (a.op) {
+    case AccessOp::read:
+      announce_read(p, a, parts);
+      break;
+    case AccessOp::write:
+    case AccessOp::value: {
+      if (a.kind == RegisterKind::parameter) {
+        if (!values.empty()) read_parameter_value(p, a, values[0], parts, o);
+        break;
+      }
+      // A request's parts say what the master sets.
+      const bool written = a.op == AccessOp::write;
+      const std::string_view lead = written ? "set " : "";
+      if (a.kind == RegisterKind::coil || a.kind == RegisterKind::discrete)
+        read_coils(p, a.kind, a.first, values, written, lead, parts, o);
+      else
+        read_registers(p, a.kind, a.first, values, written, lead, parts, o);
+      break;
+    }
+    case AccessOp::refused:
+      if (parts.enabled() && !values.empty()) {
+        std::string& text = parts.next();
+        text += "cannot execute on ";
+        append_name_at(text, p, a.kind, a.first);
+        text += ": error ";
+        append_uint(text, values[0]);
+        if (const auto it = p.parameter_errors.find(values[0]); it != p.parameter_errors.end()) {
+          text += " (";
+          text += it->second;
+          text += ')';
+        }
+      }
+      break;
+    case AccessOp::text:
+      if (parts.enabled()) {
+        std::string& text = parts.next();
+        text += "text of ";
+        append_name_at(text, p, a.kind, a.first);
+      }
+      break;
+    case AccessOp::other:
+      break;
+  }
+}
+
+// Process data words, mapped to registers by the profile for the telegram's direction.
+void read_process_words(const DriveProfile& p, bool to_drive, std::span<const std::uint32_t> values,
+                        Parts& parts, DriveObservation& o) {
+  const std::vector<std::uint32_t>& slots = to_drive ? p.pcd_to_drive : p.pcd_from_drive;
+  for (std::size_t i = 0; i < slots.size() && i < values.size(); ++i) {
+    const RegisterDef* r = p.find(RegisterKind::holding, slots[i]);
     if (!r) continue;
-    const std::uint16_t raw = be16(b, at + 2 * i);
     if (parts.enabled()) {
       std::string& text = parts.next();
       text += r->name;
       text += ' ';
-      append_value(text, p, *r, raw, false);
+      append_value(text, p, *r, values[i], false);
     }
-    if (parts.observing()) observe(p, *r, raw, false, to_drive, o);
+    if (parts.observing()) observe(p, *r, values[i], false, to_drive, o);
   }
 }
 
-// Easydrive (PROTOCOLS.md §5), ASCII hex between '~' and CR:
-//   request  ~ AA CC IIII [DDDD] SSSS CR     (CC command 0A..0F, IIII index)
-//   reply    ~ AA RR FF II [DDDD] SSSS CR    (RR response code, FF current fault, II index low)
-// Run control (001, command "12"): what each index commands. `run`/`reverse`: the command it
-// carries, if any; `with_frequency`: its data field is the new setpoint.
-struct RunAction {
-  long index;
-  const char* label;  // "" when the setpoint is all it says
+// What each RunCommand commands (in the enum's order); `label` "" when the setpoint it carries
+// is all it says.
+struct RunCommandMeaning {
+  const char* label;
   std::optional<bool> run, reverse;
-  bool reset, with_frequency;
+  bool reset;
 };
-constexpr RunAction kRunActions[] = {
-    {0x1, "", std::nullopt, std::nullopt, false, true},
-    {0x2, "run", true, std::nullopt, false, true},
-    {0x3, "run forward", true, false, false, false},
-    {0x4, "run reverse", true, true, false, false},
-    {0x5, "run forward", true, false, false, true},
-    {0x6, "run reverse", true, true, false, true},
-    {0x7, "stop", false, std::nullopt, false, false},
-    {0xC, "fault reset", std::nullopt, std::nullopt, true, false},
-    {0xE, "emergency stop", false, std::nullopt, false, false},
+constexpr RunCommandMeaning kRunCommands[] = {
+    {"", std::nullopt, std::nullopt, false},            // setpoint
+    {"run", true, std::nullopt, false},                 // run
+    {"run forward", true, false, false},                // run_forward
+    {"run reverse", true, true, false},                 // run_reverse
+    {"stop", false, std::nullopt, false},               // stop
+    {"fault reset", std::nullopt, std::nullopt, true},  // fault_reset
+    {"emergency stop", false, std::nullopt, false},     // emergency_stop
 };
+static_assert(std::size(kRunCommands) == static_cast<std::size_t>(RunCommand::emergency_stop) + 1);
 
-void read_easydrive(const DriveProfile& p, const TelegramHead& m,
-                    std::span<const std::uint8_t> request, DriveReadingWants wants,
-                    std::string& out, DriveObservation& o) {
-  const std::span<const std::uint8_t> f = m.bytes;
-  if (f.size() != 14 && f.size() != 18) return;
-  const bool has_data = f.size() == 18;
-  const long data = has_data ? easydrive::hex_field(f, 9, 4) : -1;
-  Parts parts(out, wants);
+void read_command(const DriveProfile& p, const DriveRecord& c,
+                  std::span<const std::uint32_t> values, Parts& parts, DriveObservation& o) {
+  const RunCommandMeaning& meaning = kRunCommands[static_cast<std::size_t>(c.command)];
+  if (*meaning.label) parts.add(std::string_view(meaning.label));
+  if (meaning.run) o.run_command = meaning.run;
+  if (meaning.reverse) o.reverse_command = meaning.reverse;
+  if (meaning.reset) o.reset_command = true;
+  if (values.empty()) return;
+  // The setpoint it carries reads as the profile's setpoint of the command's space.
   const RegisterDef* setpoint = nullptr;
   for (const RegisterDef& r : p.registers)
-    if (r.kind == RegisterKind::running && r.role == RegisterRole::setpoint) setpoint = &r;
-  if (m.direction == Direction::request) {
-    const long cmd = easydrive::hex_field(f, 3, 2), index = easydrive::hex_field(f, 5, 4);
-    if (cmd < 0 || index < 0) return;
-    const auto u_index = static_cast<std::uint32_t>(index);
-    const RegisterDef* par = p.find(RegisterKind::parameter, u_index);
-    const std::string par_name =
-        par ? display_name(*par) : "function code " + p.parameter_label(u_index);
-    switch (cmd) {
-      case 0x0A:
-        parts.add("status query");
-        break;
-      case 0x0B:
-        if (const RegisterDef* r = p.find(RegisterKind::running, u_index))
-          parts.add("read {}", r->name);
-        break;
-      case 0x0C:
-        for (const RunAction& action : kRunActions) {
-          if (action.index != index) continue;
-          if (*action.label) parts.add(std::string_view(action.label));
-          if (action.run) o.run_command = action.run;
-          if (action.reverse) o.reverse_command = action.reverse;
-          if (action.reset) o.reset_command = true;
-          if (action.with_frequency && data >= 0 && setpoint) {
-            o.setpoint_command =
-                Quantity::of(p, *setpoint, static_cast<std::uint32_t>(data), false);
-            if (parts.enabled()) parts.add("setpoint {}", o.setpoint_command->text());
-          }
-        }
-        break;
-      case 0x0D:
-        parts.add("read {}", par_name);
-        break;
-      case 0x0E:
-        if (data >= 0 && par) {
-          if (parts.enabled())
-            parts.add("set {} = {}", par_name,
-                      describe_value(p, *par, static_cast<std::uint32_t>(data)));
-          if (parts.observing()) observe(p, *par, static_cast<std::uint32_t>(data), false, true, o);
-        } else if (data >= 0) {
-          parts.add("set {} = {}", par_name, data);
-        }
-        break;
-      default:
-        break;
-    }
-    return;
+    if (r.kind == c.kind && r.role == RegisterRole::setpoint) setpoint = &r;
+  if (!setpoint) return;
+  o.setpoint_command = Quantity::of(p, *setpoint, values[0], false);
+  if (parts.enabled()) parts.add("setpoint {}", o.setpoint_command->text());
+}
+
+// The drive's current fault code: "fault 3 (overcurrent at constant speed)" when there is one.
+void read_fault(const DriveProfile& p, std::uint32_t code, Parts& parts, DriveObservation& o) {
+  o.fault_code = code;
+  const auto names = p.enums.find("fault");
+  const std::string* name = nullptr;
+  if (names != p.enums.end()) {
+    const auto it = names->second.find(code);
+    if (it != names->second.end() && !it->second.empty()) name = &it->second;
   }
-  if (m.direction != Direction::response) return;
-  const long code = easydrive::hex_field(f, 3, 2), fault = easydrive::hex_field(f, 5, 2);
-  const long cmd = easydrive::hex_field(request, 3, 2), index = easydrive::hex_field(request, 5, 4);
-  if (code == 0x20 || code == 0x30) return;  // rejected: the frame line names the reason
-  if (cmd == 0x0B && index >= 0 && data >= 0) {
-    if (const RegisterDef* r = p.find(RegisterKind::running, static_cast<std::uint32_t>(index))) {
-      if (parts.enabled())
-        parts.add("{} {}", r->name, describe_value(p, *r, static_cast<std::uint32_t>(data)));
-      if (parts.observing()) observe(p, *r, static_cast<std::uint32_t>(data), false, false, o);
-    }
-  } else if (cmd == 0x0D && index >= 0 && data >= 0) {
-    if (const RegisterDef* r = p.find(RegisterKind::parameter, static_cast<std::uint32_t>(index))) {
-      if (parts.enabled())
-        parts.add("{} {}", display_name(*r),
-                  describe_value(p, *r, static_cast<std::uint32_t>(data)));
-      if (parts.observing()) observe(p, *r, static_cast<std::uint32_t>(data), false, false, o);
-    }
-  } else if (cmd == 0x0A && code >= 0x10 && code <= 0x14) {
-    parts.add(std::string_view(code == 0x10 ? "not ready" : "ready"));
+  // (Not append_value(): a code the manual's table lacks is shown bare.)
+  o.fault.value = static_cast<double>(code);
+  std::string& text = o.fault.written;
+  text.clear();  // keeps its storage
+  append_uint(text, code);
+  if (name) {
+    text += " (";
+    text += *name;
+    text += ')';
   }
-  // Every accepted reply carries the drive's current fault code (001, AUX of the reply).
-  if (fault >= 0) {
-    o.fault_code = static_cast<std::uint32_t>(fault);
-    const auto names = p.enums.find("fault");
-    const std::string* name = nullptr;
-    if (names != p.enums.end()) {
-      const auto it = names->second.find(static_cast<std::uint32_t>(fault));
-      if (it != names->second.end() && !it->second.empty()) name = &it->second;
+  if (code > 0) parts.add("fault {}", text);
+}
+
+// Appends the annotation of the telegram's records to `out` (after the caller's "drive N
+// (name): ") and fills the observation.
+void read_records(const DriveProfile& p, Direction direction, const DriveRecords& records,
+                  DriveReadingWants wants, std::string& out, DriveObservation& o) {
+  Parts parts(out, wants);
+  for (const DriveRecord& r : records.records) {
+    const std::span<const std::uint32_t> values = records.values_of(r);
+    switch (r.type) {
+      case DriveRecordType::access:
+        read_access(p, r, values, parts, o);
+        break;
+      case DriveRecordType::exception:
+        // Named even when no text is wanted (read_for_drive()).
+        if (const auto it = p.exceptions.find(r.code); it != p.exceptions.end())
+          fmt::format_to(std::back_inserter(parts.next()), FMT_COMPILE("error 0x{:02X}: {}"),
+                         r.code, it->second);
+        break;
+      case DriveRecordType::process_words:
+        read_process_words(p, direction == Direction::request, values, parts, o);
+        break;
+      case DriveRecordType::command:
+        read_command(p, r, values, parts, o);
+        break;
+      case DriveRecordType::status_query:
+        parts.add(std::string_view("status query"));
+        break;
+      case DriveRecordType::readiness:
+        parts.add(std::string_view(r.code ? "ready" : "not ready"));
+        break;
+      case DriveRecordType::fault:
+        read_fault(p, r.code, parts, o);
+        break;
     }
-    // (Not append_value(): a code the manual's table lacks is shown bare.)
-    o.fault.value = static_cast<double>(fault);
-    std::string& text = o.fault.written;
-    text.clear();  // keeps its storage
-    append_int(text, fault);
-    if (name) {
-      text += " (";
-      text += *name;
-      text += ')';
-    }
-    if (fault > 0) parts.add("fault {}", text);
   }
 }
 
 }  // namespace
-
-std::span<const std::uint8_t> modbus_binary(Protocol protocol, std::span<const std::uint8_t> bytes,
-                                            std::vector<std::uint8_t>& storage) {
-  if (protocol != Protocol::modbus_ascii) return bytes;
-  storage = modbus::decode_ascii_hex(bytes).binary;
-  return storage;
-}
 
 std::string display_name(const RegisterDef& r) {
   std::string name;
@@ -649,20 +563,7 @@ void read_for_drive_into(const DriveProfile& p, const TelegramHead& m,
   const bool lead_first = wants != DriveReadingWants::observation;
   if (lead_first) append_lead(text);
   const std::size_t lead = text.size();
-  switch (m.protocol) {
-    case Protocol::modbus_rtu:
-    case Protocol::modbus_ascii:
-      read_modbus(p, m, request, wants, text, out.observed);
-      break;
-    case Protocol::danfoss_fc:
-      read_fc(p, m, wants, text, out.observed);
-      break;
-    case Protocol::easydrive:
-      read_easydrive(p, m, request, wants, text, out.observed);
-      break;
-    case Protocol::unknown:
-      break;
-  }
+  read_records(p, m.direction, out.records.read(m, request), wants, text, out.observed);
   if (text.size() == lead) {
     text.clear();
   } else if (!lead_first) {

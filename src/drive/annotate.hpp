@@ -1,9 +1,9 @@
 // Drive-level meaning of a decoded frame from the drive's profile (dissectors/profiles/README.md):
 // the annotation line ("drive 2 (E-9): setpoint 50.00 Hz; output frequency 49.87 Hz") and what
-// the frame says about the drive's state, for the timeline. Modbus RTU/ASCII (registers, coils,
-// parameters under the profile's addressing rule, vendor exception codes), the Danfoss FC
-// protocol (PCD words, parameter block, PROTOCOLS.md §4) and Easydrive (PROTOCOLS.md §5). A reply
-// is read with the request it answers.
+// the frame says about the drive's state, for the timeline. The frame is read through its
+// protocol's drive records (core/drive_records.hpp): registers, coils and parameters (under the
+// profile's addressing rule), vendor exception codes, process data words, run commands, fault
+// reports. A reply is read with the request it answers.
 #pragma once
 
 #include <cstdint>
@@ -14,6 +14,7 @@
 
 #include "core/message.hpp"
 #include "drive/profile.hpp"
+#include "drive/records.hpp"
 
 namespace drivetap {
 
@@ -91,11 +92,12 @@ struct DriveObservation {
 struct DriveReading {
   std::string text;  // "drive 2 (ERMAN E-9P/9G): ..." or empty when the profile says nothing
   DriveObservation observed;
+  DriveRecordReader records;  // what the telegram said, as its decoder read it
 };
 
 // `request`: for a reply, the bytes of its request (as on the wire), empty when unknown.
 // `want_text` false: the observation only, no text (no sink shows it: `read --stats`; or the
-// sink writes it on its own thread: complete_drive_info()). A Modbus exception reply the profile
+// sink writes it on its own thread: complete_drive_info()). An exception reply the profile
 // names still gets its "error 0x.." text.
 DriveReading read_for_drive(const DriveProfile& profile, const Message& message,
                             std::span<const std::uint8_t> request, bool want_text = true);
@@ -134,11 +136,6 @@ std::string describe_value(const DriveProfile& profile, const RegisterDef& reg, 
 // describe_value() appended to `out`.
 void append_value(std::string& out, const DriveProfile& profile, const RegisterDef& reg,
                   std::uint32_t raw, bool double_word = false);
-
-// The binary Modbus frame (ADDR FC DATA ... check) of an RTU or ASCII message: an RTU frame's own
-// bytes, an ASCII frame's hex decoded into `storage`.
-std::span<const std::uint8_t> modbus_binary(Protocol protocol, std::span<const std::uint8_t> bytes,
-                                            std::vector<std::uint8_t>& storage);
 
 // "16-13 frequency" for a parameter, the register's name otherwise.
 std::string display_name(const RegisterDef& reg);

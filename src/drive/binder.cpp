@@ -5,16 +5,15 @@
 
 #include <algorithm>
 
-#include "drive/annotate.hpp"
-
 namespace drivetap {
 namespace {
 
 // Evidence weights. A register the family's manual names: +1; an address only its parameter
 // addressing rule explains: +0.5; an address the family does not have: -1; a function code or
 // a request size the family refuses: -2; a vendor exception code the family lists: +1, one it
-// does not: -1. A request in the Danfoss FC or Easydrive protocol: +2 for each family speaking
-// it (plain Modbus earns nothing by itself: every device speaks it).
+// does not: -1. A request in a protocol only some families speak (DriveRecords::family_protocol):
+// +2 for each family speaking it, +1 for each address it names that the family names (a protocol
+// every device speaks, as Modbus, earns nothing by itself).
 constexpr double kNamed = 1, kRuleOnly = 0.5, kUnknown = -1, kRefused = -2;
 constexpr double kOwnProtocol = 2;
 // A station is bound when its best profile reaches kBindScore and leads the runner-up by
@@ -39,9 +38,7 @@ double register_evidence(const DriveProfile& p, RegisterKind kind, std::uint32_t
       score += kNamed;
     } else if (kind == RegisterKind::holding) {
       if (const auto number = p.parameter_of_register(address)) {
-        const RegisterDef* prev = *number ? p.find(RegisterKind::parameter, *number - 1) : nullptr;
         score += p.find(RegisterKind::parameter, *number) ? kNamed : kRuleOnly;
-        (void)prev;
       } else if (const auto below = p.parameter_of_register(address - 1); below && i > 0) {
         // The second register of a 32-bit parameter read from its first.
         score += kRuleOnly;
@@ -55,80 +52,72 @@ double register_evidence(const DriveProfile& p, RegisterKind kind, std::uint32_t
   return score;
 }
 
-// `b`: the message in binary (Modbus ASCII decoded).
-double modbus_evidence(const DriveProfile& p, Direction direction,
-                       std::span<const std::uint8_t> b) {
-  if (b.size() < 4) return 0;
-  const int fc = b[1] & 0x7F;
+// Evidence from a request in a protocol that only some families speak (family_protocol): the
+// protocol itself, and each address it names (that its reader weighs) that the profile names.
+double family_protocol_evidence(const DriveProfile& p, Direction direction,
+                                const DriveRecords& records) {
+  if (direction != Direction::request) return 0;
+  double score = kOwnProtocol;
+  for (const DriveRecord& r : records.records)
+    if (r.type == DriveRecordType::access && r.weighed && p.find(r.kind, r.first)) score += kNamed;
+  return score;
+}
+
+// Evidence from a telegram of a protocol every device speaks: its function code, the addresses
+// it reads and writes and how many, the exception codes of its replies.
+double addressing_evidence(const DriveProfile& p, Direction direction,
+                           const DriveRecords& records) {
   double score = 0;
   if (direction == Direction::response) {
-    if ((b[1] & 0x80) && b.size() >= 3) {
-      if (p.exceptions.count(b[2]))
+    for (const DriveRecord& r : records.records) {
+      if (r.type != DriveRecordType::exception) continue;
+      if (p.exceptions.count(r.code))
         score += kNamed;
-      else if (b[2] > 4)
+      else if (r.code > 4)
         score += kUnknown;  // non-standard code the family does not list
     }
     return score;
   }
   if (direction != Direction::request) return 0;
-  if (!p.functions.empty() &&
-      std::find(p.functions.begin(), p.functions.end(), fc) == p.functions.end())
+  if (records.function >= 0 && !p.functions.empty() &&
+      std::find(p.functions.begin(), p.functions.end(), records.function) == p.functions.end())
     score += kRefused;
-  if (b.size() < 6) return score;
-  const std::uint32_t start = static_cast<std::uint32_t>(b[2] << 8 | b[3]);
-  const std::uint32_t count = static_cast<std::uint32_t>(b[4] << 8 | b[5]);
-  switch (fc) {
-    case 0x03:
-    case 0x04:
-      score += register_evidence(p, fc == 0x03 ? RegisterKind::holding : RegisterKind::input, start,
-                                 count);
-      if (p.max_read_registers && count > static_cast<std::uint32_t>(*p.max_read_registers))
-        score += kRefused;
-      break;
-    case 0x06:
-      score += register_evidence(p, RegisterKind::holding, start, 1);
-      break;
-    case 0x10:
-      score += register_evidence(p, RegisterKind::holding, start, count);
-      if (p.max_write_registers && count > static_cast<std::uint32_t>(*p.max_write_registers))
-        score += kRefused;
-      break;
-    case 0x01:
-    case 0x0F:
-      score += register_evidence(p, RegisterKind::coil, start, count);
-      break;
-    case 0x05:
-      score += register_evidence(p, RegisterKind::coil, start, 1);
-      break;
-    case 0x02:
-      score += register_evidence(p, RegisterKind::discrete, start, count);
-      break;
-    default:
-      break;
+  for (const DriveRecord& r : records.records) {
+    if (r.type != DriveRecordType::access || !r.weighed) continue;
+    score += register_evidence(p, r.kind, r.first, r.count);
+    const bool registers = r.kind == RegisterKind::holding || r.kind == RegisterKind::input;
+    if (registers && r.op == AccessOp::read && p.max_read_registers &&
+        r.count > static_cast<std::uint32_t>(*p.max_read_registers))
+      score += kRefused;
+    if (registers && r.op == AccessOp::write && p.max_write_registers &&
+        r.count > static_cast<std::uint32_t>(*p.max_write_registers))
+      score += kRefused;
   }
   return score;
 }
 
-// Evidence from an FC-protocol or Easydrive frame: the protocol itself belongs to one family
-// (Danfoss, Easydrive), the parameters and running values it names confirm the profile.
-double own_protocol_evidence(const DriveProfile& p, const TelegramHead& m) {
-  if (m.direction != Direction::request) return 0;
-  double score = kOwnProtocol;
-  const std::span<const std::uint8_t> b = m.bytes;
-  if (m.protocol == Protocol::danfoss_fc && b.size() == 16 && b[1] == 14) {
-    const std::uint32_t pnu = static_cast<std::uint32_t>((b[3] & 0x0F) << 8 | b[4]);
-    if ((b[3] >> 4) != 0) score += p.find(RegisterKind::parameter, pnu) ? kNamed : 0;
-  }
-  return score;
+double telegram_evidence(const DriveProfile& p, Direction direction, const DriveRecords& records) {
+  return records.family_protocol ? family_protocol_evidence(p, direction, records)
+                                 : addressing_evidence(p, direction, records);
+}
+
+// The memo key of a request's evidence (what addressing_evidence() reads of it), if it has one:
+// its function and its one access at most.
+std::optional<std::uint64_t> request_key(const DriveRecords& records) {
+  if (records.family_protocol || records.function < 0 || records.records.size() > 1) return {};
+  std::uint64_t key = static_cast<std::uint64_t>(records.function & 0xFF) << 48;
+  if (records.records.empty()) return key;
+  const DriveRecord& r = records.records.front();
+  if (r.type != DriveRecordType::access) return key;  // (an exception says nothing of a request)
+  if (r.count > 0xFFFF) return {};
+  return key | std::uint64_t{1} << 63 | static_cast<std::uint64_t>(r.weighed) << 62 |
+         static_cast<std::uint64_t>(r.op) << 59 | static_cast<std::uint64_t>(r.kind) << 56 |
+         static_cast<std::uint64_t>(r.count) << 32 | r.first;
 }
 
 }  // namespace
 
-std::span<const double> DriveBinder::request_evidence(std::span<const std::uint8_t> b) {
-  // What modbus_evidence() reads of a request: function, start, count (bytes 1..5).
-  const std::uint64_t key =
-      static_cast<std::uint64_t>(b[1]) << 32 | static_cast<std::uint64_t>(b[2]) << 24 |
-      static_cast<std::uint64_t>(b[3]) << 16 | static_cast<std::uint64_t>(b[4]) << 8 | b[5];
+std::span<const double> DriveBinder::request_evidence(std::uint64_t key) {
   if (request_evidence_.size() >= kMaxRememberedRequests) {
     request_evidence_.clear();
     evidence_pool_.clear();
@@ -136,7 +125,8 @@ std::span<const double> DriveBinder::request_evidence(std::span<const std::uint8
   const auto [it, fresh] = request_evidence_.try_emplace(key, evidence_pool_.size());
   if (fresh)
     for (const DriveProfile* candidate : candidates_)
-      evidence_pool_.push_back(modbus_evidence(*candidate, Direction::request, b));
+      evidence_pool_.push_back(
+          telegram_evidence(*candidate, Direction::request, records_.records()));
   return std::span<const double>(evidence_pool_).subspan(it->second, candidates_.size());
 }
 
@@ -211,14 +201,16 @@ const DriveProfile* DriveBinder::learn_bound(std::size_t link, const TelegramHea
     st.excluded.assign(candidates_.size(), 0);
   }
   ++st.frames;
-  const bool modbus = m.protocol == Protocol::modbus_rtu || m.protocol == Protocol::modbus_ascii;
-  std::vector<std::uint8_t> decoded;
-  const std::span<const std::uint8_t> binary =
-      modbus ? modbus_binary(m.protocol, m.bytes, decoded) : std::span<const std::uint8_t>();
-  // Every Modbus device speaks Modbus: only what it reads and writes tells the family.
-  const bool repeatable = modbus && m.direction == Direction::request && binary.size() >= 6;
+  // (No reply is read with its request here: only an exception says anything of a reply.)
+  const DriveRecords& records = records_.read(m, {});
+  // The same poll repeats all day: a request's evidence is remembered.
+  const std::optional<std::uint64_t> key =
+      m.direction == Direction::request ? request_key(records) : std::nullopt;
+  // A telegram with nothing to weigh (a reply that is no exception) scores nothing.
+  const bool weighs = key || !records.records.empty() ||
+                      (m.direction == Direction::request && records.family_protocol);
   const std::span<const double> request_scores =
-      repeatable ? request_evidence(binary) : std::span<const double>();
+      key ? request_evidence(*key) : std::span<const double>();
   const std::uint32_t protocol = protocol_bit(m.protocol);
   for (std::size_t i = 0; i < candidates_.size(); ++i) {
     const DriveProfile& p = *candidates_[i];
@@ -226,12 +218,10 @@ const DriveProfile* DriveBinder::learn_bound(std::size_t link, const TelegramHea
       st.excluded[i] = 1;
       continue;
     }
-    if (repeatable)
+    if (key)
       st.score[i] += request_scores[i];
-    else if (modbus)
-      st.score[i] += modbus_evidence(p, m.direction, binary);
-    else if (m.protocol == Protocol::danfoss_fc || m.protocol == Protocol::easydrive)
-      st.score[i] += own_protocol_evidence(p, m);
+    else if (weighs)
+      st.score[i] += telegram_evidence(p, m.direction, records);
   }
   const auto [best, second] = best_of(st);
   if (best < 0) return bound_now();

@@ -20,6 +20,7 @@
 #include "core/bus_event.hpp"
 #include "core/message.hpp"
 #include "drive/profile.hpp"
+#include "drive/records.hpp"
 
 namespace drivetap {
 
@@ -57,10 +58,11 @@ class DriveBinder {
   // Ranks the candidates of a station: best index and the runner-up's score.
   std::pair<int, std::optional<double>> best_of(const Station& station) const;
 
-  // Evidence of a Modbus request for each candidate, in candidate order: the same poll repeats
-  // all day, and the evidence depends only on the candidate, function, start and count, so it is
-  // worked out once a request for all candidates and looked up once a frame.
-  std::span<const double> request_evidence(std::span<const std::uint8_t> binary);
+  // Evidence of the request read last (records_) for each candidate, in candidate order: the same
+  // poll repeats all day, and the evidence depends only on the candidate and `key` (the function,
+  // space, start and count), so it is worked out once a request for all candidates and looked up
+  // once a frame.
+  std::span<const double> request_evidence(std::uint64_t key);
   static constexpr std::uint32_t protocol_bit(Protocol protocol) {
     return std::uint32_t{1} << static_cast<unsigned>(protocol);
   }
@@ -68,7 +70,8 @@ class DriveBinder {
   std::vector<const DriveProfile*> candidates_;
   std::vector<std::uint32_t> protocols_;  // per candidate: protocol_bit() of each it speaks
   std::map<Key, Station> stations_;
-  // Request key (bytes 1..5) -> offset in evidence_pool_ of its candidates' evidence
+  DriveRecordReader records_;  // the telegram's
+  // Request key -> offset in evidence_pool_ of its candidates' evidence
   // (kMaxRememberedRequests at most).
   std::unordered_map<std::uint64_t, std::size_t> request_evidence_;
   std::vector<double> evidence_pool_;

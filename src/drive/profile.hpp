@@ -10,14 +10,11 @@
 #include <string_view>
 #include <vector>
 
+#include "core/drive_records.hpp"  // RegisterKind
 #include "core/message.hpp"
 #include "core/serial_config.hpp"
 
 namespace drivetap {
-
-// running: an Easydrive running value (command 0B, index 0..15); parameter: a drive parameter
-// keyed by its wire number under the profile's ParameterRule (Danfoss PNU, GGPP, Easydrive index).
-enum class RegisterKind : std::uint8_t { holding, input, coil, discrete, running, parameter };
 
 // How the manual's parameter numbers reach the wire (dissectors/profiles/README.md, [parameters]).
 enum class ParameterRule : std::uint8_t {

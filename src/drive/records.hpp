@@ -1,0 +1,38 @@
+// Reading a telegram's drive records (core/drive_records.hpp) through its protocol's decoder
+// (ProtocolDecoder::read_drive_records()), for the drive level: the one place it asks for them.
+#pragma once
+
+#include <span>
+
+#include "core/drive_records.hpp"
+#include "core/protocol.hpp"
+
+namespace drivetap {
+
+class DriveRecordReader {
+ public:
+  // Reads `telegram` (a reply with its request's bytes, empty when unknown) into records(),
+  // whose storage is kept from one telegram to the next; no records for a telegram of no known
+  // protocol.
+  const DriveRecords& read(const TelegramHead& telegram, std::span<const std::uint8_t> request) {
+    // decoder_for() of the last protocol read: a bus's telegrams are mostly of one, and looked up
+    // for each, the decoder cost some 30 instructions a reading.
+    if (telegram.protocol != protocol_) {
+      protocol_ = telegram.protocol;
+      decoder_ = decoder_for(protocol_);
+    }
+    if (decoder_)
+      decoder_->read_drive_records(telegram, request, records_);
+    else
+      records_.clear();
+    return records_;
+  }
+  [[nodiscard]] const DriveRecords& records() const { return records_; }
+
+ private:
+  DriveRecords records_;
+  Protocol protocol_ = Protocol::unknown;
+  const ProtocolDecoder* decoder_ = nullptr;  // decoder_for(protocol_)
+};
+
+}  // namespace drivetap
