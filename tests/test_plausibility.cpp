@@ -7,6 +7,7 @@
 #include "dissectors/danfoss_fc/fc_dissector.hpp"
 #include "dissectors/easydrive/eds_dissector.hpp"
 #include "dissectors/modbus/ascii_dissector.hpp"
+#include "dissectors/modbus/modbus_protocol.hpp"
 #include "dissectors/modbus/rtu_dissector.hpp"
 #include "test_support.hpp"
 
@@ -182,7 +183,7 @@ TEST(Plausibility, DetectionNeedsSeveralGoodTelegramsAndPairsForHigh) {
     for (int i = 0; i < 6; ++i) r.send(with_crc({0x01, 0x03, 0x00, 0x00, 0x00, 0x01}));
     r.pipeline->finish();
     ASSERT_FALSE(r.sink.events.empty());
-    EXPECT_EQ(r.sink.events[0].protocol, Protocol::modbus_rtu);
+    EXPECT_EQ(r.sink.events[0].protocol, protocols::modbus_rtu);
     EXPECT_EQ(r.sink.events[0].confidence, "medium");
   }
   {
@@ -193,7 +194,7 @@ TEST(Plausibility, DetectionNeedsSeveralGoodTelegramsAndPairsForHigh) {
     }
     r.pipeline->finish();
     ASSERT_FALSE(r.sink.events.empty());
-    EXPECT_EQ(r.sink.events[0].protocol, Protocol::modbus_rtu);
+    EXPECT_EQ(r.sink.events[0].protocol, protocols::modbus_rtu);
     EXPECT_EQ(r.sink.events[0].confidence, "high");
   }
 }
@@ -231,7 +232,7 @@ TEST(Plausibility, IpFlowWithADriveProtocolJoins) {
   }
   r.pipeline->finish();
   ASSERT_FALSE(r.sink.events.empty());
-  EXPECT_EQ(r.sink.events[0].protocol, Protocol::modbus_rtu);
+  EXPECT_EQ(r.sink.events[0].protocol, protocols::modbus_rtu);
   EXPECT_EQ(r.sink.frames.frames.size(), 8u);
   EXPECT_EQ(r.sink.summary.good_telegrams, 8u);
 }

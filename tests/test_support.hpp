@@ -9,8 +9,9 @@
 
 #include "core/checksum.hpp"
 #include "dissectors/danfoss_fc/fc_dissector.hpp"
-#include "pipeline/pipeline.hpp"
+#include "dissectors/modbus/modbus_protocol.hpp"
 #include "drive/profile.hpp"
+#include "pipeline/pipeline.hpp"
 #include "sources/file/byte_log.hpp"
 
 namespace drivetap::testing {
@@ -75,7 +76,7 @@ inline std::string hex_of(const std::vector<std::uint8_t>& bytes) {
 
 // Runs a byte log file through the whole pipeline.
 inline bool run_byte_log(const std::string& path, RecordingSink& sink, ChannelTable& channels,
-                         std::string* error, Protocol protocol = Protocol::modbus_rtu) {
+                         std::string* error, Protocol protocol = protocols::modbus_rtu) {
   std::FILE* f = std::fopen(path.c_str(), "rb");
   if (!f) {
     *error = "cannot open " + path;

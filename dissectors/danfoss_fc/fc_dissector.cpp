@@ -174,7 +174,7 @@ Message dissect_fc(Frame frame, Direction direction, const FramingTiming& timing
 
 void dissect_fc(Message& m, Frame&& frame, Direction direction, const FramingTiming& timing) {
   (void)timing;
-  begin_message(m, std::move(frame), Protocol::danfoss_fc, direction);
+  begin_message(m, std::move(frame), protocols::danfoss_fc, direction);
   const std::span<const std::uint8_t> bytes(m.bytes);
   FieldTreeBuilder tree(m.fields, m.detail && m.tree);
   Cursor c(bytes);

@@ -15,6 +15,7 @@
 #include "core/protocol.hpp"
 #include "dissectors/common/hybrid_framer.hpp"
 #include "dissectors/common/plausibility.hpp"
+#include "dissectors/danfoss_fc/fc_protocol.hpp"
 
 namespace drivetap::danfoss_fc {
 
@@ -52,7 +53,7 @@ class FcRules final : public HybridFrameRules {
 
 class FcDecoder final : public ProtocolDecoder {
  public:
-  [[nodiscard]] Protocol protocol() const override { return Protocol::danfoss_fc; }
+  [[nodiscard]] Protocol protocol() const override { return protocols::danfoss_fc; }
   [[nodiscard]] std::unique_ptr<Framer> make_framer(ChannelId channel,
                                                     const FramerSettings& s) const override;
   [[nodiscard]] DirectionFit direction_fit(std::span<const std::uint8_t> frame) const override;

@@ -119,7 +119,7 @@ Message dissect_eds(Frame frame, Direction direction, const FramingTiming& timin
 void dissect_eds(Message& m, Frame&& frame, Direction direction, const FramingTiming& timing,
                  std::span<const std::uint8_t> request) {
   (void)timing;
-  begin_message(m, std::move(frame), Protocol::easydrive, direction);
+  begin_message(m, std::move(frame), protocols::easydrive, direction);
   m.text_encoded = true;
   const std::span<const std::uint8_t> f(m.bytes);
   FieldTreeBuilder tree(m.fields, m.detail && m.tree);

@@ -12,6 +12,7 @@
 #include "core/message.hpp"
 #include "core/protocol.hpp"
 #include "dissectors/common/plausibility.hpp"
+#include "dissectors/easydrive/eds_protocol.hpp"
 
 namespace drivetap::easydrive {
 
@@ -36,7 +37,7 @@ Message dissect_eds(Frame frame, Direction direction, const FramingTiming& timin
 
 class EdsDecoder final : public ProtocolDecoder {
  public:
-  [[nodiscard]] Protocol protocol() const override { return Protocol::easydrive; }
+  [[nodiscard]] Protocol protocol() const override { return protocols::easydrive; }
   [[nodiscard]] std::unique_ptr<Framer> make_framer(ChannelId channel,
                                                     const FramerSettings& s) const override;
   [[nodiscard]] DirectionFit direction_fit(std::span<const std::uint8_t> frame) const override;

@@ -100,7 +100,7 @@ Message dissect_ascii(Frame frame, Direction direction, const FramingTiming& tim
 
 void dissect_ascii(Message& m, Frame&& frame, Direction direction, const FramingTiming& timing) {
   (void)timing;  // ASCII allows up to 1 s between characters: no t1.5 rule
-  begin_message(m, std::move(frame), Protocol::modbus_ascii, direction);
+  begin_message(m, std::move(frame), protocols::modbus_ascii, direction);
   m.text_encoded = true;
   const AsciiHex hex = decode_ascii_hex(m.bytes);
   const std::vector<std::uint8_t>& bin = hex.binary;

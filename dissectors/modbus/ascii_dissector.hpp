@@ -14,6 +14,7 @@
 #include "core/message.hpp"
 #include "core/protocol.hpp"
 #include "dissectors/common/plausibility.hpp"
+#include "dissectors/modbus/modbus_protocol.hpp"
 
 namespace drivetap::modbus {
 
@@ -39,7 +40,7 @@ Message dissect_ascii(Frame frame, Direction direction, const FramingTiming& tim
 
 class AsciiDecoder final : public ProtocolDecoder {
  public:
-  [[nodiscard]] Protocol protocol() const override { return Protocol::modbus_ascii; }
+  [[nodiscard]] Protocol protocol() const override { return protocols::modbus_ascii; }
   [[nodiscard]] std::unique_ptr<Framer> make_framer(ChannelId channel,
                                                     const FramerSettings& s) const override;
   [[nodiscard]] DirectionFit direction_fit(std::span<const std::uint8_t> frame) const override;

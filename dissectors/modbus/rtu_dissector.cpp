@@ -50,7 +50,7 @@ Message dissect_rtu(Frame frame, Direction direction, const FramingTiming& timin
 }
 
 void dissect_rtu(Message& m, Frame&& frame, Direction direction, const FramingTiming& timing) {
-  begin_message(m, std::move(frame), Protocol::modbus_rtu, direction);
+  begin_message(m, std::move(frame), protocols::modbus_rtu, direction);
   const std::span<const std::uint8_t> bytes(m.bytes);
   const TimeNs t0 = m.frame.start();
   const ChannelId ch = m.frame.channel;

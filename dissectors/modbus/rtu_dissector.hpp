@@ -14,6 +14,7 @@
 #include "core/protocol.hpp"
 #include "core/serial_config.hpp"
 #include "dissectors/common/plausibility.hpp"
+#include "dissectors/modbus/modbus_protocol.hpp"
 
 namespace drivetap::modbus {
 
@@ -35,7 +36,7 @@ Message dissect_rtu(Frame frame, Direction direction, const FramingTiming& timin
 // Modbus RTU as a ProtocolDecoder for the pipeline.
 class RtuDecoder final : public ProtocolDecoder {
  public:
-  [[nodiscard]] Protocol protocol() const override { return Protocol::modbus_rtu; }
+  [[nodiscard]] Protocol protocol() const override { return protocols::modbus_rtu; }
   [[nodiscard]] std::unique_ptr<Framer> make_framer(ChannelId channel,
                                                     const FramerSettings& s) const override;
   [[nodiscard]] DirectionFit direction_fit(std::span<const std::uint8_t> frame) const override {

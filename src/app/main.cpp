@@ -25,17 +25,17 @@
 #include <thread>
 #include <vector>
 
+#include "app/diagnose.hpp"
 #include "core/printable.hpp"
 #include "core/protocol.hpp"
 #include "core/serial_config.hpp"
 #include "dissectors/common/plausibility.hpp"
+#include "drive/profile.hpp"
 #include "formats/shared_libraries.hpp"
 #include "generate/byte_log_writer.hpp"
 #include "generate/traffic.hpp"
-#include "app/diagnose.hpp"
 #include "pipeline/options.hpp"
 #include "pipeline/pipeline.hpp"
-#include "drive/profile.hpp"
 #include "sinks/capture_sink.hpp"
 #include "sinks/json_sink.hpp"
 #include "sinks/ring_capture_sink.hpp"
@@ -45,11 +45,11 @@
 #include "sources/file/capture_reader.hpp"
 #include "sources/file/hex_text.hpp"
 #include "sources/input_file.hpp"
-#include "sources/logic/logic_source.hpp"
-#include "sources/read_ahead.hpp"
 #include "sources/live/serial_port.hpp"
+#include "sources/logic/logic_source.hpp"
 #include "sources/logic/sigrok_file.hpp"
 #include "sources/logic/vcd_file.hpp"
+#include "sources/read_ahead.hpp"
 
 namespace {
 
@@ -140,11 +140,15 @@ void add_common_options(CLI::App* cmd, CommonOptions& o) {
                   "Reply timeout before a request counts as unanswered (default 1s)");
   cmd->add_option("--max-hold", o.max_hold,
                   "Longest wait for the rest of a frame split by a silence (default 100ms)");
-  cmd->add_option("-P,--protocol", o.protocol,
-                  "Protocol on the bus: auto (default: detected per channel from the first "
-                  "frames), rtu (Modbus RTU), ascii (Modbus ASCII), fc (Danfoss FC protocol), "
-                  "eds (Easydrive '~' protocol)")
-      ->check(CLI::IsMember({"auto", "rtu", "ascii", "fc", "eds"}));
+  std::vector<std::string> protocol_choices{"auto"};
+  std::string protocol_help =
+      "Protocol on the bus: auto (default: detected per channel from the first frames)";
+  for (const ProtocolDesc* d : registered_protocols()) {
+    protocol_choices.emplace_back(d->option_names.front());
+    protocol_help += fmt::format(", {} ({})", d->option_names.front(), d->help);
+  }
+  cmd->add_option("-P,--protocol", o.protocol, protocol_help)
+      ->check(CLI::IsMember(protocol_choices));
   cmd->add_option("--drive", o.drives,
                   "Bind a station address to a drive profile, e.g. 2=e9 (see `drivetap profiles`); "
                   "auto (default): guess each station's family from its traffic; none: no guessing")
@@ -574,8 +578,7 @@ int run_decode(const CommonOptions& o, const std::vector<std::string>& args) {
     if (!frames) stop(fmt::format("{} (\"{}\"): {}", where, shown, err));
     if (first_kind == 0) {
       first_kind = kind;
-      if (o.protocol.empty() && kind != 'x')
-        p.protocol = kind == ':' ? Protocol::modbus_ascii : Protocol::easydrive;
+      if (o.protocol.empty() && kind != 'x') p.protocol = protocol_for_text_start(kind);
     }
     events.clear();
     synthesize_events(*frames, bus, p.timing.character_time, gap, &clock, events);

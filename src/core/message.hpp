@@ -12,17 +12,15 @@
 #include "core/checksum.hpp"
 #include "core/field.hpp"
 #include "core/frame.hpp"
+#include "core/protocol_desc.hpp"
 
 namespace drivetap {
 
 struct DriveProfile;  // drive/profile.hpp
 
-enum class Protocol : std::uint8_t { unknown, modbus_rtu, modbus_ascii, danfoss_fc, easydrive };
 enum class Direction : std::uint8_t { unknown, request, response };
 
-std::string_view protocol_id(Protocol p);     // "modbus-rtu": JSON ids, stable
-std::string_view protocol_label(Protocol p);  // "Modbus RTU": column text
-std::string_view direction_id(Direction d);   // "request" / "response" / "unknown"
+std::string_view direction_id(Direction d);  // "request" / "response" / "unknown"
 
 struct Message {
   Frame frame;

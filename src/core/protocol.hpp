@@ -1,6 +1,7 @@
 // ProtocolDecoder: what the pipeline needs of each protocol — a framer, the directions a frame's
 // layout allows, and the dissector (Frame -> Message). One implementation per protocol under
-// dissectors/<protocol>/, listed in one explicit table (dissectors/protocols.cpp).
+// dissectors/<protocol>/, named by its descriptor (core/protocol_desc.hpp,
+// dissectors/registry.cpp).
 #pragma once
 
 #include <memory>
@@ -134,10 +135,5 @@ inline void decode_undissected(const UndissectedTelegram& t, Message& out) {
     out.request.assign(t.request.begin(), t.request.end());
   }
 }
-
-// The decoder of `protocol`, from the explicit table; nullptr for Protocol::unknown.
-const ProtocolDecoder* decoder_for(Protocol protocol);
-// "rtu", "ascii", "fc", "eds" (the --protocol names) -> Protocol; unknown for other text.
-Protocol protocol_from_option(std::string_view name);
 
 }  // namespace drivetap

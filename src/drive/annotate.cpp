@@ -12,8 +12,11 @@
 #include <vector>
 
 #include "core/format.hpp"
+#include "dissectors/danfoss_fc/fc_protocol.hpp"
 #include "dissectors/easydrive/eds_dissector.hpp"
+#include "dissectors/easydrive/eds_protocol.hpp"
 #include "dissectors/modbus/ascii_dissector.hpp"
+#include "dissectors/modbus/modbus_protocol.hpp"
 
 namespace drivetap {
 namespace {
@@ -266,7 +269,7 @@ void read_modbus(const DriveProfile& p, const TelegramHead& m,
   const std::span<const std::uint8_t> b = modbus_binary(m.protocol, m.bytes, decoded);
   if (b.size() < 4) return;
   const std::uint8_t fc = b[1];
-  const std::size_t end = b.size() - (m.protocol == Protocol::modbus_rtu ? 2 : 1);  // before check
+  const std::size_t end = b.size() - (m.protocol == protocols::modbus_rtu ? 2 : 1);  // before check
   if (fc & 0x80) {
     const auto it = p.exceptions.find(b[2]);
     if (it != p.exceptions.end())
@@ -531,7 +534,7 @@ void read_easydrive(const DriveProfile& p, const TelegramHead& m,
 
 std::span<const std::uint8_t> modbus_binary(Protocol protocol, std::span<const std::uint8_t> bytes,
                                             std::vector<std::uint8_t>& storage) {
-  if (protocol != Protocol::modbus_ascii) return bytes;
+  if (protocol != protocols::modbus_ascii) return bytes;
   storage = modbus::decode_ascii_hex(bytes).binary;
   return storage;
 }
@@ -649,20 +652,12 @@ void read_for_drive_into(const DriveProfile& p, const TelegramHead& m,
   const bool lead_first = wants != DriveReadingWants::observation;
   if (lead_first) append_lead(text);
   const std::size_t lead = text.size();
-  switch (m.protocol) {
-    case Protocol::modbus_rtu:
-    case Protocol::modbus_ascii:
-      read_modbus(p, m, request, wants, text, out.observed);
-      break;
-    case Protocol::danfoss_fc:
-      read_fc(p, m, wants, text, out.observed);
-      break;
-    case Protocol::easydrive:
-      read_easydrive(p, m, request, wants, text, out.observed);
-      break;
-    case Protocol::unknown:
-      break;
-  }
+  if (m.protocol == protocols::modbus_rtu || m.protocol == protocols::modbus_ascii)
+    read_modbus(p, m, request, wants, text, out.observed);
+  else if (m.protocol == protocols::danfoss_fc)
+    read_fc(p, m, wants, text, out.observed);
+  else if (m.protocol == protocols::easydrive)
+    read_easydrive(p, m, request, wants, text, out.observed);
   if (text.size() == lead) {
     text.clear();
   } else if (!lead_first) {

@@ -5,6 +5,9 @@
 
 #include <algorithm>
 
+#include "dissectors/danfoss_fc/fc_protocol.hpp"
+#include "dissectors/easydrive/eds_protocol.hpp"
+#include "dissectors/modbus/modbus_protocol.hpp"
 #include "drive/annotate.hpp"
 
 namespace drivetap {
@@ -115,7 +118,7 @@ double own_protocol_evidence(const DriveProfile& p, const TelegramHead& m) {
   if (m.direction != Direction::request) return 0;
   double score = kOwnProtocol;
   const std::span<const std::uint8_t> b = m.bytes;
-  if (m.protocol == Protocol::danfoss_fc && b.size() == 16 && b[1] == 14) {
+  if (m.protocol == protocols::danfoss_fc && b.size() == 16 && b[1] == 14) {
     const std::uint32_t pnu = static_cast<std::uint32_t>((b[3] & 0x0F) << 8 | b[4]);
     if ((b[3] >> 4) != 0) score += p.find(RegisterKind::parameter, pnu) ? kNamed : 0;
   }
@@ -211,7 +214,7 @@ const DriveProfile* DriveBinder::learn_bound(std::size_t link, const TelegramHea
     st.excluded.assign(candidates_.size(), 0);
   }
   ++st.frames;
-  const bool modbus = m.protocol == Protocol::modbus_rtu || m.protocol == Protocol::modbus_ascii;
+  const bool modbus = m.protocol == protocols::modbus_rtu || m.protocol == protocols::modbus_ascii;
   std::vector<std::uint8_t> decoded;
   const std::span<const std::uint8_t> binary =
       modbus ? modbus_binary(m.protocol, m.bytes, decoded) : std::span<const std::uint8_t>();
@@ -230,7 +233,7 @@ const DriveProfile* DriveBinder::learn_bound(std::size_t link, const TelegramHea
       st.score[i] += request_scores[i];
     else if (modbus)
       st.score[i] += modbus_evidence(p, m.direction, binary);
-    else if (m.protocol == Protocol::danfoss_fc || m.protocol == Protocol::easydrive)
+    else if (m.protocol == protocols::danfoss_fc || m.protocol == protocols::easydrive)
       st.score[i] += own_protocol_evidence(p, m);
   }
   const auto [best, second] = best_of(st);

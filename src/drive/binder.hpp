@@ -61,8 +61,8 @@ class DriveBinder {
   // all day, and the evidence depends only on the candidate, function, start and count, so it is
   // worked out once a request for all candidates and looked up once a frame.
   std::span<const double> request_evidence(std::span<const std::uint8_t> binary);
-  static constexpr std::uint32_t protocol_bit(Protocol protocol) {
-    return std::uint32_t{1} << static_cast<unsigned>(protocol);
+  static std::uint32_t protocol_bit(Protocol protocol) {
+    return std::uint32_t{1} << protocol_index(protocol);
   }
 
   std::vector<const DriveProfile*> candidates_;
