@@ -72,7 +72,14 @@ TEST(DanfossFc, BadBccAndLengthMismatchAreNamed) {
   const Message cut = dissect_fc(frame_of({0x02, 0x0E, 0x04, 0x04, 0x7C, 0x20, 0x00, 0x58}),
                                  Direction::request, {});
   bool named = false;
-  for (const Anomaly& a : cut.anomalies) named |= a.detail.find("LGE 14 announces 16") == 0;
+  for (const Anomaly& a : cut.anomalies) {
+    if (a.detail.find("LGE 14 announces 16") != 0) continue;
+    named = true;
+    // Raised by its typed finding, counted under the generic kind.
+    ASSERT_NE(a.finding, nullptr);
+    EXPECT_STREQ(a.finding->id, "danfoss_fc.lge_mismatch");
+    EXPECT_EQ(a.kind, AnomalyKind::malformed);
+  }
   EXPECT_TRUE(named);
 }
 

@@ -67,12 +67,12 @@ TEST(ModbusAscii, TextDefectsAreNamed) {
   EXPECT_EQ(lower.binary.size(), 7u);
   const AsciiHex junk = decode_ascii_hex(text(":0103G5\r\n"));
   ASSERT_FALSE(junk.problems.empty());
-  EXPECT_NE(junk.problems[0].find("0x47 at 5 is not a hex digit"), std::string::npos);
+  EXPECT_NE(junk.problems[0].detail.find("0x47 at 5 is not a hex digit"), std::string::npos);
   const AsciiHex cut = decode_ascii_hex(text(":010325"));
   EXPECT_FALSE(cut.terminated);
-  EXPECT_NE(cut.problems[0].find("frame cut"), std::string::npos);
+  EXPECT_NE(cut.problems[0].detail.find("frame cut"), std::string::npos);
   const AsciiHex odd = decode_ascii_hex(text(":0103252\r\n"));
-  EXPECT_NE(odd.problems[0].find("odd number"), std::string::npos);
+  EXPECT_NE(odd.problems[0].detail.find("odd number"), std::string::npos);
 }
 
 TEST(DelimitedFramer, ResyncsOnStartAndKeepsNoise) {

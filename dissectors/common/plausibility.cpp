@@ -1,6 +1,8 @@
 // Plausibility rules as data, and the `implausible` finding (plausibility.hpp; PROTOCOLS.md §2-§5).
 #include "dissectors/common/plausibility.hpp"
 
+#include "dissectors/common/finding.hpp"
+
 #include <fmt/format.h>
 
 #include <iterator>
@@ -50,11 +52,14 @@ const PlausibilityRuleInfo& plausibility_rule(PlausibilityRule rule) {
   return kPlausibilityRules[i < std::size(kPlausibilityRules) ? i : 0];
 }
 
-void add_implausible(Message& m, const Plausibility& p) {
+// The rule is named after what was found: "address 255 (248-255 are reserved) [rtu.address,
+// Modbus serial line §2.3]" (the kind's label says "not a telegram of its protocol"; the frame
+// says which protocol).
+void add_implausible(Message& m, const Finding<std::string, const char*, const char*>& implausible,
+                     const Plausibility& p) {
   if (p.ok()) return;
   const PlausibilityRuleInfo& rule = plausibility_rule(p.broken);
-  m.anomalies.push_back({AnomalyKind::implausible, m.frame.start(), m.frame.channel, 0,
-                         fmt::format("{} [{}, {}]", p.why, rule.id, rule.source)});
+  add_finding(m, implausible, p.why, rule.id, rule.source);
 }
 
 bool is_implausible(const Message& m) {

@@ -64,11 +64,6 @@ struct Plausibility {
   }
 };
 
-// Adds the `implausible` finding of `p` to `m` (nothing when p.ok()), the rule named after what
-// was found: "address 255 (248-255 are reserved) [rtu.address, Modbus serial line §2.3]" (the
-// kind's label says "not a telegram of its protocol"; the frame says which protocol).
-void add_implausible(Message& m, const Plausibility& p);
-
 // True when the message carries an `implausible` finding.
 bool is_implausible(const Message& m);
 

@@ -7,6 +7,7 @@
 #include "core/cursor.hpp"
 #include "dissectors/common/hybrid_framer_impl.hpp"
 #include "dissectors/danfoss_fc/fc_fields.hpp"
+#include "dissectors/danfoss_fc/fc_findings.hpp"
 
 namespace drivetap::danfoss_fc {
 
@@ -182,20 +183,17 @@ void dissect_fc(Message& m, Frame&& frame, Direction direction, const FramingTim
   auto lge = c.u8();
   auto adr = c.u8();
   if (!stx || !lge || !adr || bytes.size() < 4) {
-    std::string what =
-        fmt::format(FMT_COMPILE("{}-byte fragment, too short for an FC telegram"), bytes.size());
+    std::string what = kFindingFragment.detail(bytes.size());
     if (m.detail) m.info = what;
-    add_malformed(m, std::move(what));
-    add_implausible(m, fc_plausibility(bytes, direction, true));
+    add_finding_detail(m, kFindingFragment, std::move(what));
+    add_implausible(m, kFindingImplausible, fc_plausibility(bytes, direction, true));
     return;
   }
   tree.add(kStx, 0, 1, *stx);
-  if (*stx != kStxByte)
-    add_malformed(m, fmt::format(FMT_COMPILE("starts with 0x{:02X}, not STX 0x02"), *stx));
+  if (*stx != kStxByte) add_finding(m, kFindingStxBad, *stx);
   tree.add(kLge, 1, 1, *lge);
   if (std::size_t{*lge} + 2 != bytes.size())
-    add_malformed(m, fmt::format(FMT_COMPILE("LGE {} announces {} bytes, the telegram has {}"),
-                                 *lge, *lge + 2, bytes.size()));
+    add_finding(m, kFindingLgeMismatch, *lge, *lge + 2u, bytes.size());
   const Address a = decode_adr(*adr);
   tree.open(kAdr, 2, 1, *adr);
   tree.add(kAddress, 2, 1, a.number);
@@ -230,9 +228,7 @@ void dissect_fc(Message& m, Frame&& frame, Direction direction, const FramingTim
       info.push_back(fmt::format(FMT_COMPILE("{} text {} \"{}\""), mode == 0x05 ? "write" : "read",
                                  param, text));
     } else {
-      if (value_len != 4)
-        add_malformed(
-            m, fmt::format(FMT_COMPILE("parameter value of {} bytes (4 expected)"), value_len));
+      if (value_len != 4) add_finding(m, kFindingPweLength, value_len);
       auto hi = c.be16();
       auto lo = c.be16();
       const std::uint32_t pwe = (std::uint32_t{hi.value_or(0)} << 16) | lo.value_or(0);
@@ -264,14 +260,10 @@ void dissect_fc(Message& m, Frame&& frame, Direction direction, const FramingTim
         }
       }
       if (!(to_drive ? is_request_ak(ak) : is_response_ak(ak)))
-        add_malformed(m, fmt::format(FMT_COMPILE("AK 0x{:X} is not a {} command"), ak,
-                                     to_drive ? "request" : "response"));
+        add_finding(m, kFindingAkDirection, ak, to_drive ? "request" : "response");
     }
   } else if (data_len != 4) {
-    add_malformed(
-        m, fmt::format(
-               FMT_COMPILE("{} data bytes: neither process data (4) nor a parameter block (12)"),
-               data_len));
+    add_finding(m, kFindingDataLength, data_len);
   }
   // Process data: the last 4 data bytes.
   if (data_len >= 4 && c.remaining() >= 5) {
@@ -311,7 +303,7 @@ void dissect_fc(Message& m, Frame&& frame, Direction direction, const FramingTim
   m.checksum.computed_wire = computed;
   m.checksum.verdict = stated == computed ? ChecksumVerdict::good : ChecksumVerdict::bad;
   add_checksum_anomaly(m);
-  add_implausible(m, fc_plausibility(bytes, direction, true));
+  add_implausible(m, kFindingImplausible, fc_plausibility(bytes, direction, true));
   append_uart_anomalies(m.frame.events, 0, m.anomalies);
 }
 

@@ -1,8 +1,9 @@
-// The Danfoss FC protocol's descriptor (PROTOCOLS.md §4): names, decoder, fields.
+// The Danfoss FC protocol's descriptor (PROTOCOLS.md §4): names, decoder, fields, findings.
 #include "dissectors/danfoss_fc/fc_protocol.hpp"
 
 #include "dissectors/danfoss_fc/fc_dissector.hpp"
 #include "dissectors/danfoss_fc/fc_fields.hpp"
+#include "dissectors/danfoss_fc/fc_findings.hpp"
 
 namespace drivetap::danfoss_fc {
 namespace {
@@ -19,7 +20,7 @@ const ProtocolDesc kFcProtocol{
     .option_names = kNames,
     .decoder = &kDecoder,
     .fields = kAllFields,
-    .findings = {},
+    .findings = kAllFindings,
     .text_start = 0,
     .wireshark_dissector = {},
 };

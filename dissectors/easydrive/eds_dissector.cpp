@@ -6,6 +6,7 @@
 
 #include "dissectors/common/delimited_framer.hpp"
 #include "dissectors/easydrive/eds_fields.hpp"
+#include "dissectors/easydrive/eds_findings.hpp"
 
 namespace drivetap::easydrive {
 namespace {
@@ -124,26 +125,25 @@ void dissect_eds(Message& m, Frame&& frame, Direction direction, const FramingTi
   const std::span<const std::uint8_t> f(m.bytes);
   FieldTreeBuilder tree(m.fields, m.detail && m.tree);
   if (f.empty() || f[0] != '~') {
-    add_malformed(m, "does not start with '~'");
-    add_implausible(m, eds_plausibility(f, direction, true));
+    add_finding(m, kFindingNoStart);
+    add_implausible(m, kFindingImplausible, eds_plausibility(f, direction, true));
     m.describe([] { return std::string("not an Easydrive frame"); });
     return;
   }
   tree.add_text(kStart, 0, 1, "~");
-  if (f.back() != '\r') add_malformed(m, "no CR at the end: frame cut");
+  if (f.back() != '\r') add_finding(m, kFindingNoCr);
   // Only '~', 0-9, A-F and CR are valid (lower case is an error too).
   for (std::size_t i = 1; i < f.size(); ++i) {
     const std::uint8_t c = f[i];
     if (hex_value(c) < 0 && !(c == '\r' && i + 1 == f.size())) {
-      add_malformed(m, fmt::format(FMT_COMPILE("invalid character 0x{:02X} ('{}') at {}"), c,
-                                   c >= 0x20 && c < 0x7F ? static_cast<char>(c) : '?', i));
+      add_finding(m, kFindingBadCharacter, c, c >= 0x20 && c < 0x7F ? static_cast<char>(c) : '?',
+                  i);
       break;
     }
   }
   const std::size_t len = f.size() - (f.back() == '\r' ? 1 : 0);  // without CR
   if (len != 13 && len != 17) {
-    add_malformed(m,
-                  fmt::format(FMT_COMPILE("{} characters before CR: a frame has 13 or 17"), len));
+    add_finding(m, kFindingLength, len);
   }
   const long addr = hex_field(f, 1, 2);
   const long cmd = hex_field(f, 3, 2);
@@ -236,7 +236,7 @@ void dissect_eds(Message& m, Frame&& frame, Direction direction, const FramingTi
                          f.size());
     });
   }
-  add_implausible(m, eds_plausibility(f, direction, true));
+  add_implausible(m, kFindingImplausible, eds_plausibility(f, direction, true));
   append_uart_anomalies(m.frame.events, 0, m.anomalies);
 }
 

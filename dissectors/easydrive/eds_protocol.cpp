@@ -1,8 +1,9 @@
-// The Easydrive protocol's descriptor (PROTOCOLS.md §5): names, decoder, fields.
+// The Easydrive protocol's descriptor (PROTOCOLS.md §5): names, decoder, fields, findings.
 #include "dissectors/easydrive/eds_protocol.hpp"
 
 #include "dissectors/easydrive/eds_dissector.hpp"
 #include "dissectors/easydrive/eds_fields.hpp"
+#include "dissectors/easydrive/eds_findings.hpp"
 
 namespace drivetap::easydrive {
 namespace {
@@ -19,7 +20,7 @@ const ProtocolDesc kEdsProtocol{
     .option_names = kNames,
     .decoder = &kDecoder,
     .fields = kAllFields,
-    .findings = {},
+    .findings = kAllFindings,
     .text_start = '~',
     .wireshark_dissector = {},
 };

@@ -7,6 +7,7 @@
 #include "core/checksum.hpp"
 #include "dissectors/common/delimited_framer.hpp"
 #include "dissectors/modbus/modbus_fields.hpp"
+#include "dissectors/modbus/modbus_findings.hpp"
 #include "dissectors/modbus/modbus_pdu.hpp"
 
 namespace drivetap::modbus {
@@ -31,35 +32,33 @@ AsciiHex decode_ascii_hex(std::span<const std::uint8_t> frame) {
     out.terminated = true;
     end -= 2;
   } else if (end >= 1 && (frame[end - 1] == '\n' || frame[end - 1] == '\r')) {
-    out.problems.push_back("ends with a lone CR or LF instead of CR LF");
+    out.problems.push_back({&kFindingAsciiLoneTerminator, kFindingAsciiLoneTerminator.detail()});
     end -= 1;
   } else {
-    out.problems.push_back("no CR LF at the end: frame cut");
+    out.problems.push_back({&kFindingAsciiNoTerminator, kFindingAsciiNoTerminator.detail()});
   }
   if (frame.empty() || frame[0] != ':') {
-    out.problems.push_back("does not start with ':'");
+    out.problems.push_back({&kFindingAsciiNoStart, kFindingAsciiNoStart.detail()});
     return out;
   }
   // Each pass consumes two characters.
   for (std::size_t i = 1; i + 1 < end + 1 && i < end; i += 2) {
     if (i + 1 >= end) {
       out.problems.push_back(
-          fmt::format(FMT_COMPILE("odd number of hex characters (stray '{}' at {})"),
-                      static_cast<char>(frame[i]), i));
+          {&kFindingAsciiOddDigits, kFindingAsciiOddDigits.detail(static_cast<char>(frame[i]), i)});
       break;
     }
     const int hi = hex_digit(frame[i], &out.lower_case);
     const int lo = hex_digit(frame[i + 1], &out.lower_case);
     if (hi < 0 || lo < 0) {
       const std::size_t at = hi < 0 ? i : i + 1;
-      out.problems.push_back(
-          fmt::format(FMT_COMPILE("character 0x{:02X} at {} is not a hex digit"), frame[at], at));
+      out.problems.push_back({&kFindingAsciiNotHex, kFindingAsciiNotHex.detail(frame[at], at)});
       break;
     }
     out.binary.push_back(static_cast<std::uint8_t>((hi << 4) | lo));
   }
   if (out.lower_case)
-    out.problems.push_back("lower-case hex digits (the protocol uses upper case)");
+    out.problems.push_back({&kFindingAsciiLowerCase, kFindingAsciiLowerCase.detail()});
   return out;
 }
 
@@ -104,8 +103,8 @@ void dissect_ascii(Message& m, Frame&& frame, Direction direction, const Framing
   m.text_encoded = true;
   const AsciiHex hex = decode_ascii_hex(m.bytes);
   const std::vector<std::uint8_t>& bin = hex.binary;
-  for (const std::string& p : hex.problems) add_malformed(m, p);
-  add_implausible(m, ascii_plausibility(m.bytes, hex, direction, true));
+  for (const FoundProblem& p : hex.problems) add_finding_detail(m, *p.finding, p.detail);
+  add_implausible(m, kFindingAsciiImplausible, ascii_plausibility(m.bytes, hex, direction, true));
   if (bin.size() < 3) {
     m.describe([&] {
       return fmt::format(FMT_COMPILE("{}-character fragment, too short for Modbus ASCII"),
@@ -130,7 +129,8 @@ void dissect_ascii(Message& m, Frame&& frame, Direction direction, const Framing
   }
   m.info = std::move(pdu.info);
   m.exception_code = pdu.exception_code;
-  for (std::string& problem : pdu.problems) add_malformed(m, std::move(problem));
+  for (FoundProblem& problem : pdu.problems)
+    add_finding_detail(m, *problem.finding, std::move(problem.detail));
 
   const std::uint8_t computed = lrc8(std::span(bin).first(bin.size() - 1));
   m.checksum.name = "LRC";

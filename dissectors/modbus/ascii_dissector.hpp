@@ -13,6 +13,7 @@
 
 #include "core/message.hpp"
 #include "core/protocol.hpp"
+#include "dissectors/common/finding.hpp"
 #include "dissectors/common/plausibility.hpp"
 #include "dissectors/modbus/modbus_protocol.hpp"
 
@@ -21,7 +22,7 @@ namespace drivetap::modbus {
 // The binary bytes a Modbus ASCII frame spells (ADDR..LRC), and what was wrong with its text.
 struct AsciiHex {
   std::vector<std::uint8_t> binary;
-  std::vector<std::string> problems;
+  std::vector<FoundProblem> problems;
   bool lower_case = false;
   bool terminated = false;  // ended with CR LF
 };

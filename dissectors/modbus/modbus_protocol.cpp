@@ -1,8 +1,10 @@
-// The Modbus RTU and Modbus ASCII descriptors (PROTOCOLS.md §2, §3): names, decoders, fields.
+// The Modbus RTU and Modbus ASCII descriptors (PROTOCOLS.md §2, §3): names, decoders, fields,
+// findings.
 #include "dissectors/modbus/modbus_protocol.hpp"
 
 #include "dissectors/modbus/ascii_dissector.hpp"
 #include "dissectors/modbus/modbus_fields.hpp"
+#include "dissectors/modbus/modbus_findings.hpp"
 #include "dissectors/modbus/rtu_dissector.hpp"
 
 namespace drivetap::modbus {
@@ -22,7 +24,7 @@ const ProtocolDesc kRtuProtocol{
     .option_names = kRtuNames,
     .decoder = &kRtuDecoder,
     .fields = kAllFields,
-    .findings = {},
+    .findings = kRtuFindings,
     .text_start = 0,
     .wireshark_dissector = "mbrtu",
 };
@@ -34,7 +36,7 @@ const ProtocolDesc kAsciiProtocol{
     .option_names = kAsciiNames,
     .decoder = &kAsciiDecoder,
     .fields = kAllFields,
-    .findings = {},
+    .findings = kAsciiFindings,
     .text_start = ':',
     .wireshark_dissector = {},
 };

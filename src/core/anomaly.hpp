@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "core/byte_event.hpp"
@@ -54,7 +55,7 @@ struct FindingDesc {
   const char* id;
   AnomalyKind kind;
   Severity severity;
-  const char* text;  // fmt template of the detail
+  std::string_view text;  // fmt template of the detail
 };
 
 struct Anomaly {

@@ -145,12 +145,6 @@ inline void begin_message(Message& m, Frame&& frame, Protocol protocol, Directio
   m.request_number = 0;
 }
 
-// A finding that the frame's length or content breaks its protocol's rules.
-inline void add_malformed(Message& m, std::string detail) {
-  m.anomalies.push_back(
-      {AnomalyKind::malformed, m.frame.start(), m.frame.channel, 0, std::move(detail)});
-}
-
 // Puts the finding for a bad or byte-swapped checksum first among the message's anomalies:
 // "CRC on wire DA 27, computed DA 26" (+ `hint`); nothing for a good or absent checksum.
 void add_checksum_anomaly(Message& m, std::string_view hint = "");
