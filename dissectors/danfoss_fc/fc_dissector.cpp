@@ -168,12 +168,12 @@ Plausibility fc_plausibility(std::span<const std::uint8_t> frame, Direction dire
 }
 
 Message dissect_fc(Frame frame, Direction direction, const FramingTiming& timing) {
-  Message m;
-  dissect_fc(m, std::move(frame), direction, timing);
-  return m;
+  return dissected(dissect_fc, std::move(frame), direction, timing);
 }
 
-void dissect_fc(Message& m, Frame&& frame, Direction direction, const FramingTiming& timing) {
+void dissect_fc(Message& m, Frame&& frame, Direction direction, const FramingTiming& timing,
+                std::span<const std::uint8_t> request) {
+  (void)request;
   (void)timing;
   begin_message(m, std::move(frame), protocols::danfoss_fc, direction);
   const std::span<const std::uint8_t> bytes(m.bytes);
@@ -329,7 +329,9 @@ bool FcRules::looks_like_frame_start(std::span<const std::uint8_t> from) const {
   return from[1] == 6 || from[1] >= 10;  // process data, or parameter/text block
 }
 
-std::unique_ptr<Framer> FcDecoder::make_framer(ChannelId channel, const FramerSettings& s) const {
+namespace {
+
+std::unique_ptr<Framer> make_framer(ChannelId channel, const FramerSettings& s) {
   static const FcRules rules;
   HybridFramerOptions o;
   o.timing = s.timing;
@@ -337,7 +339,7 @@ std::unique_ptr<Framer> FcDecoder::make_framer(ChannelId channel, const FramerSe
   return std::make_unique<HybridFramer<FcRules>>(channel, o, rules);
 }
 
-DirectionFit FcDecoder::direction_fit(std::span<const std::uint8_t> frame) const {
+DirectionFit direction_fit(std::span<const std::uint8_t> frame) {
   DirectionFit fit;
   if (frame.size() == 8) {
     fit.request = fit.response = true;  // process data only: order decides
@@ -349,19 +351,26 @@ DirectionFit FcDecoder::direction_fit(std::span<const std::uint8_t> frame) const
   return fit;
 }
 
-bool FcDecoder::always_response(std::span<const std::uint8_t> frame) const {
+bool always_response(std::span<const std::uint8_t> frame) {
   return frame.size() >= 12 && is_response_only_ak(frame[3] >> 4);
 }
 
-bool FcDecoder::recognisable(std::span<const std::uint8_t> frame) const {
+bool recognisable(std::span<const std::uint8_t> frame) {
   return frame.size() >= 4 && frame[0] == kStxByte;
 }
 
-ProtocolDecoder::PairingKeys FcDecoder::pairing_keys(std::span<const std::uint8_t> frame) const {
+ProtocolDecoder::PairingKeys pairing_keys(std::span<const std::uint8_t> frame) {
   if (frame.size() < 3) return {};
   const Address a = decode_adr(frame[2]);
   return {a.broadcast ? 0 : a.number, -1};
 }
+
+}  // namespace
+
+// In DecoderFunctions order.
+constexpr DecoderFunctions kFcFunctions{
+    protocols::danfoss_fc, make_framer,  direction_fit, always_response,
+    recognisable,          pairing_keys, dissect_fc,    false};
 
 }  // namespace drivetap::danfoss_fc
 

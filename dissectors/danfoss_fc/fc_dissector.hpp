@@ -13,6 +13,7 @@
 
 #include "core/message.hpp"
 #include "core/protocol.hpp"
+#include "dissectors/common/decoder_of.hpp"
 #include "dissectors/common/hybrid_framer.hpp"
 #include "dissectors/common/plausibility.hpp"
 #include "dissectors/danfoss_fc/fc_protocol.hpp"
@@ -38,7 +39,10 @@ Plausibility fc_plausibility(std::span<const std::uint8_t> frame, Direction dire
                              bool describe);
 
 // Decodes into `m`, reusing its storage (begin_message); the other form returns a new Message.
-void dissect_fc(Message& m, Frame&& frame, Direction direction, const FramingTiming& timing);
+// `request` is not read: replies of this protocol stand on their own
+// (ProtocolDecoder::dissect_into).
+void dissect_fc(Message& m, Frame&& frame, Direction direction, const FramingTiming& timing,
+                std::span<const std::uint8_t> request = {});
 Message dissect_fc(Frame frame, Direction direction, const FramingTiming& timing);
 
 class FcRules final : public HybridFrameRules {
@@ -51,20 +55,8 @@ class FcRules final : public HybridFrameRules {
   [[nodiscard]] bool looks_like_frame_start(std::span<const std::uint8_t> from) const override;
 };
 
-class FcDecoder final : public ProtocolDecoder {
- public:
-  [[nodiscard]] Protocol protocol() const override { return protocols::danfoss_fc; }
-  [[nodiscard]] std::unique_ptr<Framer> make_framer(ChannelId channel,
-                                                    const FramerSettings& s) const override;
-  [[nodiscard]] DirectionFit direction_fit(std::span<const std::uint8_t> frame) const override;
-  [[nodiscard]] bool always_response(std::span<const std::uint8_t> frame) const override;
-  [[nodiscard]] bool recognisable(std::span<const std::uint8_t> frame) const override;
-  [[nodiscard]] PairingKeys pairing_keys(std::span<const std::uint8_t> frame) const override;
-  void dissect_into(Message& out, Frame&& frame, Direction direction, const FramingTiming& timing,
-                    std::span<const std::uint8_t> request = {}) const override {
-    (void)request;  // replies of this protocol stand on their own
-    dissect_fc(out, std::move(frame), direction, timing);
-  }
-};
+// The decoder: this protocol's functions (the .cpp) as a ProtocolDecoder.
+extern const DecoderFunctions kFcFunctions;
+using FcDecoder = DecoderOf<kFcFunctions>;
 
 }  // namespace drivetap::danfoss_fc

@@ -112,9 +112,7 @@ std::uint16_t ascii_sum(std::span<const std::uint8_t> text) {
 
 Message dissect_eds(Frame frame, Direction direction, const FramingTiming& timing,
                     std::span<const std::uint8_t> request) {
-  Message m;
-  dissect_eds(m, std::move(frame), direction, timing, request);
-  return m;
+  return dissected(dissect_eds, std::move(frame), direction, timing, request);
 }
 
 void dissect_eds(Message& m, Frame&& frame, Direction direction, const FramingTiming& timing,
@@ -240,26 +238,35 @@ void dissect_eds(Message& m, Frame&& frame, Direction direction, const FramingTi
   append_uart_anomalies(m.frame.events, 0, m.anomalies);
 }
 
-std::unique_ptr<Framer> EdsDecoder::make_framer(ChannelId channel, const FramerSettings& s) const {
+namespace {
+
+std::unique_ptr<Framer> make_framer(ChannelId channel, const FramerSettings& s) {
   return make_delimited_framer(channel, s, '~', '\r', 32);
 }
 
-DirectionFit EdsDecoder::direction_fit(std::span<const std::uint8_t> frame) const {
+DirectionFit direction_fit(std::span<const std::uint8_t> frame) {
   const long cmd = hex_field(frame, 3, 2);
   return {is_request_command(cmd), is_response_code(cmd)};
 }
 
-bool EdsDecoder::always_response(std::span<const std::uint8_t> frame) const {
+bool always_response(std::span<const std::uint8_t> frame) {
   return is_response_code(hex_field(frame, 3, 2));
 }
 
-bool EdsDecoder::recognisable(std::span<const std::uint8_t> frame) const {
+bool recognisable(std::span<const std::uint8_t> frame) {
   return !frame.empty() && frame[0] == '~' && body_of(frame).size() >= 12;
 }
 
-ProtocolDecoder::PairingKeys EdsDecoder::pairing_keys(std::span<const std::uint8_t> frame) const {
+ProtocolDecoder::PairingKeys pairing_keys(std::span<const std::uint8_t> frame) {
   const long addr = hex_field(frame, 1, 2);
   return {addr < 0 ? -1 : static_cast<int>(addr), -1};
 }
+
+}  // namespace
+
+// In DecoderFunctions order.
+constexpr DecoderFunctions kEdsFunctions{protocols::easydrive, make_framer,  direction_fit,
+                                         always_response,      recognisable, pairing_keys,
+                                         dissect_eds,          true};
 
 }  // namespace drivetap::easydrive

@@ -11,6 +11,7 @@
 
 #include "core/message.hpp"
 #include "core/protocol.hpp"
+#include "dissectors/common/decoder_of.hpp"
 #include "dissectors/common/plausibility.hpp"
 #include "dissectors/easydrive/eds_protocol.hpp"
 
@@ -35,20 +36,8 @@ void dissect_eds(Message& m, Frame&& frame, Direction direction, const FramingTi
 Message dissect_eds(Frame frame, Direction direction, const FramingTiming& timing,
                     std::span<const std::uint8_t> request = {});
 
-class EdsDecoder final : public ProtocolDecoder {
- public:
-  [[nodiscard]] Protocol protocol() const override { return protocols::easydrive; }
-  [[nodiscard]] std::unique_ptr<Framer> make_framer(ChannelId channel,
-                                                    const FramerSettings& s) const override;
-  [[nodiscard]] DirectionFit direction_fit(std::span<const std::uint8_t> frame) const override;
-  [[nodiscard]] bool always_response(std::span<const std::uint8_t> frame) const override;
-  [[nodiscard]] bool recognisable(std::span<const std::uint8_t> frame) const override;
-  [[nodiscard]] PairingKeys pairing_keys(std::span<const std::uint8_t> frame) const override;
-  void dissect_into(Message& out, Frame&& frame, Direction direction, const FramingTiming& timing,
-                    std::span<const std::uint8_t> request = {}) const override {
-    dissect_eds(out, std::move(frame), direction, timing, request);
-  }
-  [[nodiscard]] bool reads_request() const override { return true; }  // replies echo its index
-};
+// The decoder: this protocol's functions (the .cpp) as a ProtocolDecoder.
+extern const DecoderFunctions kEdsFunctions;
+using EdsDecoder = DecoderOf<kEdsFunctions>;
 
 }  // namespace drivetap::easydrive

@@ -92,12 +92,12 @@ Plausibility ascii_plausibility(std::span<const std::uint8_t> frame, const Ascii
 }
 
 Message dissect_ascii(Frame frame, Direction direction, const FramingTiming& timing) {
-  Message m;
-  dissect_ascii(m, std::move(frame), direction, timing);
-  return m;
+  return dissected(dissect_ascii, std::move(frame), direction, timing);
 }
 
-void dissect_ascii(Message& m, Frame&& frame, Direction direction, const FramingTiming& timing) {
+void dissect_ascii(Message& m, Frame&& frame, Direction direction, const FramingTiming& timing,
+                   std::span<const std::uint8_t> request) {
+  (void)request;
   (void)timing;  // ASCII allows up to 1 s between characters: no t1.5 rule
   begin_message(m, std::move(frame), protocols::modbus_ascii, direction);
   m.text_encoded = true;
@@ -142,12 +142,13 @@ void dissect_ascii(Message& m, Frame&& frame, Direction direction, const Framing
   append_uart_anomalies(m.frame.events, 0, m.anomalies);
 }
 
-std::unique_ptr<Framer> AsciiDecoder::make_framer(ChannelId channel,
-                                                  const FramerSettings& s) const {
+namespace {
+
+std::unique_ptr<Framer> make_framer(ChannelId channel, const FramerSettings& s) {
   return make_delimited_framer(channel, s, ':', '\n', 513);
 }
 
-DirectionFit AsciiDecoder::direction_fit(std::span<const std::uint8_t> frame) const {
+DirectionFit direction_fit(std::span<const std::uint8_t> frame) {
   const AsciiHex hex = decode_ascii_hex(frame);
   DirectionFit fit;
   if (hex.binary.size() < 3) return fit;
@@ -157,21 +158,28 @@ DirectionFit AsciiDecoder::direction_fit(std::span<const std::uint8_t> frame) co
   return fit;
 }
 
-bool AsciiDecoder::always_response(std::span<const std::uint8_t> frame) const {
+bool always_response(std::span<const std::uint8_t> frame) {
   const AsciiHex hex = decode_ascii_hex(frame);
   return hex.binary.size() >= 2 && (hex.binary[1] & 0x80) != 0;
 }
 
-bool AsciiDecoder::recognisable(std::span<const std::uint8_t> frame) const {
+bool recognisable(std::span<const std::uint8_t> frame) {
   const AsciiHex hex = decode_ascii_hex(frame);
   if (hex.binary.size() < 3) return false;
   return lrc8(std::span(hex.binary).first(hex.binary.size() - 1)) == hex.binary.back() ||
          is_public_function(hex.binary[1]);
 }
 
-ProtocolDecoder::PairingKeys AsciiDecoder::pairing_keys(std::span<const std::uint8_t> frame) const {
+ProtocolDecoder::PairingKeys pairing_keys(std::span<const std::uint8_t> frame) {
   const AsciiHex hex = decode_ascii_hex(frame);
   return {hex.binary.empty() ? -1 : hex.binary[0], hex.binary.size() < 2 ? -1 : hex.binary[1]};
 }
+
+}  // namespace
+
+// In DecoderFunctions order.
+constexpr DecoderFunctions kAsciiFunctions{protocols::modbus_ascii, make_framer,  direction_fit,
+                                           always_response,         recognisable, pairing_keys,
+                                           dissect_ascii,           false};
 
 }  // namespace drivetap::modbus

@@ -13,6 +13,7 @@
 
 #include "core/message.hpp"
 #include "core/protocol.hpp"
+#include "dissectors/common/decoder_of.hpp"
 #include "dissectors/common/finding.hpp"
 #include "dissectors/common/plausibility.hpp"
 #include "dissectors/modbus/modbus_protocol.hpp"
@@ -36,23 +37,14 @@ Plausibility ascii_plausibility(std::span<const std::uint8_t> frame, const Ascii
                                 Direction direction, bool describe);
 
 // Decodes into `m`, reusing its storage (begin_message); the other form returns a new Message.
-void dissect_ascii(Message& m, Frame&& frame, Direction direction, const FramingTiming& timing);
+// `request` is not read: replies of this protocol stand on their own
+// (ProtocolDecoder::dissect_into).
+void dissect_ascii(Message& m, Frame&& frame, Direction direction, const FramingTiming& timing,
+                   std::span<const std::uint8_t> request = {});
 Message dissect_ascii(Frame frame, Direction direction, const FramingTiming& timing);
 
-class AsciiDecoder final : public ProtocolDecoder {
- public:
-  [[nodiscard]] Protocol protocol() const override { return protocols::modbus_ascii; }
-  [[nodiscard]] std::unique_ptr<Framer> make_framer(ChannelId channel,
-                                                    const FramerSettings& s) const override;
-  [[nodiscard]] DirectionFit direction_fit(std::span<const std::uint8_t> frame) const override;
-  [[nodiscard]] bool always_response(std::span<const std::uint8_t> frame) const override;
-  [[nodiscard]] bool recognisable(std::span<const std::uint8_t> frame) const override;
-  [[nodiscard]] PairingKeys pairing_keys(std::span<const std::uint8_t> frame) const override;
-  void dissect_into(Message& out, Frame&& frame, Direction direction, const FramingTiming& timing,
-                    std::span<const std::uint8_t> request = {}) const override {
-    (void)request;  // replies of this protocol stand on their own
-    dissect_ascii(out, std::move(frame), direction, timing);
-  }
-};
+// The decoder: this protocol's functions (the .cpp) as a ProtocolDecoder.
+extern const DecoderFunctions kAsciiFunctions;
+using AsciiDecoder = DecoderOf<kAsciiFunctions>;
 
 }  // namespace drivetap::modbus

@@ -45,12 +45,12 @@ Plausibility rtu_plausibility(std::span<const std::uint8_t> frame, Direction dir
 }
 
 Message dissect_rtu(Frame frame, Direction direction, const FramingTiming& timing) {
-  Message m;
-  dissect_rtu(m, std::move(frame), direction, timing);
-  return m;
+  return dissected(dissect_rtu, std::move(frame), direction, timing);
 }
 
-void dissect_rtu(Message& m, Frame&& frame, Direction direction, const FramingTiming& timing) {
+void dissect_rtu(Message& m, Frame&& frame, Direction direction, const FramingTiming& timing,
+                 std::span<const std::uint8_t> request) {
+  (void)request;
   begin_message(m, std::move(frame), protocols::modbus_rtu, direction);
   const std::span<const std::uint8_t> bytes(m.bytes);
   const ChannelId ch = m.frame.channel;
@@ -155,21 +155,34 @@ bool RtuDecoder::precheck(std::span<const std::uint8_t> bytes, TelegramPrecheck*
   return true;
 }
 
-std::unique_ptr<Framer> RtuDecoder::make_framer(ChannelId channel, const FramerSettings& s) const {
+namespace {
+
+std::unique_ptr<Framer> make_framer(ChannelId channel, const FramerSettings& s) {
   RtuFramerOptions o;
   o.timing = s.timing;
   o.max_hold = s.max_hold;
   return std::make_unique<RtuFramer>(channel, o);
 }
 
-bool RtuDecoder::always_response(std::span<const std::uint8_t> frame) const {
+bool always_response(std::span<const std::uint8_t> frame) {
   return frame.size() >= 2 && (frame[1] & 0x80) != 0;  // exception reply
 }
 
-bool RtuDecoder::recognisable(std::span<const std::uint8_t> frame) const {
+bool recognisable(std::span<const std::uint8_t> frame) {
   // A frame with a bad CRC and a function code outside the public set is most likely garbage.
   return frame.size() >= 2 &&
          (check_rtu_crc(frame).verdict != ChecksumVerdict::bad || is_public_function(frame[1]));
 }
+
+ProtocolDecoder::PairingKeys pairing_keys(std::span<const std::uint8_t> frame) {
+  return {frame.empty() ? -1 : frame[0], frame.size() < 2 ? -1 : frame[1]};
+}
+
+}  // namespace
+
+// In DecoderFunctions order.
+constexpr DecoderFunctions kRtuFunctions{protocols::modbus_rtu, make_framer,  rtu_direction_fit,
+                                         always_response,       recognisable, pairing_keys,
+                                         dissect_rtu,           false};
 
 }  // namespace drivetap::modbus
