@@ -123,32 +123,32 @@ bool is_response_ak(unsigned ak) {
 Plausibility fc_plausibility(std::span<const std::uint8_t> frame, Direction direction,
                              bool describe) {
   Plausibility p;
-  auto broken = [&](PlausibilityRule rule, auto&& why) {
+  auto broken = [&](const PlausibilityRule& rule, auto&& why) {
     return Plausibility::breaking(rule, describe, why);
   };
   if (frame.empty() || frame[0] != kStxByte)
-    return broken(PlausibilityRule::fc_stx, [&] {
+    return broken(kRuleFcStx, [&] {
       return frame.empty() ? std::string("no bytes")
                            : fmt::format(FMT_COMPILE("starts with 0x{:02X}, not STX"), frame[0]);
     });
   if (frame.size() < 4)
-    return broken(PlausibilityRule::fc_lge_count,
+    return broken(kRuleFcLgeCount,
                   [&] { return fmt::format(FMT_COMPILE("{} bytes (at least 4)"), frame.size()); });
   const std::uint8_t lge = frame[1];
   const unsigned ak = frame.size() >= 12 ? frame[3] >> 4 : 0;
   // Text blocks (AK 0xF) carry n text bytes: LGE 10 + n; every other telegram is 6 or 14.
   if (lge != 6 && lge != 14 && !(lge > 10 && frame.size() >= 12 && ak == 0xF))
-    return broken(PlausibilityRule::fc_lge_allowed, [&] {
+    return broken(kRuleFcLgeAllowed, [&] {
       return fmt::format(FMT_COMPILE("LGE {} (6, 14, or 10 + n for a text block)"), lge);
     });
   if (std::size_t{lge} + 2 != frame.size())
-    return broken(PlausibilityRule::fc_lge_count, [&] {
+    return broken(kRuleFcLgeCount, [&] {
       return fmt::format(FMT_COMPILE("LGE {} but {} bytes after it"), lge, frame.size() - 2);
     });
   const std::uint8_t adr = frame[2];
   const bool adr_ok = (adr & 0x80) ? adr != 0xFF : ((adr & 0x1F) != 0 || (adr & 0x20) != 0);
   if (!adr_ok)
-    return broken(PlausibilityRule::fc_adr, [&] {
+    return broken(kRuleFcAdr, [&] {
       return fmt::format(FMT_COMPILE("ADR 0x{:02X} names no drive and no broadcast"), adr);
     });
   if (frame.size() >= 12) {
@@ -157,7 +157,7 @@ Plausibility fc_plausibility(std::span<const std::uint8_t> frame, Direction dire
                     : direction == Direction::response ? as_response
                                                        : as_request || as_response;
     if (!ok)
-      return broken(PlausibilityRule::fc_ak, [&] {
+      return broken(kRuleFcAk, [&] {
         return fmt::format(FMT_COMPILE("AK 0x{:X} is no {}"), ak,
                            direction == Direction::request    ? "request"
                            : direction == Direction::response ? "reply"

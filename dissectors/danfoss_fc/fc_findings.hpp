@@ -9,6 +9,14 @@
 
 namespace drivetap::danfoss_fc {
 
+// The plausibility rules (dissectors/common/plausibility.hpp): ids as the `implausible` finding's
+// detail names them. They keep their short `fc.` prefix, being output text; finding ids do not.
+inline constexpr PlausibilityRule kRuleFcStx{"fc.stx", "PROTOCOLS.md §4"};
+inline constexpr PlausibilityRule kRuleFcLgeAllowed{"fc.lge_allowed", "PROTOCOLS.md §4"};
+inline constexpr PlausibilityRule kRuleFcLgeCount{"fc.lge_count", "PROTOCOLS.md §4"};
+inline constexpr PlausibilityRule kRuleFcAdr{"fc.adr", "PROTOCOLS.md §4"};
+inline constexpr PlausibilityRule kRuleFcAk{"fc.ak", "PROTOCOLS.md §4"};
+
 inline constexpr Finding<std::size_t> kFindingFragment{
     "danfoss_fc.fragment", AnomalyKind::malformed, Severity::error,
     "{}-byte fragment, too short for an FC telegram"};

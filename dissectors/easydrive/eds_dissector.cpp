@@ -73,20 +73,19 @@ std::string status_word(long w) {
 
 Plausibility eds_plausibility(std::span<const std::uint8_t> f, Direction direction, bool describe) {
   Plausibility p;
-  auto broken = [&](PlausibilityRule rule, auto&& why) {
+  auto broken = [&](const PlausibilityRule& rule, auto&& why) {
     return Plausibility::breaking(rule, describe, why);
   };
   if (f.empty() || f[0] != '~')
-    return broken(PlausibilityRule::eds_start, [] { return std::string("no '~' first"); });
-  if (f.back() != '\r')
-    return broken(PlausibilityRule::eds_terminator, [] { return std::string("no CR last"); });
+    return broken(kRuleEdsStart, [] { return std::string("no '~' first"); });
+  if (f.back() != '\r') return broken(kRuleEdsTerminator, [] { return std::string("no CR last"); });
   for (std::size_t i = 1; i + 1 < f.size(); ++i)
     if (hex_value(f[i]) < 0)
-      return broken(PlausibilityRule::eds_charset, [&] {
+      return broken(kRuleEdsCharset, [&] {
         return fmt::format(FMT_COMPILE("character 0x{:02X} at {} (only 0-9, A-F)"), f[i], i);
       });
   if (f.size() != 14 && f.size() != 18)
-    return broken(PlausibilityRule::eds_length, [&] {
+    return broken(kRuleEdsLength, [&] {
       return fmt::format(FMT_COMPILE("{} characters before CR (13 or 17)"), f.size() - 1);
     });
   const long code = hex_field(f, 3, 2);
@@ -95,7 +94,7 @@ Plausibility eds_plausibility(std::span<const std::uint8_t> f, Direction directi
                       ? is_response_code(code)
                       : is_request_command(code) || is_response_code(code);
   if (!ok)
-    return broken(PlausibilityRule::eds_command, [&] {
+    return broken(kRuleEdsCommand, [&] {
       return fmt::format(FMT_COMPILE("code {:02X} is no {}"), code,
                          direction == Direction::request    ? "command"
                          : direction == Direction::response ? "response code"

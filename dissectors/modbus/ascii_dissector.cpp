@@ -65,25 +65,25 @@ AsciiHex decode_ascii_hex(std::span<const std::uint8_t> frame) {
 Plausibility ascii_plausibility(std::span<const std::uint8_t> frame, const AsciiHex& hex,
                                 Direction direction, bool describe) {
   Plausibility p;
-  auto broken = [&](PlausibilityRule rule, auto&& why) {
+  auto broken = [&](const PlausibilityRule& rule, auto&& why) {
     return Plausibility::breaking(rule, describe, why);
   };
   if (frame.empty() || frame[0] != ':')
-    return broken(PlausibilityRule::ascii_start, [] { return std::string("no ':' first"); });
+    return broken(kRuleAsciiStart, [] { return std::string("no ':' first"); });
   if (!hex.terminated)
-    return broken(PlausibilityRule::ascii_terminator, [] { return std::string("no CR LF last"); });
+    return broken(kRuleAsciiTerminator, [] { return std::string("no CR LF last"); });
   const std::span<const std::uint8_t> digits = frame.subspan(1, frame.size() - 3);
   for (std::size_t i = 0; i < digits.size(); ++i) {
     bool lower = false;
     if (hex_digit(digits[i], &lower) < 0)
-      return broken(PlausibilityRule::ascii_charset, [&] {
+      return broken(kRuleAsciiCharset, [&] {
         return fmt::format(FMT_COMPILE("character 0x{:02X} at {} is no hex digit"), digits[i],
                            i + 1);
       });
   }
   // Serial line §2.5.2: address, PDU of at most 253 bytes, LRC.
   if (digits.size() % 2 != 0 || hex.binary.size() < 3 || hex.binary.size() > 255)
-    return broken(PlausibilityRule::ascii_length, [&] {
+    return broken(kRuleAsciiLength, [&] {
       return fmt::format(FMT_COMPILE("{} hex digits (an even count spelling 3-255 bytes)"),
                          digits.size());
     });

@@ -11,6 +11,20 @@
 
 namespace drivetap::modbus {
 
+// The plausibility rules (dissectors/common/plausibility.hpp): ids as the `implausible` finding's
+// detail names them.
+inline constexpr PlausibilityRule kRuleRtuSize{"rtu.size", "Modbus serial line §2.5.1"};
+inline constexpr PlausibilityRule kRuleRtuAddress{"rtu.address", "Modbus serial line §2.3"};
+inline constexpr PlausibilityRule kRuleRtuFunction{"rtu.function",
+                                                   "Modbus application protocol §5"};
+inline constexpr PlausibilityRule kRuleRtuLength{"rtu.length", "Modbus application protocol §6"};
+inline constexpr PlausibilityRule kRuleRtuExceptionCode{
+    "rtu.exception_code", "Modbus application protocol §7, drive profiles"};
+inline constexpr PlausibilityRule kRuleAsciiStart{"ascii.start", "PROTOCOLS.md §3"};
+inline constexpr PlausibilityRule kRuleAsciiCharset{"ascii.charset", "PROTOCOLS.md §3"};
+inline constexpr PlausibilityRule kRuleAsciiLength{"ascii.length", "Modbus serial line §2.5.2"};
+inline constexpr PlausibilityRule kRuleAsciiTerminator{"ascii.terminator", "PROTOCOLS.md §3"};
+
 inline constexpr AnomalyKind kMalformed = AnomalyKind::malformed;
 
 // The PDU layer (modbus_pdu.cpp).

@@ -52,27 +52,26 @@ bool is_public_function(std::uint8_t fc) {
 Plausibility modbus_plausibility(std::uint8_t address, std::span<const std::uint8_t> pdu,
                                  Direction direction, bool describe) {
   Plausibility p;
-  auto broken = [&](PlausibilityRule rule, auto&& why) {
+  auto broken = [&](const PlausibilityRule& rule, auto&& why) {
     return Plausibility::breaking(rule, describe, why);
   };
   // Serial line §2.3: 0 broadcast, 1..247 slaves, 248..255 reserved.
   if (address > 247)
-    return broken(PlausibilityRule::rtu_address,
+    return broken(kRuleRtuAddress,
                   [&] { return fmt::format("address {} (248-255 are reserved)", address); });
-  if (pdu.empty())
-    return broken(PlausibilityRule::rtu_size, [] { return std::string("no function code"); });
+  if (pdu.empty()) return broken(kRuleRtuSize, [] { return std::string("no function code"); });
   const std::uint8_t fc = pdu[0];
   if (!is_public_function(fc))
-    return broken(PlausibilityRule::rtu_function, [&] {
+    return broken(kRuleRtuFunction, [&] {
       return fmt::format("function code 0x{:02X} is no public Modbus function", fc);
     });
   if (fc & 0x80) {
     if (pdu.size() != 2)
-      return broken(PlausibilityRule::rtu_length, [&] {
+      return broken(kRuleRtuLength, [&] {
         return fmt::format("exception reply of {} PDU bytes (2: function, code)", pdu.size());
       });
     if (!exception_code_allowed(pdu[1]))
-      return broken(PlausibilityRule::rtu_exception_code, [&] {
+      return broken(kRuleRtuExceptionCode, [&] {
         return fmt::format("exception code {} (1-11, or a drive profile's vendor code)", pdu[1]);
       });
     return p;
@@ -87,7 +86,7 @@ Plausibility modbus_plausibility(std::uint8_t address, std::span<const std::uint
       fits = true;
   }
   if (!fits)
-    return broken(PlausibilityRule::rtu_length, [&] {
+    return broken(kRuleRtuLength, [&] {
       return fmt::format("{} PDU bytes do not fit function 0x{:02X}'s layout{}", pdu.size(), fc,
                          direction == Direction::request    ? " as a request"
                          : direction == Direction::response ? " as a reply"

@@ -37,7 +37,7 @@ Plausibility rtu_plausibility(std::span<const std::uint8_t> frame, Direction dir
   // Serial line §2.5.1: address, PDU of at most 253 bytes, CRC.
   if (frame.size() < 4 || frame.size() > 256) {
     Plausibility p;
-    p.broken = PlausibilityRule::rtu_size;
+    p.broken = &kRuleRtuSize;
     if (describe) p.why = fmt::format(FMT_COMPILE("{} bytes (4-256)"), frame.size());
     return p;
   }
