@@ -43,11 +43,14 @@
 #include "core/checksum.hpp"
 #include "core/protocol.hpp"
 #include "dissectors/danfoss_fc/fc_dissector.hpp"
+#include "dissectors/danfoss_fc/fc_protocol.hpp"
 #include "dissectors/easydrive/eds_dissector.hpp"
-#include "pipeline/pairer.hpp"
-#include "pipeline/pipeline.hpp"
+#include "dissectors/easydrive/eds_protocol.hpp"
+#include "dissectors/modbus/modbus_protocol.hpp"
 #include "drive/annotate.hpp"
 #include "drive/profile.hpp"
+#include "pipeline/pairer.hpp"
+#include "pipeline/pipeline.hpp"
 #include "sinks/capture_sink.hpp"
 #include "sinks/json_sink.hpp"
 #include "sinks/text_sink.hpp"
@@ -257,7 +260,7 @@ struct Reframed {
 void BM_RtuFramer(benchmark::State& state) {
   const std::size_t run = static_cast<std::size_t>(state.range(0));
   const Traffic& t = rtu_traffic();
-  const ProtocolDecoder* decoder = decoder_for(Protocol::modbus_rtu);
+  const ProtocolDecoder* decoder = decoder_for(protocols::modbus_rtu);
   FramerSettings settings;
   settings.timing = t.timing;
   FrameBatch out;
@@ -396,16 +399,16 @@ void run_dissect(benchmark::State& state, Protocol protocol, const DissectSet& s
 }
 
 void BM_Dissect_ModbusRtu(benchmark::State& state) {
-  run_dissect(state, Protocol::modbus_rtu, rtu_set());
+  run_dissect(state, protocols::modbus_rtu, rtu_set());
 }
 void BM_Dissect_ModbusAscii(benchmark::State& state) {
-  run_dissect(state, Protocol::modbus_ascii, ascii_set());
+  run_dissect(state, protocols::modbus_ascii, ascii_set());
 }
 void BM_Dissect_DanfossFc(benchmark::State& state) {
-  run_dissect(state, Protocol::danfoss_fc, fc_set());
+  run_dissect(state, protocols::danfoss_fc, fc_set());
 }
 void BM_Dissect_Easydrive(benchmark::State& state) {
-  run_dissect(state, Protocol::easydrive, eds_set());
+  run_dissect(state, protocols::easydrive, eds_set());
 }
 
 // ---- The other framers and pairing ------------------------------------------------------------
@@ -437,20 +440,20 @@ void run_framer(benchmark::State& state, Protocol protocol, const DissectSet& se
 }
 
 void BM_Framer_ModbusAscii(benchmark::State& state) {
-  run_framer(state, Protocol::modbus_ascii, ascii_set());
+  run_framer(state, protocols::modbus_ascii, ascii_set());
 }
 void BM_Framer_DanfossFc(benchmark::State& state) {
-  run_framer(state, Protocol::danfoss_fc, fc_set());
+  run_framer(state, protocols::danfoss_fc, fc_set());
 }
 void BM_Framer_Easydrive(benchmark::State& state) {
-  run_framer(state, Protocol::easydrive, eds_set());
+  run_framer(state, protocols::easydrive, eds_set());
 }
 
 // Per iteration: a fresh Pairer pairs the RTU traffic's messages (framed and dissected once,
 // request and reply in turn, as on the bus), draining its transactions as they come.
 void BM_Pairer(benchmark::State& state) {
   const Traffic& t = rtu_traffic();
-  const ProtocolDecoder* decoder = decoder_for(Protocol::modbus_rtu);
+  const ProtocolDecoder* decoder = decoder_for(protocols::modbus_rtu);
   FrameBatch frames;
   {
     FramerSettings settings;
@@ -542,7 +545,7 @@ PipelineOptions rtu_options(const Traffic& t, bool auto_drives) {
   PipelineOptions p;
   p.serial = t.serial;
   p.timing = t.timing;
-  p.protocol = Protocol::modbus_rtu;
+  p.protocol = protocols::modbus_rtu;
   if (auto_drives)
     for (const DriveProfile& profile : builtin_profiles()) p.auto_candidates.push_back(&profile);
   return p;

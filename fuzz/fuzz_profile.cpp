@@ -8,8 +8,9 @@
 #include <string>
 #include <string_view>
 
-#include "fuzz/fuzz_common.hpp"
+#include "dissectors/modbus/modbus_protocol.hpp"
 #include "drive/profile.hpp"
+#include "fuzz/fuzz_common.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   using namespace drivetap;
@@ -36,7 +37,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   ChannelTable channels;
   channels.intern("bus");
   PipelineOptions options;
-  options.protocol = profile->protocols.empty() ? Protocol::modbus_rtu : profile->protocols[0];
+  options.protocol = profile->protocols.empty() ? protocols::modbus_rtu : profile->protocols[0];
   options.timing = FramingTiming::from(options.serial);
   options.auto_candidates = {&*profile};
   fuzz::CheckedRun run(options, channels);

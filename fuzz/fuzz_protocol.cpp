@@ -13,7 +13,8 @@ namespace {
 
 using namespace drivetap;
 
-constexpr Protocol kProtocol = Protocol::DRIVETAP_FUZZ_PROTOCOL;
+// The protocol by its --protocol name ("modbus-ascii"), from the registry.
+const Protocol kProtocol = protocol_from_option(DRIVETAP_FUZZ_PROTOCOL);
 constexpr Direction kDirections[] = {Direction::unknown, Direction::request, Direction::response};
 
 }  // namespace

@@ -10,6 +10,7 @@
 #include "core/byte_events.hpp"
 #include "core/frame.hpp"
 #include "core/protocol.hpp"
+#include "dissectors/modbus/modbus_protocol.hpp"
 
 namespace drivetap {
 namespace {
@@ -205,7 +206,7 @@ TEST(RunBatch, PrechecksStayWithTheirRunsUntilCleared) {
   for (int k = 0; k < 4; ++k) batch.add(ByteRun{bytes, k * 1000, 10, 0, 0, {}});
   EXPECT_FALSE(batch.has_prechecks());
   EXPECT_EQ(batch.precheck(1), nullptr);
-  const ProtocolDecoder* const some_decoder = decoder_for(Protocol::modbus_rtu);
+  const ProtocolDecoder* const some_decoder = decoder_for(protocols::modbus_rtu);
   TelegramPrecheck made;
   made.decoder = some_decoder;
   made.checksum = 0xBEEF;

@@ -9,6 +9,7 @@
 #include <string_view>
 
 #include "core/checksum.hpp"
+#include "dissectors/modbus/modbus_protocol.hpp"
 #include "formats/link_layer.hpp"
 #include "formats/pcapng.hpp"
 #include "formats/upper_pdu.hpp"
@@ -336,13 +337,13 @@ TEST(CaptureReader, EvenlySpacedFramesAreWrittenCompactlyAndReadBackExactly) {
     CaptureSinkOptions o;
     o.serial = serial;
     o.character_time = ct;
-    o.settings =
-        encode_settings(ct * 3 / 2, ct * 7 / 2, kNsPerSecond, 100 * kNsPerMs, Protocol::modbus_rtu);
+    o.settings = encode_settings(ct * 3 / 2, ct * 7 / 2, kNsPerSecond, 100 * kNsPerMs,
+                                 protocols::modbus_rtu);
     CaptureSink sink(f, channels, o);
     PipelineOptions p;
     p.serial = serial;
     p.timing = FramingTiming::from(serial);
-    p.protocol = Protocol::modbus_rtu;
+    p.protocol = protocols::modbus_rtu;
     Pipeline pipeline(p, channels, sink);
     TimeNs t = kNsPerSecond;
     auto send = [&](const std::vector<std::uint8_t>& bytes, TimeNs spacing, std::size_t flag_at) {

@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include "dissectors/danfoss_fc/fc_dissector.hpp"
+#include "dissectors/danfoss_fc/fc_protocol.hpp"
 #include "test_support.hpp"
 
 using namespace drivetap;
@@ -38,7 +39,7 @@ TEST(DanfossFc, WriteParameterTelegramOfTheIssue) {
   const Message m = dissect_fc(frame_of({0x02, 0x0E, 0x81, 0xE1, 0x9E, 0, 0, 0, 0, 0x03, 0xE8, 0x04,
                                          0x7C, 0x20, 0x00, 0x41}),
                                Direction::request, {});
-  EXPECT_EQ(m.protocol, Protocol::danfoss_fc);
+  EXPECT_EQ(m.protocol, protocols::danfoss_fc);
   EXPECT_EQ(m.address, 1);
   EXPECT_EQ(m.checksum.verdict, ChecksumVerdict::good);
   EXPECT_EQ(m.info,
@@ -71,7 +72,14 @@ TEST(DanfossFc, BadBccAndLengthMismatchAreNamed) {
   const Message cut = dissect_fc(frame_of({0x02, 0x0E, 0x04, 0x04, 0x7C, 0x20, 0x00, 0x58}),
                                  Direction::request, {});
   bool named = false;
-  for (const Anomaly& a : cut.anomalies) named |= a.detail.find("LGE 14 announces 16") == 0;
+  for (const Anomaly& a : cut.anomalies) {
+    if (a.detail.find("LGE 14 announces 16") != 0) continue;
+    named = true;
+    // Raised by its typed finding, counted under the generic kind.
+    ASSERT_NE(a.finding, nullptr);
+    EXPECT_STREQ(a.finding->id, "danfoss_fc.lge_mismatch");
+    EXPECT_EQ(a.kind, AnomalyKind::malformed);
+  }
   EXPECT_TRUE(named);
 }
 
@@ -87,7 +95,7 @@ TEST(DanfossFc, FramesBackToBackWithNoiseThroughThePipeline) {
   std::string error;
   ASSERT_TRUE(drivetap::testing::run_byte_log(
       std::string(DRIVETAP_SOURCE_DIR) + "/captures/fc-noise-back-to-back/input.log", sink,
-      channels, &error, Protocol::danfoss_fc))
+      channels, &error, protocols::danfoss_fc))
       << error;
   EXPECT_EQ(sink.frames.size(), 8u);
   EXPECT_EQ(sink.noise.size(), 4u);

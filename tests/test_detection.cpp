@@ -2,6 +2,8 @@
 #include <gtest/gtest.h>
 
 #include "dissectors/danfoss_fc/fc_dissector.hpp"
+#include "dissectors/danfoss_fc/fc_protocol.hpp"
+#include "dissectors/modbus/modbus_protocol.hpp"
 #include "test_support.hpp"
 
 using namespace drivetap;
@@ -18,7 +20,7 @@ TEST(Detection, ModbusRtuWithHighConfidence) {
   r.pipeline->finish();
   ASSERT_EQ(r.sink.events.size(), 1u);
   EXPECT_EQ(r.sink.events[0].kind, "protocol_detected");
-  EXPECT_EQ(r.sink.events[0].protocol, Protocol::modbus_rtu);
+  EXPECT_EQ(r.sink.events[0].protocol, protocols::modbus_rtu);
   EXPECT_EQ(r.sink.events[0].confidence, "high");
   EXPECT_EQ(r.sink.frames.frames.size(), 20u);
 }
@@ -44,9 +46,9 @@ TEST(Detection, ReDecidesWhenTheBusChanges) {
   }
   r.pipeline->finish();
   ASSERT_GE(r.sink.events.size(), 2u);
-  EXPECT_EQ(r.sink.events.front().protocol, Protocol::modbus_rtu);
-  EXPECT_EQ(r.sink.events.back().protocol, Protocol::danfoss_fc);
+  EXPECT_EQ(r.sink.events.front().protocol, protocols::modbus_rtu);
+  EXPECT_EQ(r.sink.events.back().protocol, protocols::danfoss_fc);
   std::size_t fc = 0;
-  for (const Message& m : r.sink.frames.frames) fc += m.protocol == Protocol::danfoss_fc;
+  for (const Message& m : r.sink.frames.frames) fc += m.protocol == protocols::danfoss_fc;
   EXPECT_GE(fc, 60u) << "most FC telegrams decoded after the switch";
 }

@@ -8,6 +8,7 @@
 
 #include "core/checksum.hpp"
 #include "diagnose/line_diagnosis.hpp"
+#include "dissectors/modbus/modbus_protocol.hpp"
 #include "sources/logic/detect.hpp"
 #include "sources/logic/line_sim.hpp"
 #include "sources/logic/logic_source.hpp"
@@ -133,7 +134,7 @@ Diagnosis diagnose_line(std::vector<LevelRun> runs, std::optional<UartSettings> 
   PipelineOptions p;
   p.serial = *source.settings().serial;
   p.timing = FramingTiming::from(p.serial);
-  p.protocol = Protocol::modbus_rtu;
+  p.protocol = protocols::modbus_rtu;
   return diagnose_capture(source, p, channels);
 }
 

@@ -11,6 +11,9 @@
 #include <vector>
 
 #include "core/protocol.hpp"
+#include "dissectors/danfoss_fc/fc_protocol.hpp"
+#include "dissectors/easydrive/eds_protocol.hpp"
+#include "dissectors/modbus/modbus_protocol.hpp"
 #include "drive/annotate.hpp"
 #include "drive/binder.hpp"
 #include "drive/profile.hpp"
@@ -70,7 +73,7 @@ Message decode(Protocol protocol, const std::vector<std::uint8_t>& bytes, Direct
 
 Message rtu(const std::vector<std::uint8_t>& body, Direction direction,
             std::span<const std::uint8_t> request = {}, std::uint64_t number = 1) {
-  return decode(Protocol::modbus_rtu, with_crc(body), direction, request, number);
+  return decode(protocols::modbus_rtu, with_crc(body), direction, request, number);
 }
 
 // Danfoss FC telegram: appends BCC (XOR of every byte from STX on).
@@ -100,10 +103,10 @@ struct E9Poll {
 // An Easydrive poll of station 1: a read of running value 000F, its reply (value 0001, current
 // fault 03), and a run command with frequency (index 0002, data 0FA0).
 struct EdsPoll {
-  Message query = decode(Protocol::easydrive, eds_frame("010B000F"), Direction::request);
+  Message query = decode(protocols::easydrive, eds_frame("010B000F"), Direction::request);
   Message answer =
-      decode(Protocol::easydrive, eds_frame("0100030F0001"), Direction::response, query.bytes);
-  Message run = decode(Protocol::easydrive, eds_frame("010C00020FA0"), Direction::request);
+      decode(protocols::easydrive, eds_frame("0100030F0001"), Direction::response, query.bytes);
+  Message run = decode(protocols::easydrive, eds_frame("010C00020FA0"), Direction::request);
 };
 
 }  // namespace
@@ -118,13 +121,13 @@ TEST(ReadsRequest, RepliesDecodeAlikeWithoutTheRequestWhereTheDecoderDoesNotRead
     std::vector<std::uint8_t> request, reply;
   };
   const std::vector<Case> cases = {
-      {Protocol::modbus_rtu, with_crc({0x01, 0x03, 0x25, 0x20, 0x00, 0x02}),
+      {protocols::modbus_rtu, with_crc({0x01, 0x03, 0x25, 0x20, 0x00, 0x02}),
        with_crc({0x01, 0x03, 0x04, 0x00, 0x06, 0x13, 0x88})},
-      {Protocol::modbus_ascii, ascii_frame({0x01, 0x03, 0x25, 0x23, 0x00, 0x01}),
+      {protocols::modbus_ascii, ascii_frame({0x01, 0x03, 0x25, 0x23, 0x00, 0x01}),
        ascii_frame({0x01, 0x03, 0x02, 0x00, 0x2A})},
-      {Protocol::danfoss_fc, with_bcc({0x02, 0x06, 0x01, 0x04, 0x7C, 0x20, 0x00}),
+      {protocols::danfoss_fc, with_bcc({0x02, 0x06, 0x01, 0x04, 0x7C, 0x20, 0x00}),
        with_bcc({0x02, 0x06, 0x01, 0x04, 0x7C, 0x20, 0x00})},
-      {Protocol::easydrive, eds_frame("010B000F"), eds_frame("0100030F0001")},
+      {protocols::easydrive, eds_frame("010B000F"), eds_frame("0100030F0001")},
   };
   for (const Case& c : cases) {
     SCOPED_TRACE(std::string(protocol_id(c.protocol)));
@@ -135,7 +138,7 @@ TEST(ReadsRequest, RepliesDecodeAlikeWithoutTheRequestWhereTheDecoderDoesNotRead
                        with.fields.size() == without.fields.size();
     // The other decoders decode alike without the request; Easydrive's replies name the value
     // their request asked for.
-    EXPECT_EQ(c.protocol == Protocol::easydrive, !alike) << with.info << " / " << without.info;
+    EXPECT_EQ(c.protocol == protocols::easydrive, !alike) << with.info << " / " << without.info;
   }
 }
 
@@ -606,7 +609,7 @@ TEST(DriveReading, TheTextAloneIsTheTextOfAFullReading) {
   const EdsPoll eds_poll;
   const Message &eds_q = eds_poll.query, &eds_a = eds_poll.answer, &eds_run = eds_poll.run;
   const Message fc_start =
-      decode(Protocol::danfoss_fc, with_bcc({0x02, 0x06, 0x01, 0x04, 0x7C, 0x20, 0x00}),
+      decode(protocols::danfoss_fc, with_bcc({0x02, 0x06, 0x01, 0x04, 0x7C, 0x20, 0x00}),
              Direction::request);
   struct Case {
     const DriveProfile& profile;
@@ -635,7 +638,7 @@ TEST(DriveReading, DanfossFcProcessData) {
   const DriveProfile vlt = builtin_profile("vlt-aqua.toml");
   // CTW 0x047C (start), REF 0x2000 = 50 % (0x4000 = 100 %).
   const Message req =
-      decode(Protocol::danfoss_fc, with_bcc({0x02, 0x06, 0x01, 0x04, 0x7C, 0x20, 0x00}),
+      decode(protocols::danfoss_fc, with_bcc({0x02, 0x06, 0x01, 0x04, 0x7C, 0x20, 0x00}),
              Direction::request);
   ASSERT_EQ(req.checksum.verdict, ChecksumVerdict::good);
   ASSERT_EQ(req.address, 1);
@@ -653,7 +656,7 @@ TEST(DriveReading, DanfossFcProcessData) {
 
   // STW 0x0E07 (bit 11 running), MAV 0x2000 = 50 %.
   const Message rsp =
-      decode(Protocol::danfoss_fc, with_bcc({0x02, 0x06, 0x01, 0x0E, 0x07, 0x20, 0x00}),
+      decode(protocols::danfoss_fc, with_bcc({0x02, 0x06, 0x01, 0x0E, 0x07, 0x20, 0x00}),
              Direction::response, req.bytes);
   ASSERT_EQ(rsp.checksum.verdict, ChecksumVerdict::good);
   const DriveReading a = read_for_drive(vlt, rsp, req.bytes);
@@ -668,7 +671,7 @@ TEST(DriveReading, DanfossFcProcessData) {
   // Reverse with a negative reference: 0xE000 = -8192 = -50 %; reset bit 7 set.
   const DriveReading rev = read_for_drive(
       vlt,
-      decode(Protocol::danfoss_fc, with_bcc({0x02, 0x06, 0x01, 0x84, 0xFC, 0xE0, 0x00}),
+      decode(protocols::danfoss_fc, with_bcc({0x02, 0x06, 0x01, 0x84, 0xFC, 0xE0, 0x00}),
              Direction::request),
       {});
   EXPECT_EQ(rev.observed.run_command, true);
@@ -680,7 +683,7 @@ TEST(DriveReading, DanfossFcProcessData) {
   // STW with trip (bit 3) and warning (bit 7).
   const DriveReading trip = read_for_drive(
       vlt,
-      decode(Protocol::danfoss_fc, with_bcc({0x02, 0x06, 0x01, 0x00, 0x8B, 0x00, 0x00}),
+      decode(protocols::danfoss_fc, with_bcc({0x02, 0x06, 0x01, 0x00, 0x8B, 0x00, 0x00}),
              Direction::response),
       req.bytes);
   EXPECT_EQ(trip.observed.fault_active, true);
@@ -694,7 +697,7 @@ TEST(DriveReading, DanfossFcParameterBlock) {
   const std::vector<std::uint8_t> ak7 = {0x02, 0x0E, 0x01, 0x71, 0x9E, 0,    0,    0,
                                          0,    0,    0x02, 0x06, 0x07, 0x00, 0x00, 0xE1};
   ASSERT_EQ(with_bcc({ak7.begin(), ak7.end() - 1}), ak7);
-  const Message err = decode(Protocol::danfoss_fc, ak7, Direction::response);
+  const Message err = decode(protocols::danfoss_fc, ak7, Direction::response);
   ASSERT_EQ(err.checksum.verdict, ChecksumVerdict::good);
   const DriveReading e = read_for_drive(vlt, err, {});
   EXPECT_EQ(e.text.find("drive 1 (Danfoss VLT AQUA): cannot execute on 4-14 motor speed high "
@@ -706,7 +709,7 @@ TEST(DriveReading, DanfossFcParameterBlock) {
 
   // Read 4-14: PKE 0x119E (AK 1, PNU 414).
   const Message read =
-      decode(Protocol::danfoss_fc,
+      decode(protocols::danfoss_fc,
              with_bcc({0x02, 0x0E, 0x01, 0x11, 0x9E, 0, 0, 0, 0, 0, 0, 0x04, 0x7C, 0x20, 0x00}),
              Direction::request);
   const DriveReading r = read_for_drive(vlt, read, {});
@@ -717,7 +720,7 @@ TEST(DriveReading, DanfossFcParameterBlock) {
 
   // Its value, AK 1: 03E8 = 1000 = 100.0 Hz at 0.1 Hz (002 §7.5.1).
   const DriveReading v = read_for_drive(vlt,
-                                        decode(Protocol::danfoss_fc,
+                                        decode(protocols::danfoss_fc,
                                                with_bcc({0x02, 0x0E, 0x01, 0x11, 0x9E, 0, 0, 0, 0,
                                                          0x03, 0xE8, 0x06, 0x07, 0x00, 0x00}),
                                                Direction::response),
@@ -728,7 +731,7 @@ TEST(DriveReading, DanfossFcParameterBlock) {
 
   // PROTOCOLS.md §4: write 4-14 = 1000 to RAM+EEPROM, address 1 in the 1..126 format.
   const Message write =
-      decode(Protocol::danfoss_fc,
+      decode(protocols::danfoss_fc,
              {0x02, 0x0E, 0x81, 0xE1, 0x9E, 0, 0, 0, 0, 0x03, 0xE8, 0x04, 0x7C, 0x20, 0x00, 0x41},
              Direction::request);
   ASSERT_EQ(write.checksum.verdict, ChecksumVerdict::good);
@@ -741,7 +744,7 @@ TEST(DriveReading, DanfossFcParameterBlock) {
   // A parameter the profile does not name is labelled by the rule: PNU 1614 = 16-14.
   const DriveReading un =
       read_for_drive(vlt,
-                     decode(Protocol::danfoss_fc,
+                     decode(protocols::danfoss_fc,
                             {0x02, 0x0E, 0x01, 0x16, 0x4E, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0x55},
                             Direction::request),
                      {});
@@ -839,9 +842,9 @@ TEST(DriveReading, E5AsciiReply) {
   // PROTOCOLS.md §3: ":010325230001B3\r\n" reads 0x2523.
   const std::vector<std::uint8_t> req_bytes = ascii_frame({0x01, 0x03, 0x25, 0x23, 0x00, 0x01});
   ASSERT_EQ(std::string(req_bytes.begin(), req_bytes.end()), ":010325230001B3\r\n");
-  const Message req = decode(Protocol::modbus_ascii, req_bytes, Direction::request);
+  const Message req = decode(protocols::modbus_ascii, req_bytes, Direction::request);
   EXPECT_EQ(read_for_drive(e5, req, {}).text, "drive 1 (E5-8200): read frequency setpoint");
-  const Message rsp = decode(Protocol::modbus_ascii, ascii_frame({0x01, 0x03, 0x02, 0x17, 0x70}),
+  const Message rsp = decode(protocols::modbus_ascii, ascii_frame({0x01, 0x03, 0x02, 0x17, 0x70}),
                              Direction::response);
   ASSERT_EQ(rsp.checksum.verdict, ChecksumVerdict::good);
   EXPECT_EQ(read_for_drive(e5, rsp, req.bytes).text,
@@ -849,7 +852,7 @@ TEST(DriveReading, E5AsciiReply) {
   // Control word with the reset bit (3) and reverse (bit 1), via FC 06 on 0x2501.
   const DriveReading c =
       read_for_drive(e5,
-                     decode(Protocol::modbus_ascii,
+                     decode(protocols::modbus_ascii,
                             ascii_frame({0x01, 0x06, 0x25, 0x01, 0x00, 0x0B}), Direction::request),
                      {});
   EXPECT_EQ(c.observed.run_command, true);
@@ -873,7 +876,7 @@ TEST(DriveReading, E5ParametersFollowTheGgppRule) {
 TEST(DriveReading, EasydriveRunAndStatus) {
   const DriveProfile eds = builtin_profile("eds1000.toml");
   // Run control (0C), index 0002 = run with frequency, data 0FA0 = 4000 = 40.00 Hz.
-  const Message req = decode(Protocol::easydrive, eds_frame("010C00020FA0"), Direction::request);
+  const Message req = decode(protocols::easydrive, eds_frame("010C00020FA0"), Direction::request);
   ASSERT_EQ(req.bytes.size(), 18u);
   ASSERT_EQ(req.checksum.verdict, ChecksumVerdict::good);
   ASSERT_EQ(req.address, 1);
@@ -886,11 +889,11 @@ TEST(DriveReading, EasydriveRunAndStatus) {
   EXPECT_EQ(r.observed.setpoint_command->text(), "40.00 Hz");
 
   // Read the status word (0B, index 000F); reply: OK, AUX fault 03, index 0F, data 0001 (running).
-  const Message q = decode(Protocol::easydrive, eds_frame("010B000F"), Direction::request);
+  const Message q = decode(protocols::easydrive, eds_frame("010B000F"), Direction::request);
   ASSERT_EQ(q.bytes.size(), 14u);
   EXPECT_EQ(read_for_drive(eds, q, {}).text, "drive 1 (Easydrive EDS1000): read status word");
   const Message a =
-      decode(Protocol::easydrive, eds_frame("0100030F0001"), Direction::response, q.bytes);
+      decode(protocols::easydrive, eds_frame("0100030F0001"), Direction::response, q.bytes);
   ASSERT_EQ(a.checksum.verdict, ChecksumVerdict::good);
   const DriveReading s = read_for_drive(eds, a, q.bytes);
   EXPECT_EQ(s.observed.running, true);
@@ -905,7 +908,7 @@ TEST(DriveReading, EasydriveRunAndStatus) {
 
   // The fault code travels in hex: AUX "10" is fault 16.
   const DriveReading hex = read_for_drive(
-      eds, decode(Protocol::easydrive, eds_frame("0100100F0005"), Direction::response, q.bytes),
+      eds, decode(protocols::easydrive, eds_frame("0100100F0005"), Direction::response, q.bytes),
       q.bytes);
   EXPECT_EQ(hex.observed.fault_code, 16u);
   EXPECT_EQ(hex.observed.fault.text(), "16 (RS485 communication fault)");
@@ -931,7 +934,7 @@ TEST(DriveReading, EasydriveRunAndStatus) {
   for (const Request& q : requests) {
     SCOPED_TRACE(q.body);
     const DriveReading r =
-        read_for_drive(eds, decode(Protocol::easydrive, eds_frame(q.body), Direction::request), {});
+        read_for_drive(eds, decode(protocols::easydrive, eds_frame(q.body), Direction::request), {});
     if (q.text) {
       EXPECT_EQ(r.text, q.text);
     }
@@ -955,7 +958,7 @@ struct TimelineRig {
 
   std::vector<BusEvent> feed(const DriveObservation& o, int address = 2) {
     Message m;
-    m.protocol = Protocol::modbus_rtu;
+    m.protocol = protocols::modbus_rtu;
     m.address = address;
     m.frame.number = ++frame;
     m.frame.channel = 0;
@@ -984,7 +987,7 @@ TEST(DriveTimeline, FirstStatusAndRepeats) {
   EXPECT_EQ(ev[0].profile, "e9");
   EXPECT_EQ(ev[0].frame, 1u);
   EXPECT_EQ(ev[0].time, 1 * kNsPerMs);
-  EXPECT_EQ(ev[0].protocol, Protocol::modbus_rtu);
+  EXPECT_EQ(ev[0].protocol, protocols::modbus_rtu);
 
   EXPECT_TRUE(rig.feed(stopped).empty());
   EXPECT_TRUE(rig.feed(DriveObservation{}).empty());
@@ -1237,12 +1240,12 @@ TEST(DriveBinder, E9PollingBindsE9) {
   BinderRig rig;
   // One poll leads the next family by 2 only: confidence low, and nothing is bound on that.
   rig.exchange(
-      Protocol::modbus_rtu, with_crc({0x02, 0x03, 0x00, 0x00, 0x00, 0x05}),
+      protocols::modbus_rtu, with_crc({0x02, 0x03, 0x00, 0x00, 0x00, 0x05}),
       with_crc({0x02, 0x03, 0x0A, 0x00, 0x0A, 0x13, 0x88, 0x13, 0x7D, 0x01, 0x7C, 0x00, 0x64}));
   EXPECT_EQ(rig.bound_id(2), "generic");
   EXPECT_TRUE(rig.events.empty());
   rig.exchange(
-      Protocol::modbus_rtu, with_crc({0x02, 0x03, 0x00, 0x00, 0x00, 0x05}),
+      protocols::modbus_rtu, with_crc({0x02, 0x03, 0x00, 0x00, 0x00, 0x05}),
       with_crc({0x02, 0x03, 0x0A, 0x00, 0x0A, 0x13, 0x88, 0x13, 0x7D, 0x01, 0x7C, 0x00, 0x64}));
   EXPECT_EQ(rig.bound_id(2), "e9");
   ASSERT_EQ(rig.events.size(), 1u);
@@ -1253,13 +1256,13 @@ TEST(DriveBinder, E9PollingBindsE9) {
   EXPECT_EQ(e.from, "");
   EXPECT_EQ(e.address, 2);
   EXPECT_EQ(e.frame, 3u);
-  EXPECT_EQ(e.protocol, Protocol::modbus_rtu);
+  EXPECT_EQ(e.protocol, protocols::modbus_rtu);
   EXPECT_EQ(e.detail.find("drive 2 bound to ERMAN E-9P/9G (auto, confidence "), 0u) << e.detail;
   EXPECT_EQ(e.confidence, "medium");
   // Polling again strengthens the binding without a new event.
   for (int i = 0; i < 2; ++i)
     rig.exchange(
-        Protocol::modbus_rtu, with_crc({0x02, 0x03, 0x00, 0x00, 0x00, 0x05}),
+        protocols::modbus_rtu, with_crc({0x02, 0x03, 0x00, 0x00, 0x00, 0x05}),
         with_crc({0x02, 0x03, 0x0A, 0x00, 0x0A, 0x13, 0x88, 0x13, 0x7D, 0x01, 0x7C, 0x00, 0x64}));
   EXPECT_EQ(rig.events.size(), 1u);
   EXPECT_EQ(rig.bound_id(2), "e9");
@@ -1269,9 +1272,9 @@ TEST(DriveBinder, E9PollingBindsE9) {
 TEST(DriveBinder, ErgInputReadsBindErg) {
   BinderRig rig;
   rig.exchange(
-      Protocol::modbus_rtu, with_crc({0x01, 0x04, 0x00, 0x01, 0x00, 0x06}),
+      protocols::modbus_rtu, with_crc({0x01, 0x04, 0x00, 0x01, 0x00, 0x06}),
       with_crc({0x01, 0x04, 0x0C, 0x01, 0xF4, 0, 0, 0x00, 0x64, 0, 0, 0x02, 0x1C, 0x00, 0x28}));
-  rig.exchange(Protocol::modbus_rtu, with_crc({0x01, 0x04, 0x04, 0x00, 0x00, 0x04}),
+  rig.exchange(protocols::modbus_rtu, with_crc({0x01, 0x04, 0x04, 0x00, 0x00, 0x04}),
                with_crc({0x01, 0x04, 0x08, 0x00, 0x01, 0, 0, 0, 0, 0, 0}));
   EXPECT_EQ(rig.bound_id(1), "erg");
   ASSERT_EQ(rig.events.size(), 1u);
@@ -1281,7 +1284,7 @@ TEST(DriveBinder, ErgInputReadsBindErg) {
 
 TEST(DriveBinder, E5MonitorReadBindsE5) {
   BinderRig rig;
-  rig.exchange(Protocol::modbus_rtu, with_crc({0x01, 0x03, 0x25, 0x20, 0x00, 0x08}),
+  rig.exchange(protocols::modbus_rtu, with_crc({0x01, 0x03, 0x25, 0x20, 0x00, 0x08}),
                with_crc({0x01, 0x03, 0x10, 0x00, 0x03, 0, 0, 0, 0, 0x17, 0x70, 0x17, 0x70, 0x0E,
                          0xD8, 0x02, 0x1C, 0x00, 0x32}));
   EXPECT_EQ(rig.bound_id(1), "e5-8200");
@@ -1290,7 +1293,7 @@ TEST(DriveBinder, E5MonitorReadBindsE5) {
 
   // Modbus ASCII: only the E5-8200 speaks it; the monitor block read binds it.
   BinderRig ascii;
-  ascii.exchange(Protocol::modbus_ascii, ascii_frame({0x01, 0x03, 0x25, 0x20, 0x00, 0x08}),
+  ascii.exchange(protocols::modbus_ascii, ascii_frame({0x01, 0x03, 0x25, 0x20, 0x00, 0x08}),
                  ascii_frame({0x01, 0x03, 0x10, 0x00, 0x03, 0, 0, 0, 0, 0x17, 0x70, 0x17, 0x70,
                               0x0E, 0xD8, 0x02, 0x1C, 0x00, 0x32}));
   EXPECT_EQ(ascii.bound_id(1), "e5-8200");
@@ -1302,7 +1305,7 @@ TEST(DriveBinder, VltAquaModbusAndFcBindVltAqua) {
   // evidence (+1); the second poll binds (the other families lose a point a poll: a lead of 3).
   BinderRig rig;
   for (int i = 0; i < 2; ++i)
-    rig.exchange(Protocol::modbus_rtu, with_crc({0x01, 0x03, 0xC4, 0x17, 0x00, 0x01}),
+    rig.exchange(protocols::modbus_rtu, with_crc({0x01, 0x03, 0xC4, 0x17, 0x00, 0x01}),
                  with_crc({0x01, 0x03, 0x02, 0x0E, 0x07}));
   EXPECT_EQ(rig.bound_id(1), "vlt-aqua");
   ASSERT_EQ(rig.events.size(), 1u);
@@ -1312,23 +1315,23 @@ TEST(DriveBinder, VltAquaModbusAndFcBindVltAqua) {
   // One FC request is +2: the second binds.
   BinderRig fc;
   for (int i = 0; i < 2; ++i)
-    fc.exchange(Protocol::danfoss_fc, with_bcc({0x02, 0x06, 0x01, 0x04, 0x7C, 0x20, 0x00}),
+    fc.exchange(protocols::danfoss_fc, with_bcc({0x02, 0x06, 0x01, 0x04, 0x7C, 0x20, 0x00}),
                 with_bcc({0x02, 0x06, 0x01, 0x0E, 0x07, 0x20, 0x00}));
   EXPECT_EQ(fc.bound_id(1), "vlt-aqua");
   ASSERT_EQ(fc.events.size(), 1u);
   EXPECT_EQ(fc.events[0].profile, "vlt-aqua");
-  EXPECT_EQ(fc.events[0].protocol, Protocol::danfoss_fc);
+  EXPECT_EQ(fc.events[0].protocol, protocols::danfoss_fc);
   EXPECT_EQ(fc.events[0].frame, 3u);
 }
 
 TEST(DriveBinder, EasydriveBindsEds1000) {
   BinderRig rig;
   for (int i = 0; i < 2; ++i)  // +2 a request: the second binds
-    rig.exchange(Protocol::easydrive, eds_frame("010B000F"), eds_frame("0100000F0001"));
+    rig.exchange(protocols::easydrive, eds_frame("010B000F"), eds_frame("0100000F0001"));
   EXPECT_EQ(rig.bound_id(1), "eds1000");
   ASSERT_EQ(rig.events.size(), 1u);
   EXPECT_EQ(rig.events[0].profile, "eds1000");
-  EXPECT_EQ(rig.events[0].protocol, Protocol::easydrive);
+  EXPECT_EQ(rig.events[0].protocol, protocols::easydrive);
 }
 
 TEST(DriveBinder, BadChecksumsTeachNothing) {
@@ -1340,9 +1343,9 @@ TEST(DriveBinder, BadChecksumsTeachNothing) {
   auto bad_sum = eds_frame("010B000F");
   bad_sum[bad_sum.size() - 2] = bad_sum[bad_sum.size() - 2] == '0' ? '1' : '0';
   for (int i = 0; i < 5; ++i) {
-    const Message a = decode(Protocol::modbus_rtu, bad_crc, Direction::request);
-    const Message b = decode(Protocol::danfoss_fc, bad_bcc, Direction::request);
-    const Message c = decode(Protocol::easydrive, bad_sum, Direction::request);
+    const Message a = decode(protocols::modbus_rtu, bad_crc, Direction::request);
+    const Message b = decode(protocols::danfoss_fc, bad_bcc, Direction::request);
+    const Message c = decode(protocols::easydrive, bad_sum, Direction::request);
     ASSERT_EQ(a.checksum.verdict, ChecksumVerdict::bad);
     ASSERT_EQ(b.checksum.verdict, ChecksumVerdict::bad);
     ASSERT_EQ(c.checksum.verdict, ChecksumVerdict::bad);
@@ -1359,7 +1362,7 @@ TEST(DriveBinder, BadChecksumsTeachNothing) {
 TEST(DriveBinder, DiagnosticsAloneStaysGeneric) {
   BinderRig rig;
   for (int i = 0; i < 4; ++i)
-    rig.exchange(Protocol::modbus_rtu, with_crc({0x02, 0x08, 0x00, 0x00, 0x12, 0x34}),
+    rig.exchange(protocols::modbus_rtu, with_crc({0x02, 0x08, 0x00, 0x00, 0x12, 0x34}),
                  with_crc({0x02, 0x08, 0x00, 0x00, 0x12, 0x34}));
   EXPECT_EQ(rig.binder.bound(0, 2), nullptr);
   EXPECT_TRUE(rig.events.empty());
@@ -1396,7 +1399,7 @@ TEST(DriveBinder, RememberedEvidenceIsTheEvidenceAfresh) {
     const int address = i / 8;
     const auto start = static_cast<std::uint8_t>(address >> 8);
     const auto low = static_cast<std::uint8_t>(address);
-    return decode(Protocol::modbus_rtu, with_crc({0x05, function, start, low, 0x00, count}),
+    return decode(protocols::modbus_rtu, with_crc({0x05, function, start, low, 0x00, count}),
                   Direction::request, {}, static_cast<std::uint64_t>(i + 1));
   };
   constexpr int kRequests = 3 * static_cast<int>(DriveBinder::kMaxRememberedRequests) - 100;
@@ -1425,12 +1428,12 @@ TEST(DriveBinder, ClearlyBetterEvidenceRebinds) {
   // E-9 style reads of 0x0000..0x0004 bind the E-9 (the second: a lead of 3) ...
   for (int i = 0; i < 2; ++i)
     rig.exchange(
-        Protocol::modbus_rtu, with_crc({0x02, 0x03, 0x00, 0x00, 0x00, 0x05}),
+        protocols::modbus_rtu, with_crc({0x02, 0x03, 0x00, 0x00, 0x00, 0x05}),
         with_crc({0x02, 0x03, 0x0A, 0x00, 0x0A, 0x13, 0x88, 0x13, 0x7D, 0x01, 0x7C, 0x00, 0x64}));
   ASSERT_EQ(rig.bound_id(2), "e9");
   ASSERT_EQ(rig.events.size(), 1u);
   // ... then the station is polled on the E5-8200 monitor block: rebound, a second event.
-  rig.exchange(Protocol::modbus_rtu, with_crc({0x02, 0x03, 0x25, 0x20, 0x00, 0x08}),
+  rig.exchange(protocols::modbus_rtu, with_crc({0x02, 0x03, 0x25, 0x20, 0x00, 0x08}),
                with_crc({0x02, 0x03, 0x10, 0x00, 0x03, 0, 0, 0, 0, 0x17, 0x70, 0x17, 0x70, 0x0E,
                          0xD8, 0x02, 0x1C, 0x00, 0x32}));
   EXPECT_EQ(rig.bound_id(2), "e5-8200");
@@ -1445,7 +1448,7 @@ TEST(DriveBinder, ClearlyBetterEvidenceRebinds) {
   // A frame with a bad checksum teaches nothing, and its station stays bound.
   auto bad = with_crc({0x02, 0x03, 0x25, 0x20, 0x00, 0x08});
   bad.back() ^= 0x01;
-  const Message m = decode(Protocol::modbus_rtu, bad, Direction::request);
+  const Message m = decode(protocols::modbus_rtu, bad, Direction::request);
   std::optional<BusEvent> changed;
   EXPECT_EQ(rig.binder.learn_bound(0, head_of(m), changed), rig.binder.bound(0, 2));
   EXPECT_EQ(rig.bound_id(2), "e5-8200");

@@ -8,6 +8,9 @@
 #include <vector>
 
 #include "core/protocol.hpp"
+#include "dissectors/danfoss_fc/fc_protocol.hpp"
+#include "dissectors/easydrive/eds_protocol.hpp"
+#include "dissectors/modbus/modbus_protocol.hpp"
 #include "test_support.hpp"
 
 using namespace drivetap;
@@ -99,7 +102,7 @@ const Direction kRequest = Direction::request, kReply = Direction::response;
 }  // namespace
 
 TEST(DriveRecords, ModbusRtu) {
-  const Protocol rtu = Protocol::modbus_rtu;
+  const Protocol rtu = protocols::modbus_rtu;
   const auto e9_read = with_crc({0x02, 0x03, 0x00, 0x00, 0x00, 0x05});
   const auto coil_read = with_crc({0x01, 0x01, 0x00, 0x00, 0x00, 0x0A});
   const auto inputs_read = with_crc({0x01, 0x02, 0x00, 0x04, 0x00, 0x03});
@@ -171,7 +174,7 @@ TEST(DriveRecords, ModbusRtu) {
 }
 
 TEST(DriveRecords, ModbusAsciiReadsTheBinaryItsHexSpells) {
-  const Protocol ascii = Protocol::modbus_ascii;
+  const Protocol ascii = protocols::modbus_ascii;
   const auto read = ascii_frame({0x01, 0x03, 0x25, 0x23, 0x00, 0x01});
   check({
       {"read", ascii, read, kRequest, {}, "function 3; read holding 9507 x1"},
@@ -189,7 +192,7 @@ TEST(DriveRecords, ModbusAsciiReadsTheBinaryItsHexSpells) {
 }
 
 TEST(DriveRecords, DanfossFc) {
-  const Protocol fc = Protocol::danfoss_fc;
+  const Protocol fc = protocols::danfoss_fc;
   check({
       {"process data: CTW and reference",
        fc,
@@ -273,7 +276,7 @@ TEST(DriveRecords, DanfossFc) {
 }
 
 TEST(DriveRecords, Easydrive) {
-  const Protocol eds = Protocol::easydrive;
+  const Protocol eds = protocols::easydrive;
   const auto status_word = eds_frame("010B000F");
   const auto status_query = eds_frame("010A0000");
   const auto read_f008 = eds_frame("010D0008");

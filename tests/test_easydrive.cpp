@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include "dissectors/easydrive/eds_dissector.hpp"
+#include "dissectors/easydrive/eds_protocol.hpp"
 #include "test_support.hpp"
 
 using namespace drivetap;
@@ -19,7 +20,7 @@ std::vector<Message> run(const std::vector<std::string>& frames) {
   channels.intern("bus");
   drivetap::testing::RecordingSink sink;
   PipelineOptions p;
-  p.protocol = Protocol::easydrive;
+  p.protocol = protocols::easydrive;
   p.timing = FramingTiming::from(p.serial);
   Pipeline pipeline(p, channels, sink);
   TimeNs t = 0;

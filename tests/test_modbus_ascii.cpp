@@ -4,6 +4,7 @@
 #include "core/checksum.hpp"
 #include "dissectors/common/delimited_framer.hpp"
 #include "dissectors/modbus/ascii_dissector.hpp"
+#include "dissectors/modbus/modbus_protocol.hpp"
 #include "test_support.hpp"
 
 using namespace drivetap;
@@ -31,7 +32,7 @@ TEST(ModbusAscii, LrcOfTheManualsExample) {
 
 TEST(ModbusAscii, DecodesTheSpecRequest) {
   const Message m = dissect_ascii(frame_of(":010325230001B3\r\n"), Direction::request, {});
-  EXPECT_EQ(m.protocol, Protocol::modbus_ascii);
+  EXPECT_EQ(m.protocol, protocols::modbus_ascii);
   EXPECT_EQ(m.address, 1);
   EXPECT_EQ(m.function, 3);
   EXPECT_EQ(m.checksum.verdict, ChecksumVerdict::good);
@@ -66,12 +67,12 @@ TEST(ModbusAscii, TextDefectsAreNamed) {
   EXPECT_EQ(lower.binary.size(), 7u);
   const AsciiHex junk = decode_ascii_hex(text(":0103G5\r\n"));
   ASSERT_FALSE(junk.problems.empty());
-  EXPECT_NE(junk.problems[0].find("0x47 at 5 is not a hex digit"), std::string::npos);
+  EXPECT_NE(junk.problems[0].detail.find("0x47 at 5 is not a hex digit"), std::string::npos);
   const AsciiHex cut = decode_ascii_hex(text(":010325"));
   EXPECT_FALSE(cut.terminated);
-  EXPECT_NE(cut.problems[0].find("frame cut"), std::string::npos);
+  EXPECT_NE(cut.problems[0].detail.find("frame cut"), std::string::npos);
   const AsciiHex odd = decode_ascii_hex(text(":0103252\r\n"));
-  EXPECT_NE(odd.problems[0].find("odd number"), std::string::npos);
+  EXPECT_NE(odd.problems[0].detail.find("odd number"), std::string::npos);
 }
 
 TEST(DelimitedFramer, ResyncsOnStartAndKeepsNoise) {
@@ -109,7 +110,7 @@ TEST(ModbusAscii, PipelinePairsAsciiRequestAndReply) {
   channels.intern("bus");
   drivetap::testing::RecordingSink sink;
   PipelineOptions p;
-  p.protocol = Protocol::modbus_ascii;
+  p.protocol = protocols::modbus_ascii;
   p.timing = FramingTiming::from(p.serial);
   Pipeline pipeline(p, channels, sink);
   TimeNs t = 0;

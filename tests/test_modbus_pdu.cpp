@@ -34,11 +34,15 @@ std::vector<std::uint8_t> hex(std::string_view text) {
   return ::testing::AssertionFailure() << "'" << s << "' does not contain '" << sub << "'";
 }
 
-::testing::AssertionResult AnyHasSub(const std::vector<std::string>& v, std::string_view sub) {
-  for (const std::string& s : v)
-    if (s.find(sub) != std::string::npos) return ::testing::AssertionSuccess();
+::testing::AssertionResult HasSub(const FoundProblem& p, std::string_view sub) {
+  return HasSub(p.detail, sub);
+}
+
+::testing::AssertionResult AnyHasSub(const std::vector<FoundProblem>& v, std::string_view sub) {
+  for (const FoundProblem& p : v)
+    if (p.detail.find(sub) != std::string::npos) return ::testing::AssertionSuccess();
   std::string all;
-  for (const std::string& s : v) all += "\n  '" + s + "'";
+  for (const FoundProblem& p : v) all += "\n  '" + p.detail + "'";
   return ::testing::AssertionFailure() << "no problem contains '" << sub << "'; problems:" << all;
 }
 

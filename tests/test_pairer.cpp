@@ -6,6 +6,7 @@
 
 #include "core/message.hpp"
 #include "core/transaction.hpp"
+#include "dissectors/modbus/modbus_protocol.hpp"
 #include "pipeline/pairer.hpp"
 
 using namespace drivetap;
@@ -19,7 +20,7 @@ constexpr TimeNs kMs = kNsPerMs;
 Message make(Direction dir, int address, int function, TimeNs start, std::size_t size,
              std::uint64_t number, ChannelId channel = 0) {
   Message m;
-  m.protocol = Protocol::modbus_rtu;
+  m.protocol = protocols::modbus_rtu;
   m.direction = dir;
   m.address = address;
   m.function = function;
@@ -78,7 +79,7 @@ TEST(Pairer, OkPairingWithLatency) {
   const Transaction& t = out[0];
   EXPECT_EQ(t.outcome, Outcome::ok);
   EXPECT_EQ(outcome_id(t.outcome), "ok");
-  EXPECT_EQ(t.protocol, Protocol::modbus_rtu);
+  EXPECT_EQ(t.protocol, protocols::modbus_rtu);
   EXPECT_EQ(t.address, 1);
   EXPECT_EQ(t.function, 0x03);
   EXPECT_EQ(t.request_number, 1u);

@@ -8,6 +8,8 @@
 #include <fmt/ranges.h>
 
 #include "core/checksum.hpp"
+#include "dissectors/danfoss_fc/fc_protocol.hpp"
+#include "dissectors/modbus/modbus_protocol.hpp"
 #include "generate/traffic.hpp"
 #include "sinks/json_sink.hpp"
 #include "sinks/text_sink.hpp"
@@ -128,7 +130,7 @@ TEST(Pipeline, ShortSilenceBeforeReplyIsATimingFinding) {
 }
 
 TEST(Pipeline, UartFlagsBecomeAnomaliesOfTheFrame) {
-  Bus b("9600 8N1", Protocol::modbus_rtu);  // (one frame: too little for detection to decide)
+  Bus b("9600 8N1", protocols::modbus_rtu);  // (one frame: too little for detection to decide)
   b.send(kReadReq, 20 * kNsPerMs, 0, kUartParityError);
   b.finish();
   EXPECT_EQ(b.sink.count(AnomalyKind::uart_parity), 1u);
@@ -149,7 +151,7 @@ TEST(Pipeline, OverlappingTimestampsAreMovedAfterThePreviousByte) {
 }
 
 TEST(Pipeline, SummaryCountsVerdictsAndNoise) {
-  Bus b("9600 8N1", Protocol::modbus_rtu);  // (no good telegram: detection would find nothing)
+  Bus b("9600 8N1", protocols::modbus_rtu);  // (no good telegram: detection would find nothing)
   auto bad = kReadReq;
   bad[7] ^= 0xFF;
   auto swapped = kReadReq;
@@ -328,8 +330,8 @@ void set_prechecks(RunBatch& runs, const Pipeline& pipeline, Prechecks kind) {
     }
     if (kind == Prechecks::foreign_falsified)
       made.decoder =
-          decoder_for(decoder->protocol() == Protocol::modbus_rtu ? Protocol::danfoss_fc
-                                                                  : Protocol::modbus_rtu);
+          decoder_for(decoder->protocol() == protocols::modbus_rtu ? protocols::danfoss_fc
+                                                                   : protocols::modbus_rtu);
     runs.set_precheck(k, made);
   }
 }
@@ -530,7 +532,7 @@ TEST(Pipeline, PrechecksAreAskedForOnlyWhenNoRecordsAreTaken) {
       EXPECT_EQ(asked, nullptr);
     } else {
       ASSERT_NE(asked, nullptr);
-      EXPECT_EQ(asked->protocol(), Protocol::modbus_rtu);
+      EXPECT_EQ(asked->protocol(), protocols::modbus_rtu);
     }
     pipeline.finish();
   }
@@ -727,7 +729,7 @@ TEST(Pipeline, BeginMessageResetsEveryMember) {
   Frame frame;
   frame.events = {{100, 0x01, 0, 0, 0}, {200, 0x03, 0, 0, 0}};
   Message dirty;
-  begin_message(dirty, Frame(frame), Protocol::danfoss_fc, Direction::response);
+  begin_message(dirty, Frame(frame), protocols::danfoss_fc, Direction::response);
   dirty.bytes.push_back(9);
   dirty.address = 7;
   dirty.function = 0x83;
@@ -750,11 +752,11 @@ TEST(Pipeline, BeginMessageResetsEveryMember) {
   dirty.latency = 5;
   dirty.request_number = 3;
   Message fresh;
-  begin_message(fresh, Frame(frame), Protocol::modbus_rtu, Direction::request);
-  begin_message(dirty, Frame(frame), Protocol::modbus_rtu, Direction::request);
+  begin_message(fresh, Frame(frame), protocols::modbus_rtu, Direction::request);
+  begin_message(dirty, Frame(frame), protocols::modbus_rtu, Direction::request);
   EXPECT_EQ(dirty.frame.events.size(), 2u);
   EXPECT_EQ(dirty.bytes, fresh.bytes);
-  EXPECT_EQ(dirty.protocol, Protocol::modbus_rtu);
+  EXPECT_EQ(dirty.protocol, protocols::modbus_rtu);
   EXPECT_EQ(dirty.direction, Direction::request);
   EXPECT_EQ(dirty.address, fresh.address);
   EXPECT_EQ(dirty.function, fresh.function);
@@ -787,8 +789,8 @@ TEST(Pipeline, BeginMessageLeavesTheFrameHoldingThePreviousOne) {
   second.events = {{400, 0x02, 0, 0, 0}};
   second.number = 2;
   Message m;
-  begin_message(m, std::move(first), Protocol::modbus_rtu, Direction::request);
-  begin_message(m, std::move(second), Protocol::modbus_rtu, Direction::response);
+  begin_message(m, std::move(first), protocols::modbus_rtu, Direction::request);
+  begin_message(m, std::move(second), protocols::modbus_rtu, Direction::response);
   EXPECT_EQ(m.frame.number, 2u);
   EXPECT_EQ(m.bytes, (std::vector<std::uint8_t>{0x02}));
   EXPECT_EQ(second.number, 1u);
@@ -802,7 +804,7 @@ TEST(Pipeline, BeginMessageTakesItsOwnFrameAsItIs) {
   m.frame.events = {{100, 0x01, 0, 0, 0}, {200, 0x03, 0, 0, 0}};
   m.frame.number = 7;
   m.bytes = {9, 9, 9};
-  begin_message(m, std::move(m.frame), Protocol::modbus_rtu, Direction::request);
+  begin_message(m, std::move(m.frame), protocols::modbus_rtu, Direction::request);
   EXPECT_EQ(m.frame.number, 7u);
   EXPECT_EQ(m.frame.events.size(), 2u);
   EXPECT_EQ(m.bytes, (std::vector<std::uint8_t>{0x01, 0x03}));

@@ -7,6 +7,7 @@
 #include "dissectors/danfoss_fc/fc_dissector.hpp"
 #include "dissectors/easydrive/eds_dissector.hpp"
 #include "dissectors/modbus/ascii_dissector.hpp"
+#include "dissectors/modbus/modbus_protocol.hpp"
 #include "dissectors/modbus/rtu_dissector.hpp"
 #include "test_support.hpp"
 
@@ -15,25 +16,30 @@ using namespace drivetap::testing;
 
 namespace {
 
+// The id of the rule a check found broken, "none" for none.
+std::string_view rule_id(const Plausibility& p) {
+  return p.broken ? p.broken->id : "none";
+}
+
 std::vector<std::uint8_t> text(std::string_view s) {
   return {s.begin(), s.end()};
 }
 
-PlausibilityRule rtu_rule(const std::vector<std::uint8_t>& b, Direction d = Direction::unknown) {
-  return modbus::rtu_plausibility(b, d, false).broken;
+std::string_view rtu_rule(const std::vector<std::uint8_t>& b, Direction d = Direction::unknown) {
+  return rule_id(modbus::rtu_plausibility(b, d, false));
 }
 
-PlausibilityRule fc_rule(const std::vector<std::uint8_t>& b, Direction d = Direction::unknown) {
-  return danfoss_fc::fc_plausibility(b, d, false).broken;
+std::string_view fc_rule(const std::vector<std::uint8_t>& b, Direction d = Direction::unknown) {
+  return rule_id(danfoss_fc::fc_plausibility(b, d, false));
 }
 
-PlausibilityRule ascii_rule(std::string_view s, Direction d = Direction::unknown) {
+std::string_view ascii_rule(std::string_view s, Direction d = Direction::unknown) {
   const std::vector<std::uint8_t> b = text(s);
-  return modbus::ascii_plausibility(b, modbus::decode_ascii_hex(b), d, false).broken;
+  return rule_id(modbus::ascii_plausibility(b, modbus::decode_ascii_hex(b), d, false));
 }
 
-PlausibilityRule eds_rule(std::string_view s, Direction d = Direction::unknown) {
-  return easydrive::eds_plausibility(text(s), d, false).broken;
+std::string_view eds_rule(std::string_view s, Direction d = Direction::unknown) {
+  return rule_id(easydrive::eds_plausibility(text(s), d, false));
 }
 
 Frame frame_of(const std::vector<std::uint8_t>& bytes) {
@@ -47,85 +53,81 @@ Frame frame_of(const std::vector<std::uint8_t>& bytes) {
 
 TEST(Plausibility, ModbusRtuRules) {
   const auto read = with_crc({0x01, 0x03, 0x00, 0x00, 0x00, 0x01});
-  EXPECT_EQ(rtu_rule(read), PlausibilityRule::none);
-  EXPECT_EQ(rtu_rule(read, Direction::request), PlausibilityRule::none);
-  EXPECT_EQ(rtu_rule(read, Direction::response), PlausibilityRule::rtu_length)
-      << "6 PDU bytes are no FC 03 reply";
+  EXPECT_EQ(rtu_rule(read), "none");
+  EXPECT_EQ(rtu_rule(read, Direction::request), "none");
+  EXPECT_EQ(rtu_rule(read, Direction::response), "rtu.length") << "6 PDU bytes are no FC 03 reply";
   // DMX: FF FF 00 00 00 has a good CRC; address 255 is reserved.
   const std::vector<std::uint8_t> dmx{0xFF, 0xFF, 0x00, 0x00, 0x00};
   EXPECT_EQ(check_rtu_crc(dmx).verdict, ChecksumVerdict::good);
-  EXPECT_EQ(rtu_rule(dmx), PlausibilityRule::rtu_address);
-  EXPECT_EQ(rtu_rule(with_crc({0xF7, 0x03, 0x02, 0x00, 0x01})), PlausibilityRule::none)
+  EXPECT_EQ(rtu_rule(dmx), "rtu.address");
+  EXPECT_EQ(rtu_rule(with_crc({0xF7, 0x03, 0x02, 0x00, 0x01})), "none")
       << "247 is the highest slave address";
-  EXPECT_EQ(rtu_rule(with_crc({0xF8, 0x03, 0x02, 0x00, 0x01})), PlausibilityRule::rtu_address);
-  EXPECT_EQ(rtu_rule(with_crc({0x01, 0x41, 0x00})), PlausibilityRule::rtu_function);
-  EXPECT_EQ(rtu_rule(with_crc({0x01, 0x83, 0x02})), PlausibilityRule::none);
-  EXPECT_EQ(rtu_rule(with_crc({0x01, 0x83, 0x00})), PlausibilityRule::rtu_exception_code);
-  EXPECT_EQ(rtu_rule(with_crc({0x01, 0x83, 0x0C})), PlausibilityRule::rtu_exception_code);
-  EXPECT_EQ(rtu_rule(with_crc({0x01, 0x83, 0x02, 0x00})), PlausibilityRule::rtu_length);
-  EXPECT_EQ(rtu_rule(with_crc({0x01, 0x03, 0x04, 0x00, 0x01})), PlausibilityRule::rtu_length)
+  EXPECT_EQ(rtu_rule(with_crc({0xF8, 0x03, 0x02, 0x00, 0x01})), "rtu.address");
+  EXPECT_EQ(rtu_rule(with_crc({0x01, 0x41, 0x00})), "rtu.function");
+  EXPECT_EQ(rtu_rule(with_crc({0x01, 0x83, 0x02})), "none");
+  EXPECT_EQ(rtu_rule(with_crc({0x01, 0x83, 0x00})), "rtu.exception_code");
+  EXPECT_EQ(rtu_rule(with_crc({0x01, 0x83, 0x0C})), "rtu.exception_code");
+  EXPECT_EQ(rtu_rule(with_crc({0x01, 0x83, 0x02, 0x00})), "rtu.length");
+  EXPECT_EQ(rtu_rule(with_crc({0x01, 0x03, 0x04, 0x00, 0x01})), "rtu.length")
       << "byte count 4 with 2 data bytes, and no request either";
   std::vector<std::uint8_t> huge(300, 0x01);
-  EXPECT_EQ(rtu_rule(huge), PlausibilityRule::rtu_size);
-  EXPECT_EQ(rtu_rule({0x01, 0x03, 0x00}), PlausibilityRule::rtu_size);
+  EXPECT_EQ(rtu_rule(huge), "rtu.size");
+  EXPECT_EQ(rtu_rule({0x01, 0x03, 0x00}), "rtu.size");
 }
 
 TEST(Plausibility, ModbusVendorExceptionCodeFromAProfile) {
   const auto e5 = with_crc({0x01, 0x83, 0x5E});
-  EXPECT_EQ(rtu_rule(e5), PlausibilityRule::rtu_exception_code);
+  EXPECT_EQ(rtu_rule(e5), "rtu.exception_code");
   allow_vendor_exception_code(0x5E);  // (no built-in profile uses 0x5E)
-  EXPECT_EQ(rtu_rule(e5), PlausibilityRule::none);
+  EXPECT_EQ(rtu_rule(e5), "none");
 }
 
 TEST(Plausibility, DanfossFcRules) {
-  EXPECT_EQ(fc_rule({0x02, 0x06, 0x04, 0x04, 0x7C, 0x20, 0x00, 0x58}), PlausibilityRule::none);
+  EXPECT_EQ(fc_rule({0x02, 0x06, 0x04, 0x04, 0x7C, 0x20, 0x00, 0x58}), "none");
   EXPECT_EQ(
       fc_rule({0x02, 0x0E, 0x81, 0xE1, 0x9E, 0, 0, 0, 0, 0x03, 0xE8, 0x04, 0x7C, 0x20, 0x00, 0x41},
               Direction::request),
-      PlausibilityRule::none);
+      "none");
   // "Hello world": no STX.
-  EXPECT_EQ(fc_rule(text("Hello world!\r\n")), PlausibilityRule::fc_stx);
+  EXPECT_EQ(fc_rule(text("Hello world!\r\n")), "fc.stx");
   // Constant bytes: FF FF FF FF and 00 00 00 00 have a good BCC.
-  EXPECT_EQ(fc_rule({0xFF, 0xFF, 0xFF, 0xFF}), PlausibilityRule::fc_stx);
-  EXPECT_EQ(fc_rule({0x02, 0x02, 0x02, 0x02}), PlausibilityRule::fc_lge_allowed);
-  EXPECT_EQ(fc_rule({0x02, 0x0E, 0x04, 0x04, 0x7C, 0x20, 0x00, 0x58}),
-            PlausibilityRule::fc_lge_count);
-  EXPECT_EQ(fc_rule(fc_telegram(0x00, {0x04, 0x7C, 0x20, 0x00})), PlausibilityRule::fc_adr);
-  EXPECT_EQ(fc_rule(fc_telegram(0xFF, {0x04, 0x7C, 0x20, 0x00})), PlausibilityRule::fc_adr);
-  EXPECT_EQ(fc_rule(fc_telegram(0x20, {0x04, 0x7C, 0x20, 0x00})), PlausibilityRule::none)
-      << "broadcast";
+  EXPECT_EQ(fc_rule({0xFF, 0xFF, 0xFF, 0xFF}), "fc.stx");
+  EXPECT_EQ(fc_rule({0x02, 0x02, 0x02, 0x02}), "fc.lge_allowed");
+  EXPECT_EQ(fc_rule({0x02, 0x0E, 0x04, 0x04, 0x7C, 0x20, 0x00, 0x58}), "fc.lge_count");
+  EXPECT_EQ(fc_rule(fc_telegram(0x00, {0x04, 0x7C, 0x20, 0x00})), "fc.adr");
+  EXPECT_EQ(fc_rule(fc_telegram(0xFF, {0x04, 0x7C, 0x20, 0x00})), "fc.adr");
+  EXPECT_EQ(fc_rule(fc_telegram(0x20, {0x04, 0x7C, 0x20, 0x00})), "none") << "broadcast";
   // AK 7 (cannot execute) only in a reply; AK 0xD (write RAM+EEPROM) only in a request; AK 5 none.
   const auto ak7 = fc_telegram(0x01, {0x71, 0x9E, 0, 0, 0, 0x02, 0x06, 0x07, 0, 0, 0, 0});
-  EXPECT_EQ(fc_rule(ak7, Direction::response), PlausibilityRule::none);
-  EXPECT_EQ(fc_rule(ak7, Direction::request), PlausibilityRule::fc_ak);
+  EXPECT_EQ(fc_rule(ak7, Direction::response), "none");
+  EXPECT_EQ(fc_rule(ak7, Direction::request), "fc.ak");
   const auto ak5 = fc_telegram(0x01, {0x51, 0x9E, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0});
-  EXPECT_EQ(fc_rule(ak5), PlausibilityRule::fc_ak);
+  EXPECT_EQ(fc_rule(ak5), "fc.ak");
   // Text blocks: LGE 10 + n only with AK 0xF.
-  EXPECT_EQ(fc_rule(fc_telegram(0x01, {0xF1, 0x9E, 0x04, 0, 'a', 'b', 'c', 0, 0, 0, 0})),
-            PlausibilityRule::none);
+  EXPECT_EQ(fc_rule(fc_telegram(0x01, {0xF1, 0x9E, 0x04, 0, 'a', 'b', 'c', 0, 0, 0, 0})), "none");
   EXPECT_EQ(fc_rule(fc_telegram(0x01, {0x11, 0x9E, 0x04, 0, 'a', 'b', 'c', 0, 0, 0, 0})),
-            PlausibilityRule::fc_lge_allowed);
+            "fc.lge_allowed");
 }
 
 TEST(Plausibility, ModbusAsciiRules) {
-  EXPECT_EQ(ascii_rule(":010325230001B3\r\n"), PlausibilityRule::none);
-  EXPECT_EQ(ascii_rule(":010325230001b3\r\n"), PlausibilityRule::none)
+  EXPECT_EQ(ascii_rule(":010325230001B3\r\n"), "none");
+  EXPECT_EQ(ascii_rule(":010325230001b3\r\n"), "none")
       << "lower case is a malformed finding, not another protocol";
-  EXPECT_EQ(ascii_rule(":010325230001B3"), PlausibilityRule::ascii_terminator);
-  EXPECT_EQ(ascii_rule(":Hello world\r\n"), PlausibilityRule::ascii_charset);
-  EXPECT_EQ(ascii_rule(":0103\r\n"), PlausibilityRule::ascii_length);
-  EXPECT_EQ(ascii_rule(":010325230001B\r\n"), PlausibilityRule::ascii_length);
-  EXPECT_EQ(ascii_rule(":FF0325230001B3\r\n"), PlausibilityRule::rtu_address)
+  EXPECT_EQ(ascii_rule(":010325230001B3"), "ascii.terminator");
+  EXPECT_EQ(ascii_rule(":Hello world\r\n"), "ascii.charset");
+  EXPECT_EQ(ascii_rule(":0103\r\n"), "ascii.length");
+  EXPECT_EQ(ascii_rule(":010325230001B\r\n"), "ascii.length");
+  EXPECT_EQ(ascii_rule(":FF0325230001B3\r\n"), "rtu.address")
       << "the Modbus rules apply to the bytes the hex spells";
 }
 
 TEST(Plausibility, EasydriveRules) {
-  EXPECT_EQ(eds_rule("~010C00010FA0027C\r"), PlausibilityRule::none);
-  EXPECT_EQ(eds_rule("~010C00010FA0027C"), PlausibilityRule::eds_terminator);
-  EXPECT_EQ(eds_rule("~010c00010fa0027c\r"), PlausibilityRule::eds_charset);
-  EXPECT_EQ(eds_rule("~010C00010FA002\r"), PlausibilityRule::eds_length);
-  EXPECT_EQ(eds_rule("~01FF00010FA0027C\r"), PlausibilityRule::eds_command);
-  EXPECT_EQ(eds_rule("~010C00010FA0027C\r", Direction::response), PlausibilityRule::eds_command)
+  EXPECT_EQ(eds_rule("~010C00010FA0027C\r"), "none");
+  EXPECT_EQ(eds_rule("~010C00010FA0027C"), "eds.terminator");
+  EXPECT_EQ(eds_rule("~010c00010fa0027c\r"), "eds.charset");
+  EXPECT_EQ(eds_rule("~010C00010FA002\r"), "eds.length");
+  EXPECT_EQ(eds_rule("~01FF00010FA0027C\r"), "eds.command");
+  EXPECT_EQ(eds_rule("~010C00010FA0027C\r", Direction::response), "eds.command")
       << "0C is a command, not a response code";
 }
 
@@ -182,7 +184,7 @@ TEST(Plausibility, DetectionNeedsSeveralGoodTelegramsAndPairsForHigh) {
     for (int i = 0; i < 6; ++i) r.send(with_crc({0x01, 0x03, 0x00, 0x00, 0x00, 0x01}));
     r.pipeline->finish();
     ASSERT_FALSE(r.sink.events.empty());
-    EXPECT_EQ(r.sink.events[0].protocol, Protocol::modbus_rtu);
+    EXPECT_EQ(r.sink.events[0].protocol, protocols::modbus_rtu);
     EXPECT_EQ(r.sink.events[0].confidence, "medium");
   }
   {
@@ -193,7 +195,7 @@ TEST(Plausibility, DetectionNeedsSeveralGoodTelegramsAndPairsForHigh) {
     }
     r.pipeline->finish();
     ASSERT_FALSE(r.sink.events.empty());
-    EXPECT_EQ(r.sink.events[0].protocol, Protocol::modbus_rtu);
+    EXPECT_EQ(r.sink.events[0].protocol, protocols::modbus_rtu);
     EXPECT_EQ(r.sink.events[0].confidence, "high");
   }
 }
@@ -231,7 +233,7 @@ TEST(Plausibility, IpFlowWithADriveProtocolJoins) {
   }
   r.pipeline->finish();
   ASSERT_FALSE(r.sink.events.empty());
-  EXPECT_EQ(r.sink.events[0].protocol, Protocol::modbus_rtu);
+  EXPECT_EQ(r.sink.events[0].protocol, protocols::modbus_rtu);
   EXPECT_EQ(r.sink.frames.frames.size(), 8u);
   EXPECT_EQ(r.sink.summary.good_telegrams, 8u);
 }

@@ -1,6 +1,7 @@
 // Unit tests: drive profiles — built-in files load, errors name file, line and key.
 #include <gtest/gtest.h>
 
+#include "dissectors/modbus/modbus_protocol.hpp"
 #include "drive/profile.hpp"
 #include "sinks/threaded_sink.hpp"
 #include "test_support.hpp"
@@ -130,7 +131,7 @@ void run_e9_traffic(const DriveProfile& e9, Sink& sink, ThreadedSink* finish_fir
   ChannelTable channels;
   channels.intern("bus");
   PipelineOptions p;
-  p.protocol = Protocol::modbus_rtu;
+  p.protocol = protocols::modbus_rtu;
   p.timing = FramingTiming::from(p.serial);
   p.drives[2] = &e9;
   Pipeline pipeline(p, channels, sink);
@@ -207,7 +208,7 @@ TEST(DriveTimingRules, E9SilenceAndReplyToRequestE5Guard) {
   channels.intern("bus");
   drivetap::testing::RecordingSink sink;
   PipelineOptions p;
-  p.protocol = Protocol::modbus_rtu;
+  p.protocol = protocols::modbus_rtu;
   p.timing = FramingTiming::from(p.serial);
   p.drives[2] = &e9;
   p.drives[1] = &e5;

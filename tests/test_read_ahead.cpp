@@ -17,6 +17,7 @@
 #include "sources/read_ahead.hpp"
 
 #include "core/byte_events.hpp"
+#include "dissectors/modbus/modbus_protocol.hpp"
 
 using namespace drivetap;
 
@@ -152,7 +153,7 @@ namespace {
 // prechecks to be recognised (the rest is never called).
 class SizeStampingDecoder final : public ProtocolDecoder {
  public:
-  [[nodiscard]] Protocol protocol() const override { return Protocol::modbus_rtu; }
+  [[nodiscard]] Protocol protocol() const override { return protocols::modbus_rtu; }
   [[nodiscard]] std::unique_ptr<Framer> make_framer(ChannelId,
                                                     const FramerSettings&) const override {
     return nullptr;

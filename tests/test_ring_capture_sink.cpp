@@ -3,6 +3,7 @@
 
 #include <filesystem>
 
+#include "dissectors/modbus/modbus_protocol.hpp"
 #include "pipeline/pipeline.hpp"
 #include "sinks/ring_capture_sink.hpp"
 #include "sources/file/capture_reader.hpp"
@@ -31,7 +32,7 @@ std::uint64_t write_frames(RingCaptureSink& ring, ChannelTable& channels, int fr
   PipelineOptions p;
   p.serial = *SerialConfig::parse("19200 8E1", nullptr);
   p.timing = FramingTiming::from(p.serial);
-  p.protocol = Protocol::modbus_rtu;
+  p.protocol = protocols::modbus_rtu;
   Pipeline pipeline(p, channels, ring);
   const ChannelId bus = channels.intern("bus");
   TimeNs t = 1'700'000'000LL * kNsPerSecond;
@@ -64,7 +65,7 @@ std::uint64_t packets_in(const fs::path& file) {
   PipelineOptions p;
   p.serial = *SerialConfig::parse("19200 8E1", nullptr);
   p.timing = FramingTiming::from(p.serial);
-  p.protocol = Protocol::modbus_rtu;
+  p.protocol = protocols::modbus_rtu;
   RecordingSink sink;
   Pipeline pipeline(p, channels, sink);
   ByteEvent e;

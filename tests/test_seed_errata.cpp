@@ -4,6 +4,8 @@
 
 #include <map>
 
+#include "dissectors/easydrive/eds_protocol.hpp"
+#include "dissectors/modbus/modbus_protocol.hpp"
 #include "test_support.hpp"
 
 using namespace drivetap;
@@ -99,12 +101,12 @@ TEST(SeedErrata, E5AsciiExamples) {
   std::string error;
   ASSERT_TRUE(
       run_byte_log(std::string(DRIVETAP_SOURCE_DIR) + "/captures/seed-e5-8200-ascii/input.log",
-                   sink, channels, &error, Protocol::modbus_ascii))
+                   sink, channels, &error, protocols::modbus_ascii))
       << error;
   ASSERT_EQ(sink.frames.size(), 18u);
   for (std::size_t i = 0; i < sink.frames.size(); ++i) {
     const ChecksumResult& c = sink.frames[i].checksum;
-    EXPECT_EQ(sink.frames[i].protocol, Protocol::modbus_ascii);
+    EXPECT_EQ(sink.frames[i].protocol, protocols::modbus_ascii);
     if (i == 8) {  // :01882075 — the manual's LRC has its digits swapped
       EXPECT_EQ(c.verdict, ChecksumVerdict::bad);
       EXPECT_EQ(c.stated_wire, 0x75u);
@@ -121,7 +123,7 @@ TEST(SeedErrata, EasydriveExamples) {
   ChannelTable channels;
   std::string error;
   ASSERT_TRUE(run_byte_log(std::string(DRIVETAP_SOURCE_DIR) + "/captures/seed-easydrive/input.log",
-                           sink, channels, &error, Protocol::easydrive))
+                           sink, channels, &error, protocols::easydrive))
       << error;
   ASSERT_EQ(sink.frames.size(), 40u);
   // 0-based frame indices of PROTOCOLS.md §6's Easydrive errata, with the stated SUM.

@@ -6,6 +6,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "dissectors/modbus/modbus_protocol.hpp"
 #include "sources/logic/logic_source.hpp"
 #include "sources/logic/sigrok_file.hpp"
 #include "test_support.hpp"
@@ -94,7 +95,7 @@ void expect_sr_frame_for_frame(const std::string& sr_path, const std::string& se
   PipelineOptions p;
   p.serial = line;
   p.timing = FramingTiming::from(line);
-  p.protocol = Protocol::modbus_rtu;
+  p.protocol = protocols::modbus_rtu;
   RecordingSink sink;
   Pipeline pipeline(p, channels, sink);
   ByteEvent e;

@@ -11,6 +11,7 @@
 
 #include "core/checksum.hpp"
 #include "dissectors/danfoss_fc/fc_dissector.hpp"
+#include "dissectors/modbus/modbus_protocol.hpp"
 #include "drive/profile.hpp"
 #include "pipeline/pipeline.hpp"
 #include "sources/file/byte_log.hpp"
@@ -93,7 +94,7 @@ inline std::string hex_of(const std::vector<std::uint8_t>& bytes) {
 
 // Runs a byte log file through the whole pipeline.
 inline bool run_byte_log(const std::string& path, RecordingSink& sink, ChannelTable& channels,
-                         std::string* error, Protocol protocol = Protocol::modbus_rtu) {
+                         std::string* error, Protocol protocol = protocols::modbus_rtu) {
   std::FILE* f = std::fopen(path.c_str(), "rb");
   if (!f) {
     *error = "cannot open " + path;

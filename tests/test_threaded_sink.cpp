@@ -15,6 +15,7 @@
 #include <cstdio>
 #include <cstdlib>
 
+#include "dissectors/modbus/modbus_protocol.hpp"
 #include "sinks/json_sink.hpp"
 #include "sinks/text_sink.hpp"
 #include "sinks/threaded_sink.hpp"
@@ -388,7 +389,7 @@ void play_with_anomalies(Sink& sink, std::size_t frames, bool heavy = false) {
       m.frame.events.push_back({static_cast<TimeNs>(i * 100'000'000 + k * k),
                                 static_cast<std::uint8_t>(i), 0, m.frame.channel, 0});
     m.bytes = m.frame.bytes();
-    m.protocol = Protocol::modbus_rtu;
+    m.protocol = protocols::modbus_rtu;
     m.direction = i % 2 ? Direction::request : Direction::response;
     m.address = static_cast<int>(i % 7);
     m.info = "info " + std::to_string(i);

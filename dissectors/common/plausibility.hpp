@@ -5,7 +5,6 @@
 // drive binding, the drive-state timeline, the summary's good telegrams).
 #pragma once
 
-#include <array>
 #include <cstdint>
 #include <span>
 #include <string>
@@ -14,60 +13,29 @@
 
 namespace drivetap {
 
-// Each rule, a typed id; its text and source are data (plausibility.cpp, kPlausibilityRules).
-enum class PlausibilityRule : std::uint8_t {
-  none,
-  rtu_size,            // 4..256 bytes (address, function, CRC; serial line PDU <= 253)
-  rtu_address,         // 0..247: 248..255 are reserved
-  rtu_function,        // a public function code (or its exception)
-  rtu_length,          // the length its function code and byte count imply
-  rtu_exception_code,  // 1..11, or a loaded drive profile's vendor code
-  fc_stx,              // starts with STX 0x02
-  fc_lge_allowed,      // LGE 6, 14 or a text block's 10 + n (AK 0xF)
-  fc_lge_count,        // LGE = the bytes after it
-  fc_adr,              // ADR: 1..31 (bit 5 broadcast) or, bit 7 set, 1..126 / 0x80 broadcast
-  fc_ak,               // AK valid in the telegram's direction
-  ascii_start,         // starts with ':'
-  ascii_charset,       // hex digits between ':' and CR LF
-  ascii_length,        // an even count of hex digits, 3..256 bytes
-  ascii_terminator,    // ends with CR LF
-  eds_start,           // starts with '~'
-  eds_charset,         // 0-9, A-F between '~' and CR
-  eds_length,          // 13 or 17 characters before CR
-  eds_terminator,      // ends with CR
-  eds_command,         // a command (0A..0F) or a response code (00, 10..14, 20, 30)
-  kCount
-};
-
-struct PlausibilityRuleInfo {
-  PlausibilityRule rule;
+// A rule, declared as data in its protocol's folder (dissectors/<protocol>/*_findings.hpp).
+struct PlausibilityRule {
   const char* id;      // stable, dotted: "rtu.address"
   const char* source;  // where the rule is written down
 };
-const PlausibilityRuleInfo& plausibility_rule(PlausibilityRule rule);
 
 // The outcome of a check: the first rule broken (none: plausible) and, when asked for, what was
 // found ("address 255 (248-255 are reserved)").
 struct Plausibility {
-  PlausibilityRule broken = PlausibilityRule::none;
+  const PlausibilityRule* broken = nullptr;
   std::string why;
-  [[nodiscard]] bool ok() const { return broken == PlausibilityRule::none; }
+  [[nodiscard]] bool ok() const { return broken == nullptr; }
 
   // The outcome "`rule` is broken", with what was found (`why()`, called only when `describe`:
   // a run that shows no text builds none).
   template <typename Why>
-  static Plausibility breaking(PlausibilityRule rule, bool describe, Why&& why) {
+  static Plausibility breaking(const PlausibilityRule& rule, bool describe, Why&& why) {
     Plausibility p;
-    p.broken = rule;
+    p.broken = &rule;
     if (describe) p.why = why();
     return p;
   }
 };
-
-// Adds the `implausible` finding of `p` to `m` (nothing when p.ok()), the rule named after what
-// was found: "address 255 (248-255 are reserved) [rtu.address, Modbus serial line §2.3]" (the
-// kind's label says "not a telegram of its protocol"; the frame says which protocol).
-void add_implausible(Message& m, const Plausibility& p);
 
 // True when the message carries an `implausible` finding.
 bool is_implausible(const Message& m);

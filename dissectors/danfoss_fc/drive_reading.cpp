@@ -47,8 +47,8 @@ void add_parameter_access(std::span<const std::uint8_t> b, bool to_drive, DriveR
 
 }  // namespace
 
-void FcDecoder::read_drive_records(const TelegramHead& telegram,
-                                   std::span<const std::uint8_t> request, DriveRecords& out) const {
+void read_fc_drive_records(const TelegramHead& telegram,
+                                   std::span<const std::uint8_t> request, DriveRecords& out) {
   (void)request;  // replies stand on their own
   out.clear();
   out.family_protocol = true;

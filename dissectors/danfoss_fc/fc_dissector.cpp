@@ -7,6 +7,7 @@
 #include "core/cursor.hpp"
 #include "dissectors/common/hybrid_framer_impl.hpp"
 #include "dissectors/danfoss_fc/fc_fields.hpp"
+#include "dissectors/danfoss_fc/fc_findings.hpp"
 
 namespace drivetap::danfoss_fc {
 
@@ -122,32 +123,32 @@ bool is_response_ak(unsigned ak) {
 Plausibility fc_plausibility(std::span<const std::uint8_t> frame, Direction direction,
                              bool describe) {
   Plausibility p;
-  auto broken = [&](PlausibilityRule rule, auto&& why) {
+  auto broken = [&](const PlausibilityRule& rule, auto&& why) {
     return Plausibility::breaking(rule, describe, why);
   };
   if (frame.empty() || frame[0] != kStxByte)
-    return broken(PlausibilityRule::fc_stx, [&] {
+    return broken(kRuleFcStx, [&] {
       return frame.empty() ? std::string("no bytes")
                            : fmt::format(FMT_COMPILE("starts with 0x{:02X}, not STX"), frame[0]);
     });
   if (frame.size() < 4)
-    return broken(PlausibilityRule::fc_lge_count,
+    return broken(kRuleFcLgeCount,
                   [&] { return fmt::format(FMT_COMPILE("{} bytes (at least 4)"), frame.size()); });
   const std::uint8_t lge = frame[1];
   const unsigned ak = frame.size() >= 12 ? frame[3] >> 4 : 0;
   // Text blocks (AK 0xF) carry n text bytes: LGE 10 + n; every other telegram is 6 or 14.
   if (lge != 6 && lge != 14 && !(lge > 10 && frame.size() >= 12 && ak == 0xF))
-    return broken(PlausibilityRule::fc_lge_allowed, [&] {
+    return broken(kRuleFcLgeAllowed, [&] {
       return fmt::format(FMT_COMPILE("LGE {} (6, 14, or 10 + n for a text block)"), lge);
     });
   if (std::size_t{lge} + 2 != frame.size())
-    return broken(PlausibilityRule::fc_lge_count, [&] {
+    return broken(kRuleFcLgeCount, [&] {
       return fmt::format(FMT_COMPILE("LGE {} but {} bytes after it"), lge, frame.size() - 2);
     });
   const std::uint8_t adr = frame[2];
   const bool adr_ok = (adr & 0x80) ? adr != 0xFF : ((adr & 0x1F) != 0 || (adr & 0x20) != 0);
   if (!adr_ok)
-    return broken(PlausibilityRule::fc_adr, [&] {
+    return broken(kRuleFcAdr, [&] {
       return fmt::format(FMT_COMPILE("ADR 0x{:02X} names no drive and no broadcast"), adr);
     });
   if (frame.size() >= 12) {
@@ -156,7 +157,7 @@ Plausibility fc_plausibility(std::span<const std::uint8_t> frame, Direction dire
                     : direction == Direction::response ? as_response
                                                        : as_request || as_response;
     if (!ok)
-      return broken(PlausibilityRule::fc_ak, [&] {
+      return broken(kRuleFcAk, [&] {
         return fmt::format(FMT_COMPILE("AK 0x{:X} is no {}"), ak,
                            direction == Direction::request    ? "request"
                            : direction == Direction::response ? "reply"
@@ -167,14 +168,14 @@ Plausibility fc_plausibility(std::span<const std::uint8_t> frame, Direction dire
 }
 
 Message dissect_fc(Frame frame, Direction direction, const FramingTiming& timing) {
-  Message m;
-  dissect_fc(m, std::move(frame), direction, timing);
-  return m;
+  return dissected(dissect_fc, std::move(frame), direction, timing);
 }
 
-void dissect_fc(Message& m, Frame&& frame, Direction direction, const FramingTiming& timing) {
+void dissect_fc(Message& m, Frame&& frame, Direction direction, const FramingTiming& timing,
+                std::span<const std::uint8_t> request) {
+  (void)request;
   (void)timing;
-  begin_message(m, std::move(frame), Protocol::danfoss_fc, direction);
+  begin_message(m, std::move(frame), protocols::danfoss_fc, direction);
   const std::span<const std::uint8_t> bytes(m.bytes);
   FieldTreeBuilder tree(m.fields, m.detail && m.tree);
   Cursor c(bytes);
@@ -182,20 +183,17 @@ void dissect_fc(Message& m, Frame&& frame, Direction direction, const FramingTim
   auto lge = c.u8();
   auto adr = c.u8();
   if (!stx || !lge || !adr || bytes.size() < 4) {
-    std::string what =
-        fmt::format(FMT_COMPILE("{}-byte fragment, too short for an FC telegram"), bytes.size());
+    std::string what = kFindingFragment.detail(bytes.size());
     if (m.detail) m.info = what;
-    add_malformed(m, std::move(what));
-    add_implausible(m, fc_plausibility(bytes, direction, true));
+    add_finding_detail(m, kFindingFragment, std::move(what));
+    add_implausible(m, kFindingImplausible, fc_plausibility(bytes, direction, true));
     return;
   }
   tree.add(kStx, 0, 1, *stx);
-  if (*stx != kStxByte)
-    add_malformed(m, fmt::format(FMT_COMPILE("starts with 0x{:02X}, not STX 0x02"), *stx));
+  if (*stx != kStxByte) add_finding(m, kFindingStxBad, *stx);
   tree.add(kLge, 1, 1, *lge);
   if (std::size_t{*lge} + 2 != bytes.size())
-    add_malformed(m, fmt::format(FMT_COMPILE("LGE {} announces {} bytes, the telegram has {}"),
-                                 *lge, *lge + 2, bytes.size()));
+    add_finding(m, kFindingLgeMismatch, *lge, *lge + 2u, bytes.size());
   const Address a = decode_adr(*adr);
   tree.open(kAdr, 2, 1, *adr);
   tree.add(kAddress, 2, 1, a.number);
@@ -230,9 +228,7 @@ void dissect_fc(Message& m, Frame&& frame, Direction direction, const FramingTim
       info.push_back(fmt::format(FMT_COMPILE("{} text {} \"{}\""), mode == 0x05 ? "write" : "read",
                                  param, text));
     } else {
-      if (value_len != 4)
-        add_malformed(
-            m, fmt::format(FMT_COMPILE("parameter value of {} bytes (4 expected)"), value_len));
+      if (value_len != 4) add_finding(m, kFindingPweLength, value_len);
       auto hi = c.be16();
       auto lo = c.be16();
       const std::uint32_t pwe = (std::uint32_t{hi.value_or(0)} << 16) | lo.value_or(0);
@@ -264,14 +260,10 @@ void dissect_fc(Message& m, Frame&& frame, Direction direction, const FramingTim
         }
       }
       if (!(to_drive ? is_request_ak(ak) : is_response_ak(ak)))
-        add_malformed(m, fmt::format(FMT_COMPILE("AK 0x{:X} is not a {} command"), ak,
-                                     to_drive ? "request" : "response"));
+        add_finding(m, kFindingAkDirection, ak, to_drive ? "request" : "response");
     }
   } else if (data_len != 4) {
-    add_malformed(
-        m, fmt::format(
-               FMT_COMPILE("{} data bytes: neither process data (4) nor a parameter block (12)"),
-               data_len));
+    add_finding(m, kFindingDataLength, data_len);
   }
   // Process data: the last 4 data bytes.
   if (data_len >= 4 && c.remaining() >= 5) {
@@ -311,7 +303,7 @@ void dissect_fc(Message& m, Frame&& frame, Direction direction, const FramingTim
   m.checksum.computed_wire = computed;
   m.checksum.verdict = stated == computed ? ChecksumVerdict::good : ChecksumVerdict::bad;
   add_checksum_anomaly(m);
-  add_implausible(m, fc_plausibility(bytes, direction, true));
+  add_implausible(m, kFindingImplausible, fc_plausibility(bytes, direction, true));
   append_uart_anomalies(m.frame.events, 0, m.anomalies);
 }
 
@@ -337,7 +329,9 @@ bool FcRules::looks_like_frame_start(std::span<const std::uint8_t> from) const {
   return from[1] == 6 || from[1] >= 10;  // process data, or parameter/text block
 }
 
-std::unique_ptr<Framer> FcDecoder::make_framer(ChannelId channel, const FramerSettings& s) const {
+namespace {
+
+std::unique_ptr<Framer> make_framer(ChannelId channel, const FramerSettings& s) {
   static const FcRules rules;
   HybridFramerOptions o;
   o.timing = s.timing;
@@ -345,7 +339,7 @@ std::unique_ptr<Framer> FcDecoder::make_framer(ChannelId channel, const FramerSe
   return std::make_unique<HybridFramer<FcRules>>(channel, o, rules);
 }
 
-DirectionFit FcDecoder::direction_fit(std::span<const std::uint8_t> frame) const {
+DirectionFit direction_fit(std::span<const std::uint8_t> frame) {
   DirectionFit fit;
   if (frame.size() == 8) {
     fit.request = fit.response = true;  // process data only: order decides
@@ -357,19 +351,26 @@ DirectionFit FcDecoder::direction_fit(std::span<const std::uint8_t> frame) const
   return fit;
 }
 
-bool FcDecoder::always_response(std::span<const std::uint8_t> frame) const {
+bool always_response(std::span<const std::uint8_t> frame) {
   return frame.size() >= 12 && is_response_only_ak(frame[3] >> 4);
 }
 
-bool FcDecoder::recognisable(std::span<const std::uint8_t> frame) const {
+bool recognisable(std::span<const std::uint8_t> frame) {
   return frame.size() >= 4 && frame[0] == kStxByte;
 }
 
-ProtocolDecoder::PairingKeys FcDecoder::pairing_keys(std::span<const std::uint8_t> frame) const {
+ProtocolDecoder::PairingKeys pairing_keys(std::span<const std::uint8_t> frame) {
   if (frame.size() < 3) return {};
   const Address a = decode_adr(frame[2]);
   return {a.broadcast ? 0 : a.number, -1};
 }
+
+}  // namespace
+
+// In DecoderFunctions order.
+constexpr DecoderFunctions kFcFunctions{
+    protocols::danfoss_fc, make_framer,  direction_fit, always_response,
+    recognisable,          pairing_keys, dissect_fc, read_fc_drive_records};
 
 }  // namespace drivetap::danfoss_fc
 

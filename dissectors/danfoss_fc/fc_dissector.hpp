@@ -13,8 +13,10 @@
 
 #include "core/message.hpp"
 #include "core/protocol.hpp"
+#include "dissectors/common/decoder_of.hpp"
 #include "dissectors/common/hybrid_framer.hpp"
 #include "dissectors/common/plausibility.hpp"
+#include "dissectors/danfoss_fc/fc_protocol.hpp"
 
 namespace drivetap::danfoss_fc {
 
@@ -37,7 +39,10 @@ Plausibility fc_plausibility(std::span<const std::uint8_t> frame, Direction dire
                              bool describe);
 
 // Decodes into `m`, reusing its storage (begin_message); the other form returns a new Message.
-void dissect_fc(Message& m, Frame&& frame, Direction direction, const FramingTiming& timing);
+// `request` is not read: replies of this protocol stand on their own
+// (ProtocolDecoder::dissect_into).
+void dissect_fc(Message& m, Frame&& frame, Direction direction, const FramingTiming& timing,
+                std::span<const std::uint8_t> request = {});
 Message dissect_fc(Frame frame, Direction direction, const FramingTiming& timing);
 
 class FcRules final : public HybridFrameRules {
@@ -50,28 +55,11 @@ class FcRules final : public HybridFrameRules {
   [[nodiscard]] bool looks_like_frame_start(std::span<const std::uint8_t> from) const override;
 };
 
-class FcDecoder final : public ProtocolDecoder {
- public:
-  [[nodiscard]] Protocol protocol() const override { return Protocol::danfoss_fc; }
-  [[nodiscard]] std::unique_ptr<Framer> make_framer(ChannelId channel,
-                                                    const FramerSettings& s) const override;
-  [[nodiscard]] DirectionFit direction_fit(std::span<const std::uint8_t> frame) const override;
-  [[nodiscard]] bool always_response(std::span<const std::uint8_t> frame) const override;
-  [[nodiscard]] bool recognisable(std::span<const std::uint8_t> frame) const override;
-  [[nodiscard]] PairingKeys pairing_keys(std::span<const std::uint8_t> frame) const override;
-  using ProtocolDecoder::dissect;
-  // Always in detail (no head reading of its own).
-  bool dissect(TelegramView& t, Direction direction, const FramingTiming& timing,
-               std::span<const std::uint8_t> request, DissectDepth depth, Message& out,
-               TelegramFindings* head) const override {
-    (void)request;  // replies of this protocol stand on their own
-    (void)depth;
-    (void)head;
-    dissect_fc(out, t.frame_for(out), direction, timing);
-    return true;
-  }
-  void read_drive_records(const TelegramHead& telegram, std::span<const std::uint8_t> request,
-                          DriveRecords& out) const override;  // drive_reading.cpp
-};
+// What its telegrams say to or of a drive (ProtocolDecoder::read_drive_records; drive_reading.cpp).
+void read_fc_drive_records(const TelegramHead& telegram, std::span<const std::uint8_t> request, DriveRecords& out);
+
+// The decoder: this protocol's functions (the .cpp) as a ProtocolDecoder.
+extern const DecoderFunctions kFcFunctions;
+using FcDecoder = DecoderOf<kFcFunctions>;
 
 }  // namespace drivetap::danfoss_fc

@@ -63,9 +63,9 @@ void read_request(long command, long index, long data, DriveRecords& out) {
 
 }  // namespace
 
-void EdsDecoder::read_drive_records(const TelegramHead& telegram,
+void read_eds_drive_records(const TelegramHead& telegram,
                                     std::span<const std::uint8_t> request,
-                                    DriveRecords& out) const {
+                                    DriveRecords& out) {
   out.clear();
   out.family_protocol = true;
   const std::span<const std::uint8_t> f = telegram.bytes;

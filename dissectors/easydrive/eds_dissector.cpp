@@ -6,6 +6,7 @@
 
 #include "dissectors/common/delimited_framer.hpp"
 #include "dissectors/easydrive/eds_fields.hpp"
+#include "dissectors/easydrive/eds_findings.hpp"
 
 namespace drivetap::easydrive {
 namespace {
@@ -72,20 +73,19 @@ std::string status_word(long w) {
 
 Plausibility eds_plausibility(std::span<const std::uint8_t> f, Direction direction, bool describe) {
   Plausibility p;
-  auto broken = [&](PlausibilityRule rule, auto&& why) {
+  auto broken = [&](const PlausibilityRule& rule, auto&& why) {
     return Plausibility::breaking(rule, describe, why);
   };
   if (f.empty() || f[0] != '~')
-    return broken(PlausibilityRule::eds_start, [] { return std::string("no '~' first"); });
-  if (f.back() != '\r')
-    return broken(PlausibilityRule::eds_terminator, [] { return std::string("no CR last"); });
+    return broken(kRuleEdsStart, [] { return std::string("no '~' first"); });
+  if (f.back() != '\r') return broken(kRuleEdsTerminator, [] { return std::string("no CR last"); });
   for (std::size_t i = 1; i + 1 < f.size(); ++i)
     if (hex_value(f[i]) < 0)
-      return broken(PlausibilityRule::eds_charset, [&] {
+      return broken(kRuleEdsCharset, [&] {
         return fmt::format(FMT_COMPILE("character 0x{:02X} at {} (only 0-9, A-F)"), f[i], i);
       });
   if (f.size() != 14 && f.size() != 18)
-    return broken(PlausibilityRule::eds_length, [&] {
+    return broken(kRuleEdsLength, [&] {
       return fmt::format(FMT_COMPILE("{} characters before CR (13 or 17)"), f.size() - 1);
     });
   const long code = hex_field(f, 3, 2);
@@ -94,7 +94,7 @@ Plausibility eds_plausibility(std::span<const std::uint8_t> f, Direction directi
                       ? is_response_code(code)
                       : is_request_command(code) || is_response_code(code);
   if (!ok)
-    return broken(PlausibilityRule::eds_command, [&] {
+    return broken(kRuleEdsCommand, [&] {
       return fmt::format(FMT_COMPILE("code {:02X} is no {}"), code,
                          direction == Direction::request    ? "command"
                          : direction == Direction::response ? "response code"
@@ -111,39 +111,36 @@ std::uint16_t ascii_sum(std::span<const std::uint8_t> text) {
 
 Message dissect_eds(Frame frame, Direction direction, const FramingTiming& timing,
                     std::span<const std::uint8_t> request) {
-  Message m;
-  dissect_eds(m, std::move(frame), direction, timing, request);
-  return m;
+  return dissected(dissect_eds, std::move(frame), direction, timing, request);
 }
 
 void dissect_eds(Message& m, Frame&& frame, Direction direction, const FramingTiming& timing,
                  std::span<const std::uint8_t> request) {
   (void)timing;
-  begin_message(m, std::move(frame), Protocol::easydrive, direction);
+  begin_message(m, std::move(frame), protocols::easydrive, direction);
   m.text_encoded = true;
   const std::span<const std::uint8_t> f(m.bytes);
   FieldTreeBuilder tree(m.fields, m.detail && m.tree);
   if (f.empty() || f[0] != '~') {
-    add_malformed(m, "does not start with '~'");
-    add_implausible(m, eds_plausibility(f, direction, true));
+    add_finding(m, kFindingNoStart);
+    add_implausible(m, kFindingImplausible, eds_plausibility(f, direction, true));
     m.describe([] { return std::string("not an Easydrive frame"); });
     return;
   }
   tree.add_text(kStart, 0, 1, "~");
-  if (f.back() != '\r') add_malformed(m, "no CR at the end: frame cut");
+  if (f.back() != '\r') add_finding(m, kFindingNoCr);
   // Only '~', 0-9, A-F and CR are valid (lower case is an error too).
   for (std::size_t i = 1; i < f.size(); ++i) {
     const std::uint8_t c = f[i];
     if (hex_value(c) < 0 && !(c == '\r' && i + 1 == f.size())) {
-      add_malformed(m, fmt::format(FMT_COMPILE("invalid character 0x{:02X} ('{}') at {}"), c,
-                                   c >= 0x20 && c < 0x7F ? static_cast<char>(c) : '?', i));
+      add_finding(m, kFindingBadCharacter, c, c >= 0x20 && c < 0x7F ? static_cast<char>(c) : '?',
+                  i);
       break;
     }
   }
   const std::size_t len = f.size() - (f.back() == '\r' ? 1 : 0);  // without CR
   if (len != 13 && len != 17) {
-    add_malformed(m,
-                  fmt::format(FMT_COMPILE("{} characters before CR: a frame has 13 or 17"), len));
+    add_finding(m, kFindingLength, len);
   }
   const long addr = hex_field(f, 1, 2);
   const long cmd = hex_field(f, 3, 2);
@@ -236,30 +233,39 @@ void dissect_eds(Message& m, Frame&& frame, Direction direction, const FramingTi
                          f.size());
     });
   }
-  add_implausible(m, eds_plausibility(f, direction, true));
+  add_implausible(m, kFindingImplausible, eds_plausibility(f, direction, true));
   append_uart_anomalies(m.frame.events, 0, m.anomalies);
 }
 
-std::unique_ptr<Framer> EdsDecoder::make_framer(ChannelId channel, const FramerSettings& s) const {
+namespace {
+
+std::unique_ptr<Framer> make_framer(ChannelId channel, const FramerSettings& s) {
   return make_delimited_framer(channel, s, '~', '\r', 32);
 }
 
-DirectionFit EdsDecoder::direction_fit(std::span<const std::uint8_t> frame) const {
+DirectionFit direction_fit(std::span<const std::uint8_t> frame) {
   const long cmd = hex_field(frame, 3, 2);
   return {is_request_command(cmd), is_response_code(cmd)};
 }
 
-bool EdsDecoder::always_response(std::span<const std::uint8_t> frame) const {
+bool always_response(std::span<const std::uint8_t> frame) {
   return is_response_code(hex_field(frame, 3, 2));
 }
 
-bool EdsDecoder::recognisable(std::span<const std::uint8_t> frame) const {
+bool recognisable(std::span<const std::uint8_t> frame) {
   return !frame.empty() && frame[0] == '~' && body_of(frame).size() >= 12;
 }
 
-ProtocolDecoder::PairingKeys EdsDecoder::pairing_keys(std::span<const std::uint8_t> frame) const {
+ProtocolDecoder::PairingKeys pairing_keys(std::span<const std::uint8_t> frame) {
   const long addr = hex_field(frame, 1, 2);
   return {addr < 0 ? -1 : static_cast<int>(addr), -1};
 }
+
+}  // namespace
+
+// In DecoderFunctions order.
+constexpr DecoderFunctions kEdsFunctions{protocols::easydrive, make_framer,  direction_fit,
+                                         always_response,      recognisable, pairing_keys,
+                                         dissect_eds, read_eds_drive_records};
 
 }  // namespace drivetap::easydrive

@@ -11,7 +11,9 @@
 
 #include "core/message.hpp"
 #include "core/protocol.hpp"
+#include "dissectors/common/decoder_of.hpp"
 #include "dissectors/common/plausibility.hpp"
+#include "dissectors/easydrive/eds_protocol.hpp"
 
 namespace drivetap::easydrive {
 
@@ -34,28 +36,11 @@ void dissect_eds(Message& m, Frame&& frame, Direction direction, const FramingTi
 Message dissect_eds(Frame frame, Direction direction, const FramingTiming& timing,
                     std::span<const std::uint8_t> request = {});
 
-class EdsDecoder final : public ProtocolDecoder {
- public:
-  [[nodiscard]] Protocol protocol() const override { return Protocol::easydrive; }
-  [[nodiscard]] std::unique_ptr<Framer> make_framer(ChannelId channel,
-                                                    const FramerSettings& s) const override;
-  [[nodiscard]] DirectionFit direction_fit(std::span<const std::uint8_t> frame) const override;
-  [[nodiscard]] bool always_response(std::span<const std::uint8_t> frame) const override;
-  [[nodiscard]] bool recognisable(std::span<const std::uint8_t> frame) const override;
-  [[nodiscard]] PairingKeys pairing_keys(std::span<const std::uint8_t> frame) const override;
-  using ProtocolDecoder::dissect;
-  // Always in detail (no head reading of its own).
-  bool dissect(TelegramView& t, Direction direction, const FramingTiming& timing,
-               std::span<const std::uint8_t> request, DissectDepth depth, Message& out,
-               TelegramFindings* head) const override {
-    (void)depth;
-    (void)head;
-    // (`request`: its replies echo the request's index.)
-    dissect_eds(out, t.frame_for(out), direction, timing, request);
-    return true;
-  }
-  void read_drive_records(const TelegramHead& telegram, std::span<const std::uint8_t> request,
-                          DriveRecords& out) const override;  // drive_reading.cpp
-};
+// What its telegrams say to or of a drive (ProtocolDecoder::read_drive_records; drive_reading.cpp).
+void read_eds_drive_records(const TelegramHead& telegram, std::span<const std::uint8_t> request, DriveRecords& out);
+
+// The decoder: this protocol's functions (the .cpp) as a ProtocolDecoder.
+extern const DecoderFunctions kEdsFunctions;
+using EdsDecoder = DecoderOf<kEdsFunctions>;
 
 }  // namespace drivetap::easydrive

@@ -7,6 +7,7 @@
 #include "core/checksum.hpp"
 #include "dissectors/common/delimited_framer.hpp"
 #include "dissectors/modbus/modbus_fields.hpp"
+#include "dissectors/modbus/modbus_findings.hpp"
 #include "dissectors/modbus/modbus_pdu.hpp"
 
 namespace drivetap::modbus {
@@ -35,13 +36,13 @@ void spell_ascii_hex(std::span<const std::uint8_t> frame, std::vector<std::uint8
     if (report) report->terminated = true;
     end -= 2;
   } else if (end >= 1 && (frame[end - 1] == '\n' || frame[end - 1] == '\r')) {
-    problem([] { return std::string("ends with a lone CR or LF instead of CR LF"); });
+    problem([] { return FoundProblem{&kFindingAsciiLoneTerminator, kFindingAsciiLoneTerminator.detail()}; });
     end -= 1;
   } else {
-    problem([] { return std::string("no CR LF at the end: frame cut"); });
+    problem([] { return FoundProblem{&kFindingAsciiNoTerminator, kFindingAsciiNoTerminator.detail()}; });
   }
   if (frame.empty() || frame[0] != ':') {
-    problem([] { return std::string("does not start with ':'"); });
+    problem([] { return FoundProblem{&kFindingAsciiNoStart, kFindingAsciiNoStart.detail()}; });
     return;
   }
   bool lower_case = false;
@@ -49,8 +50,8 @@ void spell_ascii_hex(std::span<const std::uint8_t> frame, std::vector<std::uint8
   for (std::size_t i = 1; i + 1 < end + 1 && i < end; i += 2) {
     if (i + 1 >= end) {
       problem([&] {
-        return fmt::format(FMT_COMPILE("odd number of hex characters (stray '{}' at {})"),
-                           static_cast<char>(frame[i]), i);
+        return FoundProblem{&kFindingAsciiOddDigits,
+                            kFindingAsciiOddDigits.detail(static_cast<char>(frame[i]), i)};
       });
       break;
     }
@@ -58,17 +59,14 @@ void spell_ascii_hex(std::span<const std::uint8_t> frame, std::vector<std::uint8
     const int lo = hex_digit(frame[i + 1], &lower_case);
     if (hi < 0 || lo < 0) {
       const std::size_t at = hi < 0 ? i : i + 1;
-      problem([&] {
-        return fmt::format(FMT_COMPILE("character 0x{:02X} at {} is not a hex digit"), frame[at],
-                           at);
-      });
+      problem([&] { return FoundProblem{&kFindingAsciiNotHex, kFindingAsciiNotHex.detail(frame[at], at)}; });
       break;
     }
     binary.push_back(static_cast<std::uint8_t>((hi << 4) | lo));
   }
   if (lower_case && report) {
     report->lower_case = true;
-    report->problems.push_back("lower-case hex digits (the protocol uses upper case)");
+    report->problems.push_back({&kFindingAsciiLowerCase, kFindingAsciiLowerCase.detail()});
   }
 }
 
@@ -81,25 +79,25 @@ AsciiHex decode_ascii_hex(std::span<const std::uint8_t> frame) {
 Plausibility ascii_plausibility(std::span<const std::uint8_t> frame, const AsciiHex& hex,
                                 Direction direction, bool describe) {
   Plausibility p;
-  auto broken = [&](PlausibilityRule rule, auto&& why) {
+  auto broken = [&](const PlausibilityRule& rule, auto&& why) {
     return Plausibility::breaking(rule, describe, why);
   };
   if (frame.empty() || frame[0] != ':')
-    return broken(PlausibilityRule::ascii_start, [] { return std::string("no ':' first"); });
+    return broken(kRuleAsciiStart, [] { return std::string("no ':' first"); });
   if (!hex.terminated)
-    return broken(PlausibilityRule::ascii_terminator, [] { return std::string("no CR LF last"); });
+    return broken(kRuleAsciiTerminator, [] { return std::string("no CR LF last"); });
   const std::span<const std::uint8_t> digits = frame.subspan(1, frame.size() - 3);
   for (std::size_t i = 0; i < digits.size(); ++i) {
     bool lower = false;
     if (hex_digit(digits[i], &lower) < 0)
-      return broken(PlausibilityRule::ascii_charset, [&] {
+      return broken(kRuleAsciiCharset, [&] {
         return fmt::format(FMT_COMPILE("character 0x{:02X} at {} is no hex digit"), digits[i],
                            i + 1);
       });
   }
   // Serial line §2.5.2: address, PDU of at most 253 bytes, LRC.
   if (digits.size() % 2 != 0 || hex.binary.size() < 3 || hex.binary.size() > 255)
-    return broken(PlausibilityRule::ascii_length, [&] {
+    return broken(kRuleAsciiLength, [&] {
       return fmt::format(FMT_COMPILE("{} hex digits (an even count spelling 3-255 bytes)"),
                          digits.size());
     });
@@ -108,19 +106,19 @@ Plausibility ascii_plausibility(std::span<const std::uint8_t> frame, const Ascii
 }
 
 Message dissect_ascii(Frame frame, Direction direction, const FramingTiming& timing) {
-  Message m;
-  dissect_ascii(m, std::move(frame), direction, timing);
-  return m;
+  return dissected(dissect_ascii, std::move(frame), direction, timing);
 }
 
-void dissect_ascii(Message& m, Frame&& frame, Direction direction, const FramingTiming& timing) {
+void dissect_ascii(Message& m, Frame&& frame, Direction direction, const FramingTiming& timing,
+                   std::span<const std::uint8_t> request) {
+  (void)request;
   (void)timing;  // ASCII allows up to 1 s between characters: no t1.5 rule
-  begin_message(m, std::move(frame), Protocol::modbus_ascii, direction);
+  begin_message(m, std::move(frame), protocols::modbus_ascii, direction);
   m.text_encoded = true;
   const AsciiHex hex = decode_ascii_hex(m.bytes);
   const std::vector<std::uint8_t>& bin = hex.binary;
-  for (const std::string& p : hex.problems) add_malformed(m, p);
-  add_implausible(m, ascii_plausibility(m.bytes, hex, direction, true));
+  for (const FoundProblem& p : hex.problems) add_finding_detail(m, *p.finding, p.detail);
+  add_implausible(m, kFindingAsciiImplausible, ascii_plausibility(m.bytes, hex, direction, true));
   if (bin.size() < 3) {
     m.describe([&] {
       return fmt::format(FMT_COMPILE("{}-character fragment, too short for Modbus ASCII"),
@@ -145,7 +143,8 @@ void dissect_ascii(Message& m, Frame&& frame, Direction direction, const Framing
   }
   m.info = std::move(pdu.info);
   m.exception_code = pdu.exception_code;
-  for (std::string& problem : pdu.problems) add_malformed(m, std::move(problem));
+  for (FoundProblem& problem : pdu.problems)
+    add_finding_detail(m, *problem.finding, std::move(problem.detail));
 
   const std::uint8_t computed = lrc8(std::span(bin).first(bin.size() - 1));
   m.checksum.name = "LRC";
@@ -157,12 +156,13 @@ void dissect_ascii(Message& m, Frame&& frame, Direction direction, const Framing
   append_uart_anomalies(m.frame.events, 0, m.anomalies);
 }
 
-std::unique_ptr<Framer> AsciiDecoder::make_framer(ChannelId channel,
-                                                  const FramerSettings& s) const {
+namespace {
+
+std::unique_ptr<Framer> make_framer(ChannelId channel, const FramerSettings& s) {
   return make_delimited_framer(channel, s, ':', '\n', 513);
 }
 
-DirectionFit AsciiDecoder::direction_fit(std::span<const std::uint8_t> frame) const {
+DirectionFit direction_fit(std::span<const std::uint8_t> frame) {
   const AsciiHex hex = decode_ascii_hex(frame);
   DirectionFit fit;
   if (hex.binary.size() < 3) return fit;
@@ -172,21 +172,28 @@ DirectionFit AsciiDecoder::direction_fit(std::span<const std::uint8_t> frame) co
   return fit;
 }
 
-bool AsciiDecoder::always_response(std::span<const std::uint8_t> frame) const {
+bool always_response(std::span<const std::uint8_t> frame) {
   const AsciiHex hex = decode_ascii_hex(frame);
   return hex.binary.size() >= 2 && (hex.binary[1] & 0x80) != 0;
 }
 
-bool AsciiDecoder::recognisable(std::span<const std::uint8_t> frame) const {
+bool recognisable(std::span<const std::uint8_t> frame) {
   const AsciiHex hex = decode_ascii_hex(frame);
   if (hex.binary.size() < 3) return false;
   return lrc8(std::span(hex.binary).first(hex.binary.size() - 1)) == hex.binary.back() ||
          is_public_function(hex.binary[1]);
 }
 
-ProtocolDecoder::PairingKeys AsciiDecoder::pairing_keys(std::span<const std::uint8_t> frame) const {
+ProtocolDecoder::PairingKeys pairing_keys(std::span<const std::uint8_t> frame) {
   const AsciiHex hex = decode_ascii_hex(frame);
   return {hex.binary.empty() ? -1 : hex.binary[0], hex.binary.size() < 2 ? -1 : hex.binary[1]};
 }
+
+}  // namespace
+
+// In DecoderFunctions order.
+constexpr DecoderFunctions kAsciiFunctions{protocols::modbus_ascii, make_framer,  direction_fit,
+                                           always_response,         recognisable, pairing_keys,
+                                           dissect_ascii, read_ascii_drive_records};
 
 }  // namespace drivetap::modbus

@@ -13,14 +13,17 @@
 
 #include "core/message.hpp"
 #include "core/protocol.hpp"
+#include "dissectors/common/decoder_of.hpp"
+#include "dissectors/common/finding.hpp"
 #include "dissectors/common/plausibility.hpp"
+#include "dissectors/modbus/modbus_protocol.hpp"
 
 namespace drivetap::modbus {
 
 // The binary bytes a Modbus ASCII frame spells (ADDR..LRC), and what was wrong with its text.
 struct AsciiHex {
   std::vector<std::uint8_t> binary;
-  std::vector<std::string> problems;
+  std::vector<FoundProblem> problems;
   bool lower_case = false;
   bool terminated = false;  // ended with CR LF
 };
@@ -38,31 +41,17 @@ Plausibility ascii_plausibility(std::span<const std::uint8_t> frame, const Ascii
                                 Direction direction, bool describe);
 
 // Decodes into `m`, reusing its storage (begin_message); the other form returns a new Message.
-void dissect_ascii(Message& m, Frame&& frame, Direction direction, const FramingTiming& timing);
+// `request` is not read: replies of this protocol stand on their own
+// (ProtocolDecoder::dissect_into).
+void dissect_ascii(Message& m, Frame&& frame, Direction direction, const FramingTiming& timing,
+                   std::span<const std::uint8_t> request = {});
 Message dissect_ascii(Frame frame, Direction direction, const FramingTiming& timing);
 
-class AsciiDecoder final : public ProtocolDecoder {
- public:
-  [[nodiscard]] Protocol protocol() const override { return Protocol::modbus_ascii; }
-  [[nodiscard]] std::unique_ptr<Framer> make_framer(ChannelId channel,
-                                                    const FramerSettings& s) const override;
-  [[nodiscard]] DirectionFit direction_fit(std::span<const std::uint8_t> frame) const override;
-  [[nodiscard]] bool always_response(std::span<const std::uint8_t> frame) const override;
-  [[nodiscard]] bool recognisable(std::span<const std::uint8_t> frame) const override;
-  [[nodiscard]] PairingKeys pairing_keys(std::span<const std::uint8_t> frame) const override;
-  using ProtocolDecoder::dissect;
-  // Always in detail (no head reading of its own).
-  bool dissect(TelegramView& t, Direction direction, const FramingTiming& timing,
-               std::span<const std::uint8_t> request, DissectDepth depth, Message& out,
-               TelegramFindings* head) const override {
-    (void)request;  // replies of this protocol stand on their own
-    (void)depth;
-    (void)head;
-    dissect_ascii(out, t.frame_for(out), direction, timing);
-    return true;
-  }
-  void read_drive_records(const TelegramHead& telegram, std::span<const std::uint8_t> request,
-                          DriveRecords& out) const override;  // drive_reading.cpp
-};
+// What its telegrams say to or of a drive (ProtocolDecoder::read_drive_records; drive_reading.cpp).
+void read_ascii_drive_records(const TelegramHead& telegram, std::span<const std::uint8_t> request, DriveRecords& out);
+
+// The decoder: this protocol's functions (the .cpp) as a ProtocolDecoder.
+extern const DecoderFunctions kAsciiFunctions;
+using AsciiDecoder = DecoderOf<kAsciiFunctions>;
 
 }  // namespace drivetap::modbus

@@ -85,15 +85,15 @@ void read_binary(std::span<const std::uint8_t> b, std::size_t check_size, Direct
 
 }  // namespace
 
-void RtuDecoder::read_drive_records(const TelegramHead& telegram,
+void read_rtu_drive_records(const TelegramHead& telegram,
                                     std::span<const std::uint8_t> request,
-                                    DriveRecords& out) const {
+                                    DriveRecords& out) {
   read_binary(telegram.bytes, 2, telegram.direction, request, out);
 }
 
-void AsciiDecoder::read_drive_records(const TelegramHead& telegram,
+void read_ascii_drive_records(const TelegramHead& telegram,
                                       std::span<const std::uint8_t> request,
-                                      DriveRecords& out) const {
+                                      DriveRecords& out) {
   // The binary the hex spells, in the records' working storage (kept from frame to frame).
   spell_ascii_hex(telegram.bytes, out.scratch, nullptr);
   out.request_scratch.clear();

@@ -12,6 +12,7 @@
 #include "core/cursor.hpp"
 #include "core/format.hpp"
 #include "dissectors/modbus/modbus_fields.hpp"
+#include "dissectors/modbus/modbus_findings.hpp"
 
 namespace drivetap::modbus {
 namespace {
@@ -51,27 +52,26 @@ bool is_public_function(std::uint8_t fc) {
 Plausibility modbus_plausibility(std::uint8_t address, std::span<const std::uint8_t> pdu,
                                  Direction direction, bool describe) {
   Plausibility p;
-  auto broken = [&](PlausibilityRule rule, auto&& why) {
+  auto broken = [&](const PlausibilityRule& rule, auto&& why) {
     return Plausibility::breaking(rule, describe, why);
   };
   // Serial line §2.3: 0 broadcast, 1..247 slaves, 248..255 reserved.
   if (address > 247)
-    return broken(PlausibilityRule::rtu_address,
+    return broken(kRuleRtuAddress,
                   [&] { return fmt::format("address {} (248-255 are reserved)", address); });
-  if (pdu.empty())
-    return broken(PlausibilityRule::rtu_size, [] { return std::string("no function code"); });
+  if (pdu.empty()) return broken(kRuleRtuSize, [] { return std::string("no function code"); });
   const std::uint8_t fc = pdu[0];
   if (!is_public_function(fc))
-    return broken(PlausibilityRule::rtu_function, [&] {
+    return broken(kRuleRtuFunction, [&] {
       return fmt::format("function code 0x{:02X} is no public Modbus function", fc);
     });
   if (fc & 0x80) {
     if (pdu.size() != 2)
-      return broken(PlausibilityRule::rtu_length, [&] {
+      return broken(kRuleRtuLength, [&] {
         return fmt::format("exception reply of {} PDU bytes (2: function, code)", pdu.size());
       });
     if (!exception_code_allowed(pdu[1]))
-      return broken(PlausibilityRule::rtu_exception_code, [&] {
+      return broken(kRuleRtuExceptionCode, [&] {
         return fmt::format("exception code {} (1-11, or a drive profile's vendor code)", pdu[1]);
       });
     return p;
@@ -86,7 +86,7 @@ Plausibility modbus_plausibility(std::uint8_t address, std::span<const std::uint
       fits = true;
   }
   if (!fits)
-    return broken(PlausibilityRule::rtu_length, [&] {
+    return broken(kRuleRtuLength, [&] {
       return fmt::format("{} PDU bytes do not fit function 0x{:02X}'s layout{}", pdu.size(), fc,
                          direction == Direction::request    ? " as a request"
                          : direction == Direction::response ? " as a reply"
@@ -180,8 +180,7 @@ class PduReader {
   std::span<const std::uint8_t> bytes(const FieldDesc& desc, std::size_t n) {
     const std::size_t at = cursor_.offset();
     if (cursor_.remaining() < n) {
-      out_.problems.push_back(fmt::format(FMT_COMPILE("{}: {} bytes announced, {} present"),
-                                          desc.name, n, cursor_.remaining()));
+      problem(kFindingFieldCut, desc.name, n, cursor_.remaining());
       n = cursor_.remaining();
     }
     auto s = cursor_.take(n).value_or(std::span<const std::uint8_t>{});
@@ -191,7 +190,10 @@ class PduReader {
   FieldTreeBuilder& tree() { return tree_; }
   Cursor& cursor() { return cursor_; }
   std::size_t frame_offset() const { return base_ + cursor_.offset(); }
-  void problem(std::string text) { out_.problems.push_back(std::move(text)); }
+  template <class... Args>
+  void problem(const Finding<Args...>& finding, const std::type_identity_t<Args>&... args) {
+    out_.problems.push_back({&finding, finding.detail(args...)});
+  }
 
   // Bytes left after the layout of the function code: a protocol break worth naming.
   void expect_end() {
@@ -201,15 +203,14 @@ class PduReader {
       cursor_.rest();
       tree_.add(kData, base_ + at, extra);
       // After a truncated field the leftover is its partial bytes, already reported.
-      if (!truncated_)
-        problem(fmt::format(FMT_COMPILE("{} unexpected bytes after the PDU"), extra));
+      if (!truncated_) problem(kFindingExtraBytes, extra);
     }
   }
 
  private:
   std::nullopt_t truncated(const FieldDesc& desc) {
     truncated_ = true;
-    out_.problems.push_back(fmt::format(FMT_COMPILE("frame ends before {}"), desc.name));
+    problem(kFindingFrameEndsBefore, desc.name);
     return std::nullopt;
   }
 
@@ -306,8 +307,7 @@ RegisterValues read_registers(PduReader& r, std::size_t count) {
 }
 
 void check_quantity(PduReader& r, unsigned quantity, unsigned max, const char* what) {
-  if (quantity < 1 || quantity > max)
-    r.problem(fmt::format(FMT_COMPILE("quantity of {} {} outside 1..{}"), what, quantity, max));
+  if (quantity < 1 || quantity > max) r.problem(kFindingQuantityRange, what, quantity, max);
 }
 
 void dissect_read_request(PduReader& r, std::uint8_t fc, PduDecode& d) {
@@ -339,11 +339,9 @@ void dissect_read_response(PduReader& r, std::uint8_t fc, PduDecode& d) {
     });
     return;
   }
-  if (*count % 2 != 0)
-    r.problem(fmt::format(FMT_COMPILE("byte count {} is odd for 16-bit registers"), *count));
+  if (*count % 2 != 0) r.problem(kFindingByteCountOdd, *count);
   const std::size_t present = r.cursor().remaining();
-  if (present != *count)
-    r.problem(fmt::format(FMT_COMPILE("byte count says {} bytes, {} present"), *count, present));
+  if (present != *count) r.problem(kFindingByteCountPresent, *count, present);
   auto values = read_registers(r, present / 2);
   r.expect_end();
   d.describe_in_place([&](auto& out) {
@@ -360,9 +358,7 @@ void dissect_write_single_coil(PduReader& r, Direction dir, PduDecode& d) {
   auto value = r.u16(kCoilValue);
   r.expect_end();
   if (!addr || !value) return;
-  if (*value != 0x0000 && *value != 0xFF00)
-    r.problem(fmt::format(
-        FMT_COMPILE("coil value 0x{:04X} is neither 0x0000 (OFF) nor 0xFF00 (ON)"), *value));
+  if (*value != 0x0000 && *value != 0xFF00) r.problem(kFindingCoilValue, *value);
   const std::string_view state = kCoilValue.name_of(*value);
   d.describe([&] {
     return fmt::format(
@@ -400,9 +396,7 @@ void dissect_write_multiple_request(PduReader& r, std::uint8_t fc, PduDecode& d)
   const bool coils = fc == 0x0F;
   check_quantity(r, *qty, coils ? 1968 : 123, coils ? "coils" : "registers");
   const unsigned expected = coils ? (*qty + 7u) / 8u : *qty * 2u;
-  if (*count != expected)
-    r.problem(fmt::format(FMT_COMPILE("byte count {} does not match quantity {} (expected {})"),
-                          *count, *qty, expected));
+  if (*count != expected) r.problem(kFindingByteCountQuantity, *count, *qty, expected);
   if (coils) {
     const std::size_t at = r.frame_offset();
     auto data = r.bytes(kData, *count);
@@ -413,8 +407,7 @@ void dissect_write_multiple_request(PduReader& r, std::uint8_t fc, PduDecode& d)
     });
   } else {
     const std::size_t present = r.cursor().remaining();
-    if (present < *count)
-      r.problem(fmt::format(FMT_COMPILE("byte count says {} bytes, {} present"), *count, present));
+    if (present < *count) r.problem(kFindingByteCountPresent, *count, present);
     auto values = read_registers(r, std::min<std::size_t>(*count, present) / 2);
     d.describe_in_place([&](auto& out) {
       append_function_name(out, fc);
@@ -458,8 +451,7 @@ void dissect_file_record(PduReader& r, std::uint8_t fc, Direction dir, PduDecode
   if (!count) return;
   const std::size_t end = r.cursor().offset() + *count;
   if (r.cursor().remaining() != *count)
-    r.problem(fmt::format(FMT_COMPILE("byte count says {} bytes, {} present"), *count,
-                          r.cursor().remaining()));
+    r.problem(kFindingByteCountPresent, *count, r.cursor().remaining());
   unsigned groups = 0;
   // Each pass consumes at least one byte or stops.
   while (r.cursor().offset() < end && !r.cursor().empty()) {
@@ -483,7 +475,7 @@ void dissect_file_record(PduReader& r, std::uint8_t fc, Direction dir, PduDecode
         r.tree().close();
         break;
       }
-      if (*ref != 6) r.problem(fmt::format(FMT_COMPILE("reference type {} (must be 6)"), *ref));
+      if (*ref != 6) r.problem(kFindingReferenceType, *ref);
       if (fc == 0x15) r.bytes(kFileData, *len * 2u);
     }
     r.tree().close();
@@ -547,8 +539,7 @@ void dissect_device_id(PduReader& r, Direction dir, PduDecode& d) {
                     text);
     r.tree().close();
   }
-  if (objects && present < *objects)
-    r.problem(fmt::format(FMT_COMPILE("{} objects announced, {} present"), *objects, present));
+  if (objects && present < *objects) r.problem(kFindingObjectsPresent, *objects, present);
   r.expect_end();
   d.describe(
       [&] { return fmt::format(FMT_COMPILE("Read Device Identification reply: {}"), values); });
@@ -650,8 +641,7 @@ void dissect_pdu_into(PduDecode& d, std::span<const std::uint8_t> frame, std::si
         auto events = r.u16(kEventCount);
         auto messages = r.u16(kMessageCount);
         if (count && status && events && messages) {
-          if (*count < 6)
-            r.problem(fmt::format(FMT_COMPILE("byte count {} below the minimum 6"), *count));
+          if (*count < 6) r.problem(kFindingEventByteCount, *count);
           auto log = r.bytes(kEvents, *count >= 6 ? *count - 6u : 0u);
           d.describe([&] {
             return fmt::format(
@@ -707,9 +697,7 @@ void dissect_pdu_into(PduDecode& d, std::span<const std::uint8_t> frame, std::si
         if (rs && rq && ws && wq && count) {
           check_quantity(r, *rq, 125, "registers to read");
           check_quantity(r, *wq, 121, "registers to write");
-          if (*count != *wq * 2u)
-            r.problem(fmt::format(FMT_COMPILE("byte count {} does not match write quantity {}"),
-                                  *count, *wq));
+          if (*count != *wq * 2u) r.problem(kFindingWriteByteCount, *count, *wq);
           auto values =
               read_registers(r, std::min<std::size_t>(*count, r.cursor().remaining()) / 2);
           d.describe([&] {
@@ -732,9 +720,7 @@ void dissect_pdu_into(PduDecode& d, std::span<const std::uint8_t> frame, std::si
         auto bytes = r.u16(kFifoByteCount);
         auto count = r.u16(kFifoCount);
         if (bytes && count) {
-          if (*bytes != 2u + *count * 2u)
-            r.problem(fmt::format(FMT_COMPILE("FIFO byte count {} does not match FIFO count {}"),
-                                  *bytes, *count));
+          if (*bytes != 2u + *count * 2u) r.problem(kFindingFifoCount, *bytes, *count);
           auto values = read_registers(r, r.cursor().remaining() / 2);
           d.describe([&] {
             return fmt::format(FMT_COMPILE("Read FIFO Queue reply: {} values = {}"), values.count,

@@ -14,6 +14,7 @@
 #include "core/field.hpp"
 #include "core/line_buffer.hpp"
 #include "core/message.hpp"
+#include "dissectors/common/finding.hpp"
 #include "dissectors/common/plausibility.hpp"
 
 namespace drivetap::modbus {
@@ -90,8 +91,8 @@ Plausibility modbus_plausibility(std::uint8_t address, std::span<const std::uint
                                  Direction direction, bool describe);
 
 struct PduDecode {
-  std::string info;                   // one-line decode (empty when not `detail`)
-  std::vector<std::string> problems;  // protocol-rule breaks: each becomes a `malformed` anomaly
+  std::string info;                    // one-line decode (empty when not `detail`)
+  std::vector<FoundProblem> problems;  // protocol-rule breaks: each becomes its finding
   int exception_code = -1;
   bool detail = true;  // the info line is wanted
   // When set, the info line is written there instead of into `info` (dissect_rtu(): the

@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 
 #include "dissectors/modbus/modbus_fields.hpp"
+#include "dissectors/modbus/modbus_findings.hpp"
 #include "dissectors/modbus/modbus_pdu.hpp"
 #include "dissectors/modbus/rtu_framer.hpp"
 
@@ -36,7 +37,7 @@ Plausibility rtu_plausibility(std::span<const std::uint8_t> frame, Direction dir
   // Serial line §2.5.1: address, PDU of at most 253 bytes, CRC.
   if (frame.size() < 4 || frame.size() > 256) {
     Plausibility p;
-    p.broken = PlausibilityRule::rtu_size;
+    p.broken = &kRuleRtuSize;
     if (describe) p.why = fmt::format(FMT_COMPILE("{} bytes (4-256)"), frame.size());
     return p;
   }
@@ -44,15 +45,14 @@ Plausibility rtu_plausibility(std::span<const std::uint8_t> frame, Direction dir
 }
 
 Message dissect_rtu(Frame frame, Direction direction, const FramingTiming& timing) {
-  Message m;
-  dissect_rtu(m, std::move(frame), direction, timing);
-  return m;
+  return dissected(dissect_rtu, std::move(frame), direction, timing);
 }
 
-void dissect_rtu(Message& m, Frame&& frame, Direction direction, const FramingTiming& timing) {
-  begin_message(m, std::move(frame), Protocol::modbus_rtu, direction);
+void dissect_rtu(Message& m, Frame&& frame, Direction direction, const FramingTiming& timing,
+                 std::span<const std::uint8_t> request) {
+  (void)request;
+  begin_message(m, std::move(frame), protocols::modbus_rtu, direction);
   const std::span<const std::uint8_t> bytes(m.bytes);
-  const TimeNs t0 = m.frame.start();
   const ChannelId ch = m.frame.channel;
   FieldTreeBuilder tree(m.fields, m.detail && m.tree);
 
@@ -71,7 +71,8 @@ void dissect_rtu(Message& m, Frame&& frame, Direction direction, const FramingTi
     pdu.info_into = &m.info;  // the line is written where m keeps it
     dissect_pdu_into(pdu, bytes, 1, pdu_len, direction, tree);
     m.exception_code = pdu.exception_code;
-    for (std::string& problem : pdu.problems) add_malformed(m, std::move(problem));
+    for (FoundProblem& problem : pdu.problems)
+      add_finding_detail(m, *problem.finding, std::move(problem.detail));
     // The framer's CRC when it computed one over these bytes (a frame it took whole between two
     // silences: most of a capture's packets on one channel): not a second time.
     check_rtu_crc_into(m.checksum, bytes,
@@ -83,27 +84,24 @@ void dissect_rtu(Message& m, Frame&& frame, Direction direction, const FramingTi
     m.describe([&] {
       return fmt::format(FMT_COMPILE("{}-byte fragment, too short for Modbus RTU"), bytes.size());
     });
-    add_malformed(m,
-                  fmt::format(FMT_COMPILE("{} bytes: shorter than the minimum 4"), bytes.size()));
+    add_finding(m, kFindingRtuShort, bytes.size());
   }
 
   add_checksum_anomaly(m);
-  add_implausible(m, rtu_plausibility(bytes, direction, true));
+  add_implausible(m, kFindingRtuImplausible, rtu_plausibility(bytes, direction, true));
   if (m.frame.max_intra_gap > timing.t15) {
     const std::size_t at = m.frame.max_intra_gap_at;
-    m.anomalies.push_back(
-        {AnomalyKind::intra_frame_gap, m.frame.events[at].time, ch, 0,
-         fmt::format(
-             FMT_COMPILE("silence of {:.1f} characters before byte {} (limit t1.5 = {:.1f})"),
-             in_characters(m.frame.max_intra_gap, timing.character_time), at,
-             in_characters(timing.t15, timing.character_time))});
+    // At the byte after the silence, not the frame's start.
+    m.anomalies.push_back({kFindingRtuIntraFrameGap.kind, m.frame.events[at].time, ch, 0,
+                           kFindingRtuIntraFrameGap.detail(
+                               in_characters(m.frame.max_intra_gap, timing.character_time), at,
+                               in_characters(timing.t15, timing.character_time)),
+                           &kFindingRtuIntraFrameGap});
   }
   if (m.frame.gap_before > 0 && m.frame.gap_before < timing.t35) {
-    m.anomalies.push_back(
-        {AnomalyKind::short_interframe_gap, t0, ch, 0,
-         fmt::format(FMT_COMPILE("silence before frame {:.1f} characters (minimum t3.5 = {:.1f})"),
-                     in_characters(m.frame.gap_before, timing.character_time),
-                     in_characters(timing.t35, timing.character_time))});
+    add_finding(m, kFindingRtuShortInterframeGap,
+                in_characters(m.frame.gap_before, timing.character_time),
+                in_characters(timing.t35, timing.character_time));
   }
   append_uart_anomalies(m.frame.events, 0, m.anomalies);
 }
@@ -172,21 +170,34 @@ bool RtuDecoder::precheck(std::span<const std::uint8_t> bytes, TelegramPrecheck*
   return true;
 }
 
-std::unique_ptr<Framer> RtuDecoder::make_framer(ChannelId channel, const FramerSettings& s) const {
+namespace {
+
+std::unique_ptr<Framer> make_framer(ChannelId channel, const FramerSettings& s) {
   RtuFramerOptions o;
   o.timing = s.timing;
   o.max_hold = s.max_hold;
   return std::make_unique<RtuFramer>(channel, o);
 }
 
-bool RtuDecoder::always_response(std::span<const std::uint8_t> frame) const {
+bool always_response(std::span<const std::uint8_t> frame) {
   return frame.size() >= 2 && (frame[1] & 0x80) != 0;  // exception reply
 }
 
-bool RtuDecoder::recognisable(std::span<const std::uint8_t> frame) const {
+bool recognisable(std::span<const std::uint8_t> frame) {
   // A frame with a bad CRC and a function code outside the public set is most likely garbage.
   return frame.size() >= 2 &&
          (check_rtu_crc(frame).verdict != ChecksumVerdict::bad || is_public_function(frame[1]));
 }
+
+ProtocolDecoder::PairingKeys pairing_keys(std::span<const std::uint8_t> frame) {
+  return {frame.empty() ? -1 : frame[0], frame.size() < 2 ? -1 : frame[1]};
+}
+
+}  // namespace
+
+// In DecoderFunctions order.
+constexpr DecoderFunctions kRtuFunctions{protocols::modbus_rtu, make_framer,  rtu_direction_fit,
+                                         always_response,       recognisable, pairing_keys,
+                                         dissect_rtu, read_rtu_drive_records};
 
 }  // namespace drivetap::modbus

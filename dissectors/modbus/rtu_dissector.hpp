@@ -13,7 +13,9 @@
 #include "core/message.hpp"
 #include "core/protocol.hpp"
 #include "core/serial_config.hpp"
+#include "dissectors/common/decoder_of.hpp"
 #include "dissectors/common/plausibility.hpp"
+#include "dissectors/modbus/modbus_protocol.hpp"
 
 namespace drivetap::modbus {
 
@@ -29,31 +31,25 @@ Plausibility rtu_plausibility(std::span<const std::uint8_t> frame, Direction dir
 // content, gaps > t1.5 inside the frame, a short silence before it and UART-flagged bytes all
 // become anomalies of the message.
 // Decodes into `m`, reusing its storage (begin_message); the other form returns a new Message.
-void dissect_rtu(Message& m, Frame&& frame, Direction direction, const FramingTiming& timing);
+// `request` is not read: replies of this protocol stand on their own
+// (ProtocolDecoder::dissect_into).
+void dissect_rtu(Message& m, Frame&& frame, Direction direction, const FramingTiming& timing,
+                 std::span<const std::uint8_t> request = {});
 Message dissect_rtu(Frame frame, Direction direction, const FramingTiming& timing);
 
-// Modbus RTU as a ProtocolDecoder for the pipeline.
-class RtuDecoder final : public ProtocolDecoder {
+// What its telegrams say to or of a drive (ProtocolDecoder::read_drive_records; drive_reading.cpp).
+void read_rtu_drive_records(const TelegramHead& telegram, std::span<const std::uint8_t> request, DriveRecords& out);
+
+// Modbus RTU as a ProtocolDecoder for the pipeline: its functions (the .cpp) and its head reading.
+extern const DecoderFunctions kRtuFunctions;
+class RtuDecoder final : public DecoderOf<kRtuFunctions> {
  public:
-  [[nodiscard]] Protocol protocol() const override { return Protocol::modbus_rtu; }
-  [[nodiscard]] std::unique_ptr<Framer> make_framer(ChannelId channel,
-                                                    const FramerSettings& s) const override;
-  [[nodiscard]] DirectionFit direction_fit(std::span<const std::uint8_t> frame) const override {
-    return rtu_direction_fit(frame);
-  }
-  [[nodiscard]] bool always_response(std::span<const std::uint8_t> frame) const override;
-  [[nodiscard]] bool recognisable(std::span<const std::uint8_t> frame) const override;
-  [[nodiscard]] PairingKeys pairing_keys(std::span<const std::uint8_t> frame) const override {
-    return {frame.empty() ? -1 : frame[0], frame.size() < 2 ? -1 : frame[1]};
-  }
   using ProtocolDecoder::dissect;
   // Replies of this protocol stand on their own (`request` is not read). To DissectDepth::head
   // a telegram of 4 bytes or more is read without a Message.
   bool dissect(TelegramView& t, Direction direction, const FramingTiming& timing,
                std::span<const std::uint8_t> request, DissectDepth depth, Message& out,
                TelegramFindings* head) const override;
-  void read_drive_records(const TelegramHead& telegram, std::span<const std::uint8_t> request,
-                          DriveRecords& out) const override;  // drive_reading.cpp
   bool precheck(std::span<const std::uint8_t> bytes, TelegramPrecheck* out) const override;
 };
 

@@ -78,11 +78,15 @@ void add_common_options(CLI::App* cmd, CommonOptions& o) {
                   "Reply timeout before a request counts as unanswered (default 1s)");
   cmd->add_option("--max-hold", o.max_hold,
                   "Longest wait for the rest of a frame split by a silence (default 100ms)");
-  cmd->add_option("-P,--protocol", o.protocol,
-                  "Protocol on the bus: auto (default: detected per channel from the first "
-                  "frames), rtu (Modbus RTU), ascii (Modbus ASCII), fc (Danfoss FC protocol), "
-                  "eds (Easydrive '~' protocol)")
-      ->check(CLI::IsMember({"auto", "rtu", "ascii", "fc", "eds"}));
+  std::vector<std::string> protocol_choices{"auto"};
+  std::string protocol_help =
+      "Protocol on the bus: auto (default: detected per channel from the first frames)";
+  for (const ProtocolDesc* d : registered_protocols()) {
+    protocol_choices.emplace_back(d->option_names.front());
+    protocol_help += fmt::format(", {} ({})", d->option_names.front(), d->help);
+  }
+  cmd->add_option("-P,--protocol", o.protocol, protocol_help)
+      ->check(CLI::IsMember(protocol_choices));
   cmd->add_option("--drive", o.drives,
                   "Bind a station address to a drive profile, e.g. 2=e9 (see `drivetap profiles`); "
                   "auto (default): guess each station's family from its traffic; none: no guessing")

@@ -86,8 +86,7 @@ int run_decode(const CommonOptions& o, const std::vector<std::string>& args) {
     if (!frames) stop(fmt::format("{} (\"{}\"): {}", where, shown, err));
     if (first_kind == 0) {
       first_kind = kind;
-      if (o.protocol.empty() && kind != 'x')
-        p.protocol = kind == ':' ? Protocol::modbus_ascii : Protocol::easydrive;
+      if (o.protocol.empty() && kind != 'x') p.protocol = protocol_for_text_start(kind);
     }
     events.clear();
     synthesize_events(*frames, bus, p.timing.character_time, gap, &clock, events);

@@ -1,5 +1,5 @@
-// Anomaly kinds declared as data (id, label, severity) and protocol/direction ids (output
-// contract of the JSON sink).
+// Anomaly kinds declared as data (id, label, severity) and direction ids (output contract of the
+// JSON sink).
 #include "core/anomaly.hpp"
 
 #include <fmt/compile.h>
@@ -121,38 +121,6 @@ void add_checksum_anomaly(Message& m, std::string_view hint) {
     return;
   }
   m.anomalies.insert(m.anomalies.begin(), std::move(a));
-}
-
-std::string_view protocol_id(Protocol p) {
-  switch (p) {
-    case Protocol::modbus_rtu:
-      return "modbus-rtu";
-    case Protocol::modbus_ascii:
-      return "modbus-ascii";
-    case Protocol::danfoss_fc:
-      return "danfoss-fc";
-    case Protocol::easydrive:
-      return "easydrive";
-    case Protocol::unknown:
-      break;
-  }
-  return "unknown";
-}
-
-std::string_view protocol_label(Protocol p) {
-  switch (p) {
-    case Protocol::modbus_rtu:
-      return "Modbus RTU";
-    case Protocol::modbus_ascii:
-      return "Modbus ASCII";
-    case Protocol::danfoss_fc:
-      return "Danfoss FC";
-    case Protocol::easydrive:
-      return "Easydrive";
-    case Protocol::unknown:
-      break;
-  }
-  return "unknown";
 }
 
 std::string_view direction_id(Direction d) {

@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "core/byte_event.hpp"
@@ -46,12 +47,24 @@ const char* anomaly_label(AnomalyKind k);  // short human text
 Severity anomaly_severity(AnomalyKind k);  // declared with the kind (anomaly.cpp)
 const char* severity_id(Severity s);       // "note" / "warning" / "error", as in JSON
 
+// A finding a protocol declares, as Wireshark's expert infos (ei[]): a stable dotted id
+// ("mbrtu.length_short"), its severity, the generic kind it counts under (the JSON `kind`) and the
+// template of its detail text. Each protocol lists its own beside its fields
+// (dissectors/<protocol>/, ProtocolDesc::findings).
+struct FindingDesc {
+  const char* id;
+  AnomalyKind kind;
+  Severity severity;
+  std::string_view text;  // fmt template of the detail
+};
+
 struct Anomaly {
   AnomalyKind kind = AnomalyKind::malformed;
   TimeNs time = 0;
   ChannelId channel = 0;
   std::uint64_t frame_number = 0;  // frame it belongs to, 0 when none
   std::string detail;
+  const FindingDesc* finding = nullptr;  // the protocol's own finding, nullptr for a generic one
 };
 
 using AnomalyCounts = std::array<std::uint64_t, kAnomalyKindCount>;

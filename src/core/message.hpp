@@ -12,17 +12,15 @@
 #include "core/checksum.hpp"
 #include "core/field.hpp"
 #include "core/frame.hpp"
+#include "core/protocol_desc.hpp"
 
 namespace drivetap {
 
 struct DriveProfile;  // drive/profile.hpp
 
-enum class Protocol : std::uint8_t { unknown, modbus_rtu, modbus_ascii, danfoss_fc, easydrive };
 enum class Direction : std::uint8_t { unknown, request, response };
 
-std::string_view protocol_id(Protocol p);     // "modbus-rtu": JSON ids, stable
-std::string_view protocol_label(Protocol p);  // "Modbus RTU": column text
-std::string_view direction_id(Direction d);   // "request" / "response" / "unknown"
+std::string_view direction_id(Direction d);  // "request" / "response" / "unknown"
 
 struct Message {
   Frame frame;
@@ -145,12 +143,6 @@ inline void begin_message(Message& m, Frame&& frame, Protocol protocol, Directio
   m.anomalies.clear();
   m.latency = -1;
   m.request_number = 0;
-}
-
-// A finding that the frame's length or content breaks its protocol's rules.
-inline void add_malformed(Message& m, std::string detail) {
-  m.anomalies.push_back(
-      {AnomalyKind::malformed, m.frame.start(), m.frame.channel, 0, std::move(detail)});
 }
 
 // Puts the finding for a bad or byte-swapped checksum first among the message's anomalies:

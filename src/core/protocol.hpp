@@ -1,7 +1,8 @@
 // ProtocolDecoder: what the pipeline needs of each protocol — a framer, the directions a frame's
 // layout allows, and one dissection (a telegram -> its head, or a Message in detail), with the
 // read-ahead thread's precheck of the framer's fast take. One implementation per protocol under
-// dissectors/<protocol>/, listed in one explicit table (dissectors/protocols.cpp).
+// dissectors/<protocol>/, named by its descriptor (core/protocol_desc.hpp,
+// dissectors/registry.cpp).
 #pragma once
 
 #include <memory>
@@ -131,9 +132,5 @@ class ProtocolDecoder {
   }
 };
 
-// The decoder of `protocol`, from the explicit table; nullptr for Protocol::unknown.
-const ProtocolDecoder* decoder_for(Protocol protocol);
-// "rtu", "ascii", "fc", "eds" (the --protocol names) -> Protocol; unknown for other text.
-Protocol protocol_from_option(std::string_view name);
 
 }  // namespace drivetap

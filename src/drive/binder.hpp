@@ -63,8 +63,8 @@ class DriveBinder {
   // space, start and count), so it is worked out once a request for all candidates and looked up
   // once a frame.
   std::span<const double> request_evidence(std::uint64_t key);
-  static constexpr std::uint32_t protocol_bit(Protocol protocol) {
-    return std::uint32_t{1} << static_cast<unsigned>(protocol);
+  static std::uint32_t protocol_bit(Protocol protocol) {
+    return std::uint32_t{1} << protocol_index(protocol);
   }
 
   std::vector<const DriveProfile*> candidates_;

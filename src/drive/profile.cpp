@@ -418,8 +418,7 @@ DriveProfile parse_tables(const toml::table& root) {
       const Protocol proto =
           e.is_string() ? protocol_from_option(e.as_string()->get()) : Protocol::unknown;
       if (proto == Protocol::unknown)
-        throw Bad{line_of(e), "drive.protocols",
-                  "each must be modbus-rtu, modbus-ascii, danfoss-fc or easydrive"};
+        throw Bad{line_of(e), "drive.protocols", "each must be " + protocol_ids_text()};
       p.protocols.push_back(proto);
     }
   }

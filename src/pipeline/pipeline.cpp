@@ -30,8 +30,6 @@ constexpr TimeNs kDetectHold = 1 * kNsPerSecond;
 constexpr TimeNs kMaxReorderHold = 2 * kNsPerSecond;
 constexpr std::size_t kMaxWaitingFrames = std::size_t{1} << 16;
 constexpr TimeNs kNoneHeld = std::numeric_limits<TimeNs>::max();
-constexpr Protocol kCandidates[] = {Protocol::modbus_rtu, Protocol::modbus_ascii,
-                                    Protocol::danfoss_fc, Protocol::easydrive};
 
 // A candidate protocol while a channel's protocol is being detected: its framer and its counts so
 // far. Each held byte is fed once, so that detection costs a few framings of the held bytes, not
@@ -462,8 +460,8 @@ void Pipeline::detect(ChannelState& st, ChannelId channel, TimeNs now, bool fina
       st.held.size() - st.evaluated_at < kDetectEvery)
     return;
   if (st.candidates.empty())
-    for (Protocol p : kCandidates) {
-      const ProtocolDecoder* d = decoder_for(p);
+    for (const ProtocolDesc* p : registered_protocols()) {
+      const ProtocolDecoder* d = p->decoder;
       DetectionCandidate& c = st.candidates.emplace_back();
       c.decoder = d;
       c.framer = d->make_framer(channel, {options_.timing, options_.max_hold});
@@ -555,7 +553,7 @@ void Pipeline::detect(ChannelState& st, ChannelId channel, TimeNs now, bool fina
     st.unframed_from = kNoneHeld;  // holds nothing back any more
     return;
   }
-  const ProtocolDecoder* chosen = found ? best->decoder : decoder_for(Protocol::modbus_rtu);
+  const ProtocolDecoder* chosen = found ? best->decoder : decoder_for(default_protocol());
   st.no_protocol = !found;
   st.decoder = chosen;
   st.framer = chosen->make_framer(channel, {options_.timing, options_.max_hold});

@@ -32,7 +32,7 @@ struct CaptureSink::Pending {
   bool broadcast = false;
   std::string protocol_column;
   std::string comment;
-  bool wireshark_dissects = false;  // Wireshark has a dissector for it (Modbus RTU: "mbrtu")
+  std::string_view wireshark_dissector;  // Wireshark's dissector for it ("mbrtu"), empty: none
 };
 
 CaptureSink::CaptureSink(std::FILE* out, const ChannelTable& channels, CaptureSinkOptions options)
@@ -96,7 +96,7 @@ void CaptureSink::on_frame(const Message& m) {
     p.comment += "; ";
     p.comment += m.drive_info;
   }
-  p.wireshark_dissects = m.protocol == Protocol::modbus_rtu;
+  p.wireshark_dissector = m.protocol.desc() ? m.protocol.desc()->wireshark_dissector : "";
 }
 
 void CaptureSink::on_noise(const Frame& f) {
@@ -113,7 +113,7 @@ void CaptureSink::on_noise(const Frame& f) {
   p.comment.clear();
   fmt::format_to(std::back_inserter(p.comment), FMT_COMPILE("noise: {} byte{} outside any frame"),
                  p.bytes.size(), p.bytes.size() == 1 ? "" : "s");
-  p.wireshark_dissects = false;
+  p.wireshark_dissector = {};
 }
 
 void CaptureSink::on_anomaly(const Anomaly& a) {
@@ -135,8 +135,8 @@ void CaptureSink::write_pending() {
   data.clear();
   if (options_.link_type == CaptureLinkType::upper_pdu) {
     upper_pdu::Tags tags;
-    if (p.kind == FrameKind::telegram && p.wireshark_dissects) {
-      tags.dissector = "mbrtu";
+    if (p.kind == FrameKind::telegram && !p.wireshark_dissector.empty()) {
+      tags.dissector = p.wireshark_dissector;
       // Wireshark's Modbus RTU dissector tells queries from responses by port: destination 0
       // (its default RTU "port" range) marks a query, source 0 a response.
       if (p.direction == Direction::request) {

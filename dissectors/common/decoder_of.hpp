@@ -1,0 +1,78 @@
+// DecoderOf: a protocol's ProtocolDecoder (core/protocol.hpp) made from a table of its functions,
+// so that each protocol states what it does (framer, direction fit, pairing keys, dissector) and
+// not the same class around it (PROTOCOLS.md §1).
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <utility>
+
+#include "core/protocol.hpp"
+
+namespace drivetap {
+
+// A dissector's form that decodes into a Message, reusing its storage (begin_message()).
+using DissectInto = void (*)(Message& out, Frame&& frame, Direction direction,
+                             const FramingTiming& timing, std::span<const std::uint8_t> request);
+
+// The same into a new Message (the dissectors' second form, for tests and tools).
+inline Message dissected(DissectInto dissect, Frame&& frame, Direction direction,
+                         const FramingTiming& timing, std::span<const std::uint8_t> request = {}) {
+  Message m;
+  dissect(m, std::move(frame), direction, timing, request);
+  return m;
+}
+
+struct DecoderFunctions {
+  Protocol protocol;
+  std::unique_ptr<Framer> (*make_framer)(ChannelId channel, const FramerSettings& s);
+  DirectionFit (*direction_fit)(std::span<const std::uint8_t> frame);
+  bool (*always_response)(std::span<const std::uint8_t> frame);
+  bool (*recognisable)(std::span<const std::uint8_t> frame);
+  ProtocolDecoder::PairingKeys (*pairing_keys)(std::span<const std::uint8_t> frame);
+  DissectInto dissect;
+  // What its telegrams say to or of a drive (ProtocolDecoder::read_drive_records).
+  void (*read_drive_records)(const TelegramHead& telegram, std::span<const std::uint8_t> request,
+                             DriveRecords& out);
+};
+
+// The functions' ProtocolDecoder (ProtocolDecoder says what each does), dissecting always in
+// detail. Not final: a protocol with a head reading of its own (Modbus RTU) overrides dissect()
+// and adds precheck().
+template <const DecoderFunctions& F>
+class DecoderOf : public ProtocolDecoder {
+ public:
+  [[nodiscard]] Protocol protocol() const override { return F.protocol; }
+  [[nodiscard]] std::unique_ptr<Framer> make_framer(ChannelId channel,
+                                                    const FramerSettings& s) const override {
+    return F.make_framer(channel, s);
+  }
+  [[nodiscard]] DirectionFit direction_fit(std::span<const std::uint8_t> frame) const override {
+    return F.direction_fit(frame);
+  }
+  [[nodiscard]] bool always_response(std::span<const std::uint8_t> frame) const override {
+    return F.always_response(frame);
+  }
+  [[nodiscard]] bool recognisable(std::span<const std::uint8_t> frame) const override {
+    return F.recognisable(frame);
+  }
+  [[nodiscard]] PairingKeys pairing_keys(std::span<const std::uint8_t> frame) const override {
+    return F.pairing_keys(frame);
+  }
+  using ProtocolDecoder::dissect;
+  bool dissect(TelegramView& t, Direction direction, const FramingTiming& timing,
+               std::span<const std::uint8_t> request, DissectDepth depth, Message& out,
+               TelegramFindings* head) const override {
+    (void)depth;
+    (void)head;
+    F.dissect(out, t.frame_for(out), direction, timing, request);
+    return true;
+  }
+  void read_drive_records(const TelegramHead& telegram, std::span<const std::uint8_t> request,
+                          DriveRecords& out) const override {
+    F.read_drive_records(telegram, request, out);
+  }
+};
+
+}  // namespace drivetap

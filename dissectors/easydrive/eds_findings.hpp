@@ -1,0 +1,37 @@
+// The Easydrive protocol's findings, declared as data (dissectors/common/finding.hpp;
+// PROTOCOLS.md §5).
+#pragma once
+
+#include <cstddef>
+#include <string>
+
+#include "dissectors/common/finding.hpp"
+
+namespace drivetap::easydrive {
+
+// The plausibility rules (dissectors/common/plausibility.hpp): ids as the `implausible` finding's
+// detail names them.
+inline constexpr PlausibilityRule kRuleEdsStart{"eds.start", "PROTOCOLS.md §5"};
+inline constexpr PlausibilityRule kRuleEdsCharset{"eds.charset", "PROTOCOLS.md §5"};
+inline constexpr PlausibilityRule kRuleEdsLength{"eds.length", "PROTOCOLS.md §5"};
+inline constexpr PlausibilityRule kRuleEdsTerminator{"eds.terminator", "PROTOCOLS.md §5"};
+inline constexpr PlausibilityRule kRuleEdsCommand{"eds.command", "PROTOCOLS.md §5"};
+
+inline constexpr Finding<> kFindingNoStart{"easydrive.no_start", AnomalyKind::malformed,
+                                           Severity::error, "does not start with '~'"};
+inline constexpr Finding<> kFindingNoCr{"easydrive.no_cr", AnomalyKind::malformed, Severity::error,
+                                        "no CR at the end: frame cut"};
+inline constexpr Finding<unsigned, char, std::size_t> kFindingBadCharacter{
+    "easydrive.bad_character", AnomalyKind::malformed, Severity::error,
+    "invalid character 0x{:02X} ('{}') at {}"};
+inline constexpr Finding<std::size_t> kFindingLength{
+    "easydrive.length", AnomalyKind::malformed, Severity::error,
+    "{} characters before CR: a frame has 13 or 17"};
+inline constexpr Finding<std::string, const char*, const char*> kFindingImplausible{
+    "easydrive.implausible", AnomalyKind::implausible, Severity::error, "{} [{}, {}]"};
+
+inline constexpr const FindingDesc* kAllFindings[] = {
+    &kFindingNoStart, &kFindingNoCr, &kFindingBadCharacter, &kFindingLength, &kFindingImplausible,
+};
+
+}  // namespace drivetap::easydrive

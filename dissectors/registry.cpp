@@ -1,0 +1,75 @@
+// The protocol registry: the one explicit list of protocols (no static self-registration), one
+// line each; everything else about a protocol is its descriptor, in its folder.
+#include <algorithm>
+#include <vector>
+
+#include "core/protocol_desc.hpp"
+#include "dissectors/danfoss_fc/fc_protocol.hpp"
+#include "dissectors/easydrive/eds_protocol.hpp"
+#include "dissectors/modbus/modbus_protocol.hpp"
+
+namespace drivetap {
+namespace {
+
+// In the order detection tries them; the first is the default when detection decides none.
+constexpr const ProtocolDesc* kProtocols[] = {
+    &modbus::kRtuProtocol,
+    &modbus::kAsciiProtocol,
+    &danfoss_fc::kFcProtocol,
+    &easydrive::kEdsProtocol,
+};
+static_assert(std::size(kProtocols) < 32, "protocol_index() is a bit of a 32-bit mask");
+
+}  // namespace
+
+std::span<const ProtocolDesc* const> registered_protocols() {
+  return kProtocols;
+}
+
+Protocol default_protocol() {
+  return Protocol(kProtocols[0]);
+}
+
+Protocol protocol_from_option(std::string_view name) {
+  for (const ProtocolDesc* p : kProtocols)
+    if (std::ranges::find(p->option_names, name) != p->option_names.end()) return Protocol(p);
+  return Protocol::unknown;
+}
+
+Protocol protocol_for_text_start(char c) {
+  for (const ProtocolDesc* p : kProtocols)
+    if (c != 0 && p->text_start == c) return Protocol(p);
+  return Protocol::unknown;
+}
+
+unsigned protocol_index(Protocol p) {
+  for (std::size_t i = 0; i < std::size(kProtocols); ++i)
+    if (kProtocols[i] == p.desc()) return static_cast<unsigned>(i + 1);
+  return 0;
+}
+
+std::string protocol_ids_text() {
+  std::string text;
+  for (std::size_t i = 0; i < std::size(kProtocols); ++i) {
+    if (i > 0) text += i + 1 == std::size(kProtocols) ? " or " : ", ";
+    text += kProtocols[i]->id;
+  }
+  return text;
+}
+
+// Protocols sharing a field set (Modbus RTU and ASCII) list it once.
+std::span<const FieldDesc* const> all_field_descriptors() {
+  static const std::vector<const FieldDesc*> table = [] {
+    std::vector<const FieldDesc*> t;
+    std::vector<const FieldDesc* const*> seen;
+    for (const ProtocolDesc* p : kProtocols) {
+      if (std::ranges::find(seen, p->fields.data()) != seen.end()) continue;
+      seen.push_back(p->fields.data());
+      t.insert(t.end(), p->fields.begin(), p->fields.end());
+    }
+    return t;
+  }();
+  return table;
+}
+
+}  // namespace drivetap

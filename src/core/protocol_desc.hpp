@@ -1,0 +1,72 @@
+// Protocol descriptors: all that code outside dissectors/<protocol>/ knows of a protocol (its
+// names, decoder, fields and findings), declared as data in the protocol's own folder and listed
+// once in dissectors/registry.cpp. Core names no protocol: a Protocol is a handle on a descriptor.
+#pragma once
+
+#include <span>
+#include <string>
+#include <string_view>
+
+#include "core/anomaly.hpp"
+#include "core/field.hpp"
+
+namespace drivetap {
+
+class ProtocolDecoder;  // core/protocol.hpp
+struct ProtocolDesc;
+
+// Which protocol a telegram is: a handle on the protocol's descriptor (`unknown`: none). The
+// protocols' handles are the constants `protocols::<name>` in each protocol's folder.
+class Protocol {
+ public:
+  static const Protocol unknown;
+  constexpr Protocol() = default;
+  constexpr explicit Protocol(const ProtocolDesc* desc) : desc_(desc) {}
+  [[nodiscard]] constexpr const ProtocolDesc* desc() const { return desc_; }
+  friend constexpr bool operator==(Protocol, Protocol) = default;
+
+ private:
+  const ProtocolDesc* desc_ = nullptr;
+};
+inline constexpr Protocol Protocol::unknown{};
+
+struct ProtocolDesc {
+  std::string_view id;     // "modbus-rtu": JSON, capture settings, drive profiles; stable
+  std::string_view label;  // "Modbus RTU": text output and capture columns
+  std::string_view help;   // what `--protocol` help says of it: "Easydrive '~' protocol"
+  // The names `--protocol` and drive profiles take besides `id`, the short one first ("rtu").
+  std::span<const std::string_view> option_names;
+  const ProtocolDecoder* decoder = nullptr;
+  std::span<const FieldDesc* const> fields;      // every field its dissector adds
+  std::span<const FindingDesc* const> findings;  // every finding its dissector raises
+  // The character its telegrams start with when typed as text (`decode`), 0 for a binary one.
+  char text_start = 0;
+  // Wireshark's dissector for its telegrams in an exported-PDU capture ("mbrtu"), empty: none.
+  std::string_view wireshark_dissector;
+};
+
+inline std::string_view protocol_id(Protocol p) {  // "modbus-rtu": JSON ids, stable
+  return p.desc() ? p.desc()->id : "unknown";
+}
+inline std::string_view protocol_label(Protocol p) {  // "Modbus RTU": column text
+  return p.desc() ? p.desc()->label : "unknown";
+}
+// The decoder of `p`; nullptr for Protocol::unknown.
+inline const ProtocolDecoder* decoder_for(Protocol p) {
+  return p.desc() ? p.desc()->decoder : nullptr;
+}
+
+// The registry (dissectors/registry.cpp): every protocol, in the order detection tries them.
+std::span<const ProtocolDesc* const> registered_protocols();
+// The protocol a channel is decoded as when detection decides none.
+Protocol default_protocol();
+// A --protocol or profile name ("rtu", "modbus-rtu") -> its protocol; unknown for other text.
+Protocol protocol_from_option(std::string_view name);
+// The protocol whose text telegrams start with `c` (':' Modbus ASCII); unknown for none.
+Protocol protocol_for_text_start(char c);
+// A small number for `p`: 1 + its place in the registry, 0 for unknown (a bit in a mask).
+unsigned protocol_index(Protocol p);
+// Every registered protocol's id, "a, b, c or d".
+std::string protocol_ids_text();
+
+}  // namespace drivetap
