@@ -1,6 +1,8 @@
 // The protocol registry: the one explicit list of protocols (no static self-registration), one
 // line each; everything else about a protocol is its descriptor, in its folder.
+#include <fmt/format.h>
 #include <algorithm>
+
 #include <vector>
 
 #include "core/protocol_desc.hpp"
@@ -48,13 +50,51 @@ unsigned protocol_index(Protocol p) {
   return 0;
 }
 
-std::string protocol_ids_text() {
+// "a, b, c or d" of what `name` gives of each protocol (those giving nothing left out).
+template <class Name>
+std::string list_text(Name name) {
+  std::vector<std::string> parts;
+  for (const ProtocolDesc* p : kProtocols)
+    if (std::string part = name(*p); !part.empty()) parts.push_back(std::move(part));
   std::string text;
-  for (std::size_t i = 0; i < std::size(kProtocols); ++i) {
-    if (i > 0) text += i + 1 == std::size(kProtocols) ? " or " : ", ";
-    text += kProtocols[i]->id;
+  for (std::size_t i = 0; i < parts.size(); ++i) {
+    if (i > 0) text += i + 1 == parts.size() ? " or " : ", ";
+    text += parts[i];
   }
   return text;
+}
+
+std::string protocol_ids_text() {
+  return list_text([](const ProtocolDesc& p) { return std::string(p.id); });
+}
+
+std::string protocol_labels_text() {
+  return list_text([](const ProtocolDesc& p) { return std::string(p.label); });
+}
+
+std::string protocol_text_starts_text() {
+  return list_text([](const ProtocolDesc& p) {
+    return p.text_start ? fmt::format("'{}' {}", p.text_start, p.label) : std::string();
+  });
+}
+
+const ParameterNumbering* parameter_numbering_named(std::string_view name) {
+  for (const ProtocolDesc* p : kProtocols)
+    if (p->parameter_numbering && p->parameter_numbering->name == name)
+      return p->parameter_numbering;
+  return nullptr;
+}
+
+std::string parameter_numbering_names_text() {
+  return list_text([](const ProtocolDesc& p) {
+    return p.parameter_numbering ? std::string(p.parameter_numbering->name) : std::string();
+  });
+}
+
+Protocol protocol_for_wireshark_dissector(std::string_view name) {
+  for (const ProtocolDesc* p : kProtocols)
+    if (!name.empty() && p->wireshark_dissector == name) return Protocol(p);
+  return Protocol::unknown;
 }
 
 // Protocols sharing a field set (Modbus RTU and ASCII) list it once.

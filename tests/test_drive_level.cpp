@@ -147,37 +147,37 @@ TEST(ReadsRequest, RepliesDecodeAlikeWithoutTheRequestWhereTheDecoderDoesNotRead
 
 TEST(ParameterRules, ParsesTheManualsNumbersUnderEachRule) {
   // E5-8200 GGPP (004): 08-03 -> 0x0803, 10-11 -> 0x0A0B.
-  EXPECT_EQ(parse_parameter_number(ParameterRule::ggpp, "08-03"), 0x0803u);
-  EXPECT_EQ(parse_parameter_number(ParameterRule::ggpp, "10-11"), 0x0A0Bu);
+  EXPECT_EQ(parse_parameter_number(parameter_numbering_named("ggpp"), "08-03"), 0x0803u);
+  EXPECT_EQ(parse_parameter_number(parameter_numbering_named("ggpp"), "10-11"), 0x0A0Bu);
   // Danfoss G-NN -> PNU G*100+NN (002 §7.5.1: 4-14 -> PNU 414).
-  EXPECT_EQ(parse_parameter_number(ParameterRule::danfoss, "4-14"), 414u);
-  EXPECT_EQ(parse_parameter_number(ParameterRule::danfoss, "16-13"), 1613u);
-  EXPECT_EQ(parse_parameter_number(ParameterRule::danfoss, "0-01"), 1u);
+  EXPECT_EQ(parse_parameter_number(parameter_numbering_named("danfoss"), "4-14"), 414u);
+  EXPECT_EQ(parse_parameter_number(parameter_numbering_named("danfoss"), "16-13"), 1613u);
+  EXPECT_EQ(parse_parameter_number(parameter_numbering_named("danfoss"), "0-01"), 1u);
   // Easydrive Fg.nn -> g << 8 | nn (001 tables 11-6/11-7: F0.05 -> 0005, F2.11 -> 020B).
-  EXPECT_EQ(parse_parameter_number(ParameterRule::easydrive, "F0.05"), 0x0005u);
-  EXPECT_EQ(parse_parameter_number(ParameterRule::easydrive, "F2.11"), 0x020Bu);
-  EXPECT_EQ(parse_parameter_number(ParameterRule::easydrive, "F2.15"), 0x020Fu);
-  EXPECT_EQ(parse_parameter_number(ParameterRule::easydrive, "FD.01"), 0x0D01u);
+  EXPECT_EQ(parse_parameter_number(parameter_numbering_named("easydrive"), "F0.05"), 0x0005u);
+  EXPECT_EQ(parse_parameter_number(parameter_numbering_named("easydrive"), "F2.11"), 0x020Bu);
+  EXPECT_EQ(parse_parameter_number(parameter_numbering_named("easydrive"), "F2.15"), 0x020Fu);
+  EXPECT_EQ(parse_parameter_number(parameter_numbering_named("easydrive"), "FD.01"), 0x0D01u);
 }
 
 TEST(ParameterRules, RejectsMalformedNumbers) {
-  EXPECT_EQ(parse_parameter_number(ParameterRule::danfoss, "4.14"), std::nullopt);
-  EXPECT_EQ(parse_parameter_number(ParameterRule::danfoss, "4-140"), std::nullopt);
-  EXPECT_EQ(parse_parameter_number(ParameterRule::danfoss, "4-"), std::nullopt);
-  EXPECT_EQ(parse_parameter_number(ParameterRule::danfoss, "-14"), std::nullopt);
-  EXPECT_EQ(parse_parameter_number(ParameterRule::danfoss, "4-1x"), std::nullopt);
-  EXPECT_EQ(parse_parameter_number(ParameterRule::easydrive, "F0-05"), std::nullopt);
-  EXPECT_EQ(parse_parameter_number(ParameterRule::easydrive, "0.05"), std::nullopt);
-  EXPECT_EQ(parse_parameter_number(ParameterRule::easydrive, "Fd.01"), std::nullopt);
-  EXPECT_EQ(parse_parameter_number(ParameterRule::easydrive, "FG.01"), std::nullopt);
-  EXPECT_EQ(parse_parameter_number(ParameterRule::ggpp, "08.03"), std::nullopt);
-  EXPECT_EQ(parse_parameter_number(ParameterRule::ggpp, "256-00"), std::nullopt);
-  EXPECT_EQ(parse_parameter_number(ParameterRule::none, "4-14"), std::nullopt);
+  EXPECT_EQ(parse_parameter_number(parameter_numbering_named("danfoss"), "4.14"), std::nullopt);
+  EXPECT_EQ(parse_parameter_number(parameter_numbering_named("danfoss"), "4-140"), std::nullopt);
+  EXPECT_EQ(parse_parameter_number(parameter_numbering_named("danfoss"), "4-"), std::nullopt);
+  EXPECT_EQ(parse_parameter_number(parameter_numbering_named("danfoss"), "-14"), std::nullopt);
+  EXPECT_EQ(parse_parameter_number(parameter_numbering_named("danfoss"), "4-1x"), std::nullopt);
+  EXPECT_EQ(parse_parameter_number(parameter_numbering_named("easydrive"), "F0-05"), std::nullopt);
+  EXPECT_EQ(parse_parameter_number(parameter_numbering_named("easydrive"), "0.05"), std::nullopt);
+  EXPECT_EQ(parse_parameter_number(parameter_numbering_named("easydrive"), "Fd.01"), std::nullopt);
+  EXPECT_EQ(parse_parameter_number(parameter_numbering_named("easydrive"), "FG.01"), std::nullopt);
+  EXPECT_EQ(parse_parameter_number(parameter_numbering_named("ggpp"), "08.03"), std::nullopt);
+  EXPECT_EQ(parse_parameter_number(parameter_numbering_named("ggpp"), "256-00"), std::nullopt);
+  EXPECT_EQ(parse_parameter_number(nullptr, "4-14"), std::nullopt);
 }
 
 TEST(ParameterRules, DanfossRegisterAddressIsTenTimesPnuMinusOne) {
   DriveProfile p;
-  p.parameter_rule = ParameterRule::danfoss;
+  p.parameter_rule = parameter_numbering_named("danfoss");
   // 002 §7.9.1/§7.8.8: parameter 4-14 -> register 4140 -> wire address 4139 (0x102B).
   EXPECT_EQ(p.parameter_of_register(4139), 414u);
   EXPECT_EQ(p.parameter_of_register(0x102B), 414u);
@@ -187,10 +187,11 @@ TEST(ParameterRules, DanfossRegisterAddressIsTenTimesPnuMinusOne) {
   EXPECT_EQ(p.parameter_of_register(4138), std::nullopt);
 
   DriveProfile ggpp;
-  ggpp.parameter_rule = ParameterRule::ggpp;
+  ggpp.parameter_rule = parameter_numbering_named("ggpp");
   EXPECT_EQ(ggpp.parameter_of_register(0x0803), 0x0803u);
   DriveProfile eds;
-  eds.parameter_rule = ParameterRule::easydrive;  // Easydrive parameters are not on Modbus
+  eds.parameter_rule =
+      parameter_numbering_named("easydrive");  // Easydrive parameters are not on Modbus
   EXPECT_EQ(eds.parameter_of_register(0x0005), std::nullopt);
   DriveProfile none;
   EXPECT_EQ(none.parameter_of_register(4139), std::nullopt);
@@ -198,9 +199,9 @@ TEST(ParameterRules, DanfossRegisterAddressIsTenTimesPnuMinusOne) {
 
 TEST(ParameterRules, LabelsRoundTrip) {
   DriveProfile danfoss, ggpp, eds;
-  danfoss.parameter_rule = ParameterRule::danfoss;
-  ggpp.parameter_rule = ParameterRule::ggpp;
-  eds.parameter_rule = ParameterRule::easydrive;
+  danfoss.parameter_rule = parameter_numbering_named("danfoss");
+  ggpp.parameter_rule = parameter_numbering_named("ggpp");
+  eds.parameter_rule = parameter_numbering_named("easydrive");
   EXPECT_EQ(danfoss.parameter_label(414), "4-14");
   EXPECT_EQ(danfoss.parameter_label(1613), "16-13");
   EXPECT_EQ(danfoss.parameter_label(1), "0-01");
@@ -210,16 +211,22 @@ TEST(ParameterRules, LabelsRoundTrip) {
   EXPECT_EQ(eds.parameter_label(0x020B), "F2.11");
   EXPECT_EQ(eds.parameter_label(0x0D01), "FD.01");
   for (const char* text : {"4-14", "16-13", "0-01", "65-53"})
-    EXPECT_EQ(danfoss.parameter_label(*parse_parameter_number(ParameterRule::danfoss, text)), text);
+    EXPECT_EQ(danfoss.parameter_label(
+                  *parse_parameter_number(parameter_numbering_named("danfoss"), text)),
+              text);
   for (const char* text : {"08-03", "10-11", "00-00"})
-    EXPECT_EQ(ggpp.parameter_label(*parse_parameter_number(ParameterRule::ggpp, text)), text);
+    EXPECT_EQ(
+        ggpp.parameter_label(*parse_parameter_number(parameter_numbering_named("ggpp"), text)),
+        text);
   for (const char* text : {"F0.05", "F2.11", "FD.01", "FF.99"})
-    EXPECT_EQ(eds.parameter_label(*parse_parameter_number(ParameterRule::easydrive, text)), text);
+    EXPECT_EQ(
+        eds.parameter_label(*parse_parameter_number(parameter_numbering_named("easydrive"), text)),
+        text);
 }
 
 TEST(ParameterRules, FindHoldingOnVltAqua) {
   const DriveProfile vlt = builtin_profile("vlt-aqua.toml");
-  ASSERT_EQ(vlt.parameter_rule, ParameterRule::danfoss);
+  ASSERT_EQ(vlt.parameter_rule, parameter_numbering_named("danfoss"));
   std::string label = "stale";
   const RegisterDef* r = vlt.find_holding(4139, &label);
   ASSERT_NE(r, nullptr);
@@ -348,7 +355,7 @@ TEST(ProfileSchema, NewKeysLoad) {
       "[parameter_errors]\n2 = \"limit\"\n0x11 = \"mode\"\n",
       "user.toml", &e);
   ASSERT_TRUE(p) << e.text();
-  EXPECT_EQ(p->parameter_rule, ParameterRule::danfoss);
+  EXPECT_EQ(p->parameter_rule, parameter_numbering_named("danfoss"));
   EXPECT_EQ(p->pcd_to_drive, (std::vector<std::uint32_t>{49999, 50009}));
   EXPECT_EQ(p->pcd_from_drive, (std::vector<std::uint32_t>{50199, 50209}));
   const RegisterDef* ctw = p->find(RegisterKind::holding, 49999);
@@ -867,7 +874,7 @@ TEST(DriveReading, E5ParametersFollowTheGgppRule) {
   // PROTOCOLS.md §2 and README "Annotation": E5-8200 parameters map to register GGPP
   // (08-03 -> 0x0803), the rule profile.hpp names for the E5-8200.
   const DriveProfile e5 = builtin_profile("e5-8200.toml");
-  EXPECT_EQ(e5.parameter_rule, ParameterRule::ggpp);
+  EXPECT_EQ(e5.parameter_rule, parameter_numbering_named("ggpp"));
   EXPECT_EQ(
       read_for_drive(e5, rtu({0x01, 0x03, 0x08, 0x03, 0x00, 0x01}, Direction::request), {}).text,
       "drive 1 (E5-8200): read parameter 08-03");
@@ -933,8 +940,8 @@ TEST(DriveReading, EasydriveRunAndStatus) {
   };
   for (const Request& q : requests) {
     SCOPED_TRACE(q.body);
-    const DriveReading r =
-        read_for_drive(eds, decode(protocols::easydrive, eds_frame(q.body), Direction::request), {});
+    const DriveReading r = read_for_drive(
+        eds, decode(protocols::easydrive, eds_frame(q.body), Direction::request), {});
     if (q.text) {
       EXPECT_EQ(r.text, q.text);
     }

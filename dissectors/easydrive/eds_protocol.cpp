@@ -1,4 +1,6 @@
 // The Easydrive protocol's descriptor (PROTOCOLS.md §5): names, decoder, fields, findings.
+#include <fmt/format.h>
+
 #include "dissectors/easydrive/eds_protocol.hpp"
 
 #include "dissectors/easydrive/eds_dissector.hpp"
@@ -10,6 +12,24 @@ namespace {
 
 constexpr std::string_view kNames[] = {"eds", "easydrive"};
 const EdsDecoder kDecoder{};
+
+// Easydrive "Fg.nn": index g << 8 | nn (F0..F9 = 0..9, FA..FF = 0x0A..0x0F); its parameters
+// travel in its own protocol only, and its manual calls them function codes.
+std::optional<std::uint32_t> parse_index(std::string_view text) {
+  const auto split = split_parameter_number(text, '.');
+  if (!split) return std::nullopt;
+  const std::string_view group = split->first;
+  if (group.size() != 2 || group[0] != 'F' || split->second > 255) return std::nullopt;
+  const char h = group[1];
+  const int g = h >= '0' && h <= '9' ? h - '0' : h >= 'A' && h <= 'F' ? h - 'A' + 10 : -1;
+  if (g < 0) return std::nullopt;
+  return static_cast<std::uint32_t>(g) << 8 | split->second;
+}
+std::string index_label(std::uint32_t index) {
+  return fmt::format("F{:X}.{:02}", index >> 8, index & 0xFF);
+}
+constexpr ParameterNumbering kNumbering{"easydrive", "F0.05", parse_index,
+                                        index_label, nullptr, "function code "};
 
 }  // namespace
 
@@ -23,6 +43,7 @@ const ProtocolDesc kEdsProtocol{
     .findings = kAllFindings,
     .text_start = '~',
     .wireshark_dissector = {},
+    .parameter_numbering = &kNumbering,
 };
 
 }  // namespace drivetap::easydrive

@@ -1,5 +1,7 @@
 // The Modbus RTU and Modbus ASCII descriptors (PROTOCOLS.md §2, §3): names, decoders, fields,
 // findings.
+#include <fmt/format.h>
+
 #include "dissectors/modbus/modbus_protocol.hpp"
 
 #include "dissectors/modbus/ascii_dissector.hpp"
@@ -15,6 +17,25 @@ constexpr std::string_view kAsciiNames[] = {"ascii", "modbus-ascii"};
 const RtuDecoder kRtuDecoder{};
 const AsciiDecoder kAsciiDecoder{};
 
+// "GG-PP" (E5-8200, E-9): the parameter is the holding register GG << 8 | PP.
+std::optional<std::uint32_t> parse_ggpp(std::string_view text) {
+  const auto split = split_parameter_number(text, '-');
+  if (!split) return std::nullopt;
+  const auto g = decimal_number(split->first);
+  if (!g || *g > 255 || split->second > 255) return std::nullopt;
+  return *g << 8 | split->second;
+}
+std::string ggpp_label(std::uint32_t number) {
+  return fmt::format("{:02}-{:02}", number >> 8, number & 0xFF);
+}
+std::optional<std::uint32_t> ggpp_of_register(std::uint32_t address) {
+  // Groups and numbers are two decimal digits in the manual ("10-11" -> 0x0A0B).
+  if ((address >> 8) <= 99 && (address & 0xFF) <= 99) return address;
+  return std::nullopt;
+}
+constexpr ParameterNumbering kGgppNumbering{"ggpp", "08-03", parse_ggpp, ggpp_label,
+                                            ggpp_of_register};
+
 }  // namespace
 
 const ProtocolDesc kRtuProtocol{
@@ -27,6 +48,7 @@ const ProtocolDesc kRtuProtocol{
     .findings = kRtuFindings,
     .text_start = 0,
     .wireshark_dissector = "mbrtu",
+    .parameter_numbering = &kGgppNumbering,
 };
 
 const ProtocolDesc kAsciiProtocol{

@@ -77,10 +77,8 @@ int run_decode(const CommonOptions& o, const std::vector<std::string>& args) {
     if (kind == 0) return;
     const std::string shown = text.size() > 60 ? text.substr(0, 57) + "..." : text;
     if (first_kind != 0 && kind != first_kind)
-      stop(
-          fmt::format("{} (\"{}\"): give frames of one kind (hex bytes, ':' Modbus ASCII or '~' "
-                      "Easydrive), not several",
-                      where, shown));
+      stop(fmt::format("{} (\"{}\"): give frames of one kind (hex bytes, {}), not several", where,
+                       shown, protocol_text_starts_text()));
     std::string err;
     const auto frames = parse_decode_text(text, kind, &err);
     if (!frames) stop(fmt::format("{} (\"{}\"): {}", where, shown, err));

@@ -54,12 +54,10 @@ int run_generate(const GenerateOptions& g) {
   go.frames = number("--frames", g.frames, 1, 10'000'000'000ull, "a number of records, 1 to 10^10");
   go.seed = number("--seed", g.seed, 0, std::numeric_limits<std::uint64_t>::max(),
                    "a whole number, 0 to 2^64-1");
-  if (g.mix == "all")
-    go.mix = generate::Mix::all;
-  else if (g.mix == "modbus-rtu")
-    go.mix = generate::Mix::modbus_rtu;
+  if (const auto mix = generate::mix_from_name(g.mix))
+    go.mix = *mix;
   else
-    die(fmt::format("--mix {}: expected all or modbus-rtu", g.mix));
+    die(fmt::format("--mix {}: expected {}", g.mix, generate::kMixNames));
   if (g.output.empty() && g.write.empty())
     die("generate: give -o FILE (byte log), -w FILE (pcapng) or both");
   if (g.plain && g.write.empty()) die("--plain: only with -w FILE (it is a kind of pcapng)");
@@ -161,9 +159,7 @@ Command add_generate_command(CLI::App& app) {
   generate->add_option("--frames", g->frames,
                        "Records to write: requests, replies and noise records (default 100000)");
   generate->add_option("--seed", g->seed, "Seed: the same seed gives the same bytes (default 1)");
-  generate->add_option("--mix", g->mix,
-                       "all (default): Modbus RTU, Danfoss FC, Easydrive and Modbus ASCII "
-                       "links; modbus-rtu: the Modbus RTU link only");
+  generate->add_option("--mix", g->mix, generate::kMixHelp);
   generate->add_option("-o,--output", g->output, "Write a byte log to FILE");
   generate->add_option("-w,--write", g->write, "Write a pcapng to FILE");
   generate->add_flag("--plain", g->plain,

@@ -1,5 +1,6 @@
 // drivetap command line: the subcommands registered, the one given parsed and run (README "Command
 // reference"; each subcommand is in its own file, src/app/commands.hpp).
+#include <fmt/format.h>
 #include <CLI/CLI.hpp>
 
 #include <csignal>
@@ -8,6 +9,7 @@
 
 #include "app/commands.hpp"
 #include "app/common.hpp"
+#include "core/protocol_desc.hpp"
 
 int main(int argc, char** argv) {
   using namespace drivetap::app;
@@ -26,9 +28,8 @@ int main(int argc, char** argv) {
     args.insert(args.begin() + 1, capture_word);
   argc = static_cast<int>(args.size());
   argv = args.data();
-  CLI::App app{
-      "drivetap: passive RS-485 bus analyser for drive networks (Modbus RTU/ASCII, Danfoss FC, "
-      "Easydrive)"};
+  CLI::App app{fmt::format("drivetap: passive RS-485 bus analyser for drive networks ({})",
+                           drivetap::protocol_labels_text())};
   app.require_subcommand(1);
   app.set_version_flag("--version", "drivetap 0.1.0");
   // In the order `drivetap --help` lists them.

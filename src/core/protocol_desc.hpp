@@ -9,6 +9,7 @@
 
 #include "core/anomaly.hpp"
 #include "core/field.hpp"
+#include "core/parameter_numbering.hpp"
 
 namespace drivetap {
 
@@ -43,6 +44,9 @@ struct ProtocolDesc {
   char text_start = 0;
   // Wireshark's dissector for its telegrams in an exported-PDU capture ("mbrtu"), empty: none.
   std::string_view wireshark_dissector;
+  // How the manuals of the drives that speak it number their parameters (a profile's
+  // [parameters] rule), nullptr: none of its own.
+  const ParameterNumbering* parameter_numbering = nullptr;
 };
 
 inline std::string_view protocol_id(Protocol p) {  // "modbus-rtu": JSON ids, stable
@@ -68,5 +72,11 @@ Protocol protocol_for_text_start(char c);
 unsigned protocol_index(Protocol p);
 // Every registered protocol's id, "a, b, c or d".
 std::string protocol_ids_text();
+// Every registered protocol's label, "Modbus RTU, Modbus ASCII, Danfoss FC or Easydrive".
+std::string protocol_labels_text();
+// The protocols typed as text, by their start: "':' Modbus ASCII or '~' Easydrive".
+std::string protocol_text_starts_text();
+// The protocol whose telegrams Wireshark's dissector `name` ("mbrtu") shows; unknown for none.
+Protocol protocol_for_wireshark_dissector(std::string_view name);
 
 }  // namespace drivetap

@@ -212,16 +212,17 @@ void bus_findings(const LineEvidence& e, std::vector<Verdict>& out) {
          "one that answers some: noise on its segment, or replies slower than the master's "
          "timeout"});
   if (e.findings[static_cast<std::size_t>(AnomalyKind::checksum_swapped)] > 0)
-    out.push_back({"swapped-crc", "CRC sent in the wrong byte order",
-                   per_station(
-                       e, [](const S& s) { return s.swapped_checksum; },
-                       [](const S& s) {
-                         return fmt::format("{} of {} frames with the CRC high byte first",
-                                            s.swapped_checksum, s.frames);
-                       }),
-                   "the sender writes its CRC in the wrong byte order (Modbus RTU sends the low "
-                   "byte first): fix it in the master's Modbus library or the drive's firmware; a "
-                   "strict receiver drops these frames"});
+    out.push_back(
+        {"swapped-crc", "CRC sent in the wrong byte order",
+         per_station(
+             e, [](const S& s) { return s.swapped_checksum; },
+             [](const S& s) {
+               return fmt::format("{} of {} frames with the CRC high byte first",
+                                  s.swapped_checksum, s.frames);
+             }),
+         "the sender writes its CRC in the wrong byte order (the protocol sends the "
+         "low byte first): fix it in the master's Modbus library or the drive's firmware; a "
+         "strict receiver drops these frames"});
   std::uint64_t clean_bad = 0;
   for (const auto& [address, station] : e.stations) clean_bad += station.bad_checksum;
   if (clean_bad > 0)
@@ -263,10 +264,9 @@ void bus_findings(const LineEvidence& e, std::vector<Verdict>& out) {
          "protocol detection), or bytes lost or merged by the capture"});
   for (const auto& [channel, carries] : e.foreign_lines)
     out.push_back({"no-drive-protocol", fmt::format("No drive protocol on channel {}", channel),
-                   fmt::format("it carries {}: no Modbus RTU, Modbus ASCII, Danfoss FC or "
-                               "Easydrive telegram passes its checksum and plausibility rules; its "
-                               "bytes are shown as data",
-                               carries),
+                   fmt::format("it carries {}: no {} telegram passes its checksum and "
+                               "plausibility rules; its bytes are shown as data",
+                               carries, protocol_labels_text()),
                    "check that the tap is on the drives' bus (their RS-485 A/B pair) and the line "
                    "settings (`drivetap diagnose` on a logic capture measures them)"});
   const std::uint64_t own_noise = e.noise_records - e.foreign_noise_records;
@@ -428,13 +428,14 @@ std::vector<Verdict> diagnose(const LineEvidence& e) {
 
   if (decoded_wrong) return out;
   if (e.intra_frame_gaps > 0)
-    out.push_back({"timing-t15", "Pauses inside frames longer than t1.5",
-                   fmt::format("{} frames have a silence over 1.5 character times between two "
-                               "bytes (first: {})",
-                               e.intra_frame_gaps, e.first_intra_gap),
-                   "a strict Modbus RTU receiver drops these frames: check the sender's UART "
-                   "feeding (a USB adapter or a busy master leaves gaps); if the gaps are the "
-                   "tap's own (USB latency), set its latency_timer to 1 ms"});
+    out.push_back(
+        {"timing-t15", "Pauses inside frames longer than t1.5",
+         fmt::format("{} frames have a silence over 1.5 character times between two "
+                     "bytes (first: {})",
+                     e.intra_frame_gaps, e.first_intra_gap),
+         "a receiver that keeps the t1.5 rule drops these frames: check the sender's UART "
+         "feeding (a USB adapter or a busy master leaves gaps); if the gaps are the "
+         "tap's own (USB latency), set its latency_timer to 1 ms"});
   if (e.short_interframe_gaps > 0)
     out.push_back({"timing-t35", "Silence between frames shorter than t3.5",
                    fmt::format("{} frames start less than 3.5 character times after the "

@@ -186,11 +186,10 @@ void observe(const DriveProfile& p, const RegisterDef& r, std::uint32_t raw, boo
   }
 }
 
-// The text of a parameter the profile does not name: "parameter 4-14", or under Easydrive's
-// rule the manual's "function code F2.11" (profile data: the rule says how the manual numbers
-// its parameters).
+// The text of a parameter the profile does not name: "parameter 4-14", or what its manual calls
+// one ("function code F2.11"): the profile's rule says how the manual numbers its parameters.
 std::string_view unnamed_parameter_noun(const DriveProfile& p) {
-  return p.parameter_rule == ParameterRule::easydrive ? "function code " : "parameter ";
+  return p.parameter_rule ? p.parameter_rule->noun : "parameter ";
 }
 
 // "frequency setpoint", "16-13 frequency", "parameter 4-14", "register 0x0123", appended: how

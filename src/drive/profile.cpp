@@ -63,20 +63,8 @@ const RegisterDef* DriveProfile::find(RegisterKind kind, std::uint32_t address) 
 }
 
 std::optional<std::uint32_t> DriveProfile::parameter_of_register(std::uint32_t address) const {
-  switch (parameter_rule) {
-    case ParameterRule::ggpp:
-      // Groups and numbers are two decimal digits in the manual ("10-11" -> 0x0A0B).
-      if ((address >> 8) <= 99 && (address & 0xFF) <= 99) return address;
-      return std::nullopt;
-    case ParameterRule::danfoss:
-      // Danfoss 002 §7.8.8/§7.9: register number = 10 x PNU, addressed from 0 on the wire.
-      if ((address + 1) % 10 == 0) return (address + 1) / 10;
-      return std::nullopt;
-    case ParameterRule::none:
-    case ParameterRule::easydrive:  // Easydrive parameters travel in its own protocol only
-      break;
-  }
-  return std::nullopt;
+  if (!parameter_rule || !parameter_rule->of_register) return std::nullopt;
+  return parameter_rule->of_register(address);
 }
 
 DriveProfile::Walk::Walk(const DriveProfile& profile, RegisterKind kind, std::uint32_t first)
@@ -121,59 +109,12 @@ const RegisterDef* DriveProfile::parameter_at(std::uint32_t address, std::string
 }
 
 std::string DriveProfile::parameter_label(std::uint32_t number) const {
-  switch (parameter_rule) {
-    case ParameterRule::ggpp:
-      return fmt::format("{:02}-{:02}", number >> 8, number & 0xFF);
-    case ParameterRule::danfoss:
-      return fmt::format("{}-{:02}", number / 100, number % 100);
-    case ParameterRule::easydrive:
-      return fmt::format("F{:X}.{:02}", number >> 8, number & 0xFF);
-    case ParameterRule::none:
-      break;
-  }
-  return fmt::format("{}", number);
+  return parameter_rule ? parameter_rule->label(number) : fmt::format("{}", number);
 }
 
-std::optional<std::uint32_t> parse_parameter_number(ParameterRule rule, std::string_view text) {
-  // Splits "<group><sep><number>" with decimal number; the group is decimal, or one hex digit
-  // after 'F' for Easydrive.
-  auto decimal = [](std::string_view d) -> std::optional<std::uint32_t> {
-    if (d.empty() || d.size() > 3) return std::nullopt;
-    std::uint32_t v = 0;
-    for (char c : d) {
-      if (c < '0' || c > '9') return std::nullopt;
-      v = v * 10 + static_cast<std::uint32_t>(c - '0');
-    }
-    return v;
-  };
-  const char sep = rule == ParameterRule::easydrive ? '.' : '-';
-  const std::size_t at = text.find(sep);
-  if (at == std::string_view::npos) return std::nullopt;
-  std::string_view group = text.substr(0, at);
-  const auto number = decimal(text.substr(at + 1));
-  if (!number) return std::nullopt;
-  switch (rule) {
-    case ParameterRule::danfoss: {
-      const auto g = decimal(group);
-      if (!g || *number > 99 || *g > 65) return std::nullopt;
-      return *g * 100 + *number;
-    }
-    case ParameterRule::ggpp: {
-      const auto g = decimal(group);
-      if (!g || *g > 255 || *number > 255) return std::nullopt;
-      return *g << 8 | *number;
-    }
-    case ParameterRule::easydrive: {
-      if (group.size() != 2 || group[0] != 'F' || *number > 255) return std::nullopt;
-      const char h = group[1];
-      const int g = h >= '0' && h <= '9' ? h - '0' : h >= 'A' && h <= 'F' ? h - 'A' + 10 : -1;
-      if (g < 0) return std::nullopt;
-      return static_cast<std::uint32_t>(g) << 8 | *number;
-    }
-    case ParameterRule::none:
-      break;
-  }
-  return std::nullopt;
+std::optional<std::uint32_t> parse_parameter_number(const ParameterNumbering* rule,
+                                                    std::string_view text) {
+  return rule ? rule->parse(text) : std::nullopt;
 }
 
 namespace {
@@ -284,7 +225,7 @@ std::vector<int> state_bits(const toml::node& v, const std::string& path) {
 
 // A [[register]] (parameter == nullopt) or a [[parameter]] under the profile's addressing rule.
 RegisterDef parse_register(const toml::table& t, const std::string& path,
-                           std::optional<ParameterRule> parameter) {
+                           std::optional<const ParameterNumbering*> parameter) {
   std::set<std::string_view> keys = {"name", "access", "unit", "scale", "signed",
                                      "enum", "role",   "bits", "words", "state"};
   keys.insert(parameter ? "number" : "address");
@@ -294,15 +235,15 @@ RegisterDef parse_register(const toml::table& t, const std::string& path,
   if (parameter) {
     r.kind = RegisterKind::parameter;
     r.number = string_at(t, "number", path + ".number", true);
-    if (*parameter == ParameterRule::none)
+    if (!*parameter)
       throw Bad{line_of(*t.get("number")), path + ".number",
-                "parameters need a [parameters] rule (ggpp, danfoss or easydrive)"};
+                fmt::format("parameters need a [parameters] rule ({})",
+                            parameter_numbering_names_text())};
     const auto wire = parse_parameter_number(*parameter, r.number);
-    static constexpr const char* kExamples[] = {"", "08-03", "4-14", "F0.05"};
     if (!wire)
       throw Bad{line_of(*t.get("number")), path + ".number",
                 fmt::format("expected a parameter number like \"{}\" under this rule",
-                            kExamples[static_cast<int>(*parameter)])};
+                            (*parameter)->example)};
     r.address = *wire;
   } else {
     const auto address = int_at(t, "address", path + ".address", 0, 0xFFFF);
@@ -473,14 +414,10 @@ DriveProfile parse_tables(const toml::table& root) {
     const toml::table& t = *n->as_table();
     only_keys(t, "parameters", {"rule"});
     const std::string rule = string_at(t, "rule", "parameters.rule", true);
-    if (rule == "ggpp")
-      p.parameter_rule = ParameterRule::ggpp;
-    else if (rule == "danfoss")
-      p.parameter_rule = ParameterRule::danfoss;
-    else if (rule == "easydrive")
-      p.parameter_rule = ParameterRule::easydrive;
-    else
-      throw Bad{line_of(*t.get("rule")), "parameters.rule", "must be ggpp, danfoss or easydrive"};
+    p.parameter_rule = parameter_numbering_named(rule);
+    if (!p.parameter_rule)
+      throw Bad{line_of(*t.get("rule")), "parameters.rule",
+                fmt::format("must be {}", parameter_numbering_names_text())};
   }
   if (const toml::node* n = root.get("process_data")) {
     if (!n->is_table()) throw Bad{line_of(*n), "process_data", "expected a table"};
@@ -519,9 +456,10 @@ DriveProfile parse_tables(const toml::table& root) {
       const toml::node& e = (*a)[i];
       const std::string path = fmt::format("{}[{}]", list, i + 1);
       if (!e.is_table()) throw Bad{line_of(e), path, "expected a table"};
-      p.registers.push_back(parse_register(
-          *e.as_table(), path,
-          is_parameter ? std::optional<ParameterRule>(p.parameter_rule) : std::nullopt));
+      p.registers.push_back(
+          parse_register(*e.as_table(), path,
+                         is_parameter ? std::optional<const ParameterNumbering*>(p.parameter_rule)
+                                      : std::nullopt));
       const std::string& enum_name = p.registers.back().enum_name;
       if (!enum_name.empty() && !p.enums.count(enum_name))
         throw Bad{line_of(*e.as_table()->get("enum")), path + ".enum",

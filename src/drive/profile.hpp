@@ -12,17 +12,11 @@
 
 #include "core/drive_records.hpp"  // RegisterKind
 #include "core/message.hpp"
+#include "core/parameter_numbering.hpp"
 #include "core/serial_config.hpp"
 
 namespace drivetap {
 
-// How the manual's parameter numbers reach the wire (dissectors/profiles/README.md, [parameters]).
-enum class ParameterRule : std::uint8_t {
-  none,
-  ggpp,       // E5-8200 "GG-PP": register address GG << 8 | PP
-  danfoss,    // Danfoss "G-NN": PNU G*100+NN (FC protocol); Modbus register address PNU*10 - 1
-  easydrive,  // Easydrive "Fg.nn": index g << 8 | nn (F0..F9 = 0..9, FA..FF = 0x0A..0x0F)
-};
 enum class RegisterAccess : std::uint8_t { read, write, read_write };
 
 struct RegisterBit {
@@ -84,7 +78,8 @@ struct DriveProfile {
   std::optional<double> max_reply_delay_ms;
   std::optional<double> min_reply_delay_ms;
   std::string timing_section;  // where the manual states the timing rules
-  ParameterRule parameter_rule = ParameterRule::none;
+  // How the manual's parameter numbers reach the wire (its [parameters] rule; nullptr: none).
+  const ParameterNumbering* parameter_rule = nullptr;
   // Danfoss FC protocol: the registers PCD1, PCD2 stand for, per direction (CTW/REF, STW/MAV).
   std::vector<std::uint32_t> pcd_to_drive, pcd_from_drive;
   std::vector<RegisterDef> registers;  // registers, coils, running values and parameters
@@ -141,8 +136,10 @@ struct DriveProfile {
   mutable std::size_t indexed_count_ = 0;
 };
 
-// The manual's parameter number ("4-14") as its wire number under `rule`; nullopt if malformed.
-std::optional<std::uint32_t> parse_parameter_number(ParameterRule rule, std::string_view text);
+// The manual's parameter number ("4-14") as its wire number under `rule`; nullopt if malformed
+// or without a rule.
+std::optional<std::uint32_t> parse_parameter_number(const ParameterNumbering* rule,
+                                                    std::string_view text);
 
 // Where a profile went wrong: "file:line: key 'register[3].scale': expected a number".
 struct ProfileError {

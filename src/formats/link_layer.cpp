@@ -4,6 +4,7 @@
 #include <fmt/format.h>
 
 #include "core/cursor.hpp"
+#include "core/protocol_desc.hpp"
 #include "formats/upper_pdu.hpp"
 
 namespace drivetap {
@@ -171,7 +172,7 @@ std::optional<SerialPayload> extract_serial_payload(std::uint32_t link_type,
         return std::nullopt;
       }
       const std::string_view d = parsed->tags.dissector;
-      if (!d.empty() && d != "mbrtu" && d != "data") {
+      if (!d.empty() && d != "data" && protocol_for_wireshark_dissector(d) == Protocol::unknown) {
         *why = fmt::format("exported PDU for dissector '{}', not serial bytes", d);
         return std::nullopt;
       }

@@ -13,6 +13,16 @@
 
 namespace drivetap::generate {
 
+std::optional<Mix> mix_from_name(std::string_view name) {
+  if (name == "all") return Mix::all;
+  if (name == "modbus-rtu") return Mix::modbus_rtu;
+  return std::nullopt;
+}
+const char* const kMixHelp =
+    "all (default): Modbus RTU, Danfoss FC, Easydrive and Modbus ASCII links; modbus-rtu: the "
+    "Modbus RTU link only";
+const char* const kMixNames = "all or modbus-rtu";
+
 namespace {
 
 using Bytes = std::vector<std::uint8_t>;

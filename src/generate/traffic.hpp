@@ -21,7 +21,9 @@
 #include <cstdint>
 #include <deque>
 #include <memory>
+#include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "core/checksum.hpp"
@@ -34,6 +36,10 @@ enum class Mix : std::uint8_t {
   all,         // the four links, most of the traffic Modbus RTU
   modbus_rtu,  // only the Modbus RTU link (what tshark can decode too)
 };
+// --mix NAME -> its Mix, nullopt for another name; and what --mix's help says of the mixes.
+std::optional<Mix> mix_from_name(std::string_view name);
+extern const char* const kMixHelp;
+extern const char* const kMixNames;  // "all or modbus-rtu"
 
 struct Options {
   std::uint64_t frames = 100000;  // records to write: requests + replies + noise records

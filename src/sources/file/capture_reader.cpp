@@ -306,7 +306,7 @@ bool CaptureReader::load_pcap_packet() {
     if (!link_type_supported(pcap_link_type_)) {
       error_ = fmt::format(
           "{}: link type {} is not one drivetap reads (147-162, 250, 252, or "
-          "Modbus RTU over UDP/TCP)",
+          "serial telegrams over UDP/TCP)",
           name_, pcap_link_type_);
       return false;
     }
