@@ -19,7 +19,7 @@
 //                                    whole telegrams dissected to their head
 //   BM_Pipeline_RtuSummaryLaneAutoDrives  the same with every built-in profile as --drive auto
 //                                    candidate (`read --stats`'s default: binding, observations,
-//                                    timing rules and the timeline on the lane)
+//                                    timing rules and the timeline from the heads)
 //   BM_TextSink / BM_JsonSink / BM_PcapngSink   the sinks on the pipeline's records, to /dev/null
 //
 // Every benchmark checks its result once (frames found == frames sent, checksums good, the

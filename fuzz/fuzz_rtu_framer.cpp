@@ -123,8 +123,8 @@ struct DigestSink final : Sink {
 // with drive profiles (bindings, observations, timing rules and the timeline from the head). The
 // counts must be those of decoding, the events the same events, and the records handed over
 // undecoded the same records.
-void check_summary_lane(const PipelineOptions& options, const ChannelTable& channels,
-                        std::span<const ByteEvent> events) {
+void check_head_dissection(const PipelineOptions& options, const ChannelTable& channels,
+                           std::span<const ByteEvent> events) {
   RunBatch runs;
   runs.add_events(events);
   for (const bool drives : {false, true}) {
@@ -215,6 +215,6 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     emit(e, copies);
   }
   run.finish();
-  check_summary_lane(options, channels, events);
+  check_head_dissection(options, channels, events);
   return 0;
 }
