@@ -11,7 +11,8 @@
 #
 # The captures come from `drivetap generate`: Modbus RTU alone as a --plain pcapng (seed 1, the
 # end-to-end comparison's traffic) and all links (seed 7). Counts include start-up (the dynamic
-# linker, the built-in drive profiles when bound), a share that shrinks as RECORDS grows. Needs valgrind (apt-get install valgrind); about two minutes at 100 000 records.
+# linker, the built-in drive profiles when bound), a share that shrinks as RECORDS grows.
+# Needs valgrind (apt-get install valgrind); about two minutes at 100 000 records.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 build=${1:-$root/build-bench}
