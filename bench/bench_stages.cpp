@@ -1,8 +1,7 @@
-// Benchmarks of the decoding stages after the UART (issue 8: "a Google Benchmark suite for each
-// stage: CRC-16, LRC, BCC, the framers on byte events, each dissector, pairing, drive profiles,
-// and the text, JSON and pcapng sinks; bytes/s and frames/s"). bytes_per_second is bytes of the
-// input buffer (checksums) or bus bytes (everything else); `frames` is frames per second.
-// bench/README.md has the command and the figures.
+// Benchmarks of the decoding stages after the UART: CRC-16, LRC, BCC, the framers on byte
+// events, each dissector, pairing, drive profiles, and the text, JSON and pcapng sinks.
+// bytes_per_second is bytes of the input buffer (checksums) or bus bytes (everything else);
+// `frames` is frames per second. bench/README.md has the command, docs/performance.md the figures.
 //
 //   BM_Crc16 / BM_Lrc / BM_Bcc       the checksums on 1 KiB .. 1 MiB of random bytes
 //   BM_RtuFramer/1, /4096            the Modbus RTU framer on the ByteEvents of polling traffic,
@@ -20,7 +19,7 @@
 //                                    whole telegrams dissected to their head
 //   BM_Pipeline_RtuSummaryLaneAutoDrives  the same with every built-in profile as --drive auto
 //                                    candidate (`read --stats`'s default: binding, observations,
-//                                    timing rules and the timeline on the lane)
+//                                    timing rules and the timeline from the heads)
 //   BM_TextSink / BM_JsonSink / BM_PcapngSink   the sinks on the pipeline's records, to /dev/null
 //
 // Every benchmark checks its result once (frames found == frames sent, checksums good, the

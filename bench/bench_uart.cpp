@@ -1,6 +1,7 @@
-// Benchmarks of the UART physical layer (issue 6: "UART decoding runs at >= 100 M samples/s on one
-// core"). Every benchmark counts items = samples, so items_per_second is samples/s; `chars` is
-// UART characters decoded per second. bench/README.md has the command and the figures.
+// Benchmarks of the UART physical layer (target: UART decoding at >= 100 M samples/s on one
+// core). Every benchmark counts items = samples, so items_per_second is samples/s; `chars` is
+// UART characters decoded per second. bench/README.md has the command, docs/performance.md the
+// figures.
 //
 //   BM_UartDecoder_Runs      the decoder alone on level runs from the line simulator
 //   BM_SigrokRead_Decode     end to end: a sigrok session (.sr) read, scanned into runs and
@@ -32,8 +33,8 @@
 #include <fmt/format.h>
 
 #include "sources/logic/line_sim.hpp"
-#include "sources/logic/uart_decoder.hpp"
 #include "sources/logic/sigrok_file.hpp"
+#include "sources/logic/uart_decoder.hpp"
 
 namespace {
 

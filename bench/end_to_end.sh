@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# End to end against tshark (issue 8): the same Modbus RTU pcapng through `drivetap read` in text,
+# End to end against tshark: the same Modbus RTU pcapng through `drivetap read` in text,
 # JSON and --stats modes and through tshark (text, -T fields, -q -z io,stat,0), side by side:
 # seconds, packets/s, drivetap's ratio to tshark, peak RSS; `cat` of the file as the floor of any
 # reader (its ratio to io,stat bounds what --stats can reach) and drivetap_floor (bench/floor.cpp:
@@ -18,9 +18,9 @@
 #
 # Needs tshark and GNU time's /usr/bin/time (Debian: apt-get install tshark time).
 #
-# The captures come from `drivetap generate` (README "drivetap generate"), seed 1: the comparison
-# runs on `--mix modbus-rtu --plain` (the frames alone, 80 bytes a packet, as another capture tool
-# writes them: the issue's file, whose `cat` takes about 0.01 s per 1 M packets); drivetap alone
+# The captures come from `drivetap generate` (docs/reference.md "Generated captures"), seed 1:
+# the comparison runs on `--mix modbus-rtu --plain` (the frames alone, 80 bytes a packet, as
+# another capture tool writes them: the issue's file, whose `cat` takes about 0.01 s per 1 M packets); drivetap alone
 # then reads the same traffic as its own full pcapng (per-byte times, UART marks and the decode as
 # comments: 350 bytes a packet) and the --mix all capture. A 10 M run needs about 5.5 GB in
 # $TMPDIR; tshark needs about 1.5 GB of memory for it.

@@ -1,6 +1,6 @@
-// The floor of a `read --stats` pass (issue 8, bench/README "Where issue 8's targets stand"): a
+// The floor of a `read --stats` pass (docs/performance.md "The targets of issue 8"): a
 // capture read by drivetap's own reader into the runs `read` decodes (CaptureReader::append_runs,
-// on one thread), each run's Modbus RTU CRC checked and counted (PROTOCOLS.md §2); no framer,
+// on one thread), each run's Modbus RTU CRC checked and counted (docs/protocols.md §2); no framer,
 // direction, pairing, findings or anomalies.
 //
 //   drivetap_floor FILE.pcapng

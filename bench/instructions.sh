@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Instructions a record, per thread, of `drivetap read` in each mode (callgrind): the measure of
-# the code that this VM's neighbours do not move, where wall and CPU seconds vary by a third from
-# one spell to the next (bench/README.md). The decoding thread bounds --stats. Text and JSON are
+# the code that this VM's neighbours do not move, where wall and CPU seconds vary from one spell
+# to the next (docs/performance.md). The decoding thread bounds --stats. Text and JSON are
 # formatted by a writer thread and by the decoding thread whenever its next batch would wait
 # (ThreadedSink helpers): how the batches fall between the two depends on the scheduling (under
 # callgrind, which runs one thread at a time, the decoding thread formats most), so for those
@@ -11,8 +11,8 @@
 #
 # The captures come from `drivetap generate`: Modbus RTU alone as a --plain pcapng (seed 1, the
 # end-to-end comparison's traffic) and all links (seed 7). Counts include start-up (the dynamic
-# linker, the built-in drive profiles when bound): some 80-160 instructions a record at 100 000
-# records. Needs valgrind (apt-get install valgrind); about two minutes at 100 000 records.
+# linker, the built-in drive profiles when bound), a share that shrinks as RECORDS grows.
+# Needs valgrind (apt-get install valgrind); about two minutes at 100 000 records.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 build=${1:-$root/build-bench}

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
-# The UART benchmarks of bench/bench_uart.cpp (figures in bench/README.md): builds build-bench in
-# Release and runs them, three repetitions each, medians reported. Extra arguments go to Google
-# Benchmark (--benchmark_filter=SigrokRead_Decode, --benchmark_format=json, ...).
+# The UART benchmarks of bench/bench_uart.cpp (command in bench/README.md, figures in
+# docs/performance.md): builds build-bench in Release and runs them, three repetitions each,
+# medians reported. Extra arguments go to Google Benchmark (--benchmark_filter=SigrokRead_Decode, --benchmark_format=json, ...).
 # About 3.5 minutes on 2 cores, half of it writing the .sr sessions (deflate).
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."

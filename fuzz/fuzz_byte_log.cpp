@@ -1,4 +1,4 @@
-// Fuzzes ByteLogReader (byte-log text, README "Byte log format") feeding the whole Pipeline.
+// Fuzzes ByteLogReader (byte-log text, docs/formats.md "The byte log") feeding the whole Pipeline.
 #include <cstdint>
 #include <cstdio>
 #include <vector>

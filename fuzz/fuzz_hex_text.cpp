@@ -1,8 +1,8 @@
-// Fuzzes the text `drivetap decode` reads (src/sources/file/hex_text.hpp, README "Quick start"): each
-// line of the input is hex bytes ("01 03 00 00 | 01 83 02") or one ':' / '~' text frame with
-// escapes, parsed by the functions decode uses (decode_text_kind, parse_decode_text); a refused
-// line must say why; the frames are laid out on a synthetic time line (times must not go back) and
-// decoded by a pipeline with detection.
+// Fuzzes the text `drivetap decode` reads (src/sources/file/hex_text.hpp, docs/formats.md "Hex
+// text"): each line of the input is hex bytes ("01 03 00 00 | 01 83 02") or one ':' / '~' text
+// frame with escapes, parsed by the functions decode uses (decode_text_kind, parse_decode_text); a
+// refused line must say why; the frames are laid out on a synthetic time line (times must not go
+// back) and decoded by a pipeline with detection.
 #include <cstdint>
 #include <optional>
 #include <string>

@@ -1,5 +1,5 @@
-// Fuzzes drive profiles (TOML, src/drive/profile.hpp, README "Drive profiles"): the input up
-// to its first NUL is a profile file; a profile that loads is then the only `--drive auto`
+// Fuzzes drive profiles (TOML, src/drive/profile.hpp, docs/reference.md "Drive profiles"): the
+// input up to its first NUL is a profile file; a profile that loads is then the only `--drive auto`
 // candidate of a pipeline fed the rest of the input as bus bytes (0xFE b = b ms of silence), with
 // its protocol fixed, so that its registers, enums, scales and timing rules meet hostile frames.
 // A profile that does not load must say why in "FILE:LINE: ..." form.

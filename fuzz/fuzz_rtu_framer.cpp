@@ -13,7 +13,8 @@
 //       bits 6-7 (no byte log seed sets them): 1 (bit 6) the record is the CRC-16 of the bytes
 //       since the last telegram start, two bytes one character apart in wire order (a telegram
 //       with a good CRC, which random bytes almost never make), 3 the same byte-swapped
-//       (PROTOCOLS.md §6), 2 the byte starts a telegram; each CRC record also ends the telegram
+//       (docs/protocols.md §6), 2 the byte starts a telegram; each CRC record also ends the
+//       telegram
 //     delta 0xC000 (0 us backwards) is a burst instead: the byte 4100 times with one timestamp
 //     (a USB read; the pipeline lays the copies back to back), enough to reach the framer's
 //     4096-byte segmentation without silence from a small input. At most 8192 events per input.
@@ -24,8 +25,8 @@
 #include <vector>
 
 #include "core/checksum.hpp"
-#include "fuzz/fuzz_common.hpp"
 #include "drive/annotate.hpp"
+#include "fuzz/fuzz_common.hpp"
 
 namespace {
 
@@ -122,8 +123,8 @@ struct DigestSink final : Sink {
 // with drive profiles (bindings, observations, timing rules and the timeline from the head). The
 // counts must be those of decoding, the events the same events, and the records handed over
 // undecoded the same records.
-void check_summary_lane(const PipelineOptions& options, const ChannelTable& channels,
-                        std::span<const ByteEvent> events) {
+void check_head_dissection(const PipelineOptions& options, const ChannelTable& channels,
+                           std::span<const ByteEvent> events) {
   RunBatch runs;
   runs.add_events(events);
   for (const bool drives : {false, true}) {
@@ -214,6 +215,6 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     emit(e, copies);
   }
   run.finish();
-  check_summary_lane(options, channels, events);
+  check_head_dissection(options, channels, events);
   return 0;
 }

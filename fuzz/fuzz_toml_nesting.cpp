@@ -1,4 +1,4 @@
-// Fuzzes the nesting of drive profiles (TOML; issue 36): the input is a program that builds a
+// Fuzzes the nesting of drive profiles (TOML): the input is a program that builds a
 // profile text, so that deep and long structures, which random bytes rarely make, are the common
 // case. Each byte is one step:
 //   0-31   open an array            32-63   open an inline table (a key first)
@@ -13,8 +13,8 @@
 #include <string_view>
 #include <vector>
 
-#include "fuzz/fuzz_common.hpp"
 #include "drive/profile.hpp"
+#include "fuzz/fuzz_common.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   using namespace drivetap;

@@ -1,4 +1,4 @@
-// Structure-aware mutations for the logic-capture fuzz targets (issue 36): random byte flips
+// Structure-aware mutations for the logic-capture fuzz targets: random byte flips
 // rarely make a well-formed header with an extreme value in it, which is where the crashes were
 // (a 1 s timescale, a 1 Hz sample rate, duplicate keys, thousands of variables on one identifier,
 // names of 64 KiB). Half the mutations rewrite the header with such values, half are libFuzzer's.

@@ -166,7 +166,7 @@ make_seeds() {
       unzip -p "$sr" "$chunk" | head -c 4096
     } > "$seeds/sigrok/$name.recipe" 2> /dev/null || true
   done
-  # Extreme headers (issue 36): timescales of 1 s, sample rates of 1 and 3 Hz, a duplicate
+  # Extreme headers: timescales of 1 s, sample rates of 1 and 3 Hz, a duplicate
   # samplerate, thousands of variables on one identifier, a byte order mark; the sigrok ones also
   # as recipes.
   python3 tests/hostile/make_inputs.py "$seeds/vcd" vcd-timescale-1s-sigfpe vcd-utf8-bom

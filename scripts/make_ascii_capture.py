@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Writes captures/seed-e5-8200-ascii/input.log: the Modbus ASCII worked examples of the E5-8200
-manual (004, "Режим ASCII" tables) and PROTOCOLS.md §3, as a byte log of their characters
+manual (004, "Режим ASCII" tables) and docs/protocols.md §3, as a byte log of their characters
 (CR LF appended). Where the manual prints '??' for the LRC, ours is appended (marked below);
 all other characters are exactly as printed, errors included. 9600 7E1 (the E5 allows 7 bits)."""
 import os

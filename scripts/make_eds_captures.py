@@ -3,7 +3,7 @@
 'r' there stands for CR), in the order printed, 9600 8N1 (EDS1000 default):
   captures/seed-easydrive/input.log        every printed frame, silence between them
   captures/eds-noise-back-to-back/input.log  the same frames back to back with noise bytes
-Frames are exactly as printed, errata of PROTOCOLS.md §6 included."""
+Frames are exactly as printed, errata of docs/protocols.md §6 included."""
 import os
 import re
 

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Writes the Danfoss FC protocol captures (PROTOCOLS.md §4, verified telegrams; 002 §7.2-7.5):
+"""Writes the Danfoss FC protocol captures (docs/protocols.md §4, verified telegrams; 002 §7.2-7.5):
   captures/seed-danfoss-fc/input.log          the verified telegrams as a request/reply exchange
   captures/fc-noise-back-to-back/input.log    noise and back-to-back telegrams in USB-sized reads
 FC protocol line: 9600 8E1 (8 data bits, even parity, 1 stop: 11 bits a character)."""

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
-"""Writes the negative corpus of issue 37 §4: lines that carry no drive protocol, on which drivetap
-must find no good drive telegram and bind no drive (PROTOCOLS.md §2-§5 say what a telegram is):
+"""Writes the negative corpus: lines that carry no drive protocol, on which drivetap
+must find no good drive telegram and bind no drive (docs/protocols.md §2-§5 say what a telegram is):
   captures/negative-random/input.log      random bytes in bursts, 9600 8N1
   captures/negative-ascii-text/input.log  printable ASCII text lines (a console), 9600 8N1
   captures/negative-constant/input.log    constant 0x00, 0xFF and 0x55 on three lines, 9600 8N1
@@ -48,7 +48,7 @@ write_log("negative-random",
           "9600 8N1", bursts("bus", chunks, C96, gaps))
 
 # ASCII text: a console printing lines, each line one burst. The first is the 56 characters of
-# issue 37 §4's "Hello world" line.
+# the "Hello world" line of the negative corpus.
 text = ["Hello world! This is a UART test line, 56 characters!!\r\n",
         "The quick brown fox jumps over the lazy dog. 0123456789\r\n",
         "~ tilde, :colon, STX-free; ASCII only (no drive here)\r\n"]
@@ -76,7 +76,7 @@ write_log("negative-constant",
 # DMX512 (ANSI E1.11): break (read as 0x00 with a framing error and a break), start code 0x00,
 # then the slots, 250000 8N2, back to back. Universes of 512 slots (a fade) and short ones whose
 # slots are FF FF 00 00 00: CRC-16 of FF FF 00 is 0, so "FF FF 00 00 00" reads as an RTU
-# exception frame from address 255 with a good CRC (issue 37 §4).
+# exception frame from address 255 with a good CRC.
 assert crc16([0xFF, 0xFF, 0x00]) == [0, 0]
 CDMX = char_ns(250000, 11)
 lines, t = [], 0

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Writes captures/seed-*/input.log: the Modbus RTU worked examples of the drive manuals
-(../shared/specs/seeds, transcribed and checked in PROTOCOLS.md §2/§6) laid out as a byte log.
+(../shared/specs/seeds, transcribed and checked in docs/protocols.md §2/§6) laid out as a byte log.
 
 Each example is a request followed by its reply 5 ms (at least 6 characters) after the request's
 last character; the next request comes 100 ms after the reply. The manuals print an error reply as an alternative answer to

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""An RS-485 pair without fail-safe bias, as a logic probe on it records it (issue 37 §1).
+"""An RS-485 pair without fail-safe bias, as a logic probe on it records it.
 
 A Modbus RTU master polls slave 1 (function 3, 2 registers) at 9600 8N1 and the slave answers:
 44 transactions, 88 frames, every CRC good. Each transmitter drives the pair only while it

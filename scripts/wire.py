@@ -1,5 +1,5 @@
 """Frame building blocks shared by the capture generators (scripts/make_*.py, bench/): the check
-sums of PROTOCOLS.md §2-§5 and the byte-log line format (README "Byte log")."""
+sums of docs/protocols.md §2-§5 and the byte-log line format (docs/formats.md "The byte log")."""
 
 
 def crc16(b):

@@ -77,7 +77,7 @@ err=$("$drivetap" read --channels 0,nope "$sr" 2>&1 >/dev/null); rc=$?
 [ "$rc" = 1 ] && [ "$err" = "drivetap: --channels: $sr: no channel 'nope' (channels: 0, 1, 2, RX, TX, 5, 6, 7)" ] ||
   fail "--channels nope: exit $rc, stderr: $err"
 
-# 8. Line detection and diagnosis (issue 6): brainchild (inverted 19200 8E1) with no option at all;
+# 8. Line detection and diagnosis: brainchild (inverted 19200 8E1) with no option at all;
 #    the flowmeter's line is healthy; bad option combinations are one-line errors.
 bc="$root/captures/sigrok-brainchild-io-16do/brainchild-io-16do.sr"
 out=$("$drivetap" read "$bc" 2>&1)

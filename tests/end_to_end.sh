@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# bench/end_to_end.sh kept working (issue 8): a small run of it writes the whole report.
+# bench/end_to_end.sh kept working: a small run of it writes the whole report.
 #   tests/end_to_end.sh DRIVETAP_BIN
 # 1. On 3000 frames and 3000 noise bytes, into a report of its own (RESULTS=, not
 #    bench/RESULTS.md): exit 0, every row of every table with its figures, drivetap's ratios to

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Fault tests (issue 9): outputs that cannot be created or fill the disk, inputs that are cut
+# Fault tests: outputs that cannot be created or fill the disk, inputs that are cut
 # short, directories, devices, missing profiles. Each must give one error line naming the file
 # or option, a non-zero exit, and leave what was already written valid.
 #   bash tests/faults.sh BUILD/drivetap

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# `drivetap generate` (issue 8): reproducible, decoded exactly as injected, bad options refused.
+# `drivetap generate`: reproducible, decoded exactly as injected, bad options refused.
 #   tests/generate.sh DRIVETAP_BIN
 # 1. The same seed gives byte-identical byte logs, pcapngs and truth files; another seed differs.
 # 2. drivetap read of the byte log and of the pcapng reports what --truth says was injected:
@@ -119,8 +119,8 @@ gen --mix modbus-rtu -o "$work/r.log" --truth "$work/r.json" || fail "generate -
 [ "$(grep -c '^{"channel"' "$work/r.json")" = 1 ] || fail "--mix modbus-rtu: more than one link"
 grep -v '^#' "$work/r.log" | grep -qv ' rtu ' && fail "--mix modbus-rtu: a line on another channel"
 
-# Time order across channels (issue 37 §6: 65 frames out of order in text and JSON, 66 negative
-# time deltas in the pcapng, from 3000 frames on four links, three of them detecting at first).
+# Time order across channels: no frame out of order in text and JSON, no negative time delta in
+# the pcapng, from 3000 frames on four links, three of them detecting at first.
 "$drivetap" generate --frames 3000 -o "$work/o.log" -w "$work/o.pcapng" 2>/dev/null || fail "generate exit $?"
 # out_of_order: how many of the times on stdin (one a line) are earlier than the one before.
 out_of_order() { awk 'NR > 1 && $1 < last { n++ } { last = $1 } END { print n + 0 }'; }

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Hostile input and situations (issue 36): each case is named after the bug it once was, and
+# Hostile input and situations: each case is named after the bug it once was, and
 # fails on the code that had it. Inputs too large to keep in captures/ are made by
 # tests/hostile/make_inputs.py; the small ones that `read` can golden-test are in
 # captures/regressions/. Run in the release and in the sanitizer build (ctest cli.hostile).

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Negative corpus (issue 37 §4): lines that carry no drive protocol — captures/negative-*/ (made by
+# Negative corpus: lines that carry no drive protocol — captures/negative-*/ (made by
 # scripts/make_negative_captures.py) and the public foreign-line recordings in captures/foreign-*/
 # (sigrok-dumps, public domain) — must give no good drive telegram and bind no drive, whatever
 # line settings decode them. Checked from the JSON output: the summary's good_telegrams and

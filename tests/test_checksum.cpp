@@ -1,4 +1,4 @@
-// CRC-16/MODBUS (PROTOCOLS.md §2.3): the sliced crc16_modbus() against the byte-at-a-time
+// CRC-16/MODBUS (docs/protocols.md §2.3): the sliced crc16_modbus() against the byte-at-a-time
 // definition, at every length a frame can have and every alignment.
 #include <gtest/gtest.h>
 
@@ -47,6 +47,5 @@ TEST(Crc16, SlicedEqualsBytewiseAtEveryLengthAndAlignment) {
           << "offset " << offset << " length " << len;
     }
   const auto whole = std::span(data);
-  EXPECT_EQ(crc16_modbus(whole.subspan(37), crc16_modbus(whole.first(37))),
-            crc16_bytewise(whole));
+  EXPECT_EQ(crc16_modbus(whole.subspan(37), crc16_modbus(whole.first(37))), crc16_bytewise(whole));
 }

@@ -1,4 +1,5 @@
-// Unit tests: Danfoss FC protocol — BCC, addresses, PKE/AK/PNU, CTW/STW, framing (PROTOCOLS.md §4).
+// Unit tests: Danfoss FC protocol — BCC, addresses, PKE/AK/PNU, CTW/STW, framing (docs/protocols.md
+// §4).
 #include <gtest/gtest.h>
 
 #include "dissectors/danfoss_fc/fc_dissector.hpp"

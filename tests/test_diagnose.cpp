@@ -318,7 +318,7 @@ TEST(Diagnosis, CleanLineHasNoVerdict) {
 }
 
 // An unbiased pair rests low between transmissions although every character on it is upright:
-// upright, with the unbiased-bus verdict; never "A and B swapped" (issue 37 §1).
+// upright, with the unbiased-bus verdict; never "A and B swapped".
 TEST(Diagnosis, UnbiasedPairIsUprightAndFloatsNotSwapped) {
   const Diagnosis d = diagnose_line(unbiased_polling_line(k19200_8E1));
   ASSERT_EQ(d.evidence.channels.size(), 1u);
@@ -434,7 +434,7 @@ TEST(Diagnosis, ByteLevelEvidence) {
   EXPECT_EQ(diagnose(floating).front().id, "unbiased-bus");
 }
 
-// ---- every finding leads to a verdict or a benign note (issue 37 §5) ----
+// ---- every finding leads to a verdict or a benign note ----
 
 namespace {
 

@@ -1,6 +1,7 @@
 // Unit tests: the drive level — parameter numbering rules, profile schema errors, drive readings
 // of Modbus RTU/ASCII, Danfoss FC and Easydrive frames with the built-in profiles, the
-// drive-state timeline and drive binding by guess. Values are the manuals' (PROTOCOLS.md §2-§5).
+// drive-state timeline and drive binding by guess. Values are the manuals' (docs/protocols.md
+// §2-§5).
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
@@ -143,7 +144,7 @@ TEST(ReadsRequest, RepliesDecodeAlikeWithoutTheRequestWhereTheDecoderDoesNotRead
 }
 
 // ---------------------------------------------------------------------------------------------
-// Parameter numbering rules (profile.hpp ParameterRule; PROTOCOLS.md §2, §4, §5).
+// Parameter numbering rules (profile.hpp ParameterRule; docs/protocols.md §2, §4, §5).
 
 TEST(ParameterRules, ParsesTheManualsNumbersUnderEachRule) {
   // E5-8200 GGPP (004): 08-03 -> 0x0803, 10-11 -> 0x0A0B.
@@ -700,7 +701,7 @@ TEST(DriveReading, DanfossFcProcessData) {
 
 TEST(DriveReading, DanfossFcParameterBlock) {
   const DriveProfile vlt = builtin_profile("vlt-aqua.toml");
-  // The helper's BCC matches PROTOCOLS.md §4's verified AK 7 telegram.
+  // The helper's BCC matches docs/protocols.md §4's verified AK 7 telegram.
   const std::vector<std::uint8_t> ak7 = {0x02, 0x0E, 0x01, 0x71, 0x9E, 0,    0,    0,
                                          0,    0,    0x02, 0x06, 0x07, 0x00, 0x00, 0xE1};
   ASSERT_EQ(with_bcc({ak7.begin(), ak7.end() - 1}), ak7);
@@ -736,7 +737,7 @@ TEST(DriveReading, DanfossFcParameterBlock) {
             0u)
       << v.text;
 
-  // PROTOCOLS.md §4: write 4-14 = 1000 to RAM+EEPROM, address 1 in the 1..126 format.
+  // docs/protocols.md §4: write 4-14 = 1000 to RAM+EEPROM, address 1 in the 1..126 format.
   const Message write =
       decode(protocols::danfoss_fc,
              {0x02, 0x0E, 0x81, 0xE1, 0x9E, 0, 0, 0, 0, 0x03, 0xE8, 0x04, 0x7C, 0x20, 0x00, 0x41},
@@ -846,7 +847,7 @@ TEST(DriveReading, ErgCoilsAndState) {
 
 TEST(DriveReading, E5AsciiReply) {
   const DriveProfile e5 = builtin_profile("e5-8200.toml");
-  // PROTOCOLS.md §3: ":010325230001B3\r\n" reads 0x2523.
+  // docs/protocols.md §3: ":010325230001B3\r\n" reads 0x2523.
   const std::vector<std::uint8_t> req_bytes = ascii_frame({0x01, 0x03, 0x25, 0x23, 0x00, 0x01});
   ASSERT_EQ(std::string(req_bytes.begin(), req_bytes.end()), ":010325230001B3\r\n");
   const Message req = decode(protocols::modbus_ascii, req_bytes, Direction::request);
@@ -871,8 +872,8 @@ TEST(DriveReading, E5AsciiReply) {
 }
 
 TEST(DriveReading, E5ParametersFollowTheGgppRule) {
-  // PROTOCOLS.md §2 and README "Annotation": E5-8200 parameters map to register GGPP
-  // (08-03 -> 0x0803), the rule profile.hpp names for the E5-8200.
+  // docs/protocols.md §2 and docs/reference.md "Drive profiles": E5-8200 parameters map to register
+  // GGPP (08-03 -> 0x0803), the rule profile.hpp names for the E5-8200.
   const DriveProfile e5 = builtin_profile("e5-8200.toml");
   EXPECT_EQ(e5.parameter_rule, parameter_numbering_named("ggpp"));
   EXPECT_EQ(

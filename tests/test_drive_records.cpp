@@ -1,5 +1,5 @@
 // Unit tests: each protocol's drive records (ProtocolDecoder::read_drive_records(), bytes ->
-// core/drive_records.hpp) — Modbus RTU/ASCII (PROTOCOLS.md §2, §3), Danfoss FC (§4) and
+// core/drive_records.hpp) — Modbus RTU/ASCII (docs/protocols.md §2, §3), Danfoss FC (§4) and
 // Easydrive (§5) telegrams as the drive level reads them.
 #include <fmt/format.h>
 #include <gtest/gtest.h>

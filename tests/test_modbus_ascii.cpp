@@ -1,4 +1,5 @@
-// Unit tests: Modbus ASCII — LRC, hex-text decoding, framing by ':' ... CR LF (PROTOCOLS.md §3).
+// Unit tests: Modbus ASCII — LRC, hex-text decoding, framing by ':' ... CR LF (docs/protocols.md
+// §3).
 #include <gtest/gtest.h>
 
 #include "core/checksum.hpp"

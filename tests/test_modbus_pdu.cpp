@@ -1,4 +1,4 @@
-// Unit tests: Modbus PDU length rules and dissection (PROTOCOLS.md §2; Modbus Application
+// Unit tests: Modbus PDU length rules and dissection (docs/protocols.md §2; Modbus Application
 // Protocol V1.1b3 §6-7). Frames come from /work/notes/rtu_examples.md where one fits.
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-// Unit tests: request/response pairing on a half-duplex link (PROTOCOLS.md §1, §2, §7).
+// Unit tests: request/response pairing on a half-duplex link (docs/protocols.md §1, §2, §7).
 #include <gtest/gtest.h>
 
 #include <cstdint>

@@ -439,8 +439,8 @@ TEST(Pipeline, HeadDissectionCountsWhatDecodingFinds) {
         ASSERT_FALSE(decoded.records.empty());
         ASSERT_FALSE(counted.records.empty());
         EXPECT_EQ(decoded.records.back(), counted.records.back());  // the summary
-        // The events (protocol detection), in order; the frames counted in the lane never reached
-        // the sink.
+        // The events (protocol detection), in order; the frames counted from their head never
+        // reached the sink.
         std::vector<std::string> decoded_events, counted_events;
         for (const std::string& r : decoded.records)
           if (r.starts_with("event ")) decoded_events.push_back(r);

@@ -1,5 +1,5 @@
-// Unit tests: plausibility rules of each protocol and detection on them (issue 37 §4;
-// PROTOCOLS.md §2-§5, dissectors/common/plausibility.hpp).
+// Unit tests: plausibility rules of each protocol and detection on them
+// (docs/protocols.md §2-§5, dissectors/common/plausibility.hpp).
 #include <gtest/gtest.h>
 
 #include <string>

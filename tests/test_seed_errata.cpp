@@ -1,5 +1,5 @@
-// The manuals' worked examples (PROTOCOLS.md §2, §6): every checksum verdict, with the stated and
-// computed CRCs of each erratum, checked independently of the golden files.
+// The manuals' worked examples (docs/protocols.md §2, §6): every checksum verdict, with the stated
+// and computed CRCs of each erratum, checked independently of the golden files.
 #include <gtest/gtest.h>
 
 #include <map>
@@ -126,7 +126,7 @@ TEST(SeedErrata, EasydriveExamples) {
                            sink, channels, &error, protocols::easydrive))
       << error;
   ASSERT_EQ(sink.frames.size(), 40u);
-  // 0-based frame indices of PROTOCOLS.md §6's Easydrive errata, with the stated SUM.
+  // 0-based frame indices of docs/protocols.md §6's Easydrive errata, with the stated SUM.
   const std::map<std::size_t, std::uint32_t> off_by_one = {{11, 0x01A3}, {12, 0x01A6}, {13, 0x01A7},
                                                            {14, 0x01A8}, {15, 0x01A9}, {16, 0x01AA},
                                                            {30, 0x01A8}};

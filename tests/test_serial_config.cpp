@@ -1,4 +1,4 @@
-// Unit tests: SerialConfig parsing and Modbus timing (PROTOCOLS.md §1).
+// Unit tests: SerialConfig parsing and Modbus timing (docs/protocols.md §1).
 #include <gtest/gtest.h>
 
 #include "core/serial_config.hpp"

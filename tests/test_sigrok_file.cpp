@@ -154,7 +154,7 @@ Decoded decode_sr(const std::string& rel, const std::string& serial, std::string
 
 }  // namespace
 
-// Open (issue 6): read as 8N2, the first byte of errors_ampel64_4800_8n2_ok.sr gets a framing
+// Open: read as 8N2, the first byte of errors_ampel64_4800_8n2_ok.sr gets a framing
 // error on its second stop bit, which sigrok (like a 16550, first stop bit only) does not check.
 // The "8N2" recording's first character is followed by the next after 1.15 stop bits; like a
 // 16550 and like sigrok, only the first stop bit decides a framing error.
@@ -204,7 +204,7 @@ TEST(UartPhyCaptures, AnalogTrace10700Baud8N2AsSigrokReadsIt) {
   EXPECT_EQ(d.parity, 0u);
 }
 
-// Detection on the recordings, no settings given (issue 6: "the 7O1 one is detected as 7O1").
+// Detection on the recordings, no settings given (the 7O1 one is detected as 7O1).
 namespace {
 
 std::string detected(const std::string& rel) {

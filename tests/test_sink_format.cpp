@@ -100,7 +100,7 @@ TEST(SinkFormat, JsonEscapingOfLongStringsFindsEveryPlace) {
   }
 }
 
-// Names from hostile files reach JSON (issue 36): well-formed UTF-8 passes, a malformed byte
+// Names from hostile files reach JSON: well-formed UTF-8 passes, a malformed byte
 // becomes U+FFFD and a C1 control is escaped, at every place of a long string (the scans).
 TEST(SinkFormat, JsonOfMalformedUtf8IsValidUtf8) {
   EXPECT_EQ(json_quote("a\xFF"

@@ -139,7 +139,8 @@ TEST(TsharkUser0, DecodesWithTheDocumentedUserDltEntry) {
   if (!have_tshark()) GTEST_SKIP() << "tshark not installed";
   const std::string path = ::testing::TempDir() + "user0.pcapng";
   const auto frames = write_capture("seed-erman-erg", path, CaptureLinkType::user0);
-  // The README's user DLT line: User 0 (DLT=147) -> payload protocol mbrtu.
+  // The user DLT line of docs/formats.md ("In Wireshark"): User 0 (DLT=147) -> payload protocol
+  // mbrtu.
   const auto rows =
       run_tshark("-o 'uat:user_dlts:\"User 0 (DLT=147)\",\"mbrtu\",\"0\",\"\",\"0\",\"\"' -r " +
                  path + " -T fields -e _ws.col.Protocol -e mbrtu.unit_id");

@@ -1,5 +1,5 @@
 // Unit tests: the UART decoder over logic levels and the line simulator that feeds it
-// (PROTOCOLS.md §1 line settings, swapped A/B wires).
+// (docs/protocols.md §1 line settings, swapped A/B wires).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -212,7 +212,7 @@ TEST(UartDecoder, InvertedLineWithoutInversionGivesFramingErrorsAndBreaks) {
   const auto got = decode(sim.runs(), k9600_8N1);
   ASSERT_FALSE(got.empty());
   const std::size_t bad = count_flag(got, kUartFramingError | kUartBreak);
-  // What PROTOCOLS.md §1 describes for swapped wires: mostly framing errors and breaks.
+  // What docs/protocols.md §1 describes for swapped wires: mostly framing errors and breaks.
   EXPECT_GT(bad, got.size() / 2);
   EXPECT_GT(count_flag(got, kUartFramingError), 0u);
   EXPECT_GT(wrong_characters(sim.characters(), got), 150u);

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Line verdicts against the truth and against independent decodes (issue 37 §1-3).
+"""Line verdicts against the truth and against independent decodes.
 
     tests/verdicts.py DRIVETAP [--captures DIR]
 

@@ -1,4 +1,4 @@
-// drivetap-simbus: simulated RS-485 Modbus RTU bus on a pty (issue 7; PROTOCOLS.md §1, §2).
+// drivetap-simbus: simulated RS-485 Modbus RTU bus on a pty (docs/protocols.md §1, §2).
 //
 // A master polls drives 1..3 and an absent station; each byte leaves at its time on the wire for
 // the given line settings, or in bursts like a USB adapter's latency timer. A capture program

@@ -1,4 +1,4 @@
-// Simulated Modbus RTU bus on a pty: traffic, pty pair, timed writer (PROTOCOLS.md §1, §2).
+// Simulated Modbus RTU bus on a pty: traffic, pty pair, timed writer (docs/protocols.md §1, §2).
 #include "tools/simbus_core.hpp"
 
 #include <fcntl.h>
@@ -39,7 +39,7 @@ void push16(std::vector<std::uint8_t>& b, std::uint16_t v) {
   b.push_back(static_cast<std::uint8_t>(v & 0xFF));
 }
 
-// Appends the CRC, low byte first (PROTOCOLS.md §2).
+// Appends the CRC, low byte first (docs/protocols.md §2).
 void add_crc(std::vector<std::uint8_t>& b) {
   const std::uint16_t crc = crc16_modbus(b);
   b.push_back(static_cast<std::uint8_t>(crc & 0xFF));

@@ -1,4 +1,4 @@
-// Simulated RS-485 Modbus RTU bus on a pseudo-terminal (issue 7; PROTOCOLS.md §1 timing, §2 RTU).
+// Simulated RS-485 Modbus RTU bus on a pseudo-terminal (docs/protocols.md §1 timing, §2 RTU).
 //
 // Three parts, each usable alone so that tests can check them without running the program:
 //   Traffic   a seeded, reproducible master polling drives: requests, replies, exceptions,
@@ -199,7 +199,7 @@ RunStats run(int fd, Traffic& traffic, const RunOptions& options, const std::ato
 // a real-time one is not. False with *error set when refused.
 bool set_realtime(int priority, std::string* error);
 
-// ---- truth file (a drivetap byte log: README "Byte log format") ----
+// ---- truth file (a drivetap byte log: docs/formats.md "The byte log") ----
 
 // "#! serial" header and comments naming the traffic and the run's t0.
 void write_truth_header(std::FILE* f, const TrafficOptions& options, const RunOptions& run);

@@ -1,6 +1,6 @@
 // DecoderOf: a protocol's ProtocolDecoder (core/protocol.hpp) made from a table of its functions,
 // so that each protocol states what it does (framer, direction fit, pairing keys, dissector) and
-// not the same class around it (PROTOCOLS.md §1).
+// not the same class around it (docs/protocols.md §1).
 #pragma once
 
 #include <cstdint>

@@ -1,5 +1,5 @@
 // Framer for ASCII protocols delimited by a start and an end character: Modbus ASCII
-// (':' ... CR LF, PROTOCOLS.md §3) and the Easydrive protocol ('~' ... CR, §5).
+// (':' ... CR LF, docs/protocols.md §3) and the Easydrive protocol ('~' ... CR, §5).
 //
 //   noise ... | start | body ... | end |  noise ... | start | body ...
 //

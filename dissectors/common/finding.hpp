@@ -1,6 +1,6 @@
 // Findings a protocol declares as data beside its fields, as Wireshark's expert infos (ei[]), and
-// raising one on a Message (PROTOCOLS.md §1, §6): the finding's generic kind (the JSON `kind`),
-// the frame's time and channel, and the detail from the finding's template.
+// raising one on a Message (docs/protocols.md §1, §6): the finding's generic kind (the JSON
+// `kind`), the frame's time and channel, and the detail from the finding's template.
 #pragma once
 
 #include <fmt/format.h>

@@ -1,4 +1,4 @@
-// Hybrid framer: silence proposes boundaries, content confirms them (PROTOCOLS.md §1).
+// Hybrid framer: silence proposes boundaries, content confirms them (docs/protocols.md §1).
 // Used for the binary protocols with a length rule and a checksum: Modbus RTU (rules in
 // dissectors/modbus/rtu_framer.hpp) and the Danfoss FC protocol (dissectors/danfoss_fc/).
 //

@@ -1,5 +1,5 @@
 // Hybrid framer's member definitions: silence proposes boundaries, length rules and checksums
-// confirm them (PROTOCOLS.md §1; algorithm in hybrid_framer.hpp). Included only by the sources
+// confirm them (docs/protocols.md §1; algorithm in hybrid_framer.hpp). Included only by the sources
 // that instantiate HybridFramer<Rules> (rtu_framer.cpp, fc_dissector.cpp).
 #pragma once
 

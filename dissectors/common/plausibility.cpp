@@ -1,5 +1,5 @@
 // Raising the `implausible` finding, and the drive profiles' vendor exception codes
-// (plausibility.hpp; PROTOCOLS.md §2-§5).
+// (plausibility.hpp; docs/protocols.md §2-§5).
 #include "dissectors/common/plausibility.hpp"
 
 #include "dissectors/common/finding.hpp"

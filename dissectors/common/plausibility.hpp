@@ -1,5 +1,5 @@
 // Plausibility rules: what any real telegram of a protocol keeps, from its specification
-// (PROTOCOLS.md §2-§5; Modbus over Serial Line V1.02 §2.3, §2.5.1; Modbus Application Protocol
+// (docs/protocols.md §2-§5; Modbus over Serial Line V1.02 §2.3, §2.5.1; Modbus Application Protocol
 // V1.1b3 §6-7). A telegram that breaks one is no telegram of that protocol, however good its
 // checksum: it gets an `implausible` finding and never counts as a good telegram (detection,
 // drive binding, the drive-state timeline, the summary's good telegrams).

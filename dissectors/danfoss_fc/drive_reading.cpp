@@ -1,4 +1,4 @@
-// Danfoss FC protocol telegrams as drive records (core/drive_records.hpp; PROTOCOLS.md §4):
+// Danfoss FC protocol telegrams as drive records (core/drive_records.hpp; docs/protocols.md §4):
 //   STX LGE ADR [PKE IND PWEhigh PWElow] PCD1 PCD2 BCC        (LGE 6: PCD only; 14: with PKE)
 //   PKE = AK(4 bits) PNU(12 bits); PCD1/PCD2 = CTW/REF to the drive, STW/MAV from it.
 // The parameter block is a parameter access (AK: what it does), PCD1/PCD2 the process words.
@@ -11,7 +11,7 @@ std::uint16_t be16(std::span<const std::uint8_t> b, std::size_t at) {
   return static_cast<std::uint16_t>((b[at] << 8) | b[at + 1]);
 }
 
-// What each AK means (PROTOCOLS.md §4), to the drive (requests) and from it (replies); an AK
+// What each AK means (docs/protocols.md §4), to the drive (requests) and from it (replies); an AK
 // not listed is an access of no known meaning (AccessOp::other).
 struct AkMeaning {
   bool to_drive;
@@ -47,8 +47,8 @@ void add_parameter_access(std::span<const std::uint8_t> b, bool to_drive, DriveR
 
 }  // namespace
 
-void read_fc_drive_records(const TelegramHead& telegram,
-                                   std::span<const std::uint8_t> request, DriveRecords& out) {
+void read_fc_drive_records(const TelegramHead& telegram, std::span<const std::uint8_t> request,
+                           DriveRecords& out) {
   (void)request;  // replies stand on their own
   out.clear();
   out.family_protocol = true;

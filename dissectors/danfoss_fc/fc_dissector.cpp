@@ -1,4 +1,4 @@
-// Danfoss FC protocol dissector (PROTOCOLS.md §4; 002 §7.2-7.5 telegram, §7.11 CTW/STW bits).
+// Danfoss FC protocol dissector (docs/protocols.md §4; 002 §7.2-7.5 telegram, §7.11 CTW/STW bits).
 #include "dissectors/danfoss_fc/fc_dissector.hpp"
 
 #include <fmt/compile.h>
@@ -370,7 +370,7 @@ ProtocolDecoder::PairingKeys pairing_keys(std::span<const std::uint8_t> frame) {
 // In DecoderFunctions order.
 constexpr DecoderFunctions kFcFunctions{
     protocols::danfoss_fc, make_framer,  direction_fit, always_response,
-    recognisable,          pairing_keys, dissect_fc, read_fc_drive_records};
+    recognisable,          pairing_keys, dissect_fc,    read_fc_drive_records};
 
 }  // namespace drivetap::danfoss_fc
 

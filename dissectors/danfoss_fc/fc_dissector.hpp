@@ -1,4 +1,4 @@
-// Danfoss FC protocol dissector and decoder (PROTOCOLS.md §4; 002 §7.2-7.5, §7.11).
+// Danfoss FC protocol dissector and decoder (docs/protocols.md §4; 002 §7.2-7.5, §7.11).
 //
 //   +-----+-----+-----+------------------------------------------+-----+
 //   | STX | LGE | ADR | DATA (LGE - 2 bytes)                     | BCC |
@@ -56,7 +56,8 @@ class FcRules final : public HybridFrameRules {
 };
 
 // What its telegrams say to or of a drive (ProtocolDecoder::read_drive_records; drive_reading.cpp).
-void read_fc_drive_records(const TelegramHead& telegram, std::span<const std::uint8_t> request, DriveRecords& out);
+void read_fc_drive_records(const TelegramHead& telegram, std::span<const std::uint8_t> request,
+                           DriveRecords& out);
 
 // The decoder: this protocol's functions (the .cpp) as a ProtocolDecoder.
 extern const DecoderFunctions kFcFunctions;

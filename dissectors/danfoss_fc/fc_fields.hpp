@@ -1,4 +1,4 @@
-// Field descriptors of the Danfoss FC protocol (PROTOCOLS.md §4; 002 §7.2-7.5, §7.11).
+// Field descriptors of the Danfoss FC protocol (docs/protocols.md §4; 002 §7.2-7.5, §7.11).
 #pragma once
 
 #include <array>

@@ -1,5 +1,5 @@
 // The Danfoss FC protocol's findings, declared as data (dissectors/common/finding.hpp;
-// PROTOCOLS.md §4). Ids `danfoss_fc.*` (Wireshark's `fc` is Fibre Channel).
+// docs/protocols.md §4). Ids `danfoss_fc.*` (Wireshark's `fc` is Fibre Channel).
 #pragma once
 
 #include <cstddef>

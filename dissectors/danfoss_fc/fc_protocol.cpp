@@ -1,4 +1,4 @@
-// The Danfoss FC protocol's descriptor (PROTOCOLS.md §4): names, decoder, fields, findings.
+// The Danfoss FC protocol's descriptor (docs/protocols.md §4): names, decoder, fields, findings.
 #include <fmt/format.h>
 
 #include "dissectors/danfoss_fc/fc_protocol.hpp"

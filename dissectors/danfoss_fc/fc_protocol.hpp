@@ -1,4 +1,4 @@
-// The Danfoss FC protocol's descriptor (core/protocol_desc.hpp; PROTOCOLS.md §4).
+// The Danfoss FC protocol's descriptor (core/protocol_desc.hpp; docs/protocols.md §4).
 #pragma once
 
 #include "core/protocol_desc.hpp"

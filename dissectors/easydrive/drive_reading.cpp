@@ -1,4 +1,4 @@
-// Easydrive telegrams as drive records (core/drive_records.hpp; PROTOCOLS.md §5), ASCII hex
+// Easydrive telegrams as drive records (core/drive_records.hpp; docs/protocols.md §5), ASCII hex
 // between '~' and CR:
 //   request  ~ AA CC IIII [DDDD] SSSS CR     (CC command 0A..0F, IIII index)
 //   reply    ~ AA RR FF II [DDDD] SSSS CR    (RR response code, FF current fault, II index low)
@@ -63,9 +63,8 @@ void read_request(long command, long index, long data, DriveRecords& out) {
 
 }  // namespace
 
-void read_eds_drive_records(const TelegramHead& telegram,
-                                    std::span<const std::uint8_t> request,
-                                    DriveRecords& out) {
+void read_eds_drive_records(const TelegramHead& telegram, std::span<const std::uint8_t> request,
+                            DriveRecords& out) {
   out.clear();
   out.family_protocol = true;
   const std::span<const std::uint8_t> f = telegram.bytes;

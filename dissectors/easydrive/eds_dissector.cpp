@@ -1,4 +1,4 @@
-// Easydrive ASCII protocol dissector (PROTOCOLS.md §5; errata §6; 001 ch. 11).
+// Easydrive ASCII protocol dissector (docs/protocols.md §5; errata §6; 001 ch. 11).
 #include "dissectors/easydrive/eds_dissector.hpp"
 
 #include <fmt/compile.h>
@@ -50,7 +50,7 @@ std::string frequency(long v) {
   return fmt::format(FMT_COMPILE("{}.{:02} Hz"), v / 100, v % 100);
 }
 
-// Status word bits (001 table 11-5; PROTOCOLS.md §5).
+// Status word bits (001 table 11-5; docs/protocols.md §5).
 std::string status_word(long w) {
   static constexpr const char* kBits[11] = {"run",
                                             "undervoltage",
@@ -264,8 +264,8 @@ ProtocolDecoder::PairingKeys pairing_keys(std::span<const std::uint8_t> frame) {
 }  // namespace
 
 // In DecoderFunctions order.
-constexpr DecoderFunctions kEdsFunctions{protocols::easydrive, make_framer,  direction_fit,
-                                         always_response,      recognisable, pairing_keys,
-                                         dissect_eds, read_eds_drive_records};
+constexpr DecoderFunctions kEdsFunctions{protocols::easydrive, make_framer,           direction_fit,
+                                         always_response,      recognisable,          pairing_keys,
+                                         dissect_eds,          read_eds_drive_records};
 
 }  // namespace drivetap::easydrive

@@ -1,4 +1,4 @@
-// Easydrive EDS1000/EDS800 ASCII protocol dissector and decoder (PROTOCOLS.md §5; 001 ch. 11).
+// Easydrive EDS1000/EDS800 ASCII protocol dissector and decoder (docs/protocols.md §5; 001 ch. 11).
 //
 //   +-----+---------+--------+--------+--------+-----------+--------+----+
 //   | '~' | ADDR(2) | CMD(2) | AUX(2) | IDX(2) | [DATA(4)] | SUM(4) | CR |     14 or 18 bytes
@@ -37,7 +37,8 @@ Message dissect_eds(Frame frame, Direction direction, const FramingTiming& timin
                     std::span<const std::uint8_t> request = {});
 
 // What its telegrams say to or of a drive (ProtocolDecoder::read_drive_records; drive_reading.cpp).
-void read_eds_drive_records(const TelegramHead& telegram, std::span<const std::uint8_t> request, DriveRecords& out);
+void read_eds_drive_records(const TelegramHead& telegram, std::span<const std::uint8_t> request,
+                            DriveRecords& out);
 
 // The decoder: this protocol's functions (the .cpp) as a ProtocolDecoder.
 extern const DecoderFunctions kEdsFunctions;

@@ -1,4 +1,4 @@
-// Field descriptors of the Easydrive ASCII protocol (PROTOCOLS.md §5).
+// Field descriptors of the Easydrive ASCII protocol (docs/protocols.md §5).
 #pragma once
 
 #include <array>

@@ -1,5 +1,5 @@
 // The Easydrive protocol's findings, declared as data (dissectors/common/finding.hpp;
-// PROTOCOLS.md §5).
+// docs/protocols.md §5).
 #pragma once
 
 #include <cstddef>

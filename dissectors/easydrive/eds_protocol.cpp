@@ -1,4 +1,4 @@
-// The Easydrive protocol's descriptor (PROTOCOLS.md §5): names, decoder, fields, findings.
+// The Easydrive protocol's descriptor (docs/protocols.md §5): names, decoder, fields, findings.
 #include <fmt/format.h>
 
 #include "dissectors/easydrive/eds_protocol.hpp"

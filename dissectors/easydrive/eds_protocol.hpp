@@ -1,4 +1,4 @@
-// The Easydrive protocol's descriptor (core/protocol_desc.hpp; PROTOCOLS.md §5).
+// The Easydrive protocol's descriptor (core/protocol_desc.hpp; docs/protocols.md §5).
 #pragma once
 
 #include "core/protocol_desc.hpp"

@@ -1,4 +1,4 @@
-// Modbus ASCII dissector (PROTOCOLS.md §3): hex text -> binary -> shared Modbus PDU layer.
+// Modbus ASCII dissector (docs/protocols.md §3): hex text -> binary -> shared Modbus PDU layer.
 #include "dissectors/modbus/ascii_dissector.hpp"
 
 #include <fmt/compile.h>
@@ -36,10 +36,14 @@ void spell_ascii_hex(std::span<const std::uint8_t> frame, std::vector<std::uint8
     if (report) report->terminated = true;
     end -= 2;
   } else if (end >= 1 && (frame[end - 1] == '\n' || frame[end - 1] == '\r')) {
-    problem([] { return FoundProblem{&kFindingAsciiLoneTerminator, kFindingAsciiLoneTerminator.detail()}; });
+    problem([] {
+      return FoundProblem{&kFindingAsciiLoneTerminator, kFindingAsciiLoneTerminator.detail()};
+    });
     end -= 1;
   } else {
-    problem([] { return FoundProblem{&kFindingAsciiNoTerminator, kFindingAsciiNoTerminator.detail()}; });
+    problem([] {
+      return FoundProblem{&kFindingAsciiNoTerminator, kFindingAsciiNoTerminator.detail()};
+    });
   }
   if (frame.empty() || frame[0] != ':') {
     problem([] { return FoundProblem{&kFindingAsciiNoStart, kFindingAsciiNoStart.detail()}; });
@@ -59,7 +63,9 @@ void spell_ascii_hex(std::span<const std::uint8_t> frame, std::vector<std::uint8
     const int lo = hex_digit(frame[i + 1], &lower_case);
     if (hi < 0 || lo < 0) {
       const std::size_t at = hi < 0 ? i : i + 1;
-      problem([&] { return FoundProblem{&kFindingAsciiNotHex, kFindingAsciiNotHex.detail(frame[at], at)}; });
+      problem([&] {
+        return FoundProblem{&kFindingAsciiNotHex, kFindingAsciiNotHex.detail(frame[at], at)};
+      });
       break;
     }
     binary.push_back(static_cast<std::uint8_t>((hi << 4) | lo));
@@ -192,8 +198,13 @@ ProtocolDecoder::PairingKeys pairing_keys(std::span<const std::uint8_t> frame) {
 }  // namespace
 
 // In DecoderFunctions order.
-constexpr DecoderFunctions kAsciiFunctions{protocols::modbus_ascii, make_framer,  direction_fit,
-                                           always_response,         recognisable, pairing_keys,
-                                           dissect_ascii, read_ascii_drive_records};
+constexpr DecoderFunctions kAsciiFunctions{protocols::modbus_ascii,
+                                           make_framer,
+                                           direction_fit,
+                                           always_response,
+                                           recognisable,
+                                           pairing_keys,
+                                           dissect_ascii,
+                                           read_ascii_drive_records};
 
 }  // namespace drivetap::modbus

@@ -1,4 +1,4 @@
-// Modbus ASCII dissector and decoder (PROTOCOLS.md §3; 004 "ASCII mode"). The PDU layer is the
+// Modbus ASCII dissector and decoder (docs/protocols.md §3; 004 "ASCII mode"). The PDU layer is the
 // one RTU uses (modbus_pdu.hpp): the two differ only in framing and checksum.
 //
 //   +-----+---------+-------+-------------+---------+----+----+
@@ -48,7 +48,8 @@ void dissect_ascii(Message& m, Frame&& frame, Direction direction, const Framing
 Message dissect_ascii(Frame frame, Direction direction, const FramingTiming& timing);
 
 // What its telegrams say to or of a drive (ProtocolDecoder::read_drive_records; drive_reading.cpp).
-void read_ascii_drive_records(const TelegramHead& telegram, std::span<const std::uint8_t> request, DriveRecords& out);
+void read_ascii_drive_records(const TelegramHead& telegram, std::span<const std::uint8_t> request,
+                              DriveRecords& out);
 
 // The decoder: this protocol's functions (the .cpp) as a ProtocolDecoder.
 extern const DecoderFunctions kAsciiFunctions;

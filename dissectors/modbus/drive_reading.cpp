@@ -1,5 +1,5 @@
-// Modbus RTU and ASCII telegrams as drive records (core/drive_records.hpp; PROTOCOLS.md §2, §3):
-// registers and coils read and written, exception replies. A reply is read with its request,
+// Modbus RTU and ASCII telegrams as drive records (core/drive_records.hpp; docs/protocols.md §2,
+// §3): registers and coils read and written, exception replies. A reply is read with its request,
 // which gives the addresses its values belong to.
 #include <algorithm>
 
@@ -85,15 +85,13 @@ void read_binary(std::span<const std::uint8_t> b, std::size_t check_size, Direct
 
 }  // namespace
 
-void read_rtu_drive_records(const TelegramHead& telegram,
-                                    std::span<const std::uint8_t> request,
-                                    DriveRecords& out) {
+void read_rtu_drive_records(const TelegramHead& telegram, std::span<const std::uint8_t> request,
+                            DriveRecords& out) {
   read_binary(telegram.bytes, 2, telegram.direction, request, out);
 }
 
-void read_ascii_drive_records(const TelegramHead& telegram,
-                                      std::span<const std::uint8_t> request,
-                                      DriveRecords& out) {
+void read_ascii_drive_records(const TelegramHead& telegram, std::span<const std::uint8_t> request,
+                              DriveRecords& out) {
   // The binary the hex spells, in the records' working storage (kept from frame to frame).
   spell_ascii_hex(telegram.bytes, out.scratch, nullptr);
   out.request_scratch.clear();

@@ -1,5 +1,5 @@
 // Field descriptors of the Modbus PDU and RTU framing (Modbus Application Protocol V1.1b3;
-// PROTOCOLS.md §2). Ids are stable: JSON keys, -V lines and tests use them.
+// docs/protocols.md §2). Ids are stable: JSON keys, -V lines and tests use them.
 #pragma once
 
 #include <array>

@@ -1,6 +1,6 @@
-// The Modbus findings, declared as data (dissectors/common/finding.hpp; PROTOCOLS.md §2, §3, §6;
-// Modbus Application Protocol V1.1b3 §6): the PDU layer's (`modbus.*`, shared by RTU and ASCII),
-// RTU framing's (`mbrtu.*`, Wireshark's prefix) and ASCII framing's (`mbascii.*`).
+// The Modbus findings, declared as data (dissectors/common/finding.hpp; docs/protocols.md §2, §3,
+// §6; Modbus Application Protocol V1.1b3 §6): the PDU layer's (`modbus.*`, shared by RTU and
+// ASCII), RTU framing's (`mbrtu.*`, Wireshark's prefix) and ASCII framing's (`mbascii.*`).
 #pragma once
 
 #include <cstddef>

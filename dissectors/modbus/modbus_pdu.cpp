@@ -1,5 +1,5 @@
 // Modbus PDU length rules and dissection (Modbus Application Protocol V1.1b3 §6-7;
-// PROTOCOLS.md §2).
+// docs/protocols.md §2).
 #include "dissectors/modbus/modbus_pdu.hpp"
 
 #include <fmt/compile.h>

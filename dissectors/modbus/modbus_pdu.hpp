@@ -1,5 +1,5 @@
 // The Modbus PDU layer shared by RTU and ASCII framing: function code + data
-// (Modbus Application Protocol V1.1b3 §6-7; PROTOCOLS.md §2).
+// (Modbus Application Protocol V1.1b3 §6-7; docs/protocols.md §2).
 //
 //   PDU = FC(1) DATA(n)          exception: FC|0x80 (1) CODE(1)
 #pragma once

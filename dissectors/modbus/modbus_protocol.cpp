@@ -1,4 +1,4 @@
-// The Modbus RTU and Modbus ASCII descriptors (PROTOCOLS.md §2, §3): names, decoders, fields,
+// The Modbus RTU and Modbus ASCII descriptors (docs/protocols.md §2, §3): names, decoders, fields,
 // findings.
 #include <fmt/format.h>
 

@@ -1,4 +1,4 @@
-// The Modbus protocols' descriptors (core/protocol_desc.hpp; PROTOCOLS.md §2, §3): Modbus RTU
+// The Modbus protocols' descriptors (core/protocol_desc.hpp; docs/protocols.md §2, §3): Modbus RTU
 // and Modbus ASCII, two framings of this folder's one PDU layer and field set.
 #pragma once
 

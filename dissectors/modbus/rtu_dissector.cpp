@@ -1,4 +1,4 @@
-// Modbus RTU dissector (PROTOCOLS.md §2; errata handling per §6: swapped vs bad CRC).
+// Modbus RTU dissector (docs/protocols.md §2; errata handling per §6: swapped vs bad CRC).
 #include "dissectors/modbus/rtu_dissector.hpp"
 
 #include <fmt/compile.h>
@@ -196,8 +196,8 @@ ProtocolDecoder::PairingKeys pairing_keys(std::span<const std::uint8_t> frame) {
 }  // namespace
 
 // In DecoderFunctions order.
-constexpr DecoderFunctions kRtuFunctions{protocols::modbus_rtu, make_framer,  rtu_direction_fit,
-                                         always_response,       recognisable, pairing_keys,
-                                         dissect_rtu, read_rtu_drive_records};
+constexpr DecoderFunctions kRtuFunctions{
+    protocols::modbus_rtu, make_framer,  rtu_direction_fit, always_response,
+    recognisable,          pairing_keys, dissect_rtu,       read_rtu_drive_records};
 
 }  // namespace drivetap::modbus

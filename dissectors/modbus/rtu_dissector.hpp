@@ -1,4 +1,4 @@
-// Modbus RTU dissector: one framed telegram -> Message (PROTOCOLS.md §2, §6).
+// Modbus RTU dissector: one framed telegram -> Message (docs/protocols.md §2, §6).
 //
 //   +------+----+----------------+---------+---------+
 //   | ADDR | FC | DATA (0..252)  | CRC lo  | CRC hi  |
@@ -38,7 +38,8 @@ void dissect_rtu(Message& m, Frame&& frame, Direction direction, const FramingTi
 Message dissect_rtu(Frame frame, Direction direction, const FramingTiming& timing);
 
 // What its telegrams say to or of a drive (ProtocolDecoder::read_drive_records; drive_reading.cpp).
-void read_rtu_drive_records(const TelegramHead& telegram, std::span<const std::uint8_t> request, DriveRecords& out);
+void read_rtu_drive_records(const TelegramHead& telegram, std::span<const std::uint8_t> request,
+                            DriveRecords& out);
 
 // Modbus RTU as a ProtocolDecoder for the pipeline: its functions (the .cpp) and its head reading.
 extern const DecoderFunctions kRtuFunctions;

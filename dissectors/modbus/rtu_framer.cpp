@@ -1,4 +1,4 @@
-// Modbus RTU framing rules (PROTOCOLS.md §2): lengths per function code and direction, CRC.
+// Modbus RTU framing rules (docs/protocols.md §2): lengths per function code and direction, CRC.
 #include "dissectors/modbus/rtu_framer.hpp"
 
 #include "core/checksum.hpp"

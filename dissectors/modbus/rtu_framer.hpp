@@ -1,4 +1,4 @@
-// Modbus RTU framing rules for the hybrid framer (PROTOCOLS.md §2; Modbus over Serial Line
+// Modbus RTU framing rules for the hybrid framer (docs/protocols.md §2; Modbus over Serial Line
 // V1.02 §2.5.1.1):
 //
 //   frame = ADDR(1) FC(1) DATA(n) CRC(2, low byte first)      4..256 bytes

@@ -1,5 +1,5 @@
 // `drivetap capture`: live, listen-only capture from serial ports, and `capture --scan`, which
-// tries each standard line setting in turn (README "Live capture").
+// tries each standard line setting in turn (docs/reference.md "Live capture").
 #include <fmt/format.h>
 #include <CLI/CLI.hpp>
 

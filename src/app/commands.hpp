@@ -1,4 +1,4 @@
-// drivetap command line: the subcommands (README "Command reference"). Each registers its own
+// drivetap command line: the subcommands (README "Commands"). Each registers its own
 // options on the command line and says how it runs; main() parses and runs the one given.
 #pragma once
 

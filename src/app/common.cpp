@@ -1,5 +1,5 @@
 // drivetap command line: the common options, messages and exit codes, the drive profiles and the
-// run's pipeline options (src/app/common.hpp; README "Command reference").
+// run's pipeline options (src/app/common.hpp; README "Commands").
 #include "app/common.hpp"
 
 #include <fmt/format.h>

@@ -1,6 +1,6 @@
-// drivetap command line, what every subcommand shares: the common options (README "Command
-// reference"), messages and exit codes, refusing to overwrite an input, and the run's pipeline
-// options with the drive profiles bound.
+// drivetap command line, what every subcommand shares: the common options (README "Commands"),
+// messages and exit codes, refusing to overwrite an input, and the run's pipeline options with the
+// drive profiles bound.
 #pragma once
 
 #include <string>

@@ -1,5 +1,5 @@
 // `drivetap decode`: frames given as hex bytes or as Modbus ASCII / Easydrive text, on the command
-// line or one per line of standard input (README "Command reference").
+// line or one per line of standard input (README "Commands").
 #include <fmt/format.h>
 #include <CLI/CLI.hpp>
 

@@ -1,5 +1,5 @@
-// `drivetap diagnose FILE`: the line's health (src/diagnose/line_diagnosis.hpp; PROTOCOLS.md §1,
-// §2) and its report, text for a person or one JSON object (README "Command reference").
+// `drivetap diagnose FILE`: the line's health (src/diagnose/line_diagnosis.hpp; docs/protocols.md
+// §1, §2) and its report, text for a person or one JSON object (README "Commands").
 #include <fmt/format.h>
 #include <CLI/CLI.hpp>
 

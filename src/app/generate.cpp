@@ -1,5 +1,5 @@
 // `drivetap generate`: a large, realistic, reproducible capture of the five drive families as a
-// byte log and/or a pcapng (src/generate/traffic.hpp; README "Generated captures").
+// byte log and/or a pcapng (src/generate/traffic.hpp; docs/reference.md "Generated captures").
 #include <fmt/format.h>
 #include <CLI/CLI.hpp>
 
@@ -80,10 +80,10 @@ int run_generate(const GenerateOptions& g) {
   std::optional<ByteLogWriter> log;
   if (log_file) {
     log.emplace(log_file);
-    log->comment(fmt::format(
-        "drivetap generate --frames {} --seed {} --mix {}: a generated capture (README \"drivetap "
-        "generate\")\nstations: {}",
-        go.frames, go.seed, g.mix, gen.drive_bindings()));
+    log->comment(
+        fmt::format("drivetap generate --frames {} --seed {} --mix {}: a generated capture "
+                    "(docs/reference.md \"Generated captures\")\nstations: {}",
+                    go.frames, go.seed, g.mix, gen.drive_bindings()));
     log->header(serial);
   }
   // The pcapng: the pipeline with `drivetap read`'s default options, channels interned as the

@@ -1,5 +1,5 @@
-// drivetap command line: the subcommands registered, the one given parsed and run (README "Command
-// reference"; each subcommand is in its own file, src/app/commands.hpp).
+// drivetap command line: the subcommands registered, the one given parsed and run (README
+// "Commands"; each subcommand is in its own file, src/app/commands.hpp).
 #include <fmt/format.h>
 #include <CLI/CLI.hpp>
 

@@ -1,5 +1,5 @@
-// `drivetap profiles`: the built-in drive profiles listed, profile files checked (TOML; README
-// "Drive profiles").
+// `drivetap profiles`: the built-in drive profiles listed, profile files checked (TOML;
+// docs/reference.md "Drive profiles").
 #include <fmt/format.h>
 #include <CLI/CLI.hpp>
 

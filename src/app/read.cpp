@@ -1,5 +1,5 @@
 // `drivetap read`: a capture file of any supported format decoded, shown and written as -T, -o and
-// -w say (README "Command reference").
+// -w say (README "Commands").
 #include <fmt/format.h>
 #include <CLI/CLI.hpp>
 

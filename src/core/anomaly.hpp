@@ -1,4 +1,4 @@
-// Anomalies: typed, counted findings about the bus — never exceptions (PROTOCOLS.md §1, §6).
+// Anomalies: typed, counted findings about the bus — never exceptions (docs/protocols.md §1, §6).
 #pragma once
 
 #include <array>

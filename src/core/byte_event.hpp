@@ -1,4 +1,4 @@
-// ByteEvent: one received character, the input contract of every framer (PROTOCOLS.md §1).
+// ByteEvent: one received character, the input contract of every framer (docs/protocols.md §1).
 //
 // Sources (byte logs, pcapng, logic-analyser UART decoders, serial ports) all reduce to a time-
 // ordered stream of ByteEvents. `time` is the start bit of the character; a character ends one
@@ -60,7 +60,7 @@ struct Channel {
   std::string link;
   ChannelRole role = ChannelRole::bus;
   // The payload of one direction of a TCP or UDP flow, not a serial line: it joins the decode
-  // only once detection finds a drive protocol on it (issue 37).
+  // only once detection finds a drive protocol on it.
   bool ip_flow = false;
 };
 

@@ -1,5 +1,5 @@
 // ByteEvents: a sequence of ByteEvents stored compactly — the storage of a Frame's events and of
-// a framer's pending bytes (PROTOCOLS.md §1; contract of ByteEvent in byte_event.hpp).
+// a framer's pending bytes (docs/protocols.md §1; contract of ByteEvent in byte_event.hpp).
 //
 // It reads like a std::vector<ByteEvent> (size, [], front, back, iteration, push_back), but an
 // element is made on demand from three parts:

@@ -1,5 +1,5 @@
-// CRC-16/MODBUS, table driven (PROTOCOLS.md §2): slicing-by-16 for whole buffers, by-4 for short
-// tails, one table step per byte for the incremental update and the last bytes.
+// CRC-16/MODBUS, table driven (docs/protocols.md §2): slicing-by-16 for whole buffers, by-4 for
+// short tails, one table step per byte for the incremental update and the last bytes.
 #include "core/checksum.hpp"
 
 #include <fmt/format.h>

@@ -1,4 +1,4 @@
-// Checksums of the drive protocols: CRC-16/MODBUS (PROTOCOLS.md §2) and the verdict type.
+// Checksums of the drive protocols: CRC-16/MODBUS (docs/protocols.md §2) and the verdict type.
 #pragma once
 
 #include <cstdint>
@@ -69,7 +69,7 @@ inline ChecksumResult check_rtu_crc(std::span<const std::uint8_t> frame, std::ui
   return r;
 }
 
-// Modbus ASCII LRC (PROTOCOLS.md §3): two's complement of the 8-bit sum of the binary bytes.
+// Modbus ASCII LRC (docs/protocols.md §3): two's complement of the 8-bit sum of the binary bytes.
 std::uint8_t lrc8(std::span<const std::uint8_t> data);
 
 std::string_view to_string(ChecksumVerdict v);

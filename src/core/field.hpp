@@ -3,8 +3,8 @@
 // A FieldDesc is a constexpr description of one protocol field with a stable dotted id
 // ("modbus.fc", "fc.pke.ak"); ids are part of drivetap's output contract (JSON keys, -V lines,
 // tests). A FieldNode is one occurrence of a field in a decoded frame, with its byte span.
-// All descriptors are listed in one explicit table (dissectors/field_table.cpp), so a test can
-// check that ids are unique and well formed.
+// All descriptors are listed in one explicit table (gathered from the protocols' descriptors in
+// dissectors/registry.cpp), so a test can check that ids are unique and well formed.
 #pragma once
 
 #include <algorithm>
@@ -219,7 +219,7 @@ void append_field_bytes_hex(Out& out, const FieldNode& node, std::span<const std
 std::string field_bytes_hex(const FieldNode& node, std::span<const std::uint8_t> frame,
                             bool text_encoded);
 
-// Every descriptor of every dissector (dissectors/field_table.cpp).
+// Every descriptor of every dissector (dissectors/registry.cpp).
 std::span<const FieldDesc* const> all_field_descriptors();
 
 }  // namespace drivetap

@@ -111,7 +111,7 @@ inline void append_uint(Out& out, std::uint64_t v) {
 // `text` copied to `at`; returns the end. Short text (a channel's name) in two fixed-size moves
 // that overlap, as LineBuffer::append() copies short pieces; longer text by memcpy. (The twin of
 // that copy, not shared with it: moved into one function both call, it made GCC stop inlining
-// append_uint into the Modbus info lines, 8 M more instructions a 100 000-frame text run.)
+// append_uint into the Modbus info lines.)
 inline char* write_chars(char* at, std::string_view text) {
   const std::size_t n = text.size();
   if (n >= 8 && n <= 16) {

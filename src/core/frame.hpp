@@ -35,7 +35,7 @@ enum class FrameChecksum : std::uint8_t {
 // back to back holds under 1 KiB, a hundred bytes stamped in pairs about 2 KiB (stamped one by
 // one, about 4 KiB: at the bound, maybe freed and made again at each reuse); 4 KiB of noise
 // stamped in pairs holds some 70 KiB, which a thousand slots kept would make a run's memory grow
-// far past its frames' (issue 8: memory under 50 MB, flat).
+// far past its frames' (a run's memory should stay flat).
 inline constexpr std::size_t kKeptStorageBytes = 4096;
 
 struct Frame {

@@ -1,4 +1,4 @@
-// SerialConfig parsing and formatting (PROTOCOLS.md §1 line settings).
+// SerialConfig parsing and formatting (docs/protocols.md §1 line settings).
 #include "core/serial_config.hpp"
 
 #include <fmt/format.h>

@@ -1,4 +1,5 @@
-// SerialConfig: UART line settings and the Modbus silence intervals they imply (PROTOCOLS.md §1).
+// SerialConfig: UART line settings and the Modbus silence intervals they imply (docs/protocols.md
+// §1).
 //
 // A character on the wire is: start bit, 7, 8 or 9 data bits (9 only from a logic capture: a tty
 // has none, and a ByteEvent keeps the low 8), optional parity bit, 1 or 2 stop bits.

@@ -1,4 +1,4 @@
-// Transaction: a request paired with its response on a half-duplex link (PROTOCOLS.md §1, §2).
+// Transaction: a request paired with its response on a half-duplex link (docs/protocols.md §1, §2).
 #pragma once
 
 #include <cstddef>

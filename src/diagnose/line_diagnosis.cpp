@@ -1,4 +1,4 @@
-// Line diagnosis: evidence -> verdicts (src/diagnose/line_diagnosis.hpp; PROTOCOLS.md §1, §2).
+// Line diagnosis: evidence -> verdicts (src/diagnose/line_diagnosis.hpp; docs/protocols.md §1, §2).
 #include "diagnose/line_diagnosis.hpp"
 
 #include <fmt/format.h>

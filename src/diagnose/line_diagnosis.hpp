@@ -1,4 +1,4 @@
-// Line diagnosis (issue 6 §4; PROTOCOLS.md §1 line settings, §2 Modbus RTU timing): evidence
+// Line diagnosis (docs/protocols.md §1 line settings, §2 Modbus RTU timing): evidence
 // gathered from a capture -> verdicts a field engineer can act on, each with its evidence and fix.
 //
 //   logic capture:  detection + decoder totals ─┐

@@ -20,8 +20,8 @@ namespace drivetap {
 
 // A value as the drive's profile shows it: "50.00 Hz", "4 (overcurrent)". The text is made when
 // asked for, from the register and its raw value: the timeline keeps a drive's telemetry from
-// every poll but shows it only in the summary (made at every poll, the texts took `read --stats`
-// with drive profiles a tenth of its instructions). A value that no register describes carries
+// every poll but shows it only in the summary (made at every poll, the texts would dominate
+// `read --stats` with drive profiles). A value that no register describes carries
 // its text made (`written`: Easydrive's fault code). It points into its profile, which must
 // outlive it and not change meanwhile (the pipeline's profiles outlive the pipeline).
 struct Quantity {
@@ -35,9 +35,8 @@ struct Quantity {
   // The register's value (raw as the wire carries it; `double_word`: two registers' worth).
   static Quantity of(const DriveProfile& profile, const RegisterDef& reg, std::uint32_t raw,
                      bool double_word);
-  // Back to a value of nothing, `written` keeping its storage. (Member by member, the defaults
-  // above: made from Quantity{} and the string moved round it, it cost `read --stats` with
-  // drive profiles some 70 more instructions a frame, callgrind.)
+  // Back to a value of nothing, `written` keeping its storage. Member by member, the defaults
+  // above: making it from Quantity{} and moving the string round it cost the hot path.
   void clear() {
     value = 0;
     written.clear();
@@ -67,9 +66,9 @@ struct DriveObservation {
   std::optional<Quantity> setpoint_command;
 
   // Back to nothing observed (every member as a new observation has it); the strings keep their
-  // storage. Member by member: assigning a new observation cost the pipeline some 150
-  // instructions a frame. A member added above must be reset here too (test_drive_level.cpp's
-  // ReadingIntoOneReadingIsReadingAfresh sets every member, then clears).
+  // storage. Member by member: assigning a new observation cost the hot path. A member added above
+  // must be reset here too (test_drive_level.cpp's ReadingIntoOneReadingIsReadingAfresh sets every
+  // member, then clears).
   void clear() {
     running.reset();
     reverse.reset();

@@ -18,7 +18,7 @@ constexpr double kNamed = 1, kRuleOnly = 0.5, kUnknown = -1, kRefused = -2;
 constexpr double kOwnProtocol = 2;
 // A station is bound when its best profile reaches kBindScore and leads the runner-up by
 // kBindMargin; rebinding needs a lead of kRebindMargin over the bound profile. A lead of 3 is
-// what confidence "medium" asks (below): a family is never bound on low confidence (issue 37).
+// what confidence "medium" asks (below): a family is never bound on low confidence.
 constexpr double kBindScore = 2, kBindMargin = 3, kRebindMargin = 3;
 constexpr std::size_t kMaxAddressesPerRequest = 32;  // evidence from one request is bounded
 

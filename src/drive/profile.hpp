@@ -99,8 +99,8 @@ struct DriveProfile {
   [[nodiscard]] const RegisterDef* find_holding(std::uint32_t address,
                                                 std::string* parameter_label = nullptr) const;
   // find() for the addresses of a block (a poll reads 8 registers from `first` up): one search
-  // for the first, then a walk along the table (looked up afresh, each register took some 20
-  // instructions of a frame's drive reading). An address below the last one asked is searched
+  // for the first, then a walk along the table (a search per register cost the drive reading).
+  // An address below the last one asked is searched
   // afresh. The profile must outlive it and not change meanwhile.
   class Walk {
    public:

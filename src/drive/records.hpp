@@ -15,8 +15,8 @@ class DriveRecordReader {
   // whose storage is kept from one telegram to the next; no records for a telegram of no known
   // protocol.
   const DriveRecords& read(const TelegramHead& telegram, std::span<const std::uint8_t> request) {
-    // decoder_for() of the last protocol read: a bus's telegrams are mostly of one, and looked up
-    // for each, the decoder cost some 30 instructions a reading.
+    // decoder_for() of the last protocol read: a bus's telegrams are mostly of one, and a lookup
+    // for each telegram cost the hot path.
     if (telegram.protocol != protocol_) {
       protocol_ = telegram.protocol;
       decoder_ = decoder_for(protocol_);

@@ -1,4 +1,5 @@
-// pcapng block reader and writer (pcapng spec; layout in pcapng.hpp; README design notes).
+// pcapng block reader and writer (pcapng spec; layout in pcapng.hpp; docs/design.md "Decisions
+// worth knowing").
 #include "formats/pcapng.hpp"
 
 #include <fmt/format.h>

@@ -1,6 +1,6 @@
-// pcapng reader and writer, hand-written (pcapng spec, draft-ietf-opsawg-pcapng; see README
-// design notes). Only the blocks drivetap needs are interpreted: SHB, IDB, EPB, SPB; others are
-// skipped by their length.
+// pcapng reader and writer, hand-written (pcapng spec, draft-ietf-opsawg-pcapng; see docs/design.md
+// "Decisions worth knowing"). Only the blocks drivetap needs are interpreted: SHB, IDB, EPB, SPB;
+// others are skipped by their length.
 //
 //   block:  +------------+--------------+---------------- ... ----+--------------+
 //           | type (4)   | total len (4)| body (padded to 4)       | total len (4)|
@@ -135,7 +135,7 @@ class Reader {
   // capture tools write for every packet): parsed as next() would parse it, but not consumed
   // until take_peeked(). False for anything else, with nothing consumed and nothing reported:
   // next() then reads that block, with its findings. (The fast lane of a reader that takes most
-  // packets without a PacketRecord; issue 8.)
+  // packets without a PacketRecord.)
   bool peek_plain(PlainPacket& out);
   // A regular file, read in large chunks (false: a pipe or terminal, read block by block as the
   // capture arrives).

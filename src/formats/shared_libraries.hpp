@@ -1,12 +1,11 @@
 // libpcap and libzip, loaded the first time a classic pcap file or a sigrok session needs them
-// (dlopen), not at every start (README design notes, "Start-up").
+// (dlopen), not at every start (docs/design.md).
 //
 // Linked the usual way, the two and the 13 libraries they bring (libdbus, libsystemd, libgcrypt,
-// libcrypto, ...) were mapped and relocated before main() on every run: 1.4-1.7 ms of the 4 ms a
-// start took, where most runs read pcapng, byte logs or serial ports and use neither. Each is
-// opened by its soname, read from the library CMake found (DRIVETAP_PCAP_SONAME,
-// DRIVETAP_LIBZIP_SONAME), and each function drivetap calls is looked up once, with the type its
-// header declares.
+// libcrypto, ...) were mapped and relocated before main() on every run, a large part of a start,
+// where most runs read pcapng, byte logs or serial ports and use neither. Each is opened by its
+// soname, read from the library CMake found (DRIVETAP_PCAP_SONAME, DRIVETAP_LIBZIP_SONAME), and
+// each function drivetap calls is looked up once, with the type its header declares.
 #pragma once
 
 #include <pcap/pcap.h>

@@ -1,5 +1,5 @@
-// Wireshark exported-PDU TLVs (LINKTYPE_WIRESHARK_UPPER_PDU), hand-written: see README design
-// notes.
+// Wireshark exported-PDU TLVs (LINKTYPE_WIRESHARK_UPPER_PDU), hand-written: see docs/design.md
+// "Decisions worth knowing".
 #include "formats/upper_pdu.hpp"
 
 #include <fmt/format.h>

@@ -1,4 +1,4 @@
-// Byte log writer (format: README "Byte log format"; reader: sources/file/byte_log.cpp).
+// Byte log writer (format: docs/formats.md "The byte log"; reader: sources/file/byte_log.cpp).
 #include "generate/byte_log_writer.hpp"
 
 #include "core/byte_event.hpp"

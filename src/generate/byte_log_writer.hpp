@@ -1,5 +1,5 @@
-// Byte log writer: drivetap's plain-text capture format (README "Byte log format"), the inverse of
-// sources/file/byte_log.hpp's reader, buffered for large outputs.
+// Byte log writer: drivetap's plain-text capture format (docs/formats.md "The byte log"), the
+// inverse of sources/file/byte_log.hpp's reader, buffered for large outputs.
 //
 //   # comment
 //   #! serial 19200 8E1

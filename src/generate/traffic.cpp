@@ -106,7 +106,7 @@ Bytes with_crc(std::uint8_t address, const Bytes& pdu) {
   return f;
 }
 
-// ":" ADDR PDU LRC CR LF in upper-case hex (PROTOCOLS.md §3).
+// ":" ADDR PDU LRC CR LF in upper-case hex (docs/protocols.md §3).
 Bytes ascii_frame(std::uint8_t address, const Bytes& pdu) {
   Bytes bin;
   bin.reserve(pdu.size() + 2);
@@ -120,7 +120,7 @@ Bytes ascii_frame(std::uint8_t address, const Bytes& pdu) {
   return f;
 }
 
-// STX LGE ADR DATA BCC (PROTOCOLS.md §4); addresses 1..31 in the short format.
+// STX LGE ADR DATA BCC (docs/protocols.md §4); addresses 1..31 in the short format.
 Bytes fc_telegram(std::uint8_t address, const Bytes& data) {
   Bytes f;
   f.reserve(data.size() + 4);
@@ -143,7 +143,7 @@ bool fc_inner_telegram(std::span<const std::uint8_t> b) {
   return false;
 }
 
-// '~' TEXT SUM CR (PROTOCOLS.md §5).
+// '~' TEXT SUM CR (docs/protocols.md §5).
 Bytes eds_frame(const std::string& text) {
   Bytes f;
   f.reserve(text.size() + 6);
@@ -230,7 +230,8 @@ Exchange refused(std::uint8_t fc, unsigned start, unsigned count, std::uint8_t c
   return {read_request(fc, start, count), Bytes{static_cast<std::uint8_t>(fc | 0x80), code}, true};
 }
 
-// A Modbus drive: its registers per its profile (dissectors/profiles/<id>.toml, PROTOCOLS.md §2).
+// A Modbus drive: its registers per its profile (dissectors/profiles/<id>.toml, docs/protocols.md
+// §2).
 class ModbusDrive {
  public:
   ModbusDrive(std::uint8_t address, std::string profile)
@@ -620,8 +621,8 @@ class ModbusLink final : public Link {
   bool reads_only_ = false;
 };
 
-// Danfoss FC protocol (002 §7.2-7.5, PROTOCOLS.md §4): the master sends each VLT AQUA its control
-// word and reference every cycle and reads a parameter now and then; the drives answer with
+// Danfoss FC protocol (002 §7.2-7.5, docs/protocols.md §4): the master sends each VLT AQUA its
+// control word and reference every cycle and reads a parameter now and then; the drives answer with
 // status word and output frequency within 20 ms (8-35/8-36 defaults).
 class FcLink final : public Link {
  public:
@@ -711,7 +712,7 @@ class FcLink final : public Link {
   int avoid_ = -1;
 };
 
-// Easydrive '~' protocol (001, PROTOCOLS.md §5): status queries, running values, run control.
+// Easydrive '~' protocol (001, docs/protocols.md §5): status queries, running values, run control.
 // Every reply carries the drive's fault code in AUX; a request with a bad SUM is answered with
 // response code 20 (frame error), a frequency out of range with 30.
 class EdsLink final : public Link {

@@ -1,4 +1,4 @@
-// Capture generator (issue 8): large, realistic, reproducible bus traffic for benchmarks and tests.
+// Capture generator: large, realistic, reproducible bus traffic for benchmarks and tests.
 //
 // Four links, each its own channel (and so its own link, core/byte_event.hpp), polled at the
 // same time in simulated time:
@@ -92,8 +92,8 @@ class Generator {
   Generator(const Generator&) = delete;
   Generator& operator=(const Generator&) = delete;
 
-  // The line settings of every link: a capture file holds one setting (README "drivetap
-  // generate"), 19200 8E1, what the Modbus RTU and FC protocols use.
+  // The line settings of every link: a capture file holds one setting (docs/reference.md "Generated
+  // captures"), 19200 8E1, what the Modbus RTU and FC protocols use.
   static SerialConfig serial();
 
   // The next record in time order; false once options.frames records were given.

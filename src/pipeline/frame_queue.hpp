@@ -1,5 +1,5 @@
 // FrameQueue: the pipeline's reorder stage — frames closed but not handed on yet, because another
-// channel may still close a frame that started earlier (README "Order of the output").
+// channel may still close a frame that started earlier (docs/reference.md "Order of the output").
 #pragma once
 
 #include <algorithm>

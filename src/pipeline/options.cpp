@@ -1,4 +1,4 @@
-// Settings resolution: capture settings, then command-line overrides (README "Command reference").
+// Settings resolution: capture settings, then command-line overrides (README "Commands").
 #include "pipeline/options.hpp"
 
 #include <fmt/format.h>

@@ -1,4 +1,5 @@
-// Request/response pairing on a half-duplex link (PROTOCOLS.md §1-§2, §7 on FC 05/06/08 echoes).
+// Request/response pairing on a half-duplex link (docs/protocols.md §1-§2, §7 on FC 05/06/08
+// echoes).
 #include "pipeline/pairer.hpp"
 
 #include <fmt/compile.h>

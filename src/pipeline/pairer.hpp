@@ -1,4 +1,4 @@
-// Pairing stage: Messages -> Transactions on a half-duplex link (PROTOCOLS.md §1, §2, §7).
+// Pairing stage: Messages -> Transactions on a half-duplex link (docs/protocols.md §1, §2, §7).
 //
 // Contract: messages of one link arrive in bus order. A request waits for a response with the
 // same address and function (exception bit ignored). It ends as `timeout` when the timeout passes,

@@ -1,4 +1,4 @@
-// Pipeline wiring of the stages (PROTOCOLS.md §1-§2, §7).
+// Pipeline wiring of the stages (docs/protocols.md §1-§2, §7).
 #include "pipeline/pipeline.hpp"
 
 #include "dissectors/common/plausibility.hpp"
@@ -21,7 +21,7 @@ constexpr int kDetectGoodFrames = 3;           // never decide on one lucky chec
 constexpr int kRedetectFailures = 8;           // bad telegrams/noise in a row: the bus changed?
 constexpr int kMaxRedetectFailures = 8 << 12;  // the back-off's ceiling on a line of noise
 // Detection decides at the latest this long after the first byte it holds (on the evidence so
-// far): frames of other channels wait for it (README "Order of the output").
+// far): frames of other channels wait for it (docs/reference.md "Order of the output").
 constexpr TimeNs kDetectHold = 1 * kNsPerSecond;
 // The reorder stage's bounds: a closed frame waits at most this long (bus time, after the latest
 // byte seen) or behind this many others for an earlier frame of another channel; past them it is

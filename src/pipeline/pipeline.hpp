@@ -1,4 +1,5 @@
-// Pipeline: ByteEvent -> Frame -> Message -> Transaction, wired to a Sink (PROTOCOLS.md §1-§2).
+// Pipeline: ByteEvent -> Frame -> Message -> Transaction, wired to a Sink (docs/protocols.md
+// §1-§2).
 //
 // One framer per channel; the pairing stage per link (ChannelTable). The pipeline also owns the
 // per-channel time discipline: bytes on one wire cannot overlap, so a byte stamped before the
@@ -6,7 +7,7 @@
 // And the order across channels: frames are decoded, paired and handed on in order of their
 // first byte, a closed frame waiting (FrameQueue) while another channel holds bytes that may
 // start an earlier one — an open frame, or bytes held for protocol detection — within the bounds
-// of README "Order of the output".
+// of docs/reference.md "Order of the output".
 #pragma once
 
 #include <limits>
@@ -17,12 +18,12 @@
 #include "core/byte_event.hpp"
 #include "core/protocol.hpp"
 #include "core/serial_config.hpp"
-#include "pipeline/frame_queue.hpp"
-#include "pipeline/pairer.hpp"
 #include "core/stats.hpp"
 #include "drive/binder.hpp"
 #include "drive/profile.hpp"
 #include "drive/timeline.hpp"
+#include "pipeline/frame_queue.hpp"
+#include "pipeline/pairer.hpp"
 #include "sinks/sink.hpp"
 
 namespace drivetap {
@@ -100,9 +101,9 @@ class Pipeline {
   // starts at next_time: a whole frame between two silences goes to the framer at once
   // (Framer::take_whole), and is handled at once when it would be handled alone. False when the
   // run was not taken (push_run() it).
-  // This and the two other always_inline members below run once a telegram taken whole:
-  // inlined as a profile-guided build inlines them, --stats takes 3.5 % fewer instructions
-  // (bench/README "Compiler options"). Defined inline in pipeline.cpp, their only user.
+  // This and the two other always_inline members below run once a telegram taken whole: inlined
+  // as a profile-guided build inlines them, which the hot path shows. Defined inline in
+  // pipeline.cpp, their only user.
   // `precheck`: the run's (RunBatch::precheck), or nullptr.
   [[gnu::always_inline]] bool push_whole(const ByteRun& run, TimeNs next_time,
                                          const TelegramPrecheck* precheck);
@@ -146,7 +147,7 @@ class Pipeline {
   // The same for a record of `kind` whose bytes came from source packets first..last.
   void check_packetization(FrameKind kind, std::uint32_t first, std::uint32_t last,
                            std::uint64_t number, TimeNs start, ChannelId channel, ChannelState& st);
-  // The profile's timing rules (PROTOCOLS.md, each drive's section): findings into `found`,
+  // The profile's timing rules (docs/protocols.md, each drive's section): findings into `found`,
   // their detail written only when `described`.
   void check_drive_timing(const TelegramHead& telegram, const DriveProfile& profile,
                           std::vector<Anomaly>& found, bool described);

@@ -1,4 +1,5 @@
-// Capture sink: pcapng (our writer) or classic pcap (libpcap) output (README "pcapng output").
+// Capture sink: pcapng (our writer) or classic pcap (libpcap) output (docs/formats.md "The pcapng
+// drivetap writes").
 #include "sinks/capture_sink.hpp"
 
 #include <stdio_ext.h>

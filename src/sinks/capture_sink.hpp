@@ -1,16 +1,16 @@
 // Capture sink: every frame and noise record as one packet of a pcapng (default) or classic pcap
-// file that Wireshark opens (README "pcapng output").
+// file that Wireshark opens (docs/formats.md "The pcapng drivetap writes").
 //
 // Link type 252 (Wireshark upper PDU): each packet starts with exported-PDU tags naming the
 // dissector ("mbrtu" for Modbus RTU, "data" for noise), the protocol column text and the
 // direction (P2P sent = master -> slave), then the frame bytes. `--dlt user0` writes the bare
-// bytes with link type 147 instead (Wireshark then needs a user DLT entry, see README).
-// pcapng only: one interface per channel (name, line settings as description), EPB direction
-// flags (outbound = master -> slave), the CRC-error flag bit, drivetap's annotation as the packet
-// comment, and per-byte times and UART marks in a custom option, so that reading the file back
-// reproduces the run exactly (`--plain` leaves all of that out but the interfaces). Classic pcap
-// has no room for per-byte times: its packets are stamped when their last byte ended, as capture
-// tools stamp them, so reading one back lays the bytes out where they were.
+// bytes with link type 147 instead (Wireshark then needs a user DLT entry: docs/formats.md, "In
+// Wireshark"). pcapng only: one interface per channel (name, line settings as description), EPB
+// direction flags (outbound = master -> slave), the CRC-error flag bit, drivetap's annotation as
+// the packet comment, and per-byte times and UART marks in a custom option, so that reading the
+// file back reproduces the run exactly (`--plain` leaves all of that out but the interfaces).
+// Classic pcap has no room for per-byte times: its packets are stamped when their last byte ended,
+// as capture tools stamp them, so reading one back lays the bytes out where they were.
 #pragma once
 
 #include <cstdio>

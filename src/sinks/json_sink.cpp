@@ -1,4 +1,4 @@
-// JSON-lines sink (contract: README "JSON lines"; keys stable, more may be added).
+// JSON-lines sink (contract: docs/formats.md "JSON lines"; keys stable, more may be added).
 #include "sinks/json_sink.hpp"
 
 #include <fmt/compile.h>

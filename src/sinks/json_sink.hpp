@@ -1,5 +1,5 @@
-// JSON-lines sink: one object per record; keys are the output contract in README "JSON lines".
-// Records are gathered in a buffer and written in blocks; flush() writes what is buffered.
+// JSON-lines sink: one object per record; keys are the output contract in docs/formats.md "JSON
+// lines". Records are gathered in a buffer and written in blocks; flush() writes what is buffered.
 #pragma once
 
 #include <cstdio>

@@ -1,4 +1,4 @@
-// Ring of capture files for long unattended runs (issue 7; dumpcap's -b): the CaptureSink
+// Ring of capture files for long unattended runs (dumpcap's -b): the CaptureSink
 // (src/sinks/capture_sink.hpp) writes into the current file; at a frame boundary the file is
 // closed, valid, and the next one begun when it has grown past filesize or lasted duration;
 // with files:N only the newest N are kept.

@@ -19,14 +19,14 @@
 #include "core/line_buffer.hpp"
 #include "core/message.hpp"
 #include "core/protocol.hpp"
-#include "core/transaction.hpp"
 #include "core/stats.hpp"
+#include "core/transaction.hpp"
 
 namespace drivetap {
 
 // The bytes of a cache line (x86-64, most ARM cores): what the threaded sink and its helpers,
 // written by different threads for every record, are aligned to (alignas), so that no line holds
-// parts of two of them (bench/README.md, "The cache round").
+// parts of two of them: a line shared by two writing threads goes back and forth between cores.
 inline constexpr std::size_t kCacheLineBytes = 64;
 
 // Whether a sink's writes to its file failed, and the first failure's errno. Records may be

@@ -1,4 +1,5 @@
-// Text sink: annotated lines for a field engineer (format documented in README "Text output").
+// Text sink: annotated lines for a field engineer (format documented in docs/formats.md "Text
+// output").
 #include "sinks/text_sink.hpp"
 
 #include <fmt/compile.h>

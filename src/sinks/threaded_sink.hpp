@@ -1,6 +1,6 @@
 // Threaded sink: the records of a run written on a thread of their own, so that formatting and
-// writing (text, JSON, pcapng) use the second core while the first decodes (issue 8,
-// bench/README.md). Contract of src/sinks/sink.hpp: the inner sink gets every record, in order.
+// writing (text, JSON, pcapng) use the second core while the first decodes (docs/performance.md).
+// Contract of src/sinks/sink.hpp: the inner sink gets every record, in order.
 //
 //   pipeline thread:  on_frame(m) ... -> copied into a batch (kBatchRecords) -> queue (kDepth)
 //   writer thread:    batch -> [decoded, drive annotation written] -> inner.on_frame(copy) ... ;
@@ -11,10 +11,9 @@
 // frame, are then read on both threads and changed on neither.
 // Records are copied: the pipeline reuses its Message for the next frame at once. A batch's
 // records keep their storage from one use to the next, so the copies do not allocate once the
-// run is under way. (Swapping a frame's Message with its record instead of copying it was
-// measured slower: text 0.49 -> 0.54 s, JSON 0.74 -> 0.88 s on 1 M frames, best of 9 interleaved
-// runs: the storage of some 1300 queued messages then goes round the decoding thread's caches,
-// where one Message stayed hot.) At most kDepth batches wait, and a batch is handed on early once
+// run is under way. (Copying beats swapping a frame's Message with its record: swapped,
+// the storage of every queued message goes round the decoding thread's caches, where one Message
+// stays hot.) At most kDepth batches wait, and a batch is handed on early once
 // its records' frames hold kBatchBytes: memory stays bounded however far the writer falls behind,
 // and however large the frames. A record whose frame holds more than kKeptStorageBytes is freed
 // once replayed (the rest of a message is bounded by the longest telegram). flush() and finish()
@@ -76,8 +75,8 @@ class alignas(kCacheLineBytes) ThreadedSink final : public Sink {
   // Waits for the writer to replay everything, then flushes the inner sink (on this thread).
   bool flush() override;
   // The inner sink's needs, and: the drive annotation (Message::drive_profile) is written on the
-  // writer thread, before the inner sink gets the message (formatting it is a third of the
-  // decoding thread's work with drive profiles, bench/README.md); telegrams handed over
+  // writer thread, before the inner sink gets the message (formatting it is a large part of the
+  // decoding thread's work with drive profiles); telegrams handed over
   // undecoded are copied as they come and decoded on the writer thread, before the inner sink
   // gets them and their anomalies.
   [[nodiscard]] SinkNeeds needs() const override { return needs_; }
@@ -134,7 +133,7 @@ class alignas(kCacheLineBytes) ThreadedSink final : public Sink {
   };
   // On cache lines of its own: the pipeline thread writes the members of the batch it fills for
   // every record while a writer reads those of another for every record it replays, and the
-  // batches are made one after the other on the heap (sharing a line, JSON ran 12 % slower).
+  // batches are made one after the other on the heap (a shared line slows both threads).
   struct alignas(kCacheLineBytes) Batch {
     // Undissected telegrams and transactions, nearly all of a run's records, are small records
     // in vectors of their own, their bytes in one vector: the pipeline thread writes (and a
@@ -209,11 +208,9 @@ class alignas(kCacheLineBytes) ThreadedSink final : public Sink {
   void commit(std::unique_ptr<Batch> batch);
 
   // Members in three groups, each on cache lines of its own: read by every thread; written by
-  // the pipeline thread for every record; shared under the mutex. With the members in one run
-  // (the writers read needs_ for every record they decode, the pipeline thread writes
-  // last_number_ for every record it gives), text and JSON ran a quarter slower whenever the
-  // heap placed the object so that such members shared a line: with an input file name of 24
-  // to 39 characters (bench/README.md).
+  // the pipeline thread for every record; shared under the mutex. The writers read needs_ for
+  // every record and the pipeline thread writes last_number_ for every record: sharing a line,
+  // they would slow both threads down (false sharing).
   Sink& inner_;
   // With helpers: the inner sink, which writes their text.
   FormattingSink* const formatting_inner_;

@@ -1,6 +1,6 @@
 // Read-ahead: a ByteSource's batches read on a thread of their own, a few chunks ahead of the
 // pipeline, so that file reading and unpacking (pcapng blocks, exported-PDU tags, per-byte
-// options) use the second core while the first decodes (issue 8, bench/README.md).
+// options) use the second core while the first decodes (docs/performance.md).
 //
 //   reader thread:  source.append_runs() ... -> chunk (kChunkBytes, kChunkRuns) -> queue (kDepth)
 //   caller:         next_chunk() <- queue; push_runs(chunk); the chunk goes back for reuse
@@ -41,8 +41,7 @@ class ReadAhead {
   static constexpr std::size_t kDepth = 8;  // chunks read ahead at most
   // The caller wakes a waiting reader once the queue is down to this many chunks, not after
   // every chunk taken: the reader, faster than the pipeline, then reads two before it waits
-  // again. A wake-up costs the caller's thread some 10 us of futex and scheduler time on this VM
-  // (a sixth of --stats's decoding thread went into it when each chunk woke the reader).
+  // again. A wake-up costs the caller's thread a futex call and scheduler time.
   static constexpr std::size_t kRefillAt = kDepth - 2;
 
   // `precheck_ahead`: kPrecheckAhead but in tests (0: every chunk prechecked).

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Hostile inputs for tests/hostile.sh (issue 36), made on the fly: the large ones are not worth
+"""Hostile inputs for tests/hostile.sh, made on the fly: the large ones are not worth
 committing, and each is named after the bug it reproduces.
 
     make_inputs.py DIR NAME...     writes DIR/NAME.<ext> for each NAME below

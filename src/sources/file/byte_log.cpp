@@ -1,4 +1,4 @@
-// Byte log reader (format: README "Byte log format"; hand-written, see README design notes).
+// Byte log reader (format: docs/formats.md "The byte log"; hand-written, see docs/design.md).
 #include "sources/file/byte_log.hpp"
 
 #include <fmt/format.h>

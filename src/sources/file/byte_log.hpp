@@ -1,4 +1,4 @@
-// Byte log reader: drivetap's plain-text capture format (README "Byte log format").
+// Byte log reader: drivetap's plain-text capture format (docs/formats.md "The byte log").
 //
 //   # comment                     (a '#' token also starts a comment at the end of a line)
 //   #! serial 9600 8N1            header: line settings (before the first byte)

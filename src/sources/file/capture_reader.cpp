@@ -1,4 +1,5 @@
-// Capture reader: pcapng (ours) and classic pcap (libpcap) into byte events (README "pcap").
+// Capture reader: pcapng (ours) and classic pcap (libpcap) into byte events (docs/formats.md "Other
+// tools' pcap and pcapng").
 #include "sources/file/capture_reader.hpp"
 
 #include <fmt/format.h>

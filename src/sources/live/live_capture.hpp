@@ -1,4 +1,4 @@
-// Live capture from serial ports (issue 7; PROTOCOLS.md §1 line and timing, §2 t3.5): the loop
+// Live capture from serial ports (docs/protocols.md §1 line and timing, §2 t3.5): the loop
 // that listens on every port at once, puts the bytes of all ports in time order and drives a
 // pipeline with them as they come, reopening an unplugged adapter when asked.
 //

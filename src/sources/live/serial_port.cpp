@@ -1,4 +1,4 @@
-// Serial-port capture source (src/sources/live/serial_port.hpp; issue 7 part 1, PROTOCOLS.md §1).
+// Serial-port capture source (src/sources/live/serial_port.hpp; docs/protocols.md §1).
 #include "sources/live/serial_port.hpp"
 
 // The kernel's termios2 (asm/termbits.h), not glibc's <termios.h>: only termios2 carries any

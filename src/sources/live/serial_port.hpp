@@ -1,4 +1,4 @@
-// Serial-port capture source (issue 7 part 1; PROTOCOLS.md §1 line and timing): a tty opened
+// Serial-port capture source (docs/protocols.md §1 line and timing): a tty opened
 // listen-only in raw mode, each byte stamped from the read that brought it, UART errors kept.
 //
 // Opening: O_RDONLY|O_NOCTTY|O_NONBLOCK|O_CLOEXEC (the port is never written to), then termios2

@@ -1,4 +1,4 @@
-// Line settings detection from sampled levels (src/sources/logic/detect.hpp; PROTOCOLS.md §1).
+// Line settings detection from sampled levels (src/sources/logic/detect.hpp; docs/protocols.md §1).
 #include "sources/logic/detect.hpp"
 
 #include <fmt/format.h>

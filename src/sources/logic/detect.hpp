@@ -1,4 +1,4 @@
-// Line settings detection from sampled levels (issue 6 §3, issue 37 §1-3; PROTOCOLS.md §1 line
+// Line settings detection from sampled levels (docs/protocols.md §1 line
 // settings): baud rate, polarity, data bits, parity and stop bits chosen by decode quality, each
 // with its confidence and the evidence behind it. Run it on one channel: the channels of one
 // capture may differ (the two sides of an RS-232 converter have opposite polarity).

@@ -1,4 +1,4 @@
-// RS-485 line simulator and VCD writer (PROTOCOLS.md §1; IEEE 1364 §18; see line_sim.hpp).
+// RS-485 line simulator and VCD writer (docs/protocols.md §1; IEEE 1364 §18; see line_sim.hpp).
 #include "sources/logic/line_sim.hpp"
 
 #include <fmt/format.h>

@@ -1,6 +1,6 @@
 // RS-485 line simulator: UART characters -> the level runs a logic analyser would record, with
-// the faults a real bus shows (PROTOCOLS.md §1: swapped A/B, clock error, noise, breaks), and a
-// VCD writer for looking at the result in PulseView or GTKWave.
+// the faults a real bus shows (docs/protocols.md §1: swapped A/B, clock error, noise, breaks), and
+// a VCD writer for looking at the result in PulseView or GTKWave.
 //
 // Time runs in samples as a real number; an edge at time t shows from the first sample at or
 // after t (sample i is the level at time i), so a sampled edge is up to one sample late, as on a

@@ -1,6 +1,6 @@
 // Logic-analyser capture as level runs per channel: the contract between the sampled-capture
 // readers (sigrok session .sr, VCD) and what decodes them (src/sources/logic/logic_source.hpp,
-// src/sources/logic/detect.hpp). Issue 6 / PROTOCOLS.md §1 (the line under the bytes).
+// src/sources/logic/detect.hpp). Issue 6 / docs/protocols.md §1 (the line under the bytes).
 //
 // A reader hands out the capture block by block. Every block covers the same samples
 // [begin, end) for each selected channel, as run-length levels:

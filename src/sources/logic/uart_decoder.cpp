@@ -1,4 +1,5 @@
-// UART decoder over sampled logic levels (PROTOCOLS.md §1 line settings; see uart_decoder.hpp).
+// UART decoder over sampled logic levels (docs/protocols.md §1 line settings; see
+// uart_decoder.hpp).
 #include "sources/logic/uart_decoder.hpp"
 
 #include <fmt/format.h>

@@ -1,5 +1,5 @@
 // UART decoder over sampled logic levels: one channel's level runs -> characters with UART error
-// flags (PROTOCOLS.md §1 line settings; the receiver model of a standard 16550-style UART).
+// flags (docs/protocols.md §1 line settings; the receiver model of a standard 16550-style UART).
 //
 // Input is the channel as run-length edges — (level, how many samples) — because a logic analyser
 // capture is mostly idle line: the work per run is a few branches, the work per sample is none.
@@ -50,7 +50,8 @@ struct UartSettings {
   std::uint8_t data_bits = 8;  // 5..9
   UartParity parity = UartParity::none;
   StopBits stop_bits = StopBits::one;
-  // Idle line low: what a receiver sees with the RS-485 A and B wires swapped (PROTOCOLS.md §1).
+  // Idle line low: what a receiver sees with the RS-485 A and B wires swapped (docs/protocols.md
+  // §1).
   bool inverted = false;
   // Pulses shorter than this many samples are noise, not edges. Unset: 1/8 of a bit (at least one
   // sample, which filters nothing) — short enough never to eat a bit even with a few percent of
