@@ -401,22 +401,36 @@ TEST(DissectPdu, WriteMultipleRegistersByteCountProblems) {
 }
 
 TEST(DissectPdu, QuantityOutOfRange) {
-  const Decoded regs = decode("01 03 00 00 00 7E", kReq, false);  // 126 > 125
-  ASSERT_EQ(regs.d.problems.size(), 1u);
-  EXPECT_TRUE(HasSub(regs.d.problems[0], "quantity of registers 126 outside 1..125"));
-
-  const Decoded max_regs = decode("01 04 00 00 00 7D", kReq, false);  // 125 is fine
-  EXPECT_TRUE(max_regs.d.problems.empty());
-
-  const Decoded bits = decode("01 01 00 00 07 D1", kReq, false);  // 2001 > 2000
-  EXPECT_TRUE(AnyHasSub(bits.d.problems, "quantity of bits 2001 outside 1..2000"));
-
-  const Decoded zero = decode("01 02 00 00 00 00", kReq, false);
-  EXPECT_TRUE(AnyHasSub(zero.d.problems, "quantity of bits 0 outside 1..2000"));
-
-  const Decoded write0 = decode("01 10 00 00 00 00 00", kReq, false);
-  ASSERT_EQ(write0.d.problems.size(), 1u);
-  EXPECT_TRUE(HasSub(write0.d.problems[0], "quantity of registers 0 outside 1..123"));
+  // How many problems a row expects: none, exactly the one named, or the one named among others.
+  enum class Problems { none, only, among };
+  struct Case {
+    const char* request;  // RTU, without CRC
+    Problems problems;
+    const char* problem;
+  };
+  const Case cases[] = {
+      {"01 03 00 00 00 7E", Problems::only, "quantity of registers 126 outside 1..125"},  // > 125
+      {"01 04 00 00 00 7D", Problems::none, ""},  // 125 is fine
+      {"01 01 00 00 07 D1", Problems::among, "quantity of bits 2001 outside 1..2000"},  // > 2000
+      {"01 02 00 00 00 00", Problems::among, "quantity of bits 0 outside 1..2000"},
+      {"01 10 00 00 00 00 00", Problems::only, "quantity of registers 0 outside 1..123"},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.request);
+    const Decoded r = decode(c.request, kReq, false);
+    switch (c.problems) {
+      case Problems::none:
+        EXPECT_TRUE(r.d.problems.empty());
+        break;
+      case Problems::only:
+        ASSERT_EQ(r.d.problems.size(), 1u);
+        EXPECT_TRUE(HasSub(r.d.problems[0], c.problem));
+        break;
+      case Problems::among:
+        EXPECT_TRUE(AnyHasSub(r.d.problems, c.problem));
+        break;
+    }
+  }
 }
 
 TEST(DissectPdu, UnexpectedTrailingBytes) {
@@ -478,22 +492,30 @@ TEST(DissectPdu, ExceptionResponse) {
             "3 (Illegal Data Value)");
 }
 
-TEST(DissectPdu, NonStandardExceptionCode) {
-  // 004 RTU error reply: E5-8200 code 0x52 (address error).
-  const Decoded r = decode("01 83 52 C0 CD", kRsp);
-  EXPECT_EQ(r.d.exception_code, 0x52);
-  EXPECT_TRUE(FieldIs(r, "modbus.exception_code", 2, 1, 0x52));
-  EXPECT_TRUE(HasSub(r.d.info, "Read Holding Registers exception 0x52"));
-  EXPECT_TRUE(HasSub(r.d.info, "non-standard"));
-}
-
-TEST(DissectPdu, ExceptionForNonPublicFunction) {
-  // 000 §6 example 3: 0x89 reports an error for FC 09, not 08.
-  const Decoded r = decode("01 89 01 86 50", kRsp);
-  EXPECT_TRUE(FieldIs(r, "modbus.exception_fc", 1, 1, 0x09));
-  EXPECT_EQ(r.d.exception_code, 1);
-  EXPECT_TRUE(HasSub(r.d.info, "Function 0x09 exception 0x01"));
-  EXPECT_TRUE(HasSub(r.d.info, "Illegal Function"));
+TEST(DissectPdu, ExceptionReplies) {
+  struct Case {
+    const char* why;
+    const char* reply;  // RTU with CRC
+    std::uint8_t function;
+    std::uint8_t code;
+    const char* info;          // in the info line
+    const char* code_meaning;  // in the info line too
+  };
+  const Case cases[] = {
+      {"004 RTU error reply: E5-8200 code 0x52 (address error)", "01 83 52 C0 CD", 0x03, 0x52,
+       "Read Holding Registers exception 0x52", "non-standard"},
+      {"000 §6 example 3: 0x89 reports an error for FC 09, not 08", "01 89 01 86 50", 0x09, 0x01,
+       "Function 0x09 exception 0x01", "Illegal Function"},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.why);
+    const Decoded r = decode(c.reply, kRsp);
+    EXPECT_TRUE(FieldIs(r, "modbus.exception_fc", 1, 1, c.function));
+    EXPECT_TRUE(FieldIs(r, "modbus.exception_code", 2, 1, c.code));
+    EXPECT_EQ(r.d.exception_code, c.code);
+    EXPECT_TRUE(HasSub(r.d.info, c.info));
+    EXPECT_TRUE(HasSub(r.d.info, c.code_meaning));
+  }
 }
 
 TEST(DissectPdu, ExceptionWithTrailingByte) {
@@ -503,8 +525,24 @@ TEST(DissectPdu, ExceptionWithTrailingByte) {
   EXPECT_TRUE(HasSub(r.d.problems[0], "1 unexpected bytes after the PDU"));
 }
 
+TEST(DissectPdu, RequestsWithoutDataAreNamed) {
+  struct Case {
+    const char* request;  // RTU, without CRC
+    const char* info;
+  };
+  const Case cases[] = {
+      {"01 07", "Read Exception Status"},
+      {"01 0B", "Get Comm Event Counter"},
+      {"01 0C", "Get Comm Event Log"},
+      {"01 11", "Report Server ID"},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.request);
+    EXPECT_EQ(decode(c.request, kReq, false).d.info, c.info);
+  }
+}
+
 TEST(DissectPdu, ReadExceptionStatus) {
-  EXPECT_EQ(decode("01 07", kReq, false).d.info, "Read Exception Status");
   const Decoded r = decode("01 07 6D", kRsp, false);
   EXPECT_TRUE(FieldIs(r, "modbus.exception_status", 2, 1, 0x6D));
   EXPECT_EQ(r.d.info, "Read Exception Status reply: 0x6D");
@@ -512,7 +550,6 @@ TEST(DissectPdu, ReadExceptionStatus) {
 }
 
 TEST(DissectPdu, GetCommEventCounter) {
-  EXPECT_EQ(decode("01 0B", kReq, false).d.info, "Get Comm Event Counter");
   const Decoded r = decode("01 0B FF FF 01 08", kRsp, false);
   EXPECT_TRUE(FieldIs(r, "modbus.comm.status", 2, 2, 0xFFFF));
   EXPECT_TRUE(FieldIs(r, "modbus.comm.event_count", 4, 2, 264));
@@ -520,7 +557,6 @@ TEST(DissectPdu, GetCommEventCounter) {
 }
 
 TEST(DissectPdu, GetCommEventLog) {
-  EXPECT_EQ(decode("01 0C", kReq, false).d.info, "Get Comm Event Log");
   // Spec example: byte count 8, status 0, 264 events, 289 messages, events 20 00.
   const Decoded r = decode("01 0C 08 00 00 01 08 01 21 20 00", kRsp, false);
   EXPECT_TRUE(FieldIs(r, "modbus.byte_count", 2, 1, 8));
@@ -535,7 +571,6 @@ TEST(DissectPdu, GetCommEventLog) {
 }
 
 TEST(DissectPdu, ReportServerId) {
-  EXPECT_EQ(decode("01 11", kReq, false).d.info, "Report Server ID");
   const Decoded r = decode("01 11 03 2A FF 00", kRsp, false);
   EXPECT_TRUE(FieldIs(r, "modbus.byte_count", 2, 1, 3));
   EXPECT_TRUE(FieldIs(r, "modbus.server_id", 3, 3, 0));

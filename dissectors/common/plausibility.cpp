@@ -23,6 +23,12 @@ void add_implausible(Message& m, const Finding<std::string, const char*, const c
   add_finding(m, implausible, p.why, p.broken->id, p.broken->source);
 }
 
+std::string expected_for(Direction direction, std::string_view request, std::string_view response) {
+  if (direction == Direction::request) return std::string(request);
+  if (direction == Direction::response) return std::string(response);
+  return std::string(request) + " or " + std::string(response);
+}
+
 bool is_implausible(const Message& m) {
   for (const Anomaly& a : m.anomalies)
     if (a.kind == AnomalyKind::implausible) return true;

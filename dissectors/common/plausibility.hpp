@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <span>
 #include <string>
+#include <string_view>
 
 #include "core/message.hpp"
 
@@ -36,6 +37,18 @@ struct Plausibility {
     return p;
   }
 };
+
+// Whether a telegram that reads as a request (`as_request`) and/or a reply fits `direction`
+// (unknown: either will do).
+constexpr bool fits_direction(Direction direction, bool as_request, bool as_response) {
+  return direction == Direction::request    ? as_request
+         : direction == Direction::response ? as_response
+                                            : as_request || as_response;
+}
+
+// What a telegram of `direction` should have been, for a broken rule's text: `request`,
+// `response`, or (direction unknown) "`request` or `response`".
+std::string expected_for(Direction direction, std::string_view request, std::string_view response);
 
 // True when the message carries an `implausible` finding.
 bool is_implausible(const Message& m);

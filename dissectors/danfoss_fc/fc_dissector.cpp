@@ -152,16 +152,10 @@ Plausibility fc_plausibility(std::span<const std::uint8_t> frame, Direction dire
       return fmt::format(FMT_COMPILE("ADR 0x{:02X} names no drive and no broadcast"), adr);
     });
   if (frame.size() >= 12) {
-    const bool as_request = is_request_ak(ak), as_response = is_response_ak(ak);
-    const bool ok = direction == Direction::request    ? as_request
-                    : direction == Direction::response ? as_response
-                                                       : as_request || as_response;
-    if (!ok)
+    if (!fits_direction(direction, is_request_ak(ak), is_response_ak(ak)))
       return broken(kRuleFcAk, [&] {
         return fmt::format(FMT_COMPILE("AK 0x{:X} is no {}"), ak,
-                           direction == Direction::request    ? "request"
-                           : direction == Direction::response ? "reply"
-                                                              : "request or reply");
+                           expected_for(direction, "request", "reply"));
       });
   }
   return p;

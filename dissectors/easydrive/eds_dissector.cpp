@@ -89,16 +89,10 @@ Plausibility eds_plausibility(std::span<const std::uint8_t> f, Direction directi
       return fmt::format(FMT_COMPILE("{} characters before CR (13 or 17)"), f.size() - 1);
     });
   const long code = hex_field(f, 3, 2);
-  const bool ok = direction == Direction::request ? is_request_command(code)
-                  : direction == Direction::response
-                      ? is_response_code(code)
-                      : is_request_command(code) || is_response_code(code);
-  if (!ok)
+  if (!fits_direction(direction, is_request_command(code), is_response_code(code)))
     return broken(kRuleEdsCommand, [&] {
       return fmt::format(FMT_COMPILE("code {:02X} is no {}"), code,
-                         direction == Direction::request    ? "command"
-                         : direction == Direction::response ? "response code"
-                                                            : "command or response code");
+                         expected_for(direction, "command", "response code"));
     });
   return p;
 }

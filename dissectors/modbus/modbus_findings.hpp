@@ -3,7 +3,9 @@
 // ASCII), RTU framing's (`mbrtu.*`, Wireshark's prefix) and ASCII framing's (`mbascii.*`).
 #pragma once
 
+#include <array>
 #include <cstddef>
+#include <iterator>
 #include <string>
 #include <string_view>
 
@@ -92,23 +94,38 @@ inline constexpr Finding<> kFindingAsciiLowerCase{
 inline constexpr Finding<std::string, const char*, const char*> kFindingAsciiImplausible{
     "mbascii.implausible", AnomalyKind::implausible, Severity::error, "{} [{}, {}]"};
 
-// Each framing's own, then the PDU layer's.
-inline constexpr const FindingDesc* kRtuFindings[] = {
-    &kFindingRtuShort,         &kFindingRtuIntraFrameGap, &kFindingRtuShortInterframeGap,
-    &kFindingRtuImplausible,   &kFindingFieldCut,         &kFindingFrameEndsBefore,
-    &kFindingExtraBytes,       &kFindingQuantityRange,    &kFindingByteCountOdd,
-    &kFindingByteCountPresent, &kFindingCoilValue,        &kFindingByteCountQuantity,
-    &kFindingReferenceType,    &kFindingObjectsPresent,   &kFindingEventByteCount,
-    &kFindingWriteByteCount,   &kFindingFifoCount,
+// The PDU layer's findings, which both framings raise.
+inline constexpr const FindingDesc* kPduFindings[] = {
+    &kFindingFieldCut,       &kFindingFrameEndsBefore,   &kFindingExtraBytes,
+    &kFindingQuantityRange,  &kFindingByteCountOdd,      &kFindingByteCountPresent,
+    &kFindingCoilValue,      &kFindingByteCountQuantity, &kFindingReferenceType,
+    &kFindingObjectsPresent, &kFindingEventByteCount,    &kFindingWriteByteCount,
+    &kFindingFifoCount,
 };
-inline constexpr const FindingDesc* kAsciiFindings[] = {
+inline constexpr const FindingDesc* kRtuFramingFindings[] = {
+    &kFindingRtuShort,
+    &kFindingRtuIntraFrameGap,
+    &kFindingRtuShortInterframeGap,
+    &kFindingRtuImplausible,
+};
+inline constexpr const FindingDesc* kAsciiFramingFindings[] = {
     &kFindingAsciiLoneTerminator, &kFindingAsciiNoTerminator, &kFindingAsciiNoStart,
     &kFindingAsciiOddDigits,      &kFindingAsciiNotHex,       &kFindingAsciiLowerCase,
-    &kFindingAsciiImplausible,    &kFindingFieldCut,          &kFindingFrameEndsBefore,
-    &kFindingExtraBytes,          &kFindingQuantityRange,     &kFindingByteCountOdd,
-    &kFindingByteCountPresent,    &kFindingCoilValue,         &kFindingByteCountQuantity,
-    &kFindingReferenceType,       &kFindingObjectsPresent,    &kFindingEventByteCount,
-    &kFindingWriteByteCount,      &kFindingFifoCount,
+    &kFindingAsciiImplausible,
 };
+
+// A framing's findings followed by the PDU layer's.
+template <std::size_t N>
+constexpr std::array<const FindingDesc*, N + std::size(kPduFindings)> with_pdu_findings(
+    const FindingDesc* const (&framing)[N]) {
+  std::array<const FindingDesc*, N + std::size(kPduFindings)> all{};
+  std::size_t k = 0;
+  for (const FindingDesc* f : framing) all[k++] = f;
+  for (const FindingDesc* f : kPduFindings) all[k++] = f;
+  return all;
+}
+// Each framing's own, then the PDU layer's.
+inline constexpr auto kRtuFindings = with_pdu_findings(kRtuFramingFindings);
+inline constexpr auto kAsciiFindings = with_pdu_findings(kAsciiFramingFindings);
 
 }  // namespace drivetap::modbus

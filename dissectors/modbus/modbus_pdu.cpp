@@ -560,6 +560,22 @@ PduDecode dissect_pdu(std::span<const std::uint8_t> frame, std::size_t pdu_offse
   return d;
 }
 
+namespace {
+
+// A function whose request carries no data (07, 0B, 0C, 11): the request is named, the reply read
+// by `read_reply`; nothing may follow either.
+template <class ReadReply>
+void dissect_no_data_request(PduReader& r, bool request, PduDecode& d, const char* name,
+                             ReadReply&& read_reply) {
+  if (request)
+    d.describe([name] { return std::string(name); });
+  else
+    read_reply();
+  r.expect_end();
+}
+
+}  // namespace
+
 void dissect_pdu_into(PduDecode& d, std::span<const std::uint8_t> frame, std::size_t pdu_offset,
                       std::size_t pdu_length, Direction dir, FieldTreeBuilder& tree) {
   d.info_text().clear();
@@ -605,22 +621,19 @@ void dissect_pdu_into(PduDecode& d, std::span<const std::uint8_t> frame, std::si
       dissect_write_single_register(r, dir, d);
       break;
     case 0x07:
-      if (!req) {
+      dissect_no_data_request(r, req, d, "Read Exception Status", [&] {
         auto status = r.u8(kExceptionStatus);
         if (status)
           d.describe([&] {
             return fmt::format(FMT_COMPILE("Read Exception Status reply: 0x{:02X}"), *status);
           });
-      } else {
-        d.describe([] { return std::string("Read Exception Status"); });
-      }
-      r.expect_end();
+      });
       break;
     case 0x08:
       dissect_diagnostics(r, dir, d);
       break;
     case 0x0B:
-      if (!req) {
+      dissect_no_data_request(r, req, d, "Get Comm Event Counter", [&] {
         auto status = r.u16(kCommStatus);
         auto count = r.u16(kEventCount);
         if (status && count)
@@ -629,13 +642,10 @@ void dissect_pdu_into(PduDecode& d, std::span<const std::uint8_t> frame, std::si
                 FMT_COMPILE("Get Comm Event Counter reply: status 0x{:04X}, {} events"), *status,
                 *count);
           });
-      } else {
-        d.describe([] { return std::string("Get Comm Event Counter"); });
-      }
-      r.expect_end();
+      });
       break;
     case 0x0C:
-      if (!req) {
+      dissect_no_data_request(r, req, d, "Get Comm Event Log", [&] {
         auto count = r.u8(kByteCount);
         auto status = r.u16(kCommStatus);
         auto events = r.u16(kEventCount);
@@ -649,27 +659,21 @@ void dissect_pdu_into(PduDecode& d, std::span<const std::uint8_t> frame, std::si
                 *messages, hex_list(log));
           });
         }
-      } else {
-        d.describe([] { return std::string("Get Comm Event Log"); });
-      }
-      r.expect_end();
+      });
       break;
     case 0x0F:
     case 0x10:
       req ? dissect_write_multiple_request(r, fc, d) : dissect_write_multiple_response(r, fc, d);
       break;
     case 0x11:
-      if (!req) {
+      dissect_no_data_request(r, req, d, "Report Server ID", [&] {
         auto count = r.u8(kByteCount);
         if (count) {
           auto id = r.bytes(kServerId, *count);
           d.describe(
               [&] { return fmt::format(FMT_COMPILE("Report Server ID reply: {}"), hex_list(id)); });
         }
-      } else {
-        d.describe([] { return std::string("Report Server ID"); });
-      }
-      r.expect_end();
+      });
       break;
     case 0x14:
     case 0x15:

@@ -7,6 +7,7 @@
 
 #include <iterator>
 
+#include "core/enum_text.hpp"
 #include "core/message.hpp"
 
 namespace drivetap {
@@ -75,15 +76,9 @@ Severity anomaly_severity(AnomalyKind k) {
 }
 
 const char* severity_id(Severity s) {
-  switch (s) {
-    case Severity::note:
-      return "note";
-    case Severity::warning:
-      return "warning";
-    case Severity::error:
-      return "error";
-  }
-  return "error";
+  static constexpr const char* kSeverityIds[] = {"note", "warning", "error"};
+  static_assert(std::size(kSeverityIds) == static_cast<std::size_t>(Severity::error) + 1);
+  return enum_text(s, kSeverityIds, static_cast<const char*>("error"));
 }
 
 void append_uart_anomalies(const ByteEvents& events, std::uint64_t frame_number,
@@ -124,15 +119,9 @@ void add_checksum_anomaly(Message& m, std::string_view hint) {
 }
 
 std::string_view direction_id(Direction d) {
-  switch (d) {
-    case Direction::request:
-      return "request";
-    case Direction::response:
-      return "response";
-    case Direction::unknown:
-      break;
-  }
-  return "unknown";
+  static constexpr std::string_view kDirectionIds[] = {"unknown", "request", "response"};
+  static_assert(std::size(kDirectionIds) == static_cast<std::size_t>(Direction::response) + 1);
+  return enum_text(d, kDirectionIds, std::string_view{"unknown"});
 }
 
 }  // namespace drivetap

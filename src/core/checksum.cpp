@@ -6,6 +6,9 @@
 
 #include <array>
 #include <cstddef>
+#include <iterator>
+
+#include "core/enum_text.hpp"
 
 namespace drivetap {
 namespace {
@@ -105,17 +108,9 @@ std::string wire_hex(std::uint32_t packed, std::uint8_t width, std::string_view 
 }
 
 std::string_view to_string(ChecksumVerdict v) {
-  switch (v) {
-    case ChecksumVerdict::none:
-      return "none";
-    case ChecksumVerdict::good:
-      return "good";
-    case ChecksumVerdict::bad:
-      return "bad";
-    case ChecksumVerdict::swapped:
-      return "swapped";
-  }
-  return "none";
+  static constexpr std::string_view kToStrings[] = {"none", "good", "bad", "swapped"};
+  static_assert(std::size(kToStrings) == static_cast<std::size_t>(ChecksumVerdict::swapped) + 1);
+  return enum_text(v, kToStrings, std::string_view{"none"});
 }
 
 }  // namespace drivetap

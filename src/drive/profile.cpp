@@ -157,6 +157,22 @@ std::string string_at(const toml::table& t, std::string_view key, const std::str
   return printable(n->as_string()->get());
 }
 
+// The enum value named by the word at `key`: `words` holds each value's word in enumerator order
+// ("" for a value no word names). An absent key or "" reads as `if_empty`; without one, the key is
+// required.
+template <class E, std::size_t N>
+E enum_at(const toml::table& t, std::string_view key, const std::string& path,
+          const std::string_view (&words)[N], std::optional<E> if_empty, const char* must_be) {
+  const std::string word = string_at(t, key, path, !if_empty);
+  if (word.empty()) {
+    if (if_empty) return *if_empty;
+  } else {
+    for (std::size_t i = 0; i < N; ++i)
+      if (word == words[i]) return static_cast<E>(i);
+  }
+  throw Bad{line_of(*t.get(key)), path, must_be};
+}
+
 std::optional<std::int64_t> int_at(const toml::table& t, std::string_view key,
                                    const std::string& path, std::int64_t lo, std::int64_t hi) {
   const toml::node* n = t.get(key);
@@ -249,31 +265,15 @@ RegisterDef parse_register(const toml::table& t, const std::string& path,
     const auto address = int_at(t, "address", path + ".address", 0, 0xFFFF);
     if (!address) throw Bad{line_of(t), path + ".address", "missing"};
     r.address = static_cast<std::uint32_t>(*address);
-    const std::string kind = string_at(t, "kind", path + ".kind", false);
-    if (kind.empty() || kind == "holding")
-      r.kind = RegisterKind::holding;
-    else if (kind == "input")
-      r.kind = RegisterKind::input;
-    else if (kind == "coil")
-      r.kind = RegisterKind::coil;
-    else if (kind == "discrete")
-      r.kind = RegisterKind::discrete;
-    else if (kind == "running")
-      r.kind = RegisterKind::running;
-    else
-      throw Bad{line_of(*t.get("kind")), path + ".kind",
-                "must be holding, input, coil, discrete or running"};
+    static constexpr std::string_view kKindWords[] = {"holding", "input", "coil", "discrete",
+                                                      "running"};
+    r.kind = enum_at(t, "kind", path + ".kind", kKindWords, std::optional(RegisterKind::holding),
+                     "must be holding, input, coil, discrete or running");
   }
   r.name = string_at(t, "name", path + ".name", true);
-  const std::string access = string_at(t, "access", path + ".access", false);
-  if (access.empty() || access == "rw")
-    r.access = RegisterAccess::read_write;
-  else if (access == "r")
-    r.access = RegisterAccess::read;
-  else if (access == "w")
-    r.access = RegisterAccess::write;
-  else
-    throw Bad{line_of(*t.get("access")), path + ".access", "must be r, w or rw"};
+  static constexpr std::string_view kAccessWords[] = {"r", "w", "rw"};
+  r.access = enum_at(t, "access", path + ".access", kAccessWords,
+                     std::optional(RegisterAccess::read_write), "must be r, w or rw");
   r.unit = string_at(t, "unit", path + ".unit", false);
   if (auto s = number_at(t, "scale", path + ".scale")) {
     if (*s == 0) throw Bad{line_of(*t.get("scale")), path + ".scale", "must not be 0"};
@@ -284,24 +284,12 @@ RegisterDef parse_register(const toml::table& t, const std::string& path,
     r.is_signed = s->as_boolean()->get();
   }
   r.enum_name = string_at(t, "enum", path + ".enum", false);
-  static const std::map<std::string, RegisterRole, std::less<>> kRoles = {
-      {"", RegisterRole::none},
-      {"control", RegisterRole::control},
-      {"status", RegisterRole::status},
-      {"setpoint", RegisterRole::setpoint},
-      {"output_frequency", RegisterRole::output_frequency},
-      {"current", RegisterRole::current},
-      {"voltage", RegisterRole::voltage},
-      {"fault", RegisterRole::fault},
-      {"start", RegisterRole::start},
-      {"stop", RegisterRole::stop},
-      {"reset", RegisterRole::reset}};
-  const auto role = kRoles.find(string_at(t, "role", path + ".role", false));
-  if (role == kRoles.end())
-    throw Bad{line_of(*t.get("role")), path + ".role",
-              "must be control, status, setpoint, output_frequency, current, voltage, fault, "
-              "start, stop or reset"};
-  r.role = role->second;
+  static constexpr std::string_view kRoleWords[] = {
+      "",      "control", "status", "setpoint", "output_frequency", "current", "voltage",
+      "fault", "start",   "stop",   "reset"};
+  r.role = enum_at(t, "role", path + ".role", kRoleWords, std::optional(RegisterRole::none),
+                   "must be control, status, setpoint, output_frequency, current, voltage, fault, "
+                   "start, stop or reset");
   if (auto w = int_at(t, "words", path + ".words", 1, 2)) r.words = static_cast<int>(*w);
   if (const toml::node* st = t.get("state")) {
     if (!st->is_table()) throw Bad{line_of(*st), path + ".state", "expected a table"};

@@ -4,25 +4,17 @@
 
 #include <fmt/compile.h>
 #include <fmt/format.h>
+#include <iterator>
+
+#include "core/enum_text.hpp"
 
 namespace drivetap {
 
 std::string_view outcome_id(Outcome o) {
-  switch (o) {
-    case Outcome::ok:
-      return "ok";
-    case Outcome::exception:
-      return "exception";
-    case Outcome::timeout:
-      return "timeout";
-    case Outcome::broadcast:
-      return "broadcast";
-    case Outcome::unsolicited:
-      return "unsolicited";
-    case Outcome::bad_reply:
-      return "bad_reply";
-  }
-  return "ok";
+  static constexpr std::string_view kOutcomeIds[] = {"ok",        "exception",   "timeout",
+                                                     "broadcast", "unsolicited", "bad_reply"};
+  static_assert(std::size(kOutcomeIds) == static_cast<std::size_t>(Outcome::bad_reply) + 1);
+  return enum_text(o, kOutcomeIds, std::string_view{"ok"});
 }
 
 namespace {

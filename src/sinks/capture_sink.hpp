@@ -66,22 +66,28 @@ std::FILE* open_output_file(const std::string& path);
 // the file back after its last whole line, so that no reader meets half a record.
 void cut_back_to_last_line(std::FILE* file);
 
-class CaptureSink final : public Sink {
+// What the capture sinks (one file, or a ring of them) share: they write packets, and neither
+// transactions nor the summary.
+class PacketSink : public Sink {
  public:
-  CaptureSink(std::FILE* out, const ChannelTable& channels, CaptureSinkOptions options);
-  ~CaptureSink() override;
-  void on_frame(const Message& message) override;
-  void on_noise(const Frame& noise) override;
-  void on_anomaly(const Anomaly& anomaly) override;
   void on_transaction(const Transaction&) override {}
   void on_summary(const Stats&) override {}
-  bool flush() override;
   // Packets carry the bytes and the info line as a comment, not the field tree.
   [[nodiscard]] SinkNeeds needs() const override {
     SinkNeeds n;
     n.fields = n.transactions = false;
     return n;
   }
+};
+
+class CaptureSink final : public PacketSink {
+ public:
+  CaptureSink(std::FILE* out, const ChannelTable& channels, CaptureSinkOptions options);
+  ~CaptureSink() override;
+  void on_frame(const Message& message) override;
+  void on_noise(const Frame& noise) override;
+  void on_anomaly(const Anomaly& anomaly) override;
+  bool flush() override;
   [[nodiscard]] std::uint64_t packets() const { return packets_; }
 
  private:

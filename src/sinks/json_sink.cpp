@@ -10,8 +10,10 @@
 
 #if defined(__SSE2__)
 #include <emmintrin.h>
+#include <iterator>
 #endif
 
+#include "core/enum_text.hpp"
 #include "core/format.hpp"
 #include "core/printable.hpp"
 #include "sinks/text_sink.hpp"
@@ -195,15 +197,9 @@ std::string seconds(TimeNs t) {
 }
 
 std::string_view close_id(FrameClose c) {
-  switch (c) {
-    case FrameClose::silence:
-      return "silence";
-    case FrameClose::content:
-      return "content";
-    case FrameClose::end_of_input:
-      return "end_of_input";
-  }
-  return "silence";
+  static constexpr std::string_view kCloseIds[] = {"silence", "content", "end_of_input"};
+  static_assert(std::size(kCloseIds) == static_cast<std::size_t>(FrameClose::end_of_input) + 1);
+  return enum_text(c, kCloseIds, std::string_view{"silence"});
 }
 
 }  // namespace

@@ -26,7 +26,7 @@ struct RingOptions {
 // Parses one `-b` value ("filesize:MB", "duration:S", "files:N") into `ring`; "" or an error.
 std::string parse_ring_option(const std::string& text, RingOptions& ring);
 
-class RingCaptureSink final : public Sink {
+class RingCaptureSink final : public PacketSink {
  public:
   // `path`: the -w name; the files are named from it (prefix_NNNNN_YYYYMMDDHHMMSS.ext).
   RingCaptureSink(std::string path, const ChannelTable& channels, CaptureSinkOptions capture,
@@ -37,14 +37,7 @@ class RingCaptureSink final : public Sink {
   void on_frame(const Message& message) override;
   void on_noise(const Frame& noise) override;
   void on_anomaly(const Anomaly& anomaly) override;
-  void on_transaction(const Transaction&) override {}
-  void on_summary(const Stats&) override {}
   bool flush() override;
-  [[nodiscard]] SinkNeeds needs() const override {
-    SinkNeeds n;
-    n.fields = n.transactions = false;
-    return n;
-  }
   // Flushes and closes the current file; false when a write failed (disk full).
   bool close();
   [[nodiscard]] const std::string& error() const { return error_; }

@@ -7,9 +7,11 @@
 
 #include <algorithm>
 #include <cstring>
+#include <iterator>
 #include <span>
 #include <string_view>
 
+#include "core/enum_text.hpp"
 #include "core/format.hpp"
 
 namespace drivetap {
@@ -17,15 +19,9 @@ namespace drivetap {
 namespace {
 
 std::string_view direction_tag(Direction d) {
-  switch (d) {
-    case Direction::request:
-      return "req";
-    case Direction::response:
-      return "rsp";
-    case Direction::unknown:
-      break;
-  }
-  return "???";
+  static constexpr std::string_view kDirectionTags[] = {"???", "req", "rsp"};
+  static_assert(std::size(kDirectionTags) == static_cast<std::size_t>(Direction::response) + 1);
+  return enum_text(d, kDirectionTags, std::string_view{"???"});
 }
 
 template <class Out>

@@ -7,7 +7,9 @@
 
 #include <cerrno>
 #include <cstring>
+#include <iterator>
 
+#include "core/enum_text.hpp"
 #include "core/read_block.hpp"
 
 namespace drivetap {
@@ -67,23 +69,10 @@ InputFormat recognise(const unsigned char* h, std::size_t n) {
 }  // namespace
 
 const char* input_format_name(InputFormat f) {
-  switch (f) {
-    case InputFormat::byte_log:
-      return "byte log";
-    case InputFormat::pcap:
-      return "pcap";
-    case InputFormat::pcapng:
-      return "pcapng";
-    case InputFormat::sigrok:
-      return "sigrok session";
-    case InputFormat::vcd:
-      return "VCD";
-    case InputFormat::empty:
-      return "empty";
-    case InputFormat::unknown:
-      break;
-  }
-  return "unknown";
+  static constexpr const char* kInputFormatNames[] = {
+      "byte log", "pcap", "pcapng", "sigrok session", "VCD", "unknown", "empty"};
+  static_assert(std::size(kInputFormatNames) == static_cast<std::size_t>(InputFormat::empty) + 1);
+  return enum_text(f, kInputFormatNames, static_cast<const char*>("unknown"));
 }
 
 namespace {

@@ -72,19 +72,14 @@ std::optional<std::vector<std::uint8_t>> parse_text_frame(std::string_view text,
       return std::nullopt;
     }
     const char e = text[++i];
+    // The one-character escapes: what follows the '\\', and the byte it stands for.
+    static constexpr std::string_view kEscaped = "rnt\\";
+    static constexpr std::string_view kEscapedBytes = "\r\n\t\\";
+    if (const std::size_t k = kEscaped.find(e); k != std::string_view::npos) {
+      out.push_back(static_cast<std::uint8_t>(kEscapedBytes[k]));
+      continue;
+    }
     switch (e) {
-      case 'r':
-        out.push_back('\r');
-        break;
-      case 'n':
-        out.push_back('\n');
-        break;
-      case 't':
-        out.push_back('\t');
-        break;
-      case '\\':
-        out.push_back('\\');
-        break;
       case 'x': {
         auto digit = [](char d) {
           return d >= '0' && d <= '9'   ? d - '0'

@@ -6,6 +6,9 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <iterator>
+
+#include "core/enum_text.hpp"
 
 namespace drivetap::phy {
 namespace {
@@ -49,15 +52,9 @@ WidthScore score_width(const std::vector<std::uint64_t>& widths, double w) {
 }  // namespace
 
 const char* confidence_name(Confidence c) {
-  switch (c) {
-    case Confidence::low:
-      return "low";
-    case Confidence::medium:
-      return "medium";
-    case Confidence::high:
-      return "high";
-  }
-  return "low";
+  static constexpr const char* kConfidenceNames[] = {"low", "medium", "high"};
+  static_assert(std::size(kConfidenceNames) == static_cast<std::size_t>(Confidence::high) + 1);
+  return enum_text(c, kConfidenceNames, static_cast<const char*>("low"));
 }
 
 double FormatTrial::error_rate() const {
