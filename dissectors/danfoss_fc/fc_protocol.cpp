@@ -15,12 +15,10 @@ const FcDecoder kDecoder{};
 
 // Danfoss "G-NN": PNU G * 100 + NN (the FC protocol's PNU); on Modbus, register address
 // PNU * 10 - 1 (Danfoss 002 §7.8.8/§7.9: register number 10 x PNU, addressed from 0).
-std::optional<std::uint32_t> parse_pnu(std::string_view text) {
-  const auto split = split_parameter_number(text, '-');
-  if (!split) return std::nullopt;
-  const auto g = decimal_number(split->first);
-  if (!g || split->second > 99 || *g > 65) return std::nullopt;
-  return *g * 100 + split->second;
+std::optional<std::uint32_t> parse_pnu(std::string_view group, std::uint32_t number) {
+  const auto g = decimal_number(group);
+  if (!g || number > 99 || *g > 65) return std::nullopt;
+  return *g * 100 + number;
 }
 std::string pnu_label(std::uint32_t pnu) {
   return fmt::format("{}-{:02}", pnu / 100, pnu % 100);
@@ -29,7 +27,8 @@ std::optional<std::uint32_t> pnu_of_register(std::uint32_t address) {
   if ((address + 1) % 10 == 0) return (address + 1) / 10;
   return std::nullopt;
 }
-constexpr ParameterNumbering kNumbering{"danfoss", "4-14", parse_pnu, pnu_label, pnu_of_register};
+constexpr ParameterNumbering kNumbering{"danfoss", "4-14",    '-',
+                                        parse_pnu, pnu_label, pnu_of_register};
 
 }  // namespace
 

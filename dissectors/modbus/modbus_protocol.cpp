@@ -18,12 +18,10 @@ const RtuDecoder kRtuDecoder{};
 const AsciiDecoder kAsciiDecoder{};
 
 // "GG-PP" (E5-8200, E-9): the parameter is the holding register GG << 8 | PP.
-std::optional<std::uint32_t> parse_ggpp(std::string_view text) {
-  const auto split = split_parameter_number(text, '-');
-  if (!split) return std::nullopt;
-  const auto g = decimal_number(split->first);
-  if (!g || *g > 255 || split->second > 255) return std::nullopt;
-  return *g << 8 | split->second;
+std::optional<std::uint32_t> parse_ggpp(std::string_view group, std::uint32_t number) {
+  const auto g = decimal_number(group);
+  if (!g || *g > 255 || number > 255) return std::nullopt;
+  return *g << 8 | number;
 }
 std::string ggpp_label(std::uint32_t number) {
   return fmt::format("{:02}-{:02}", number >> 8, number & 0xFF);
@@ -33,8 +31,8 @@ std::optional<std::uint32_t> ggpp_of_register(std::uint32_t address) {
   if ((address >> 8) <= 99 && (address & 0xFF) <= 99) return address;
   return std::nullopt;
 }
-constexpr ParameterNumbering kGgppNumbering{"ggpp", "08-03", parse_ggpp, ggpp_label,
-                                            ggpp_of_register};
+constexpr ParameterNumbering kGgppNumbering{"ggpp",     "08-03",    '-',
+                                            parse_ggpp, ggpp_label, ggpp_of_register};
 
 }  // namespace
 

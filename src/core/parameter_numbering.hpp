@@ -15,8 +15,10 @@ namespace drivetap {
 struct ParameterNumbering {
   std::string_view name;     // the profile's [parameters] rule: "danfoss"
   std::string_view example;  // a number as its manual writes one: "4-14"
-  // The manual's number ("4-14") -> the parameter's wire number; nullopt when malformed.
-  std::optional<std::uint32_t> (*parse)(std::string_view text);
+  char separator;            // between the group and the number: '-' in "4-14"
+  // The manual's group ("4") and number (14) -> the parameter's wire number; nullopt when out of
+  // range (parse_parameter_number() splits the text).
+  std::optional<std::uint32_t> (*parse)(std::string_view group, std::uint32_t number);
   // The wire number -> the manual's number ("4-14").
   std::string (*label)(std::uint32_t number);
   // The Modbus holding register -> the parameter it holds; nullptr: its parameters are not on
@@ -37,14 +39,16 @@ inline std::optional<std::uint32_t> decimal_number(std::string_view d) {
   return v;
 }
 
-// "<group><sep><number>" split at `sep`, the number decimal: the group's text and the number.
-inline std::optional<std::pair<std::string_view, std::uint32_t>> split_parameter_number(
-    std::string_view text, char sep) {
-  const std::size_t at = text.find(sep);
+// The manual's parameter number ("4-14") as its wire number under `rule`; nullopt if malformed
+// or without a rule.
+inline std::optional<std::uint32_t> parse_parameter_number(const ParameterNumbering* rule,
+                                                           std::string_view text) {
+  if (!rule) return std::nullopt;
+  const std::size_t at = text.find(rule->separator);
   if (at == std::string_view::npos) return std::nullopt;
   const auto number = decimal_number(text.substr(at + 1));
   if (!number) return std::nullopt;
-  return std::pair{text.substr(0, at), *number};
+  return rule->parse(text.substr(0, at), *number);
 }
 
 // The registry's (dissectors/registry.cpp): the numbering a profile's rule names; nullptr for none.

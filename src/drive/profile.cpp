@@ -112,11 +112,6 @@ std::string DriveProfile::parameter_label(std::uint32_t number) const {
   return parameter_rule ? parameter_rule->label(number) : fmt::format("{}", number);
 }
 
-std::optional<std::uint32_t> parse_parameter_number(const ParameterNumbering* rule,
-                                                    std::string_view text) {
-  return rule ? rule->parse(text) : std::nullopt;
-}
-
 namespace {
 
 // Thrown inside the loader only, caught at its boundary: a malformed profile is one error.

@@ -136,11 +136,6 @@ struct DriveProfile {
   mutable std::size_t indexed_count_ = 0;
 };
 
-// The manual's parameter number ("4-14") as its wire number under `rule`; nullopt if malformed
-// or without a rule.
-std::optional<std::uint32_t> parse_parameter_number(const ParameterNumbering* rule,
-                                                    std::string_view text);
-
 // Where a profile went wrong: "file:line: key 'register[3].scale': expected a number".
 struct ProfileError {
   std::string file;
