@@ -117,7 +117,7 @@ grep -q "crc ok" "$work/out" && ok "zip bomb: the frames before the limit decode
   fail "zip bomb: nothing decoded before the limit"
 "$drivetap" read --logic-max 1X "$work/sigrok-zip-bomb.sr" > /dev/null 2> "$work/err"
 rc=$?
-[ "$rc" -eq 2 ] && head -n 1 "$work/err" | grep -q "^--logic-max: " && ok "--logic-max of no size" ||
+[ "$rc" -eq 2 ] && head -n 1 "$work/err" | grep -q "^drivetap: read: --logic-max: " && ok "--logic-max of no size" ||
   fail "--logic-max of no size: exit $rc: $(head -n 1 "$work/err")"
 
 # 9. Byte times before 0 written to pcapng must read back (and not as 18446744073 s in tshark).

@@ -5,6 +5,7 @@
 
 #include <poll.h>
 
+#include <chrono>
 #include <cstdio>
 #include <cstring>
 #include <memory>
@@ -29,7 +30,6 @@ namespace {
 // Options of `drivetap capture` besides the common ones.
 struct CaptureOptions {
   std::vector<std::string> ports;     // -i
-  std::uint64_t max_frames = 0;       // -c
   std::vector<std::string> autostop;  // -a duration:S
   std::vector<std::string> ring;      // -b filesize:MB|duration:S|files:N
   bool reconnect = false;
@@ -162,12 +162,12 @@ int run_capture(const CommonOptions& o, const CaptureOptions& c) {
   }
   RunSettings given;
   PipelineOptions p = make_pipeline_options(o, given);
-  p.max_frames = c.max_frames;
+  p.max_frames = o.count;
   ChannelTable channels;
   LiveCaptureOptions live_options;
   live_options.ports = c.ports;
   live_options.serial = p.serial;
-  live_options.max_frames = c.max_frames;
+  live_options.max_frames = o.count;
   live_options.duration = autostop;
   live_options.reconnect = c.reconnect;
   LiveCapture live(std::move(live_options), channels);
@@ -179,6 +179,10 @@ int run_capture(const CommonOptions& o, const CaptureOptions& c) {
   std::fprintf(stderr, "drivetap: capturing on %s at %s (listen only; Ctrl-C stops)\n",
                fmt::format("{}", fmt::join(c.ports, ", ")).c_str(), p.serial.to_string().c_str());
   Outputs out(o, channels, p, /*timed=*/true, ring ? &*ring : nullptr);
+  // Live times are wall-clock time; -t r counts from the start of the capture.
+  out.set_clock(true, std::chrono::duration_cast<std::chrono::nanoseconds>(
+                          std::chrono::system_clock::now().time_since_epoch())
+                          .count());
   Pipeline pipeline(p, channels, out.sink());
   catch_stop_signals();
 
@@ -201,7 +205,7 @@ int run_capture(const CommonOptions& o, const CaptureOptions& c) {
       say("capture stopped: autostop duration reached");
       return 0;
     case LiveCaptureEnd::frame_limit:
-      say(fmt::format("capture stopped: {} frames captured (-c)", c.max_frames));
+      say(fmt::format("capture stopped: {} frames captured (-c)", o.count));
       return 0;
     case LiveCaptureEnd::adapter_lost:
       say("capture stopped: adapter lost");
@@ -223,13 +227,12 @@ Command add_capture_command(CLI::App& app) {
   auto c = std::make_shared<CaptureOptions>();
   CLI::App* capture = app.add_subcommand(
       "capture", "Capture live from serial ports (listen only), decode as it comes");
-  add_common_options(capture, *o);
+  add_common_options(capture, *o, kCaptureCommand);
   capture
       ->add_option("-i,--interface", c->ports,
                    "Serial port to listen on, PATH or PATH=NAME (repeatable; NAME line.m and "
                    "line.s: the master and slave pairs of one 4-wire link)")
       ->allow_extra_args(false);
-  capture->add_option("-c,--count", c->max_frames, "Stop after N frames");
   capture->add_option("-a,--autostop", c->autostop, "Stop after duration:SECONDS");
   capture->add_option("-b,--ring-buffer", c->ring,
                       "With -w FILE: a ring of files, filesize:MB, duration:S, files:N");
@@ -238,7 +241,10 @@ Command add_capture_command(CLI::App& app) {
   capture->add_flag("--scan", c->scan,
                     "Listen at each standard rate and parity in turn, say which gives frames");
   capture->add_option("--scan-time", c->scan_seconds, "--scan: seconds per setting (default 2)");
-  return {capture, [o, c] { return c->scan ? run_scan(*o, *c) : run_capture(*o, *c); }};
+  return {capture, [o, c] {
+            refuse_idle_options(*o, kCaptureCommand);
+            return c->scan ? run_scan(*o, *c) : run_capture(*o, *c);
+          }};
 }
 
 }  // namespace drivetap::app

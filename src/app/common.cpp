@@ -6,6 +6,7 @@
 #include <CLI/CLI.hpp>
 
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -64,9 +65,105 @@ void load_profiles(const CommonOptions& o, bool builtins_wanted) {
     add(std::move(*profile));
   }
 }
+// Which subcommand takes which common option: one row per option, named as on its command line
+// (any of its names). An option with no row is taken by every command that adds it.
+constexpr unsigned kDecode = kDecodeCommand, kRead = kReadCommand, kDiagnose = kDiagnoseCommand,
+                   kCapture = kCaptureCommand;
+struct OptionUse {
+  std::string_view name;
+  unsigned commands;
+};
+constexpr OptionUse kOptionUse[] = {
+    {"-T", kDecode | kRead | kDiagnose | kCapture},
+    {"-V", kDecode | kRead | kCapture},
+    {"-s", kDecode | kRead | kDiagnose | kCapture},
+    {"--t15", kDecode | kRead | kDiagnose | kCapture},
+    {"--t35", kDecode | kRead | kDiagnose | kCapture},
+    {"--timeout", kRead | kDiagnose | kCapture},  // decode's times are made up: nothing times out
+    {"--max-hold", kDecode | kRead | kDiagnose | kCapture},
+    {"-P", kDecode | kRead | kDiagnose | kCapture},
+    {"--drive", kDecode | kRead | kDiagnose | kCapture},
+    {"--profile", kDecode | kRead | kDiagnose | kCapture},
+    {"--profile-dir", kDecode | kRead | kDiagnose | kCapture},
+    {"--channels", kRead | kDiagnose},  // logic-analyser captures
+    {"--invert", kRead | kDiagnose},
+    {"--logic-max", kRead | kDiagnose},
+    {"--events", kDecode | kRead | kCapture},
+    {"--no-summary", kDecode | kRead | kCapture},
+    {"--stats", kDecode | kRead | kCapture},
+    {"-o", kDecode | kRead | kCapture},
+    {"-w", kDecode | kRead | kCapture},
+    {"--pcap", kDecode | kRead | kCapture},
+    {"--plain", kDecode | kRead | kCapture},
+    {"--dlt", kDecode | kRead | kCapture},
+    {"-c", kDecode | kRead | kCapture},
+    {"-q", kDecode | kRead | kCapture},
+    {"-t", kRead | kCapture},  // decode's times are made up: none is shown
+    {"--color", kDecode | kRead | kDiagnose | kCapture},
+    {"--no-progress", kRead},  // long offline runs
+    {"-x", kDecode | kRead | kCapture},
+};
+
+// Removes from `cmd` the options whose row leaves `command` out.
+void remove_options_not_taken(CLI::App* cmd, unsigned command) {
+  std::vector<CLI::Option*> unused;
+  for (CLI::Option* option : cmd->get_options())
+    for (const OptionUse& use : kOptionUse)
+      if ((use.commands & command) == 0 && option->check_name(std::string(use.name)))
+        unused.push_back(option);
+  for (CLI::Option* option : unused) cmd->remove_option(option);
+}
+
+// tshark's conventions: -c, -q, -t, --color, --no-progress, -x.
+void add_tshark_options(CLI::App* cmd, CommonOptions& o) {
+  cmd->add_option("-c,--count", o.count, "Stop after N frames (as tshark -c)");
+  cmd->add_flag("-q,--quiet", o.quiet,
+                "No line per frame: the closing summary (or the -z statistics) alone");
+  cmd->add_option("-t", o.time_format,
+                  "Text time column (as tshark -t): r (default, seconds since the capture's "
+                  "start), a / ad (local time / with date), d / dd (since the previous record "
+                  "captured / shown), e (epoch), u / ud (UTC / with date)")
+      ->check(CLI::IsMember({"ad", "a", "r", "d", "dd", "e", "u", "ud"}));
+  cmd->add_option("--color", o.color,
+                  "Colour findings and verdicts: auto (default: when stdout is a terminal and "
+                  "NO_COLOR is unset), always, never")
+      ->check(CLI::IsMember({"auto", "always", "never"}));
+  cmd->add_flag("--no-progress", o.no_progress,
+                "No progress line on stderr (shown for long runs when stderr is a terminal)");
+  cmd->add_flag("-x,--hex", o.hex_dump,
+                "Text: each frame's bytes in full as a hex and ASCII dump (as tshark -x)");
+}
+
 }  // namespace
 
-void add_common_options(CLI::App* cmd, CommonOptions& o) {
+bool color_wanted(const CommonOptions& o, std::FILE* out) {
+  if (o.color == "always") return true;
+  if (o.color == "never") return false;
+  const char* no_color = std::getenv("NO_COLOR");
+  return (!no_color || !*no_color) && ::isatty(::fileno(out)) == 1;
+}
+
+TimeFormat time_format_of(const CommonOptions& o) {
+  return time_format_from_option(o.time_format).value_or(TimeFormat::relative);
+}
+
+void refuse_idle_options(const CommonOptions& o, unsigned command) {
+  if (o.write.empty()) {
+    if (o.classic_pcap) die("--pcap: only with -w FILE (it is the format of the capture file)");
+    if (o.dlt != "upper-pdu") die("--dlt: only with -w FILE (it is the capture file's link type)");
+  }
+  if (o.format == "json") {
+    if (o.time_format != "r") die("-t: only for the text output (JSON gives times in ns)");
+    if (o.hex_dump) die("-x: only for the text output (JSON gives each frame's bytes)");
+    if (o.verbose) die("-V: only for the text output (JSON gives each frame's fields)");
+  }
+  if (o.quiet && o.events_only) die("-q and --events: -q leaves out the events");
+  if (o.quiet && o.hex_dump) die("-q and -x: -q leaves out the frames");
+  if (o.quiet && o.verbose) die("-q and -V: -q leaves out the frames");
+  (void)command;
+}
+
+void add_common_options(CLI::App* cmd, CommonOptions& o, unsigned command) {
   cmd->add_option("-T,--format", o.format, "Output format: text or json (JSON lines)")
       ->check(CLI::IsMember({"text", "json"}));
   cmd->add_flag("-V,--verbose", o.verbose, "Text: show each frame's field tree with byte offsets");
@@ -123,6 +220,8 @@ void add_common_options(CLI::App* cmd, CommonOptions& o) {
   cmd->add_option("--dlt", o.dlt,
                   "With -w: link type upper-pdu (252, Wireshark decodes it as is) or user0 (147)")
       ->check(CLI::IsMember({"upper-pdu", "user0"}));
+  add_tshark_options(cmd, o);
+  remove_options_not_taken(cmd, command);
 }
 
 Command add_file_command(CLI::App& app, const std::string& name, const std::string& description,
@@ -131,9 +230,17 @@ Command add_file_command(CLI::App& app, const std::string& name, const std::stri
   auto o = std::make_shared<CommonOptions>();
   auto path = std::make_shared<std::string>();
   CLI::App* command = app.add_subcommand(name, description);
-  add_common_options(command, *o);
-  command->add_option("file", *path, file_help)->required();
-  return {command, [o, path, run] { return run(*o, *path); }};
+  const unsigned bit = name == "read" ? kReadCommand : kDiagnoseCommand;
+  add_common_options(command, *o, bit);
+  command->add_option("file", *path, file_help);
+  command->add_option("-r,--read-file", *path, "The capture file, as tshark -r FILE");
+  return {
+      command, [o, path, run, bit, name] {
+        if (path->empty())
+          die(fmt::format("{}: give a capture file (drivetap {} FILE, or -r FILE)", name, name));
+        refuse_idle_options(*o, bit);
+        return run(*o, *path);
+      }};
 }
 
 // One line on stderr, "drivetap: MESSAGE": whole (a NUL in a name taken from a file would cut

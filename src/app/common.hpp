@@ -3,12 +3,14 @@
 // drive profiles bound.
 #pragma once
 
+#include <cstdio>
 #include <string>
 #include <string_view>
 #include <utility>
 #include <vector>
 
 #include "pipeline/options.hpp"
+#include "sinks/time_format.hpp"
 #include "sources/logic/sigrok_file.hpp"
 
 namespace CLI {
@@ -41,10 +43,35 @@ struct CommonOptions {
   std::vector<std::string> logic_channels;  // --channels RX,TX
   bool invert = false;
   std::uint64_t logic_max = SigrokFile::kDefaultMaxSampleBytes;  // --logic-max
+  // tshark's conventions (add_tshark_options()).
+  std::uint64_t count = 0;        // -c: stop after N frames (0: no limit)
+  bool quiet = false;             // -q: no per-frame output, the summary or statistics alone
+  std::string time_format = "r";  // -t: the text output's time column (sinks/time_format.hpp)
+  std::string color = "auto";     // --color
+  bool no_progress = false;       // --no-progress
+  bool hex_dump = false;          // -x: each frame's bytes as a hex and ASCII dump
 };
 
-// -T, -s, -P, --drive, -o, -w and the others every decoding subcommand takes.
-void add_common_options(CLI::App* cmd, CommonOptions& o);
+// The subcommands that take common options: the bits of an option's row in the table of which
+// command takes which option (common.cpp, kOptionUse).
+enum CommandBit : unsigned {
+  kDecodeCommand = 1,
+  kReadCommand = 2,
+  kDiagnoseCommand = 4,
+  kCaptureCommand = 8,
+};
+
+// -T, -s, -P, --drive, -o, -w and the others a decoding subcommand takes: those of them that
+// `command` (a CommandBit) uses (kOptionUse); the others are unknown to it, refused with exit 2.
+void add_common_options(CLI::App* cmd, CommonOptions& o, unsigned command);
+// Options that do nothing with the others given (--pcap without -w, -t with -T json): refused,
+// one line, exit 2. `command`: a CommandBit.
+void refuse_idle_options(const CommonOptions& o, unsigned command);
+// --color for text written to `out`: always, never, or auto: when `out` is a terminal and NO_COLOR
+// is unset or empty (no-color.org).
+bool color_wanted(const CommonOptions& o, std::FILE* out);
+// The time format of -t (checked when parsed).
+TimeFormat time_format_of(const CommonOptions& o);
 
 // One line on stderr, "drivetap: MESSAGE", with whatever is not printable UTF-8 escaped.
 void say(std::string_view message);

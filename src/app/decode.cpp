@@ -55,6 +55,7 @@ int run_decode(const CommonOptions& o, const std::vector<std::string>& args) {
   p.detect_min_good = 1;
   // The times below are made up: no timeout, no unanswered request, no timing rule is reported.
   p.clocked = false;
+  p.max_frames = o.count;  // -c
   // Frames given separately are laid out with a clean silence between them; bytes run together
   // in one frame text are back to back and get split by content.
   const TimeNs gap = std::max<TimeNs>(p.timing.t35 * 4, 20 * kNsPerMs);
@@ -73,6 +74,7 @@ int run_decode(const CommonOptions& o, const std::vector<std::string>& args) {
     die(message, code);
   };
   auto take = [&](const std::string& text, const std::string& where) {
+    if (pipeline && o.count > 0 && pipeline->stats().frames >= o.count) return;  // -c reached
     const char kind = decode_text_kind(text);
     if (kind == 0) return;
     const std::string shown = text.size() > 60 ? text.substr(0, 57) + "..." : text;
@@ -118,10 +120,13 @@ Command add_decode_command(CLI::App& app) {
   auto hex_args = std::make_shared<std::vector<std::string>>();
   CLI::App* decode =
       app.add_subcommand("decode", "Decode frames given as hex (from a manual or log)");
-  add_common_options(decode, *o);
+  add_common_options(decode, *o, kDecodeCommand);
   decode->add_option("hex", *hex_args,
                      "Hex bytes; '|' ',' ';' separate frames; '-' or none: stdin");
-  return {decode, [o, hex_args] { return run_decode(*o, *hex_args); }};
+  return {decode, [o, hex_args] {
+            refuse_idle_options(*o, kDecodeCommand);
+            return run_decode(*o, *hex_args);
+          }};
 }
 
 }  // namespace drivetap::app

@@ -14,6 +14,7 @@
 #include "app/inputs.hpp"
 #include "app/stop_signals.hpp"
 #include "diagnose/line_diagnosis.hpp"
+#include "sinks/color.hpp"
 #include "sinks/json_sink.hpp"
 
 namespace drivetap::app {
@@ -21,7 +22,11 @@ namespace {
 
 // The report: text for a person, or one JSON object.
 std::string diagnosis_text(const std::string& file, const LineEvidence& e,
-                           const std::vector<Verdict>& verdicts, const Stats& stats) {
+                           const std::vector<Verdict>& verdicts, const Stats& stats, bool color) {
+  // --color: faults red, a healthy line green, benign findings cyan.
+  const auto paint = [color](std::string_view on, const std::string& text) {
+    return color ? fmt::format("{}{}{}", on, text, color::kReset) : text;
+  };
   std::string out = fmt::format("drivetap diagnose: {}\n", file);
   auto detection_text = [&](const phy::LineDetection& d, const char* indent) {
     std::string text;
@@ -72,15 +77,18 @@ std::string diagnosis_text(const std::string& file, const LineEvidence& e,
   const auto faults = static_cast<std::size_t>(
       std::count_if(verdicts.begin(), verdicts.end(), [](const Verdict& v) { return !v.benign; }));
   if (faults == 0)
-    out += "verdict:   healthy line — no fault found\n";
+    out += "verdict:   " + paint(color::kGreen, "healthy line — no fault found") + "\n";
   else
     out += fmt::format("verdicts:  {}\n", faults);
   for (const Verdict& v : verdicts)
     if (!v.benign)
-      out += fmt::format("  [{}] {}\n      evidence: {}\n      fix:      {}\n", v.id, v.title,
-                         v.evidence, v.fix);
+      out +=
+          fmt::format("  {}\n      evidence: {}\n      fix:      {}\n",
+                      paint(color::kRed, fmt::format("[{}] {}", v.id, v.title)), v.evidence, v.fix);
   for (const Verdict& v : verdicts)
-    if (v.benign) out += fmt::format("benign:    [{}] {}: {}\n", v.id, v.title, v.evidence);
+    if (v.benign)
+      out += fmt::format("benign:    {}: {}\n",
+                         paint(color::kCyan, fmt::format("[{}] {}", v.id, v.title)), v.evidence);
   return out;
 }
 
@@ -144,9 +152,10 @@ int run_diagnose(const CommonOptions& o, const std::string& path) {
   const Diagnosis d = diagnose_capture(*source, p, channels, &g_stop);
   if (!d.error.empty()) die(d.error, 1);
   if (d.interrupted) die("interrupted", 130);
-  const std::string report = o.format == "json"
-                                 ? diagnosis_json(path, d.evidence, d.verdicts, d.stats)
-                                 : diagnosis_text(path, d.evidence, d.verdicts, d.stats);
+  const std::string report =
+      o.format == "json"
+          ? diagnosis_json(path, d.evidence, d.verdicts, d.stats)
+          : diagnosis_text(path, d.evidence, d.verdicts, d.stats, color_wanted(o, stdout));
   std::fputs(report.c_str(), stdout);
   std::fflush(stdout);
   close_input(in);

@@ -3,6 +3,8 @@
 
 #include <fmt/format.h>
 
+#include <cstdio>
+
 #include "app/stop_signals.hpp"
 #include "sources/file/byte_log.hpp"
 #include "sources/file/capture_reader.hpp"
@@ -32,9 +34,25 @@ LogicSourceOptions logic_source_options(const CommonOptions& o) {
 
 // The source for a capture file of any supported format (the format is read from its first bytes).
 std::unique_ptr<ByteSource> open_source(const CommonOptions& o, const std::string& path,
-                                        InputFile& in, ChannelTable& channels) {
+                                        InputFile& in, ChannelTable& channels, int* input_fd) {
   std::string err;
   if (!open_input(path, &in, &err)) die(err, 1);
+  if (input_fd)
+    *input_fd =
+        in.format == InputFormat::sigrok || in.format == InputFormat::vcd ? -1 : ::fileno(in.file);
+  // Options for logic-analyser captures do nothing for the others: refused (exit 2).
+  if (in.format == InputFormat::byte_log || in.format == InputFormat::pcap ||
+      in.format == InputFormat::pcapng) {
+    const char* logic_option = !o.logic_channels.empty()                           ? "--channels"
+                               : o.invert                                          ? "--invert"
+                               : o.logic_max != SigrokFile::kDefaultMaxSampleBytes ? "--logic-max"
+                                                                                   : nullptr;
+    if (logic_option)
+      die(fmt::format("{}: only for logic-analyser captures (sigrok, VCD); {} is a {}",
+                      logic_option, in.name, input_format_name(in.format)));
+  } else if (in.format == InputFormat::vcd && o.logic_max != SigrokFile::kDefaultMaxSampleBytes) {
+    die(fmt::format("--logic-max: only for sigrok sessions; {} is a VCD", in.name));
+  }
   std::unique_ptr<ByteSource> source;
   switch (in.format) {
     case InputFormat::byte_log:

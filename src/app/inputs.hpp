@@ -14,8 +14,11 @@
 namespace drivetap::app {
 
 // The source for a capture file of any supported format (the format is read from its first bytes).
+// `input_fd`, when given: the descriptor the source reads from (-1 for a logic capture, read by
+// name), for the progress line.
 std::unique_ptr<ByteSource> open_source(const CommonOptions& o, const std::string& path,
-                                        InputFile& in, ChannelTable& channels);
+                                        InputFile& in, ChannelTable& channels,
+                                        int* input_fd = nullptr);
 
 // Reads the source's header and settles the run's options: the capture's settings, overridden by
 // the command line's.

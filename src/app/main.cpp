@@ -3,12 +3,16 @@
 #include <fmt/format.h>
 #include <CLI/CLI.hpp>
 
+#include <algorithm>
 #include <csignal>
+#include <cstdio>
+#include <string>
 #include <string_view>
 #include <vector>
 
 #include "app/commands.hpp"
 #include "app/common.hpp"
+#include "app/conventions.hpp"
 #include "core/protocol_desc.hpp"
 
 int main(int argc, char** argv) {
@@ -26,6 +30,13 @@ int main(int argc, char** argv) {
       (std::string_view(argv[1]) == "-i" || std::string_view(argv[1]) == "--interface" ||
        std::string_view(argv[1]).starts_with("-i/")))
     args.insert(args.begin() + 1, capture_word);
+  // tshark's: `drivetap -r FILE ...` reads FILE (read takes -r too), `drivetap -D` lists ports.
+  static char read_word[] = "read";
+  if (argc > 1 && std::string_view(argv[1]).starts_with("-r"))
+    args.insert(args.begin() + 1, read_word);
+  if (argc == 2 &&
+      (std::string_view(argv[1]) == "-D" || std::string_view(argv[1]) == "--list-interfaces"))
+    return list_serial_ports();
   argc = static_cast<int>(args.size());
   argv = args.data();
   CLI::App app{fmt::format("drivetap: passive RS-485 bus analyser for drive networks ({})",
@@ -37,11 +48,25 @@ int main(int argc, char** argv) {
       add_decode_command(app),  add_read_command(app),     add_diagnose_command(app),
       add_capture_command(app), add_generate_command(app), add_profiles_command(app),
   };
+  // A first word that is no command and no option: the closest command is suggested.
+  if (argc > 1 && argv[1][0] != '-') {
+    std::vector<std::string> names;
+    for (const Command& command : commands) names.push_back(command.given->get_name());
+    if (std::find(names.begin(), names.end(), argv[1]) == names.end()) {
+      say(unknown_command_message(argv[1], names));
+      return 2;
+    }
+  }
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    // --help and --version exit 0; every command-line error exits 2 (CLI11's own codes vary).
-    return app.exit(e) == 0 ? 0 : 2;
+    // --help and --version exit 0; every command-line error is one line and exits 2 (CLI11's own
+    // codes vary).
+    if (e.get_exit_code() == 0) return app.exit(e);
+    const std::string line =
+        parse_error_line(app, e, std::vector<std::string>(argv + 1, argv + argc));
+    std::fputs(line.c_str(), stderr);
+    return 2;
   }
   int status = 2;
   for (const Command& command : commands)

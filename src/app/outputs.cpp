@@ -21,6 +21,12 @@
 
 namespace drivetap::app {
 
+// No line per frame: --stats, or -q (tshark's: with -z statistics, those alone; without, the
+// summary).
+bool summary_only(const CommonOptions& o) {
+  return o.stats_only || o.quiet;
+}
+
 CaptureSinkOptions capture_options(const CommonOptions& o, const PipelineOptions& p) {
   if (o.plain && o.classic_pcap)
     die("--plain: only with pcapng (classic pcap has no comments or per-byte times to leave out)");
@@ -71,6 +77,10 @@ Outputs::Outputs(const CommonOptions& o, const ChannelTable& channels, const Pip
     t.show_time = timed;
     t.summary = !o.no_summary;
     t.frames = !(capture_to_stdout && text_file_ == stderr);
+    t.time_format = time_format_of(o);
+    t.clock = &clock_;
+    t.color = color_wanted(o, text_file_);
+    t.hex_dump = o.hex_dump;
     return std::make_unique<TextSink>(file, channels, t);
   };
   text_ = make_text(text_file_);
@@ -79,11 +89,16 @@ Outputs::Outputs(const CommonOptions& o, const ChannelTable& channels, const Pip
   // and written in order: formatting is most of a run's work. A terminal gets each line as it
   // comes from the one writer; a capture file has its own order of blocks to keep.
   const unsigned cores = std::thread::hardware_concurrency();
-  if (!ring && o.write.empty() && !o.stats_only && !o.events_only && cores >= 2 &&
-      ::isatty(::fileno(text_file_)) != 1)
+  // (-t d and dd: each line's time depends on the line before it, formatted by one sink only.)
+  const TimeFormat time_format = time_format_of(o);
+  const bool time_from_previous =
+      time_format == TimeFormat::delta || time_format == TimeFormat::delta_displayed;
+  if (!ring && o.write.empty() && !summary_only(o) && !o.events_only && cores >= 2 &&
+      !time_from_previous && ::isatty(::fileno(text_file_)) != 1)
     for (unsigned i = 0; i < std::min(cores, 4u); ++i) helpers_.push_back(make_text(nullptr));
   if (o.stats_only && o.no_summary) die("--stats and --no-summary leave nothing to print");
-  if (o.stats_only) {
+  if (o.quiet && o.no_summary) die("-q and --no-summary leave nothing to print");
+  if (summary_only(o)) {
     summary_only_ = std::make_unique<SummaryOnlySink>(*text_);
     tee_.add(summary_only_.get());
   } else if (o.events_only) {
@@ -94,12 +109,17 @@ Outputs::Outputs(const CommonOptions& o, const ChannelTable& channels, const Pip
   }
 }
 
+void Outputs::set_clock(bool wall_clock, TimeNs origin) {
+  clock_.wall_clock = wall_clock;
+  clock_.origin = origin;
+}
+
 void Outputs::write_on_second_thread() {
   if (!helpers_.empty()) {
     std::vector<FormattingSink*> helpers;
     for (const std::unique_ptr<FormattingSink>& helper : helpers_) helpers.push_back(helper.get());
     threaded_ = std::make_unique<ThreadedSink>(*text_, std::move(helpers));  // (tee_: text_)
-  } else if ((!options_.stats_only && !options_.events_only) || capture_) {
+  } else if ((!summary_only(options_) && !options_.events_only) || capture_) {
     threaded_ = std::make_unique<ThreadedSink>(tee_);
   }
 }

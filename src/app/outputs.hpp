@@ -13,11 +13,15 @@
 #include "sinks/ring_capture_sink.hpp"
 #include "sinks/sink.hpp"
 #include "sinks/threaded_sink.hpp"
+#include "sinks/time_format.hpp"
 
 namespace drivetap::app {
 
 // The capture file's options for -w (format, link type, the run's settings in each interface).
 CaptureSinkOptions capture_options(const CommonOptions& o, const PipelineOptions& p);
+
+// No line per frame (--stats, -q): the summary (or the statistics) alone.
+bool summary_only(const CommonOptions& o);
 
 // Owns the output files and the sinks chosen by -T, -o and -w.
 class Outputs {
@@ -30,6 +34,9 @@ class Outputs {
   // --events without -w, whose sinks drop nearly every record: copying them would cost more
   // than it saves).
   void write_on_second_thread();
+  // The capture's clock for the text time column (-t): whether its times are wall-clock time, and
+  // its start on that clock. Set before the first record reaches the sink.
+  void set_clock(bool wall_clock, TimeNs origin);
   Sink& sink() { return threaded_ ? static_cast<Sink&>(*threaded_) : tee_; }
   // Whether nothing written from now on reaches anybody: the text output failed (its reader went
   // away, `| head`) and there is no capture file to complete. Reading on would be wasted.
@@ -43,6 +50,7 @@ class Outputs {
 
  private:
   const CommonOptions& options_;
+  TimeReference clock_;  // the text sinks read it (TextSinkOptions::clock)
   std::FILE* text_file_ = stdout;
   std::FILE* capture_file_ = nullptr;
   int capture_errno_ = 0;  // why the first failed flush failed

@@ -13,8 +13,10 @@
 #include "app/common.hpp"
 #include "app/inputs.hpp"
 #include "app/outputs.hpp"
+#include "app/progress.hpp"
 #include "app/stop_signals.hpp"
 #include "pipeline/pipeline.hpp"
+#include "sinks/time_format.hpp"
 #include "sources/read_ahead.hpp"
 
 namespace drivetap::app {
@@ -30,6 +32,14 @@ void say_rewritten_names(const ChannelTable& channels) {
                   ChannelTable::kMaxNameBytes, channels.first_rewritten_name()));
 }
 
+// Whether a capture whose first byte is at `first` has wall-clock times (ns since the epoch, as
+// the pcap of any tool and a live capture) rather than times from its start (a byte log, a logic
+// capture, and the pcapng drivetap writes of them): the time is after 2001-09-09, which no run
+// from its start reaches.
+bool is_wall_clock_time(TimeNs first) {
+  return first >= 1'000'000'000 * kNsPerSecond;
+}
+
 // A file named on the command line that is a regular file (not "-", a FIFO or a device).
 bool is_regular_file(const std::string& path) {
   struct stat st {};
@@ -40,12 +50,16 @@ int run_read(const CommonOptions& o, const std::string& path) {
   refuse_shared_files({{"input", path}, {"-o", o.output}, {"-w", o.write}});
   InputFile in;
   ChannelTable channels;
-  std::unique_ptr<ByteSource> source = open_source(o, path, in, channels);
+  int input_fd = -1;
+  std::unique_ptr<ByteSource> source = open_source(o, path, in, channels, &input_fd);
   catch_stop_signals();
-  const PipelineOptions p = start_source(o, *source);
+  PipelineOptions p = start_source(o, *source);
+  p.max_frames = o.count;  // -c
   Outputs out(o, channels, p, /*timed=*/true);
   out.write_on_second_thread();
   Pipeline pipeline(p, channels, out.sink());
+  bool clock_set = false;
+  Progress progress(o, in.name, input_fd);
 
   RunBatch batch;
   bool interrupted = false;
@@ -57,6 +71,17 @@ int run_read(const CommonOptions& o, const std::string& path) {
     ahead.emplace(*source);
   // Each pass decodes one chunk or one batch of the source.
   while (ahead ? ahead->next_chunk(batch) : (batch.clear(), source->append_runs(batch))) {
+    // -t r counts from the first byte of a wall-clock capture; the others' clocks start at 0.
+    if (!clock_set && !batch.empty()) {
+      const bool wall_clock = is_wall_clock_time(batch[0].first);
+      out.set_clock(wall_clock, wall_clock ? batch[0].first : 0);
+      if (!wall_clock && time_format_is_wall_clock(time_format_of(o)))
+        say(
+            fmt::format("-t {}: {} has no wall-clock time, only seconds from its start: times "
+                        "shown relative",
+                        o.time_format, in.name));
+      clock_set = true;
+    }
     if (!ahead)
       for (const Anomaly& a : source->take_findings()) pipeline.report(a);
     pipeline.push_runs(batch);
@@ -69,10 +94,13 @@ int run_read(const CommonOptions& o, const std::string& path) {
       interrupted = true;
       break;
     }
+    if (o.count > 0 && pipeline.stats().frames >= o.count) break;  // -c: as many as asked
+    progress.update(pipeline.stats().frames);
     if (++batches % 256 == 0 && out.unread()) break;
   }
   interrupted = interrupted || g_stop;  // a source may end early, as at its end, when stopped
   ahead.reset();  // the reader thread has stopped: the source is the caller's alone again
+  progress.clear();
   // Whatever happened, what was read so far is decoded, summarised, written and flushed.
   pipeline.finish();
   out.close();

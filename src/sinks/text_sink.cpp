@@ -13,6 +13,7 @@
 
 #include "core/enum_text.hpp"
 #include "core/format.hpp"
+#include "sinks/color.hpp"
 
 namespace drivetap {
 
@@ -95,6 +96,32 @@ std::string frame_summary(const Message& m, bool with_latency) {
   return s;
 }
 
+std::string shown_hex(std::span<const std::uint8_t> bytes) {
+  if (bytes.size() <= kShownHexBytes) return hex_bytes(bytes);
+  return fmt::format(FMT_COMPILE("{} … (+{} bytes)"), hex_bytes(bytes.first(kShownHexBytes)),
+                     bytes.size() - kShownHexBytes);
+}
+
+std::string hex_dump(std::span<const std::uint8_t> bytes, std::string_view indent) {
+  std::string out;
+  for (std::size_t at = 0; at < bytes.size(); at += 16) {
+    const std::span<const std::uint8_t> row =
+        bytes.subspan(at, std::min<std::size_t>(16, bytes.size() - at));
+    out += indent;
+    fmt::format_to(std::back_inserter(out), FMT_COMPILE("{:04x}  "), at);
+    for (std::size_t k = 0; k < 16; ++k) {
+      if (k < row.size())
+        fmt::format_to(std::back_inserter(out), FMT_COMPILE("{:02x} "), row[k]);
+      else
+        out += "   ";
+    }
+    out += "  ";
+    for (const std::uint8_t b : row) out += b >= 0x20 && b < 0x7F ? static_cast<char>(b) : '.';
+    out += '\n';
+  }
+  return out;
+}
+
 TextSink::TextSink(std::FILE* out, const ChannelTable& channels, TextSinkOptions options)
     : channels_(channels), options_(options), lines_(out) {}
 
@@ -105,6 +132,9 @@ namespace {
 // spaces written after the name (those past its padding to 3 columns are written over) and a
 // space.
 constexpr std::size_t kPrefixMostChars = 21 + 29 + 4;
+
+// -x dump lines are indented as the other lines under a frame.
+constexpr std::string_view kDumpIndent = "        ";
 
 // Where `count` characters right-aligned in Width columns start, at `at`: the Width spaces are
 // written in one fixed-size store, the characters then go over the last of them.
@@ -157,9 +187,40 @@ void append_text_prefix(Out& out, std::uint64_t number, TimeNs time, bool show_t
 template void append_text_prefix(std::string&, std::uint64_t, TimeNs, bool, std::string_view);
 template void append_text_prefix(LineBuffer&, std::uint64_t, TimeNs, bool, std::string_view);
 
+TimeReference TextSink::time_reference() const {
+  TimeReference reference = options_.clock ? *options_.clock : TimeReference{};
+  // (Every record this sink gets is displayed: a display filter drops them before it.)
+  reference.previous_captured = previous_record_time_;
+  reference.previous_displayed = previous_record_time_;
+  return reference;
+}
+
+template <class Out>
+void TextSink::append_prefix(Out& out, std::uint64_t number, TimeNs time, ChannelId channel) const {
+  const std::string_view name = channels_.at(channel).name;
+  if (!options_.show_time || (options_.time_format == TimeFormat::relative && !options_.clock)) {
+    append_text_prefix(out, number, time, options_.show_time, name);
+    return;
+  }
+  const TimeReference reference = time_reference();
+  if (const std::optional<TimeNs> seconds = shown_seconds(time, options_.time_format, reference)) {
+    append_text_prefix(out, number, *seconds, true, name);
+    return;
+  }
+  // A calendar time (-t a, ad, u, ud): right-aligned in 14 columns or as wide as it is.
+  char text[kMaxTimeChars];
+  const std::size_t length = format_time(text, time, options_.time_format, reference);
+  if (number)
+    fmt::format_to(std::back_inserter(out), FMT_COMPILE("{:>5} "), number);
+  else
+    out += "    - ";
+  fmt::format_to(std::back_inserter(out), FMT_COMPILE("{:>14} {:<3} "),
+                 std::string_view(text, length), name);
+}
+
 std::string TextSink::prefix(std::uint64_t number, TimeNs time, ChannelId channel) const {
   std::string s;
-  append_text_prefix(s, number, time, options_.show_time, channels_.at(channel).name);
+  append_prefix(s, number, time, channel);
   return s;
 }
 
@@ -167,11 +228,15 @@ void TextSink::on_frame(const Message& m) {
   last_frame_number_ = m.frame.number;
   if (!options_.frames) return;
   LineBuffer& line = lines_.buffer();  // the line is built where it will be written from
-  append_text_prefix(line, m.frame.number, m.frame.start(), options_.show_time,
-                     channels_.at(m.frame.channel).name);
+  append_prefix(line, m.frame.number, m.frame.start(), m.frame.channel);
+  note_record_time(m.frame.start());
   line += direction_tag(m.direction);
   line += "  ";
+  const bool colored = options_.color && (m.checksum.verdict == ChecksumVerdict::bad ||
+                                          m.checksum.verdict == ChecksumVerdict::swapped);
+  if (colored) line += color::kRed;
   append_frame_summary(line, m, options_.show_time);
+  if (colored) line += color::kReset;
   lines_.end_line();
   if (!m.drive_info.empty()) {
     line.append(8, ' ');
@@ -179,10 +244,16 @@ void TextSink::on_frame(const Message& m) {
     line += m.drive_info;
     lines_.end_line();
   }
-  if (!options_.verbose) return;
+  if (options_.verbose) write_field_tree(m);
+  if (options_.hex_dump) lines_.write_lines(hex_dump(m.bytes, kDumpIndent));
+}
+
+void TextSink::write_field_tree(const Message& m) {
   if (m.text_encoded) {
     std::string text;
-    for (const std::uint8_t b : m.bytes) {
+    const std::span<const std::uint8_t> shown =
+        std::span<const std::uint8_t>(m.bytes).first(std::min(m.bytes.size(), kShownHexBytes));
+    for (const std::uint8_t b : shown) {
       if (b == '\r')
         text += "\\r";
       else if (b == '\n')
@@ -192,9 +263,13 @@ void TextSink::on_frame(const Message& m) {
       else
         text += fmt::format(FMT_COMPILE("\\x{:02X}"), b);
     }
-    lines_.write(fmt::format(FMT_COMPILE("{:>8}text: \"{}\""), "", text));
+    if (shown.size() < m.bytes.size())
+      text += fmt::format(FMT_COMPILE("\" … (+{} bytes)"), m.bytes.size() - shown.size());
+    else
+      text += '"';
+    lines_.write(fmt::format(FMT_COMPILE("{:>8}text: \"{}"), "", text));
   } else {
-    lines_.write(fmt::format(FMT_COMPILE("{:>8}bytes: {}"), "", hex_bytes(m.bytes)));
+    lines_.write(fmt::format(FMT_COMPILE("{:>8}bytes: {}"), "", shown_hex(m.bytes)));
   }
   for (const FieldNode& node : m.fields) {
     const std::string span = node.length <= 1 ? fmt::format(FMT_COMPILE("[{}]"), node.offset)
@@ -210,15 +285,20 @@ void TextSink::on_noise(const Frame& f) {
   last_frame_number_ = f.number;
   if (!options_.frames) return;
   const std::span<const std::uint8_t> bytes = f.events.bytes();
+  const std::string line_start = prefix(f.number, f.start(), f.channel);
+  note_record_time(f.start());
+  const std::string_view on = options_.color ? color::kYellow : "";
+  const std::string_view off = options_.color ? color::kReset : "";
   if (std::string nine = nine_bit_hex(f.events); !nine.empty()) {
-    lines_.write(prefix(f.number, f.start(), f.channel) +
-                 fmt::format(FMT_COMPILE("---  noise: {} 9-bit character{} {}"), bytes.size(),
-                             bytes.size() == 1 ? "" : "s", nine));
+    lines_.write(line_start + fmt::format(FMT_COMPILE("{}---  noise: {} 9-bit character{} {}{}"),
+                                          on, bytes.size(), bytes.size() == 1 ? "" : "s", nine,
+                                          off));
     return;
   }
-  lines_.write(prefix(f.number, f.start(), f.channel) +
-               fmt::format(FMT_COMPILE("---  noise: {} byte{} {}"), bytes.size(),
-                           bytes.size() == 1 ? "" : "s", hex_bytes(bytes)));
+  lines_.write(line_start + fmt::format(FMT_COMPILE("{}---  noise: {} byte{} {}{}"), on,
+                                        bytes.size(), bytes.size() == 1 ? "" : "s",
+                                        shown_hex(bytes), off));
+  if (options_.hex_dump) lines_.write_lines(hex_dump(bytes, kDumpIndent));
 }
 
 void TextSink::on_anomaly(const Anomaly& a) {
@@ -227,18 +307,25 @@ void TextSink::on_anomaly(const Anomaly& a) {
   if (a.kind == AnomalyKind::checksum_bad || a.kind == AnomalyKind::checksum_swapped ||
       a.kind == AnomalyKind::noise)
     return;
+  const std::string_view on = options_.color ? color::of(anomaly_severity(a.kind)) : "";
+  const std::string_view off = options_.color ? color::kReset : "";
   if (a.frame_number != 0 && a.frame_number == last_frame_number_ &&
       a.kind != AnomalyKind::unanswered_request && a.kind != AnomalyKind::unsolicited_response) {
-    lines_.write(fmt::format(FMT_COMPILE("{:>8}! {}: {}"), "", anomaly_label(a.kind), a.detail));
+    lines_.write(fmt::format(FMT_COMPILE("{:>8}{}! {}: {}{}"), "", on, anomaly_label(a.kind),
+                             a.detail, off));
     return;
   }
-  lines_.write(prefix(0, a.time, a.channel) +
-               fmt::format(FMT_COMPILE("!!!  {}: {}"), anomaly_label(a.kind), a.detail));
+  lines_.write(prefix(0, a.time, a.channel) + fmt::format(FMT_COMPILE("{}!!!  {}: {}{}"), on,
+                                                          anomaly_label(a.kind), a.detail, off));
 }
 
 void TextSink::on_event(const BusEvent& e) {
   if (!options_.frames) return;
-  lines_.write(prefix(0, e.time, e.channel) + fmt::format(FMT_COMPILE("***  {}"), e.detail));
+  if (options_.color)
+    lines_.write(prefix(0, e.time, e.channel) +
+                 fmt::format(FMT_COMPILE("{}***  {}{}"), color::kCyan, e.detail, color::kReset));
+  else
+    lines_.write(prefix(0, e.time, e.channel) + fmt::format(FMT_COMPILE("***  {}"), e.detail));
 }
 
 void TextSink::on_transaction(const Transaction&) {
@@ -251,8 +338,15 @@ void TextSink::on_summary(const Stats& s) {
   lines_.write("");
   lines_.write("--- summary ---");
   if (s.frames + s.noise_records > 0 && options_.show_time) {
-    lines_.write(fmt::format(FMT_COMPILE("capture:      {} .. {} s, {} bytes"),
-                             format_seconds(s.first_time, 6), format_seconds(s.last_time, 6),
+    // The span in the -t format; a delta format gives it relative.
+    TimeFormat format = options_.time_format;
+    if (format == TimeFormat::delta || format == TimeFormat::delta_displayed)
+      format = TimeFormat::relative;
+    TimeReference reference = options_.clock ? *options_.clock : TimeReference{};
+    const bool seconds = shown_seconds(s.first_time, format, reference).has_value();
+    lines_.write(fmt::format(FMT_COMPILE("capture:      {} .. {}{}, {} bytes"),
+                             format_time(s.first_time, format, reference),
+                             format_time(s.last_time, format, reference), seconds ? " s" : "",
                              s.bytes));
   } else {
     lines_.write(fmt::format(FMT_COMPILE("capture:      {} bytes"), s.bytes));

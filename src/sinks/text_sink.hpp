@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdio>
+#include <span>
 #include <string>
 
 #include "core/byte_event.hpp"
@@ -11,6 +12,7 @@
 #include "core/serial_config.hpp"
 #include "sinks/line_writer.hpp"
 #include "sinks/sink.hpp"
+#include "sinks/time_format.hpp"
 
 namespace drivetap {
 
@@ -19,6 +21,12 @@ struct TextSinkOptions {
   bool show_time = true;  // false for `decode`, whose times are synthetic
   bool summary = true;
   bool frames = true;  // false: only the closing summary (e.g. with -w -)
+  TimeFormat time_format = TimeFormat::relative;  // -t
+  bool color = false;                             // --color: findings, checksums, events
+  bool hex_dump = false;  // -x: each frame's bytes in full, offset, hex and ASCII lines (tshark's)
+  // The capture's clock (origin, wall clock or not), which may be settled after the sink is made,
+  // before its first record; nullptr: times shown as they are.
+  const TimeReference* clock = nullptr;
 };
 
 // On cache lines of its own: the helpers of a ThreadedSink, one per thread, each write theirs for
@@ -47,12 +55,21 @@ class alignas(kCacheLineBytes) TextSink final : public FormattingSink {
   }
 
  private:
-  // append_text_prefix() of a record of `channel`.
+  // append_text_prefix() of a record of `channel`, its time in the -t format.
   std::string prefix(std::uint64_t number, TimeNs time, ChannelId channel) const;
+  template <class Out>
+  void append_prefix(Out& out, std::uint64_t number, TimeNs time, ChannelId channel) const;
+  // -V: the frame's bytes and field tree with byte offsets.
+  void write_field_tree(const Message& m);
+  // The reference of the time column: the capture's clock and the previous record shown.
+  [[nodiscard]] TimeReference time_reference() const;
+  // A frame or noise record was shown at `time` (for -t d and dd).
+  void note_record_time(TimeNs time) { previous_record_time_ = time; }
 
   const ChannelTable& channels_;
   TextSinkOptions options_;
   std::uint64_t last_frame_number_ = 0;
+  TimeNs previous_record_time_ = -1;
   LineWriter lines_;  // lines not written yet (flush() writes them); frame lines are built there
 };
 
@@ -63,6 +80,15 @@ class alignas(kCacheLineBytes) TextSink final : public FormattingSink {
 template <class Out>
 void append_text_prefix(Out& out, std::uint64_t number, TimeNs time, bool show_time,
                         std::string_view channel);
+
+// A noise record or -V frame shows at most this many bytes of hex, then how many more there are;
+// -x gives them all.
+inline constexpr std::size_t kShownHexBytes = 64;
+// `bytes` as hex, cut after kShownHexBytes: "01 02 ... 3F … (+1234 bytes)".
+std::string shown_hex(std::span<const std::uint8_t> bytes);
+// tshark's -x dump of `bytes`: per 16 bytes, "0010  " (offset), the bytes in hex, and the bytes
+// in ASCII ('.' for what does not print), each line led by `indent` and ended by '\n'.
+std::string hex_dump(std::span<const std::uint8_t> bytes, std::string_view indent);
 
 // The decode of a frame in one line, without number/time/channel: shared with the JSON
 // `summary` key so both sinks say the same thing.
