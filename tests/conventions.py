@@ -235,6 +235,16 @@ REFUSED = [
     (["read", "-q", "-x", LOG], "drivetap: -q and -x"),
     (["read", "-q", "-V", LOG], "drivetap: -q and -V"),
     (["read", "-q", "--no-summary", LOG], "drivetap: -q and --no-summary leave nothing to print"),
+    (["read", "--stats", "--events", LOG], "drivetap: --stats and --events"),
+    (["read", "--stats", "-x", LOG], "drivetap: --stats and -x"),
+    (["read", "--events", "-V", LOG], "drivetap: --events and -V"),
+    (["read", "--events", "-x", LOG], "drivetap: --events and -x"),
+    (["read", "-T", "json", "--color=always", LOG], "drivetap: --color: only for the text output"),
+    (["diagnose", "-T", "json", "--color=never", LOG], "drivetap: --color: only for the text"),
+    (["capture", "--scan-time", "3", "-i", "/dev/null"], "drivetap: --scan-time: only with --scan"),
+    (["capture", "--scan", "-w", "x.pcapng", "-i", "/dev/null"], "drivetap: -w: not with --scan"),
+    (["capture", "--scan", "-c", "5", "-i", "/dev/null"], "drivetap: -c: not with --scan"),
+    (["capture", "--scan", "-b", "files:3", "-i", "/dev/null"], "drivetap: -b: not with --scan"),
 ]
 for args, start in REFUSED:
     r = run(args)

@@ -85,6 +85,27 @@ ScanResult scan_one(const CommonOptions& o, const std::string& path, const Seria
   return r;
 }
 
+// Options that do nothing with the others: --scan-time without --scan; with --scan (which only
+// prints its table) the outputs, -c and the options of a capture run.
+void refuse_idle_capture_options(const CommonOptions& o, const CaptureOptions& c,
+                                 bool scan_time_given) {
+  if (!c.scan) {
+    if (scan_time_given) die("--scan-time: only with --scan");
+    return;
+  }
+  const std::pair<bool, const char*> idle[] = {
+      {!o.write.empty(), "-w"},    {!o.output.empty(), "-o"},
+      {o.count > 0, "-c"},         {!c.autostop.empty(), "-a"},
+      {!c.ring.empty(), "-b"},     {c.reconnect, "--reconnect"},
+      {o.format != "text", "-T"},  {o.quiet || o.stats_only, o.quiet ? "-q" : "--stats"},
+      {o.events_only, "--events"}, {o.verbose, "-V"},
+      {o.hex_dump, "-x"},          {o.time_format != "r", "-t"},
+  };
+  for (const auto& [given, option] : idle)
+    if (given)
+      die(fmt::format("{}: not with --scan (it prints only its table of settings)", option));
+}
+
 // `drivetap capture --scan -i PORT`: listens at each standard rate and format in turn and says
 // which gives frames with good checksums (for a tap on a bus whose settings nobody knows).
 int run_scan(const CommonOptions& o, const CaptureOptions& c) {
@@ -241,8 +262,11 @@ Command add_capture_command(CLI::App& app) {
   capture->add_flag("--scan", c->scan,
                     "Listen at each standard rate and parity in turn, say which gives frames");
   capture->add_option("--scan-time", c->scan_seconds, "--scan: seconds per setting (default 2)");
-  return {capture, [o, c] {
+  // How many times --scan-time was given: it does nothing without --scan.
+  CLI::Option* scan_time = capture->get_option("--scan-time");
+  return {capture, [o, c, scan_time] {
             refuse_idle_options(*o, kCaptureCommand);
+            refuse_idle_capture_options(*o, *c, scan_time->count() > 0);
             return c->scan ? run_scan(*o, *c) : run_capture(*o, *c);
           }};
 }

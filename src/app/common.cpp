@@ -156,10 +156,17 @@ void refuse_idle_options(const CommonOptions& o, unsigned command) {
     if (o.time_format != "r") die("-t: only for the text output (JSON gives times in ns)");
     if (o.hex_dump) die("-x: only for the text output (JSON gives each frame's bytes)");
     if (o.verbose) die("-V: only for the text output (JSON gives each frame's fields)");
+    if (o.color != "auto") die("--color: only for the text output");
   }
-  if (o.quiet && o.events_only) die("-q and --events: -q leaves out the events");
-  if (o.quiet && o.hex_dump) die("-q and -x: -q leaves out the frames");
-  if (o.quiet && o.verbose) die("-q and -V: -q leaves out the frames");
+  // Without frame lines, what is shown of each frame does nothing.
+  const char* no_frames = o.quiet ? "-q" : o.stats_only ? "--stats" : nullptr;
+  if (no_frames && o.events_only)
+    die(fmt::format("{} and --events: {} leaves out the events", no_frames, no_frames));
+  if (!no_frames && o.events_only) no_frames = "--events";
+  if (no_frames && o.hex_dump)
+    die(fmt::format("{} and -x: {} leaves out the frames", no_frames, no_frames));
+  if (no_frames && o.verbose)
+    die(fmt::format("{} and -V: {} leaves out the frames", no_frames, no_frames));
   (void)command;
 }
 
