@@ -42,6 +42,9 @@ int main(int argc, char** argv) {
   CLI::App app{fmt::format("drivetap: passive RS-485 bus analyser for drive networks ({})",
                            drivetap::protocol_labels_text())};
   app.require_subcommand(1);
+  app.footer(
+      "As tshark: drivetap -r FILE reads FILE, drivetap -i PORT captures, drivetap -D lists the "
+      "serial ports. drivetap COMMAND --help lists the options of COMMAND.");
   app.set_version_flag("--version", "drivetap 0.1.0");
   // In the order `drivetap --help` lists them.
   const std::vector<Command> commands = {
