@@ -116,7 +116,8 @@ void remove_options_not_taken(CLI::App* cmd, unsigned command) {
 
 // tshark's conventions: -c, -q, -t, --color, --no-progress, -x.
 void add_tshark_options(CLI::App* cmd, CommonOptions& o) {
-  cmd->add_option("-c,--count", o.count, "Stop after N frames (as tshark -c)");
+  cmd->add_option("-c,--count", o.count,
+                  "Stop after N frames (as tshark -c; noise records do not count)");
   cmd->add_flag("-q,--quiet", o.quiet,
                 "No line per frame: the closing summary (or the -z statistics) alone");
   cmd->add_option("-t", o.time_format,
