@@ -246,7 +246,7 @@ struct Reframed {
     }
   } else {
     for (std::size_t i = 0; i < events.size(); i += run) {
-      framer->push(events.subspan(i, std::min(run, events.size() - i)), out);
+      framer->push_all(events.subspan(i, std::min(run, events.size() - i)), out);
       drain();
     }
   }
@@ -458,7 +458,7 @@ void BM_Pairer(benchmark::State& state) {
     FramerSettings settings;
     settings.timing = t.timing;
     auto framer = decoder->make_framer(0, settings);
-    framer->push(t.events, frames);
+    framer->push_all(t.events, frames);
     framer->finish(frames);
   }
   std::vector<Message> messages;

@@ -63,7 +63,7 @@ std::vector<Frame> frames_alike_by_push_and_push_span(const std::vector<ByteEven
   FrameBatch expected, got;
   for (const ByteEvent& e : events) one_by_one.push(e, expected);
   one_by_one.finish(expected);
-  at_once.push(events, got);
+  at_once.push_all(events, got);
   at_once.finish(got);
   EXPECT_EQ(got.size(), expected.size());
   for (std::size_t i = 0; i < got.size() && i < expected.size(); ++i) {
@@ -312,7 +312,7 @@ TEST(RtuFramer, PressureCloseOfOneFrameStartsTheNextTimingAfresh) {
   FrameBatch expected, got;
   for (const ByteEvent& e : events) one_by_one.push(e, expected);
   one_by_one.finish(expected);
-  in_one_run.push(events, got);
+  in_one_run.push_all(events, got);
   in_one_run.finish(got);
   ASSERT_EQ(got.size(), 2u);
   ASSERT_EQ(expected.size(), 2u);
@@ -401,12 +401,33 @@ TEST(RtuFramer, PushAllGivesTheFramesOfPushingOneByOne) {
   const RtuFramerOptions options{timing, 100 * kNsPerMs, 64};
   RtuFramer one_by_one(0, options), in_runs(0, options);
   FrameBatch expected, got;
-  for (const ByteEvent& e : events) one_by_one.push(e, expected);
+  std::vector<std::size_t> frames_after(events.size());  // of pushing each byte alone, up to it
+  for (std::size_t j = 0; j < events.size(); ++j) {
+    one_by_one.push(events[j], expected);
+    frames_after[j] = expected.size();
+  }
   one_by_one.finish(expected);
+  // push(events) stops where frames closed, and only there: right after the byte that closed
+  // them, or right before the one whose silence closed them.
   for (std::size_t i = 0; i < events.size();) {
+    SCOPED_TRACE(i);
     const std::size_t run = std::min<std::size_t>(1 + rng() % 300, events.size() - i);
-    in_runs.push(std::span(events).subspan(i, run), got);
-    i += run;
+    const std::size_t frames_before = got.size();
+    const std::size_t taken = in_runs.push(std::span(events).subspan(i, run), got);
+    ASSERT_GE(taken, 1u);
+    ASSERT_LE(taken, run);
+    const std::size_t last = i + taken - 1;
+    const bool closed_by_last = got.size() == frames_after[last];
+    const bool closed_before_next =
+        taken < run && frames_after[last] == frames_before && got.size() == frames_after[last + 1];
+    ASSERT_TRUE(closed_by_last || closed_before_next);
+    if (taken < run) {
+      EXPECT_NE(got.size(), frames_before);
+    }
+    if (taken > 1) {
+      EXPECT_EQ(frames_after[last - 1], frames_before);
+    }
+    i += taken;
   }
   in_runs.finish(got);
   ASSERT_EQ(got.size(), expected.size());
@@ -459,7 +480,7 @@ TEST(RtuFramer, AFrameTakenWholeCarriesTheCrcComputedOverIt) {
   append_bytes(events, clock, kRequest);  // a byte after the silence shows it, in the same call
   RtuFramer framer(0, RtuFramerOptions{FramingTiming::from(k9600)});
   FrameBatch frames;
-  framer.push(events, frames);
+  framer.push_all(events, frames);
   framer.finish(frames);
   ASSERT_EQ(frames.size(), 3u);
   for (std::size_t i = 0; i < 2; ++i) {
@@ -537,14 +558,14 @@ TEST(RtuFramer, TakeWholeIsPushWithoutTheFrame) {
     const TimeNs next = k + 1 < runs.size() ? runs[k + 1].first : clock + kNsPerSecond;
     pushing.advance(run.first, pushed);
     taking.advance(run.first, taken_frames);
-    pushing.push(run, pushed);
+    pushing.push_all(run, pushed);
     Framer::WholeFrame whole;
     if (taking.take_whole(run, next, &whole)) {
       ++taken;
       add_whole_frame(taken_frames, 0, run, whole);
       continue;
     }
-    taking.push(run, taken_frames);
+    taking.push_all(run, taken_frames);
   }
   // (The last run was taken as if a byte came a second later: that silence closes it.)
   pushing.advance(clock + kNsPerSecond, pushed);

@@ -38,8 +38,8 @@ class DelimitedFramer final : public Framer {
   DelimitedFramer(ChannelId channel, DelimitedFramerOptions options)
       : channel_(channel), options_(options) {}
   using Framer::push;
-  void push(std::span<const ByteEvent> events, FrameBatch& out) override {
-    for (const ByteEvent& e : events) push_byte(e, out);
+  std::size_t push(std::span<const ByteEvent> events, FrameBatch& out) override {
+    return push_each(events.size(), out, [&](std::size_t i) { push_byte(events[i], out); });
   }
   void advance(TimeNs now, FrameBatch& out) override;
   void finish(FrameBatch& out) override;

@@ -112,10 +112,10 @@ class HybridFramer final : public Framer {
   using Framer::push;
   // Adds bytes: those that close nothing (no silence before them, no pressure) are appended in
   // bulk, a run that is a whole frame between two silences is taken at once.
-  void push(std::span<const ByteEvent> events, FrameBatch& out) override;
+  std::size_t push(std::span<const ByteEvent> events, FrameBatch& out) override;
   // A run (a source packet): its first byte the single-byte way, the rest appended in bulk up to
   // the pressure mark.
-  void push(const ByteRun& run, FrameBatch& out) override;
+  std::size_t push(const ByteRun& run, FrameBatch& out) override;
   // A run that is a whole frame between two silences, taken at once (see Framer::take_whole).
   bool take_whole(const ByteRun& run, TimeNs next_time, WholeFrame* taken,
                   const TelegramPrecheck* precheck = nullptr) override;
@@ -125,15 +125,15 @@ class HybridFramer final : public Framer {
   void finish(FrameBatch& out) override;
   // Earliest time at which advance() can produce something; max() when nothing is pending.
   [[nodiscard]] TimeNs next_deadline() const override;
-  // Bytes before the pressure mark: push() closes nothing else without silence.
-  [[nodiscard]] std::size_t quiet_room() const override {
+
+ private:
+  enum class Mode { silence, pressure, flush, end_of_input };
+  // Bytes before the pressure mark: without silence, push() of each would only append it.
+  [[nodiscard]] std::size_t room_before_pressure() const {
     return pending_.size() + 1 < options_.pressure_bytes
                ? options_.pressure_bytes - 1 - pending_.size()
                : 0;
   }
-
- private:
-  enum class Mode { silence, pressure, flush, end_of_input };
   // Adds one byte.
   void push_byte(const ByteEvent& event, FrameBatch& out);
   // take_whole(), the frame appended to `out`.

@@ -37,16 +37,22 @@ void HybridFramer<Rules>::push_byte(const ByteEvent& event, FrameBatch& out) {
 }
 
 template <class Rules>
-void HybridFramer<Rules>::push(std::span<const ByteEvent> events, FrameBatch& out) {
-  if (events.size() == 1) return push_byte(events[0], out);
+std::size_t HybridFramer<Rules>::push(std::span<const ByteEvent> events, FrameBatch& out) {
+  if (events.size() == 1) {
+    push_byte(events[0], out);
+    return 1;
+  }
   // Room for the longest run at once (the buffer only grows), so the scan stores each byte as it
   // passes it.
   if (run_bytes_.size() < events.size()) run_bytes_.resize(events.size());
   const std::span<std::uint8_t> bytes(run_bytes_);
+  const std::size_t frames_before = out.size();
   std::size_t i = 0;
   // Every pass pushes at least the byte at i: evenly spaced, unmarked bytes (a byte log's line, a
   // packet) as one run, which push(run) appends in bulk where push() of each would only append.
-  while (i < events.size()) {
+  // A pass that closed frames is the last: they were closed by the byte at i - 1, or by the
+  // silence before the byte at i.
+  while (i < events.size() && out.size() == frames_before) {
     TimeNs step = 0;
     const std::size_t n = scan_uniform_run(
         events.subspan(i), &step, [bytes](std::size_t k, std::uint8_t b) { bytes[k] = b; });
@@ -63,15 +69,18 @@ void HybridFramer<Rules>::push(std::span<const ByteEvent> events, FrameBatch& ou
           run.first - last_end_ > options_.timing.t35) {
         process(Mode::silence, run.first, out);
         processed_since_last_byte_ = true;  // push() of the first byte must not process again
+        if (out.size() != frames_before) {
+          push_byte(events[i], out);  // the byte whose silence closed them
+          return i + 1;
+        }
       }
-      if (push_whole(run, events[i + n].time, out)) {
-        i += n;
-        continue;
-      }
+      // The run's frame is the one the silence before the next byte closes; push() of that byte
+      // then only starts the next frame (the next call's first, which may take it whole).
+      if (push_whole(run, events[i + n].time, out)) return i + n;
     }
-    push(run, out);
-    i += n;
+    i += push(run, out);
   }
+  return i;
 }
 
 template <class Rules>
@@ -119,26 +128,25 @@ bool HybridFramer<Rules>::push_whole(const ByteRun& run, TimeNs next_time, Frame
 }
 
 template <class Rules>
-void HybridFramer<Rules>::push(const ByteRun& run, FrameBatch& out) {
+std::size_t HybridFramer<Rules>::push(const ByteRun& run, FrameBatch& out) {
   const std::size_t n = run.size();
-  if (n == 0) return;
   // Bytes further apart than t3.5 are silences inside the run, and bytes going back in time are
   // no run to append in bulk: those go byte by byte.
-  if (n > 1 && (run.step < 0 || run.step - options_.timing.character_time > options_.timing.t35)) {
-    for (std::size_t i = 0; i < n; ++i) push_byte(run.event(i), out);
-    return;
-  }
+  if (n > 1 && (run.step < 0 || run.step - options_.timing.character_time > options_.timing.t35))
+    return push_each(n, out, [&](std::size_t i) { push_byte(run.event(i), out); });
+  const std::size_t frames_before = out.size();
   // The first byte goes the single-byte way when a silence > t3.5 comes before it (it may close
   // something); otherwise push() would only append it, as the rest.
   std::size_t i = 0;
-  if ((!pending_.empty() || have_emitted_) && run.first - last_end_ > options_.timing.t35) {
+  if (n > 0 && (!pending_.empty() || have_emitted_) &&
+      run.first - last_end_ > options_.timing.t35) {
     push_byte(run.event(0), out);
     i = 1;
   }
   // Every pass takes at least one byte: in bulk up to the pressure mark, at the mark the
-  // single-byte way (it closes what pressure closes).
-  while (i < n) {
-    const std::size_t take = std::min(quiet_room(), n - i);
+  // single-byte way (it closes what pressure closes, and then push() stops).
+  while (i < n && out.size() == frames_before) {
+    const std::size_t take = std::min(room_before_pressure(), n - i);
     if (take == 0) {
       push_byte(run.event(i), out);
       ++i;
@@ -147,6 +155,7 @@ void HybridFramer<Rules>::push(const ByteRun& run, FrameBatch& out) {
     append_quietly(run, i, take);
     i += take;
   }
+  return i;
 }
 
 template <class Rules>

@@ -56,10 +56,10 @@ class RtuFramer final : public Framer {
  public:
   RtuFramer(ChannelId channel, RtuFramerOptions options) : framer_(channel, options, rules()) {}
   using Framer::push;
-  void push(std::span<const ByteEvent> events, FrameBatch& out) override {
-    framer_.push(events, out);
+  std::size_t push(std::span<const ByteEvent> events, FrameBatch& out) override {
+    return framer_.push(events, out);
   }
-  void push(const ByteRun& run, FrameBatch& out) override { framer_.push(run, out); }
+  std::size_t push(const ByteRun& run, FrameBatch& out) override { return framer_.push(run, out); }
   bool take_whole(const ByteRun& run, TimeNs next_time, WholeFrame* taken,
                   const TelegramPrecheck* precheck = nullptr) override {
     return framer_.take_whole(run, next_time, taken, precheck);
@@ -67,7 +67,6 @@ class RtuFramer final : public Framer {
   void advance(TimeNs now, FrameBatch& out) override { framer_.advance(now, out); }
   void finish(FrameBatch& out) override { framer_.finish(out); }
   [[nodiscard]] TimeNs next_deadline() const override { return framer_.next_deadline(); }
-  [[nodiscard]] std::size_t quiet_room() const override { return framer_.quiet_room(); }
   static const RtuRules& rules();
 
  private:

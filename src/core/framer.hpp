@@ -3,11 +3,12 @@
 // A framer sees the bytes of one channel in time order (push) and emits Frames (telegrams and
 // noise) that cover every byte exactly once, in order. It may hold bytes while a frame is
 // incomplete; advance() tells it that time has passed with no byte, finish() that the input ended,
-// next_deadline() when advance() can next close something. One optional fast take (take_whole)
-// lets a caller that knows a run is followed by silence have it taken as one telegram. Frames are
-// appended to a FrameBatch (frame.hpp) with FrameBatch::add(), in the storage of the frames the
-// batch held before: a caller that clears the batch and uses it again makes framing allocate
-// nothing in the steady state.
+// next_deadline() when advance() can next close something. push() stops right after the byte that
+// closed a frame, so a caller can act on that frame (perhaps replacing the framer) before the next
+// byte. One optional fast take (take_whole) lets a caller that knows a run is followed by silence
+// have it taken as one telegram. Frames are appended to a FrameBatch (frame.hpp) with
+// FrameBatch::add(), in the storage of the frames the batch held before: a caller that clears the
+// batch and uses it again makes framing allocate nothing in the steady state.
 #pragma once
 
 #include <span>
@@ -23,16 +24,27 @@ namespace drivetap {
 class Framer {
  public:
   virtual ~Framer() = default;
-  // Adds bytes in order; frames they complete are appended to `out`. Exactly the frames of
-  // adding each byte in turn: a framer appends bytes that close nothing in bulk by itself.
-  virtual void push(std::span<const ByteEvent> events, FrameBatch& out) = 0;
+  // Adds bytes in order, exactly as adding each in turn would, and returns how many it took: all
+  // of them, or fewer when frames closed (by content, a size limit or the silence before a
+  // byte): it stops right after the byte that closed them, or right before the byte whose
+  // silence closed them. Bytes that close nothing are appended in bulk.
+  // Time alone closes nothing until t3.5 after the end of the last byte pushed: bytes that
+  // follow each other that closely need no advance() between them.
+  virtual std::size_t push(std::span<const ByteEvent> events, FrameBatch& out) = 0;
   // The same for a run of bytes (one source packet). Framers that can append a run without a
   // decision per byte override it.
-  virtual void push(const ByteRun& run, FrameBatch& out) {
-    for (std::size_t i = 0; i < run.size(); ++i) push(run.event(i), out);
+  virtual std::size_t push(const ByteRun& run, FrameBatch& out) {
+    return push_each(run.size(), out, [&](std::size_t i) { push(run.event(i), out); });
   }
   // One byte.
   void push(const ByteEvent& event, FrameBatch& out) { push(std::span(&event, 1), out); }
+  // All of the bytes, whatever frames they close (for a caller that acts on frames afterwards).
+  void push_all(std::span<const ByteEvent> events, FrameBatch& out) {
+    while (!events.empty()) events = events.subspan(push(events, out));
+  }
+  void push_all(const ByteRun& run, FrameBatch& out) {
+    for (std::size_t i = 0; i < run.size();) i += push(run.part(i, run.size() - i), out);
+  }
   // Time has reached `now`; closes what silence or a hold limit has completed.
   virtual void advance(TimeNs now, FrameBatch& out) = 0;
   // End of input: everything pending becomes frames or noise.
@@ -63,10 +75,18 @@ class Framer {
     (void)precheck;
     return false;
   }
-  // How many more bytes with no silence > t3.5 before them push() surely takes without closing
-  // anything (it holds them until silence, the hold limit or finish()): the caller may hand
-  // them over at once, knowing no frame closes among them. 0 (the default): no promise.
-  [[nodiscard]] virtual std::size_t quiet_room() const { return 0; }
+
+ protected:
+  // push() of `count` bytes as push_one(i) of each, stopping right after one that closed frames.
+  template <class PushOne>
+  static std::size_t push_each(std::size_t count, const FrameBatch& out, PushOne push_one) {
+    const std::size_t frames_before = out.size();
+    for (std::size_t i = 0; i < count; ++i) {
+      push_one(i);
+      if (out.size() != frames_before) return i + 1;
+    }
+    return count;
+  }
 };
 
 // `f` made the frame of the framer of `channel` for `run` taken whole as `taken`

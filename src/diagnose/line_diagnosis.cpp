@@ -160,6 +160,28 @@ std::string per_station(const LineEvidence& e, Count count, Text text) {
   return fmt::format("{}", fmt::join(parts, "; "));
 }
 
+using StationCount = std::uint64_t LineEvidence::Station::*;
+
+// per_station() of a count of each station's: "station 2: 1 reply; station 7: 3 replies".
+std::string per_station_counted(const LineEvidence& e, StationCount count, std::string_view one,
+                                std::string_view many) {
+  return per_station(
+      e, [count](const LineEvidence::Station& s) { return s.*count; },
+      [=](const LineEvidence::Station& s) {
+        return fmt::format("{} {}", s.*count, s.*count == 1 ? one : many);
+      });
+}
+
+// The same as a share of another count: "station 2: 5 of 20 frames".
+std::string per_station_share(const LineEvidence& e, StationCount count, StationCount of,
+                              std::string_view what) {
+  return per_station(
+      e, [count](const LineEvidence::Station& s) { return s.*count; },
+      [=](const LineEvidence::Station& s) {
+        return fmt::format("{} of {} {}", s.*count, s.*of, what);
+      });
+}
+
 const char* exception_meaning(int code) {
   switch (code) {
     case 1:
@@ -203,46 +225,30 @@ void bus_findings(const LineEvidence& e, std::vector<Verdict>& out) {
   if (e.findings[static_cast<std::size_t>(AnomalyKind::unanswered_request)] > 0)
     out.push_back(
         {"timeouts", "Requests without a reply",
-         per_station(
-             e, [](const S& s) { return s.timeouts; },
-             [](const S& s) {
-               return fmt::format("{} of {} requests unanswered", s.timeouts, s.requests);
-             }),
+         per_station_share(e, &S::timeouts, &S::requests, "requests unanswered"),
          "a station that never answers: its address, baud rate and parity, its wiring and power; "
          "one that answers some: noise on its segment, or replies slower than the master's "
          "timeout"});
   if (e.findings[static_cast<std::size_t>(AnomalyKind::checksum_swapped)] > 0)
     out.push_back(
         {"swapped-crc", "CRC sent in the wrong byte order",
-         per_station(
-             e, [](const S& s) { return s.swapped_checksum; },
-             [](const S& s) {
-               return fmt::format("{} of {} frames with the CRC high byte first",
-                                  s.swapped_checksum, s.frames);
-             }),
+         per_station_share(e, &S::swapped_checksum, &S::frames,
+                           "frames with the CRC high byte first"),
          "the sender writes its CRC in the wrong byte order (the protocol sends the "
          "low byte first): fix it in the master's Modbus library or the drive's firmware; a "
          "strict receiver drops these frames"});
   std::uint64_t clean_bad = 0;
   for (const auto& [address, station] : e.stations) clean_bad += station.bad_checksum;
   if (clean_bad > 0)
-    out.push_back(
-        {"bad-checksum", "Bad checksums without a UART error",
-         per_station(
-             e, [](const S& s) { return s.bad_checksum; },
-             [](const S& s) { return fmt::format("{} of {} frames", s.bad_checksum, s.frames); }),
-         "the bytes arrived without a UART error, so the line is not to blame: the "
-         "sender computes its checksum over other bytes (firmware, a dialect), or the "
-         "capture lost or merged bytes (a loaded USB adapter): compare with a second "
-         "capture"});
+    out.push_back({"bad-checksum", "Bad checksums without a UART error",
+                   per_station_share(e, &S::bad_checksum, &S::frames, "frames"),
+                   "the bytes arrived without a UART error, so the line is not to blame: the "
+                   "sender computes its checksum over other bytes (firmware, a dialect), or the "
+                   "capture lost or merged bytes (a loaded USB adapter): compare with a second "
+                   "capture"});
   if (e.findings[static_cast<std::size_t>(AnomalyKind::unsolicited_response)] > 0)
     out.push_back({"unsolicited-replies", "Replies without a request",
-                   per_station(
-                       e, [](const S& s) { return s.unsolicited; },
-                       [](const S& s) {
-                         return fmt::format("{} repl{}", s.unsolicited,
-                                            s.unsolicited == 1 ? "y" : "ies");
-                       }),
+                   per_station_counted(e, &S::unsolicited, "reply", "replies"),
                    "a second master on the bus, a request the tap missed, or a reply after the "
                    "master had given up (raise the master's timeout)"});
   std::uint64_t malformed = 0;  // on frames without a UART error
@@ -254,12 +260,7 @@ void bus_findings(const LineEvidence& e, std::vector<Verdict>& out) {
                      "all); {}",
                      malformed, e.findings[static_cast<std::size_t>(AnomalyKind::malformed)],
                      e.findings[static_cast<std::size_t>(AnomalyKind::implausible)],
-                     per_station(
-                         e, [](const S& s) { return s.malformed; },
-                         [](const S& s) {
-                           return fmt::format("{} frame{}", s.malformed,
-                                              s.malformed == 1 ? "" : "s");
-                         })),
+                     per_station_counted(e, &S::malformed, "frame", "frames")),
          "a device speaking another protocol or dialect at these settings (see the "
          "protocol detection), or bytes lost or merged by the capture"});
   for (const auto& [channel, carries] : e.foreign_lines)

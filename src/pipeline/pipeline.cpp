@@ -188,11 +188,11 @@ void Pipeline::advance_all(TimeNs now) {
   handle_frames();
 }
 
-ByteEvent Pipeline::as_on_the_wire(ByteEvent e, const ChannelState& st) const {
+ByteEvent Pipeline::as_on_the_wire(ByteEvent e, TimeNs last_end) const {
   // With 7 data bits the 8th bit a source may deliver is not data (Modbus ASCII allows 7E1).
   if (options_.serial.data_bits == 7) e.byte &= 0x7F;
   // Bytes on one wire cannot overlap: a byte stamped inside its predecessor starts after it.
-  if (e.time < st.last_end) e.time = st.last_end;
+  if (e.time < last_end) e.time = last_end;
   return e;
 }
 
@@ -203,7 +203,7 @@ void Pipeline::note_taken(ChannelState& st, const ByteEvent& e) {
 
 void Pipeline::push(const ByteEvent& in) {
   ChannelState& st = state_for(in.channel);
-  const ByteEvent e = as_on_the_wire(in, st);
+  const ByteEvent e = as_on_the_wire(in, st.last_end);
   note_taken(st, e);
   advance_all(e.time);
   frame_byte(st, e);
@@ -255,20 +255,21 @@ void Pipeline::push_batch(std::span<const ByteEvent> events) {
     push(events[i++]);  // the byte-by-byte way: it may close frames, detect, re-detect
     ChannelState& st = *states_[channel];
     if (i == events.size() || !st.framer || st.redetect || !ready_.empty()) continue;
-    // What follows on the same channel with no silence > t3.5 before it, before any other
-    // channel's deadline and within the framer's quiet room, closes nothing: push() of each
-    // would only append it (advance_all() has nothing due, the framer holds it).
-    const std::size_t room = st.framer->quiet_room();
+    // What follows on the same channel with no silence > t3.5 before it and before any other
+    // channel's deadline goes to the framer at once: push() of each would only frame it
+    // (advance_all() has nothing due). The framer stops after a byte that closed frames; they
+    // are handled, and the next byte goes the byte-by-byte way.
     const TimeNs others = deadline_of_others(channel);
     const std::size_t run_begin = i;
     // The run goes to the framer as given while as_on_the_wire() changes none of its bytes (the
     // usual case); from the first it changes, the run is copied into run_ and adjusted there.
     bool as_given = true;
+    TimeNs last_end = st.last_end;
     // Each pass takes one byte into the run, or stops.
-    while (i < events.size() && i - run_begin < room && events[i].channel == channel) {
-      const ByteEvent e = as_on_the_wire(events[i], st);
-      if (e.time - st.last_end > options_.timing.t35 || e.time >= others) break;
-      note_taken(st, e);
+    while (i < events.size() && events[i].channel == channel) {
+      const ByteEvent e = as_on_the_wire(events[i], last_end);
+      if (e.time - last_end > options_.timing.t35 || e.time >= others) break;
+      last_end = e.time + options_.timing.character_time;
       if (as_given && (e.time != events[i].time || e.byte != events[i].byte)) {
         as_given = false;
         run_.assign(events.begin() + static_cast<std::ptrdiff_t>(run_begin),
@@ -278,10 +279,12 @@ void Pipeline::push_batch(std::span<const ByteEvent> events) {
       ++i;
     }
     if (i == run_begin) continue;
-    const std::span<const ByteEvent> taken =
+    const std::span<const ByteEvent> run =
         as_given ? events.subspan(run_begin, i - run_begin) : std::span(run_);
-    if (st.unframed_from == kNoneHeld) st.unframed_from = taken.front().time;
-    st.framer->push(taken, ready_);
+    if (st.unframed_from == kNoneHeld) st.unframed_from = run.front().time;
+    const std::size_t taken = st.framer->push(run, ready_);
+    note_taken(st, run[taken - 1]);  // (times only grow along the run)
+    i = run_begin + taken;
     earliest_deadline_ = std::min(earliest_deadline_, st.framer->next_deadline());
     if (!ready_.empty()) handle_frames();
   }
@@ -379,17 +382,18 @@ void Pipeline::push_rest(const ByteRun& run, std::size_t i) {
 std::size_t Pipeline::take_quietly(const ByteRun& run, std::size_t i, TimeNs character_time) {
   ChannelState& st = *states_[run.channel];
   if (!st.framer || st.redetect || !ready_.empty()) return 0;
-  // The bytes from i close nothing while (as push_batch() finds byte by byte) none follows a
-  // silence > t3.5, none reaches another channel's deadline or the framer's pressure mark, and
-  // as_on_the_wire() changes none: bytes at least a character apart (a run's bytes after the
-  // first then start after their predecessor's end) and, with 7 data bits, no 8th bit set.
+  // The bytes from i go to the framer at once while (as push_batch() finds byte by byte) none
+  // follows a silence > t3.5, none reaches another channel's deadline, and as_on_the_wire()
+  // changes none: bytes at least a character apart (a run's bytes after the first then start
+  // after their predecessor's end) and, with 7 data bits, no 8th bit set. The framer stops after
+  // a byte that closed frames; they are handled before the rest.
   if (run.step < character_time || run.step - character_time > options_.timing.t35) return 0;
   const ByteRun rest = run.part(i, run.size() - i);
   if (rest.first < st.last_end || rest.first - st.last_end > options_.timing.t35) return 0;
   if (options_.serial.data_bits == 7 &&
       std::any_of(rest.bytes.begin(), rest.bytes.end(), [](std::uint8_t b) { return b > 0x7F; }))
     return 0;
-  std::size_t take = std::min(rest.size(), st.framer->quiet_room());
+  std::size_t take = rest.size();
   const TimeNs others = deadline_of_others(run.channel);
   if (others <= rest.first) return 0;
   if (others != std::numeric_limits<TimeNs>::max()) {
@@ -398,13 +402,12 @@ std::size_t Pipeline::take_quietly(const ByteRun& run, std::size_t i, TimeNs cha
     const TimeNs before = ahead / run.step + (ahead % run.step != 0 ? 1 : 0);
     take = std::min<std::size_t>(take, static_cast<std::size_t>(before));
   }
-  if (take == 0) return 0;
   if (st.unframed_from == kNoneHeld) st.unframed_from = rest.first;
-  st.framer->push(rest.part(0, take), ready_);
-  note_taken(st, rest.event(take - 1));
+  const std::size_t taken = st.framer->push(rest.part(0, take), ready_);
+  note_taken(st, rest.event(taken - 1));
   earliest_deadline_ = std::min(earliest_deadline_, st.framer->next_deadline());
   if (!ready_.empty()) handle_frames();
-  return take;
+  return taken;
 }
 
 namespace {
@@ -414,7 +417,7 @@ namespace {
 void score(DetectionCandidate& c, std::span<const ByteEvent> events, bool close,
            const PipelineOptions& options, FrameBatch& scratch) {
   scratch.clear();
-  c.framer->push(events, scratch);
+  c.framer->push_all(events, scratch);
   if (close) c.framer->finish(scratch);
   for (Frame& f : scratch) {
     if (f.kind != FrameKind::telegram) continue;
@@ -559,7 +562,7 @@ void Pipeline::detect(ChannelState& st, ChannelId channel, TimeNs now, bool fina
   st.framer = chosen->make_framer(channel, {options_.timing, options_.max_hold});
   std::vector<ByteEvent> held;
   held.swap(st.held);
-  st.framer->push(held, ready_);
+  st.framer->push_all(held, ready_);
   // Time has moved on while the bytes were held: let silence close what it closed meanwhile. Up
   // to `now`, what this channel's byte or the clock says, not the latest byte of any channel: a
   // source that gives a packet at a time (pcapng) has another channel's packet ahead already.

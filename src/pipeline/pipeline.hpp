@@ -109,11 +109,12 @@ class Pipeline {
                                          const TelegramPrecheck* precheck);
   // push_run() from byte i on, byte i - 1 having been pushed.
   void push_rest(const ByteRun& run, std::size_t i);
-  // Bytes from run byte i on that close nothing, appended to the framer at once: how many.
+  // Bytes from run byte i on that advance_all() would have nothing due before, given to the
+  // framer at once (it stops after one that closed frames): how many it took.
   std::size_t take_quietly(const ByteRun& run, std::size_t i, TimeNs character_time);
-  // A byte as the wire could have carried it: data bits only, not before the end of its
-  // channel's previous byte. push() and push_batch() both take bytes through these two.
-  [[nodiscard]] ByteEvent as_on_the_wire(ByteEvent e, const ChannelState& st) const;
+  // A byte as the wire could have carried it: data bits only, not before `last_end`, the end of
+  // its channel's previous byte. push() and push_batch() both take bytes through these two.
+  [[nodiscard]] ByteEvent as_on_the_wire(ByteEvent e, TimeNs last_end) const;
   // Records that the channel's latest byte is `e` (its end, the run's latest time).
   void note_taken(ChannelState& st, const ByteEvent& e);
   // The earliest next_deadline() of the framers of channels other than `channel`.
