@@ -877,14 +877,8 @@ void Pipeline::handle_telegram(TelegramView& t, const ProtocolDecoder& decoder, 
       st.redetect = true;
     }
   }
-  // (The request's bytes copied for a deferred hand-over: the pairer's storage may be reused
-  // once pairer_.add() has dropped them.)
-  if (deferred && !detailed) {
-    if (request.empty())
-      request_.clear();  // (most telegrams: a request)
-    else
-      request_.assign(request.begin(), request.end());
-  }
+  // (`request`, the pairer's storage, stays as it is through pairer_.add() of this reply: the
+  // deferred hand-over below reads it there.)
   const PairingResult paired = pairer_.add(link, in, transactions_);
   if (paired.paired) {
     in.latency = paired.latency;
@@ -922,7 +916,7 @@ void Pipeline::handle_telegram(TelegramView& t, const ProtocolDecoder& decoder, 
       telegram.taken = t.taken;
       telegram.number = number;
       telegram.direction = dir;
-      telegram.request = request_;
+      telegram.request = request;
       if (paired.paired) {
         telegram.latency = paired.latency;
         telegram.request_number = paired.request_number;

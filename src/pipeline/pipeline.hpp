@@ -191,7 +191,6 @@ class Pipeline {
   std::vector<ByteEvent> run_;  // push_batch: the run going to a framer at once
   std::vector<Transaction> transactions_;
   Message message_;  // every frame is decoded into this one (its storage is reused)
-  std::vector<std::uint8_t> request_;   // a deferred reply's request, handed over
   bool hand_over_transactions_ = true;  // the sink's needs' transactions
   bool defer_drive_info_ = false;       // the sink's needs' drive_info, with detail
   // Telegrams taken whole are handled at once, not decoded in detail here: the sink takes no
