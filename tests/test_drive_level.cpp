@@ -1462,3 +1462,75 @@ TEST(DriveBinder, ClearlyBetterEvidenceRebinds) {
   EXPECT_EQ(rig.bound_id(2), "e5-8200");
   EXPECT_FALSE(changed);
 }
+
+// The pipeline reads a telegram's records once, a reply with its request, and hands that reading
+// to the binder and then to the annotation; a binder reading on its own reads a reply without
+// its request. Both must bind alike: over exchanges of every protocol (register and coil reads
+// and their replies, writes, exception replies with standard and vendor codes), the stations'
+// scores, exclusions, bindings and confidence and the binding events are the same, and the
+// shared reading is the one with the request (a reply's values are there for the annotation).
+TEST(DriveBinder, RepliesReadWithTheirRequestBindAsReadAlone) {
+  struct Exchange {
+    Protocol protocol;
+    std::vector<std::uint8_t> request, reply;
+  };
+  const std::vector<Exchange> exchanges = {
+      {protocols::modbus_rtu, with_crc({0x02, 0x03, 0x00, 0x00, 0x00, 0x05}),
+       with_crc({0x02, 0x03, 0x0A, 0x00, 0x0A, 0x13, 0x88, 0x13, 0x7D, 0x01, 0x7C, 0x00, 0x64})},
+      {protocols::modbus_rtu, with_crc({0x02, 0x03, 0x25, 0x20, 0x00, 0x08}),
+       with_crc({0x02, 0x83, 0x52})},
+      {protocols::modbus_rtu, with_crc({0x01, 0x03, 0x25, 0x20, 0x00, 0x08}),
+       with_crc({0x01, 0x03, 0x10, 0x00, 0x03, 0, 0, 0, 0, 0x17, 0x70, 0x17, 0x70, 0x0E, 0xD8, 0x02,
+                 0x1C, 0x00, 0x32})},
+      {protocols::modbus_rtu, with_crc({0x01, 0x06, 0x25, 0x01, 0x00, 0x01}),
+       with_crc({0x01, 0x06, 0x25, 0x01, 0x00, 0x01})},
+      {protocols::modbus_rtu, with_crc({0x03, 0x01, 0x00, 0x00, 0x00, 0x0A}),
+       with_crc({0x03, 0x01, 0x02, 0x05, 0x01})},
+      {protocols::modbus_rtu, with_crc({0x03, 0x04, 0x00, 0x01, 0x00, 0x06}),
+       with_crc({0x03, 0x84, 0x02})},
+      {protocols::modbus_rtu, with_crc({0x04, 0x03, 0xC4, 0x17, 0x00, 0x01}),
+       with_crc({0x04, 0x86, 0x42})},
+      {protocols::modbus_ascii, ascii_frame({0x05, 0x03, 0x25, 0x23, 0x00, 0x01}),
+       ascii_frame({0x05, 0x03, 0x02, 0x00, 0x2A})},
+      {protocols::danfoss_fc, with_bcc({0x02, 0x06, 0x06, 0x04, 0x7C, 0x20, 0x00}),
+       with_bcc({0x02, 0x06, 0x06, 0x0E, 0x07, 0x20, 0x00})},
+      {protocols::easydrive, eds_frame("070B000F"), eds_frame("0700000F0001")},
+  };
+  BinderRig alone, shared;
+  DriveRecordReader reader;
+  std::uint64_t number = 0;
+  std::size_t replies_with_values = 0;
+  for (int pass = 0; pass < 3; ++pass) {
+    for (const Exchange& x : exchanges) {
+      const Message q = decode(x.protocol, x.request, Direction::request, {}, ++number);
+      const Message r = decode(x.protocol, x.reply, Direction::response, q.bytes, ++number);
+      for (const auto& [m, request] :
+           {std::pair<const Message*, std::span<const std::uint8_t>>{&q, {}}, {&r, q.bytes}}) {
+        alone.learn(*m);
+        const TelegramHead head = head_of(*m);
+        TelegramDriveRecords records(reader, head, request);
+        std::optional<BusEvent> e;
+        const DriveProfile* now = shared.binder.learn_bound(0, records, e);
+        EXPECT_EQ(now, shared.binder.bound(0, m->address)) << "frame " << m->frame.number;
+        if (e) shared.events.push_back(*e);
+        if (m == &r && !records.get().records.empty() &&
+            records.get().records.front().addressed_by_request)
+          ++replies_with_values;
+      }
+    }
+  }
+  EXPECT_GT(replies_with_values, 0u) << "no reply was read with its request";
+  ASSERT_EQ(shared.binder.stations().size(), alone.binder.stations().size());
+  for (const auto& [key, st] : alone.binder.stations()) {
+    const DriveBinder::Station& other = shared.binder.stations().at(key);
+    EXPECT_EQ(other.score, st.score) << "station " << key.second;
+    EXPECT_EQ(other.excluded, st.excluded) << "station " << key.second;
+    EXPECT_EQ(other.bound, st.bound) << "station " << key.second;
+    EXPECT_EQ(other.confidence, st.confidence) << "station " << key.second;
+    EXPECT_EQ(other.frames, st.frames) << "station " << key.second;
+  }
+  ASSERT_EQ(shared.events.size(), alone.events.size());
+  EXPECT_FALSE(alone.events.empty());
+  for (std::size_t i = 0; i < alone.events.size(); ++i)
+    EXPECT_EQ(shared.events[i].detail, alone.events[i].detail);
+}

@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdint>
+#include <span>
 #include <vector>
 
 #include "core/message.hpp"
@@ -321,6 +322,30 @@ TEST(Pairer, AwaitingReply) {
   EXPECT_FALSE(p.awaiting_reply(1, 4, 0x06, end));  // other link
   EXPECT_FALSE(p.awaiting_reply(2, 5, 0x06, end));  // other address
   EXPECT_FALSE(p.awaiting_reply(2, 4, 0x03, end));  // other function
+}
+
+// The pipeline hands a reply's request on after pairing the reply: the bytes awaited_request()
+// gave stay as they were through that add(), while it expires and drops other requests.
+TEST(Pairer, AwaitedRequestOutlivesItsReply) {
+  Pairer p(options(50 * kMs));
+  std::vector<Transaction> out;
+  Message q0 = request(1, 0x03, 0, 1, 0);  // link 0: expired by the time of the reply
+  p.add(0, q0, out);
+  Message q1 = request(2, 0x04, 10 * kMs, 2, 1);
+  p.add(1, q1, out);
+  Message q2 = request(3, 0x06, 20 * kMs, 3, 2);
+  p.add(2, q2, out);
+  const TimeNs at = 60 * kMs;
+  const std::span<const std::uint8_t> awaited = p.awaited_request(2, 3, 0x06, at);
+  ASSERT_EQ(std::vector<std::uint8_t>(awaited.begin(), awaited.end()), q2.bytes);
+  Message r2 = response(3, 0x06, at, 4, 2);
+  p.add(2, r2, out);
+  ASSERT_EQ(out.size(), 2u);
+  EXPECT_EQ(out[0].outcome, Outcome::timeout);  // q0, expired first
+  EXPECT_EQ(out[1].outcome, Outcome::ok);
+  EXPECT_EQ(out[1].request_number, 3u);
+  EXPECT_EQ(std::vector<std::uint8_t>(awaited.begin(), awaited.end()), q2.bytes);
+  EXPECT_TRUE(p.awaited_request(2, 3, 0x06, at).empty());
 }
 
 TEST(Pairer, FinishClosesPendingRequests) {

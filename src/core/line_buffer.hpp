@@ -17,9 +17,16 @@ class LineBuffer {
   using value_type = char;  // for std::back_inserter (fmt on the rare paths)
 
   LineBuffer() = default;
-  // One owner per line: not copied or moved (a sink keeps its own).
+  // One owner per line: not copied (a sink keeps its own); moved with its owner (a drive reading
+  // builds its text in one), the moved-from buffer left empty.
   LineBuffer(const LineBuffer&) = delete;
   LineBuffer& operator=(const LineBuffer&) = delete;
+  LineBuffer(LineBuffer&& other) noexcept { swap(other); }
+  LineBuffer& operator=(LineBuffer&& other) noexcept {
+    LineBuffer taken(std::move(other));
+    swap(taken);
+    return *this;
+  }
 
   void clear() { size_ = 0; }
   // Exchanges contents with `other` (no copy): a buffer handed from one owner to the next.

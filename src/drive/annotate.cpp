@@ -49,7 +49,8 @@ int decimal_scale_index(double scale) {
 // The scaled value as "{:.Nf}" prints it, N = decimals_of(scale). A scale of 1, 0.1, 0.01 ...
 // or a whole one makes it an exact decimal, printed from integers: the double's rounding error
 // is far below half the last digit for any 32-bit raw value, so the text is the same.
-void append_scaled(std::string& out, const RegisterDef& r, std::uint32_t raw, bool double_word) {
+template <class Out>
+void append_scaled(Out& out, const RegisterDef& r, std::uint32_t raw, bool double_word) {
   static constexpr std::int64_t kPowersOfTen[] = {1, 10, 100, 1000, 10000, 100000};
   static_assert(std::size(kPowersOfTen) == std::size(kDecimalScales));
   const std::int64_t value = raw_value(r, raw, double_word);
@@ -74,20 +75,58 @@ void append_scaled(std::string& out, const RegisterDef& r, std::uint32_t raw, bo
                  decimals);
 }
 
+// append_value() into `out`: std::string, or the LineBuffer an annotation is built in.
+template <class Out>
+void append_value_to(Out& out, const DriveProfile& p, const RegisterDef& r, std::uint32_t raw,
+                     bool double_word) {
+  if (!r.enum_name.empty()) {
+    const auto& names = p.enums.at(r.enum_name);
+    const auto it = names.find(raw);
+    append_uint(out, raw);
+    if (it == names.end()) {
+      out += std::string_view(" (not in the manual's table)");
+    } else {
+      out += " (";
+      out += it->second;
+      out += ')';
+    }
+    return;
+  }
+  if (!r.bits.empty()) {
+    append_hex(out, raw, double_word ? 8 : 4);
+    out += " [";
+    bool first = true;
+    for (const RegisterBit& b : r.bits) {
+      const std::string& s = ((raw >> b.bit) & 1) ? b.when_set : b.when_clear;
+      if (s.empty()) continue;
+      if (!first) out += ", ";
+      out += s;
+      first = false;
+    }
+    out += ']';
+    return;
+  }
+  append_scaled(out, r, raw, double_word);
+  if (!r.unit.empty()) {
+    out += ' ';
+    out += r.unit;
+  }
+}
+
 bool any_bit(const std::vector<int>& bits, std::uint32_t raw) {
   for (int b : bits)
     if ((raw >> b) & 1) return true;
   return false;
 }
 
-// The "; "-separated parts of an annotation, appended in place to the reading's text (whose
+// The "; "-separated parts of an annotation, appended in place to the reading's line (whose
 // storage the pipeline reuses from frame to frame).
 // Off (nothing written) when no sink shows the text: the observation is still made. It also
 // carries whether the observation is wanted (observing(): the readers apply the register roles
 // only then; the text never depends on them).
 class Parts {
  public:
-  Parts(std::string& out, DriveReadingWants wants)
+  Parts(LineBuffer& out, DriveReadingWants wants)
       : out_(out),
         enabled_(wants != DriveReadingWants::observation),
         observing_(wants != DriveReadingWants::text) {}
@@ -95,26 +134,23 @@ class Parts {
   [[nodiscard]] bool observing() const { return observing_; }
   // The text with a separator appended, or `lead` before the first part ("set "): append the
   // next part to it.
-  std::string& next(std::string_view lead = {}) {
+  LineBuffer& next(std::string_view lead = {}) {
     out_ += count_++ > 0 ? std::string_view("; ") : lead;
     return out_;
   }
   void add(std::string_view part) {
     if (enabled_) next() += part;
   }
-  template <typename... Args>
-  void add(fmt::format_string<Args...> format, Args&&... args) {
-    if (enabled_) fmt::format_to(std::back_inserter(next()), format, std::forward<Args>(args)...);
-  }
 
  private:
-  std::string& out_;
+  LineBuffer& out_;
   bool enabled_;
   bool observing_;
   std::size_t count_ = 0;
 };
 
-void append_display_name(std::string& out, const RegisterDef& r) {
+template <class Out>
+void append_display_name(Out& out, const RegisterDef& r) {
   if (r.kind == RegisterKind::parameter) {
     out += r.number;
     out += ' ';
@@ -195,8 +231,8 @@ std::string_view unnamed_parameter_noun(const DriveProfile& p) {
 // "frequency setpoint", "16-13 frequency", "parameter 4-14", "register 0x0123", appended: how
 // the profile names `address` of `kind`. An address it does not name reads as the parameter
 // the addressing rule puts there, else as a register's number.
-void append_name_at(std::string& out, const DriveProfile& p, RegisterKind kind,
-                    std::uint32_t address) {
+template <class Out>
+void append_name_at(Out& out, const DriveProfile& p, RegisterKind kind, std::uint32_t address) {
   std::string label;
   const RegisterDef* r =
       kind == RegisterKind::holding ? p.find_holding(address, &label) : p.find(kind, address);
@@ -209,7 +245,8 @@ void append_name_at(std::string& out, const DriveProfile& p, RegisterKind kind,
     out += "parameter ";
     out += label;
   } else {
-    fmt::format_to(std::back_inserter(out), FMT_COMPILE("register 0x{:04X}"), address);
+    out += "register ";
+    append_hex(out, address, 4);
   }
 }
 
@@ -229,10 +266,10 @@ void read_registers(const DriveProfile& p, RegisterKind kind, std::uint32_t star
     const bool double_word = r->words == 2 && i + 1 < values.size();
     if (double_word) raw = raw << 16 | values[++i];
     if (parts.enabled()) {
-      std::string& text = parts.next(lead);
+      LineBuffer& text = parts.next(lead);
       append_display_name(text, *r);
       text += ' ';
-      append_value(text, p, *r, raw, double_word);
+      append_value_to(text, p, *r, raw, double_word);
     }
     if (parts.observing()) observe(p, *r, raw, double_word, written, o);
   }
@@ -246,9 +283,9 @@ void read_coils(const DriveProfile& p, RegisterKind kind, std::uint32_t start,
     const RegisterDef* r = p.find(kind, start + static_cast<std::uint32_t>(i));
     if (!r) continue;
     if (parts.enabled()) {
-      std::string& text = parts.next(lead);
+      LineBuffer& text = parts.next(lead);
       text += r->name;
-      text += values[i] ? " ON" : " OFF";
+      text += values[i] ? std::string_view(" ON") : std::string_view(" OFF");
     }
     if (parts.observing()) observe(p, *r, values[i], false, written, o);
   }
@@ -259,7 +296,7 @@ void read_coils(const DriveProfile& p, RegisterKind kind, std::uint32_t start,
 void announce_read(const DriveProfile& p, const DriveRecord& a, Parts& parts) {
   if (!parts.enabled() || a.kind == RegisterKind::coil || a.kind == RegisterKind::discrete) return;
   if (a.kind == RegisterKind::running && !p.find(a.kind, a.first)) return;
-  std::string& text = parts.next();
+  LineBuffer& text = parts.next();
   text += "read ";
   append_name_at(text, p, a.kind, a.first);
   if (a.count > 1) {
@@ -277,12 +314,12 @@ void read_parameter_value(const DriveProfile& p, const DriveRecord& a, std::uint
   const bool written = a.op == AccessOp::write;
   if (!r && a.addressed_by_request) return;
   if (parts.enabled()) {
-    std::string& text = parts.next();
+    LineBuffer& text = parts.next();
     if (written) text += "set ";
     append_name_at(text, p, RegisterKind::parameter, a.first);
-    text += written ? " = " : " ";
+    text += written ? std::string_view(" = ") : std::string_view(" ");
     if (r)
-      append_value(text, p, *r, raw, a.double_word);
+      append_value_to(text, p, *r, raw, a.double_word);
     else
       append_uint(text, raw);
     if (a.permanent) text += " (RAM and EEPROM)";
@@ -313,7 +350,7 @@ void read_access(const DriveProfile& p, const DriveRecord& a, std::span<const st
     }
     case AccessOp::refused:
       if (parts.enabled() && !values.empty()) {
-        std::string& text = parts.next();
+        LineBuffer& text = parts.next();
         text += "cannot execute on ";
         append_name_at(text, p, a.kind, a.first);
         text += ": error ";
@@ -327,7 +364,7 @@ void read_access(const DriveProfile& p, const DriveRecord& a, std::span<const st
       break;
     case AccessOp::text:
       if (parts.enabled()) {
-        std::string& text = parts.next();
+        LineBuffer& text = parts.next();
         text += "text of ";
         append_name_at(text, p, a.kind, a.first);
       }
@@ -345,10 +382,10 @@ void read_process_words(const DriveProfile& p, bool to_drive, std::span<const st
     const RegisterDef* r = p.find(RegisterKind::holding, slots[i]);
     if (!r) continue;
     if (parts.enabled()) {
-      std::string& text = parts.next();
+      LineBuffer& text = parts.next();
       text += r->name;
       text += ' ';
-      append_value(text, p, *r, values[i], false);
+      append_value_to(text, p, *r, values[i], false);
     }
     if (parts.observing()) observe(p, *r, values[i], false, to_drive, o);
   }
@@ -386,7 +423,11 @@ void read_command(const DriveProfile& p, const DriveRecord& c,
     if (r.kind == c.kind && r.role == RegisterRole::setpoint) setpoint = &r;
   if (!setpoint) return;
   o.setpoint_command = Quantity::of(p, *setpoint, values[0], false);
-  if (parts.enabled()) parts.add("setpoint {}", o.setpoint_command->text());
+  if (parts.enabled()) {
+    LineBuffer& text = parts.next();
+    text += "setpoint ";
+    append_value_to(text, p, *setpoint, values[0], false);
+  }
 }
 
 // The drive's current fault code: "fault 3 (overcurrent at constant speed)" when there is one.
@@ -408,13 +449,17 @@ void read_fault(const DriveProfile& p, std::uint32_t code, Parts& parts, DriveOb
     text += *name;
     text += ')';
   }
-  if (code > 0) parts.add("fault {}", text);
+  if (code > 0 && parts.enabled()) {
+    LineBuffer& line = parts.next();
+    line += "fault ";
+    line += text;
+  }
 }
 
 // Appends the annotation of the telegram's records to `out` (after the caller's "drive N
 // (name): ") and fills the observation.
 void read_records(const DriveProfile& p, Direction direction, const DriveRecords& records,
-                  DriveReadingWants wants, std::string& out, DriveObservation& o) {
+                  DriveReadingWants wants, LineBuffer& out, DriveObservation& o) {
   Parts parts(out, wants);
   for (const DriveRecord& r : records.records) {
     const std::span<const std::uint32_t> values = records.values_of(r);
@@ -424,9 +469,13 @@ void read_records(const DriveProfile& p, Direction direction, const DriveRecords
         break;
       case DriveRecordType::exception:
         // Named even when no text is wanted (read_for_drive()).
-        if (const auto it = p.exceptions.find(r.code); it != p.exceptions.end())
-          fmt::format_to(std::back_inserter(parts.next()), FMT_COMPILE("error 0x{:02X}: {}"),
-                         r.code, it->second);
+        if (const auto it = p.exceptions.find(r.code); it != p.exceptions.end()) {
+          LineBuffer& text = parts.next();
+          text += "error ";
+          append_hex(text, r.code, 2);
+          text += ": ";
+          text += it->second;
+        }
         break;
       case DriveRecordType::process_words:
         read_process_words(p, direction == Direction::request, values, parts, o);
@@ -457,38 +506,7 @@ std::string display_name(const RegisterDef& r) {
 
 void append_value(std::string& out, const DriveProfile& p, const RegisterDef& r, std::uint32_t raw,
                   bool double_word) {
-  if (!r.enum_name.empty()) {
-    const auto& names = p.enums.at(r.enum_name);
-    const auto it = names.find(raw);
-    append_uint(out, raw);
-    if (it == names.end()) {
-      out += " (not in the manual's table)";
-    } else {
-      out += " (";
-      out += it->second;
-      out += ')';
-    }
-    return;
-  }
-  if (!r.bits.empty()) {
-    append_hex(out, raw, double_word ? 8 : 4);
-    out += " [";
-    bool first = true;
-    for (const RegisterBit& b : r.bits) {
-      const std::string& s = ((raw >> b.bit) & 1) ? b.when_set : b.when_clear;
-      if (s.empty()) continue;
-      if (!first) out += ", ";
-      out += s;
-      first = false;
-    }
-    out += ']';
-    return;
-  }
-  append_scaled(out, r, raw, double_word);
-  if (!r.unit.empty()) {
-    out += ' ';
-    out += r.unit;
-  }
+  append_value_to(out, p, r, raw, double_word);
 }
 
 Quantity Quantity::of(const DriveProfile& profile, const RegisterDef& reg, std::uint32_t raw,
@@ -546,30 +564,33 @@ std::string describe_value(const DriveProfile& p, const RegisterDef& r, std::uin
 void read_for_drive_into(const DriveProfile& p, const TelegramHead& m,
                          std::span<const std::uint8_t> request, DriveReadingWants wants,
                          DriveReading& out) {
+  read_for_drive_into(p, m, out.records.read(m, request), wants, out);
+}
+
+void read_for_drive_into(const DriveProfile& p, const TelegramHead& m, const DriveRecords& records,
+                         DriveReadingWants wants, DriveReading& out) {
   out.observed.clear();
   // "drive 2 (ERMAN E-9P/9G): ...", taken back when the profile says nothing of the frame. An
   // observation alone has text only for an exception reply the profile names: the lead is put
   // before that text then, not written for every frame.
-  std::string& text = out.text;
-  text.clear();  // keeps its storage
-  auto append_lead = [&](std::string& to) {
-    to += "drive ";
+  auto append_lead = [&](auto& to) {
+    to += std::string_view("drive ");
     append_int(to, m.address);
-    to += " (";
-    to += p.name;
-    to += "): ";
+    to += std::string_view(" (");
+    to += std::string_view(p.name);
+    to += std::string_view("): ");
   };
+  LineBuffer& line = out.line;
+  line.clear();  // keeps its storage, as `text` does
   const bool lead_first = wants != DriveReadingWants::observation;
-  if (lead_first) append_lead(text);
-  const std::size_t lead = text.size();
-  read_records(p, m.direction, out.records.read(m, request), wants, text, out.observed);
-  if (text.size() == lead) {
-    text.clear();
-  } else if (!lead_first) {
-    std::string led;
-    append_lead(led);
-    text.insert(0, led);
-  }
+  if (lead_first) append_lead(line);
+  const std::size_t lead = line.size();
+  read_records(p, m.direction, records, wants, line, out.observed);
+  std::string& text = out.text;
+  text.clear();
+  if (line.size() == lead) return;
+  if (!lead_first) append_lead(text);
+  text.append(line.data(), line.size());
 }
 
 void complete_drive_info(Message& m, DriveReading& scratch) {

@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "core/line_buffer.hpp"
 #include "core/message.hpp"
 #include "drive/profile.hpp"
 #include "drive/records.hpp"
@@ -92,6 +93,9 @@ struct DriveReading {
   std::string text;  // "drive 2 (ERMAN E-9P/9G): ..." or empty when the profile says nothing
   DriveObservation observed;
   DriveRecordReader records;  // what the telegram said, as its decoder read it
+  // Where the text is built, piece by piece with appends that stay inline (a reply's annotation
+  // is some fifty pieces), before it is copied into `text` at once.
+  LineBuffer line;
 };
 
 // `request`: for a reply, the bytes of its request (as on the wire), empty when unknown.
@@ -116,6 +120,11 @@ enum class DriveReadingWants : std::uint8_t {
 void read_for_drive_into(const DriveProfile& profile, const TelegramHead& telegram,
                          std::span<const std::uint8_t> request, DriveReadingWants wants,
                          DriveReading& out);
+// The same from the telegram's records read already (`records`, read with its request; then
+// `out.records` is left as it is): the pipeline reads a telegram's records once for the binder
+// and the annotation.
+void read_for_drive_into(const DriveProfile& profile, const TelegramHead& telegram,
+                         const DriveRecords& records, DriveReadingWants wants, DriveReading& out);
 inline void read_for_drive_into(const DriveProfile& profile, const Message& message,
                                 std::span<const std::uint8_t> request, DriveReadingWants wants,
                                 DriveReading& out) {

@@ -117,7 +117,8 @@ std::optional<std::uint64_t> request_key(const DriveRecords& records) {
 
 }  // namespace
 
-std::span<const double> DriveBinder::request_evidence(std::uint64_t key) {
+std::span<const double> DriveBinder::request_evidence(std::uint64_t key,
+                                                      const DriveRecords& records) {
   if (request_evidence_.size() >= kMaxRememberedRequests) {
     request_evidence_.clear();
     evidence_pool_.clear();
@@ -125,8 +126,7 @@ std::span<const double> DriveBinder::request_evidence(std::uint64_t key) {
   const auto [it, fresh] = request_evidence_.try_emplace(key, evidence_pool_.size());
   if (fresh)
     for (const DriveProfile* candidate : candidates_)
-      evidence_pool_.push_back(
-          telegram_evidence(*candidate, Direction::request, records_.records()));
+      evidence_pool_.push_back(telegram_evidence(*candidate, Direction::request, records));
   return std::span<const double>(evidence_pool_).subspan(it->second, candidates_.size());
 }
 
@@ -187,8 +187,9 @@ std::string DriveBinder::evidence(const Station& st) const {
                      st.frames, st.frames == 1 ? "" : "s", runner);
 }
 
-const DriveProfile* DriveBinder::learn_bound(std::size_t link, const TelegramHead& m,
+const DriveProfile* DriveBinder::learn_bound(std::size_t link, TelegramDriveRecords& telegram,
                                              std::optional<BusEvent>& event) {
+  const TelegramHead& m = telegram.telegram();
   // (Stations are made only below: no station has an address of 0 or less.)
   if (m.address <= 0 || candidates_.empty()) return nullptr;  // broadcasts bind nothing
   if (!good_telegram(m)) return bound(link, m.address);
@@ -201,17 +202,26 @@ const DriveProfile* DriveBinder::learn_bound(std::size_t link, const TelegramHea
     st.excluded.assign(candidates_.size(), 0);
   }
   ++st.frames;
-  // (No reply is read with its request here: only an exception says anything of a reply.)
-  const DriveRecords& records = records_.read(m, {});
+  const DriveRecords& records = telegram.get();
   // The same poll repeats all day: a request's evidence is remembered.
   const std::optional<std::uint64_t> key =
       m.direction == Direction::request ? request_key(records) : std::nullopt;
-  // A telegram with nothing to weigh (a reply that is no exception) scores nothing.
-  const bool weighs = key || !records.records.empty() ||
-                      (m.direction == Direction::request && records.family_protocol);
+  // A telegram with nothing to weigh scores nothing: of a reply only an exception in a protocol
+  // every device speaks weighs (telegram_evidence()); a reply read with its request carries the
+  // values it reads as well, which weigh nothing.
+  const bool weighs = m.direction == Direction::request
+                          ? key || !records.records.empty() || records.family_protocol
+                          : m.direction == Direction::response && !records.family_protocol &&
+                                std::ranges::any_of(records.records, [](const DriveRecord& r) {
+                                  return r.type == DriveRecordType::exception;
+                                });
   const std::span<const double> request_scores =
-      key ? request_evidence(*key) : std::span<const double>();
-  const std::uint32_t protocol = protocol_bit(m.protocol);
+      key ? request_evidence(*key, records) : std::span<const double>();
+  if (st.protocol != m.protocol || st.protocol_bit == 0) {
+    st.protocol = m.protocol;
+    st.protocol_bit = protocol_bit(m.protocol);
+  }
+  const std::uint32_t protocol = st.protocol_bit;
   for (std::size_t i = 0; i < candidates_.size(); ++i) {
     const DriveProfile& p = *candidates_[i];
     if (!(protocols_[i] & protocol) || m.address < p.address_min || m.address > p.address_max) {

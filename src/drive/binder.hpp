@@ -31,8 +31,16 @@ class DriveBinder {
   // Weighs what `telegram` says about its station; `changed` is set to the event when the
   // station's binding changed. Returns the profile the station is bound to afterwards (bound()),
   // in the one lookup of the station the pipeline makes for every frame.
-  const DriveProfile* learn_bound(std::size_t link, const TelegramHead& telegram,
+  // `telegram`'s records are read only if the binder weighs it, and are then there for the
+  // annotation of the same telegram.
+  const DriveProfile* learn_bound(std::size_t link, TelegramDriveRecords& telegram,
                                   std::optional<BusEvent>& changed);
+  // The same with a reading of its own (a reply read without its request).
+  const DriveProfile* learn_bound(std::size_t link, const TelegramHead& telegram,
+                                  std::optional<BusEvent>& changed) {
+    TelegramDriveRecords records(records_, telegram, {});
+    return learn_bound(link, records, changed);
+  }
 
   struct Station {
     std::vector<double> score;  // per candidate: fitting minus contradicting observations
@@ -43,6 +51,10 @@ class DriveBinder {
     // Of the current binding: "high", "medium", "low" (static text: set on every frame).
     std::string_view confidence;
     std::uint64_t frames = 0;
+    // The protocol of its last telegram and its protocol_bit(), worked out again only when the
+    // protocol changes (a registry lookup for every frame cost the hot path).
+    Protocol protocol = Protocol::unknown;
+    std::uint32_t protocol_bit = 0;
   };
   using Key = std::pair<std::size_t, int>;  // link, station address
   [[nodiscard]] const DriveProfile* bound(std::size_t link, int address) const;
@@ -58,11 +70,11 @@ class DriveBinder {
   // Ranks the candidates of a station: best index and the runner-up's score.
   std::pair<int, std::optional<double>> best_of(const Station& station) const;
 
-  // Evidence of the request read last (records_) for each candidate, in candidate order: the same
-  // poll repeats all day, and the evidence depends only on the candidate and `key` (the function,
+  // Evidence of the request `records` for each candidate, in candidate order: the same poll
+  // repeats all day, and the evidence depends only on the candidate and `key` (the function,
   // space, start and count), so it is worked out once a request for all candidates and looked up
   // once a frame.
-  std::span<const double> request_evidence(std::uint64_t key);
+  std::span<const double> request_evidence(std::uint64_t key, const DriveRecords& records);
   static std::uint32_t protocol_bit(Protocol protocol) {
     return std::uint32_t{1} << protocol_index(protocol);
   }
@@ -70,7 +82,7 @@ class DriveBinder {
   std::vector<const DriveProfile*> candidates_;
   std::vector<std::uint32_t> protocols_;  // per candidate: protocol_bit() of each it speaks
   std::map<Key, Station> stations_;
-  DriveRecordReader records_;  // the telegram's
+  DriveRecordReader records_;  // the telegram's, when the caller lends no reading
   // Request key -> offset in evidence_pool_ of its candidates' evidence
   // (kMaxRememberedRequests at most).
   std::unordered_map<std::uint64_t, std::size_t> request_evidence_;

@@ -35,4 +35,30 @@ class DriveRecordReader {
   const ProtocolDecoder* decoder_ = nullptr;  // decoder_for(protocol_)
 };
 
+// One telegram's drive records, read when first asked for and kept for the rest of the telegram's
+// way through the drive level: the binder and the annotation share one reading. A reply is read
+// with its request, which only adds records the binder does not weigh (it weighs a reply's
+// exceptions, which a reply carries alone).
+class TelegramDriveRecords {
+ public:
+  // `reader` lends its storage; `telegram` and `request` must outlive this.
+  TelegramDriveRecords(DriveRecordReader& reader, const TelegramHead& telegram,
+                       std::span<const std::uint8_t> request)
+      : reader_(reader), telegram_(telegram), request_(request) {}
+  [[nodiscard]] const TelegramHead& telegram() const { return telegram_; }
+  const DriveRecords& get() {
+    if (!read_) {
+      reader_.read(telegram_, request_);
+      read_ = true;
+    }
+    return reader_.records();
+  }
+
+ private:
+  DriveRecordReader& reader_;
+  const TelegramHead& telegram_;
+  std::span<const std::uint8_t> request_;
+  bool read_ = false;
+};
+
 }  // namespace drivetap

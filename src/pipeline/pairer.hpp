@@ -56,6 +56,8 @@ class Pairer {
   // Is a request from `address`/`function` on `link` still waiting for its reply at time `at`?
   [[nodiscard]] bool awaiting_reply(std::size_t link, int address, int function, TimeNs at) const;
   // The bytes of the request a reply from `address`/`function` would answer; empty when none.
+  // They stay as they are until the next request is added: the reply's add() (which drops its
+  // request) leaves them in place, so the caller can still hand them on after pairing.
   [[nodiscard]] std::span<const std::uint8_t> awaited_request(std::size_t link, int address,
                                                               int function, TimeNs at) const;
   // Closes requests whose timeout ran out before `now`. (Inline: called twice a frame, and most

@@ -732,8 +732,9 @@ void Pipeline::check_drive_timing(const TelegramHead& m, const DriveProfile& p,
   }
 }
 
-const DriveProfile* Pipeline::drive_profile_for(std::size_t link, const TelegramHead& telegram) {
-  if (const auto drive = options_.drives.find(telegram.address); drive != options_.drives.end())
+const DriveProfile* Pipeline::drive_profile_for(std::size_t link, TelegramDriveRecords& telegram) {
+  if (const auto drive = options_.drives.find(telegram.telegram().address);
+      drive != options_.drives.end())
     return drive->second;
   std::optional<BusEvent> changed;
   const DriveProfile* profile = binder_.learn_bound(link, telegram, changed);
@@ -853,12 +854,14 @@ void Pipeline::handle_telegram(TelegramView& t, const ProtocolDecoder& decoder, 
     in.bytes = bytes;
   }
   // Drive level: the station's profile (bound on the command line or guessed from its traffic),
-  // what the telegram means to it, and the state changes it shows.
-  const DriveProfile* profile = drive_level_ ? drive_profile_for(link, in) : nullptr;
+  // what the telegram means to it, and the state changes it shows. Its drive records are read at
+  // most once, by the first of the binder and the annotation to ask for them.
+  TelegramDriveRecords records(drive_records_, in, request);
+  const DriveProfile* profile = drive_level_ ? drive_profile_for(link, records) : nullptr;
   if (profile) {
     // The annotation's text is written here, or by the sink on its own thread (then only the
     // observation is made here: the timeline needs it now).
-    read_for_drive_into(*profile, in, request,
+    read_for_drive_into(*profile, in, records.get(),
                         detailed && m.detail && !defer_drive_info_
                             ? DriveReadingWants::text_and_observation
                             : DriveReadingWants::observation,
@@ -877,14 +880,8 @@ void Pipeline::handle_telegram(TelegramView& t, const ProtocolDecoder& decoder, 
       st.redetect = true;
     }
   }
-  // (The request's bytes copied for a deferred hand-over: the pairer's storage may be reused
-  // once pairer_.add() has dropped them.)
-  if (deferred && !detailed) {
-    if (request.empty())
-      request_.clear();  // (most telegrams: a request)
-    else
-      request_.assign(request.begin(), request.end());
-  }
+  // (`request`, the pairer's storage, stays as it is through pairer_.add() of this reply: the
+  // deferred hand-over below reads it there.)
   const PairingResult paired = pairer_.add(link, in, transactions_);
   if (paired.paired) {
     in.latency = paired.latency;
@@ -922,7 +919,7 @@ void Pipeline::handle_telegram(TelegramView& t, const ProtocolDecoder& decoder, 
       telegram.taken = t.taken;
       telegram.number = number;
       telegram.direction = dir;
-      telegram.request = request_;
+      telegram.request = request;
       if (paired.paired) {
         telegram.latency = paired.latency;
         telegram.request_number = paired.request_number;

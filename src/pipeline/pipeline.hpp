@@ -21,6 +21,7 @@
 #include "core/stats.hpp"
 #include "drive/binder.hpp"
 #include "drive/profile.hpp"
+#include "drive/records.hpp"
 #include "drive/timeline.hpp"
 #include "pipeline/frame_queue.hpp"
 #include "pipeline/pairer.hpp"
@@ -154,7 +155,7 @@ class Pipeline {
                           std::vector<Anomaly>& found, bool described);
   // The profile of the telegram's station: bound with --drive, or by the binder (which learns
   // from the telegram first, and hands a change of binding to the sink); nullptr for none.
-  const DriveProfile* drive_profile_for(std::size_t link, const TelegramHead& telegram);
+  const DriveProfile* drive_profile_for(std::size_t link, TelegramDriveRecords& telegram);
   void summarise_drives();
   // `now`: the time detection decides at (the byte that made it decide, or the clock).
   void detect(ChannelState& st, ChannelId channel, TimeNs now, bool final, bool deadline = false);
@@ -191,7 +192,6 @@ class Pipeline {
   std::vector<ByteEvent> run_;  // push_batch: the run going to a framer at once
   std::vector<Transaction> transactions_;
   Message message_;  // every frame is decoded into this one (its storage is reused)
-  std::vector<std::uint8_t> request_;   // a deferred reply's request, handed over
   bool hand_over_transactions_ = true;  // the sink's needs' transactions
   bool defer_drive_info_ = false;       // the sink's needs' drive_info, with detail
   // Telegrams taken whole are handled at once, not decoded in detail here: the sink takes no
@@ -210,6 +210,8 @@ class Pipeline {
   DriveBinder binder_;
   DriveTimeline timeline_;
   DriveReading drive_reading_;  // every frame's drive reading (its storage is reused)
+  // Every frame's drive records, read once for the binder and the annotation (storage reused).
+  DriveRecordReader drive_records_;
   bool finished_ = false;
 };
 
