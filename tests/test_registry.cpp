@@ -26,7 +26,7 @@ TEST(Registry, NamesResolveToTheirProtocol) {
     }
     ASSERT_NE(p->decoder, nullptr) << p->id;
     EXPECT_EQ(p->decoder->protocol().desc(), p) << p->id;
-    EXPECT_FALSE(p->fields.empty()) << p->id;
+    EXPECT_FALSE(p->field_protocols.empty()) << p->id;
     if (p->text_start != 0) {
       EXPECT_EQ(protocol_for_text_start(p->text_start).desc(), p);
     }

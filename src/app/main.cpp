@@ -36,6 +36,7 @@ int main(int argc, char** argv) {
   const std::vector<Command> commands = {
       add_decode_command(app),  add_read_command(app),     add_diagnose_command(app),
       add_capture_command(app), add_generate_command(app), add_profiles_command(app),
+      add_fields_command(app),
   };
   try {
     app.parse(argc, argv);
