@@ -12,7 +12,8 @@
    when it is the same protocol.
 2. json: every key of a `fields` object in `read -T json` of every capture in captures/ (and of
    generated traffic and one frame pair of each public Modbus function) is listed, and its values
-   have the listed type: an integer within the width and bitmask, a hex string, a string.
+   have the listed type: an integer within the width and bitmask, a hex string, a string; the
+   record fields (layer `drivetap`) are frame records' keys, each with values of its type.
 3. values: the Modbus frames written as pcapng (`decode -w`) and read by tshark: for each frame,
    each id both print has the same values in both.
 
@@ -58,7 +59,8 @@ failures = []
 
 def fail(what):
     failures.append(what)
-    print("FAIL:", what)
+    if len(failures) <= 30:
+        print("FAIL:", what)
 
 
 def run(args, **kw):
@@ -232,9 +234,20 @@ def value_fits(value, ftype, bitmask):
     return False  # a group or a real number has no place in `fields`
 
 
+def record_value_fits(value, ftype, bitmask):
+    """A frame record's key: as a field, or null where the frame has none (no function code in
+    a Danfoss FC telegram, no latency measured)."""
+    if value is None:
+        return True
+    if TYPE_CLASS[ftype] == "real":
+        return isinstance(value, (int, float)) and not isinstance(value, bool)
+    return value_fits(value, ftype, bitmask)
+
+
 def check_json(drivetap):
     fields, _ = drivetap_fields(drivetap)
-    seen = set()
+    record_keys = {fid for fid, f in fields.items() if f[2] == "drivetap"}
+    seen, seen_keys = set(), set()
     with tempfile.TemporaryDirectory() as work:
         for label, command, stdin in json_inputs(drivetap, work):
             cwd = os.path.dirname(label) if os.path.isabs(label) else None
@@ -242,6 +255,13 @@ def check_json(drivetap):
                                  stdin=open(stdin) if stdin else subprocess.DEVNULL).stdout
             for line in out.splitlines():
                 record = json.loads(line)
+                if record.get("type") == "frame":
+                    for key in record_keys & record.keys():
+                        seen_keys.add(key)
+                        ftype, bitmask = fields[key][1], fields[key][4]
+                        if not record_value_fits(record[key], ftype, bitmask):
+                            fail(f"{label}: frame {record.get('n')}: {key} = {record[key]!r} "
+                                 f"is no {ftype}")
                 for fid, value in record.get("fields", {}).items():
                     seen.add(fid)
                     if fid not in fields:
@@ -253,7 +273,9 @@ def check_json(drivetap):
                             fail(f"{label}: frame {record.get('n')}: {fid} = {v!r} is no {ftype}")
     if len(seen) < 60:
         fail(f"only {len(seen)} ids printed over all inputs")
-    print(f"json: {len(seen)} ids printed, all listed")
+    if seen_keys != record_keys:
+        fail(f"record fields no frame record has: {sorted(record_keys - seen_keys)}")
+    print(f"json: {len(seen)} ids printed, all listed; {len(seen_keys)} record keys of their type")
 
 
 def tshark_frames(pcapng):
