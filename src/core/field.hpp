@@ -60,8 +60,9 @@ struct FieldDesc {
   std::string_view blurb{};  // what it holds, when the name does not say it all
   // The bits of its bytes the value is, shifted down (Danfoss FC's AK: 0xF0); 0: all of them.
   std::uint32_t bitmask = 0;
-  // The descriptor listed in the field table under this id, for one that shares it (Danfoss FC's
-  // AK has a request and a response meaning); null for a listed one.
+  // The descriptor listed in the field table under this id, for one that shares it with a label
+  // of its own (Danfoss FC's AK has a request and a response meaning; a Modbus output address and
+  // register address are both Wireshark's reference number); null for a listed one.
   const FieldDesc* shares_id_of = nullptr;
 
   // The listed descriptor of this id: two descriptors have the same id exactly when their keys
@@ -243,8 +244,8 @@ std::span<const FieldDesc* const> all_field_descriptors();
 // Every protocol layer with fields, each once, in registry order (dissectors/registry.cpp).
 std::span<const FieldProtocol* const> all_field_protocols();
 
-// Wireshark's name of the field's type ("FT_UINT16", "FT_BYTES", "FT_NONE"), display base
-// ("BASE_HEX"; "" where Wireshark prints none) and bitmask, as `tshark -G fields` prints them.
+// Wireshark's name of the field's type ("FT_UINT16", "FT_BYTES", "FT_NONE") and display base
+// ("BASE_HEX"; "" where Wireshark prints none), as `tshark -G fields` prints them.
 std::string_view wireshark_field_type(const FieldDesc& d);
 std::string_view wireshark_field_base(const FieldDesc& d);
 
