@@ -97,16 +97,23 @@ Protocol protocol_for_wireshark_dissector(std::string_view name) {
   return Protocol::unknown;
 }
 
-// Protocols sharing a field set (Modbus RTU and ASCII) list it once.
+// A layer two protocols share (the Modbus PDU) is listed once, at its first protocol.
+std::span<const FieldProtocol* const> all_field_protocols() {
+  static const std::vector<const FieldProtocol*> table = [] {
+    std::vector<const FieldProtocol*> t;
+    for (const ProtocolDesc* p : kProtocols)
+      for (const FieldProtocol* layer : p->field_protocols)
+        if (std::ranges::find(t, layer) == t.end()) t.push_back(layer);
+    return t;
+  }();
+  return table;
+}
+
 std::span<const FieldDesc* const> all_field_descriptors() {
   static const std::vector<const FieldDesc*> table = [] {
     std::vector<const FieldDesc*> t;
-    std::vector<const FieldDesc* const*> seen;
-    for (const ProtocolDesc* p : kProtocols) {
-      if (std::ranges::find(seen, p->fields.data()) != seen.end()) continue;
-      seen.push_back(p->fields.data());
-      t.insert(t.end(), p->fields.begin(), p->fields.end());
-    }
+    for (const FieldProtocol* layer : all_field_protocols())
+      t.insert(t.end(), layer->fields.begin(), layer->fields.end());
     return t;
   }();
   return table;

@@ -46,8 +46,8 @@ TEST(DanfossFc, WriteParameterTelegramOfTheIssue) {
   EXPECT_EQ(m.info,
             "write 4-14 = 1000 (RAM+EEPROM, word), CTW 0x047C [ramp, no coast, no quick stop, "
             "ramp enabled, start, data valid], REF 50.00 %");
-  EXPECT_EQ(field_text(m, "fc.param"), "4-14");
-  EXPECT_EQ(field_text(m, "fc.pwe"), "1000");
+  EXPECT_EQ(field_text(m, "danfoss_fc.param"), "4-14");
+  EXPECT_EQ(field_text(m, "danfoss_fc.pwe"), "1000");
   EXPECT_TRUE(m.anomalies.empty());
 }
 

@@ -43,7 +43,7 @@ TEST(ModbusAscii, DecodesTheSpecRequest) {
   // Field spans point at the hex characters: start address "2523" is at 5..8.
   bool found = false;
   for (const FieldNode& n : m.fields)
-    if (n.desc->id == "modbus.start_addr") {
+    if (n.desc->id == "modbus.reference_num") {
       found = true;
       EXPECT_EQ(n.offset, 5u);
       EXPECT_EQ(n.length, 4u);

@@ -224,25 +224,25 @@ TEST(IsPublicFunction, PublicCodesWithAndWithoutExceptionBit) {
 TEST(DissectPdu, ReadHoldingRegistersRequest) {
   // 000 §6 example 1 (CRC byte-swapped on the wire; irrelevant to the PDU).
   const Decoded r = decode("02 03 00 00 00 04 3A 44", kReq);
-  EXPECT_TRUE(FieldIs(r, "modbus.fc", 1, 1, 3));
-  EXPECT_TRUE(FieldIs(r, "modbus.start_addr", 2, 2, 0x0000));
-  EXPECT_TRUE(FieldIs(r, "modbus.quantity", 4, 2, 4));
+  EXPECT_TRUE(FieldIs(r, "modbus.func_code", 1, 1, 3));
+  EXPECT_TRUE(FieldIs(r, "modbus.reference_num", 2, 2, 0x0000));
+  EXPECT_TRUE(FieldIs(r, "modbus.word_cnt", 4, 2, 4));
   EXPECT_EQ(r.fields.size(), 3u);
   EXPECT_TRUE(HasSub(r.d.info, "Read Holding Registers"));
   EXPECT_TRUE(HasSub(r.d.info, "0x0000..0x0003 (4)"));
   EXPECT_TRUE(r.d.problems.empty());
   EXPECT_EQ(r.d.exception_code, -1);
   // Generic formatting of the nodes.
-  EXPECT_EQ(format_field_value(r.fields, *r.find("modbus.fc"), r.frame),
+  EXPECT_EQ(format_field_value(r.fields, *r.find("modbus.func_code"), r.frame),
             "3 (Read Holding Registers)");
-  EXPECT_EQ(format_field_value(r.fields, *r.find("modbus.start_addr"), r.frame), "0x0000 (0)");
+  EXPECT_EQ(format_field_value(r.fields, *r.find("modbus.reference_num"), r.frame), "0x0000 (0)");
 }
 
 TEST(DissectPdu, ReadSingleRegisterRangeText) {
   // 004 RTU example: read 0x2523 x1.
   const Decoded r = decode("01 03 25 23 00 01 7E CC", kReq);
-  EXPECT_TRUE(FieldIs(r, "modbus.start_addr", 2, 2, 0x2523));
-  EXPECT_TRUE(FieldIs(r, "modbus.quantity", 4, 2, 1));
+  EXPECT_TRUE(FieldIs(r, "modbus.reference_num", 2, 2, 0x2523));
+  EXPECT_TRUE(FieldIs(r, "modbus.word_cnt", 4, 2, 1));
   EXPECT_EQ(r.d.info, "Read Holding Registers 0x2523");
   EXPECT_TRUE(r.d.problems.empty());
 }
@@ -250,12 +250,12 @@ TEST(DissectPdu, ReadSingleRegisterRangeText) {
 TEST(DissectPdu, ReadHoldingRegistersResponse) {
   // 000 §6 example 1 response (bad CRC; the PDU itself is fine).
   const Decoded r = decode("02 03 08 00 03 13 88 13 88 01 7C 80 48", kRsp);
-  EXPECT_TRUE(FieldIs(r, "modbus.byte_count", 2, 1, 8));
-  ASSERT_EQ(r.count("modbus.reg"), 4);
-  EXPECT_TRUE(FieldIs(r, "modbus.reg", 3, 2, 3, 0));
-  EXPECT_TRUE(FieldIs(r, "modbus.reg", 5, 2, 5000, 1));
-  EXPECT_TRUE(FieldIs(r, "modbus.reg", 7, 2, 5000, 2));
-  EXPECT_TRUE(FieldIs(r, "modbus.reg", 9, 2, 380, 3));
+  EXPECT_TRUE(FieldIs(r, "modbus.byte_cnt", 2, 1, 8));
+  ASSERT_EQ(r.count("modbus.regval_uint16"), 4);
+  EXPECT_TRUE(FieldIs(r, "modbus.regval_uint16", 3, 2, 3, 0));
+  EXPECT_TRUE(FieldIs(r, "modbus.regval_uint16", 5, 2, 5000, 1));
+  EXPECT_TRUE(FieldIs(r, "modbus.regval_uint16", 7, 2, 5000, 2));
+  EXPECT_TRUE(FieldIs(r, "modbus.regval_uint16", 9, 2, 380, 3));
   EXPECT_TRUE(HasSub(r.d.info, "Read Holding Registers reply"));
   EXPECT_TRUE(HasSub(r.d.info, "4 registers = 3, 5000, 5000, 380"));
   EXPECT_TRUE(r.d.problems.empty());
@@ -264,11 +264,11 @@ TEST(DissectPdu, ReadHoldingRegistersResponse) {
 TEST(DissectPdu, ReadInputRegistersResponseByteCountMismatch) {
   // 003 §6 FC 04 response: byte count 0x10 (16) but 10 data bytes follow.
   const Decoded r = decode("01 04 10 01 F4 00 00 00 D6 00 00 02 32 0A 03", kRsp);
-  EXPECT_TRUE(FieldIs(r, "modbus.byte_count", 2, 1, 16));
-  ASSERT_EQ(r.count("modbus.reg"), 5);
-  EXPECT_TRUE(FieldIs(r, "modbus.reg", 3, 2, 500, 0));
-  EXPECT_TRUE(FieldIs(r, "modbus.reg", 7, 2, 214, 2));
-  EXPECT_TRUE(FieldIs(r, "modbus.reg", 11, 2, 562, 4));
+  EXPECT_TRUE(FieldIs(r, "modbus.byte_cnt", 2, 1, 16));
+  ASSERT_EQ(r.count("modbus.regval_uint16"), 5);
+  EXPECT_TRUE(FieldIs(r, "modbus.regval_uint16", 3, 2, 500, 0));
+  EXPECT_TRUE(FieldIs(r, "modbus.regval_uint16", 7, 2, 214, 2));
+  EXPECT_TRUE(FieldIs(r, "modbus.regval_uint16", 11, 2, 562, 4));
   ASSERT_EQ(r.d.problems.size(), 1u);
   EXPECT_TRUE(HasSub(r.d.problems[0], "byte count says 16 bytes, 10 present"));
   EXPECT_TRUE(HasSub(r.d.info, "Read Input Registers reply: 5 registers = 500, 0, 214, 0, 562"));
@@ -277,20 +277,20 @@ TEST(DissectPdu, ReadInputRegistersResponseByteCountMismatch) {
 TEST(DissectPdu, ReadRegistersResponseOddByteCount) {
   const Decoded r = decode("01 03 03 00 01 02", kRsp, false);
   EXPECT_TRUE(AnyHasSub(r.d.problems, "byte count 3 is odd"));
-  EXPECT_TRUE(FieldIs(r, "modbus.reg", 3, 2, 1));
+  EXPECT_TRUE(FieldIs(r, "modbus.regval_uint16", 3, 2, 1));
   EXPECT_TRUE(AnyHasSub(r.d.problems, "1 unexpected bytes after the PDU"));
 }
 
 TEST(DissectPdu, ReadCoilsRequestAndResponse) {
   // 003 §6 FC 01.
   const Decoded q = decode("01 01 00 00 00 0C 3C 0F", kReq);
-  EXPECT_TRUE(FieldIs(q, "modbus.quantity", 4, 2, 12));
+  EXPECT_TRUE(FieldIs(q, "modbus.bit_cnt", 4, 2, 12));
   EXPECT_EQ(q.d.info, "Read Coils 0x0000..0x000B (12)");
   EXPECT_TRUE(q.d.problems.empty());
 
   // 002 §7.10.1 response: two data bytes 07 06, first coil = bit 0 of the first byte.
   const Decoded r = decode("01 01 02 07 06 3B CE", kRsp);
-  EXPECT_TRUE(FieldIs(r, "modbus.byte_count", 2, 1, 2));
+  EXPECT_TRUE(FieldIs(r, "modbus.byte_cnt", 2, 1, 2));
   EXPECT_TRUE(FieldIs(r, "modbus.data", 3, 2, 0));
   const FieldNode* bits = r.find("modbus.bits");
   ASSERT_NE(bits, nullptr);
@@ -312,7 +312,7 @@ TEST(DissectPdu, ReadDiscreteInputsResponseShortData) {
 TEST(DissectPdu, WriteSingleCoil) {
   // 003 §7 START: coil 0 ON.
   const Decoded r = decode("01 05 00 00 FF 00 8C 3A", kReq);
-  EXPECT_TRUE(FieldIs(r, "modbus.output_addr", 2, 2, 0x0000));
+  EXPECT_TRUE(FieldIs(r, "modbus.reference_num", 2, 2, 0x0000));
   EXPECT_TRUE(FieldIs(r, "modbus.coil_value", 4, 2, 0xFF00));
   EXPECT_EQ(r.d.info, "Write Single Coil 0x0000 = ON");
   EXPECT_TRUE(r.d.problems.empty());
@@ -326,7 +326,7 @@ TEST(DissectPdu, WriteSingleCoil) {
 TEST(DissectPdu, WriteSingleCoilBadValue) {
   // 002 §7.10.2 response as printed (not an echo): address FF00, value 0001.
   const Decoded r = decode("01 05 FF 00 00 01 3C 1E", kRsp);
-  EXPECT_TRUE(FieldIs(r, "modbus.output_addr", 2, 2, 0xFF00));
+  EXPECT_TRUE(FieldIs(r, "modbus.reference_num", 2, 2, 0xFF00));
   EXPECT_TRUE(FieldIs(r, "modbus.coil_value", 4, 2, 0x0001));
   ASSERT_EQ(r.d.problems.size(), 1u);
   EXPECT_TRUE(HasSub(r.d.problems[0], "coil value 0x0001"));
@@ -337,8 +337,8 @@ TEST(DissectPdu, WriteSingleCoilBadValue) {
 TEST(DissectPdu, WriteSingleRegister) {
   // 004 RTU example: 60 Hz to 0x2502.
   const Decoded r = decode("01 06 25 02 17 70 2D 12", kReq);
-  EXPECT_TRUE(FieldIs(r, "modbus.reg_addr", 2, 2, 0x2502));
-  EXPECT_TRUE(FieldIs(r, "modbus.write_value", 4, 2, 6000));
+  EXPECT_TRUE(FieldIs(r, "modbus.reference_num", 2, 2, 0x2502));
+  EXPECT_TRUE(FieldIs(r, "modbus.regval_uint16", 4, 2, 6000));
   EXPECT_EQ(r.d.info, "Write Single Register 0x2502 = 6000 (0x1770)");
   const Decoded echo = decode("01 06 25 02 17 70 2D 12", kRsp);
   EXPECT_EQ(echo.d.info, "Write Single Register reply 0x2502 = 6000 (0x1770)");
@@ -348,10 +348,10 @@ TEST(DissectPdu, WriteSingleRegister) {
 TEST(DissectPdu, WriteMultipleCoilsRequest) {
   // 003 §7 FC 0F: coils 0..8 = 1 0 0 0 0 0 0 0 1 (FAULT RESET + START).
   const Decoded r = decode("01 0F 00 00 00 09 02 01 01 25 2C", kReq);
-  EXPECT_TRUE(FieldIs(r, "modbus.fc", 1, 1, 0x0F));
-  EXPECT_TRUE(FieldIs(r, "modbus.start_addr", 2, 2, 0));
-  EXPECT_TRUE(FieldIs(r, "modbus.quantity", 4, 2, 9));
-  EXPECT_TRUE(FieldIs(r, "modbus.byte_count", 6, 1, 2));
+  EXPECT_TRUE(FieldIs(r, "modbus.func_code", 1, 1, 0x0F));
+  EXPECT_TRUE(FieldIs(r, "modbus.reference_num", 2, 2, 0));
+  EXPECT_TRUE(FieldIs(r, "modbus.bit_cnt", 4, 2, 9));
+  EXPECT_TRUE(FieldIs(r, "modbus.byte_cnt", 6, 1, 2));
   EXPECT_TRUE(FieldIs(r, "modbus.data", 7, 2, 0));
   const FieldNode* bits = r.find("modbus.bits");
   ASSERT_NE(bits, nullptr);
@@ -375,17 +375,17 @@ TEST(DissectPdu, WriteMultipleCoilsByteCountMismatch) {
 TEST(DissectPdu, WriteMultipleRegisters) {
   // 004 RTU example: run forward at 60 Hz.
   const Decoded r = decode("01 10 25 01 00 02 04 00 01 17 70 CB 26", kReq);
-  EXPECT_TRUE(FieldIs(r, "modbus.start_addr", 2, 2, 0x2501));
-  EXPECT_TRUE(FieldIs(r, "modbus.quantity", 4, 2, 2));
-  EXPECT_TRUE(FieldIs(r, "modbus.byte_count", 6, 1, 4));
-  EXPECT_TRUE(FieldIs(r, "modbus.reg", 7, 2, 1, 0));
-  EXPECT_TRUE(FieldIs(r, "modbus.reg", 9, 2, 6000, 1));
+  EXPECT_TRUE(FieldIs(r, "modbus.reference_num", 2, 2, 0x2501));
+  EXPECT_TRUE(FieldIs(r, "modbus.word_cnt", 4, 2, 2));
+  EXPECT_TRUE(FieldIs(r, "modbus.byte_cnt", 6, 1, 4));
+  EXPECT_TRUE(FieldIs(r, "modbus.regval_uint16", 7, 2, 1, 0));
+  EXPECT_TRUE(FieldIs(r, "modbus.regval_uint16", 9, 2, 6000, 1));
   EXPECT_EQ(r.d.info, "Write Multiple Registers 0x2501..0x2502 (2) = 1, 6000");
   EXPECT_TRUE(r.d.problems.empty());
 
   const Decoded reply = decode("01 10 25 01 00 02 1B 04", kRsp);
-  EXPECT_TRUE(FieldIs(reply, "modbus.start_addr", 2, 2, 0x2501));
-  EXPECT_TRUE(FieldIs(reply, "modbus.quantity", 4, 2, 2));
+  EXPECT_TRUE(FieldIs(reply, "modbus.reference_num", 2, 2, 0x2501));
+  EXPECT_TRUE(FieldIs(reply, "modbus.word_cnt", 4, 2, 2));
   EXPECT_EQ(reply.d.info, "Write Multiple Registers reply: 0x2501..0x2502 (2) written");
 }
 
@@ -397,7 +397,7 @@ TEST(DissectPdu, WriteMultipleRegistersByteCountProblems) {
   const Decoded short_data = decode("01 10 00 0C 00 02 04 00 C8", kReq, false);
   ASSERT_EQ(short_data.d.problems.size(), 1u);
   EXPECT_TRUE(HasSub(short_data.d.problems[0], "byte count says 4 bytes, 2 present"));
-  EXPECT_TRUE(FieldIs(short_data, "modbus.reg", 7, 2, 200));
+  EXPECT_TRUE(FieldIs(short_data, "modbus.regval_uint16", 7, 2, 200));
 }
 
 TEST(DissectPdu, QuantityOutOfRange) {
@@ -444,8 +444,8 @@ TEST(DissectPdu, UnexpectedTrailingBytes) {
 
 TEST(DissectPdu, TruncatedRequest) {
   const Decoded r = decode("01 03 00 00", kReq, false);
-  EXPECT_TRUE(FieldIs(r, "modbus.start_addr", 2, 2, 0));
-  EXPECT_EQ(r.find("modbus.quantity"), nullptr);
+  EXPECT_TRUE(FieldIs(r, "modbus.reference_num", 2, 2, 0));
+  EXPECT_EQ(r.find("modbus.word_cnt"), nullptr);
   ASSERT_EQ(r.d.problems.size(), 1u);
   EXPECT_TRUE(HasSub(r.d.problems[0], "frame ends before Quantity"));
   EXPECT_EQ(r.d.info, "Read Holding Registers (truncated)");
@@ -460,18 +460,18 @@ TEST(DissectPdu, TruncatedResponse) {
 TEST(DissectPdu, Diagnostics) {
   // 003 §8 / 004 loop-back: sub-function 0000, data A5 37.
   const Decoded q = decode("01 08 00 00 A5 37 DA 8D", kReq);
-  EXPECT_TRUE(FieldIs(q, "modbus.diag.sub", 2, 2, 0));
-  EXPECT_TRUE(FieldIs(q, "modbus.diag.data", 4, 2, 0));
+  EXPECT_TRUE(FieldIs(q, "modbus.diagnostic_code", 2, 2, 0));
+  EXPECT_TRUE(FieldIs(q, "modbus.diagnostic_data", 4, 2, 0));
   EXPECT_EQ(q.d.info, "Diagnostics: Return Query Data (00), data A5 37");
   EXPECT_TRUE(q.d.problems.empty());
-  EXPECT_EQ(format_field_value(q.fields, *q.find("modbus.diag.sub"), q.frame),
+  EXPECT_EQ(format_field_value(q.fields, *q.find("modbus.diagnostic_code"), q.frame),
             "0 (Return Query Data)");
 
   const Decoded r = decode("01 08 00 00 A5 37 DA 8D", kRsp);
   EXPECT_EQ(r.d.info, "Diagnostics reply: Return Query Data (00), data A5 37");
 
   const Decoded clear = decode("01 08 00 0A 00 00", kReq, false);
-  EXPECT_TRUE(FieldIs(clear, "modbus.diag.sub", 2, 2, 0x0A));
+  EXPECT_TRUE(FieldIs(clear, "modbus.diagnostic_code", 2, 2, 0x0A));
   EXPECT_TRUE(HasSub(clear.d.info, "Clear Counters and Diagnostic Register (0A)"));
 
   const Decoded reserved = decode("01 08 00 30", kReq, false);
@@ -481,8 +481,8 @@ TEST(DissectPdu, Diagnostics) {
 TEST(DissectPdu, ExceptionResponse) {
   // 003 §6 FC 04 error reply: illegal data value.
   const Decoded r = decode("01 84 03 03 01", kRsp);
-  EXPECT_TRUE(FieldIs(r, "modbus.fc", 1, 1, 0x84));
-  EXPECT_TRUE(FieldIs(r, "modbus.exception_fc", 1, 1, 0x04));
+  EXPECT_TRUE(FieldIs(r, "modbus.func_code", 1, 1, 0x04));
+  EXPECT_EQ(r.fields.text(*r.find("modbus.func_code")), "exception reply");
   EXPECT_TRUE(FieldIs(r, "modbus.exception_code", 2, 1, 3));
   EXPECT_EQ(r.d.exception_code, 3);
   EXPECT_TRUE(HasSub(r.d.info, "Read Input Registers exception 0x03"));
@@ -510,7 +510,7 @@ TEST(DissectPdu, ExceptionReplies) {
   for (const Case& c : cases) {
     SCOPED_TRACE(c.why);
     const Decoded r = decode(c.reply, kRsp);
-    EXPECT_TRUE(FieldIs(r, "modbus.exception_fc", 1, 1, c.function));
+    EXPECT_TRUE(FieldIs(r, "modbus.func_code", 1, 1, c.function));
     EXPECT_TRUE(FieldIs(r, "modbus.exception_code", 2, 1, c.code));
     EXPECT_EQ(r.d.exception_code, c.code);
     EXPECT_TRUE(HasSub(r.d.info, c.info));
@@ -551,18 +551,19 @@ TEST(DissectPdu, ReadExceptionStatus) {
 
 TEST(DissectPdu, GetCommEventCounter) {
   const Decoded r = decode("01 0B FF FF 01 08", kRsp, false);
-  EXPECT_TRUE(FieldIs(r, "modbus.comm.status", 2, 2, 0xFFFF));
-  EXPECT_TRUE(FieldIs(r, "modbus.comm.event_count", 4, 2, 264));
+  EXPECT_TRUE(FieldIs(r, "modbus.ev_status", 2, 2, 0xFFFF));
+  EXPECT_TRUE(FieldIs(r, "modbus.ev_count", 4, 2, 264));
   EXPECT_EQ(r.d.info, "Get Comm Event Counter reply: status 0xFFFF, 264 events");
 }
 
 TEST(DissectPdu, GetCommEventLog) {
   // Spec example: byte count 8, status 0, 264 events, 289 messages, events 20 00.
   const Decoded r = decode("01 0C 08 00 00 01 08 01 21 20 00", kRsp, false);
-  EXPECT_TRUE(FieldIs(r, "modbus.byte_count", 2, 1, 8));
-  EXPECT_TRUE(FieldIs(r, "modbus.comm.event_count", 5, 2, 264));
-  EXPECT_TRUE(FieldIs(r, "modbus.comm.message_count", 7, 2, 289));
-  EXPECT_TRUE(FieldIs(r, "modbus.comm.events", 9, 2, 0));
+  EXPECT_TRUE(FieldIs(r, "modbus.byte_cnt", 2, 1, 8));
+  EXPECT_TRUE(FieldIs(r, "modbus.ev_count", 5, 2, 264));
+  EXPECT_TRUE(FieldIs(r, "modbus.ev_msg_count", 7, 2, 289));
+  EXPECT_TRUE(FieldIs(r, "modbus.event", 9, 1, 0x20, 0));
+  EXPECT_TRUE(FieldIs(r, "modbus.event", 10, 1, 0x00, 1));
   EXPECT_EQ(r.d.info, "Get Comm Event Log reply: 264 events, 289 messages, log 20 00");
   EXPECT_TRUE(r.d.problems.empty());
 
@@ -572,7 +573,7 @@ TEST(DissectPdu, GetCommEventLog) {
 
 TEST(DissectPdu, ReportServerId) {
   const Decoded r = decode("01 11 03 2A FF 00", kRsp, false);
-  EXPECT_TRUE(FieldIs(r, "modbus.byte_count", 2, 1, 3));
+  EXPECT_TRUE(FieldIs(r, "modbus.byte_cnt", 2, 1, 3));
   EXPECT_TRUE(FieldIs(r, "modbus.server_id", 3, 3, 0));
   EXPECT_EQ(r.d.info, "Report Server ID reply: 2A FF 00");
   EXPECT_TRUE(r.d.problems.empty());
@@ -581,17 +582,17 @@ TEST(DissectPdu, ReportServerId) {
 TEST(DissectPdu, ReadFileRecord) {
   // Spec example: two sub-requests (file 4 record 1 x2, file 3 record 9 x2).
   const Decoded q = decode("01 14 0E 06 00 04 00 01 00 02 06 00 03 00 09 00 02", kReq, false);
-  EXPECT_TRUE(FieldIs(q, "modbus.byte_count", 2, 1, 14));
+  EXPECT_TRUE(FieldIs(q, "modbus.byte_cnt", 2, 1, 14));
   ASSERT_EQ(q.count("modbus.file"), 2);
   EXPECT_EQ(q.find("modbus.file", 0)->offset, 3u);
   EXPECT_EQ(q.find("modbus.file", 1)->offset, 10u);
   // A group's span covers its children: 7 bytes per sub-request.
   EXPECT_EQ(q.find("modbus.file", 0)->length, 7u);
   EXPECT_EQ(q.find("modbus.file", 1)->length, 7u);
-  EXPECT_TRUE(FieldIs(q, "modbus.file.ref_type", 3, 1, 6, 0));
+  EXPECT_TRUE(FieldIs(q, "modbus.reference_type", 3, 1, 6, 0));
   EXPECT_TRUE(FieldIs(q, "modbus.file.number", 4, 2, 4, 0));
   EXPECT_TRUE(FieldIs(q, "modbus.file.record", 6, 2, 1, 0));
-  EXPECT_TRUE(FieldIs(q, "modbus.file.length", 8, 2, 2, 0));
+  EXPECT_TRUE(FieldIs(q, "modbus.word_cnt", 8, 2, 2, 0));
   EXPECT_TRUE(FieldIs(q, "modbus.file.number", 11, 2, 3, 1));
   EXPECT_TRUE(FieldIs(q, "modbus.file.record", 13, 2, 9, 1));
   EXPECT_EQ(q.find("modbus.file.number")->depth, 1);
@@ -600,9 +601,9 @@ TEST(DissectPdu, ReadFileRecord) {
 
   const Decoded r = decode("01 14 0C 05 06 0D FE 00 20 05 06 33 CD 00 40", kRsp, false);
   ASSERT_EQ(r.count("modbus.file"), 2);
-  EXPECT_TRUE(FieldIs(r, "modbus.file.length", 3, 1, 5, 0));
-  EXPECT_TRUE(FieldIs(r, "modbus.file.data", 5, 4, 0, 0));
-  EXPECT_TRUE(FieldIs(r, "modbus.file.data", 11, 4, 0, 1));
+  EXPECT_TRUE(FieldIs(r, "modbus.byte_cnt", 3, 1, 5, 1));
+  EXPECT_TRUE(FieldIs(r, "modbus.data", 5, 4, 0, 0));
+  EXPECT_TRUE(FieldIs(r, "modbus.data", 11, 4, 0, 1));
   EXPECT_EQ(r.d.info, "Read File Record reply: 2 sub-requests");
   EXPECT_TRUE(r.d.problems.empty());
 
@@ -615,8 +616,8 @@ TEST(DissectPdu, WriteFileRecord) {
   const Decoded q = decode("01 15 0D 06 00 04 00 07 00 03 06 AF 04 BE 10 0D", kReq, false);
   EXPECT_TRUE(FieldIs(q, "modbus.file.number", 4, 2, 4));
   EXPECT_TRUE(FieldIs(q, "modbus.file.record", 6, 2, 7));
-  EXPECT_TRUE(FieldIs(q, "modbus.file.length", 8, 2, 3));
-  EXPECT_TRUE(FieldIs(q, "modbus.file.data", 10, 6, 0));
+  EXPECT_TRUE(FieldIs(q, "modbus.word_cnt", 8, 2, 3));
+  EXPECT_TRUE(FieldIs(q, "modbus.data", 10, 6, 0));
   EXPECT_EQ(q.d.info, "Write File Record: 1 sub-request");
   EXPECT_TRUE(q.d.problems.empty());
   const Decoded r = decode("01 15 0D 06 00 04 00 07 00 03 06 AF 04 BE 10 0D", kRsp, false);
@@ -628,7 +629,7 @@ TEST(DissectPdu, WriteFileRecord) {
 
 TEST(DissectPdu, MaskWriteRegister) {
   const Decoded q = decode("01 16 00 04 00 F2 00 25", kReq, false);
-  EXPECT_TRUE(FieldIs(q, "modbus.reg_addr", 2, 2, 4));
+  EXPECT_TRUE(FieldIs(q, "modbus.reference_num", 2, 2, 4));
   EXPECT_TRUE(FieldIs(q, "modbus.and_mask", 4, 2, 0xF2));
   EXPECT_TRUE(FieldIs(q, "modbus.or_mask", 6, 2, 0x25));
   EXPECT_EQ(q.d.info, "Mask Write Register 0x0004 AND 0x00F2 OR 0x0025");
@@ -639,14 +640,14 @@ TEST(DissectPdu, MaskWriteRegister) {
 TEST(DissectPdu, ReadWriteMultipleRegistersRequest) {
   // Spec example: read 6 from 0x0003, write 3 at 0x000E = 00FF 00FF 00FF.
   const Decoded q = decode("01 17 00 03 00 06 00 0E 00 03 06 00 FF 00 FF 00 FF", kReq, false);
-  EXPECT_TRUE(FieldIs(q, "modbus.read_start", 2, 2, 3));
-  EXPECT_TRUE(FieldIs(q, "modbus.read_quantity", 4, 2, 6));
-  EXPECT_TRUE(FieldIs(q, "modbus.write_start", 6, 2, 0x0E));
-  EXPECT_TRUE(FieldIs(q, "modbus.write_quantity", 8, 2, 3));
-  EXPECT_TRUE(FieldIs(q, "modbus.byte_count", 10, 1, 6));
-  ASSERT_EQ(q.count("modbus.reg"), 3);
-  EXPECT_TRUE(FieldIs(q, "modbus.reg", 11, 2, 255, 0));
-  EXPECT_TRUE(FieldIs(q, "modbus.reg", 15, 2, 255, 2));
+  EXPECT_TRUE(FieldIs(q, "modbus.read_reference_num", 2, 2, 3));
+  EXPECT_TRUE(FieldIs(q, "modbus.read_word_cnt", 4, 2, 6));
+  EXPECT_TRUE(FieldIs(q, "modbus.write_reference_num", 6, 2, 0x0E));
+  EXPECT_TRUE(FieldIs(q, "modbus.write_word_cnt", 8, 2, 3));
+  EXPECT_TRUE(FieldIs(q, "modbus.byte_cnt", 10, 1, 6));
+  ASSERT_EQ(q.count("modbus.regval_uint16"), 3);
+  EXPECT_TRUE(FieldIs(q, "modbus.regval_uint16", 11, 2, 255, 0));
+  EXPECT_TRUE(FieldIs(q, "modbus.regval_uint16", 15, 2, 255, 2));
   EXPECT_EQ(q.d.info,
             "Read/Write Multiple Registers: read 0x0003..0x0008 (6), write 0x000E..0x0010 (3) = "
             "255, 255, 255");
@@ -662,9 +663,9 @@ TEST(DissectPdu, ReadWriteMultipleRegistersProblems) {
 
 TEST(DissectPdu, ReadWriteMultipleRegistersResponse) {
   const Decoded r = decode("01 17 0C 00 FE 0A CD 00 01 00 03 00 0D 00 FF", kRsp, false);
-  EXPECT_TRUE(FieldIs(r, "modbus.byte_count", 2, 1, 12));
-  EXPECT_EQ(r.count("modbus.reg"), 6);
-  EXPECT_TRUE(FieldIs(r, "modbus.reg", 5, 2, 2765, 1));
+  EXPECT_TRUE(FieldIs(r, "modbus.byte_cnt", 2, 1, 12));
+  EXPECT_EQ(r.count("modbus.regval_uint16"), 6);
+  EXPECT_TRUE(FieldIs(r, "modbus.regval_uint16", 5, 2, 2765, 1));
   EXPECT_EQ(r.d.info,
             "Read/Write Multiple Registers reply: 6 registers = 254, 2765, 1, 3, 13, 255");
   EXPECT_TRUE(r.d.problems.empty());
@@ -672,13 +673,13 @@ TEST(DissectPdu, ReadWriteMultipleRegistersResponse) {
 
 TEST(DissectPdu, ReadFifoQueue) {
   const Decoded q = decode("01 18 04 DE", kReq, false);
-  EXPECT_TRUE(FieldIs(q, "modbus.fifo.pointer", 2, 2, 0x04DE));
+  EXPECT_TRUE(FieldIs(q, "modbus.reference_num", 2, 2, 0x04DE));
   EXPECT_EQ(q.d.info, "Read FIFO Queue 0x04DE");
   const Decoded r = decode("01 18 00 06 00 02 01 B8 12 84", kRsp, false);
-  EXPECT_TRUE(FieldIs(r, "modbus.fifo.byte_count", 2, 2, 6));
-  EXPECT_TRUE(FieldIs(r, "modbus.fifo.count", 4, 2, 2));
-  EXPECT_TRUE(FieldIs(r, "modbus.reg", 6, 2, 440, 0));
-  EXPECT_TRUE(FieldIs(r, "modbus.reg", 8, 2, 4740, 1));
+  EXPECT_TRUE(FieldIs(r, "modbus.byte_cnt_16", 2, 2, 6));
+  EXPECT_TRUE(FieldIs(r, "modbus.word_cnt", 4, 2, 2));
+  EXPECT_TRUE(FieldIs(r, "modbus.regval_uint16", 6, 2, 440, 0));
+  EXPECT_TRUE(FieldIs(r, "modbus.regval_uint16", 8, 2, 4740, 1));
   EXPECT_EQ(r.d.info, "Read FIFO Queue reply: 2 values = 440, 4740");
   EXPECT_TRUE(r.d.problems.empty());
   const Decoded bad = decode("01 18 00 08 00 02 01 B8 12 84", kRsp, false);
@@ -687,9 +688,9 @@ TEST(DissectPdu, ReadFifoQueue) {
 
 TEST(DissectPdu, ReadDeviceIdentificationRequest) {
   const Decoded q = decode("01 2B 0E 01 00", kReq, false);
-  EXPECT_TRUE(FieldIs(q, "modbus.mei.type", 2, 1, 0x0E));
-  EXPECT_TRUE(FieldIs(q, "modbus.mei.read_dev_id", 3, 1, 1));
-  EXPECT_TRUE(FieldIs(q, "modbus.mei.object_id", 4, 1, 0));
+  EXPECT_TRUE(FieldIs(q, "modbus.mei", 2, 1, 0x0E));
+  EXPECT_TRUE(FieldIs(q, "modbus.read_device_id", 3, 1, 1));
+  EXPECT_TRUE(FieldIs(q, "modbus.object_id", 4, 1, 0));
   EXPECT_EQ(q.d.info, "Read Device Identification (basic), from object 0");
   EXPECT_TRUE(q.d.problems.empty());
 }
@@ -697,23 +698,23 @@ TEST(DissectPdu, ReadDeviceIdentificationRequest) {
 TEST(DissectPdu, ReadDeviceIdentificationResponseTwoObjects) {
   // code 01, conformity 01, more 00, next 00, 2 objects: VendorName "ABC", ProductCode "X1".
   const Decoded r = decode("01 2B 0E 01 01 00 00 02 00 03 41 42 43 01 02 58 31", kRsp, false);
-  EXPECT_TRUE(FieldIs(r, "modbus.mei.type", 2, 1, 0x0E));
-  EXPECT_TRUE(FieldIs(r, "modbus.mei.read_dev_id", 3, 1, 1));
-  EXPECT_TRUE(FieldIs(r, "modbus.mei.conformity", 4, 1, 1));
-  EXPECT_TRUE(FieldIs(r, "modbus.mei.more_follows", 5, 1, 0));
-  EXPECT_TRUE(FieldIs(r, "modbus.mei.next_object_id", 6, 1, 0));
-  EXPECT_TRUE(FieldIs(r, "modbus.mei.object_count", 7, 1, 2));
-  ASSERT_EQ(r.count("modbus.mei.object"), 2);
-  EXPECT_EQ(r.find("modbus.mei.object", 0)->offset, 8u);
-  EXPECT_EQ(r.find("modbus.mei.object", 0)->depth, 0);
-  EXPECT_EQ(r.find("modbus.mei.object", 1)->offset, 13u);
-  EXPECT_TRUE(FieldIs(r, "modbus.mei.object_id", 8, 1, 0, 0));
-  EXPECT_EQ(r.find("modbus.mei.object_id", 0)->depth, 1);
-  EXPECT_TRUE(FieldIs(r, "modbus.byte_count", 9, 1, 3, 0));
-  EXPECT_TRUE(FieldIs(r, "modbus.mei.object_id", 13, 1, 1, 1));
-  EXPECT_TRUE(FieldIs(r, "modbus.byte_count", 14, 1, 2, 1));
-  const FieldNode* v0 = r.find("modbus.mei.object_value", 0);
-  const FieldNode* v1 = r.find("modbus.mei.object_value", 1);
+  EXPECT_TRUE(FieldIs(r, "modbus.mei", 2, 1, 0x0E));
+  EXPECT_TRUE(FieldIs(r, "modbus.read_device_id", 3, 1, 1));
+  EXPECT_TRUE(FieldIs(r, "modbus.conformity_level", 4, 1, 1));
+  EXPECT_TRUE(FieldIs(r, "modbus.more_follows", 5, 1, 0));
+  EXPECT_TRUE(FieldIs(r, "modbus.next_object_id", 6, 1, 0));
+  EXPECT_TRUE(FieldIs(r, "modbus.num_objects", 7, 1, 2));
+  ASSERT_EQ(r.count("modbus.object"), 2);
+  EXPECT_EQ(r.find("modbus.object", 0)->offset, 8u);
+  EXPECT_EQ(r.find("modbus.object", 0)->depth, 0);
+  EXPECT_EQ(r.find("modbus.object", 1)->offset, 13u);
+  EXPECT_TRUE(FieldIs(r, "modbus.object_id", 8, 1, 0, 0));
+  EXPECT_EQ(r.find("modbus.object_id", 0)->depth, 1);
+  EXPECT_TRUE(FieldIs(r, "modbus.objects_len", 9, 1, 3, 0));
+  EXPECT_TRUE(FieldIs(r, "modbus.object_id", 13, 1, 1, 1));
+  EXPECT_TRUE(FieldIs(r, "modbus.objects_len", 14, 1, 2, 1));
+  const FieldNode* v0 = r.find("modbus.object_str_value", 0);
+  const FieldNode* v1 = r.find("modbus.object_str_value", 1);
   ASSERT_NE(v0, nullptr);
   ASSERT_NE(v1, nullptr);
   EXPECT_EQ(r.fields.text(*v0), "ABC");
@@ -730,7 +731,7 @@ TEST(DissectPdu, ReadDeviceIdentificationResponseMissingObject) {
   // The object count says 2 but only one object is present: the frame is truncated and that
   // must be reported like every other truncation.
   const Decoded r = decode("01 2B 0E 01 01 00 00 02 00 03 41 42 43", kRsp, false);
-  EXPECT_EQ(r.count("modbus.mei.object"), 1);
+  EXPECT_EQ(r.count("modbus.object"), 1);
   EXPECT_FALSE(r.d.problems.empty()) << "info: " << r.d.info;
 }
 
@@ -741,16 +742,16 @@ TEST(DissectPdu, ReadDeviceIdentificationShortObjectValue) {
 
 TEST(DissectPdu, OtherMeiType) {
   const Decoded r = decode("01 2B 0D 01 02", kReq, false);
-  EXPECT_TRUE(FieldIs(r, "modbus.mei.type", 2, 1, 0x0D));
+  EXPECT_TRUE(FieldIs(r, "modbus.mei", 2, 1, 0x0D));
   EXPECT_EQ(r.d.info, "Encapsulated Interface Transport MEI 0x0D: 01 02");
 }
 
 TEST(DissectPdu, NonPublicFunction) {
   const Decoded r = decode("01 41 01 02", kReq, false);
-  EXPECT_TRUE(FieldIs(r, "modbus.fc", 1, 1, 0x41));
+  EXPECT_TRUE(FieldIs(r, "modbus.func_code", 1, 1, 0x41));
   EXPECT_TRUE(FieldIs(r, "modbus.data", 2, 2, 0));
   EXPECT_EQ(r.d.info, "Function 0x41 (not a public code): 2 data bytes 01 02");
-  EXPECT_EQ(format_field_value(r.fields, *r.find("modbus.fc"), r.frame), "65 (0x41)");
+  EXPECT_EQ(format_field_value(r.fields, *r.find("modbus.func_code"), r.frame), "65 (0x41)");
 }
 
 TEST(DissectPdu, SpansStayInsideThePdu) {

@@ -55,29 +55,30 @@ TEST(Plausibility, ModbusRtuRules) {
   const auto read = with_crc({0x01, 0x03, 0x00, 0x00, 0x00, 0x01});
   EXPECT_EQ(rtu_rule(read), "none");
   EXPECT_EQ(rtu_rule(read, Direction::request), "none");
-  EXPECT_EQ(rtu_rule(read, Direction::response), "rtu.length") << "6 PDU bytes are no FC 03 reply";
+  EXPECT_EQ(rtu_rule(read, Direction::response), "modbus.length")
+      << "6 PDU bytes are no FC 03 reply";
   // DMX: FF FF 00 00 00 has a good CRC; address 255 is reserved.
   const std::vector<std::uint8_t> dmx{0xFF, 0xFF, 0x00, 0x00, 0x00};
   EXPECT_EQ(check_rtu_crc(dmx).verdict, ChecksumVerdict::good);
-  EXPECT_EQ(rtu_rule(dmx), "rtu.address");
+  EXPECT_EQ(rtu_rule(dmx), "modbus.address");
   EXPECT_EQ(rtu_rule(with_crc({0xF7, 0x03, 0x02, 0x00, 0x01})), "none")
       << "247 is the highest slave address";
-  EXPECT_EQ(rtu_rule(with_crc({0xF8, 0x03, 0x02, 0x00, 0x01})), "rtu.address");
-  EXPECT_EQ(rtu_rule(with_crc({0x01, 0x41, 0x00})), "rtu.function");
+  EXPECT_EQ(rtu_rule(with_crc({0xF8, 0x03, 0x02, 0x00, 0x01})), "modbus.address");
+  EXPECT_EQ(rtu_rule(with_crc({0x01, 0x41, 0x00})), "modbus.function");
   EXPECT_EQ(rtu_rule(with_crc({0x01, 0x83, 0x02})), "none");
-  EXPECT_EQ(rtu_rule(with_crc({0x01, 0x83, 0x00})), "rtu.exception_code");
-  EXPECT_EQ(rtu_rule(with_crc({0x01, 0x83, 0x0C})), "rtu.exception_code");
-  EXPECT_EQ(rtu_rule(with_crc({0x01, 0x83, 0x02, 0x00})), "rtu.length");
-  EXPECT_EQ(rtu_rule(with_crc({0x01, 0x03, 0x04, 0x00, 0x01})), "rtu.length")
+  EXPECT_EQ(rtu_rule(with_crc({0x01, 0x83, 0x00})), "modbus.exception_code");
+  EXPECT_EQ(rtu_rule(with_crc({0x01, 0x83, 0x0C})), "modbus.exception_code");
+  EXPECT_EQ(rtu_rule(with_crc({0x01, 0x83, 0x02, 0x00})), "modbus.length");
+  EXPECT_EQ(rtu_rule(with_crc({0x01, 0x03, 0x04, 0x00, 0x01})), "modbus.length")
       << "byte count 4 with 2 data bytes, and no request either";
   std::vector<std::uint8_t> huge(300, 0x01);
-  EXPECT_EQ(rtu_rule(huge), "rtu.size");
-  EXPECT_EQ(rtu_rule({0x01, 0x03, 0x00}), "rtu.size");
+  EXPECT_EQ(rtu_rule(huge), "mbrtu.size");
+  EXPECT_EQ(rtu_rule({0x01, 0x03, 0x00}), "mbrtu.size");
 }
 
 TEST(Plausibility, ModbusVendorExceptionCodeFromAProfile) {
   const auto e5 = with_crc({0x01, 0x83, 0x5E});
-  EXPECT_EQ(rtu_rule(e5), "rtu.exception_code");
+  EXPECT_EQ(rtu_rule(e5), "modbus.exception_code");
   allow_vendor_exception_code(0x5E);  // (no built-in profile uses 0x5E)
   EXPECT_EQ(rtu_rule(e5), "none");
 }
@@ -89,45 +90,45 @@ TEST(Plausibility, DanfossFcRules) {
               Direction::request),
       "none");
   // "Hello world": no STX.
-  EXPECT_EQ(fc_rule(text("Hello world!\r\n")), "fc.stx");
+  EXPECT_EQ(fc_rule(text("Hello world!\r\n")), "danfoss_fc.stx");
   // Constant bytes: FF FF FF FF and 00 00 00 00 have a good BCC.
-  EXPECT_EQ(fc_rule({0xFF, 0xFF, 0xFF, 0xFF}), "fc.stx");
-  EXPECT_EQ(fc_rule({0x02, 0x02, 0x02, 0x02}), "fc.lge_allowed");
-  EXPECT_EQ(fc_rule({0x02, 0x0E, 0x04, 0x04, 0x7C, 0x20, 0x00, 0x58}), "fc.lge_count");
-  EXPECT_EQ(fc_rule(fc_telegram(0x00, {0x04, 0x7C, 0x20, 0x00})), "fc.adr");
-  EXPECT_EQ(fc_rule(fc_telegram(0xFF, {0x04, 0x7C, 0x20, 0x00})), "fc.adr");
+  EXPECT_EQ(fc_rule({0xFF, 0xFF, 0xFF, 0xFF}), "danfoss_fc.stx");
+  EXPECT_EQ(fc_rule({0x02, 0x02, 0x02, 0x02}), "danfoss_fc.lge_allowed");
+  EXPECT_EQ(fc_rule({0x02, 0x0E, 0x04, 0x04, 0x7C, 0x20, 0x00, 0x58}), "danfoss_fc.lge_count");
+  EXPECT_EQ(fc_rule(fc_telegram(0x00, {0x04, 0x7C, 0x20, 0x00})), "danfoss_fc.adr");
+  EXPECT_EQ(fc_rule(fc_telegram(0xFF, {0x04, 0x7C, 0x20, 0x00})), "danfoss_fc.adr");
   EXPECT_EQ(fc_rule(fc_telegram(0x20, {0x04, 0x7C, 0x20, 0x00})), "none") << "broadcast";
   // AK 7 (cannot execute) only in a reply; AK 0xD (write RAM+EEPROM) only in a request; AK 5 none.
   const auto ak7 = fc_telegram(0x01, {0x71, 0x9E, 0, 0, 0, 0x02, 0x06, 0x07, 0, 0, 0, 0});
   EXPECT_EQ(fc_rule(ak7, Direction::response), "none");
-  EXPECT_EQ(fc_rule(ak7, Direction::request), "fc.ak");
+  EXPECT_EQ(fc_rule(ak7, Direction::request), "danfoss_fc.ak");
   const auto ak5 = fc_telegram(0x01, {0x51, 0x9E, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0});
-  EXPECT_EQ(fc_rule(ak5), "fc.ak");
+  EXPECT_EQ(fc_rule(ak5), "danfoss_fc.ak");
   // Text blocks: LGE 10 + n only with AK 0xF.
   EXPECT_EQ(fc_rule(fc_telegram(0x01, {0xF1, 0x9E, 0x04, 0, 'a', 'b', 'c', 0, 0, 0, 0})), "none");
   EXPECT_EQ(fc_rule(fc_telegram(0x01, {0x11, 0x9E, 0x04, 0, 'a', 'b', 'c', 0, 0, 0, 0})),
-            "fc.lge_allowed");
+            "danfoss_fc.lge_allowed");
 }
 
 TEST(Plausibility, ModbusAsciiRules) {
   EXPECT_EQ(ascii_rule(":010325230001B3\r\n"), "none");
   EXPECT_EQ(ascii_rule(":010325230001b3\r\n"), "none")
       << "lower case is a malformed finding, not another protocol";
-  EXPECT_EQ(ascii_rule(":010325230001B3"), "ascii.terminator");
-  EXPECT_EQ(ascii_rule(":Hello world\r\n"), "ascii.charset");
-  EXPECT_EQ(ascii_rule(":0103\r\n"), "ascii.length");
-  EXPECT_EQ(ascii_rule(":010325230001B\r\n"), "ascii.length");
-  EXPECT_EQ(ascii_rule(":FF0325230001B3\r\n"), "rtu.address")
+  EXPECT_EQ(ascii_rule(":010325230001B3"), "mbascii.terminator");
+  EXPECT_EQ(ascii_rule(":Hello world\r\n"), "mbascii.charset");
+  EXPECT_EQ(ascii_rule(":0103\r\n"), "mbascii.length");
+  EXPECT_EQ(ascii_rule(":010325230001B\r\n"), "mbascii.length");
+  EXPECT_EQ(ascii_rule(":FF0325230001B3\r\n"), "modbus.address")
       << "the Modbus rules apply to the bytes the hex spells";
 }
 
 TEST(Plausibility, EasydriveRules) {
   EXPECT_EQ(eds_rule("~010C00010FA0027C\r"), "none");
-  EXPECT_EQ(eds_rule("~010C00010FA0027C"), "eds.terminator");
-  EXPECT_EQ(eds_rule("~010c00010fa0027c\r"), "eds.charset");
-  EXPECT_EQ(eds_rule("~010C00010FA002\r"), "eds.length");
-  EXPECT_EQ(eds_rule("~01FF00010FA0027C\r"), "eds.command");
-  EXPECT_EQ(eds_rule("~010C00010FA0027C\r", Direction::response), "eds.command")
+  EXPECT_EQ(eds_rule("~010C00010FA0027C"), "easydrive.terminator");
+  EXPECT_EQ(eds_rule("~010c00010fa0027c\r"), "easydrive.charset");
+  EXPECT_EQ(eds_rule("~010C00010FA002\r"), "easydrive.length");
+  EXPECT_EQ(eds_rule("~01FF00010FA0027C\r"), "easydrive.command");
+  EXPECT_EQ(eds_rule("~010C00010FA0027C\r", Direction::response), "easydrive.command")
       << "0C is a command, not a response code";
 }
 
@@ -140,7 +141,7 @@ TEST(Plausibility, ImplausibleTelegramIsNamedAndIsNoGoodTelegram) {
   bool named = false;
   for (const Anomaly& a : m.anomalies)
     if (a.kind == AnomalyKind::implausible)
-      named = a.detail == "starts with 0xFF, not STX [fc.stx, PROTOCOLS.md §4]";
+      named = a.detail == "starts with 0xFF, not STX [danfoss_fc.stx, PROTOCOLS.md §4]";
   EXPECT_TRUE(named);
   EXPECT_EQ(anomaly_severity(AnomalyKind::implausible), Severity::error);
 }

@@ -26,7 +26,7 @@ TEST(Registry, NamesResolveToTheirProtocol) {
     }
     ASSERT_NE(p->decoder, nullptr) << p->id;
     EXPECT_EQ(p->decoder->protocol().desc(), p) << p->id;
-    EXPECT_FALSE(p->fields.empty()) << p->id;
+    EXPECT_FALSE(p->field_protocols.empty()) << p->id;
     if (p->text_start != 0) {
       EXPECT_EQ(protocol_for_text_start(p->text_start).desc(), p);
     }
@@ -50,6 +50,11 @@ TEST(Registry, FindingsAreUniqueDottedAndWeighAsTheirKind) {
       EXPECT_TRUE(std::regex_match(id, form)) << id;
       EXPECT_TRUE(ids.insert(id).second) << "duplicate id " << id;
       EXPECT_NE(id.rfind("fc.", 0), 0u) << id << ": fc.* is Wireshark's Fibre Channel";
+      // Prefixed as the protocol's fields are: by one of its layers' filter names.
+      bool layer_prefix = false;
+      for (const FieldProtocol* layer : p->field_protocols)
+        layer_prefix = layer_prefix || id.starts_with(std::string(layer->filter_name) + ".");
+      EXPECT_TRUE(layer_prefix) << id << " has none of " << p->id << "'s field prefixes";
       // The JSON output weighs a finding by its kind: the two agree.
       EXPECT_EQ(f->severity, anomaly_severity(f->kind)) << id;
       EXPECT_FALSE(f->text.empty()) << id;

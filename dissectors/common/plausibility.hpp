@@ -16,7 +16,7 @@ namespace drivetap {
 
 // A rule, declared as data in its protocol's folder (dissectors/<protocol>/*_findings.hpp).
 struct PlausibilityRule {
-  const char* id;      // stable, dotted: "rtu.address"
+  const char* id;      // stable, dotted, with its protocol's prefix: "mbrtu.address"
   const char* source;  // where the rule is written down
 };
 

@@ -1,4 +1,5 @@
-// Field descriptors of the Danfoss FC protocol (docs/protocols.md §4; 002 §7.2-7.5, §7.11).
+// Field descriptors of the Danfoss FC protocol (docs/protocols.md §4; 002 §7.2-7.5, §7.11). Ids
+// start `danfoss_fc.`: Wireshark has no dissector for it, and its `fc` is Fibre Channel.
 #pragma once
 
 #include <array>
@@ -37,42 +38,77 @@ inline constexpr std::array kErrorNumbers = {
     ValueName{0x83, "data change not possible: factory setup selected"},
 };
 
-inline constexpr FieldDesc kStx{"fc.stx", "Start (STX)", FieldType::hex, 2};
-inline constexpr FieldDesc kLge{"fc.lge", "Telegram length (LGE)", FieldType::uint};
-inline constexpr FieldDesc kAdr{"fc.adr", "Address byte (ADR)", FieldType::hex, 2};
-inline constexpr FieldDesc kAddress{"fc.address", "Drive address", FieldType::uint};
-inline constexpr FieldDesc kBroadcast{"fc.broadcast", "Broadcast", FieldType::boolean};
-inline constexpr FieldDesc kPke{"fc.pke", "Parameter command (PKE)", FieldType::hex, 4};
-inline constexpr FieldDesc kAkRequest{"fc.pke.ak", "Request (AK)", FieldType::enumerated, 1,
-                                      kRequestAk};
-inline constexpr FieldDesc kAkResponse{.id = "fc.pke.ak",
+inline constexpr FieldDesc kStx{"danfoss_fc.stx", "Start (STX)", FieldType::hex, 8};
+inline constexpr FieldDesc kLge{"danfoss_fc.lge", "Telegram length (LGE)", FieldType::uint, 8};
+inline constexpr FieldDesc kAdr{"danfoss_fc.adr", "Address byte (ADR)", FieldType::hex, 8};
+inline constexpr FieldDesc kAddress{"danfoss_fc.addr",
+                                    "Drive address",
+                                    FieldType::uint,
+                                    8,
+                                    {},
+                                    "The address the ADR byte names, in either of its two forms"};
+inline constexpr FieldDesc kBroadcast{"danfoss_fc.broadcast", "Broadcast", FieldType::boolean};
+inline constexpr FieldDesc kPke{"danfoss_fc.pke", "Parameter command (PKE)", FieldType::hex, 16};
+inline constexpr FieldDesc kAkRequest{.id = "danfoss_fc.pke.ak",
+                                      .name = "Request (AK)",
+                                      .type = FieldType::enumerated,
+                                      .bits = 8,
+                                      .names = kRequestAk,
+                                      .blurb = "Request or response characteristic (by direction)",
+                                      .bitmask = 0xF0};
+inline constexpr FieldDesc kAkResponse{.id = "danfoss_fc.pke.ak",
                                        .name = "Response (AK)",
                                        .type = FieldType::enumerated,
-                                       .hex_digits = 1,
+                                       .bits = 8,
                                        .names = kResponseAk,
+                                       .bitmask = 0xF0,
                                        .shares_id_of = &kAkRequest};
-inline constexpr FieldDesc kPnu{"fc.pke.pnu", "Parameter number (PNU)", FieldType::uint};
-inline constexpr FieldDesc kParameter{"fc.param", "Parameter", FieldType::text};
-inline constexpr FieldDesc kInd{"fc.ind", "Index (IND)", FieldType::hex, 4};
-inline constexpr FieldDesc kPwe{"fc.pwe", "Parameter value (PWE)", FieldType::uint};
-inline constexpr FieldDesc kErrorNumber{"fc.error", "Error number", FieldType::enumerated, 2,
-                                        kErrorNumbers};
-inline constexpr FieldDesc kText{"fc.text", "Text", FieldType::text};
-inline constexpr FieldDesc kCtw{"fc.ctw", "Control word (CTW)", FieldType::hex, 4};
-inline constexpr FieldDesc kStw{"fc.stw", "Status word (STW)", FieldType::hex, 4};
-inline constexpr FieldDesc kCtwMeaning{"fc.ctw.meaning", "Control word meaning", FieldType::text};
-inline constexpr FieldDesc kStwMeaning{"fc.stw.meaning", "Status word meaning", FieldType::text};
-inline constexpr FieldDesc kReference{"fc.ref", "Speed reference (REF)", FieldType::text};
-inline constexpr FieldDesc kMav{"fc.mav", "Main actual value (MAV)", FieldType::text};
-inline constexpr FieldDesc kPcd{"fc.pcd", "Process data (PCD)", FieldType::hex, 4};
-inline constexpr FieldDesc kBcc{"fc.bcc", "Block check (BCC)", FieldType::hex, 2};
+inline constexpr FieldDesc kPnu{.id = "danfoss_fc.pke.pnu",
+                                .name = "Parameter number (PNU)",
+                                .type = FieldType::uint,
+                                .bits = 16,
+                                .bitmask = 0x0FFF};
+inline constexpr FieldDesc kParameter{"danfoss_fc.param",
+                                      "Parameter",
+                                      FieldType::text,
+                                      0,
+                                      {},
+                                      "The parameter as the drive's manual numbers it"};
+inline constexpr FieldDesc kInd{"danfoss_fc.ind", "Index (IND)", FieldType::hex, 16};
+inline constexpr FieldDesc kPwe{"danfoss_fc.pwe", "Parameter value (PWE)", FieldType::uint, 32};
+inline constexpr FieldDesc kErrorNumber{"danfoss_fc.error", "Error number", FieldType::enumerated,
+                                        16, kErrorNumbers};
+inline constexpr FieldDesc kText{"danfoss_fc.text", "Text", FieldType::text};
+inline constexpr FieldDesc kCtw{"danfoss_fc.ctw", "Control word (CTW)", FieldType::hex, 16};
+inline constexpr FieldDesc kStw{"danfoss_fc.stw", "Status word (STW)", FieldType::hex, 16};
+inline constexpr FieldDesc kCtwMeaning{"danfoss_fc.ctw.meaning", "Control word meaning",
+                                       FieldType::text};
+inline constexpr FieldDesc kStwMeaning{"danfoss_fc.stw.meaning", "Status word meaning",
+                                       FieldType::text};
+inline constexpr FieldDesc kReference{"danfoss_fc.ref",
+                                      "Speed reference (REF)",
+                                      FieldType::text,
+                                      0,
+                                      {},
+                                      "Percent of the maximum reference"};
+inline constexpr FieldDesc kMav{"danfoss_fc.mav",
+                                "Main actual value (MAV)",
+                                FieldType::text,
+                                0,
+                                {},
+                                "Percent of the maximum reference"};
+inline constexpr FieldDesc kPcd{"danfoss_fc.pcd", "Process data (PCD)", FieldType::hex, 16};
+inline constexpr FieldDesc kBcc{"danfoss_fc.bcc", "Block check (BCC)", FieldType::hex, 8};
 
 inline constexpr const FieldDesc* kAllFields[] = {
     &kStx, &kLge,        &kAdr,        &kAddress,   &kBroadcast,   &kPke,  &kAkRequest,
     &kPnu, &kParameter,  &kInd,        &kPwe,       &kErrorNumber, &kText, &kCtw,
     &kStw, &kCtwMeaning, &kStwMeaning, &kReference, &kMav,         &kPcd,  &kBcc,
 };
-// kAkResponse shares the id "fc.pke.ak" with kAkRequest (the meaning depends on the direction);
-// it is listed once, under kAkRequest (kAkResponse.shares_id_of).
+// kAkResponse shares the id "danfoss_fc.pke.ak" with kAkRequest (the meaning depends on the
+// direction); it is listed once, under kAkRequest (kAkResponse.shares_id_of).
+
+inline constexpr FieldProtocol kFieldProtocol{"Danfoss FC", "danfoss_fc", kAllFields};
+inline constexpr const FieldProtocol* kFieldProtocols[] = {&kFieldProtocol};
 
 }  // namespace drivetap::danfoss_fc

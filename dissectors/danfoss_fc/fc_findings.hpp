@@ -11,11 +11,11 @@ namespace drivetap::danfoss_fc {
 
 // The plausibility rules (dissectors/common/plausibility.hpp): ids as the `implausible` finding's
 // detail names them. They keep their short `fc.` prefix, being output text; finding ids do not.
-inline constexpr PlausibilityRule kRuleFcStx{"fc.stx", "PROTOCOLS.md §4"};
-inline constexpr PlausibilityRule kRuleFcLgeAllowed{"fc.lge_allowed", "PROTOCOLS.md §4"};
-inline constexpr PlausibilityRule kRuleFcLgeCount{"fc.lge_count", "PROTOCOLS.md §4"};
-inline constexpr PlausibilityRule kRuleFcAdr{"fc.adr", "PROTOCOLS.md §4"};
-inline constexpr PlausibilityRule kRuleFcAk{"fc.ak", "PROTOCOLS.md §4"};
+inline constexpr PlausibilityRule kRuleFcStx{"danfoss_fc.stx", "PROTOCOLS.md §4"};
+inline constexpr PlausibilityRule kRuleFcLgeAllowed{"danfoss_fc.lge_allowed", "PROTOCOLS.md §4"};
+inline constexpr PlausibilityRule kRuleFcLgeCount{"danfoss_fc.lge_count", "PROTOCOLS.md §4"};
+inline constexpr PlausibilityRule kRuleFcAdr{"danfoss_fc.adr", "PROTOCOLS.md §4"};
+inline constexpr PlausibilityRule kRuleFcAk{"danfoss_fc.ak", "PROTOCOLS.md §4"};
 
 inline constexpr Finding<std::size_t> kFindingFragment{
     "danfoss_fc.fragment", AnomalyKind::malformed, Severity::error,

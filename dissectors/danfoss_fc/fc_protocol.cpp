@@ -38,7 +38,7 @@ const ProtocolDesc kFcProtocol{
     .help = "Danfoss FC protocol",
     .option_names = kNames,
     .decoder = &kDecoder,
-    .fields = kAllFields,
+    .field_protocols = kFieldProtocols,
     .findings = kAllFindings,
     .text_start = 0,
     .wireshark_dissector = {},

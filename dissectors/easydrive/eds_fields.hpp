@@ -1,4 +1,6 @@
-// Field descriptors of the Easydrive ASCII protocol (docs/protocols.md §5).
+// Field descriptors of the Easydrive ASCII protocol (docs/protocols.md §5). Ids start
+// `easydrive.` (Wireshark has no dissector for it). Numbers are sent as hex characters: a field's
+// width is that of the value the characters spell.
 #pragma once
 
 #include <array>
@@ -56,20 +58,26 @@ inline constexpr std::array kRunActions = {
     ValueName{0xE, "emergency stop"},
 };
 
-inline constexpr FieldDesc kStart{"eds.start", "Start ('~')", FieldType::text};
-inline constexpr FieldDesc kAddr{"eds.addr", "Address", FieldType::uint};
-inline constexpr FieldDesc kCommand{"eds.cmd", "Command", FieldType::enumerated, 2, kCommands};
-inline constexpr FieldDesc kResponse{"eds.resp", "Response code", FieldType::enumerated, 2,
+inline constexpr FieldDesc kStart{"easydrive.start", "Start ('~')", FieldType::text};
+inline constexpr FieldDesc kAddr{"easydrive.addr", "Address", FieldType::uint, 8};
+inline constexpr FieldDesc kCommand{"easydrive.cmd", "Command", FieldType::enumerated, 8,
+                                    kCommands};
+inline constexpr FieldDesc kResponse{"easydrive.resp", "Response code", FieldType::enumerated, 8,
                                      kResponseCodes};
-inline constexpr FieldDesc kFault{"eds.fault", "Current fault code (AUX)", FieldType::uint};
-inline constexpr FieldDesc kIndex{"eds.index", "Index", FieldType::hex, 4};
-inline constexpr FieldDesc kIndexName{"eds.index_name", "Index meaning", FieldType::text};
-inline constexpr FieldDesc kData{"eds.data", "Data", FieldType::hex, 4};
-inline constexpr FieldDesc kValue{"eds.value", "Value", FieldType::text};
-inline constexpr FieldDesc kSum{"eds.sum", "Checksum (SUM)", FieldType::hex, 4};
+inline constexpr FieldDesc kFault{"easydrive.fault", "Current fault code (AUX)", FieldType::uint,
+                                  8};
+inline constexpr FieldDesc kIndex{"easydrive.index", "Index", FieldType::hex, 16};
+inline constexpr FieldDesc kIndexName{"easydrive.index_name", "Index meaning", FieldType::text};
+inline constexpr FieldDesc kData{"easydrive.data", "Data", FieldType::hex, 16};
+inline constexpr FieldDesc kValue{
+    "easydrive.value", "Value", FieldType::text, 0, {}, "The data in the unit the index gives it"};
+inline constexpr FieldDesc kSum{"easydrive.sum", "Checksum (SUM)", FieldType::hex, 16};
 
 inline constexpr const FieldDesc* kAllFields[] = {
     &kStart, &kAddr, &kCommand, &kResponse, &kFault, &kIndex, &kIndexName, &kData, &kValue, &kSum,
 };
+
+inline constexpr FieldProtocol kFieldProtocol{"Easydrive", "easydrive", kAllFields};
+inline constexpr const FieldProtocol* kFieldProtocols[] = {&kFieldProtocol};
 
 }  // namespace drivetap::easydrive

@@ -11,11 +11,11 @@ namespace drivetap::easydrive {
 
 // The plausibility rules (dissectors/common/plausibility.hpp): ids as the `implausible` finding's
 // detail names them.
-inline constexpr PlausibilityRule kRuleEdsStart{"eds.start", "PROTOCOLS.md §5"};
-inline constexpr PlausibilityRule kRuleEdsCharset{"eds.charset", "PROTOCOLS.md §5"};
-inline constexpr PlausibilityRule kRuleEdsLength{"eds.length", "PROTOCOLS.md §5"};
-inline constexpr PlausibilityRule kRuleEdsTerminator{"eds.terminator", "PROTOCOLS.md §5"};
-inline constexpr PlausibilityRule kRuleEdsCommand{"eds.command", "PROTOCOLS.md §5"};
+inline constexpr PlausibilityRule kRuleEdsStart{"easydrive.start", "PROTOCOLS.md §5"};
+inline constexpr PlausibilityRule kRuleEdsCharset{"easydrive.charset", "PROTOCOLS.md §5"};
+inline constexpr PlausibilityRule kRuleEdsLength{"easydrive.length", "PROTOCOLS.md §5"};
+inline constexpr PlausibilityRule kRuleEdsTerminator{"easydrive.terminator", "PROTOCOLS.md §5"};
+inline constexpr PlausibilityRule kRuleEdsCommand{"easydrive.command", "PROTOCOLS.md §5"};
 
 inline constexpr Finding<> kFindingNoStart{"easydrive.no_start", AnomalyKind::malformed,
                                            Severity::error, "does not start with '~'"};

@@ -36,7 +36,7 @@ const ProtocolDesc kEdsProtocol{
     .help = "Easydrive '~' protocol",
     .option_names = kNames,
     .decoder = &kDecoder,
-    .fields = kAllFields,
+    .field_protocols = kFieldProtocols,
     .findings = kAllFindings,
     .text_start = '~',
     .wireshark_dissector = {},

@@ -139,9 +139,9 @@ void dissect_ascii(Message& m, Frame&& frame, Direction direction, const Framing
   // Decode the binary PDU, then map every field onto its hex characters (2 per byte, after ':').
   FieldTree binary_fields;
   FieldTreeBuilder binary_tree(binary_fields, m.detail && m.tree);
-  binary_tree.add(kAddr, 0, 1, bin[0]);
+  binary_tree.add(kAsciiUnitId, 0, 1, bin[0]);
   PduDecode pdu = dissect_pdu(bin, 1, bin.size() - 2, direction, binary_tree, m.detail);
-  binary_tree.add(kLrc, bin.size() - 1, 1, bin.back());
+  binary_tree.add(kAsciiLrc, bin.size() - 1, 1, bin.back());
   for (const FieldNode& n : binary_fields) {
     FieldNode& mapped = m.fields.push_back_from(binary_fields, n);
     mapped.offset = 1 + 2 * n.offset;

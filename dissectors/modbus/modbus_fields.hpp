@@ -1,5 +1,8 @@
-// Field descriptors of the Modbus PDU and RTU framing (Modbus Application Protocol V1.1b3;
-// docs/protocols.md §2). Ids are stable: JSON keys, -V lines and tests use them.
+// Field descriptors of the Modbus PDU and the RTU and ASCII framings (Modbus Application Protocol
+// V1.1b3; docs/protocols.md §2, §3). Ids are stable: JSON keys, -V lines and tests use them. They
+// are Wireshark 4.0's where Wireshark has the field (`modbus.*` for the PDU, shared by RTU and
+// ASCII as Wireshark's modbus dissector is by RTU and TCP; `mbrtu.*` for RTU framing), with a type
+// Wireshark's agrees with; `mbascii.*` for ASCII framing, which Wireshark does not dissect.
 #pragma once
 
 #include <array>
@@ -85,131 +88,166 @@ inline constexpr std::array kCoilValues = {
     ValueName{0xFF00, "ON"},
 };
 
-// RTU framing
-inline constexpr FieldDesc kAddr{"modbus.addr", "Station address", FieldType::uint};
-inline constexpr FieldDesc kCrc{"modbus.crc", "CRC-16", FieldType::bytes};
-inline constexpr FieldDesc kLrc{"modbus.lrc", "LRC", FieldType::hex, 2};
-// PDU
-inline constexpr FieldDesc kFunction{"modbus.fc", "Function code", FieldType::enumerated, 2,
-                                     kFunctionNames};
-inline constexpr FieldDesc kExceptionFunction{"modbus.exception_fc", "Function in error",
-                                              FieldType::enumerated, 2, kFunctionNames};
+// RTU framing (Wireshark's mbrtu).
+inline constexpr FieldDesc kRtuUnitId{"mbrtu.unit_id", "Unit ID (station address)", FieldType::uint,
+                                      8};
+inline constexpr FieldDesc kRtuCrc{
+    "mbrtu.crc16",
+    "CRC-16",
+    FieldType::hex,
+    16,
+    {},
+    "The two CRC bytes as they are on the wire (low byte first), read as one number"};
+// ASCII framing (no Wireshark dissector: drivetap's own prefix).
+inline constexpr FieldDesc kAsciiUnitId{"mbascii.unit_id", "Unit ID (station address)",
+                                        FieldType::uint, 8};
+inline constexpr FieldDesc kAsciiLrc{"mbascii.lrc", "LRC", FieldType::hex, 8};
+
+// PDU (Wireshark's modbus). Several descriptors may share one id with their own label
+// (FieldDesc::shares_id_of): Wireshark calls every address a "reference number".
+inline constexpr FieldDesc kFunction{.id = "modbus.func_code",
+                                     .name = "Function code",
+                                     .type = FieldType::enumerated,
+                                     .bits = 8,
+                                     .names = kFunctionNames,
+                                     .blurb = "Without the exception bit (0x80), as Wireshark",
+                                     .bitmask = 0x7F};
 inline constexpr FieldDesc kExceptionCode{"modbus.exception_code", "Exception code",
-                                          FieldType::enumerated, 2, kExceptionNames};
-inline constexpr FieldDesc kStartAddress{"modbus.start_addr", "Starting address", FieldType::hex,
-                                         4};
-inline constexpr FieldDesc kQuantity{"modbus.quantity", "Quantity", FieldType::uint};
-inline constexpr FieldDesc kByteCount{"modbus.byte_count", "Byte count", FieldType::uint};
-inline constexpr FieldDesc kRegisterValue{"modbus.reg", "Register", FieldType::uint};
-inline constexpr FieldDesc kBitValues{"modbus.bits", "Bit values", FieldType::text};
-inline constexpr FieldDesc kOutputAddress{"modbus.output_addr", "Output address", FieldType::hex,
-                                          4};
-inline constexpr FieldDesc kCoilValue{"modbus.coil_value", "Coil value", FieldType::enumerated, 4,
+                                          FieldType::enumerated, 8, kExceptionNames};
+inline constexpr FieldDesc kReference{"modbus.reference_num", "Starting address", FieldType::hex,
+                                      16};
+inline constexpr FieldDesc kWordCount{"modbus.word_cnt", "Quantity of registers", FieldType::uint,
+                                      16};
+inline constexpr FieldDesc kBitCount{"modbus.bit_cnt", "Quantity of coils or inputs",
+                                     FieldType::uint, 16};
+inline constexpr FieldDesc kByteCount{"modbus.byte_cnt", "Byte count", FieldType::uint, 8};
+inline constexpr FieldDesc kRegisterValue{"modbus.regval_uint16", "Register", FieldType::uint, 16};
+inline constexpr FieldDesc kBitValues{"modbus.bits",
+                                      "Bit values",
+                                      FieldType::text,
+                                      0,
+                                      {},
+                                      "Coils or inputs, first one first (bit 0 of the first byte)"};
+inline constexpr FieldDesc kOutputAddress{.id = "modbus.reference_num",
+                                          .name = "Output address",
+                                          .type = FieldType::hex,
+                                          .bits = 16,
+                                          .shares_id_of = &kReference};
+inline constexpr FieldDesc kCoilValue{"modbus.coil_value", "Coil value", FieldType::enumerated, 16,
                                       kCoilValues};
-inline constexpr FieldDesc kRegisterAddress{"modbus.reg_addr", "Register address", FieldType::hex,
-                                            4};
-inline constexpr FieldDesc kWriteValue{"modbus.write_value", "Register value", FieldType::hex, 4};
+inline constexpr FieldDesc kRegisterAddress{.id = "modbus.reference_num",
+                                            .name = "Register address",
+                                            .type = FieldType::hex,
+                                            .bits = 16,
+                                            .shares_id_of = &kReference};
+inline constexpr FieldDesc kWriteValue{.id = "modbus.regval_uint16",
+                                       .name = "Register value",
+                                       .type = FieldType::hex,
+                                       .bits = 16,
+                                       .shares_id_of = &kRegisterValue};
 inline constexpr FieldDesc kExceptionStatus{"modbus.exception_status", "Exception status",
-                                            FieldType::hex, 2};
-inline constexpr FieldDesc kSubFunction{"modbus.diag.sub", "Sub-function", FieldType::enumerated, 4,
-                                        kDiagnosticSubfunctions};
-inline constexpr FieldDesc kDiagData{"modbus.diag.data", "Diagnostic data", FieldType::bytes};
-inline constexpr FieldDesc kCommStatus{"modbus.comm.status", "Status", FieldType::hex, 4};
-inline constexpr FieldDesc kEventCount{"modbus.comm.event_count", "Event count", FieldType::uint};
-inline constexpr FieldDesc kMessageCount{"modbus.comm.message_count", "Message count",
-                                         FieldType::uint};
-inline constexpr FieldDesc kEvents{"modbus.comm.events", "Events", FieldType::bytes};
+                                            FieldType::hex, 8};
+inline constexpr FieldDesc kSubFunction{"modbus.diagnostic_code", "Sub-function",
+                                        FieldType::enumerated, 16, kDiagnosticSubfunctions};
+inline constexpr FieldDesc kDiagData{"modbus.diagnostic_data", "Diagnostic data", FieldType::bytes};
+inline constexpr FieldDesc kCommStatus{"modbus.ev_status", "Status", FieldType::hex, 16};
+inline constexpr FieldDesc kEventCount{"modbus.ev_count", "Event count", FieldType::uint, 16};
+inline constexpr FieldDesc kMessageCount{"modbus.ev_msg_count", "Message count", FieldType::uint,
+                                         16};
+inline constexpr FieldDesc kEvent{"modbus.event", "Event", FieldType::hex, 8};
 inline constexpr FieldDesc kServerId{"modbus.server_id", "Server ID and status", FieldType::bytes};
 inline constexpr FieldDesc kData{"modbus.data", "Data", FieldType::bytes};
 inline constexpr FieldDesc kFileSubRequest{"modbus.file", "File sub-request", FieldType::group};
-inline constexpr FieldDesc kFileRefType{"modbus.file.ref_type", "Reference type", FieldType::uint};
-inline constexpr FieldDesc kFileNumber{"modbus.file.number", "File number", FieldType::uint};
-inline constexpr FieldDesc kFileRecord{"modbus.file.record", "Record number", FieldType::uint};
-inline constexpr FieldDesc kFileRecordLength{"modbus.file.length", "Record length",
-                                             FieldType::uint};
-inline constexpr FieldDesc kFileData{"modbus.file.data", "Record data", FieldType::bytes};
-inline constexpr FieldDesc kAndMask{"modbus.and_mask", "AND mask", FieldType::hex, 4};
-inline constexpr FieldDesc kOrMask{"modbus.or_mask", "OR mask", FieldType::hex, 4};
-inline constexpr FieldDesc kReadStart{"modbus.read_start", "Read starting address", FieldType::hex,
-                                      4};
-inline constexpr FieldDesc kReadQuantity{"modbus.read_quantity", "Quantity to read",
-                                         FieldType::uint};
-inline constexpr FieldDesc kWriteStart{"modbus.write_start", "Write starting address",
-                                       FieldType::hex, 4};
-inline constexpr FieldDesc kWriteQuantity{"modbus.write_quantity", "Quantity to write",
-                                          FieldType::uint};
-inline constexpr FieldDesc kFifoPointer{"modbus.fifo.pointer", "FIFO pointer address",
-                                        FieldType::hex, 4};
-inline constexpr FieldDesc kFifoByteCount{"modbus.fifo.byte_count", "FIFO byte count",
-                                          FieldType::uint};
-inline constexpr FieldDesc kFifoCount{"modbus.fifo.count", "FIFO count", FieldType::uint};
-inline constexpr FieldDesc kMeiType{"modbus.mei.type", "MEI type", FieldType::enumerated, 2,
-                                    kMeiTypes};
-inline constexpr FieldDesc kMeiDeviceIdCode{"modbus.mei.read_dev_id", "Read device ID code",
-                                            FieldType::enumerated, 2, kDeviceIdCodes};
-inline constexpr FieldDesc kMeiObjectId{"modbus.mei.object_id", "Object ID", FieldType::enumerated,
-                                        2, kDeviceObjectNames};
-inline constexpr FieldDesc kMeiConformity{"modbus.mei.conformity", "Conformity level",
-                                          FieldType::hex, 2};
-inline constexpr FieldDesc kMeiMoreFollows{"modbus.mei.more_follows", "More follows",
-                                           FieldType::hex, 2};
-inline constexpr FieldDesc kMeiNextObject{"modbus.mei.next_object_id", "Next object ID",
-                                          FieldType::hex, 2};
-inline constexpr FieldDesc kMeiObjectCount{"modbus.mei.object_count", "Number of objects",
-                                           FieldType::uint};
-inline constexpr FieldDesc kMeiObject{"modbus.mei.object", "Object", FieldType::group};
-inline constexpr FieldDesc kMeiObjectValue{"modbus.mei.object_value", "Object value",
-                                           FieldType::text};
+inline constexpr FieldDesc kFileRefType{"modbus.reference_type", "Reference type", FieldType::uint,
+                                        8};
+inline constexpr FieldDesc kFileNumber{"modbus.file.number", "File number", FieldType::uint, 16};
+inline constexpr FieldDesc kFileRecord{"modbus.file.record", "Record number", FieldType::uint, 16};
+inline constexpr FieldDesc kFileRecordLength{.id = "modbus.word_cnt",
+                                             .name = "Record length",
+                                             .type = FieldType::uint,
+                                             .bits = 16,
+                                             .shares_id_of = &kWordCount};
+inline constexpr FieldDesc kFileResponseLength{.id = "modbus.byte_cnt",
+                                               .name = "Sub-response length",
+                                               .type = FieldType::uint,
+                                               .bits = 8,
+                                               .shares_id_of = &kByteCount};
+inline constexpr FieldDesc kFileData{
+    .id = "modbus.data", .name = "Record data", .type = FieldType::bytes, .shares_id_of = &kData};
+inline constexpr FieldDesc kAndMask{"modbus.and_mask", "AND mask", FieldType::hex, 16};
+inline constexpr FieldDesc kOrMask{"modbus.or_mask", "OR mask", FieldType::hex, 16};
+inline constexpr FieldDesc kReadStart{"modbus.read_reference_num", "Read starting address",
+                                      FieldType::hex, 16};
+inline constexpr FieldDesc kReadQuantity{"modbus.read_word_cnt", "Quantity to read",
+                                         FieldType::uint, 16};
+inline constexpr FieldDesc kWriteStart{"modbus.write_reference_num", "Write starting address",
+                                       FieldType::hex, 16};
+inline constexpr FieldDesc kWriteQuantity{"modbus.write_word_cnt", "Quantity to write",
+                                          FieldType::uint, 16};
+inline constexpr FieldDesc kFifoPointer{.id = "modbus.reference_num",
+                                        .name = "FIFO pointer address",
+                                        .type = FieldType::hex,
+                                        .bits = 16,
+                                        .shares_id_of = &kReference};
+inline constexpr FieldDesc kFifoByteCount{"modbus.byte_cnt_16", "FIFO byte count", FieldType::uint,
+                                          16};
+inline constexpr FieldDesc kFifoCount{.id = "modbus.word_cnt",
+                                      .name = "FIFO count",
+                                      .type = FieldType::uint,
+                                      .bits = 16,
+                                      .shares_id_of = &kWordCount};
+inline constexpr FieldDesc kMeiType{"modbus.mei", "MEI type", FieldType::enumerated, 8, kMeiTypes};
+inline constexpr FieldDesc kMeiDeviceIdCode{"modbus.read_device_id", "Read device ID code",
+                                            FieldType::enumerated, 8, kDeviceIdCodes};
+inline constexpr FieldDesc kMeiObjectId{"modbus.object_id", "Object ID", FieldType::enumerated, 8,
+                                        kDeviceObjectNames};
+inline constexpr FieldDesc kMeiConformity{"modbus.conformity_level", "Conformity level",
+                                          FieldType::hex, 8};
+inline constexpr FieldDesc kMeiMoreFollows{"modbus.more_follows", "More follows", FieldType::hex,
+                                           8};
+inline constexpr FieldDesc kMeiNextObject{"modbus.next_object_id", "Next object ID", FieldType::hex,
+                                          8};
+inline constexpr FieldDesc kMeiObjectCount{"modbus.num_objects", "Number of objects",
+                                           FieldType::uint, 8};
+inline constexpr FieldDesc kMeiObject{"modbus.object", "Object", FieldType::group};
+inline constexpr FieldDesc kMeiObjectLength{"modbus.objects_len", "Object length", FieldType::uint,
+                                            8};
+inline constexpr FieldDesc kMeiObjectBytes{"modbus.object_value", "Object bytes", FieldType::bytes};
+inline constexpr FieldDesc kMeiObjectValue{
+    "modbus.object_str_value",
+    "Object value",
+    FieldType::text,
+    0,
+    {},
+    "The object's bytes as text, '.' for a byte that is no printable ASCII character"};
 
-inline constexpr const FieldDesc* kAllFields[] = {
-    &kAddr,
-    &kLrc,
-    &kCrc,
-    &kFunction,
-    &kExceptionFunction,
-    &kExceptionCode,
-    &kStartAddress,
-    &kQuantity,
-    &kByteCount,
-    &kRegisterValue,
-    &kBitValues,
-    &kOutputAddress,
-    &kCoilValue,
-    &kRegisterAddress,
-    &kWriteValue,
-    &kExceptionStatus,
-    &kSubFunction,
-    &kDiagData,
-    &kCommStatus,
-    &kEventCount,
-    &kMessageCount,
-    &kEvents,
-    &kServerId,
-    &kData,
-    &kFileSubRequest,
-    &kFileRefType,
-    &kFileNumber,
-    &kFileRecord,
-    &kFileRecordLength,
-    &kFileData,
-    &kAndMask,
-    &kOrMask,
-    &kReadStart,
-    &kReadQuantity,
-    &kWriteStart,
-    &kWriteQuantity,
-    &kFifoPointer,
-    &kFifoByteCount,
-    &kFifoCount,
-    &kMeiType,
-    &kMeiDeviceIdCode,
-    &kMeiObjectId,
-    &kMeiConformity,
-    &kMeiMoreFollows,
-    &kMeiNextObject,
-    &kMeiObjectCount,
-    &kMeiObject,
+// The descriptors listed under each id (the ones sharing an id are not: shares_id_of).
+inline constexpr const FieldDesc* kRtuFramingFields[] = {&kRtuUnitId, &kRtuCrc};
+inline constexpr const FieldDesc* kAsciiFramingFields[] = {&kAsciiUnitId, &kAsciiLrc};
+inline constexpr const FieldDesc* kPduFields[] = {
+    &kFunction,        &kExceptionCode,   &kReference,
+    &kWordCount,       &kBitCount,        &kByteCount,
+    &kRegisterValue,   &kBitValues,       &kCoilValue,
+    &kExceptionStatus, &kSubFunction,     &kDiagData,
+    &kCommStatus,      &kEventCount,      &kMessageCount,
+    &kEvent,           &kServerId,        &kData,
+    &kFileSubRequest,  &kFileRefType,     &kFileNumber,
+    &kFileRecord,      &kAndMask,         &kOrMask,
+    &kReadStart,       &kReadQuantity,    &kWriteStart,
+    &kWriteQuantity,   &kFifoByteCount,   &kMeiType,
+    &kMeiDeviceIdCode, &kMeiObjectId,     &kMeiConformity,
+    &kMeiMoreFollows,  &kMeiNextObject,   &kMeiObjectCount,
+    &kMeiObject,       &kMeiObjectLength, &kMeiObjectBytes,
     &kMeiObjectValue,
 };
+
+// The layers: RTU and ASCII each have their framing's and share the PDU's.
+inline constexpr FieldProtocol kRtuFieldProtocol{"Modbus RTU", "mbrtu", kRtuFramingFields};
+inline constexpr FieldProtocol kAsciiFieldProtocol{"Modbus ASCII", "mbascii", kAsciiFramingFields};
+inline constexpr FieldProtocol kPduFieldProtocol{"Modbus", "modbus", kPduFields};
+inline constexpr const FieldProtocol* kRtuFieldProtocols[] = {&kRtuFieldProtocol,
+                                                              &kPduFieldProtocol};
+inline constexpr const FieldProtocol* kAsciiFieldProtocols[] = {&kAsciiFieldProtocol,
+                                                                &kPduFieldProtocol};
 
 }  // namespace drivetap::modbus

@@ -14,18 +14,18 @@
 namespace drivetap::modbus {
 
 // The plausibility rules (dissectors/common/plausibility.hpp): ids as the `implausible` finding's
-// detail names them.
-inline constexpr PlausibilityRule kRuleRtuSize{"rtu.size", "Modbus serial line §2.5.1"};
-inline constexpr PlausibilityRule kRuleRtuAddress{"rtu.address", "Modbus serial line §2.3"};
-inline constexpr PlausibilityRule kRuleRtuFunction{"rtu.function",
-                                                   "Modbus application protocol §5"};
-inline constexpr PlausibilityRule kRuleRtuLength{"rtu.length", "Modbus application protocol §6"};
-inline constexpr PlausibilityRule kRuleRtuExceptionCode{
-    "rtu.exception_code", "Modbus application protocol §7, drive profiles"};
-inline constexpr PlausibilityRule kRuleAsciiStart{"ascii.start", "PROTOCOLS.md §3"};
-inline constexpr PlausibilityRule kRuleAsciiCharset{"ascii.charset", "PROTOCOLS.md §3"};
-inline constexpr PlausibilityRule kRuleAsciiLength{"ascii.length", "Modbus serial line §2.5.2"};
-inline constexpr PlausibilityRule kRuleAsciiTerminator{"ascii.terminator", "PROTOCOLS.md §3"};
+// detail names them. The PDU's and the station address's (`modbus.*`) hold for both framings.
+inline constexpr PlausibilityRule kRuleRtuSize{"mbrtu.size", "Modbus serial line §2.5.1"};
+inline constexpr PlausibilityRule kRuleAddress{"modbus.address", "Modbus serial line §2.3"};
+inline constexpr PlausibilityRule kRuleFunction{"modbus.function",
+                                                "Modbus application protocol §5"};
+inline constexpr PlausibilityRule kRuleLength{"modbus.length", "Modbus application protocol §6"};
+inline constexpr PlausibilityRule kRuleExceptionCode{
+    "modbus.exception_code", "Modbus application protocol §7, drive profiles"};
+inline constexpr PlausibilityRule kRuleAsciiStart{"mbascii.start", "PROTOCOLS.md §3"};
+inline constexpr PlausibilityRule kRuleAsciiCharset{"mbascii.charset", "PROTOCOLS.md §3"};
+inline constexpr PlausibilityRule kRuleAsciiLength{"mbascii.length", "Modbus serial line §2.5.2"};
+inline constexpr PlausibilityRule kRuleAsciiTerminator{"mbascii.terminator", "PROTOCOLS.md §3"};
 
 inline constexpr AnomalyKind kMalformed = AnomalyKind::malformed;
 

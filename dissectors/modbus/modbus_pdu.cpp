@@ -57,21 +57,21 @@ Plausibility modbus_plausibility(std::uint8_t address, std::span<const std::uint
   };
   // Serial line §2.3: 0 broadcast, 1..247 slaves, 248..255 reserved.
   if (address > 247)
-    return broken(kRuleRtuAddress,
+    return broken(kRuleAddress,
                   [&] { return fmt::format("address {} (248-255 are reserved)", address); });
   if (pdu.empty()) return broken(kRuleRtuSize, [] { return std::string("no function code"); });
   const std::uint8_t fc = pdu[0];
   if (!is_public_function(fc))
-    return broken(kRuleRtuFunction, [&] {
+    return broken(kRuleFunction, [&] {
       return fmt::format("function code 0x{:02X} is no public Modbus function", fc);
     });
   if (fc & 0x80) {
     if (pdu.size() != 2)
-      return broken(kRuleRtuLength, [&] {
+      return broken(kRuleLength, [&] {
         return fmt::format("exception reply of {} PDU bytes (2: function, code)", pdu.size());
       });
     if (!exception_code_allowed(pdu[1]))
-      return broken(kRuleRtuExceptionCode, [&] {
+      return broken(kRuleExceptionCode, [&] {
         return fmt::format("exception code {} (1-11, or a drive profile's vendor code)", pdu[1]);
       });
     return p;
@@ -86,7 +86,7 @@ Plausibility modbus_plausibility(std::uint8_t address, std::span<const std::uint
       fits = true;
   }
   if (!fits)
-    return broken(kRuleRtuLength, [&] {
+    return broken(kRuleLength, [&] {
       return fmt::format("{} PDU bytes do not fit function 0x{:02X}'s layout{}", pdu.size(), fc,
                          direction == Direction::request    ? " as a request"
                          : direction == Direction::response ? " as a reply"
@@ -176,15 +176,30 @@ class PduReader {
     tree_.add(desc, base_ + at, 2, *v);
     return v;
   }
+  // The function code as Wireshark's modbus.func_code: without the exception bit, which the
+  // node notes.
+  std::optional<std::uint8_t> function_code() {
+    const std::size_t at = cursor_.offset();
+    auto v = cursor_.u8();
+    if (!v) return truncated(kFunction);
+    if (*v & 0x80)
+      tree_.add_text(kFunction, base_ + at, 1, "exception reply", *v & 0x7F);
+    else
+      tree_.add(kFunction, base_ + at, 1, *v);
+    return v;
+  }
   // `n` raw bytes as one field; on shortage takes what is there and reports it.
   std::span<const std::uint8_t> bytes(const FieldDesc& desc, std::size_t n) {
     const std::size_t at = cursor_.offset();
-    if (cursor_.remaining() < n) {
-      problem(kFindingFieldCut, desc.name, n, cursor_.remaining());
-      n = cursor_.remaining();
-    }
-    auto s = cursor_.take(n).value_or(std::span<const std::uint8_t>{});
-    tree_.add(desc, base_ + at, n);
+    auto s = take_announced(desc, n);
+    tree_.add(desc, base_ + at, s.size());
+    return s;
+  }
+  // The same, one node per byte (the events of a comm event log).
+  std::span<const std::uint8_t> byte_values(const FieldDesc& desc, std::size_t n) {
+    const std::size_t at = cursor_.offset();
+    auto s = take_announced(desc, n);
+    for (std::size_t i = 0; i < s.size(); ++i) tree_.add(desc, base_ + at + i, 1, s[i]);
     return s;
   }
   FieldTreeBuilder& tree() { return tree_; }
@@ -212,6 +227,14 @@ class PduReader {
     truncated_ = true;
     problem(kFindingFrameEndsBefore, desc.name);
     return std::nullopt;
+  }
+
+  std::span<const std::uint8_t> take_announced(const FieldDesc& desc, std::size_t n) {
+    if (cursor_.remaining() < n) {
+      problem(kFindingFieldCut, desc.name, n, cursor_.remaining());
+      n = cursor_.remaining();
+    }
+    return cursor_.take(n).value_or(std::span<const std::uint8_t>{});
   }
 
   Cursor cursor_;
@@ -310,9 +333,14 @@ void check_quantity(PduReader& r, unsigned quantity, unsigned max, const char* w
   if (quantity < 1 || quantity > max) r.problem(kFindingQuantityRange, what, quantity, max);
 }
 
+// Quantities of coils and inputs are Wireshark's bit counts, of registers its word counts.
+const FieldDesc& quantity_field(std::uint8_t fc) {
+  return fc == 0x01 || fc == 0x02 || fc == 0x0F ? kBitCount : kWordCount;
+}
+
 void dissect_read_request(PduReader& r, std::uint8_t fc, PduDecode& d) {
-  auto start = r.u16(kStartAddress);
-  auto qty = r.u16(kQuantity);
+  auto start = r.u16(kReference);
+  auto qty = r.u16(quantity_field(fc));
   r.expect_end();
   if (!start || !qty) return;
   const bool bits = fc == 0x01 || fc == 0x02;
@@ -386,8 +414,8 @@ void dissect_write_single_register(PduReader& r, Direction dir, PduDecode& d) {
 }
 
 void dissect_write_multiple_request(PduReader& r, std::uint8_t fc, PduDecode& d) {
-  auto start = r.u16(kStartAddress);
-  auto qty = r.u16(kQuantity);
+  auto start = r.u16(kReference);
+  auto qty = r.u16(quantity_field(fc));
   auto count = r.u8(kByteCount);
   if (!start || !qty || !count) {
     r.expect_end();
@@ -421,8 +449,8 @@ void dissect_write_multiple_request(PduReader& r, std::uint8_t fc, PduDecode& d)
 }
 
 void dissect_write_multiple_response(PduReader& r, std::uint8_t fc, PduDecode& d) {
-  auto start = r.u16(kStartAddress);
-  auto qty = r.u16(kQuantity);
+  auto start = r.u16(kReference);
+  auto qty = r.u16(quantity_field(fc));
   r.expect_end();
   if (!start || !qty) return;
   d.describe_in_place([&](auto& out) {
@@ -459,7 +487,7 @@ void dissect_file_record(PduReader& r, std::uint8_t fc, Direction dir, PduDecode
     r.tree().open(kFileSubRequest, group_at, 0);
     ++groups;
     if (fc == 0x14 && dir == Direction::response) {
-      auto len = r.u8(kFileRecordLength);
+      auto len = r.u8(kFileResponseLength);
       auto ref = r.u8(kFileRefType);
       if (!len || !ref || *len == 0) {
         r.tree().close();
@@ -521,13 +549,13 @@ void dissect_device_id(PduReader& r, Direction dir, PduDecode& d) {
   for (unsigned i = 0; objects && i < *objects && !r.cursor().empty(); ++i) {
     r.tree().open(kMeiObject, r.frame_offset(), 0);
     auto id = r.u8(kMeiObjectId);
-    auto len = r.u8(kByteCount);
+    auto len = r.u8(kMeiObjectLength);
     if (!id || !len) {
       r.tree().close();
       break;
     }
     const std::size_t at = r.frame_offset();
-    auto raw = r.bytes(kData, *len);
+    auto raw = r.bytes(kMeiObjectBytes, *len);
     std::string text;
     for (std::uint8_t c : raw) text += (c >= 0x20 && c < 0x7F) ? static_cast<char>(c) : '.';
     r.tree().add_text(kMeiObjectValue, at, raw.size(), text);
@@ -582,13 +610,12 @@ void dissect_pdu_into(PduDecode& d, std::span<const std::uint8_t> frame, std::si
   d.problems.clear();
   d.exception_code = -1;
   PduReader r(frame, pdu_offset, pdu_length, tree, d);
-  auto fc_opt = r.u8(kFunction);
+  auto fc_opt = r.function_code();
   if (!fc_opt) return;
   const std::uint8_t fc = *fc_opt;
 
   if (fc & 0x80) {
     // The exception bit marks a reply reporting an error for function fc & 0x7F.
-    tree.add(kExceptionFunction, pdu_offset, 1, fc & 0x7F);
     auto code = r.u8(kExceptionCode);
     r.expect_end();
     d.exception_code = code ? *code : -1;
@@ -652,7 +679,7 @@ void dissect_pdu_into(PduDecode& d, std::span<const std::uint8_t> frame, std::si
         auto messages = r.u16(kMessageCount);
         if (count && status && events && messages) {
           if (*count < 6) r.problem(kFindingEventByteCount, *count);
-          auto log = r.bytes(kEvents, *count >= 6 ? *count - 6u : 0u);
+          auto log = r.byte_values(kEvent, *count >= 6 ? *count - 6u : 0u);
           d.describe([&] {
             return fmt::format(
                 FMT_COMPILE("Get Comm Event Log reply: {} events, {} messages, log {}"), *events,

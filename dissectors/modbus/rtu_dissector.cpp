@@ -57,7 +57,7 @@ void dissect_rtu(Message& m, Frame&& frame, Direction direction, const FramingTi
   FieldTreeBuilder tree(m.fields, m.detail && m.tree);
 
   if (!bytes.empty()) {
-    tree.add(kAddr, 0, 1, bytes[0]);
+    tree.add(kRtuUnitId, 0, 1, bytes[0]);
     m.address = bytes[0];
   }
   if (bytes.size() >= 2) {
@@ -79,7 +79,7 @@ void dissect_rtu(Message& m, Frame&& frame, Direction direction, const FramingTi
                        m.frame.checksum_kind == FrameChecksum::crc16_modbus
                            ? static_cast<std::uint16_t>(m.frame.checksum)
                            : crc16_modbus(bytes.first(bytes.size() - 2)));
-    tree.add(kCrc, bytes.size() - 2, 2, m.checksum.stated_wire);
+    tree.add(kRtuCrc, bytes.size() - 2, 2, m.checksum.stated_wire);
   } else {
     m.describe([&] {
       return fmt::format(FMT_COMPILE("{}-byte fragment, too short for Modbus RTU"), bytes.size());

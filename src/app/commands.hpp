@@ -31,5 +31,6 @@ Command add_diagnose_command(CLI::App& app);  // diagnose.cpp: the line's health
 Command add_capture_command(CLI::App& app);   // capture.cpp: live from serial ports, --scan
 Command add_generate_command(CLI::App& app);  // generate.cpp: a large reproducible capture
 Command add_profiles_command(CLI::App& app);  // profiles.cpp: list and check drive profiles
+Command add_fields_command(CLI::App& app);    // fields.cpp: every field id (tshark -G fields)
 
 }  // namespace drivetap::app

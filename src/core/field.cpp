@@ -4,6 +4,8 @@
 #include <fmt/compile.h>
 #include <fmt/format.h>
 
+#include <algorithm>
+
 namespace drivetap {
 
 std::string field_bytes_hex(const FieldNode& node, std::span<const std::uint8_t> frame,
@@ -23,10 +25,12 @@ std::string format_field_value(const FieldTree& tree, const FieldNode& node,
       out = text;
       return out;
     case FieldType::uint:
+    case FieldType::real:  // never in a tree: a record's number, held as an integer here
       out = fmt::format(FMT_COMPILE("{}"), node.value);
       break;
     case FieldType::hex:
-      out = fmt::format(FMT_COMPILE("0x{:0{}X} ({})"), node.value, d.hex_digits, node.value);
+      out = fmt::format(FMT_COMPILE("0x{:0{}X} ({})"), node.value, std::max(d.bits / 4, 1),
+                        node.value);
       break;
     case FieldType::boolean:
       out = node.value ? "1" : "0";
@@ -49,6 +53,44 @@ std::string format_field_value(const FieldTree& tree, const FieldNode& node,
   }
   if (!text.empty()) out += fmt::format(FMT_COMPILE(" [{}]"), text);
   return out;
+}
+
+std::string_view wireshark_field_type(const FieldDesc& d) {
+  switch (d.type) {
+    case FieldType::group:
+      return "FT_NONE";
+    case FieldType::uint:
+    case FieldType::hex:
+    case FieldType::enumerated:
+      return d.bits <= 8 ? "FT_UINT8" : d.bits <= 16 ? "FT_UINT16" : "FT_UINT32";
+    case FieldType::boolean:
+      return "FT_BOOLEAN";
+    case FieldType::bytes:
+      return "FT_BYTES";
+    case FieldType::text:
+      return "FT_STRING";
+    case FieldType::real:
+      return "FT_DOUBLE";
+  }
+  return "FT_NONE";
+}
+
+std::string_view wireshark_field_base(const FieldDesc& d) {
+  switch (d.type) {
+    case FieldType::uint:
+    case FieldType::enumerated:
+      return "BASE_DEC";
+    case FieldType::hex:
+      return "BASE_HEX";
+    case FieldType::boolean:
+      return "0";  // the width of the bits it is a flag of: none (tshark prints 0 for that)
+    case FieldType::group:
+    case FieldType::bytes:
+    case FieldType::text:
+    case FieldType::real:
+      return "";
+  }
+  return "";
 }
 
 }  // namespace drivetap

@@ -1,10 +1,12 @@
 // Field descriptors and the generic field tree that every sink walks.
 //
 // A FieldDesc is a constexpr description of one protocol field with a stable dotted id
-// ("modbus.fc", "fc.pke.ak"); ids are part of drivetap's output contract (JSON keys, -V lines,
-// tests). A FieldNode is one occurrence of a field in a decoded frame, with its byte span.
-// All descriptors are listed in one explicit table (gathered from the protocols' descriptors in
-// dissectors/registry.cpp), so a test can check that ids are unique and well formed.
+// ("modbus.func_code", "danfoss_fc.pke.ak"); ids are part of drivetap's output contract (JSON
+// keys, -V lines, tests). Where Wireshark 4.0 has the field, the id is Wireshark's, with a type
+// Wireshark's agrees with (`drivetap fields` lists them as `tshark -G fields` does). A FieldNode is
+// one occurrence of a field in a decoded frame, with its byte span. All descriptors are listed in
+// one explicit table (gathered from the protocols' descriptors in dissectors/registry.cpp), so a
+// test can check that ids are unique and well formed.
 #pragma once
 
 #include <algorithm>
@@ -22,12 +24,13 @@ namespace drivetap {
 
 enum class FieldType : std::uint8_t {
   group,       // no value of its own: a heading for the nodes below it
-  uint,        // unsigned number, shown in decimal
-  hex,         // unsigned number, shown as 0x.. (width digits) with decimal in brackets
+  uint,        // unsigned number of `bits`, shown in decimal
+  hex,         // unsigned number of `bits`, shown as 0x.. (bits / 4 digits), decimal in brackets
   boolean,     // 0/1 flag
-  enumerated,  // number with a name from `names`
+  enumerated,  // unsigned number of `bits` with a name from `names`
   bytes,       // raw bytes of the span, shown as hex
   text,        // computed text held in the node
+  real,        // a measured number (seconds, milliseconds): record fields only, never in a tree
 };
 
 struct ValueName {
@@ -35,14 +38,31 @@ struct ValueName {
   std::string_view name;
 };
 
+struct FieldDesc;
+
+// The fields of one protocol layer, as `drivetap fields` lists them: its name and its display
+// filter name (Wireshark's where Wireshark has the layer: "modbus", "mbrtu"), which prefixes every
+// id of its fields.
+struct FieldProtocol {
+  std::string_view name;         // "Modbus RTU"
+  std::string_view filter_name;  // "mbrtu"
+  std::span<const FieldDesc* const> fields;
+};
+
 struct FieldDesc {
   std::string_view id;    // stable dotted id
   std::string_view name;  // human label
   FieldType type = FieldType::uint;
-  std::uint8_t hex_digits = 2;
+  // Width of a uint, hex or enumerated value: 8, 16 or 32 (Wireshark's FT_UINT8/16/32); 0 for
+  // the other types.
+  std::uint8_t bits = 0;
   std::span<const ValueName> names{};
-  // The descriptor listed in the field table under this id, for one that shares it (Danfoss FC's
-  // AK has a request and a response meaning); null for a listed one.
+  std::string_view blurb{};  // what it holds, when the name does not say it all
+  // The bits of its bytes the value is, shifted down (Danfoss FC's AK: 0xF0); 0: all of them.
+  std::uint32_t bitmask = 0;
+  // The descriptor listed in the field table under this id, for one that shares it with a label
+  // of its own (Danfoss FC's AK has a request and a response meaning; a Modbus output address and
+  // register address are both Wireshark's reference number); null for a listed one.
   const FieldDesc* shares_id_of = nullptr;
 
   // The listed descriptor of this id: two descriptors have the same id exactly when their keys
@@ -219,7 +239,14 @@ void append_field_bytes_hex(Out& out, const FieldNode& node, std::span<const std
 std::string field_bytes_hex(const FieldNode& node, std::span<const std::uint8_t> frame,
                             bool text_encoded);
 
-// Every descriptor of every dissector (dissectors/registry.cpp).
+// Every descriptor of every dissector (dissectors/registry.cpp), each once.
 std::span<const FieldDesc* const> all_field_descriptors();
+// Every protocol layer with fields, each once, in registry order (dissectors/registry.cpp).
+std::span<const FieldProtocol* const> all_field_protocols();
+
+// Wireshark's name of the field's type ("FT_UINT16", "FT_BYTES", "FT_NONE") and display base
+// ("BASE_HEX"; "" where Wireshark prints none), as `tshark -G fields` prints them.
+std::string_view wireshark_field_type(const FieldDesc& d);
+std::string_view wireshark_field_base(const FieldDesc& d);
 
 }  // namespace drivetap

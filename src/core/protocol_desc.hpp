@@ -38,7 +38,9 @@ struct ProtocolDesc {
   // The names `--protocol` and drive profiles take besides `id`, the short one first ("rtu").
   std::span<const std::string_view> option_names;
   const ProtocolDecoder* decoder = nullptr;
-  std::span<const FieldDesc* const> fields;      // every field its dissector adds
+  // Every field its dissector adds, by protocol layer (Modbus RTU: its framing's, `mbrtu`, and the
+  // PDU's, `modbus`, which Modbus ASCII shares).
+  std::span<const FieldProtocol* const> field_protocols;
   std::span<const FindingDesc* const> findings;  // every finding its dissector raises
   // The character its telegrams start with when typed as text (`decode`), 0 for a binary one.
   char text_start = 0;
