@@ -41,6 +41,9 @@ struct CommonOptions {
   std::vector<std::string> logic_channels;  // --channels RX,TX
   bool invert = false;
   std::uint64_t logic_max = SigrokFile::kDefaultMaxSampleBytes;  // --logic-max
+  std::string display_filter;                                    // -Y
+  std::vector<std::string> fields;                               // -e, for -T fields
+  std::vector<std::string> field_options;                        // -E, for -T fields
 };
 
 // -T, -s, -P, --drive, -o, -w and the others every decoding subcommand takes.
