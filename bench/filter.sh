@@ -14,7 +14,7 @@ command -v /usr/bin/time >/dev/null || { echo "filter.sh: needs GNU time" >&2; e
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 capture=$tmp/f.pcapng
-"$drivetap" generate --frames "$frames" --seed 1 --mix modbus-rtu --plain -w "$capture" >/dev/null
+"$drivetap" generate --frames "$frames" --seed 1 --mix modbus-rtu --plain -w "$capture" >/dev/null 2>&1
 
 # best wall and CPU seconds of $repeat runs of `drivetap read --stats ARGS capture`
 best() {
