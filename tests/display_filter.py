@@ -282,7 +282,7 @@ def tree_filters(recs):
     return out[:45]
 
 
-def check_filters(args, path, recs):
+def check_filters(args, path, recs, events):
     filters = STATIC_FILTERS + tree_filters(recs)
     for f in filters:
         expr = parse(f)
@@ -303,6 +303,11 @@ def check_filters(args, path, recs):
             if r["type"] == "transaction" and r["request_n"] not in picked and \
                     r["response_n"] not in picked:
                 fail("%s -Y %r: transaction of unselected frames" % (path, f))
+        # The events read from the selected frames, every one of them.
+        want_events = [e for e in events if e.get("frame") in set(want)]
+        got_events = [r for r in got if r["type"] == "event"]
+        if got_events != want_events:
+            fail("%s -Y %r: %d events, expected %d" % (path, f, len(got_events), len(want_events)))
         summary = [r for r in got if r["type"] == "summary"]
         if not summary or summary[-1].get("filter", {}).get("matched") != len(want):
             fail("%s -Y %r: summary's filter count wrong: %s" % (path, f, summary[-1:]))
@@ -404,7 +409,8 @@ def main():
             if code != 0:
                 continue  # (inputs that are refused are the golden tests' business)
             recs = records_of(out)
-            total += check_filters(args, path, recs)
+            events = [json.loads(l) for l in out.splitlines() if l.startswith('{"type":"event"')]
+            total += check_filters(args, path, recs, events)
             check_stats(args, path)
             check_fields(args, path, recs)
         check_bad(os.path.join(SOURCE, "captures", "seed-erman-e9", "input.log"))

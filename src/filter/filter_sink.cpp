@@ -2,6 +2,7 @@
 #include "filter/filter_sink.hpp"
 
 #include <utility>
+#include <vector>
 
 namespace drivetap {
 namespace {
@@ -33,7 +34,16 @@ SinkNeeds DisplayFilterSink::needs() const {
   return n;
 }
 
+void DisplayFilterSink::release_events(std::uint64_t number, bool selected) {
+  if (held_events_.empty()) return;
+  for (const BusEvent& e : held_events_)
+    if (e.frame == number && selected) inner_.on_event(e);
+  std::erase_if(held_events_, [number](const BusEvent& e) { return e.frame <= number; });
+}
+
 void DisplayFilterSink::note(std::uint64_t number, bool selected) {
+  release_events(number, selected);
+  last_number_ = number;
   ++records_;
   recent_selected_[number % kRecentFrames] = selected ? number : 0;
   if (selected) ++matched_;
@@ -81,7 +91,10 @@ void DisplayFilterSink::on_transaction(const Transaction& t) {
 }
 
 void DisplayFilterSink::on_event(const BusEvent& e) {
-  if (selected(e.frame)) inner_.on_event(e);
+  if (e.frame > last_number_)
+    held_events_.push_back(e);
+  else if (selected(e.frame))
+    inner_.on_event(e);
 }
 
 void DisplayFilterSink::on_summary(const Stats& s) {

@@ -32,6 +32,9 @@ class DisplayFilterSink final : public Sink {
 
  private:
   void note(std::uint64_t number, bool selected);
+  // Hands on the events held for frame `number` (those of a selected frame), before the frame as
+  // they came, and drops them.
+  void release_events(std::uint64_t number, bool selected);
   [[nodiscard]] bool selected(std::uint64_t number) const;
 
   DisplayFilter filter_;
@@ -43,6 +46,10 @@ class DisplayFilterSink final : public Sink {
   // or finding reported later (a timeout) finds its frame here. Fixed size: no allocation.
   std::vector<std::uint64_t> recent_selected_;
   std::vector<Anomaly> noise_findings_;  // a noise record's findings (storage reused)
+  // Events read from a frame not handed over yet (a drive bound by the frame that showed it):
+  // held until the filter has judged their frame.
+  std::vector<BusEvent> held_events_;
+  std::uint64_t last_number_ = 0;  // the latest frame or noise record judged
   std::uint64_t matched_ = 0;
   std::uint64_t records_ = 0;
 };
