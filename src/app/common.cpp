@@ -102,6 +102,9 @@ constexpr OptionUse kOptionUse[] = {
     {"--color", kDecode | kRead | kDiagnose | kCapture},
     {"--no-progress", kRead},  // long offline runs
     {"-x", kDecode | kRead | kCapture},
+    {"-Y", kDecode | kRead | kCapture},
+    {"-e", kDecode | kRead | kCapture},
+    {"-E", kDecode | kRead | kCapture},
 };
 
 // Removes from `cmd` the options whose row leaves `command` out.
@@ -172,8 +175,18 @@ void refuse_idle_options(const CommonOptions& o, unsigned command) {
 }
 
 void add_common_options(CLI::App* cmd, CommonOptions& o, unsigned command) {
-  cmd->add_option("-T,--format", o.format, "Output format: text or json (JSON lines)")
-      ->check(CLI::IsMember({"text", "json"}));
+  cmd->add_option("-T,--format", o.format,
+                  "Output format: text, json (JSON lines) or fields (-e, -E: one line per frame)")
+      ->check(CLI::IsMember({"text", "json", "fields"}));
+  cmd->add_option("-Y,--display-filter", o.display_filter,
+                  "Show only the frames this filter selects, in tshark's syntax, e.g. "
+                  "'addr == 2 && checksum_bad' (names: JSON keys, field ids, findings)");
+  cmd->add_option("-e", o.fields, "With -T fields: a field to print (repeatable), as -Y names it")
+      ->allow_extra_args(false);
+  cmd->add_option("-E", o.field_options,
+                  "With -T fields: separator=,|/t|/s|C header=y|n quote=d|s|n occurrence=f|l|a "
+                  "aggregator=,|/s|C")
+      ->allow_extra_args(false);
   cmd->add_flag("-V,--verbose", o.verbose, "Text: show each frame's field tree with byte offsets");
   cmd->add_option("-s,--serial", o.serial,
                   "Line settings, e.g. \"19200 8E1\" (default: the capture's, else 9600 8N1)");

@@ -50,6 +50,9 @@ struct CommonOptions {
   std::string color = "auto";     // --color
   bool no_progress = false;       // --no-progress
   bool hex_dump = false;          // -x: each frame's bytes as a hex and ASCII dump
+  std::string display_filter;                                    // -Y
+  std::vector<std::string> fields;                               // -e, for -T fields
+  std::vector<std::string> field_options;                        // -E, for -T fields
 };
 
 // The subcommands that take common options: the bits of an option's row in the table of which

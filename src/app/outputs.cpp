@@ -15,6 +15,7 @@
 
 #include "app/stop_signals.hpp"
 #include "formats/shared_libraries.hpp"
+#include "sinks/fields_sink.hpp"
 #include "sinks/json_sink.hpp"
 #include "sinks/text_sink.hpp"
 #include "sources/file/capture_reader.hpp"
@@ -44,7 +45,20 @@ CaptureSinkOptions capture_options(const CommonOptions& o, const PipelineOptions
 
 Outputs::Outputs(const CommonOptions& o, const ChannelTable& channels, const PipelineOptions& p,
                  bool timed, const RingOptions* ring)
-    : options_(o) {
+    : options_(o), channels_(channels), character_time_(p.timing.character_time), timed_(timed) {
+  // A bad filter or field list stops the run before any file is made.
+  std::string error;
+  if (!o.display_filter.empty()) {
+    display_filter_ = DisplayFilter::compile(o.display_filter, &error);
+    if (!display_filter_) die("-Y: " + error);
+  }
+  std::optional<FieldsOptions> fields;
+  if (o.format == "fields") {
+    fields = parse_fields_options(o.fields, o.field_options, &error);
+    if (!fields) die(error);
+  } else if (!o.fields.empty() || !o.field_options.empty()) {
+    die(fmt::format("{}: only with -T fields", o.fields.empty() ? "-E" : "-e"));
+  }
   const bool capture_to_stdout = o.write == "-";
   if (o.plain && o.write.empty()) die("--plain: only with -w FILE (it is a kind of pcapng)");
   if (capture_to_stdout && (o.output.empty() || o.output == "-") && o.format == "json")
@@ -72,6 +86,8 @@ Outputs::Outputs(const CommonOptions& o, const ChannelTable& channels, const Pip
   const auto make_text = [&](std::FILE* file) -> std::unique_ptr<FormattingSink> {
     if (o.format == "json")
       return std::make_unique<JsonSink>(file, channels, p.timing.character_time, timed);
+    if (fields)
+      return std::make_unique<FieldsSink>(file, *fields, channels, p.timing.character_time, timed);
     TextSinkOptions t;
     t.verbose = o.verbose;
     t.show_time = timed;
@@ -93,7 +109,7 @@ Outputs::Outputs(const CommonOptions& o, const ChannelTable& channels, const Pip
   const TimeFormat time_format = time_format_of(o);
   const bool time_from_previous =
       time_format == TimeFormat::delta || time_format == TimeFormat::delta_displayed;
-  if (!ring && o.write.empty() && !summary_only(o) && !o.events_only && cores >= 2 &&
+  if (!ring && o.write.empty() && !summary_only(o) && !fields && !o.events_only && cores >= 2 &&
       !time_from_previous && ::isatty(::fileno(text_file_)) != 1)
     for (unsigned i = 0; i < std::min(cores, 4u); ++i) helpers_.push_back(make_text(nullptr));
   if (o.stats_only && o.no_summary) die("--stats and --no-summary leave nothing to print");
@@ -122,6 +138,14 @@ void Outputs::write_on_second_thread() {
   } else if ((!summary_only(options_) && !options_.events_only) || capture_) {
     threaded_ = std::make_unique<ThreadedSink>(tee_);
   }
+}
+
+Sink& Outputs::sink() {
+  Sink& inner = threaded_ ? static_cast<Sink&>(*threaded_) : tee_;
+  if (display_filter_ && !filter_sink_)
+    filter_sink_ = std::make_unique<DisplayFilterSink>(std::move(*display_filter_), inner,
+                                                       channels_, character_time_, timed_);
+  return filter_sink_ ? static_cast<Sink&>(*filter_sink_) : inner;
 }
 
 bool Outputs::flush() {

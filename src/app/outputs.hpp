@@ -4,10 +4,13 @@
 
 #include <cstdio>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "app/common.hpp"
 #include "core/byte_event.hpp"
+#include "filter/display_filter.hpp"
+#include "filter/filter_sink.hpp"
 #include "pipeline/options.hpp"
 #include "sinks/capture_sink.hpp"
 #include "sinks/ring_capture_sink.hpp"
@@ -37,7 +40,9 @@ class Outputs {
   // The capture's clock for the text time column (-t): whether its times are wall-clock time, and
   // its start on that clock. Set before the first record reaches the sink.
   void set_clock(bool wall_clock, TimeNs origin);
-  Sink& sink() { return threaded_ ? static_cast<Sink&>(*threaded_) : tee_; }
+  // The sink the pipeline writes to; with -Y, the filter in front of the others (made on the
+  // first call: after write_on_second_thread()).
+  Sink& sink();
   // Whether nothing written from now on reaches anybody: the text output failed (its reader went
   // away, `| head`) and there is no capture file to complete. Reading on would be wasted.
   [[nodiscard]] bool unread() const { return !capture_ && !ring_ && std::ferror(text_file_); }
@@ -63,6 +68,12 @@ class Outputs {
   TeeSink tee_;
   long capture_good_size_ = 0;  // the capture file up to its last packet flushed whole
   bool capture_failed_ = false;
+  // -Y: the compiled filter until sink() puts its sink in front of the others.
+  std::optional<DisplayFilter> display_filter_;
+  std::unique_ptr<DisplayFilterSink> filter_sink_;
+  const ChannelTable& channels_;
+  TimeNs character_time_ = 0;
+  bool timed_ = true;
   // Last: destroyed first, its thread joined before the sinks it writes to go.
   std::unique_ptr<ThreadedSink> threaded_;
 };

@@ -81,6 +81,15 @@ const char* severity_id(Severity s) {
   return enum_text(s, kSeverityIds, static_cast<const char*>("error"));
 }
 
+std::string noise_detail(const ByteEvents& events) {
+  std::string hex;
+  for (std::size_t i = 0; i < events.size() && i < 16; ++i)
+    hex += fmt::format(FMT_COMPILE("{}{:02X}"), i ? " " : "", events[i].byte);
+  if (events.size() > 16) hex += " ...";
+  return fmt::format(FMT_COMPILE("{} byte{} outside any frame: {}"), events.size(),
+                     events.size() == 1 ? "" : "s", hex);
+}
+
 void append_uart_anomalies(const ByteEvents& events, std::uint64_t frame_number,
                            std::vector<Anomaly>& out) {
   if (!events.any_flags()) return;  // the usual case: no look at each byte

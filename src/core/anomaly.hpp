@@ -69,6 +69,9 @@ struct Anomaly {
 
 using AnomalyCounts = std::array<std::uint64_t, kAnomalyKindCount>;
 
+// The detail of the `noise` finding of a noise record: "3 bytes outside any frame: 01 02 03".
+std::string noise_detail(const ByteEvents& events);
+
 // One anomaly per UART mark on `events` (framing, parity, break, overrun), naming the byte.
 void append_uart_anomalies(const ByteEvents& events, std::uint64_t frame_number,
                            std::vector<Anomaly>& out);

@@ -50,6 +50,11 @@ struct Stats {
   std::vector<std::string> source_notes;
   // Bytes of IP flows with no drive protocol, left out of the decode (in no frame or noise).
   std::uint64_t left_out_bytes = 0;
+  // With a display filter (-Y): its text, and how many of the frame and noise records it
+  // selected and saw. Everything above counts every record all the same.
+  std::string display_filter;
+  std::uint64_t filter_matched = 0;
+  std::uint64_t filter_records = 0;
 
   void count_frame(const Message& m);
   // The same for a telegram of `size` bytes, the first starting at `first`, the last at `last`;

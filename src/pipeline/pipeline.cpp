@@ -785,13 +785,8 @@ void Pipeline::handle_frame(Frame& frame, const ProtocolDecoder& decoder) {
     emit_transactions(transactions_);
     stats_.count_noise(frame);
     sink_.on_noise(frame);
-    std::string hex;
-    for (std::size_t i = 0; i < frame.events.size() && i < 16; ++i)
-      hex += fmt::format(FMT_COMPILE("{}{:02X}"), i ? " " : "", frame.events[i].byte);
-    if (frame.events.size() > 16) hex += " ...";
     emit_anomaly({AnomalyKind::noise, frame.start(), frame.channel, frame.number,
-                  fmt::format(FMT_COMPILE("{} byte{} outside any frame: {}"), frame.size(),
-                              frame.size() == 1 ? "" : "s", hex)});
+                  noise_detail(frame.events)});
     if (st.detection_reads(decoder) && ++st.failures >= st.redetect_after) st.redetect = true;
     std::vector<Anomaly> uart;
     append_uart_anomalies(frame.events, frame.number, uart);

@@ -465,6 +465,9 @@ void JsonSink::on_summary(const Stats& s) {
       line += (i ? "," : "") + json_quote(s.source_notes[i]);
     line += "]"sv;
   }
+  if (!s.display_filter.empty())
+    line += fmt::format(FMT_COMPILE(",\"filter\":{{\"text\":{},\"matched\":{},\"frames\":{}}}"),
+                        json_quote(s.display_filter), s.filter_matched, s.filter_records);
   line += "}"sv;
   lines_.write(line);
 }

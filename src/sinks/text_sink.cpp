@@ -389,6 +389,9 @@ void TextSink::on_summary(const Stats& s) {
   lines_.write(an);
   for (const std::string& note : s.source_notes)
     lines_.write(fmt::format(FMT_COMPILE("source:       {}"), note));
+  if (!s.display_filter.empty())
+    lines_.write(fmt::format(FMT_COMPILE("filter:       -Y '{}' matched {} of {} frames"),
+                             s.display_filter, s.filter_matched, s.filter_records));
   for (const DriveSummary& d : s.drives) {
     lines_.write(
         fmt::format(FMT_COMPILE("drive {:<7} {}{}{}"), d.address, d.profile_name,

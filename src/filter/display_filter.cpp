@@ -1,0 +1,626 @@
+// Display filters: lexer, parser and evaluator (src/filter/display_filter.hpp; the syntax is
+// tshark's, docs/reference.md "Display filters").
+#include "filter/display_filter.hpp"
+
+#include <fmt/format.h>
+
+#include <cctype>
+#include <charconv>
+#include <cmath>
+
+namespace drivetap {
+namespace {
+
+struct Token {
+  enum class Kind : std::uint8_t {
+    end,
+    word,  // a name, a keyword (and, or, not, eq, ..., contains, in) or a bare value
+    number,
+    string,
+    lparen,
+    rparen,
+    lbrace,
+    rbrace,
+    comma,
+    range,  // ..
+    eq,
+    ne,
+    lt,
+    gt,
+    le,
+    ge,
+    and_,
+    or_,
+    not_,
+  };
+  Kind kind = Kind::end;
+  std::string_view raw;  // as written
+  std::size_t column = 1;
+  std::string text;   // a string's characters (escapes resolved)
+  double number = 0;  // a number's value
+};
+
+bool word_start(char c) {
+  return std::isalpha(static_cast<unsigned char>(c)) != 0 || c == '_';
+}
+bool word_char(char c) {
+  return std::isalnum(static_cast<unsigned char>(c)) != 0 || c == '_' || c == '.' || c == '-';
+}
+
+class Lexer {
+ public:
+  explicit Lexer(std::string_view s) : s_(s) {}
+
+  // The next token, or nullopt with `error` set.
+  bool next(Token& t, std::string& error, std::size_t& error_column) {
+    while (i_ < s_.size() && std::isspace(static_cast<unsigned char>(s_[i_])) != 0) ++i_;
+    t = Token{};
+    t.column = i_ + 1;
+    if (i_ >= s_.size()) return true;
+    const std::size_t start = i_;
+    const char c = s_[i_];
+    auto two = [&](char second) { return i_ + 1 < s_.size() && s_[i_ + 1] == second; };
+    auto op = [&](Token::Kind k, std::size_t len) {
+      t.kind = k;
+      t.raw = s_.substr(start, len);
+      i_ += len;
+      return true;
+    };
+    switch (c) {
+      case '(':
+        return op(Token::Kind::lparen, 1);
+      case ')':
+        return op(Token::Kind::rparen, 1);
+      case '{':
+        return op(Token::Kind::lbrace, 1);
+      case '}':
+        return op(Token::Kind::rbrace, 1);
+      case ',':
+        return op(Token::Kind::comma, 1);
+      case '=':
+        if (two('=')) return op(Token::Kind::eq, 2);
+        error = "'=' is no operator (compare with '==')";
+        error_column = t.column;
+        return false;
+      case '!':
+        if (two('=')) return op(Token::Kind::ne, 2);
+        return op(Token::Kind::not_, 1);
+      case '<':
+        if (two('=')) return op(Token::Kind::le, 2);
+        return op(Token::Kind::lt, 1);
+      case '>':
+        if (two('=')) return op(Token::Kind::ge, 2);
+        return op(Token::Kind::gt, 1);
+      case '&':
+        if (two('&')) return op(Token::Kind::and_, 2);
+        error = "'&' is no operator (use '&&' or 'and')";
+        error_column = t.column;
+        return false;
+      case '|':
+        if (two('|')) return op(Token::Kind::or_, 2);
+        error = "'|' is no operator (use '||' or 'or')";
+        error_column = t.column;
+        return false;
+      case '.':
+        if (two('.')) return op(Token::Kind::range, 2);
+        break;
+      case '"':
+        return string(t, error, error_column);
+      default:
+        break;
+    }
+    if (std::isdigit(static_cast<unsigned char>(c)) != 0 ||
+        (c == '-' && i_ + 1 < s_.size() && std::isdigit(static_cast<unsigned char>(s_[i_ + 1]))))
+      return number(t, error, error_column);
+    if (word_start(c)) {
+      while (i_ < s_.size() && word_char(s_[i_])) ++i_;
+      t.kind = Token::Kind::word;
+      t.raw = s_.substr(start, i_ - start);
+      return true;
+    }
+    error = fmt::format("unexpected character '{}'", c);
+    error_column = t.column;
+    return false;
+  }
+
+ private:
+  bool string(Token& t, std::string& error, std::size_t& error_column) {
+    const std::size_t start = i_++;
+    while (i_ < s_.size() && s_[i_] != '"') {
+      char c = s_[i_++];
+      if (c == '\\' && i_ < s_.size()) {
+        const char e = s_[i_++];
+        switch (e) {
+          case 'n':
+            c = '\n';
+            break;
+          case 't':
+            c = '\t';
+            break;
+          case 'r':
+            c = '\r';
+            break;
+          case 'x': {
+            unsigned v = 0;
+            const auto r =
+                std::from_chars(s_.data() + i_, s_.data() + std::min(i_ + 2, s_.size()), v, 16);
+            if (r.ptr != s_.data() + i_ + 2) {
+              error = "\\x needs two hex digits";
+              error_column = i_ - 1;
+              return false;
+            }
+            i_ += 2;
+            c = static_cast<char>(v);
+            break;
+          }
+          default:
+            c = e;  // \" \\ and any other character as itself
+            break;
+        }
+      }
+      t.text += c;
+    }
+    if (i_ >= s_.size()) {
+      error = "unterminated string";
+      error_column = start + 1;
+      return false;
+    }
+    ++i_;
+    t.kind = Token::Kind::string;
+    t.raw = s_.substr(start, i_ - start);
+    return true;
+  }
+
+  bool number(Token& t, std::string& error, std::size_t& error_column) {
+    const std::size_t start = i_;
+    const bool negative = s_[i_] == '-';
+    if (negative) ++i_;
+    if (s_.compare(i_, 2, "0x") == 0 || s_.compare(i_, 2, "0X") == 0) {
+      i_ += 2;
+      const std::size_t digits = i_;
+      while (i_ < s_.size() && std::isxdigit(static_cast<unsigned char>(s_[i_])) != 0) ++i_;
+      std::uint64_t v = 0;
+      const auto r = std::from_chars(s_.data() + digits, s_.data() + i_, v, 16);
+      if (digits == i_ || r.ec != std::errc{}) {
+        error = "bad hex number";
+        error_column = start + 1;
+        return false;
+      }
+      t.number = negative ? -static_cast<double>(v) : static_cast<double>(v);
+    } else {
+      while (i_ < s_.size() && std::isdigit(static_cast<unsigned char>(s_[i_])) != 0) ++i_;
+      // A decimal point, not the ".." of a range.
+      if (i_ + 1 < s_.size() && s_[i_] == '.' &&
+          std::isdigit(static_cast<unsigned char>(s_[i_ + 1])) != 0) {
+        ++i_;
+        while (i_ < s_.size() && std::isdigit(static_cast<unsigned char>(s_[i_])) != 0) ++i_;
+      }
+      std::from_chars(s_.data() + start, s_.data() + i_, t.number);
+    }
+    if (i_ < s_.size() && word_char(s_[i_]) &&
+        !(s_[i_] == '.' && i_ + 1 < s_.size() && s_[i_ + 1] == '.')) {
+      error = "bad number";
+      error_column = start + 1;
+      return false;
+    }
+    t.kind = Token::Kind::number;
+    t.raw = s_.substr(start, i_ - start);
+    return true;
+  }
+
+  std::string_view s_;
+  std::size_t i_ = 0;
+};
+
+// A word as the keyword or operator it spells (eq, and, ...), else `word`.
+Token::Kind keyword_of(std::string_view w) {
+  struct K {
+    std::string_view word;
+    Token::Kind kind;
+  };
+  static constexpr K kWords[] = {
+      {"and", Token::Kind::and_}, {"or", Token::Kind::or_}, {"not", Token::Kind::not_},
+      {"eq", Token::Kind::eq},    {"ne", Token::Kind::ne},  {"lt", Token::Kind::lt},
+      {"gt", Token::Kind::gt},    {"le", Token::Kind::le},  {"ge", Token::Kind::ge},
+  };
+  for (const K& k : kWords)
+    if (k.word == w) return k.kind;
+  return Token::Kind::word;
+}
+
+}  // namespace
+
+// Recursive descent over the tokens, lowest precedence first: or, and, not, a test.
+class FilterParser {
+ public:
+  FilterParser(std::string_view text, DisplayFilter& out) : text_(text), lexer_(text), out_(out) {}
+
+  bool parse(std::string* error) {
+    std::uint32_t root = 0;
+    if (!advance() || !parse_or(root)) return fail(error);
+    if (token_.kind != Token::Kind::end) {
+      set_error(fmt::format("unexpected '{}'", token_.raw), token_.column);
+      return fail(error);
+    }
+    out_.root_ = root;
+    return true;
+  }
+
+ private:
+  using Kind = Token::Kind;
+
+  bool fail(std::string* error) {
+    if (error) *error = fmt::format("{} at column {}: {}", error_, error_column_, text_);
+    return false;
+  }
+  void set_error(std::string message, std::size_t column) {
+    error_ = std::move(message);
+    error_column_ = column;
+  }
+  bool advance() {
+    if (!lexer_.next(token_, error_, error_column_)) return false;
+    if (token_.kind == Kind::word) {
+      const Kind k = keyword_of(token_.raw);
+      if (k != Kind::word) token_.kind = k;
+    }
+    return true;
+  }
+  bool is_word(std::string_view w) const { return token_.kind == Kind::word && token_.raw == w; }
+  std::uint32_t add(DisplayFilter::Node node) {
+    out_.nodes_.push_back(node);
+    return static_cast<std::uint32_t>(out_.nodes_.size() - 1);
+  }
+  std::string describe_end() const {
+    return token_.kind == Kind::end ? "the end" : fmt::format("'{}'", token_.raw);
+  }
+
+  bool parse_or(std::uint32_t& node) {
+    if (!parse_and(node)) return false;
+    while (token_.kind == Kind::or_) {
+      if (!advance()) return false;
+      std::uint32_t right = 0;
+      if (!parse_and(right)) return false;
+      DisplayFilter::Node n;
+      n.op = DisplayFilter::Node::Op::any;
+      n.first = node;
+      n.second = right;
+      node = add(n);
+    }
+    return true;
+  }
+
+  bool parse_and(std::uint32_t& node) {
+    if (!parse_not(node)) return false;
+    while (token_.kind == Kind::and_) {
+      if (!advance()) return false;
+      std::uint32_t right = 0;
+      if (!parse_not(right)) return false;
+      DisplayFilter::Node n;
+      n.op = DisplayFilter::Node::Op::all;
+      n.first = node;
+      n.second = right;
+      node = add(n);
+    }
+    return true;
+  }
+
+  bool parse_not(std::uint32_t& node) {
+    if (token_.kind == Kind::not_) {
+      if (!advance()) return false;
+      std::uint32_t operand = 0;
+      if (!parse_not(operand)) return false;
+      DisplayFilter::Node n;
+      n.op = DisplayFilter::Node::Op::negate;
+      n.first = operand;
+      node = add(n);
+      return true;
+    }
+    return parse_primary(node);
+  }
+
+  bool parse_primary(std::uint32_t& node) {
+    if (token_.kind == Kind::lparen) {
+      const std::size_t open = token_.column;
+      if (!advance() || !parse_or(node)) return false;
+      if (token_.kind != Kind::rparen) {
+        set_error(
+            fmt::format("expected ')' for the '(' at column {}, found {}", open, describe_end()),
+            token_.column);
+        return false;
+      }
+      return advance();
+    }
+    if (token_.kind != Kind::word) {
+      set_error(fmt::format("expected a field name, found {}", describe_end()), token_.column);
+      return false;
+    }
+    const std::optional<RecordField> field = resolve_record_field(token_.raw);
+    if (!field) {
+      set_error(fmt::format("unknown field '{}' (names: JSON keys, field ids, finding ids, see "
+                            "docs/reference.md)",
+                            token_.raw),
+                token_.column);
+      return false;
+    }
+    if ((field->kind == RecordField::Kind::finding_kind ||
+         field->kind == RecordField::Kind::finding_id) &&
+        finding_known_after_frame(field->finding_kind)) {
+      set_error(
+          fmt::format("'{}' is reported after its frame is shown: no filter sees it", token_.raw),
+          token_.column);
+      return false;
+    }
+    const RecordFieldNeeds needs = field->needs();
+    out_.needs_.detail = out_.needs_.detail || needs.detail;
+    out_.needs_.tree = out_.needs_.tree || needs.tree;
+    out_.fields_.push_back(*field);
+    DisplayFilter::Node n;
+    n.field = static_cast<std::uint32_t>(out_.fields_.size() - 1);
+    if (!advance()) return false;
+    bool negated_in = false;
+    if (token_.kind == Kind::not_) {  // "field not in {...}"
+      negated_in = true;
+      if (!advance()) return false;
+      if (!is_word("in")) {
+        set_error(fmt::format("expected 'in' after 'not', found {}", describe_end()),
+                  token_.column);
+        return false;
+      }
+    }
+    if (const std::optional<DisplayFilter::Compare> c = comparison(token_.kind)) {
+      const std::string op(token_.raw);
+      if (!advance()) return false;
+      n.op = DisplayFilter::Node::Op::compare;
+      n.compare = *c;
+      if (!parse_value(n.literal, op)) return false;
+    } else if (is_word("contains")) {
+      if (!advance()) return false;
+      if (token_.kind != Kind::string) {
+        set_error(fmt::format("expected a \"string\" after 'contains', found {}", describe_end()),
+                  token_.column);
+        return false;
+      }
+      n.op = DisplayFilter::Node::Op::contains;
+      if (!parse_value(n.literal, "contains")) return false;
+    } else if (is_word("in")) {
+      if (!advance()) return false;
+      n.op = DisplayFilter::Node::Op::in_set;
+      if (!parse_set(n)) return false;
+    } else if (is_word("matches")) {
+      set_error("'matches' (regular expressions) is not supported; use 'contains'", token_.column);
+      return false;
+    } else {
+      n.op = DisplayFilter::Node::Op::exists;
+    }
+    node = add(n);
+    if (negated_in) {
+      DisplayFilter::Node neg;
+      neg.op = DisplayFilter::Node::Op::negate;
+      neg.first = node;
+      node = add(neg);
+    }
+    return true;
+  }
+
+  static std::optional<DisplayFilter::Compare> comparison(Kind k) {
+    switch (k) {
+      case Kind::eq:
+        return DisplayFilter::Compare::eq;
+      case Kind::ne:
+        return DisplayFilter::Compare::ne;
+      case Kind::lt:
+        return DisplayFilter::Compare::lt;
+      case Kind::gt:
+        return DisplayFilter::Compare::gt;
+      case Kind::le:
+        return DisplayFilter::Compare::le;
+      case Kind::ge:
+        return DisplayFilter::Compare::ge;
+      default:
+        return std::nullopt;
+    }
+  }
+
+  // A number, a "string" or a bare word (a string: dir == request).
+  bool take_literal(DisplayFilter::Literal& lit, std::string_view after) {
+    switch (token_.kind) {
+      case Kind::number:
+        lit.is_number = true;
+        lit.number = token_.number;
+        break;
+      case Kind::string:
+        lit.text = token_.text;
+        break;
+      case Kind::word:
+        lit.text = std::string(token_.raw);
+        break;
+      default:
+        set_error(fmt::format("expected a value after '{}', found {}", after, describe_end()),
+                  token_.column);
+        return false;
+    }
+    return advance();
+  }
+
+  bool parse_value(std::uint32_t& literal, std::string_view after) {
+    DisplayFilter::Literal lit;
+    if (!take_literal(lit, after)) return false;
+    out_.literals_.push_back(std::move(lit));
+    literal = static_cast<std::uint32_t>(out_.literals_.size() - 1);
+    return true;
+  }
+
+  // {a b c}, {1, 2}, {1..5 "x"}
+  bool parse_set(DisplayFilter::Node& n) {
+    if (token_.kind != Kind::lbrace) {
+      set_error(fmt::format("expected '{{' after 'in', found {}", describe_end()), token_.column);
+      return false;
+    }
+    const std::size_t open = token_.column;
+    if (!advance()) return false;
+    n.literal = static_cast<std::uint32_t>(out_.literals_.size());
+    while (token_.kind != Kind::rbrace) {
+      if (token_.kind == Kind::end) {
+        set_error(fmt::format("expected '}}' for the '{{' at column {}", open), token_.column);
+        return false;
+      }
+      DisplayFilter::Literal lit;
+      if (!take_literal(lit, "in {")) return false;
+      if (token_.kind == Kind::range) {
+        if (!lit.is_number) {
+          set_error("a range needs numbers at both ends", token_.column);
+          return false;
+        }
+        if (!advance()) return false;
+        if (token_.kind != Kind::number) {
+          set_error(fmt::format("expected a number after '..', found {}", describe_end()),
+                    token_.column);
+          return false;
+        }
+        lit.is_range = true;
+        lit.high = token_.number;
+        if (!advance()) return false;
+      }
+      out_.literals_.push_back(std::move(lit));
+      if (token_.kind == Kind::comma && !advance()) return false;
+    }
+    n.count = static_cast<std::uint32_t>(out_.literals_.size()) - n.literal;
+    if (n.count == 0) {
+      set_error("an empty set matches nothing", open);
+      return false;
+    }
+    return advance();
+  }
+
+  std::string_view text_;
+  Lexer lexer_;
+  DisplayFilter& out_;
+  Token token_;
+  std::string error_;
+  std::size_t error_column_ = 1;
+};
+
+namespace {
+
+bool equal(const RecordValue& v, const DisplayFilter::Literal& lit) {
+  if (lit.is_range) return v.is_number && v.number >= lit.number && v.number <= lit.high;
+  if (lit.is_number != v.is_number) return false;
+  return lit.is_number ? v.number == lit.number : v.text == lit.text;
+}
+
+// Whether `v` stands in relation `c` to the literal (values of another type never do).
+bool holds(const RecordValue& v, DisplayFilter::Compare c, const DisplayFilter::Literal& lit) {
+  if (lit.is_number != v.is_number) return false;
+  int order = 0;
+  if (lit.is_number) {
+    order = v.number < lit.number ? -1 : v.number > lit.number ? 1 : 0;
+  } else {
+    const int cmp = v.text.compare(lit.text);
+    order = cmp < 0 ? -1 : cmp > 0 ? 1 : 0;
+  }
+  switch (c) {
+    case DisplayFilter::Compare::eq:
+      return order == 0;
+    case DisplayFilter::Compare::ne:
+      return order != 0;
+    case DisplayFilter::Compare::lt:
+      return order < 0;
+    case DisplayFilter::Compare::gt:
+      return order > 0;
+    case DisplayFilter::Compare::le:
+      return order <= 0;
+    case DisplayFilter::Compare::ge:
+      return order >= 0;
+  }
+  return false;
+}
+
+// The tests on a field's values: each stops at the first value that decides.
+struct AnyValue final : ValueVisitor {
+  bool visit(const RecordValue&) override { return true; }
+};
+struct AnyCompares final : ValueVisitor {
+  DisplayFilter::Compare compare;
+  const DisplayFilter::Literal* literal;
+  AnyCompares(DisplayFilter::Compare c, const DisplayFilter::Literal* l) : compare(c), literal(l) {}
+  bool visit(const RecordValue& v) override { return holds(v, compare, *literal); }
+};
+// For !=: remembers whether the field had a value at all; stops at one equal to the literal.
+struct AnyEqual final : ValueVisitor {
+  const DisplayFilter::Literal* literal;
+  bool seen = false;
+  explicit AnyEqual(const DisplayFilter::Literal* l) : literal(l) {}
+  bool visit(const RecordValue& v) override {
+    seen = true;
+    return holds(v, DisplayFilter::Compare::eq, *literal);
+  }
+};
+struct AnyContains final : ValueVisitor {
+  std::string_view needle;
+  explicit AnyContains(std::string_view n) : needle(n) {}
+  bool visit(const RecordValue& v) override {
+    return !v.is_number && v.text.find(needle) != std::string_view::npos;
+  }
+};
+struct AnyInSet final : ValueVisitor {
+  const DisplayFilter::Literal* first;
+  std::uint32_t count;
+  AnyInSet(const DisplayFilter::Literal* f, std::uint32_t c) : first(f), count(c) {}
+  bool visit(const RecordValue& v) override {
+    for (std::uint32_t i = 0; i < count; ++i)
+      if (equal(v, first[i])) return true;
+    return false;
+  }
+};
+
+}  // namespace
+
+std::optional<DisplayFilter> DisplayFilter::compile(std::string_view text, std::string* error) {
+  DisplayFilter f;
+  f.text_ = std::string(text);
+  FilterParser parser(f.text_, f);
+  if (!parser.parse(error)) return std::nullopt;
+  return f;
+}
+
+bool DisplayFilter::matches(const RecordView& record) const {
+  return eval(root_, record);
+}
+
+bool DisplayFilter::eval(std::uint32_t index, const RecordView& record) const {
+  const Node& n = nodes_[index];
+  switch (n.op) {
+    case Node::Op::all:
+      return eval(n.first, record) && eval(n.second, record);
+    case Node::Op::any:
+      return eval(n.first, record) || eval(n.second, record);
+    case Node::Op::negate:
+      return !eval(n.first, record);
+    case Node::Op::exists: {
+      AnyValue v;
+      return record_values(fields_[n.field], record, scratch_, v);
+    }
+    case Node::Op::compare: {
+      // Wireshark's !=: the field is there and none of its values is equal (!(a == b) for a
+      // field that is present); the other comparisons hold when any value does.
+      if (n.compare == Compare::ne) {
+        AnyEqual v(&literals_[n.literal]);
+        const bool equal_found = record_values(fields_[n.field], record, scratch_, v);
+        return v.seen && !equal_found;
+      }
+      AnyCompares v(n.compare, &literals_[n.literal]);
+      return record_values(fields_[n.field], record, scratch_, v);
+    }
+    case Node::Op::contains: {
+      AnyContains v(literals_[n.literal].text);
+      return record_values(fields_[n.field], record, scratch_, v);
+    }
+    case Node::Op::in_set: {
+      AnyInSet v(&literals_[n.literal], n.count);
+      return record_values(fields_[n.field], record, scratch_, v);
+    }
+  }
+  return false;
+}
+
+}  // namespace drivetap

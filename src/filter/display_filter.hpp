@@ -1,0 +1,64 @@
+// Display filters (-Y): tshark's filter syntax over drivetap's frame records (docs/reference.md
+// "Display filters"). compile() parses the text once into a small program whose field names are
+// resolved (src/filter/record_fields.hpp); matches() runs it on a record without allocating once
+// its scratch text has grown.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "filter/record_fields.hpp"
+
+namespace drivetap {
+
+class DisplayFilter {
+ public:
+  // The program of `text`, or nullopt with `error` set to one line saying what broke and where:
+  // "expected a value after '==' at column 6: addr == && x".
+  static std::optional<DisplayFilter> compile(std::string_view text, std::string* error);
+
+  // Whether the record passes the filter. Not thread-safe (scratch text).
+  [[nodiscard]] bool matches(const RecordView& record) const;
+
+  // What the pipeline must make for the filter to read its fields.
+  [[nodiscard]] const RecordFieldNeeds& needs() const { return needs_; }
+  [[nodiscard]] const std::string& text() const { return text_; }
+
+  enum class Compare : std::uint8_t { eq, ne, lt, gt, le, ge };
+  struct Literal {
+    bool is_number = false;
+    double number = 0;  // a number, or a range's low end
+    double high = 0;    // a range's high end (in a set only)
+    bool is_range = false;
+    std::string text;  // a string
+  };
+  struct Node {
+    enum class Op : std::uint8_t { exists, compare, contains, in_set, all, any, negate };
+    Op op = Op::exists;
+    Compare compare = Compare::eq;
+    std::uint32_t field = 0;  // index into fields_
+    // compare/contains: the literal; in_set: the first of `count` literals
+    std::uint32_t literal = 0;
+    std::uint32_t count = 0;
+    // all/any: the operands; negate: first
+    std::uint32_t first = 0;
+    std::uint32_t second = 0;
+  };
+
+ private:
+  friend class FilterParser;
+  bool eval(std::uint32_t node, const RecordView& record) const;
+
+  std::string text_;
+  std::vector<RecordField> fields_;
+  std::vector<Literal> literals_;
+  std::vector<Node> nodes_;
+  std::uint32_t root_ = 0;
+  RecordFieldNeeds needs_;
+  mutable std::string scratch_;
+};
+
+}  // namespace drivetap

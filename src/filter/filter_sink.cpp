@@ -1,0 +1,108 @@
+// The display filter's sink (src/filter/filter_sink.hpp).
+#include "filter/filter_sink.hpp"
+
+#include <utility>
+#include <vector>
+
+namespace drivetap {
+namespace {
+
+// Frames back that a later record can still find its selected frame in (a request's timeout
+// comes a second or so after it: a few hundred frames on a busy bus).
+constexpr std::size_t kRecentFrames = 1u << 16;
+
+}  // namespace
+
+DisplayFilterSink::DisplayFilterSink(DisplayFilter filter, Sink& inner,
+                                     const ChannelTable& channels, TimeNs character_time,
+                                     bool show_latency)
+    : filter_(std::move(filter)),
+      inner_(inner),
+      channels_(channels),
+      character_time_(character_time),
+      show_latency_(show_latency),
+      recent_selected_(kRecentFrames, 0) {}
+
+SinkNeeds DisplayFilterSink::needs() const {
+  SinkNeeds n = inner_.needs();
+  // Every frame comes here, decoded here: the filter reads its Message on this thread.
+  n.records = true;
+  n.detail = n.detail || filter_.needs().detail;
+  n.fields = (n.detail && n.fields) || filter_.needs().tree;
+  n.drive_info = false;
+  n.deferred_decode = false;
+  return n;
+}
+
+void DisplayFilterSink::release_events(std::uint64_t number, bool selected) {
+  if (held_events_.empty()) return;
+  for (const BusEvent& e : held_events_)
+    if (e.frame == number && selected) inner_.on_event(e);
+  std::erase_if(held_events_, [number](const BusEvent& e) { return e.frame <= number; });
+}
+
+void DisplayFilterSink::note(std::uint64_t number, bool selected) {
+  release_events(number, selected);
+  last_number_ = number;
+  ++records_;
+  recent_selected_[number % kRecentFrames] = selected ? number : 0;
+  if (selected) ++matched_;
+}
+
+bool DisplayFilterSink::selected(std::uint64_t number) const {
+  return number != 0 && recent_selected_[number % kRecentFrames] == number;
+}
+
+void DisplayFilterSink::on_frame(const Message& m) {
+  RecordView r;
+  r.message = &m;
+  r.channels = &channels_;
+  r.character_time = character_time_;
+  r.show_latency = show_latency_;
+  r.findings = m.anomalies;
+  const bool pass = filter_.matches(r);
+  note(m.frame.number, pass);
+  if (pass) inner_.on_frame(m);
+}
+
+void DisplayFilterSink::on_noise(const Frame& f) {
+  // The findings the pipeline reports with a noise record (in this order, after it).
+  noise_findings_.clear();
+  noise_findings_.push_back(
+      {AnomalyKind::noise, f.start(), f.channel, f.number, noise_detail(f.events)});
+  append_uart_anomalies(f.events, f.number, noise_findings_);
+  RecordView r;
+  r.noise = &f;
+  r.channels = &channels_;
+  r.character_time = character_time_;
+  r.show_latency = show_latency_;
+  r.findings = noise_findings_;
+  const bool pass = filter_.matches(r);
+  note(f.number, pass);
+  if (pass) inner_.on_noise(f);
+}
+
+void DisplayFilterSink::on_anomaly(const Anomaly& a) {
+  if (selected(a.frame_number)) inner_.on_anomaly(a);
+}
+
+void DisplayFilterSink::on_transaction(const Transaction& t) {
+  if (selected(t.request_number) || selected(t.response_number)) inner_.on_transaction(t);
+}
+
+void DisplayFilterSink::on_event(const BusEvent& e) {
+  if (e.frame > last_number_)
+    held_events_.push_back(e);
+  else if (selected(e.frame))
+    inner_.on_event(e);
+}
+
+void DisplayFilterSink::on_summary(const Stats& s) {
+  Stats with_filter = s;
+  with_filter.display_filter = filter_.text();
+  with_filter.filter_matched = matched_;
+  with_filter.filter_records = records_;
+  inner_.on_summary(with_filter);
+}
+
+}  // namespace drivetap

@@ -1,0 +1,57 @@
+// The display filter's sink (-Y): hands on to its inner sink only the frame and noise records a
+// DisplayFilter selects, with what belongs to them (docs/reference.md "Display filters"): their
+// findings, the transactions and the drive events of a selected frame. Records that belong to no
+// frame (protocol detection, a source's findings) are left out, as tshark -Y shows only packets.
+// The summary counts everything, and says how many records the filter selected.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "filter/display_filter.hpp"
+#include "sinks/sink.hpp"
+
+namespace drivetap {
+
+class DisplayFilterSink final : public Sink {
+ public:
+  // `show_latency`: the records have real times (as the JSON sink's).
+  DisplayFilterSink(DisplayFilter filter, Sink& inner, const ChannelTable& channels,
+                    TimeNs character_time, bool show_latency);
+
+  void on_frame(const Message& m) override;
+  void on_noise(const Frame& f) override;
+  void on_anomaly(const Anomaly& a) override;
+  void on_transaction(const Transaction& t) override;
+  void on_event(const BusEvent& e) override;
+  void on_summary(const Stats& s) override;
+  bool flush() override { return inner_.flush(); }
+  [[nodiscard]] SinkNeeds needs() const override;
+
+  [[nodiscard]] std::uint64_t matched() const { return matched_; }
+
+ private:
+  void note(std::uint64_t number, bool selected);
+  // Hands on the events held for frame `number` (those of a selected frame), before the frame as
+  // they came, and drops them.
+  void release_events(std::uint64_t number, bool selected);
+  [[nodiscard]] bool selected(std::uint64_t number) const;
+
+  DisplayFilter filter_;
+  Sink& inner_;
+  const ChannelTable& channels_;
+  TimeNs character_time_;
+  bool show_latency_;
+  // The numbers of the latest selected frames, each at its number modulo the size: a transaction
+  // or finding reported later (a timeout) finds its frame here. Fixed size: no allocation.
+  std::vector<std::uint64_t> recent_selected_;
+  std::vector<Anomaly> noise_findings_;  // a noise record's findings (storage reused)
+  // Events read from a frame not handed over yet (a drive bound by the frame that showed it):
+  // held until the filter has judged their frame.
+  std::vector<BusEvent> held_events_;
+  std::uint64_t last_number_ = 0;  // the latest frame or noise record judged
+  std::uint64_t matched_ = 0;
+  std::uint64_t records_ = 0;
+};
+
+}  // namespace drivetap

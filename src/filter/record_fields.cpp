@@ -1,0 +1,317 @@
+// Record fields: names resolved to what they read, and their values (src/filter/record_fields.hpp;
+// the JSON frame record of docs/formats.md).
+#include "filter/record_fields.hpp"
+
+#include <charconv>
+#include <cstring>
+#include <vector>
+
+#include "core/checksum.hpp"
+#include "core/format.hpp"
+#include "core/protocol_desc.hpp"
+#include "sinks/text_sink.hpp"
+
+namespace drivetap {
+namespace {
+
+struct KeyName {
+  std::string_view name;
+  RecordKey key;
+};
+
+constexpr KeyName kKeyNames[] = {
+    {"type", RecordKey::type},
+    {"n", RecordKey::n},
+    {"t", RecordKey::t},
+    {"t_end", RecordKey::t_end},
+    {"channel", RecordKey::channel},
+    {"dir", RecordKey::dir},
+    {"protocol", RecordKey::protocol},
+    {"addr", RecordKey::addr},
+    {"fc", RecordKey::fc},
+    {"hex", RecordKey::hex},
+    {"checksum", RecordKey::checksum},
+    {"checksum_stated", RecordKey::checksum_stated},
+    {"checksum_computed", RecordKey::checksum_computed},
+    {"exception", RecordKey::exception},
+    {"drive", RecordKey::drive},
+    {"latency_ms", RecordKey::latency_ms},
+    {"request_n", RecordKey::request_n},
+    {"gap_before_ms", RecordKey::gap_before_ms},
+    {"close", RecordKey::close},
+    {"summary", RecordKey::summary},
+    {"finding", RecordKey::finding},
+};
+
+std::vector<std::unique_ptr<RecordFieldSource>>& sources() {
+  static std::vector<std::unique_ptr<RecordFieldSource>> list;
+  return list;
+}
+
+std::string_view frame_close_id(FrameClose c) {
+  switch (c) {
+    case FrameClose::silence:
+      return "silence";
+    case FrameClose::content:
+      return "content";
+    case FrameClose::end_of_input:
+      return "end_of_input";
+  }
+  return "silence";
+}
+
+// Hands `visit` a number given as an integer.
+bool visit_int(std::int64_t v, std::string& scratch, ValueVisitor& visit) {
+  scratch.clear();
+  append_int(scratch, v);
+  return visit.visit({true, static_cast<double>(v), scratch});
+}
+
+// Hands `visit` a number given as its JSON text (decimals): the value is the text's, as a reader
+// of the JSON gets it.
+bool visit_decimal_text(std::string& scratch, ValueVisitor& visit) {
+  double v = 0;
+  std::from_chars(scratch.data(), scratch.data() + scratch.size(), v);
+  return visit.visit({true, v, scratch});
+}
+
+bool visit_string(std::string_view s, ValueVisitor& visit) {
+  return visit.visit({false, 0, s});
+}
+
+bool visit_time(TimeNs t, std::string& scratch, ValueVisitor& visit) {
+  scratch.clear();
+  append_record_time(scratch, t);
+  return visit_decimal_text(scratch, visit);
+}
+
+bool visit_ms(TimeNs t, std::string& scratch, ValueVisitor& visit) {
+  scratch.clear();
+  append_ms(scratch, t);
+  return visit_decimal_text(scratch, visit);
+}
+
+TimeNs end_time(const ByteEvents& events, TimeNs character_time) {
+  return events.empty() ? 0 : events.back().time + character_time;
+}
+
+bool noise_key_values(RecordKey key, const RecordView& r, std::string& scratch,
+                      ValueVisitor& visit) {
+  const Frame& f = *r.noise;
+  switch (key) {
+    case RecordKey::type:
+      return visit_string("noise", visit);
+    case RecordKey::n:
+      return visit_int(static_cast<std::int64_t>(f.number), scratch, visit);
+    case RecordKey::t:
+      return visit_time(f.start(), scratch, visit);
+    case RecordKey::t_end:
+      return visit_time(end_time(f.events, r.character_time), scratch, visit);
+    case RecordKey::channel:
+      return visit_string(r.channels->at(f.channel).name, visit);
+    case RecordKey::hex:
+      scratch.clear();
+      append_hex_bytes(scratch, f.events.bytes(), "");
+      return visit_string(scratch, visit);
+    default:
+      return false;
+  }
+}
+
+bool key_values(RecordKey key, const RecordView& r, std::string& scratch, ValueVisitor& visit) {
+  if (key == RecordKey::finding) {
+    for (const Anomaly& a : r.findings) {
+      if (a.finding && visit_string(a.finding->id, visit)) return true;
+      if (visit_string(anomaly_id(a.kind), visit)) return true;
+    }
+    return false;
+  }
+  if (r.noise) return noise_key_values(key, r, scratch, visit);
+  const Message& m = *r.message;
+  switch (key) {
+    case RecordKey::type:
+      return visit_string("frame", visit);
+    case RecordKey::n:
+      return visit_int(static_cast<std::int64_t>(m.frame.number), scratch, visit);
+    case RecordKey::t:
+      return visit_time(m.frame.start(), scratch, visit);
+    case RecordKey::t_end:
+      return visit_time(end_time(m.frame.events, r.character_time), scratch, visit);
+    case RecordKey::channel:
+      return visit_string(r.channels->at(m.frame.channel).name, visit);
+    case RecordKey::dir:
+      return visit_string(direction_id(m.direction), visit);
+    case RecordKey::protocol:
+      return visit_string(protocol_id(m.protocol), visit);
+    case RecordKey::addr:
+      return m.address >= 0 && visit_int(m.address, scratch, visit);
+    case RecordKey::fc:
+      return m.function >= 0 && visit_int(m.function, scratch, visit);
+    case RecordKey::hex:
+      scratch.clear();
+      append_hex_bytes(scratch, m.bytes, "");
+      return visit_string(scratch, visit);
+    case RecordKey::checksum:
+      return visit_string(to_string(m.checksum.verdict), visit);
+    case RecordKey::checksum_stated:
+    case RecordKey::checksum_computed:
+      if (m.checksum.verdict == ChecksumVerdict::none) return false;
+      scratch.clear();
+      append_wire_hex(
+          scratch,
+          key == RecordKey::checksum_stated ? m.checksum.stated_wire : m.checksum.computed_wire,
+          m.checksum.width, "");
+      return visit_string(scratch, visit);
+    case RecordKey::exception:
+      return m.is_exception && visit_int(m.exception_code, scratch, visit);
+    case RecordKey::drive:
+      return !m.drive_info.empty() && visit_string(m.drive_info, visit);
+    case RecordKey::latency_ms:
+      return m.request_number != 0 && m.latency >= 0 && r.show_latency &&
+             visit_ms(m.latency, scratch, visit);
+    case RecordKey::request_n:
+      return m.request_number != 0 &&
+             visit_int(static_cast<std::int64_t>(m.request_number), scratch, visit);
+    case RecordKey::gap_before_ms:
+      return m.frame.gap_before >= 0 && r.show_latency &&
+             visit_ms(m.frame.gap_before, scratch, visit);
+    case RecordKey::close:
+      return visit_string(frame_close_id(m.frame.close), visit);
+    case RecordKey::summary:
+      scratch.clear();
+      append_frame_summary(scratch, m, r.show_latency);
+      return visit_string(scratch, visit);
+    case RecordKey::finding:
+      return false;  // (above)
+  }
+  return false;
+}
+
+// A tree node's value as JSON has it: a number, or the hex of a bytes field, or a text.
+bool tree_values(const FieldDesc* key, const RecordView& r, std::string& scratch,
+                 ValueVisitor& visit) {
+  if (!r.message) return false;
+  const Message& m = *r.message;
+  for (const FieldNode& node : m.fields) {
+    if (node.desc->key() != key) continue;
+    bool stop = false;
+    switch (node.desc->type) {
+      case FieldType::text:
+        stop = visit_string(m.fields.text(node), visit);
+        break;
+      case FieldType::bytes:
+        scratch.clear();
+        append_field_bytes_hex(scratch, node, m.bytes, m.text_encoded);
+        stop = visit_string(scratch, visit);
+        break;
+      case FieldType::group:
+        stop = visit.visit({false, 0, {}});  // present, with no value of its own
+        break;
+      default:
+        stop = visit_int(node.value, scratch, visit);
+        break;
+    }
+    if (stop) return true;
+  }
+  return false;
+}
+
+}  // namespace
+
+void add_record_field_source(std::unique_ptr<RecordFieldSource> source) {
+  sources().push_back(std::move(source));
+}
+
+bool finding_known_after_frame(AnomalyKind kind) {
+  return kind == AnomalyKind::unanswered_request || kind == AnomalyKind::unsolicited_response ||
+         kind == AnomalyKind::packet_split_frame || kind == AnomalyKind::packet_merged_frames;
+}
+
+RecordFieldNeeds RecordField::needs() const {
+  RecordFieldNeeds n;
+  switch (kind) {
+    case Kind::key:
+      n.detail = key == RecordKey::summary || key == RecordKey::drive;
+      break;
+    case Kind::tree:
+      n.detail = n.tree = true;
+      break;
+    case Kind::source:
+      n = source->needs(slot);
+      break;
+    default:
+      break;
+  }
+  return n;
+}
+
+std::optional<RecordField> resolve_record_field(std::string_view name) {
+  RecordField f;
+  for (const KeyName& k : kKeyNames)
+    if (k.name == name) {
+      f.kind = RecordField::Kind::key;
+      f.key = k.key;
+      f.name = k.name;
+      return f;
+    }
+  for (const FieldDesc* d : all_field_descriptors())
+    if (d->id == name) {
+      f.kind = RecordField::Kind::tree;
+      f.desc = d->key();
+      f.name = d->id;
+      return f;
+    }
+  for (const ProtocolDesc* p : registered_protocols())
+    for (const FindingDesc* d : p->findings)
+      if (name == d->id) {
+        f.kind = RecordField::Kind::finding_id;
+        f.finding_id = d->id;
+        f.finding_kind = d->kind;
+        f.name = d->id;
+        return f;
+      }
+  for (std::size_t k = 0; k < kAnomalyKindCount; ++k)
+    if (name == anomaly_id(static_cast<AnomalyKind>(k))) {
+      f.kind = RecordField::Kind::finding_kind;
+      f.finding_kind = static_cast<AnomalyKind>(k);
+      f.name = anomaly_id(f.finding_kind);
+      return f;
+    }
+  for (const auto& source : sources())
+    if (const std::optional<int> slot = source->resolve(name)) {
+      f.kind = RecordField::Kind::source;
+      f.source = source.get();
+      f.slot = *slot;
+      return f;
+    }
+  return std::nullopt;
+}
+
+bool record_values(const RecordField& field, const RecordView& record, std::string& scratch,
+                   ValueVisitor& visit) {
+  switch (field.kind) {
+    case RecordField::Kind::key:
+      return key_values(field.key, record, scratch, visit);
+    case RecordField::Kind::tree:
+      return tree_values(field.desc, record, scratch, visit);
+    case RecordField::Kind::finding_kind:
+      for (const Anomaly& a : record.findings)
+        if (a.kind == field.finding_kind && visit_string(a.detail, visit)) return true;
+      return false;
+    case RecordField::Kind::finding_id:
+      for (const Anomaly& a : record.findings)
+        if (a.finding && std::strcmp(a.finding->id, field.finding_id) == 0 &&
+            visit_string(a.detail, visit))
+          return true;
+      return false;
+    case RecordField::Kind::source:
+      return field.source->values(field.slot, record, scratch, visit);
+  }
+  return false;
+}
+
+void append_record_time(std::string& out, TimeNs t) {
+  append_seconds(out, t, 9);
+}
+
+}  // namespace drivetap

@@ -1,0 +1,133 @@
+// Record fields: the names a display filter (-Y) and `-T fields -e` read of a frame or noise
+// record, and their values (docs/reference.md "Display filters"; the JSON frame record of
+// docs/formats.md). A name is resolved once, when the filter or the field list is parsed, to a
+// RecordField; values are then read without a string lookup and without allocating.
+//
+// Names, in the order they are tried: the JSON record's keys (n, t, addr, summary, ...), `finding`
+// (every finding id of the frame) and `drive` (the drive annotation), the field tree's ids
+// (all_field_descriptors), the findings' ids (the protocols' typed ids and the generic kinds), and
+// last the names of the sources added with add_record_field_source (the drive layer's `drive.*`).
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+#include <string_view>
+
+#include "core/anomaly.hpp"
+#include "core/byte_event.hpp"
+#include "core/field.hpp"
+#include "core/frame.hpp"
+#include "core/message.hpp"
+
+namespace drivetap {
+
+// One frame or noise record as the filter sees it.
+struct RecordView {
+  const Message* message = nullptr;  // a telegram; or
+  const Frame* noise = nullptr;      // a noise record
+  const ChannelTable* channels = nullptr;
+  TimeNs character_time = 0;  // t_end: the last byte's start plus one character
+  bool show_latency = true;   // false (decode): latency_ms and gap_before_ms are null, as in JSON
+  // The findings handed over with the record (a telegram's Message::anomalies; for noise, the
+  // noise finding and its UART marks).
+  std::span<const Anomaly> findings;
+};
+
+// One value of a field: a number (its JSON text in `text`) or a string.
+struct RecordValue {
+  bool is_number = false;
+  double number = 0;
+  std::string_view text;
+};
+
+// Called for each value of a field; returns true to stop (a match was found).
+class ValueVisitor {
+ public:
+  virtual bool visit(const RecordValue& value) = 0;
+
+ protected:
+  ~ValueVisitor() = default;
+};
+
+// What reading a field costs the pipeline (folded into the filter sink's SinkNeeds).
+struct RecordFieldNeeds {
+  bool detail = false;  // Message::detail: the info line (summary) or the drive annotation
+  bool tree = false;    // Message::tree: the field tree
+};
+
+// A source of fields beyond the record and the field tree, such as the drive layer's `drive.*`
+// values: resolves its names to slots once, then gives a slot's values for a record.
+class RecordFieldSource {
+ public:
+  virtual ~RecordFieldSource() = default;
+  // The slot of `name`, or nullopt when the name is not this source's.
+  [[nodiscard]] virtual std::optional<int> resolve(std::string_view name) const = 0;
+  [[nodiscard]] virtual RecordFieldNeeds needs(int slot) const = 0;
+  // visit() of each value of `slot` in `record`, until one returns true; true when one did.
+  virtual bool values(int slot, const RecordView& record, std::string& scratch,
+                      ValueVisitor& visit) const = 0;
+};
+
+// Adds a source that names are looked up in after the built-in ones (not thread-safe: at start-up).
+void add_record_field_source(std::unique_ptr<RecordFieldSource> source);
+
+// The keys of the JSON frame and noise records a filter can read.
+enum class RecordKey : std::uint8_t {
+  type,
+  n,
+  t,
+  t_end,
+  channel,
+  dir,
+  protocol,
+  addr,
+  fc,
+  hex,
+  checksum,
+  checksum_stated,
+  checksum_computed,
+  exception,
+  drive,
+  latency_ms,
+  request_n,
+  gap_before_ms,
+  close,
+  summary,
+  finding,  // not a JSON key: each finding id of the frame (typed id and generic kind)
+};
+
+// A name resolved: what it reads.
+struct RecordField {
+  enum class Kind : std::uint8_t { key, tree, finding_kind, finding_id, source };
+  Kind kind = Kind::key;
+  RecordKey key = RecordKey::n;
+  const FieldDesc* desc = nullptr;   // tree: the listed descriptor (FieldDesc::key)
+  AnomalyKind finding_kind{};        // finding_kind
+  const char* finding_id = nullptr;  // finding_id: a protocol's typed id
+  const RecordFieldSource* source = nullptr;
+  int slot = 0;
+  std::string_view name;  // as resolved (static storage)
+
+  [[nodiscard]] RecordFieldNeeds needs() const;
+};
+
+// The field `name` names, or nullopt.
+std::optional<RecordField> resolve_record_field(std::string_view name);
+
+// Findings reported after their frame was handed on (the conversation's and the capture packets'):
+// no filter can see them with the frame, so naming them is refused.
+bool finding_known_after_frame(AnomalyKind kind);
+
+// visit() of each value of `field` in `record` until one returns true; true when one did. Numbers
+// come with their JSON text; text is written into `scratch` where it is made (hex, summary).
+bool record_values(const RecordField& field, const RecordView& record, std::string& scratch,
+                   ValueVisitor& visit);
+
+// The record time as -T fields and the filter's `t` show it: seconds, 9 decimals (JSON's `t`).
+// The one place to change when other time formats come.
+void append_record_time(std::string& out, TimeNs t);
+
+}  // namespace drivetap

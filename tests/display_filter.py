@@ -1,0 +1,427 @@
+#!/usr/bin/env python3
+# Display filters (-Y) and -T fields checked against an independent evaluation: this script
+# implements the filter language (docs/reference.md "Display filters") over the records of
+# `drivetap read -T json` and compares the frames it selects with `drivetap read -Y F -T json`;
+# it parses `-T fields -E separator=, -E quote=d` output with the csv module and compares it with
+# the JSON records; bad filters must exit 2 with one line naming the column; a filtered --stats
+# summary must count what the unfiltered one counts.
+# Usage: display_filter.py DRIVETAP SOURCE_DIR
+import csv
+import glob
+import io
+import json
+import os
+import re
+import subprocess
+import sys
+import tempfile
+
+DRIVETAP, SOURCE = sys.argv[1], sys.argv[2]
+FAILURES = []
+
+# Findings the pipeline reports after their frame was handed on: not the frame's for a filter.
+LATER = {"unanswered_request", "unsolicited_response", "packet_split_frame", "packet_merged_frames"}
+
+
+def fail(msg):
+    FAILURES.append(msg)
+    print("FAIL:", msg)
+
+
+def run(args, stdin=None):
+    p = subprocess.run([DRIVETAP] + args, capture_output=True, text=True, input=stdin)
+    return p.returncode, p.stdout, p.stderr
+
+
+# ---- the records: each frame/noise record with its values by name --------------------------
+
+
+def records_of(json_text):
+    out = []
+    for line in json_text.splitlines():
+        r = json.loads(line)
+        if r["type"] in ("frame", "noise"):
+            r["_findings"] = []
+            out.append(r)
+        elif r["type"] == "anomaly" and out and r["frame"] == out[-1]["n"] and r["kind"] not in LATER:
+            out[-1]["_findings"].append(r)
+    return out
+
+
+def values(rec, name):
+    """The values of `name` in a record: a list of numbers (int/float) and strings."""
+    if name == "finding":
+        return [a["kind"] for a in rec["_findings"]]
+    kinds = [a for a in rec["_findings"] if a["kind"] == name]
+    if kinds:
+        return [a["detail"] for a in kinds]
+    if name in rec and not name.startswith("_") and name != "fields":
+        v = rec[name]
+        return [] if v is None else [v]
+    v = rec.get("fields", {}).get(name)
+    if v is None:
+        return []
+    return v if isinstance(v, list) else [v]
+
+
+# ---- the filter language, independently -----------------------------------------------------
+
+TOKEN = re.compile(
+    r"\s*(?:(?P<str>\"(?:[^\"\\]|\\.)*\")|(?P<num>-?(?:0[xX][0-9a-fA-F]+|\d+(?:\.\d+(?!\.))?))"
+    r"|(?P<op>==|!=|<=|>=|&&|\|\||\.\.|[<>!(){},])|(?P<word>[A-Za-z_][A-Za-z0-9_.\-]*))"
+)
+WORD_OPS = {"eq": "==", "ne": "!=", "lt": "<", "gt": ">", "le": "<=", "ge": ">=",
+            "and": "&&", "or": "||", "not": "!"}
+
+
+def tokens(text):
+    pos, out = 0, []
+    while pos < len(text):
+        m = TOKEN.match(text, pos)
+        if not m or m.end() == pos:
+            if text[pos:].strip() == "":
+                break
+            raise ValueError("lex error at %d" % pos)
+        pos = m.end()
+        if m.group("str"):
+            s = m.group("str")[1:-1]
+            out.append(("str", re.sub(r"\\(.)", r"\1", s)))
+        elif m.group("num"):
+            t = m.group("num")
+            neg = t.startswith("-")
+            t = t.lstrip("-")
+            v = int(t, 16) if t.lower().startswith("0x") else (float(t) if "." in t else int(t))
+            out.append(("num", -v if neg else v))
+        elif m.group("op"):
+            out.append(("op", m.group("op")))
+        else:
+            w = m.group("word")
+            out.append(("op", WORD_OPS[w]) if w in WORD_OPS else ("word", w))
+    out.append(("end", None))
+    return out
+
+
+def parse(text):
+    toks, i = tokens(text), [0]
+
+    def peek():
+        return toks[i[0]]
+
+    def take():
+        t = toks[i[0]]
+        i[0] += 1
+        return t
+
+    def literal():
+        k, v = take()
+        if k == "num":
+            return ("num", v)
+        if k in ("str", "word"):
+            return ("str", v)
+        raise ValueError("value expected")
+
+    def primary():
+        if peek() == ("op", "("):
+            take()
+            e = orexpr()
+            assert take() == ("op", ")")
+            return e
+        k, name = take()
+        assert k == "word"
+        t = peek()
+        if t[0] == "op" and t[1] in ("==", "!=", "<", ">", "<=", ">="):
+            take()
+            return ("cmp", name, t[1], literal())
+        if t == ("word", "contains"):
+            take()
+            return ("contains", name, literal()[1])
+        neg = False
+        if t == ("op", "!"):
+            take()
+            neg = True
+            t = peek()
+        if t == ("word", "in"):
+            take()
+            assert take() == ("op", "{")
+            members = []
+            while peek() != ("op", "}"):
+                lo = literal()
+                if peek() == ("op", ".."):
+                    take()
+                    hi = literal()
+                    members.append(("range", lo[1], hi[1]))
+                else:
+                    members.append(lo)
+                if peek() == ("op", ","):
+                    take()
+            take()
+            e = ("in", name, members)
+            return ("not", e) if neg else e
+        return ("exists", name)
+
+    def notexpr():
+        if peek() == ("op", "!"):
+            take()
+            return ("not", notexpr())
+        return primary()
+
+    def andexpr():
+        e = notexpr()
+        while peek() == ("op", "&&"):
+            take()
+            e = ("and", e, notexpr())
+        return e
+
+    def orexpr():
+        e = andexpr()
+        while peek() == ("op", "||"):
+            take()
+            e = ("or", e, andexpr())
+        return e
+
+    e = orexpr()
+    assert peek()[0] == "end"
+    return e
+
+
+def is_num(v):
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
+def same_type(v, lit):
+    return is_num(v) == (lit[0] == "num")
+
+
+def evaluate(e, rec):
+    op = e[0]
+    if op == "and":
+        return evaluate(e[1], rec) and evaluate(e[2], rec)
+    if op == "or":
+        return evaluate(e[1], rec) or evaluate(e[2], rec)
+    if op == "not":
+        return not evaluate(e[1], rec)
+    vals = values(rec, e[1])
+    if op == "exists":
+        return len(vals) > 0
+    if op == "contains":
+        return any(isinstance(v, str) and e[2] in v for v in vals)
+    if op == "in":
+        def member(v, m):
+            if m[0] == "range":
+                return is_num(v) and m[1] <= v <= m[2]
+            return same_type(v, m) and v == m[1]
+        return any(member(v, m) for v in vals for m in e[2])
+    _, _, rel, lit = e
+    eq = [v for v in vals if same_type(v, lit) and v == lit[1]]
+    if rel == "==":
+        return len(eq) > 0
+    if rel == "!=":
+        return len(vals) > 0 and not eq
+    cmp = {"<": lambda a, b: a < b, ">": lambda a, b: a > b,
+           "<=": lambda a, b: a <= b, ">=": lambda a, b: a >= b}[rel]
+    return any(same_type(v, lit) and cmp(v, lit[1]) for v in vals)
+
+
+# ---- the inputs ----------------------------------------------------------------------------
+
+
+def inputs(tmp):
+    out = []
+    for d in sorted(glob.glob(os.path.join(SOURCE, "captures", "*", ""))):
+        found = [f for f in glob.glob(d + "input.*") if not f.endswith(".hex")]
+        if not found:
+            continue
+        args = []
+        if os.path.exists(d + "args"):
+            args = open(d + "args").read().split()
+        out.append((args, found[0]))
+    for seed, mix in ((3, "all"), (5, "modbus-rtu")):
+        path = os.path.join(tmp, "gen%d.pcapng" % seed)
+        code, _, err = run(["generate", "--frames", "3000", "--seed", str(seed), "--mix", mix,
+                            "-w", path])
+        if code != 0:
+            fail("generate: " + err)
+            continue
+        out.append(([], path))
+    return out
+
+
+STATIC_FILTERS = [
+    "addr == 2", "addr != 2", "addr eq 1 or addr eq 3", "addr in {1 2 3}", "addr in {1..5}",
+    "addr in {2, 4..6}", "addr not in {1 2}", "fc == 0x03", "fc >= 16", "fc lt 5", "fc le 3",
+    "checksum == \"bad\"", "checksum == good", "checksum_bad", "addr == 2 && checksum_bad",
+    "!checksum_bad", "not (addr == 1 or addr == 2)", "dir == \"response\" and latency_ms > 5",
+    "latency_ms <= 12.5", "gap_before_ms > 50.0", "t > 0.5 && t < 2", "t_end >= 1.25",
+    "summary contains \"exception\"", "hex contains \"0203\"", "drive contains \"fault\"",
+    "drive", "finding == \"noise\"", "noise", "protocol == \"modbus-rtu\"",
+    "protocol != modbus-rtu", "type == \"noise\"", "request_n", "exception", "exception == 2",
+    "n in {1 3 5..9}", "addr == 1 || addr == 2 && fc == 3", "(addr == 1 || addr == 2) && fc == 3",
+    "!addr == 1", "! ! checksum", "finding", "finding contains \"gap\"", "short_interframe_gap",
+    "malformed || implausible", "channel == \"bus\"", "close == content", "checksum_stated",
+    "n > 10 && n <= 40", "n >= -1", "checksum < \"good\"",
+]
+
+
+def tree_filters(recs):
+    """Filters on field-tree ids seen in the records, values taken from them (generic: no id is
+    named here)."""
+    out, seen = [], set()
+    for r in recs:
+        for k, v in r.get("fields", {}).items():
+            if k in seen:
+                continue
+            if isinstance(v, list) and len(v) > 1:
+                seen.add(k)
+                out += ["%s == %d" % (k, v[1]), "%s != %d" % (k, v[1]), "%s > %d" % (k, v[-1])]
+            elif isinstance(v, int) and not isinstance(v, list):
+                seen.add(k)
+                out += [k, "%s == %d" % (k, v), "%s >= %d && addr != 1" % (k, v)]
+            elif isinstance(v, str) and v:
+                seen.add(k)
+                out += ["%s == \"%s\"" % (k, v), "%s contains \"%s\"" % (k, v[:2])]
+    return out[:45]
+
+
+def check_filters(args, path, recs, events):
+    filters = STATIC_FILTERS + tree_filters(recs)
+    for f in filters:
+        expr = parse(f)
+        want = [r["n"] for r in recs if evaluate(expr, r)]
+        code, out, err = run(["read"] + args + ["-T", "json", "-Y", f, path])
+        if code != 0:
+            fail("%s -Y %r: exit %d: %s" % (path, f, code, err.strip()))
+            continue
+        got = [json.loads(l) for l in out.splitlines()]
+        got_n = [r["n"] for r in got if r["type"] in ("frame", "noise")]
+        if got_n != want:
+            fail("%s -Y %r: selected %s..., expected %s..." % (path, f, got_n[:8], want[:8]))
+        # What belongs to the selected frames, and nothing else.
+        picked = set(got_n)
+        for r in got:
+            if r["type"] == "anomaly" and r["frame"] not in picked:
+                fail("%s -Y %r: anomaly of unselected frame %s" % (path, f, r["frame"]))
+            if r["type"] == "transaction" and r["request_n"] not in picked and \
+                    r["response_n"] not in picked:
+                fail("%s -Y %r: transaction of unselected frames" % (path, f))
+        # The events read from the selected frames, every one of them.
+        want_events = [e for e in events if e.get("frame") in set(want)]
+        got_events = [r for r in got if r["type"] == "event"]
+        if got_events != want_events:
+            fail("%s -Y %r: %d events, expected %d" % (path, f, len(got_events), len(want_events)))
+        summary = [r for r in got if r["type"] == "summary"]
+        if not summary or summary[-1].get("filter", {}).get("matched") != len(want):
+            fail("%s -Y %r: summary's filter count wrong: %s" % (path, f, summary[-1:]))
+    return len(filters)
+
+
+def check_stats(args, path):
+    f = "addr == 2 && checksum_bad"
+    _, plain, _ = run(["read"] + args + ["--stats", "-T", "json", path])
+    code, filtered, err = run(["read"] + args + ["--stats", "-T", "json", "-Y", f, path])
+    a, b = json.loads(plain.splitlines()[-1]), json.loads(filtered.splitlines()[-1])
+    filt = b.pop("filter", None)
+    if code != 0 or a != b or filt is None or filt["text"] != f:
+        fail("%s: --stats -Y counts differ from --stats: %s / %s" % (path, a, b))
+    _, text, _ = run(["read"] + args + ["--stats", "-Y", f, path])
+    if "filter:       -Y 'addr == 2 && checksum_bad' matched" not in text:
+        fail("%s: text summary has no filter line" % path)
+
+
+def check_fields(args, path, recs):
+    tree_ids = []
+    for r in recs:
+        for k in r.get("fields", {}):
+            if k not in tree_ids:
+                tree_ids.append(k)
+    names = ["n", "t", "t_end", "channel", "dir", "protocol", "addr", "fc", "hex", "checksum",
+             "exception", "drive", "latency_ms", "request_n", "gap_before_ms", "close", "summary",
+             "finding"] + tree_ids[:12]
+    cmd = ["read"] + args + ["-T", "fields", "-E", "separator=,", "-E", "quote=d", "-E",
+                             "header=y", "-E", "aggregator=;"]
+    for n in names:
+        cmd += ["-e", n]
+    code, out, err = run(cmd + [path])
+    if code != 0:
+        fail("%s -T fields: exit %d %s" % (path, code, err))
+        return
+    rows = list(csv.reader(io.StringIO(out)))
+    if not rows:
+        fail("%s -T fields: no output" % path)
+        return
+    if rows[0] != names:
+        fail("%s -T fields header %s" % (path, rows[0]))
+    if len(rows) - 1 != len(recs):
+        fail("%s -T fields: %d lines for %d records" % (path, len(rows) - 1, len(recs)))
+        return
+    for row, r in zip(rows[1:], recs):
+        for name, cell in zip(names, row):
+            want = values(r, name)
+            got = cell.split(";") if cell != "" else []
+            if name == "finding":
+                got = [g for g in got if "." not in g]  # typed ids are not in the JSON
+            ok = len(got) == len(want) and all(
+                (float(g) == float(w)) if is_num(w) else g == w for g, w in zip(got, want))
+            if name in ("summary", "drive") and len(want) == 1:
+                ok = cell == want[0]  # may hold the aggregator
+            if not ok:
+                fail("%s -T fields n=%s %s: %r, JSON %r" % (path, r["n"], name, cell, want))
+                return
+    # occurrence=f / l on a multi-valued id, tab separator, no quotes
+    multi = [k for r in recs for k, v in r.get("fields", {}).items() if isinstance(v, list)]
+    if multi:
+        k = multi[0]
+        for occ, pick in (("f", 0), ("l", -1)):
+            _, out, _ = run(["read"] + args + ["-T", "fields", "-e", "n", "-e", k, "-E",
+                                              "occurrence=" + occ, path])
+            for line, r in zip(out.splitlines(), recs):
+                n, cell = line.split("\t")
+                v = r.get("fields", {}).get(k)
+                want = "" if v is None else str(v[pick] if isinstance(v, list) else v)
+                if cell != want:
+                    fail("%s occurrence=%s %s n=%s: %r, want %r" % (path, occ, k, n, cell, want))
+                    break
+
+
+BAD = [
+    ("addr == && x", 9), ("addr ==", 8), ("(addr == 1", 11), ("nosuchfield == 1", 1),
+    ("addr = 1", 6), ("addr == 1 &", 11), ("addr in {1 2", 13), ("summary contains 3", 18),
+    ("addr == 1)", 10), ("\"unterminated", 1), ("addr == 0xZZ", 9), ("unanswered_request", 1),
+    ("addr in {}", 9), ("addr in {\"a\"..3}", 13), ("addr matches \"x\"", 6),
+    ("&& addr", 1), ("addr == 1 or", 13),
+]
+
+
+def check_bad(path):
+    for f, column in BAD:
+        code, out, err = run(["read", "-Y", f, path])
+        lines = err.strip().splitlines()
+        if code != 2 or len(lines) != 1 or not lines[0].startswith("drivetap: -Y: ") or \
+                ("at column %d:" % column) not in lines[0] or out:
+            fail("-Y %r: exit %d, stderr %r (want exit 2, one line, column %d)" %
+                 (f, code, err, column))
+
+
+def main():
+    total = 0
+    with tempfile.TemporaryDirectory() as tmp:
+        for args, path in inputs(tmp):
+            code, out, err = run(["read"] + args + ["-T", "json", path])
+            if code != 0:
+                continue  # (inputs that are refused are the golden tests' business)
+            recs = records_of(out)
+            events = [json.loads(l) for l in out.splitlines() if l.startswith('{"type":"event"')]
+            total += check_filters(args, path, recs, events)
+            check_stats(args, path)
+            check_fields(args, path, recs)
+        check_bad(os.path.join(SOURCE, "captures", "seed-erman-e9", "input.log"))
+        # decode takes -Y too
+        code, out, _ = run(["decode", "-T", "json", "-Y", "fc == 3",
+                            "01 03 00 00 00 01 84 0A", "01 06 00 01 00 03 98 0B"])
+        frames = [json.loads(l) for l in out.splitlines() if '"type":"frame"' in l]
+        if code != 0 or [f["fc"] for f in frames] != [3]:
+            fail("decode -Y: %s" % out)
+    print("%d filter runs compared, %d failures" % (total, len(FAILURES)))
+    sys.exit(1 if FAILURES else 0)
+
+
+main()

@@ -1,0 +1,291 @@
+// Display filters (-Y): parse errors with their column, precedence, each operator, fields with
+// several values, strings, contains and sets, findings, the names' needs, an added name source
+// (docs/reference.md "Display filters").
+#include <gtest/gtest.h>
+
+#include <memory>
+#include <string>
+
+#include "core/protocol_desc.hpp"
+#include "filter/display_filter.hpp"
+
+using namespace drivetap;
+
+namespace {
+
+// The first listed descriptor of `type`: the tests name fields generically, as the filter does.
+const FieldDesc* listed(FieldType type) {
+  for (const FieldDesc* d : all_field_descriptors())
+    if (d->type == type) return d;
+  return nullptr;
+}
+
+struct Record {
+  ChannelTable channels;
+  Message m;
+  Record() {
+    m.frame.channel = channels.intern("bus");
+    m.frame.number = 7;
+    m.address = 2;
+    m.function = 3;
+    m.direction = Direction::request;
+    m.protocol = Protocol(registered_protocols().front());
+    m.bytes = {0x02, 0x03, 0x00, 0x10};
+    m.checksum.verdict = ChecksumVerdict::bad;
+  }
+  [[nodiscard]] RecordView view() const {
+    RecordView r;
+    r.message = &m;
+    r.channels = &channels;
+    r.findings = m.anomalies;
+    return r;
+  }
+};
+
+bool passes(const std::string& filter, const Record& record) {
+  std::string error;
+  const std::optional<DisplayFilter> f = DisplayFilter::compile(filter, &error);
+  EXPECT_TRUE(f.has_value()) << filter << ": " << error;
+  return f && f->matches(record.view());
+}
+
+std::string error_of(const std::string& filter) {
+  std::string error;
+  EXPECT_FALSE(DisplayFilter::compile(filter, &error).has_value()) << filter;
+  return error;
+}
+
+}  // namespace
+
+TEST(DisplayFilter, ParseErrorsSayWhereWithTheFilter) {
+  EXPECT_EQ(error_of("addr == && x"),
+            "expected a value after '==', found '&&' at column 9: addr == && x");
+  EXPECT_EQ(error_of("addr =="), "expected a value after '==', found the end at column 8: addr ==");
+  EXPECT_NE(error_of("(addr == 1").find("expected ')' for the '(' at column 1"), std::string::npos);
+  EXPECT_NE(error_of("(addr == 1").find("at column 11"), std::string::npos);
+  EXPECT_NE(error_of("nosuch == 1").find("unknown field 'nosuch'"), std::string::npos);
+  EXPECT_NE(error_of("addr = 1").find("at column 6"), std::string::npos);
+  EXPECT_NE(error_of("addr == 1 &").find("at column 11"), std::string::npos);
+  EXPECT_NE(error_of("addr in {1 2").find("at column 13"), std::string::npos);
+  EXPECT_NE(error_of("addr in {}").find("at column 9"), std::string::npos);
+  EXPECT_NE(error_of("summary contains 3").find("at column 18"), std::string::npos);
+  EXPECT_NE(error_of("addr == 1)").find("unexpected ')' at column 10"), std::string::npos);
+  EXPECT_NE(error_of("\"open").find("unterminated string at column 1"), std::string::npos);
+  EXPECT_NE(error_of("addr == 0xZZ").find("at column 9"), std::string::npos);
+  EXPECT_NE(error_of("addr == 12ab").find("bad number at column 9"), std::string::npos);
+  EXPECT_NE(error_of("addr in {\"a\"..3}").find("at column 13"), std::string::npos);
+  EXPECT_NE(error_of("addr matches \"x\"").find("not supported"), std::string::npos);
+  EXPECT_NE(error_of("&& addr").find("expected a field name, found '&&' at column 1"),
+            std::string::npos);
+  EXPECT_NE(error_of("addr not 3").find("expected 'in' after 'not'"), std::string::npos);
+  // A finding reported after its frame: refused, not a filter that never matches.
+  EXPECT_NE(error_of("addr == 2 || unanswered_request").find("reported after its frame"),
+            std::string::npos);
+}
+
+TEST(DisplayFilter, AndBindsTighterThanOrAndNotTighterThanBoth) {
+  const Record r;  // addr 2, fc 3
+  EXPECT_TRUE(passes("addr == 2 || addr == 9 && fc == 9", r));
+  EXPECT_FALSE(passes("(addr == 2 || addr == 9) && fc == 9", r));
+  EXPECT_TRUE(passes("fc == 9 && addr == 9 || addr == 2", r));
+  EXPECT_FALSE(passes("!addr == 2 && fc == 3", r));
+  EXPECT_TRUE(passes("!(addr == 2 && fc == 9)", r));
+  EXPECT_TRUE(passes("not not addr == 2", r));
+  EXPECT_TRUE(passes("addr == 1 or addr == 2 and fc == 3", r));
+}
+
+TEST(DisplayFilter, EachComparisonInSymbolsAndWords) {
+  const Record r;
+  EXPECT_TRUE(passes("addr == 2", r));
+  EXPECT_TRUE(passes("addr eq 2", r));
+  EXPECT_FALSE(passes("addr != 2", r));
+  EXPECT_TRUE(passes("addr ne 3", r));
+  EXPECT_TRUE(passes("addr < 3", r));
+  EXPECT_TRUE(passes("addr lt 3", r));
+  EXPECT_FALSE(passes("addr < 2", r));
+  EXPECT_TRUE(passes("addr <= 2", r));
+  EXPECT_TRUE(passes("addr le 2", r));
+  EXPECT_TRUE(passes("addr > 1", r));
+  EXPECT_TRUE(passes("addr gt 1", r));
+  EXPECT_TRUE(passes("addr >= 2", r));
+  EXPECT_TRUE(passes("addr ge 2", r));
+  EXPECT_FALSE(passes("addr >= 2.5", r));
+  EXPECT_TRUE(passes("fc == 0x03", r));
+  EXPECT_TRUE(passes("addr > -1", r));
+  EXPECT_TRUE(passes("n == 7", r));
+  // A value of another type never compares: a string to a number, a number to a string.
+  EXPECT_FALSE(passes("addr == \"2\"", r));
+  EXPECT_FALSE(passes("dir == 1", r));
+}
+
+TEST(DisplayFilter, AbsentFieldsMatchNoComparisonAndTestExistence) {
+  Record r;
+  r.m.address = -1;  // JSON null
+  EXPECT_FALSE(passes("addr", r));
+  EXPECT_FALSE(passes("addr == 2", r));
+  EXPECT_FALSE(passes("addr != 2", r));  // as Wireshark: no value, no comparison holds
+  EXPECT_TRUE(passes("!addr", r));
+  EXPECT_TRUE(passes("fc", r));
+  EXPECT_FALSE(passes("latency_ms", r));
+  EXPECT_FALSE(passes("exception", r));
+  r.m.is_exception = true;
+  r.m.exception_code = 2;
+  EXPECT_TRUE(passes("exception == 2", r));
+}
+
+TEST(DisplayFilter, StringsContainsAndBareWords) {
+  const Record r;
+  EXPECT_TRUE(passes("dir == \"request\"", r));
+  EXPECT_TRUE(passes("dir == request", r));
+  EXPECT_TRUE(passes("dir != response", r));
+  EXPECT_TRUE(passes("checksum == bad", r));
+  EXPECT_TRUE(passes("hex == \"02030010\"", r));
+  EXPECT_TRUE(passes("hex contains \"0300\"", r));
+  EXPECT_FALSE(passes("hex contains \"0301\"", r));
+  EXPECT_TRUE(passes("channel == \"bus\"", r));
+  EXPECT_TRUE(passes("type == frame", r));
+  EXPECT_TRUE(passes("dir < \"s\"", r));  // ordered as strings
+  EXPECT_TRUE(passes("protocol == \"" + std::string(protocol_id(r.m.protocol)) + "\"", r));
+  EXPECT_TRUE(passes("dir == \"req\\x75est\"", r));  // escapes
+}
+
+TEST(DisplayFilter, SetsAndRanges) {
+  const Record r;
+  EXPECT_TRUE(passes("addr in {1 2 3}", r));
+  EXPECT_TRUE(passes("addr in {1, 2, 3}", r));
+  EXPECT_FALSE(passes("addr in {1 3}", r));
+  EXPECT_TRUE(passes("addr in {5 1..2}", r));
+  EXPECT_FALSE(passes("addr in {3..5}", r));
+  EXPECT_TRUE(passes("addr not in {3..5}", r));
+  EXPECT_TRUE(passes("dir in {response request}", r));
+  EXPECT_TRUE(passes("fc in {0x01..0x04}", r));
+}
+
+TEST(DisplayFilter, AFieldWithSeveralValuesMatchesWhenAnyDoes) {
+  const FieldDesc* number = listed(FieldType::uint);
+  ASSERT_NE(number, nullptr);
+  const std::string id(number->id);
+  Record r;
+  for (const int v : {3, 5000, 7}) {
+    FieldNode& n = r.m.fields.emplace_back();
+    n.desc = number;
+    n.value = v;
+  }
+  EXPECT_TRUE(passes(id, r));
+  EXPECT_TRUE(passes(id + " == 5000", r));
+  EXPECT_TRUE(passes(id + " == 7", r));
+  EXPECT_FALSE(passes(id + " == 4", r));
+  EXPECT_FALSE(passes(id + " != 5000", r));  // Wireshark's !=: none is equal
+  EXPECT_TRUE(passes(id + " != 4", r));
+  EXPECT_TRUE(passes(id + " > 4000", r));
+  EXPECT_TRUE(passes(id + " < 4", r));
+  EXPECT_FALSE(passes(id + " > 5000", r));
+  EXPECT_TRUE(passes(id + " in {1 2 7}", r));
+  EXPECT_TRUE(passes(id + " in {4000..6000}", r));
+}
+
+TEST(DisplayFilter, TextAndBytesFieldsAreStrings) {
+  const FieldDesc* text = listed(FieldType::text);
+  const FieldDesc* bytes = listed(FieldType::bytes);
+  ASSERT_NE(text, nullptr);
+  ASSERT_NE(bytes, nullptr);
+  Record r;
+  FieldNode& t = r.m.fields.emplace_back();
+  t.desc = text;
+  r.m.fields.set_text(t, "motor running");
+  FieldNode& b = r.m.fields.emplace_back();
+  b.desc = bytes;
+  b.offset = 1;
+  b.length = 2;
+  EXPECT_TRUE(passes(std::string(text->id) + " contains \"running\"", r));
+  EXPECT_TRUE(passes(std::string(bytes->id) + " == \"0300\"", r));
+  EXPECT_FALSE(passes(std::string(bytes->id) + " == 0x0300", r));
+}
+
+TEST(DisplayFilter, FindingsByKindTypedIdAndTheFindingField) {
+  Record r;
+  EXPECT_FALSE(passes("checksum_bad", r));
+  EXPECT_FALSE(passes("finding", r));
+  r.m.anomalies.push_back({AnomalyKind::checksum_bad, 0, 0, 7, "CRC on wire 80 48"});
+  const FindingDesc* typed = nullptr;
+  for (const ProtocolDesc* p : registered_protocols())
+    for (const FindingDesc* d : p->findings)
+      if (!typed && !finding_known_after_frame(d->kind)) typed = d;
+  ASSERT_NE(typed, nullptr);
+  Anomaly a{typed->kind, 0, 0, 7, "typed"};
+  a.finding = typed;
+  r.m.anomalies.push_back(a);
+  EXPECT_TRUE(passes("checksum_bad", r));
+  EXPECT_TRUE(passes("addr == 2 && checksum_bad", r));
+  EXPECT_TRUE(passes("checksum_bad contains \"80 48\"", r));  // its detail
+  EXPECT_TRUE(passes("finding == \"checksum_bad\"", r));
+  EXPECT_TRUE(passes(std::string(typed->id), r));
+  EXPECT_TRUE(passes("finding == \"" + std::string(typed->id) + "\"", r));
+  EXPECT_TRUE(passes("finding == \"" + std::string(anomaly_id(typed->kind)) + "\"", r));
+  EXPECT_FALSE(passes("finding == \"uart_break\"", r));
+  EXPECT_FALSE(passes("timing_rule", r));
+}
+
+TEST(DisplayFilter, NeedsFollowTheNamesUsed) {
+  std::string error;
+  auto plain = DisplayFilter::compile("addr == 2 && checksum_bad && latency_ms > 1", &error);
+  ASSERT_TRUE(plain);
+  EXPECT_FALSE(plain->needs().detail);
+  EXPECT_FALSE(plain->needs().tree);
+  auto summary = DisplayFilter::compile("summary contains \"x\" || drive", &error);
+  ASSERT_TRUE(summary);
+  EXPECT_TRUE(summary->needs().detail);
+  EXPECT_FALSE(summary->needs().tree);
+  auto tree = DisplayFilter::compile(std::string(listed(FieldType::uint)->id) + " == 1", &error);
+  ASSERT_TRUE(tree);
+  EXPECT_TRUE(tree->needs().detail);
+  EXPECT_TRUE(tree->needs().tree);
+}
+
+namespace {
+// A name source as the drive layer adds one: "test.drive.speed" with the frame's address x 10.
+class SpeedSource final : public RecordFieldSource {
+ public:
+  std::optional<int> resolve(std::string_view name) const override {
+    if (name == "test.drive.speed") return 0;
+    return std::nullopt;
+  }
+  RecordFieldNeeds needs(int) const override { return {}; }
+  bool values(int, const RecordView& r, std::string& scratch, ValueVisitor& visit) const override {
+    scratch = std::to_string(r.message->address * 10);
+    return visit.visit({true, r.message->address * 10.0, scratch});
+  }
+};
+}  // namespace
+
+TEST(DisplayFilter, AnAddedSourceResolvesItsNames) {
+  EXPECT_FALSE(resolve_record_field("test.drive.speed").has_value());
+  add_record_field_source(std::make_unique<SpeedSource>());
+  const Record r;
+  EXPECT_TRUE(passes("test.drive.speed == 20", r));
+  EXPECT_TRUE(passes("test.drive.speed in {10..30} && addr == 2", r));
+}
+
+TEST(DisplayFilter, NoiseRecordsHaveTheirKeysAndFindings) {
+  ChannelTable channels;
+  Frame noise;
+  noise.channel = channels.intern("bus");
+  noise.number = 4;
+  noise.kind = FrameKind::noise;
+  const std::vector<Anomaly> findings{{AnomalyKind::noise, 0, 0, 4, "1 byte outside any frame"}};
+  RecordView r;
+  r.noise = &noise;
+  r.channels = &channels;
+  r.findings = findings;
+  std::string error;
+  for (const char* yes : {"noise", "n == 4", "type == noise", "finding == \"noise\"", "!addr"}) {
+    auto f = DisplayFilter::compile(yes, &error);
+    ASSERT_TRUE(f) << error;
+    EXPECT_TRUE(f->matches(r)) << yes;
+  }
+  for (const char* no : {"addr", "dir", "checksum", "summary contains \"x\""}) {
+    auto f = DisplayFilter::compile(no, &error);
+    ASSERT_TRUE(f) << error;
+    EXPECT_FALSE(f->matches(r)) << no;
+  }
+}
