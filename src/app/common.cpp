@@ -22,6 +22,7 @@
 #include "core/protocol.hpp"
 #include "dissectors/common/plausibility.hpp"
 #include "drive/profile.hpp"
+#include "sinks/stats_tables.hpp"
 
 namespace drivetap::app {
 namespace {
@@ -113,6 +114,14 @@ void add_common_options(CLI::App* cmd, CommonOptions& o) {
   cmd->add_flag("--no-summary", o.no_summary, "Do not print the closing summary");
   cmd->add_flag("--stats", o.stats_only,
                 "Decode everything, print only the closing summary (text or JSON)");
+  cmd->add_option("-z", o.statistics,
+                  "Statistics printed after the summary (repeatable): stations, functions, gaps, "
+                  "load[,SECONDS]; JSON records with -T json")
+      ->allow_extra_args(false)
+      ->each([](const std::string& spec) {
+        std::string error;
+        if (!parse_statistic(spec, &error)) die(error);
+      });
   cmd->add_option("-o,--output", o.output, "Write the text/JSON output to FILE instead of stdout");
   cmd->add_option("-w,--write", o.write,
                   "Write every frame as a packet to a pcapng FILE ('-' for stdout)");

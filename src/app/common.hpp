@@ -38,6 +38,7 @@ struct CommonOptions {
   std::vector<std::string> profile_dirs;
   bool events_only = false;
   bool stats_only = false;                  // --stats
+  std::vector<std::string> statistics;      // -z NAME[,ARG], each checked as it is parsed
   std::vector<std::string> logic_channels;  // --channels RX,TX
   bool invert = false;
   std::uint64_t logic_max = SigrokFile::kDefaultMaxSampleBytes;  // --logic-max

@@ -136,6 +136,7 @@ std::string diagnosis_json(const std::string& file, const LineEvidence& e,
 // the line's verdicts (src/diagnose/line_diagnosis.hpp). Any capture: a logic capture gives sample
 // evidence (detection, polarity, glitches), the others the UART flags and byte patterns.
 int run_diagnose(const CommonOptions& o, const std::string& path) {
+  if (!o.statistics.empty()) die("-z: statistics are for read, decode and capture");
   InputFile in;
   ChannelTable channels;
   std::unique_ptr<ByteSource> source = open_source(o, path, in, channels);

@@ -92,6 +92,24 @@ Outputs::Outputs(const CommonOptions& o, const ChannelTable& channels, const Pip
   } else {
     tee_.add(text_.get());
   }
+  if (!o.statistics.empty()) {
+    std::vector<StatisticRequest> requests;
+    std::string error;
+    for (const std::string& spec : o.statistics) {
+      const std::optional<StatisticRequest> r = parse_statistic(spec, &error);
+      if (!r) die(error);
+      requests.push_back(*r);
+    }
+    statistics_ = std::make_unique<StatsTablesSink>(channels, p.timing, timed, std::move(requests));
+  }
+}
+
+Sink& Outputs::sink() {
+  Sink& main = threaded_ ? static_cast<Sink&>(*threaded_) : tee_;
+  if (!statistics_) return main;
+  if (!beside_ || &beside_->main() != &main)
+    beside_ = std::make_unique<BesideSink>(main, *statistics_);
+  return *beside_;
 }
 
 void Outputs::write_on_second_thread() {
@@ -120,6 +138,8 @@ bool Outputs::flush() {
 
 void Outputs::close() {
   if (threaded_) threaded_->finish();  // every record replayed; the sinks are this thread's
+  // -z: the tables after everything else, the summary included (as tshark prints them).
+  if (statistics_) text_->write_formatted(statistics_->tables(options_.format == "json"));
   // Each failure's errno is kept where it happens: cutting the file back and closing it
   // overwrite errno, and the message must give the write's own reason ("No space left").
   const bool text_ok = text_->flush();

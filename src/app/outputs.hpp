@@ -12,6 +12,7 @@
 #include "sinks/capture_sink.hpp"
 #include "sinks/ring_capture_sink.hpp"
 #include "sinks/sink.hpp"
+#include "sinks/stats_tables.hpp"
 #include "sinks/threaded_sink.hpp"
 
 namespace drivetap::app {
@@ -30,7 +31,8 @@ class Outputs {
   // --events without -w, whose sinks drop nearly every record: copying them would cost more
   // than it saves).
   void write_on_second_thread();
-  Sink& sink() { return threaded_ ? static_cast<Sink&>(*threaded_) : tee_; }
+  // The sink the pipeline writes to; with -z, the statistics are counted beside it.
+  Sink& sink();
   // Whether nothing written from now on reaches anybody: the text output failed (its reader went
   // away, `| head`) and there is no capture file to complete. Reading on would be wasted.
   [[nodiscard]] bool unread() const { return !capture_ && !ring_ && std::ferror(text_file_); }
@@ -53,6 +55,10 @@ class Outputs {
   std::unique_ptr<CaptureSink> capture_;
   std::unique_ptr<RingCaptureSink> ring_;
   TeeSink tee_;
+  // -z: the statistics' counter, written after the summary by close(); and what hands it the
+  // records beside the sink above (made by sink()).
+  std::unique_ptr<StatsTablesSink> statistics_;
+  std::unique_ptr<BesideSink> beside_;
   long capture_good_size_ = 0;  // the capture file up to its last packet flushed whole
   bool capture_failed_ = false;
   // Last: destroyed first, its thread joined before the sinks it writes to go.
