@@ -485,9 +485,10 @@ void StatsTablesSink::load_table(std::string& out, bool json, const LoadSeries& 
       if (json) {
         fmt::format_to(
             std::back_inserter(out),
-            R"({{"type":"stat","stat":"load","interval_s":{},"t0":{},"from_s":{},"to_s":{},"channel":{},"frames":{},"bytes":{},"busy_pct":{}}})"
+            R"({{"type":"stat","stat":"load","interval_s":{},"t0":{},"character_time_ns":{},)"
+            R"("from_s":{},"to_s":{},"channel":{},"frames":{},"bytes":{},"busy_pct":{}}})"
             "\n",
-            seconds, format_seconds(load_origin_, 9), from_s, to_s,
+            seconds, format_seconds(load_origin_, 9), timing_.character_time, from_s, to_s,
             json_quote(channels_.at(c).name), cell.frames, cell.bytes, busy);
       } else {
         fmt::format_to(std::back_inserter(out), "{:<24} {:<8} {:>8} {:>10} {:>7.1f}\n",
