@@ -358,6 +358,11 @@ def main():
         stations_seen = sum('"stat":"stations"' in line for line in p.stdout.splitlines())
         if stations_seen < 4:
             fail(f"generated traffic: only {stations_seen} stations")
+        # --stats --no-summary -z: the statistics alone (what -q -z prints).
+        p = run(["read", inputs[-1][1], "--stats", "--no-summary", "-z", "functions"])
+        lines = p.stdout.splitlines()
+        if not lines or lines[0] != "=" * 83 or lines[1] != "Functions (-z functions)" or "summary" in p.stdout:
+            fail(f"--stats --no-summary -z: {p.stdout[:200]!r}")
         # decode: counts, no times.
         p = run(["decode", "-z", "stations", "-z", "gaps", "-T", "json", "01 03 00 00 00 01 84 0A"])
         if '"stat":"stations"' not in p.stdout or '"stat":"gaps"' in p.stdout:

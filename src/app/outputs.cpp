@@ -82,7 +82,8 @@ Outputs::Outputs(const CommonOptions& o, const ChannelTable& channels, const Pip
   if (!ring && o.write.empty() && !o.stats_only && !o.events_only && cores >= 2 &&
       ::isatty(::fileno(text_file_)) != 1)
     for (unsigned i = 0; i < std::min(cores, 4u); ++i) helpers_.push_back(make_text(nullptr));
-  if (o.stats_only && o.no_summary) die("--stats and --no-summary leave nothing to print");
+  if (o.stats_only && o.no_summary && o.statistics.empty())
+    die("--stats and --no-summary leave nothing to print");
   if (o.stats_only) {
     summary_only_ = std::make_unique<SummaryOnlySink>(*text_);
     tee_.add(summary_only_.get());

@@ -173,7 +173,12 @@ SinkNeeds StatsTablesSink::needs() const {
 
 StatsTablesSink::Station& StatsTablesSink::station(ChannelId channel, Protocol protocol,
                                                    int address) {
-  return stations_by_key_[StationKey{channel, protocol, address}];
+  if (last_station_ && last_key_.channel == channel && last_key_.protocol == protocol &&
+      last_key_.address == address)
+    return *last_station_;
+  last_key_ = StationKey{channel, protocol, address};
+  last_station_ = &stations_by_key_[last_key_];
+  return *last_station_;
 }
 
 void StatsTablesSink::count_bytes(ChannelId channel, std::size_t size, TimeNs start,
@@ -192,7 +197,11 @@ void StatsTablesSink::count_bytes(ChannelId channel, std::size_t size, TimeNs st
   for (LoadSeries& series : load_series_) {
     const std::int64_t first = floor_div(busy_from, series.interval);
     for (std::int64_t k = first; k * series.interval < busy_to; ++k) {
-      std::vector<LoadCell>& cells = series.cells[k];
+      if (!series.last_cells || series.last != k) {
+        series.last = k;
+        series.last_cells = &series.cells[k];
+      }
+      std::vector<LoadCell>& cells = *series.last_cells;
       if (cells.size() <= channel) cells.resize(std::size_t{channel} + 1);
       LoadCell& cell = cells[channel];
       const TimeNs from = std::max(busy_from, k * series.interval);

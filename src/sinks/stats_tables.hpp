@@ -134,6 +134,9 @@ class StatsTablesSink final : public Sink {
   struct LoadSeries {
     TimeNs interval = kNsPerSecond;
     std::map<std::int64_t, std::vector<LoadCell>> cells;  // by interval, then channel
+    // The interval last counted in (most frames fall in the one before them).
+    std::int64_t last = 0;
+    std::vector<LoadCell>* last_cells = nullptr;
   };
 
   // What every telegram adds, however it came.
@@ -154,6 +157,9 @@ class StatsTablesSink final : public Sink {
   bool stations_ = false, functions_ = false, gaps_ = false;
 
   std::map<StationKey, Station> stations_by_key_;
+  // The station last counted (a reply follows its request): its key and row.
+  StationKey last_key_;
+  Station* last_station_ = nullptr;
   std::vector<std::uint64_t> channel_bytes_;  // telegrams and noise, by channel
   std::map<FunctionKey, FunctionCounts> functions_by_key_;
   std::array<std::uint64_t, kGapBins> gap_bins_{};
