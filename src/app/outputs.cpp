@@ -140,7 +140,9 @@ bool Outputs::flush() {
 void Outputs::close() {
   if (threaded_) threaded_->finish();  // every record replayed; the sinks are this thread's
   // -z: the tables after everything else, the summary included (as tshark prints them).
-  if (statistics_) text_->write_formatted(statistics_->tables(options_.format == "json"));
+  if (statistics_)
+    statistics_->write_tables(options_.format == "json",
+                              [this](std::string_view part) { text_->write_formatted(part); });
   // Each failure's errno is kept where it happens: cutting the file back and closing it
   // overwrite errno, and the message must give the write's own reason ("No space left").
   const bool text_ok = text_->flush();

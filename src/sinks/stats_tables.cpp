@@ -19,6 +19,8 @@ namespace drivetap {
 namespace {
 
 constexpr std::string_view kStatisticNames = "stations, functions, gaps, load";
+// The tables are handed on in parts of about this size.
+constexpr std::size_t kWriteBytes = 64 * 1024;
 constexpr std::string_view kRule =
     "===================================================================================";
 
@@ -202,7 +204,10 @@ void StatsTablesSink::count_bytes(ChannelId channel, std::size_t size, TimeNs st
         series.last_cells = &series.cells[k];
       }
       std::vector<LoadCell>& cells = *series.last_cells;
-      if (cells.size() <= channel) cells.resize(std::size_t{channel} + 1);
+      // (Sized for every channel at once: grown one by one, the rows would leave holes in the
+      // heap.)
+      if (cells.size() <= channel)
+        cells.resize(std::max(channels_.size(), std::size_t{channel} + 1));
       LoadCell& cell = cells[channel];
       const TimeNs from = std::max(busy_from, k * series.interval);
       const TimeNs to = std::min(busy_to, (k + 1) * series.interval);
@@ -297,6 +302,13 @@ void StatsTablesSink::on_transaction(const Transaction& t) {
 }
 
 std::string StatsTablesSink::tables(bool json) const {
+  std::string all;
+  write_tables(json, [&all](std::string_view part) { all += part; });
+  return all;
+}
+
+void StatsTablesSink::write_tables(bool json,
+                                   const std::function<void(std::string_view)>& write) const {
   std::string out;
   for (const StatisticRequest& r : requests_) {
     switch (r.kind) {
@@ -311,11 +323,11 @@ std::string StatsTablesSink::tables(bool json) const {
         break;
       case StatisticKind::load:
         for (const LoadSeries& series : load_series_)
-          if (series.interval == r.interval) load_table(out, json, series);
+          if (series.interval == r.interval) load_table(out, json, series, write);
         break;
     }
   }
-  return out;
+  if (!out.empty()) write(out);
 }
 
 void StatsTablesSink::stations_table(std::string& out, bool json) const {
@@ -463,7 +475,8 @@ void StatsTablesSink::gaps_table(std::string& out, bool json) const {
   fmt::format_to(std::back_inserter(out), "{}\n", kRule);
 }
 
-void StatsTablesSink::load_table(std::string& out, bool json, const LoadSeries& series) const {
+void StatsTablesSink::load_table(std::string& out, bool json, const LoadSeries& series,
+                                 const std::function<void(std::string_view)>& write) const {
   const std::string seconds =
       fmt::format("{:g}", static_cast<double>(series.interval) / static_cast<double>(kNsPerSecond));
   if (!timed_) {
@@ -505,6 +518,10 @@ void StatsTablesSink::load_table(std::string& out, bool json, const LoadSeries& 
                        cell.bytes,
                        100.0 * static_cast<double>(cell.busy) / static_cast<double>(length));
       }
+    }
+    if (out.size() >= kWriteBytes) {
+      write(out);
+      out.clear();
     }
   };
   std::int64_t next = 0;  // the first interval not shown yet

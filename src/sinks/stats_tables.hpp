@@ -5,6 +5,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <optional>
 #include <string>
@@ -79,6 +80,9 @@ class StatsTablesSink final : public Sink {
   // The tables, in the order requested: text (tshark's "====" blocks) or JSON lines (one
   // {"type":"stat",...} record per row).
   [[nodiscard]] std::string tables(bool json) const;
+  // The same handed to `write` a part at a time (some 64 KiB: a day of load rows runs to
+  // megabytes), each part whole lines.
+  void write_tables(bool json, const std::function<void(std::string_view)>& write) const;
 
   // Gap bins: below t1.5, t1.5 .. t3.5, then t3.5 * 2^k .. t3.5 * 2^(k+1) for k < kGapDoublings,
   // then the rest.
@@ -148,7 +152,8 @@ class StatsTablesSink final : public Sink {
   void stations_table(std::string& out, bool json) const;
   void functions_table(std::string& out, bool json) const;
   void gaps_table(std::string& out, bool json) const;
-  void load_table(std::string& out, bool json, const LoadSeries& series) const;
+  void load_table(std::string& out, bool json, const LoadSeries& series,
+                  const std::function<void(std::string_view)>& write) const;
 
   const ChannelTable& channels_;
   FramingTiming timing_;
