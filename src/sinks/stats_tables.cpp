@@ -134,6 +134,9 @@ TimeNs LogHistogram::percentile(int percent) const {
   // Nearest rank, in integers: ceil(percent * count / 100).
   const std::uint64_t rank =
       std::max<std::uint64_t>(1, (static_cast<std::uint64_t>(percent) * count_ + 99) / 100);
+  // The ends are known exactly.
+  if (rank == 1) return min_;
+  if (rank == count_) return max_;
   std::uint64_t seen = 0;
   for (std::size_t b = 0; b < counts_.size(); ++b) {
     seen += counts_[b];
@@ -331,15 +334,18 @@ void StatsTablesSink::write_tables(bool json,
 }
 
 void StatsTablesSink::stations_table(std::string& out, bool json) const {
+  std::size_t width = 8;  // the channel column's: its longest name
+  for (const auto& [key, s] : stations_by_key_)
+    width = std::max(width, channels_.at(key.channel).name.size());
   if (!json) {
     fmt::format_to(std::back_inserter(out),
                    "{}\nStations (-z stations): latency and poll interval in ms; share: % of the "
                    "channel's bytes\n",
                    kRule);
     fmt::format_to(std::back_inserter(out),
-                   "{:<8} {:<12} {:>4} {:>8} {:>8} {:>5} {:>8} {:>6} {:>9} {:>9} {:>9} {:>9} "
+                   "{:<{}} {:<12} {:>4} {:>8} {:>8} {:>5} {:>8} {:>6} {:>9} {:>9} {:>9} {:>9} "
                    "{:>9} {:>9} {:>9} {:>10} {:>6}\n",
-                   "channel", "protocol", "addr", "requests", "replies", "exc", "timeouts",
+                   "channel", width, "protocol", "addr", "requests", "replies", "exc", "timeouts",
                    "badsum", "lat_min", "lat_p50", "lat_p95", "lat_p99", "lat_max", "poll",
                    "jitter", "bytes", "share");
   }
@@ -378,9 +384,9 @@ void StatsTablesSink::stations_table(std::string& out, bool json) const {
     }
     const bool lat = l.count() > 0;
     fmt::format_to(std::back_inserter(out),
-                   "{:<8} {:<12} {:>4} {:>8} {:>8} {:>5} {:>8} {:>6} {:>9} {:>9} {:>9} {:>9} "
+                   "{:<{}} {:<12} {:>4} {:>8} {:>8} {:>5} {:>8} {:>6} {:>9} {:>9} {:>9} {:>9} "
                    "{:>9} {:>9} {:>9} {:>10} {:>6.1f}\n",
-                   channel, protocol_id(key.protocol), key.address, s.requests, s.replies,
+                   channel, width, protocol_id(key.protocol), key.address, s.requests, s.replies,
                    s.exceptions, s.timeouts, s.bad_checksums, ms_or(lat ? l.min() : -1, "-"),
                    ms_or(lat ? l.percentile(50) : -1, "-"), ms_or(lat ? l.percentile(95) : -1, "-"),
                    ms_or(lat ? l.percentile(99) : -1, "-"), ms_or(lat ? l.max() : -1, "-"),
@@ -489,13 +495,15 @@ void StatsTablesSink::load_table(std::string& out, bool json, const LoadSeries& 
   std::vector<ChannelId> channels;
   for (std::size_t c = 0; c < channel_bytes_.size(); ++c)
     if (channel_bytes_[c] != 0) channels.push_back(static_cast<ChannelId>(c));
+  std::size_t width = 8;  // the channel column's: its longest name
+  for (const ChannelId c : channels) width = std::max(width, channels_.at(c).name.size());
   if (!json)
     fmt::format_to(std::back_inserter(out),
                    "{}\nLoad (-z load,{}): busy = bytes x character time ({} ms) per interval; "
-                   "intervals from {} s\n{:<24} {:<8} {:>8} {:>10} {:>7}\n",
+                   "intervals from {} s\n{:<24} {:<{}} {:>8} {:>10} {:>7}\n",
                    kRule, seconds, format_ms(timing_.character_time),
-                   format_seconds(load_origin_, 6), "interval (s)", "channel", "frames", "bytes",
-                   "busy %");
+                   format_seconds(load_origin_, 6), "interval (s)", "channel", width, "frames",
+                   "bytes", "busy %");
   const auto row = [&](std::int64_t from, std::int64_t to, const std::vector<LoadCell>* cells) {
     const TimeNs length = (to - from) * series.interval;
     for (const ChannelId c : channels) {
@@ -513,9 +521,9 @@ void StatsTablesSink::load_table(std::string& out, bool json, const LoadSeries& 
             seconds, format_seconds(load_origin_, 9), timing_.character_time, from_s, to_s,
             json_quote(channels_.at(c).name), cell.frames, cell.bytes, busy);
       } else {
-        fmt::format_to(std::back_inserter(out), "{:<24} {:<8} {:>8} {:>10} {:>7.1f}\n",
-                       fmt::format("{} - {}", from_s, to_s), channels_.at(c).name, cell.frames,
-                       cell.bytes,
+        fmt::format_to(std::back_inserter(out), "{:<24} {:<{}} {:>8} {:>10} {:>7.1f}\n",
+                       fmt::format("{} - {}", from_s, to_s), channels_.at(c).name, width,
+                       cell.frames, cell.bytes,
                        100.0 * static_cast<double>(cell.busy) / static_cast<double>(length));
       }
     }
