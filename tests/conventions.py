@@ -136,6 +136,12 @@ for fmt, want in expect.items():
     got = shown_times(fmt)
     if got != want:
         fail(f"-t {fmt}: {got[:3]} ..., expected {want[:3]} ...")
+# -T fields' t follows -t as the text column does.
+for fmt, want in expect.items():
+    got = run(["read", "-T", "fields", "-e", "t", "-Y", 'type == "frame"', "-t", fmt,
+               PCAP]).stdout.splitlines()
+    if got != want:
+        fail(f"-T fields -e t -t {fmt}: {got[:3]} ..., expected {want[:3]} ...")
 if shown_times("r") != [seconds(t - first_byte) for t in frame_ns]:
     fail("default time column is not -t r")
 for tz in ("Asia/Tokyo", "America/New_York"):

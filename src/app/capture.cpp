@@ -99,7 +99,7 @@ void refuse_idle_capture_options(const CommonOptions& o, const CaptureOptions& c
       {!c.ring.empty(), "-b"},     {c.reconnect, "--reconnect"},
       {o.format != "text", "-T"},  {o.quiet || o.stats_only, o.quiet ? "-q" : "--stats"},
       {o.events_only, "--events"}, {o.verbose, "-V"},
-      {o.hex_dump, "-x"},          {o.time_format != "r", "-t"},
+      {o.hex_dump, "-x"},          {!o.time_format.empty(), "-t"},
   };
   for (const auto& [given, option] : idle)
     if (given)

@@ -23,6 +23,7 @@
 #include "core/protocol.hpp"
 #include "dissectors/common/plausibility.hpp"
 #include "drive/profile.hpp"
+#include "sinks/stats_tables.hpp"
 
 namespace drivetap::app {
 namespace {
@@ -105,6 +106,7 @@ constexpr OptionUse kOptionUse[] = {
     {"-Y", kDecode | kRead | kCapture},
     {"-e", kDecode | kRead | kCapture},
     {"-E", kDecode | kRead | kCapture},
+    {"-z", kDecode | kRead | kCapture},
 };
 
 // Removes from `cmd` the options whose row leaves `command` out.
@@ -124,8 +126,9 @@ void add_tshark_options(CLI::App* cmd, CommonOptions& o) {
   cmd->add_flag("-q,--quiet", o.quiet,
                 "No line per frame: the closing summary (or the -z statistics) alone");
   cmd->add_option("-t", o.time_format,
-                  "Text time column (as tshark -t): r (default, seconds since the capture's "
-                  "start), a / ad (local time / with date), d / dd (since the previous record "
+                  "Time of the text column and of -T fields' t (as tshark -t): r (default, "
+                  "seconds since the capture's start), a / ad (local time / with date), d / dd "
+                  "(since the previous record "
                   "captured / shown), e (epoch), u / ud (UTC / with date)")
       ->check(CLI::IsMember({"ad", "a", "r", "d", "dd", "e", "u", "ud"}));
   cmd->add_option("--color", o.color,
@@ -157,7 +160,8 @@ void refuse_idle_options(const CommonOptions& o, unsigned command) {
     if (o.dlt != "upper-pdu") die("--dlt: only with -w FILE (it is the capture file's link type)");
   }
   if (o.format == "json") {
-    if (o.time_format != "r") die("-t: only for the text output (JSON gives times in ns)");
+    if (!o.time_format.empty())
+      die("-t: only for the text output and -T fields (JSON gives times in seconds as captured)");
     if (o.hex_dump) die("-x: only for the text output (JSON gives each frame's bytes)");
     if (o.verbose) die("-V: only for the text output (JSON gives each frame's fields)");
     if (o.color != "auto") die("--color: only for the text output");
@@ -231,6 +235,14 @@ void add_common_options(CLI::App* cmd, CommonOptions& o, unsigned command) {
   cmd->add_flag("--no-summary", o.no_summary, "Do not print the closing summary");
   cmd->add_flag("--stats", o.stats_only,
                 "Decode everything, print only the closing summary (text or JSON)");
+  cmd->add_option("-z", o.statistics,
+                  "Statistics printed after the summary (repeatable): stations, functions, gaps, "
+                  "load[,SECONDS]; JSON records with -T json")
+      ->allow_extra_args(false)
+      ->each([](const std::string& spec) {
+        std::string error;
+        if (!parse_statistic(spec, &error)) die(error);
+      });
   cmd->add_option("-o,--output", o.output, "Write the text/JSON output to FILE instead of stdout");
   cmd->add_option("-w,--write", o.write,
                   "Write every frame as a packet to a pcapng FILE ('-' for stdout)");

@@ -40,13 +40,14 @@ struct CommonOptions {
   std::vector<std::string> profile_dirs;
   bool events_only = false;
   bool stats_only = false;                  // --stats
+  std::vector<std::string> statistics;      // -z NAME[,ARG], each checked as it is parsed
   std::vector<std::string> logic_channels;  // --channels RX,TX
   bool invert = false;
   std::uint64_t logic_max = SigrokFile::kDefaultMaxSampleBytes;  // --logic-max
   // tshark's conventions (add_tshark_options()).
   std::uint64_t count = 0;        // -c: stop after N frames (0: no limit)
   bool quiet = false;             // -q: no per-frame output, the summary or statistics alone
-  std::string time_format = "r";  // -t: the text output's time column (sinks/time_format.hpp)
+  std::string time_format;  // -t: the time column (sinks/time_format.hpp); empty: not given (r)
   std::string color = "auto";     // --color
   bool no_progress = false;       // --no-progress
   bool hex_dump = false;          // -x: each frame's bytes as a hex and ASCII dump

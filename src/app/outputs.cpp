@@ -56,6 +56,11 @@ Outputs::Outputs(const CommonOptions& o, const ChannelTable& channels, const Pip
   if (o.format == "fields") {
     fields = parse_fields_options(o.fields, o.field_options, &error);
     if (!fields) die(error);
+    // `t` as the text time column shows it when -t is given; as the JSON has it otherwise.
+    if (!o.time_format.empty()) {
+      fields->time_format = time_format_of(o);
+      fields->clock = &clock_;
+    }
   } else if (!o.fields.empty() || !o.field_options.empty()) {
     die(fmt::format("{}: only with -T fields", o.fields.empty() ? "-E" : "-e"));
   }
@@ -112,9 +117,12 @@ Outputs::Outputs(const CommonOptions& o, const ChannelTable& channels, const Pip
   if (!ring && o.write.empty() && !summary_only(o) && !fields && !o.events_only && cores >= 2 &&
       !time_from_previous && ::isatty(::fileno(text_file_)) != 1)
     for (unsigned i = 0; i < std::min(cores, 4u); ++i) helpers_.push_back(make_text(nullptr));
-  if (o.stats_only && o.no_summary) die("--stats and --no-summary leave nothing to print");
+  if (o.stats_only && o.no_summary && o.statistics.empty())
+    die("--stats and --no-summary leave nothing to print");
   if (o.quiet && o.no_summary) die("-q and --no-summary leave nothing to print");
-  if (summary_only(o)) {
+  if (o.quiet && !o.statistics.empty()) {
+    // -q -z: the statistics alone, as tshark -q -z prints them.
+  } else if (summary_only(o)) {
     summary_only_ = std::make_unique<SummaryOnlySink>(*text_);
     tee_.add(summary_only_.get());
   } else if (o.events_only) {
@@ -122,6 +130,16 @@ Outputs::Outputs(const CommonOptions& o, const ChannelTable& channels, const Pip
     tee_.add(events_only_.get());
   } else {
     tee_.add(text_.get());
+  }
+  if (!o.statistics.empty()) {
+    std::vector<StatisticRequest> requests;
+    std::string error;
+    for (const std::string& spec : o.statistics) {
+      const std::optional<StatisticRequest> r = parse_statistic(spec, &error);
+      if (!r) die(error);
+      requests.push_back(*r);
+    }
+    statistics_ = std::make_unique<StatsTablesSink>(channels, p.timing, timed, std::move(requests));
   }
 }
 
@@ -145,7 +163,13 @@ Sink& Outputs::sink() {
   if (display_filter_ && !filter_sink_)
     filter_sink_ = std::make_unique<DisplayFilterSink>(std::move(*display_filter_), inner,
                                                        channels_, character_time_, timed_);
-  return filter_sink_ ? static_cast<Sink&>(*filter_sink_) : inner;
+  Sink& shown = filter_sink_ ? static_cast<Sink&>(*filter_sink_) : inner;
+  // -z counts every record, as the summary does (tshark's taps see every packet; -Y only
+  // selects what is shown).
+  if (!statistics_) return shown;
+  if (!beside_ || &beside_->main() != &shown)
+    beside_ = std::make_unique<BesideSink>(shown, *statistics_);
+  return *beside_;
 }
 
 bool Outputs::flush() {
@@ -164,6 +188,10 @@ bool Outputs::flush() {
 
 void Outputs::close() {
   if (threaded_) threaded_->finish();  // every record replayed; the sinks are this thread's
+  // -z: the tables after everything else, the summary included (as tshark prints them).
+  if (statistics_)
+    statistics_->write_tables(options_.format == "json",
+                              [this](std::string_view part) { text_->write_formatted(part); });
   // Each failure's errno is kept where it happens: cutting the file back and closing it
   // overwrite errno, and the message must give the write's own reason ("No space left").
   const bool text_ok = text_->flush();

@@ -15,6 +15,7 @@
 #include "sinks/capture_sink.hpp"
 #include "sinks/ring_capture_sink.hpp"
 #include "sinks/sink.hpp"
+#include "sinks/stats_tables.hpp"
 #include "sinks/threaded_sink.hpp"
 #include "sinks/time_format.hpp"
 
@@ -41,7 +42,8 @@ class Outputs {
   // its start on that clock. Set before the first record reaches the sink.
   void set_clock(bool wall_clock, TimeNs origin);
   // The sink the pipeline writes to; with -Y, the filter in front of the others (made on the
-  // first call: after write_on_second_thread()).
+  // first call: after write_on_second_thread()); with -z, the statistics are counted beside
+  // it.
   Sink& sink();
   // Whether nothing written from now on reaches anybody: the text output failed (its reader went
   // away, `| head`) and there is no capture file to complete. Reading on would be wasted.
@@ -66,6 +68,10 @@ class Outputs {
   std::unique_ptr<CaptureSink> capture_;
   std::unique_ptr<RingCaptureSink> ring_;
   TeeSink tee_;
+  // -z: the statistics' counter, written after the summary by close(); and what hands it the
+  // records beside the sink above (made by sink()).
+  std::unique_ptr<StatsTablesSink> statistics_;
+  std::unique_ptr<BesideSink> beside_;
   long capture_good_size_ = 0;  // the capture file up to its last packet flushed whole
   bool capture_failed_ = false;
   // -Y: the compiled filter until sink() puts its sink in front of the others.

@@ -135,15 +135,25 @@ void FieldsSink::append_value(std::string_view text) {
   line += options_.quote;
 }
 
-void FieldsSink::write_record(const RecordView& record) {
+void FieldsSink::write_record(const RecordView& record, TimeNs time) {
   for (std::size_t i = 0; i < options_.fields.size(); ++i) {
     if (i != 0) lines_.buffer() += options_.separator;
     value_.clear();
-    Collect collect(value_, options_.occurrence, options_.aggregator);
-    record_values(options_.fields[i], record, scratch_, collect);
+    const RecordField& field = options_.fields[i];
+    if (options_.clock && field.kind == RecordField::Kind::key && field.key == RecordKey::t) {
+      // (Every record this sink gets is displayed: a display filter drops them before it.)
+      TimeReference reference = *options_.clock;
+      reference.previous_captured = previous_time_;
+      reference.previous_displayed = previous_time_;
+      value_ = format_time(time, options_.time_format, reference);
+    } else {
+      Collect collect(value_, options_.occurrence, options_.aggregator);
+      record_values(field, record, scratch_, collect);
+    }
     append_value(value_);
   }
   lines_.end_line();
+  previous_time_ = time;
 }
 
 void FieldsSink::on_frame(const Message& m) {
@@ -153,7 +163,7 @@ void FieldsSink::on_frame(const Message& m) {
   r.character_time = character_time_;
   r.show_latency = show_latency_;
   r.findings = m.anomalies;
-  write_record(r);
+  write_record(r, m.frame.start());
 }
 
 void FieldsSink::on_noise(const Frame& f) {
@@ -167,7 +177,7 @@ void FieldsSink::on_noise(const Frame& f) {
   r.character_time = character_time_;
   r.show_latency = show_latency_;
   r.findings = noise_findings_;
-  write_record(r);
+  write_record(r, f.start());
 }
 
 }  // namespace drivetap

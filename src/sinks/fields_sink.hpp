@@ -12,6 +12,7 @@
 #include "filter/record_fields.hpp"
 #include "sinks/line_writer.hpp"
 #include "sinks/sink.hpp"
+#include "sinks/time_format.hpp"
 
 namespace drivetap {
 
@@ -23,6 +24,10 @@ struct FieldsOptions {
   char quote = 0;  // 0: none
   bool header = false;
   char occurrence = 'a';  // 'f' first, 'l' last, 'a' all
+  // `t` as -t shows it (the text output's time column); `clock`: the capture's, nullptr for
+  // relative seconds as the JSON has them.
+  TimeFormat time_format = TimeFormat::relative;
+  const TimeReference* clock = nullptr;
 };
 
 // The options of `-e` names and `-E key=value` settings, or nullopt with `error` set (a line naming
@@ -47,7 +52,7 @@ class FieldsSink final : public FormattingSink {
   void write_formatted(std::string_view) override {}
 
  private:
-  void write_record(const RecordView& record);
+  void write_record(const RecordView& record, TimeNs time);
   void append_value(std::string_view text);
 
   FieldsOptions options_;
@@ -58,6 +63,7 @@ class FieldsSink final : public FormattingSink {
   std::vector<Anomaly> noise_findings_;
   std::string scratch_;
   std::string value_;
+  TimeNs previous_time_ = -1;  // the previous record's, for -t d and dd
 };
 
 }  // namespace drivetap
