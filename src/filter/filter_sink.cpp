@@ -18,9 +18,7 @@ DisplayFilterSink::DisplayFilterSink(DisplayFilter filter, Sink& inner,
                                      bool show_latency)
     : filter_(std::move(filter)),
       inner_(inner),
-      channels_(channels),
-      character_time_(character_time),
-      show_latency_(show_latency),
+      views_(channels, character_time, show_latency),
       recent_selected_(kRecentFrames, 0) {}
 
 SinkNeeds DisplayFilterSink::needs() const {
@@ -54,29 +52,14 @@ bool DisplayFilterSink::selected(std::uint64_t number) const {
 }
 
 void DisplayFilterSink::on_frame(const Message& m) {
-  RecordView r;
-  r.message = &m;
-  r.channels = &channels_;
-  r.character_time = character_time_;
-  r.show_latency = show_latency_;
-  r.findings = m.anomalies;
+  const RecordView r = views_.of(m);
   const bool pass = filter_.matches(r);
   note(m.frame.number, pass);
   if (pass) inner_.on_frame(m);
 }
 
 void DisplayFilterSink::on_noise(const Frame& f) {
-  // The findings the pipeline reports with a noise record (in this order, after it).
-  noise_findings_.clear();
-  noise_findings_.push_back(
-      {AnomalyKind::noise, f.start(), f.channel, f.number, noise_detail(f.events)});
-  append_uart_anomalies(f.events, f.number, noise_findings_);
-  RecordView r;
-  r.noise = &f;
-  r.channels = &channels_;
-  r.character_time = character_time_;
-  r.show_latency = show_latency_;
-  r.findings = noise_findings_;
+  const RecordView r = views_.of(f);
   const bool pass = filter_.matches(r);
   note(f.number, pass);
   if (pass) inner_.on_noise(f);

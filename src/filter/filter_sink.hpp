@@ -39,13 +39,10 @@ class DisplayFilterSink final : public Sink {
 
   DisplayFilter filter_;
   Sink& inner_;
-  const ChannelTable& channels_;
-  TimeNs character_time_;
-  bool show_latency_;
+  RecordViews views_;
   // The numbers of the latest selected frames, each at its number modulo the size: a transaction
   // or finding reported later (a timeout) finds its frame here. Fixed size: no allocation.
   std::vector<std::uint64_t> recent_selected_;
-  std::vector<Anomaly> noise_findings_;  // a noise record's findings (storage reused)
   // Events read from a frame not handed over yet (a drive bound by the frame that showed it):
   // held until the filter has judged their frame.
   std::vector<BusEvent> held_events_;

@@ -310,6 +310,30 @@ bool record_values(const RecordField& field, const RecordView& record, std::stri
   return false;
 }
 
+RecordView RecordViews::of(const Message& message) const {
+  RecordView r;
+  r.message = &message;
+  r.channels = &channels_;
+  r.character_time = character_time_;
+  r.show_latency = show_latency_;
+  r.findings = message.anomalies;
+  return r;
+}
+
+RecordView RecordViews::of(const Frame& noise) {
+  noise_findings_.clear();
+  noise_findings_.push_back(
+      {AnomalyKind::noise, noise.start(), noise.channel, noise.number, noise_detail(noise.events)});
+  append_uart_anomalies(noise.events, noise.number, noise_findings_);
+  RecordView r;
+  r.noise = &noise;
+  r.channels = &channels_;
+  r.character_time = character_time_;
+  r.show_latency = show_latency_;
+  r.findings = noise_findings_;
+  return r;
+}
+
 void append_record_time(std::string& out, TimeNs t) {
   append_seconds(out, t, 9);
 }

@@ -15,6 +15,7 @@
 #include <span>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "core/anomaly.hpp"
 #include "core/byte_event.hpp"
@@ -34,6 +35,23 @@ struct RecordView {
   // The findings handed over with the record (a telegram's Message::anomalies; for noise, the
   // noise finding and its UART marks).
   std::span<const Anomaly> findings;
+};
+
+// The views of one sink's records: what a record is read with (its channel names, the character
+// time, whether latencies show), and a noise record's findings, made as the pipeline reports them
+// after it (storage reused).
+class RecordViews {
+ public:
+  RecordViews(const ChannelTable& channels, TimeNs character_time, bool show_latency)
+      : channels_(channels), character_time_(character_time), show_latency_(show_latency) {}
+  [[nodiscard]] RecordView of(const Message& message) const;
+  RecordView of(const Frame& noise);  // valid until the next noise record
+
+ private:
+  const ChannelTable& channels_;
+  TimeNs character_time_;
+  bool show_latency_;
+  std::vector<Anomaly> noise_findings_;
 };
 
 // One value of a field: a number (its JSON text in `text`) or a string.

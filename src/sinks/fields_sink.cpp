@@ -95,11 +95,7 @@ std::optional<FieldsOptions> parse_fields_options(const std::vector<std::string>
 
 FieldsSink::FieldsSink(std::FILE* out, FieldsOptions options, const ChannelTable& channels,
                        TimeNs character_time, bool show_latency)
-    : options_(std::move(options)),
-      channels_(channels),
-      character_time_(character_time),
-      show_latency_(show_latency),
-      lines_(out) {
+    : options_(std::move(options)), views_(channels, character_time, show_latency), lines_(out) {
   // The header first, even when no record follows (as tshark writes it).
   if (!options_.header) return;
   for (std::size_t i = 0; i < options_.names.size(); ++i) {
@@ -157,26 +153,12 @@ void FieldsSink::write_record(const RecordView& record, TimeNs time) {
 }
 
 void FieldsSink::on_frame(const Message& m) {
-  RecordView r;
-  r.message = &m;
-  r.channels = &channels_;
-  r.character_time = character_time_;
-  r.show_latency = show_latency_;
-  r.findings = m.anomalies;
+  const RecordView r = views_.of(m);
   write_record(r, m.frame.start());
 }
 
 void FieldsSink::on_noise(const Frame& f) {
-  noise_findings_.clear();
-  noise_findings_.push_back(
-      {AnomalyKind::noise, f.start(), f.channel, f.number, noise_detail(f.events)});
-  append_uart_anomalies(f.events, f.number, noise_findings_);
-  RecordView r;
-  r.noise = &f;
-  r.channels = &channels_;
-  r.character_time = character_time_;
-  r.show_latency = show_latency_;
-  r.findings = noise_findings_;
+  const RecordView r = views_.of(f);
   write_record(r, f.start());
 }
 

@@ -56,11 +56,8 @@ class FieldsSink final : public FormattingSink {
   void append_value(std::string_view text);
 
   FieldsOptions options_;
-  const ChannelTable& channels_;
-  TimeNs character_time_;
-  bool show_latency_;
+  RecordViews views_;
   LineWriter lines_;
-  std::vector<Anomaly> noise_findings_;
   std::string scratch_;
   std::string value_;
   TimeNs previous_time_ = -1;  // the previous record's, for -t d and dd
