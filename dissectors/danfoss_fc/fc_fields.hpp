@@ -56,13 +56,8 @@ inline constexpr FieldDesc kAkRequest{.id = "danfoss_fc.pke.ak",
                                       .names = kRequestAk,
                                       .blurb = "Request or response characteristic (by direction)",
                                       .bitmask = 0xF0};
-inline constexpr FieldDesc kAkResponse{.id = "danfoss_fc.pke.ak",
-                                       .name = "Response (AK)",
-                                       .type = FieldType::enumerated,
-                                       .bits = 8,
-                                       .names = kResponseAk,
-                                       .bitmask = 0xF0,
-                                       .shares_id_of = &kAkRequest};
+inline constexpr FieldDesc kAkResponse =
+    sharing_id_of(kAkRequest, "Response (AK)", FieldType::enumerated, kResponseAk);
 inline constexpr FieldDesc kPnu{.id = "danfoss_fc.pke.pnu",
                                 .name = "Parameter number (PNU)",
                                 .type = FieldType::uint,

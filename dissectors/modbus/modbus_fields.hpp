@@ -128,23 +128,14 @@ inline constexpr FieldDesc kBitValues{"modbus.bits",
                                       0,
                                       {},
                                       "Coils or inputs, first one first (bit 0 of the first byte)"};
-inline constexpr FieldDesc kOutputAddress{.id = "modbus.reference_num",
-                                          .name = "Output address",
-                                          .type = FieldType::hex,
-                                          .bits = 16,
-                                          .shares_id_of = &kReference};
+inline constexpr FieldDesc kOutputAddress =
+    sharing_id_of(kReference, "Output address", FieldType::hex);
 inline constexpr FieldDesc kCoilValue{"modbus.coil_value", "Coil value", FieldType::enumerated, 16,
                                       kCoilValues};
-inline constexpr FieldDesc kRegisterAddress{.id = "modbus.reference_num",
-                                            .name = "Register address",
-                                            .type = FieldType::hex,
-                                            .bits = 16,
-                                            .shares_id_of = &kReference};
-inline constexpr FieldDesc kWriteValue{.id = "modbus.regval_uint16",
-                                       .name = "Register value",
-                                       .type = FieldType::hex,
-                                       .bits = 16,
-                                       .shares_id_of = &kRegisterValue};
+inline constexpr FieldDesc kRegisterAddress =
+    sharing_id_of(kReference, "Register address", FieldType::hex);
+inline constexpr FieldDesc kWriteValue =
+    sharing_id_of(kRegisterValue, "Register value", FieldType::hex);
 inline constexpr FieldDesc kExceptionStatus{"modbus.exception_status", "Exception status",
                                             FieldType::hex, 8};
 inline constexpr FieldDesc kSubFunction{"modbus.diagnostic_code", "Sub-function",
@@ -162,18 +153,11 @@ inline constexpr FieldDesc kFileRefType{"modbus.reference_type", "Reference type
                                         8};
 inline constexpr FieldDesc kFileNumber{"modbus.file.number", "File number", FieldType::uint, 16};
 inline constexpr FieldDesc kFileRecord{"modbus.file.record", "Record number", FieldType::uint, 16};
-inline constexpr FieldDesc kFileRecordLength{.id = "modbus.word_cnt",
-                                             .name = "Record length",
-                                             .type = FieldType::uint,
-                                             .bits = 16,
-                                             .shares_id_of = &kWordCount};
-inline constexpr FieldDesc kFileResponseLength{.id = "modbus.byte_cnt",
-                                               .name = "Sub-response length",
-                                               .type = FieldType::uint,
-                                               .bits = 8,
-                                               .shares_id_of = &kByteCount};
-inline constexpr FieldDesc kFileData{
-    .id = "modbus.data", .name = "Record data", .type = FieldType::bytes, .shares_id_of = &kData};
+inline constexpr FieldDesc kFileRecordLength =
+    sharing_id_of(kWordCount, "Record length", FieldType::uint);
+inline constexpr FieldDesc kFileResponseLength =
+    sharing_id_of(kByteCount, "Sub-response length", FieldType::uint);
+inline constexpr FieldDesc kFileData = sharing_id_of(kData, "Record data", FieldType::bytes);
 inline constexpr FieldDesc kAndMask{"modbus.and_mask", "AND mask", FieldType::hex, 16};
 inline constexpr FieldDesc kOrMask{"modbus.or_mask", "OR mask", FieldType::hex, 16};
 inline constexpr FieldDesc kReadStart{"modbus.read_reference_num", "Read starting address",
@@ -184,18 +168,11 @@ inline constexpr FieldDesc kWriteStart{"modbus.write_reference_num", "Write star
                                        FieldType::hex, 16};
 inline constexpr FieldDesc kWriteQuantity{"modbus.write_word_cnt", "Quantity to write",
                                           FieldType::uint, 16};
-inline constexpr FieldDesc kFifoPointer{.id = "modbus.reference_num",
-                                        .name = "FIFO pointer address",
-                                        .type = FieldType::hex,
-                                        .bits = 16,
-                                        .shares_id_of = &kReference};
+inline constexpr FieldDesc kFifoPointer =
+    sharing_id_of(kReference, "FIFO pointer address", FieldType::hex);
 inline constexpr FieldDesc kFifoByteCount{"modbus.byte_cnt_16", "FIFO byte count", FieldType::uint,
                                           16};
-inline constexpr FieldDesc kFifoCount{.id = "modbus.word_cnt",
-                                      .name = "FIFO count",
-                                      .type = FieldType::uint,
-                                      .bits = 16,
-                                      .shares_id_of = &kWordCount};
+inline constexpr FieldDesc kFifoCount = sharing_id_of(kWordCount, "FIFO count", FieldType::uint);
 inline constexpr FieldDesc kMeiType{"modbus.mei", "MEI type", FieldType::enumerated, 8, kMeiTypes};
 inline constexpr FieldDesc kMeiDeviceIdCode{"modbus.read_device_id", "Read device ID code",
                                             FieldType::enumerated, 8, kDeviceIdCodes};

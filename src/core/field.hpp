@@ -79,6 +79,17 @@ struct FieldDesc {
   }
 };
 
+// A descriptor under the id (and width) of the listed `of`, with a label and type of its own:
+// Wireshark has one id for several meanings (reference_num: an output, a register or a FIFO
+// address).
+constexpr FieldDesc sharing_id_of(const FieldDesc& of, std::string_view name, FieldType type,
+                                  std::span<const ValueName> names = {}) {
+  FieldDesc d{.id = of.id, .name = name, .type = type, .bits = of.bits, .names = names};
+  d.bitmask = of.bitmask;
+  d.shares_id_of = &of;
+  return d;
+}
+
 // One occurrence of a field. Plain data (copied as bytes): its text, if any, is held by the tree
 // it belongs to (FieldTree::text), so a whole tree copies as two blocks, not a string per node.
 struct FieldNode {

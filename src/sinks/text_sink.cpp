@@ -195,27 +195,44 @@ TimeReference TextSink::time_reference() const {
   return reference;
 }
 
+namespace {
+
+// The prefix with a calendar time (-t a, ad, u, ud): right-aligned in 14 columns or as wide as
+// it is.
 template <class Out>
-void TextSink::append_prefix(Out& out, std::uint64_t number, TimeNs time, ChannelId channel) const {
-  const std::string_view name = channels_.at(channel).name;
-  if (!options_.show_time || (options_.time_format == TimeFormat::relative && !options_.clock)) {
-    append_text_prefix(out, number, time, options_.show_time, name);
-    return;
-  }
-  const TimeReference reference = time_reference();
-  if (const std::optional<TimeNs> seconds = shown_seconds(time, options_.time_format, reference)) {
-    append_text_prefix(out, number, *seconds, true, name);
-    return;
-  }
-  // A calendar time (-t a, ad, u, ud): right-aligned in 14 columns or as wide as it is.
+[[gnu::noinline]] void append_calendar_prefix(Out& out, std::uint64_t number, TimeNs time,
+                                              TimeFormat format, const TimeReference& reference,
+                                              std::string_view name) {
   char text[kMaxTimeChars];
-  const std::size_t length = format_time(text, time, options_.time_format, reference);
+  const std::size_t length = format_time(text, time, format, reference);
   if (number)
     fmt::format_to(std::back_inserter(out), FMT_COMPILE("{:>5} "), number);
   else
     out += "    - ";
   fmt::format_to(std::back_inserter(out), FMT_COMPILE("{:>14} {:<3} "),
                  std::string_view(text, length), name);
+}
+
+}  // namespace
+
+template <class Out>
+void TextSink::append_prefix(Out& out, std::uint64_t number, TimeNs time, ChannelId channel) const {
+  const std::string_view name = channels_.at(channel).name;
+  // One call of append_text_prefix(), which the compiler then writes in place (the text's
+  // hottest piece).
+  TimeNs shown = time;
+  if (options_.show_time && options_.clock && options_.time_format == TimeFormat::relative) {
+    shown = time_since(time, options_.clock->origin);
+  } else if (options_.show_time && options_.time_format != TimeFormat::relative) {
+    const TimeReference reference = time_reference();
+    const std::optional<TimeNs> seconds = shown_seconds(time, options_.time_format, reference);
+    if (!seconds) {
+      append_calendar_prefix(out, number, time, options_.time_format, reference, name);
+      return;
+    }
+    shown = *seconds;
+  }
+  append_text_prefix(out, number, shown, options_.show_time, name);
 }
 
 std::string TextSink::prefix(std::uint64_t number, TimeNs time, ChannelId channel) const {
