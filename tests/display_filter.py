@@ -52,6 +52,18 @@ def values(rec, name):
     """The values of `name` in a record: a list of numbers (int/float) and strings."""
     if name == "finding":
         return [a["kind"] for a in rec["_findings"]]
+    if name == "drive" or name.startswith("drive."):
+        # The JSON `drive` object: `drive` is its text, `drive.<id>` its station, family or values.
+        d = rec.get("drive")
+        if not d:
+            return []
+        if name == "drive":
+            return [d["text"]] if d["text"] else []
+        key = name[len("drive."):]
+        if key in ("station", "family"):
+            return [d[key]] if key in d else []
+        v = d["values"].get(key)
+        return [] if v is None else [v["value"]]
     kinds = [a for a in rec["_findings"] if a["kind"] == name]
     if kinds:
         return [a["detail"] for a in kinds]
@@ -282,8 +294,67 @@ def tree_filters(recs):
     return out[:45]
 
 
+def drive_ids(recs):
+    """The `drive.*` value ids the JSON records' drive objects carry, in order seen."""
+    ids = []
+    for r in recs:
+        for k in (r.get("drive") or {}).get("values", {}):
+            if k not in ids:
+                ids.append(k)
+    return ids
+
+
+def drive_filters(recs):
+    """Filters on the drive values seen in the records, values taken from them."""
+    out, seen = [], set()
+    for r in recs:
+        for k, v in (r.get("drive") or {}).get("values", {}).items():
+            if k in seen:
+                continue
+            seen.add(k)
+            v = v["value"]
+            if isinstance(v, str):
+                out += ["drive.%s == \"%s\"" % (k, v)]
+            else:
+                out += ["drive.%s" % k, "drive.%s == %s" % (k, v), "drive.%s > %s" % (k, v)]
+    if "running" in seen:
+        out += ["drive.running == 1", "drive.running == 0 && drive.direction == \"forward\""]
+    return out[:30]
+
+
+def check_drive_fields(args, path, recs):
+    """-T fields of the drive values against the JSON drive objects."""
+    ids = drive_ids(recs)
+    if not ids:
+        return
+    names = ["n"] + ["drive." + i for i in ["station", "family"] + ids]
+    cmd = ["read"] + args + ["-T", "fields", "-E", "separator=,", "-E", "quote=d", "-E",
+                             "occurrence=f"]
+    for n in names:
+        cmd += ["-e", n]
+    code, out, err = run(cmd + [path])
+    if code != 0:
+        fail("%s -T fields drive.*: exit %d %s" % (path, code, err))
+        return
+    rows = list(csv.reader(io.StringIO(out)))
+    if len(rows) != len(recs):
+        fail("%s -T fields drive.*: %d lines for %d records" % (path, len(rows), len(recs)))
+        return
+    for row, r in zip(rows, recs):
+        for name, cell in zip(names, row):
+            want = values(r, name)
+            if name in ("drive.station", "drive.family") and not r.get("drive"):
+                continue  # a frame of a bound drive that says nothing: no JSON drive object
+            got = [cell] if cell != "" else []
+            ok = len(got) == len(want) and all(
+                (float(g) == float(w)) if is_num(w) else g == str(w) for g, w in zip(got, want))
+            if not ok:
+                fail("%s -T fields n=%s %s: %r, JSON %r" % (path, r["n"], name, cell, want))
+                return
+
+
 def check_filters(args, path, recs, events):
-    filters = STATIC_FILTERS + tree_filters(recs)
+    filters = STATIC_FILTERS + tree_filters(recs) + drive_filters(recs)
     for f in filters:
         expr = parse(f)
         want = [r["n"] for r in recs if evaluate(expr, r)]
@@ -413,7 +484,19 @@ def main():
             total += check_filters(args, path, recs, events)
             check_stats(args, path)
             check_fields(args, path, recs)
+            check_drive_fields(args, path, recs)
         check_bad(os.path.join(SOURCE, "captures", "seed-erman-e9", "input.log"))
+        # The README's drive 2 frequency over time: a row for each frame that shows it.
+        e9 = os.path.join(SOURCE, "captures", "session-e9", "input.log")
+        code, out, err = run(["read", "--drive", "2=e9", "-T", "fields", "-e", "t", "-e",
+                              "drive.output_frequency", "-Y", "drive.output_frequency", e9])
+        rows = [l.split("\t") for l in out.splitlines()]
+        if code != 0 or not rows or any(len(r) != 2 or "" in r for r in rows):
+            fail("README drive.output_frequency example: exit %d %r %s" % (code, out[:200], err))
+        # A drive value no loaded profile gives is a filter error naming it.
+        code, out, err = run(["read", "-Y", "drive.no_such_value > 1", e9])
+        if code != 2 or "drive.no_such_value" not in err or len(err.splitlines()) != 1:
+            fail("-Y drive.no_such_value: exit %d %r" % (code, err))
         # decode takes -Y too
         code, out, _ = run(["decode", "-T", "json", "-Y", "fc == 3",
                             "01 03 00 00 00 01 84 0A", "01 06 00 01 00 03 98 0B"])

@@ -1,6 +1,9 @@
 // Unit tests: drive profiles — built-in files load, errors name file, line and key.
 #include <gtest/gtest.h>
 
+#include <set>
+#include <string>
+
 #include "dissectors/modbus/modbus_protocol.hpp"
 #include "drive/profile.hpp"
 #include "sinks/threaded_sink.hpp"
@@ -27,6 +30,44 @@ TEST(Profiles, EveryBuiltinProfileLoads) {
     EXPECT_FALSE(profile->id.empty()) << p.file;
     EXPECT_FALSE(profile->registers.empty()) << p.file;
   }
+}
+
+// Each register's `drive.<id>` names one register of its profile, and is a valid filter name.
+TEST(Profiles, BuiltinRegisterFieldIdsAreUniqueAndWellFormed) {
+  for (const BuiltinProfileText& p : builtin_profile_texts()) {
+    ProfileError e;
+    auto profile = parse_profile(p.text, p.file, &e);
+    ASSERT_TRUE(profile) << e.text();
+    std::set<std::string> seen;
+    for (const RegisterDef& r : profile->registers) {
+      EXPECT_TRUE(valid_register_field_id(r.field_id)) << p.file << ": " << r.name;
+      EXPECT_TRUE(seen.insert(r.field_id).second) << p.file << ": " << r.field_id << " twice";
+    }
+  }
+}
+
+TEST(Profiles, RegisterFieldIdFromNameOrKey) {
+  EXPECT_EQ(register_field_id("Output frequency (Hz)"), "output_frequency_hz");
+  EXPECT_EQ(register_field_id("16-13 Frequency"), "16_13_frequency");
+  EXPECT_FALSE(valid_register_field_id("_x"));
+  EXPECT_FALSE(valid_register_field_id("X"));
+  ProfileError e;
+  const std::string base =
+      "[drive]\nid = \"t\"\nname = \"T\"\nprotocols = [\"modbus-rtu\"]\n"
+      "[[register]]\naddress = 1\nname = \"DC bus\"\n";
+  auto named = parse_profile(base + "id = \"dc_bus_voltage\"\n", "t.toml", &e);
+  ASSERT_TRUE(named) << e.text();
+  EXPECT_EQ(named->registers[0].field_id, "dc_bus_voltage");
+  auto derived = parse_profile(base, "t.toml", &e);
+  ASSERT_TRUE(derived) << e.text();
+  EXPECT_EQ(derived->registers[0].field_id, "dc_bus");
+  EXPECT_FALSE(parse_profile(base + "id = \"DC bus\"\n", "t.toml", &e));
+  EXPECT_NE(e.text().find("register[1].id"), std::string::npos) << e.text();
+  // A name two registers have: the second is told apart by its address.
+  auto twice =
+      parse_profile(base + "[[register]]\naddress = 17\nname = \"DC bus\"\n", "t.toml", &e);
+  ASSERT_TRUE(twice) << e.text();
+  EXPECT_EQ(twice->registers[1].field_id, "dc_bus_0011");
 }
 
 TEST(Profiles, E9FromManual000) {

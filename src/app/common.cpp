@@ -22,6 +22,7 @@
 #include "core/printable.hpp"
 #include "core/protocol.hpp"
 #include "dissectors/common/plausibility.hpp"
+#include "drive/drive_fields.hpp"
 #include "drive/profile.hpp"
 #include "sinks/stats_tables.hpp"
 
@@ -350,6 +351,14 @@ PipelineOptions make_pipeline_options(const CommonOptions& o, const RunSettings&
   // codes are plausible Modbus exceptions whether or not a drive is bound (before anything
   // decodes).
   load_profiles(o, true);
+  // The `drive.*` filter and field names the loaded profiles give (the filter is compiled next).
+  static const bool drive_fields_added = [] {
+    std::vector<const DriveProfile*> loaded;
+    for (const DriveProfile& profile : g_profiles) loaded.push_back(&profile);
+    add_drive_field_source(loaded);
+    return true;
+  }();
+  (void)drive_fields_added;
   for (const DriveProfile& profile : g_profiles)
     for (const auto& [code, meaning] : profile.exceptions)
       if (code <= 0xFF) allow_vendor_exception_code(static_cast<std::uint8_t>(code));

@@ -45,6 +45,9 @@ struct Message {
   const DriveProfile* drive_profile = nullptr;
   // With drive_profile, for a reply: the bytes of the request it answers, empty when none.
   std::vector<std::uint8_t> request;
+  // The profile the frame was read with (drive_info made or to make), nullptr when none: the
+  // `drive.*` record fields read the frame's values through it, with `request`, when asked.
+  const DriveProfile* drive_read_with = nullptr;
   // Findings about this frame (checksum, gaps, malformed content, UART errors), in byte order.
   std::vector<Anomaly> anomalies;
   // Filled by the pairing stage on responses: request end -> response start, ns; -1 when
@@ -117,8 +120,8 @@ inline constexpr std::size_t kTypicalFieldCount = 16;
 // The vectors and strings `m` held keep their storage (the pipeline decodes every frame of a run
 // into one Message, so the hot path does not allocate); `m.detail` and `m.tree` are kept. The
 // frame is swapped in: `frame` is left holding m's previous frame, whose storage its batch builds
-// a later frame in. `frame` may be m.frame itself, built in place (TelegramView::frame_for()): it is
-// then taken as it is.
+// a later frame in. `frame` may be m.frame itself, built in place (TelegramView::frame_for()): it
+// is then taken as it is.
 inline void begin_message(Message& m, Frame&& frame, Protocol protocol, Direction direction) {
   // Every member of Message is set here (tests/test_pipeline.cpp BeginMessageResetsEveryMember).
   // (A frame just built is not moved: its members, read back wider than they were written, would
@@ -140,6 +143,7 @@ inline void begin_message(Message& m, Frame&& frame, Protocol protocol, Directio
   m.drive_info.clear();
   m.drive_profile = nullptr;
   m.request.clear();
+  m.drive_read_with = nullptr;
   m.anomalies.clear();
   m.latency = -1;
   m.request_number = 0;

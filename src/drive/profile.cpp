@@ -3,6 +3,7 @@
 #include "drive/profile.hpp"
 
 #include <fmt/format.h>
+#include <cctype>
 
 #include <fcntl.h>
 #include <sys/stat.h>
@@ -237,8 +238,8 @@ std::vector<int> state_bits(const toml::node& v, const std::string& path) {
 // A [[register]] (parameter == nullopt) or a [[parameter]] under the profile's addressing rule.
 RegisterDef parse_register(const toml::table& t, const std::string& path,
                            std::optional<const ParameterNumbering*> parameter) {
-  std::set<std::string_view> keys = {"name", "access", "unit", "scale", "signed",
-                                     "enum", "role",   "bits", "words", "state"};
+  std::set<std::string_view> keys = {"name", "access", "unit",  "scale", "signed", "enum",
+                                     "role", "bits",   "words", "state", "id"};
   keys.insert(parameter ? "number" : "address");
   if (!parameter) keys.insert("kind");
   only_keys(t, path, keys);
@@ -266,6 +267,13 @@ RegisterDef parse_register(const toml::table& t, const std::string& path,
                      "must be holding, input, coil, discrete or running");
   }
   r.name = string_at(t, "name", path + ".name", true);
+  r.field_id = string_at(t, "id", path + ".id", false);
+  if (r.field_id.empty()) {
+    r.field_id = register_field_id(r.name);
+  } else if (!valid_register_field_id(r.field_id)) {
+    throw Bad{line_of(*t.get("id")), path + ".id",
+              "expected lowercase letters, digits and '_' (not first or last)"};
+  }
   static constexpr std::string_view kAccessWords[] = {"r", "w", "rw"};
   r.access = enum_at(t, "access", path + ".access", kAccessWords,
                      std::optional(RegisterAccess::read_write), "must be r, w or rw");
@@ -443,6 +451,23 @@ DriveProfile parse_tables(const toml::table& root) {
           parse_register(*e.as_table(), path,
                          is_parameter ? std::optional<const ParameterNumbering*>(p.parameter_rule)
                                       : std::nullopt));
+      // A register's field id is unique in its profile: a name another register has already is
+      // told apart by its number or address; an `id` given twice is an error.
+      RegisterDef& added = p.registers.back();
+      auto taken = [&](const std::string& id) {
+        for (std::size_t k = 0; k + 1 < p.registers.size(); ++k)
+          if (p.registers[k].field_id == id) return true;
+        return false;
+      };
+      if (taken(added.field_id)) {
+        if (const toml::node* id = e.as_table()->get("id"))
+          throw Bad{line_of(*id), path + ".id",
+                    fmt::format("'{}' names another register too", added.field_id)};
+        added.field_id += '_';
+        added.field_id += added.kind == RegisterKind::parameter
+                              ? register_field_id(added.number)
+                              : fmt::format("{:04x}", added.address);
+      }
       const std::string& enum_name = p.registers.back().enum_name;
       if (!enum_name.empty() && !p.enums.count(enum_name))
         throw Bad{line_of(*e.as_table()->get("enum")), path + ".enum",
@@ -521,6 +546,29 @@ std::pair<int, std::string> toml_nesting_problem(std::string_view text) {
 }
 
 }  // namespace
+
+std::string register_field_id(std::string_view name) {
+  std::string id;
+  bool gap = false;
+  for (const char c : name) {
+    const auto u = static_cast<unsigned char>(c);
+    if (std::isalnum(u) != 0 && u < 0x80) {
+      if (gap && !id.empty()) id += '_';
+      gap = false;
+      id += static_cast<char>(std::tolower(u));
+    } else {
+      gap = true;
+    }
+  }
+  return id;
+}
+
+bool valid_register_field_id(std::string_view id) {
+  if (id.empty() || id.front() == '_' || id.back() == '_') return false;
+  for (const char c : id)
+    if (!((c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_')) return false;
+  return true;
+}
 
 std::optional<DriveProfile> parse_profile(std::string_view toml_text, std::string_view file_name,
                                           ProfileError* error) {

@@ -50,6 +50,9 @@ struct RegisterDef {
   std::uint32_t address = 0;  // register address, running-value index, or parameter wire number
   std::string number;         // parameters: as the manual prints it ("4-14", "F0.05")
   std::string name;
+  // Its record field's name after `drive.` (the profile's `id`, else made from the name:
+  // lowercase, each run of other characters than letters and digits one `_`).
+  std::string field_id;
   RegisterKind kind = RegisterKind::holding;
   RegisterAccess access = RegisterAccess::read_write;
   std::string unit;
@@ -144,6 +147,11 @@ struct ProfileError {
   std::string message;
   [[nodiscard]] std::string text() const;
 };
+
+// A register's record field id made from its name: "Output frequency" -> "output_frequency".
+std::string register_field_id(std::string_view name);
+// Whether `id` is a well-formed register field id: [a-z0-9_]+, not starting or ending with `_`.
+bool valid_register_field_id(std::string_view id);
 
 std::optional<DriveProfile> parse_profile(std::string_view toml_text, std::string_view file_name,
                                           ProfileError* error);

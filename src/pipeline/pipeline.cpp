@@ -866,7 +866,9 @@ void Pipeline::handle_telegram(TelegramView& t, const ProtocolDecoder& decoder, 
       m.request.assign(request.begin(), request.end());
     } else if (detailed) {
       std::swap(m.drive_info, drive_reading_.text);  // both keep their storage for later frames
+      m.request.assign(request.begin(), request.end());
     }
+    if (detailed) m.drive_read_with = profile;
   }
   if (st.detection_reads(decoder)) {
     if (good_telegram(in)) {

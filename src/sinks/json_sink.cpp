@@ -16,6 +16,8 @@
 #include "core/enum_text.hpp"
 #include "core/format.hpp"
 #include "core/printable.hpp"
+#include "drive/drive_fields.hpp"
+#include "drive/profile.hpp"
 #include "sinks/text_sink.hpp"
 
 namespace drivetap {
@@ -157,6 +159,60 @@ void append_json_escaped(Out& out, std::string_view s) {
 }
 
 template void append_json_quoted(std::string&, std::string_view);
+
+namespace {
+
+// The frame's `drive` object: the annotation's text, the station and family, and the values
+// under their `drive.*` ids (without the prefix; a value given twice is shown once, the first).
+// Nothing for a frame no profile says anything of.
+template <class Out>
+void append_drive_object(Out& line, const Message& m) {
+  thread_local std::vector<DriveFieldValue> values;
+  drive_field_values(m, values);
+  std::size_t shown = 0;
+  for (const DriveFieldValue& v : values)
+    if (v.id != "station" && v.id != "family") ++shown;
+  if (m.drive_info.empty() && shown == 0) return;
+  line += ",\"drive\":{\"text\":";
+  append_json_quoted(line, m.drive_info);
+  if (m.drive_read_with) {
+    if (m.address >= 0) {
+      line += ",\"station\":";
+      append_int(line, m.address);
+    }
+    line += ",\"family\":";
+    append_json_quoted(line, m.drive_read_with->id);
+  }
+  line += ",\"values\":{";
+  bool first = true;
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    const DriveFieldValue& v = values[i];
+    if (v.id == "station" || v.id == "family") continue;
+    bool repeated = false;
+    for (std::size_t k = 0; k < i; ++k) repeated = repeated || values[k].id == v.id;
+    if (repeated) continue;
+    if (!first) line += ',';
+    first = false;
+    append_json_quoted(line, v.id);
+    line += ":{\"value\":";
+    if (v.is_number)
+      line += v.text;
+    else
+      append_json_quoted(line, v.text);
+    if (!v.unit.empty()) {
+      line += ",\"unit\":";
+      append_json_quoted(line, v.unit);
+    }
+    if (v.has_raw) {
+      line += ",\"raw\":";
+      append_int(line, v.raw);
+    }
+    line += '}';
+  }
+  line += "}}";
+}
+
+}  // namespace
 template void append_json_quoted(LineBuffer&, std::string_view);
 template void append_json_escaped(std::string&, std::string_view);
 template void append_json_escaped(LineBuffer&, std::string_view);
@@ -307,10 +363,7 @@ void JsonSink::on_frame(const Message& m) {
     line += ",\"exception\":"sv;
     append_int(line, m.exception_code);
   }
-  if (!m.drive_info.empty()) {
-    line += ",\"drive\":"sv;
-    append_json_quoted(line, m.drive_info);
-  }
+  append_drive_object(line, m);
   if (m.request_number != 0) {
     line += ",\"latency_ms\":"sv;
     if (m.latency >= 0 && show_latency_)

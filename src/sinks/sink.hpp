@@ -86,6 +86,7 @@ struct DeferredTelegram {
       out.anomalies.insert(out.anomalies.end(), anomalies.begin(), anomalies.end());
     if (drive_profile) {
       out.drive_profile = drive_profile;
+      out.drive_read_with = drive_profile;
       out.request.assign(request.begin(), request.end());
     }
   }
