@@ -952,10 +952,17 @@ void Pipeline::summarise_drives() {
     d.binding = binder_.evidence(station);
   }
   for (const auto& [key, state] : timeline_.drives()) {
+    const bool by_option = options_.drives.count(key.second) != 0;
+    // A station bound for a while and then let go (its traffic stopped fitting) is summed up as
+    // the binder sees it now: the profile it was read with is no longer claimed.
+    if (!by_option) {
+      const auto station = binder_.stations().find(key);
+      if (station != binder_.stations().end() && station->second.bound < 0) continue;
+    }
     DriveSummary& d = drives[key];
     d.link = key.first;
     d.address = key.second;
-    if (options_.drives.count(key.second)) d.binding = "bound with --drive";
+    if (by_option) d.binding = "bound with --drive";
     d.profile = state.profile_id;
     d.profile_name = state.profile_name;
     d.state = state.summary();
