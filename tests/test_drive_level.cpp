@@ -1534,3 +1534,31 @@ TEST(DriveBinder, RepliesReadWithTheirRequestBindAsReadAlone) {
   for (std::size_t i = 0; i < alone.events.size(); ++i)
     EXPECT_EQ(shared.events[i].detail, alone.events[i].detail);
 }
+
+// The binder weighs a request's addresses from per-block running sums; they must give what
+// weighing each address does, for every profile, register kind and range, block edges included.
+TEST(AddressEvidence, TableGivesTheWeightOfEachAddressSummed) {
+  std::uint64_t state = 0x9E3779B97F4A7C15u;
+  auto next = [&state] {  // splitmix64
+    std::uint64_t z = (state += 0x9E3779B97F4A7C15u);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9u;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBu;
+    return z ^ (z >> 31);
+  };
+  for (const DriveProfile* profile : builtin_candidates()) {
+    AddressEvidence table(*profile);
+    for (const RegisterKind kind : {RegisterKind::holding, RegisterKind::input, RegisterKind::coil,
+                                    RegisterKind::discrete, RegisterKind::parameter}) {
+      std::vector<std::pair<std::uint32_t, std::uint32_t>> ranges = {
+          {0, 1}, {0, 40}, {255, 2}, {250, 32}, {256, 1}, {0xFFFF, 1}, {0xFFF0, 16}, {0xFFF0, 17}};
+      for (const RegisterDef& r : profile->registers) ranges.push_back({r.address, 8});
+      for (int i = 0; i < 3000; ++i)
+        ranges.push_back({static_cast<std::uint32_t>(next() % 0x10010),
+                          static_cast<std::uint32_t>(next() % 40)});
+      for (const auto& [start, count] : ranges)
+        ASSERT_EQ(table.sum(kind, start, count), table.walk(kind, start, count))
+            << profile->id << " kind " << static_cast<int>(kind) << " start " << start << " count "
+            << count;
+    }
+  }
+}

@@ -8,49 +8,11 @@
 namespace drivetap {
 namespace {
 
-// Evidence weights. A register the family's manual names: +1; an address only its parameter
-// addressing rule explains: +0.5; an address the family does not have: -1; a function code or
-// a request size the family refuses: -2; a vendor exception code the family lists: +1, one it
-// does not: -1. A request in a protocol only some families speak (DriveRecords::family_protocol):
-// +2 for each family speaking it, +1 for each address it names that the family names (a protocol
-// every device speaks, as Modbus, earns nothing by itself).
-constexpr double kNamed = 1, kRuleOnly = 0.5, kUnknown = -1, kRefused = -2;
-constexpr double kOwnProtocol = 2;
+using namespace evidence;
 // A station is bound when its best profile reaches kBindScore and leads the runner-up by
 // kBindMargin; rebinding needs a lead of kRebindMargin over the bound profile. A lead of 3 is
 // what confidence "medium" asks (below): a family is never bound on low confidence.
 constexpr double kBindScore = 2, kBindMargin = 3, kRebindMargin = 3;
-constexpr std::size_t kMaxAddressesPerRequest = 32;  // evidence from one request is bounded
-
-bool covers(const DriveProfile& p, RegisterKind kind, std::uint32_t address) {
-  if (p.find(kind, address)) return true;
-  // The low word of a two-word register.
-  const RegisterDef* prev = address ? p.find(kind, address - 1) : nullptr;
-  return prev && prev->words == 2;
-}
-
-double register_evidence(const DriveProfile& p, RegisterKind kind, std::uint32_t start,
-                         std::uint32_t count) {
-  double score = 0;
-  for (std::uint32_t i = 0; i < count && i < kMaxAddressesPerRequest; ++i) {
-    const std::uint32_t address = start + i;
-    if (covers(p, kind, address)) {
-      score += kNamed;
-    } else if (kind == RegisterKind::holding) {
-      if (const auto number = p.parameter_of_register(address)) {
-        score += p.find(RegisterKind::parameter, *number) ? kNamed : kRuleOnly;
-      } else if (const auto below = p.parameter_of_register(address - 1); below && i > 0) {
-        // The second register of a 32-bit parameter read from its first.
-        score += kRuleOnly;
-      } else {
-        score += kUnknown;
-      }
-    } else {
-      score += kUnknown;
-    }
-  }
-  return score;
-}
 
 // Evidence from a request in a protocol that only some families speak (family_protocol): the
 // protocol itself, and each address it names (that its reader weighs) that the profile names.
@@ -65,7 +27,7 @@ double family_protocol_evidence(const DriveProfile& p, Direction direction,
 
 // Evidence from a telegram of a protocol every device speaks: its function code, the addresses
 // it reads and writes and how many, the exception codes of its replies.
-double addressing_evidence(const DriveProfile& p, Direction direction,
+double addressing_evidence(const DriveProfile& p, AddressEvidence& addresses, Direction direction,
                            const DriveRecords& records) {
   double score = 0;
   if (direction == Direction::response) {
@@ -84,7 +46,7 @@ double addressing_evidence(const DriveProfile& p, Direction direction,
     score += kRefused;
   for (const DriveRecord& r : records.records) {
     if (r.type != DriveRecordType::access || !r.weighed) continue;
-    score += register_evidence(p, r.kind, r.first, r.count);
+    score += addresses.sum(r.kind, r.first, r.count);
     const bool registers = r.kind == RegisterKind::holding || r.kind == RegisterKind::input;
     if (registers && r.op == AccessOp::read && p.max_read_registers &&
         r.count > static_cast<std::uint32_t>(*p.max_read_registers))
@@ -96,9 +58,10 @@ double addressing_evidence(const DriveProfile& p, Direction direction,
   return score;
 }
 
-double telegram_evidence(const DriveProfile& p, Direction direction, const DriveRecords& records) {
+double telegram_evidence(const DriveProfile& p, AddressEvidence& addresses, Direction direction,
+                         const DriveRecords& records) {
   return records.family_protocol ? family_protocol_evidence(p, direction, records)
-                                 : addressing_evidence(p, direction, records);
+                                 : addressing_evidence(p, addresses, direction, records);
 }
 
 // The memo key of a request's evidence (what addressing_evidence() reads of it), if it has one:
@@ -125,14 +88,16 @@ std::span<const double> DriveBinder::request_evidence(std::uint64_t key,
   }
   const auto [it, fresh] = request_evidence_.try_emplace(key, evidence_pool_.size());
   if (fresh)
-    for (const DriveProfile* candidate : candidates_)
-      evidence_pool_.push_back(telegram_evidence(*candidate, Direction::request, records));
+    for (std::size_t i = 0; i < candidates_.size(); ++i)
+      evidence_pool_.push_back(
+          telegram_evidence(*candidates_[i], addresses_[i], Direction::request, records));
   return std::span<const double>(evidence_pool_).subspan(it->second, candidates_.size());
 }
 
 DriveBinder::DriveBinder(std::vector<const DriveProfile*> candidates)
     : candidates_(std::move(candidates)) {
   for (const DriveProfile* p : candidates_) {
+    addresses_.emplace_back(*p);
     std::uint32_t mask = 0;
     for (const Protocol protocol : p->protocols) mask |= protocol_bit(protocol);
     protocols_.push_back(mask);
@@ -231,7 +196,7 @@ const DriveProfile* DriveBinder::learn_bound(std::size_t link, TelegramDriveReco
     if (key)
       st.score[i] += request_scores[i];
     else if (weighs)
-      st.score[i] += telegram_evidence(p, m.direction, records);
+      st.score[i] += telegram_evidence(p, addresses_[i], m.direction, records);
   }
   const auto [best, second] = best_of(st);
   if (best < 0) return bound_now();

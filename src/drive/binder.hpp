@@ -19,6 +19,7 @@
 
 #include "core/bus_event.hpp"
 #include "core/message.hpp"
+#include "drive/address_evidence.hpp"
 #include "drive/profile.hpp"
 #include "drive/records.hpp"
 
@@ -80,7 +81,8 @@ class DriveBinder {
   }
 
   std::vector<const DriveProfile*> candidates_;
-  std::vector<std::uint32_t> protocols_;  // per candidate: protocol_bit() of each it speaks
+  std::vector<std::uint32_t> protocols_;    // per candidate: protocol_bit() of each it speaks
+  std::vector<AddressEvidence> addresses_;  // per candidate
   std::map<Key, Station> stations_;
   DriveRecordReader records_;  // the telegram's, when the caller lends no reading
   // Request key -> offset in evidence_pool_ of its candidates' evidence
