@@ -198,6 +198,7 @@ int run_capture(const CommonOptions& o, const CaptureOptions& c, const CaptureVo
                  fmt::format("{}", fmt::join(c.ports, ", ")).c_str(), p.serial.to_string().c_str());
   Outputs out(o, channels, p, /*timed=*/true, ring ? &*ring : nullptr);
   out.set_reader_may_leave(voice.reader_may_leave);
+  if (voice.outputs_open) voice.outputs_open();
   // Live times are wall-clock time; -t r counts from the start of the capture.
   out.set_clock(true, std::chrono::duration_cast<std::chrono::nanoseconds>(
                           std::chrono::system_clock::now().time_since_epoch())

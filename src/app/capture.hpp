@@ -30,6 +30,8 @@ struct CaptureVoice {
   std::function<void(const std::string& warning)> warning;
   // Each round of the capture loop, after the outputs were flushed: the counts so far.
   std::function<void(const Stats& stats)> each_round;
+  // The outputs are open (-w's file or FIFO among them).
+  std::function<void()> outputs_open;
   // The reader of the -w stream may go away (Wireshark stopping the capture): that ends the run
   // as a stop, without an error.
   bool reader_may_leave = false;

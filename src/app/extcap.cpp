@@ -9,8 +9,10 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <deque>
 #include <filesystem>
@@ -220,6 +222,24 @@ class ControlInput {
   int fd_ = -1;
 };
 
+// A capture that fails before it opened its FIFO (a missing port, a bad option) must still open
+// and close it: Wireshark's reader waits in open() until a writer comes, and would never see the
+// error. At exit, the FIFO is opened without blocking for a few seconds (until the reader is
+// there) and closed at once; the reader sees an empty stream and Wireshark shows the error line.
+std::string g_unopened_fifo;  // empty once the outputs opened it
+void release_unopened_fifo() {
+  if (g_unopened_fifo.empty()) return;
+  for (int attempt = 0; attempt < 60; ++attempt) {
+    const int fd = ::open(g_unopened_fifo.c_str(), O_WRONLY | O_NONBLOCK | O_CLOEXEC);
+    if (fd >= 0) {
+      ::close(fd);
+      return;
+    }
+    if (errno != ENXIO) return;  // no FIFO there (not Wireshark's): nothing waits
+    ::usleep(50'000);
+  }
+}
+
 std::vector<std::string> split_drives(const std::string& text) {
   std::vector<std::string> drives;
   std::string word;
@@ -264,8 +284,11 @@ int run_extcap_capture(const ExtcapOptions& e) {
   }
   ControlPipe control(e.control_out);
   ControlInput control_in(e.control_in);
+  g_unopened_fifo = e.fifo;
+  std::atexit(release_unopened_fifo);
   CaptureVoice voice;
   voice.chatty = false;
+  voice.outputs_open = [] { g_unopened_fifo.clear(); };
   voice.reader_may_leave = true;
   voice.warning = [&control](const std::string& warning) {
     control.send(kLoggerControl, ControlPipe::add, "warning: " + warning + "\n");
