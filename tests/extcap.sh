@@ -92,7 +92,7 @@ EOF
 # Each offered value is taken by the capture's option parser (a bad one would exit 2 at once).
 while read -r arg value; do
   err=$("$drivetap" extcap --capture --extcap-interface /nonexistent/tty --fifo "$tmp/never" \
-    "$arg" "$value" 2>&1)
+    "$arg" ${value:+"$value"} 2>&1)
   rc=$?
   [ "$rc" = 1 ] && grep -q "^drivetap: /nonexistent/tty: " <<<"$err" ||
     fail "config value $arg '$value': exit $rc: $err"
@@ -103,7 +103,9 @@ for line in sys.argv[1].splitlines():
     f = dict(re.findall(r"\{([a-z]+)=([^{}]*)\}", line))
     if line.startswith("arg"):
         calls[f["number"]] = f["call"]
-        if "default" in f:
+        if f["type"] == "boolflag":
+            print(f["call"])  # (Wireshark passes a flag alone, when set)
+        elif "default" in f:
             print(f["call"], f["default"])
     elif f["value"]:
         print(calls[f["arg"]], f["value"])
@@ -227,6 +229,39 @@ assert counts == sorted(counts) and counts[-1] > 0, counts
 packets = int(sys.argv[2])
 assert packets == 0 or counts[-1] <= packets, (counts, packets)
 EOF
+
+# --detect: the settings searched first as capture --scan does (on a pty every setting hears the
+# traffic: this checks the mechanics, not the choice), then the capture with the one chosen.
+"$simbus" --link "$tmp/detect.tty" --serial "19200 8E1" --wait-ms 300 --duration 25 2>/dev/null &
+sim=$!
+for _ in $(seq 50); do [ -e "$tmp/detect.tty" ] && break; sleep 0.02; done
+mkfifo "$tmp/detect.fifo" "$tmp/detect.control"
+cat "$tmp/detect.fifo" >"$tmp/detect.pcapng" &
+reader=$!
+cat "$tmp/detect.control" >"$tmp/detect.bytes" &
+control_reader=$!
+"$drivetap" --capture --extcap-interface "$tmp/detect.tty" --fifo "$tmp/detect.fifo" --detect \
+  --protocol rtu --extcap-control-out "$tmp/detect.control" 2>"$tmp/detect.err" &
+cap=$!
+for _ in $(seq 300); do grep -aq "capturing on" "$tmp/detect.bytes" 2>/dev/null && break; sleep 0.1; done
+sleep 2
+kill -TERM "$cap"
+wait "$cap"
+rc=$?
+wait "$reader" "$control_reader"
+kill "$sim" 2>/dev/null
+wait "$sim" 2>/dev/null
+[ "$rc" = 0 ] && [ ! -s "$tmp/detect.err" ] || fail "--detect: exit $rc: $(cat "$tmp/detect.err")"
+detected=$(grep -ao "detected [0-9]* 8[NEO]1" "$tmp/detect.bytes")
+[ "$(grep -ac "detecting the line settings: " "$tmp/detect.bytes")" -ge 1 ] && [ -n "$detected" ] &&
+  grep -aq "capturing on $tmp/detect.tty at ${detected#detected }" "$tmp/detect.bytes" ||
+  fail "--detect: no detection in the log: $(tr -c '[:print:]' ' ' <"$tmp/detect.bytes" | head -c 300)"
+if [ "$have_tshark" = 1 ]; then
+  packets=$(tshark -r "$tmp/detect.pcapng" 2>/dev/null | wc -l)
+  [ "$packets" -gt 0 ] || fail "--detect: no packets after the detection"
+  tshark -r "$tmp/detect.pcapng" -T fields -e frame.interface_description 2>/dev/null |
+    grep -q "^${detected#detected }" || fail "--detect: the interface does not carry ${detected#detected }"
+fi
 
 # The round trip through tshark: installed into a temporary HOME, listed by tshark -D, captured
 # by tshark -i from the simulated bus behind the fake tree's ttyUSB0.

@@ -28,13 +28,6 @@
 namespace drivetap::app {
 namespace {
 
-// One setting of `capture --scan`: what listening `seconds` at `serial` gave.
-struct ScanResult {
-  SerialConfig serial;
-  std::uint64_t bytes = 0, uart_errors = 0, frames = 0, frames_ok = 0;
-  std::string error;
-};
-
 ScanResult scan_one(const CommonOptions& o, const std::string& path, const SerialConfig& serial,
                     double seconds) {
   ScanResult r;
@@ -107,28 +100,16 @@ int run_scan(const CommonOptions& o, const CaptureOptions& c) {
   catch_stop_signals();
   std::printf("scan %s: %g s per setting (listen only)\n", path.c_str(), c.scan_seconds);
   std::fflush(stdout);
-  std::optional<ScanResult> best;
-  for (std::uint32_t baud : {9600u, 19200u, 38400u, 57600u, 115200u, 4800u, 2400u, 1200u}) {
-    for (Parity parity : {Parity::none, Parity::even, Parity::odd}) {
-      if (g_stop) break;
-      SerialConfig serial;
-      serial.baud = baud;
-      serial.parity = parity;
-      const ScanResult r = scan_one(o, path, serial, c.scan_seconds);
-      if (!r.error.empty() && r.bytes == 0) die(r.error, 1);
-      std::printf("  %-11s %6llu bytes, %5llu with UART errors, %4llu frames, %4llu checksum ok\n",
-                  serial.to_string().c_str(), static_cast<unsigned long long>(r.bytes),
-                  static_cast<unsigned long long>(r.uart_errors),
-                  static_cast<unsigned long long>(r.frames),
-                  static_cast<unsigned long long>(r.frames_ok));
-      std::fflush(stdout);
-      // Best: most good frames, then fewest UART errors.
-      if (r.frames_ok > 0 &&
-          (!best || r.frames_ok > best->frames_ok ||
-           (r.frames_ok == best->frames_ok && r.uart_errors < best->uart_errors)))
-        best = r;
-    }
-  }
+  const std::optional<ScanResult> best =
+      scan_line_settings(o, path, c.scan_seconds, [](const ScanResult& r) {
+        std::printf(
+            "  %-11s %6llu bytes, %5llu with UART errors, %4llu frames, %4llu checksum ok\n",
+            r.serial.to_string().c_str(), static_cast<unsigned long long>(r.bytes),
+            static_cast<unsigned long long>(r.uart_errors),
+            static_cast<unsigned long long>(r.frames),
+            static_cast<unsigned long long>(r.frames_ok));
+        std::fflush(stdout);
+      });
   if (g_stop) {
     std::printf("interrupted\n");
     return 130;
@@ -147,6 +128,29 @@ int run_scan(const CommonOptions& o, const CaptureOptions& c) {
 }
 
 }  // namespace
+
+std::optional<ScanResult> scan_line_settings(const CommonOptions& o, const std::string& path,
+                                             double seconds,
+                                             const std::function<void(const ScanResult&)>& tried) {
+  std::optional<ScanResult> best;
+  for (std::uint32_t baud : {9600u, 19200u, 38400u, 57600u, 115200u, 4800u, 2400u, 1200u}) {
+    for (Parity parity : {Parity::none, Parity::even, Parity::odd}) {
+      if (g_stop) break;
+      SerialConfig serial;
+      serial.baud = baud;
+      serial.parity = parity;
+      const ScanResult r = scan_one(o, path, serial, seconds);
+      if (!r.error.empty() && r.bytes == 0) die(r.error, 1);
+      tried(r);
+      // Best: most good frames, then fewest UART errors.
+      if (r.frames_ok > 0 &&
+          (!best || r.frames_ok > best->frames_ok ||
+           (r.frames_ok == best->frames_ok && r.uart_errors < best->uart_errors)))
+        best = r;
+    }
+  }
+  return best;
+}
 
 // `drivetap capture -i PORT...`: live, listen-only capture from serial ports (src/sources/live/
 // live_capture.hpp). A frame is printed about t3.5 + 3 ms after its last byte and every output is

@@ -2,11 +2,14 @@
 // (src/app/extcap.cpp) share (docs/reference.md "Live capture").
 #pragma once
 
+#include <cstdint>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "app/common.hpp"
+#include "core/serial_config.hpp"
 #include "core/stats.hpp"
 
 namespace drivetap::app {
@@ -20,6 +23,20 @@ struct CaptureOptions {
   bool scan = false;
   double scan_seconds = 2;
 };
+
+// One setting of `capture --scan`: what listening a while at `serial` gave.
+struct ScanResult {
+  SerialConfig serial;
+  std::uint64_t bytes = 0, uart_errors = 0, frames = 0, frames_ok = 0;
+  std::string error;
+};
+
+// Listens `seconds` at each standard rate and parity in turn on `path` (`tried` hears of each) and
+// returns the one that gave most frames with a good checksum, then fewest UART errors; none when
+// no setting gave one. A port that cannot be opened: die(), exit 1. Stops early on g_stop.
+std::optional<ScanResult> scan_line_settings(const CommonOptions& o, const std::string& path,
+                                             double seconds,
+                                             const std::function<void(const ScanResult&)>& tried);
 
 // Who hears of the run besides its outputs.
 struct CaptureVoice {

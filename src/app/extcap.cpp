@@ -17,6 +17,7 @@
 #include <deque>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -24,6 +25,7 @@
 #include "app/capture.hpp"
 #include "app/commands.hpp"
 #include "app/common.hpp"
+#include "app/stop_signals.hpp"
 #include "core/protocol_desc.hpp"
 #include "sources/live/port_list.hpp"
 
@@ -47,6 +49,7 @@ struct ExtcapOptions {
   // The dialog's options, each mapped to `drivetap capture`'s own.
   std::string baud;         // -s, first half
   std::string line_format;  // -s, second half: 8N1, 8E1, ...
+  bool detect = false;      // the settings found by capture --scan's search instead
   std::string protocol;     // -P
   std::string drives;       // --drive, several separated by spaces or commas
   std::string t35;          // --t35
@@ -122,6 +125,10 @@ int print_config() {
   value(format, "7E1", "7E1 (Modbus ASCII)", false);
   value(format, "7O1", "7O1", false);
   value(format, "7N2", "7N2", false);
+  arg("--detect", "Detect the line settings", "boolflag",
+      "{default=false}{tooltip=Listen half a second at each standard rate and parity (12 s, as "
+      "capture --scan) and capture with the one that gives good checksums; the rate and format "
+      "above are then not used}{group=Line}");
   const int protocol = arg("--protocol", "Protocol", "selector",
                            "{tooltip=The protocol on the bus (-P)}{group=Decoding}");
   value(protocol, "auto", "detected from the first frames", true);
@@ -129,7 +136,7 @@ int print_config() {
     value(protocol, d->option_names.front(), d->label, false);
   arg("--drive", "Drive bindings", "string",
       "{default=auto}{tooltip=auto (guess each station's drive family), none, or ADDRESS=FAMILY "
-      "bindings separated by spaces, e.g. 2=e9 3=fc302 (--drive; drivetap profiles lists the "
+      "bindings separated by spaces, e.g. 2=e9 3=erg (--drive; drivetap profiles lists the "
       "families)}{group=Decoding}");
   arg("--t35", "Frame silence t3.5", "string",
       "{placeholder=3.5c}{tooltip=Silence between frames: 3.5c, 1750us, 2ms (--t35; default "
@@ -263,6 +270,8 @@ int run_extcap_capture(const ExtcapOptions& e) {
   if (e.interface.empty()) die("--capture: --extcap-interface PORT is missing");
   if (!e.capture_filter.empty())
     die("capture filters are not supported: use a display filter (drivetap captures every frame)");
+  g_unopened_fifo = e.fifo;
+  std::atexit(release_unopened_fifo);
   CommonOptions o;
   if (!e.baud.empty() || !e.line_format.empty())
     o.serial = fmt::format("{} {}", e.baud.empty() ? "9600" : e.baud,
@@ -284,8 +293,27 @@ int run_extcap_capture(const ExtcapOptions& e) {
   }
   ControlPipe control(e.control_out);
   ControlInput control_in(e.control_in);
-  g_unopened_fifo = e.fifo;
-  std::atexit(release_unopened_fifo);
+  if (e.detect) {
+    if (!e.second_port.empty()) die("--detect: only with one port (not with --second-port)");
+    catch_stop_signals();
+    const std::optional<ScanResult> best =
+        scan_line_settings(o, port, 0.5, [&](const ScanResult& r) {
+          control_in.drain();
+          control.send(0, ControlPipe::statusbar,
+                       fmt::format("drivetap: detecting the line settings: {} gave {} good frames",
+                                   r.serial.to_string(), r.frames_ok));
+        });
+    if (g_stop) return 0;
+    if (!best)
+      die(fmt::format("{}: no standard setting gave a frame with a good checksum (check the "
+                      "wiring, or set the rate and format)",
+                      port),
+          1);
+    o.serial = best->serial.to_string();
+    control.send(
+        kLoggerControl, ControlPipe::add,
+        fmt::format("detected {}: {} frames with a good checksum\n", o.serial, best->frames_ok));
+  }
   CaptureVoice voice;
   voice.chatty = false;
   voice.outputs_open = [] { g_unopened_fifo.clear(); };
@@ -355,6 +383,7 @@ Command add_extcap_command(CLI::App& app) {
   extcap->add_option("--debug-file", e->debug_file, "Unused");
   extcap->add_option("--baud", e->baud, "Baud rate (the first half of capture's -s)");
   extcap->add_option("--line-format", e->line_format, "8N1, 8E1, ... (the second half of -s)");
+  extcap->add_flag("--detect", e->detect, "Find the line settings first, as capture --scan");
   extcap->add_option("--protocol", e->protocol, "As capture's -P");
   extcap->add_option("--drive", e->drives, "As capture's --drive, several separated by spaces");
   extcap->add_option("--t35", e->t35, "As capture's --t35");
