@@ -4,7 +4,8 @@
 # tshark's own parser too), then --capture --fifo on the simulated bus (tools/drivetap-simbus):
 # the stream tshark reads has the frames the simulator sent and the decode of `drivetap capture
 # -w` of the same traffic; SIGTERM mid-run leaves a stream tshark reads to the end; the control
-# pipe carries status-bar counts; a missing port gives one line and a non-zero exit. Then a round
+# pipe carries status-bar counts; a reader that goes away ends it quietly; --detect searches the
+# settings first; a missing port gives one line and a non-zero exit. Then a round
 # trip through tshark itself: `drivetap wireshark --install` into a temporary HOME, tshark -D lists
 # the port, tshark -i captures from the simulated bus; --uninstall takes it away again.
 # Usage: tests/extcap.sh DRIVETAP SIMBUS
@@ -229,6 +230,20 @@ assert counts == sorted(counts) and counts[-1] > 0, counts
 packets = int(sys.argv[2])
 assert packets == 0 or counts[-1] <= packets, (counts, packets)
 EOF
+
+# Wireshark closing its end of the FIFO first (its reader gone): exit 0, nothing on stderr.
+"$simbus" --link "$tmp/left.tty" --serial "19200 8E1" --wait-ms 300 --duration 8 2>/dev/null &
+sim=$!
+for _ in $(seq 50); do [ -e "$tmp/left.tty" ] && break; sleep 0.02; done
+mkfifo "$tmp/left.fifo"
+head -c 2000 <"$tmp/left.fifo" >/dev/null &
+timeout 30 "$drivetap" --capture --extcap-interface "$tmp/left.tty" --fifo "$tmp/left.fifo" \
+  --baud 19200 --line-format 8E1 2>"$tmp/left.err"
+rc=$?
+kill "$sim" 2>/dev/null
+wait "$sim" 2>/dev/null
+[ "$rc" = 0 ] && [ ! -s "$tmp/left.err" ] ||
+  fail "reader gone: exit $rc, stderr: $(cat "$tmp/left.err")"
 
 # --detect: the settings searched first as capture --scan does (on a pty every setting hears the
 # traffic: this checks the mechanics, not the choice), then the capture with the one chosen.
