@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# `cmake --install`: drivetap, its manual page and its bash completion land where they belong;
+# `cmake --install`: drivetap, its manual page, its bash completion and its Wireshark extcap link
+# land where they belong;
 # the page renders without groff warnings and names every option each command's --help lists;
 # the completion completes commands, a misspelt-free option list per command, and -t's values.
 #   tests/install.sh BUILD_DIR SOURCE_DIR
@@ -17,6 +18,15 @@ completion="$prefix/share/bash-completion/completions/drivetap"
 [ -x "$bin" ] || fail "no bin/drivetap"
 [ -n "$page" ] || fail "no share/man/man1/drivetap.1"
 [ -f "$completion" ] || fail "no share/bash-completion/completions/drivetap"
+# The Wireshark extcap: a link to the installed binary, which acts as an extcap by its name.
+extcap=$(ls "$prefix"/lib*/wireshark/extcap/drivetap-extcap "$prefix"/lib/*/wireshark/extcap/drivetap-extcap 2>/dev/null | head -1)
+if [ -z "$extcap" ] || [ ! -L "$extcap" ]; then
+  fail "no lib/.../wireshark/extcap/drivetap-extcap link"
+else
+  [ "$(readlink -f "$extcap")" = "$(readlink -f "$bin")" ] || fail "drivetap-extcap links to $(readlink -f "$extcap")"
+  "$extcap" --extcap-dlts --extcap-interface /dev/ttyUSB0 | grep -q '^dlt {number=252}' ||
+    fail "drivetap-extcap --extcap-dlts: $("$extcap" --extcap-dlts --extcap-interface /dev/ttyUSB0 2>&1)"
+fi
 
 if command -v groff > /dev/null; then
   warnings=$(groff -man -ww -z "$page" 2>&1)

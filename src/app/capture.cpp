@@ -14,6 +14,7 @@
 #include <utility>
 #include <vector>
 
+#include "app/capture.hpp"
 #include "app/commands.hpp"
 #include "app/common.hpp"
 #include "app/outputs.hpp"
@@ -26,23 +27,6 @@
 
 namespace drivetap::app {
 namespace {
-
-// Options of `drivetap capture` besides the common ones.
-struct CaptureOptions {
-  std::vector<std::string> ports;     // -i
-  std::vector<std::string> autostop;  // -a duration:S
-  std::vector<std::string> ring;      // -b filesize:MB|duration:S|files:N
-  bool reconnect = false;
-  bool scan = false;
-  double scan_seconds = 2;
-};
-
-// One setting of `capture --scan`: what listening `seconds` at `serial` gave.
-struct ScanResult {
-  SerialConfig serial;
-  std::uint64_t bytes = 0, uart_errors = 0, frames = 0, frames_ok = 0;
-  std::string error;
-};
 
 ScanResult scan_one(const CommonOptions& o, const std::string& path, const SerialConfig& serial,
                     double seconds) {
@@ -116,28 +100,16 @@ int run_scan(const CommonOptions& o, const CaptureOptions& c) {
   catch_stop_signals();
   std::printf("scan %s: %g s per setting (listen only)\n", path.c_str(), c.scan_seconds);
   std::fflush(stdout);
-  std::optional<ScanResult> best;
-  for (std::uint32_t baud : {9600u, 19200u, 38400u, 57600u, 115200u, 4800u, 2400u, 1200u}) {
-    for (Parity parity : {Parity::none, Parity::even, Parity::odd}) {
-      if (g_stop) break;
-      SerialConfig serial;
-      serial.baud = baud;
-      serial.parity = parity;
-      const ScanResult r = scan_one(o, path, serial, c.scan_seconds);
-      if (!r.error.empty() && r.bytes == 0) die(r.error, 1);
-      std::printf("  %-11s %6llu bytes, %5llu with UART errors, %4llu frames, %4llu checksum ok\n",
-                  serial.to_string().c_str(), static_cast<unsigned long long>(r.bytes),
-                  static_cast<unsigned long long>(r.uart_errors),
-                  static_cast<unsigned long long>(r.frames),
-                  static_cast<unsigned long long>(r.frames_ok));
-      std::fflush(stdout);
-      // Best: most good frames, then fewest UART errors.
-      if (r.frames_ok > 0 &&
-          (!best || r.frames_ok > best->frames_ok ||
-           (r.frames_ok == best->frames_ok && r.uart_errors < best->uart_errors)))
-        best = r;
-    }
-  }
+  const std::optional<ScanResult> best =
+      scan_line_settings(o, path, c.scan_seconds, [](const ScanResult& r) {
+        std::printf(
+            "  %-11s %6llu bytes, %5llu with UART errors, %4llu frames, %4llu checksum ok\n",
+            r.serial.to_string().c_str(), static_cast<unsigned long long>(r.bytes),
+            static_cast<unsigned long long>(r.uart_errors),
+            static_cast<unsigned long long>(r.frames),
+            static_cast<unsigned long long>(r.frames_ok));
+        std::fflush(stdout);
+      });
   if (g_stop) {
     std::printf("interrupted\n");
     return 130;
@@ -155,11 +127,36 @@ int run_scan(const CommonOptions& o, const CaptureOptions& c) {
   return 0;
 }
 
+}  // namespace
+
+std::optional<ScanResult> scan_line_settings(const CommonOptions& o, const std::string& path,
+                                             double seconds,
+                                             const std::function<void(const ScanResult&)>& tried) {
+  std::optional<ScanResult> best;
+  for (std::uint32_t baud : {9600u, 19200u, 38400u, 57600u, 115200u, 4800u, 2400u, 1200u}) {
+    for (Parity parity : {Parity::none, Parity::even, Parity::odd}) {
+      if (g_stop) break;
+      SerialConfig serial;
+      serial.baud = baud;
+      serial.parity = parity;
+      const ScanResult r = scan_one(o, path, serial, seconds);
+      if (!r.error.empty() && r.bytes == 0) die(r.error, 1);
+      tried(r);
+      // Best: most good frames, then fewest UART errors.
+      if (r.frames_ok > 0 &&
+          (!best || r.frames_ok > best->frames_ok ||
+           (r.frames_ok == best->frames_ok && r.uart_errors < best->uart_errors)))
+        best = r;
+    }
+  }
+  return best;
+}
+
 // `drivetap capture -i PORT...`: live, listen-only capture from serial ports (src/sources/live/
 // live_capture.hpp). A frame is printed about t3.5 + 3 ms after its last byte and every output is
 // flushed each round; Ctrl-C, SIGTERM, -c, -a, an unplugged adapter (without --reconnect) or a
 // failed write end the run with every file closed valid.
-int run_capture(const CommonOptions& o, const CaptureOptions& c) {
+int run_capture(const CommonOptions& o, const CaptureOptions& c, const CaptureVoice& voice) {
   if (c.ports.empty()) die("capture: give at least one port with -i (e.g. -i /dev/ttyUSB0)");
   refuse_shared_files({{"-o", o.output}, {"-w", o.write}});
   TimeNs autostop = 0;
@@ -195,11 +192,17 @@ int run_capture(const CommonOptions& o, const CaptureOptions& c) {
   for (std::size_t k = 0; k < c.ports.size(); ++k) {
     std::string error;
     if (!live.open_port(k, &error)) die(error, 1);
-    for (const std::string& w : live.port(k).warnings()) say("warning: " + w);
+    for (const std::string& w : live.port(k).warnings()) {
+      if (voice.chatty) say("warning: " + w);
+      if (voice.warning) voice.warning(w);
+    }
   }
-  std::fprintf(stderr, "drivetap: capturing on %s at %s (listen only; Ctrl-C stops)\n",
-               fmt::format("{}", fmt::join(c.ports, ", ")).c_str(), p.serial.to_string().c_str());
+  if (voice.chatty)
+    std::fprintf(stderr, "drivetap: capturing on %s at %s (listen only; Ctrl-C stops)\n",
+                 fmt::format("{}", fmt::join(c.ports, ", ")).c_str(), p.serial.to_string().c_str());
   Outputs out(o, channels, p, /*timed=*/true, ring ? &*ring : nullptr);
+  out.set_reader_may_leave(voice.reader_may_leave);
+  if (voice.outputs_open) voice.outputs_open();
   // Live times are wall-clock time; -t r counts from the start of the capture.
   out.set_clock(true, std::chrono::duration_cast<std::chrono::nanoseconds>(
                           std::chrono::system_clock::now().time_since_epoch())
@@ -209,27 +212,33 @@ int run_capture(const CommonOptions& o, const CaptureOptions& c) {
 
   LiveCaptureHooks hooks;
   hooks.port_lost = [](const std::string& error) { say(error); };
-  hooks.port_back = [](const std::string& port) {
-    std::fprintf(stderr, "drivetap: %s: reconnected\n", port.c_str());
+  hooks.port_back = [&voice](const std::string& port) {
+    if (voice.chatty) std::fprintf(stderr, "drivetap: %s: reconnected\n", port.c_str());
   };
-  hooks.flush = [&out] { return out.flush(); };
+  hooks.flush = [&out, &pipeline, &voice] {
+    const bool ok = out.flush();
+    if (voice.each_round) voice.each_round(pipeline.stats());
+    return ok;
+  };
   const LiveCaptureEnd end = live.run(pipeline, hooks, g_stop);
   out.close();
   if (g_stop) {
-    std::fprintf(stderr, "drivetap: interrupted; output flushed and closed\n");
+    if (voice.chatty) std::fprintf(stderr, "drivetap: interrupted; output flushed and closed\n");
     return 130;
   }
+  if (out.reader_left()) return 0;
   switch (end) {
     case LiveCaptureEnd::stopped:
       return 0;
     case LiveCaptureEnd::duration_reached:
-      say("capture stopped: autostop duration reached");
+      if (voice.chatty) say("capture stopped: autostop duration reached");
       return 0;
     case LiveCaptureEnd::frame_limit:
-      say(fmt::format("capture stopped: {} frames captured (-c)", o.count));
+      if (voice.chatty) say(fmt::format("capture stopped: {} frames captured (-c)", o.count));
       return 0;
     case LiveCaptureEnd::adapter_lost:
-      say("capture stopped: adapter lost");
+      // (The port's own line said why.)
+      if (voice.chatty) say("capture stopped: adapter lost");
       return 1;
     case LiveCaptureEnd::poll_failed:
       say(fmt::format("capture stopped: poll: {}", std::strerror(live.poll_errno())));
@@ -240,8 +249,6 @@ int run_capture(const CommonOptions& o, const CaptureOptions& c) {
   }
   return 1;
 }
-
-}  // namespace
 
 Command add_capture_command(CLI::App& app) {
   auto o = std::make_shared<CommonOptions>();

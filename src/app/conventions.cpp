@@ -6,15 +6,11 @@
 
 #include <algorithm>
 #include <cstdio>
-#include <cstdlib>
-#include <filesystem>
-#include <fstream>
 #include <functional>
-#include <map>
 #include <numeric>
-#include <system_error>
 
 #include "core/printable.hpp"
+#include "sources/live/port_list.hpp"
 
 namespace drivetap::app {
 
@@ -46,66 +42,16 @@ std::string unknown_command_message(std::string_view word, const std::vector<std
   return fmt::format("unknown command '{}' (commands: {})", shown, fmt::join(names, ", "));
 }
 
-namespace {
-
-namespace fs = std::filesystem;
-
-fs::path device_root() {
-  const char* root = std::getenv("DRIVETAP_DEVICE_ROOT");
-  return root && *root ? fs::path(root) : fs::path("/");
-}
-
-// Whether the kernel found a UART behind /dev/ttySN (ttyS0..31 exist whether or not it did; the
-// type of one without is 0, PORT_UNKNOWN). Read from sysfs: opening the port is not needed.
-bool has_uart(const fs::path& root, const std::string& name) {
-  std::ifstream type(root / "sys/class/tty" / name / "type");
-  int value = 0;
-  if (!(type >> value)) return true;  // no sysfs to ask: shown
-  return value != 0;
-}
-
-// Orders ttyUSB2 before ttyUSB10.
-bool port_before(const std::string& a, const std::string& b) {
-  const auto split = [](const std::string& s) {
-    const std::size_t digits = s.find_last_not_of("0123456789") + 1;
-    return std::pair<std::string, unsigned long>(
-        s.substr(0, digits), digits < s.size() ? std::stoul(s.substr(digits)) : 0ul);
-  };
-  return split(a) < split(b);
-}
-
-}  // namespace
-
 int list_serial_ports() {
-  const fs::path root = device_root();
-  std::error_code ec;
-  // Each /dev/serial/by-id name, by the device it points to.
-  std::map<std::string, std::vector<std::string>> by_id;
-  for (fs::directory_iterator it(root / "dev/serial/by-id", ec), end; !ec && it != end;
-       it.increment(ec)) {
-    std::error_code link_ec;
-    const fs::path target = fs::read_symlink(it->path(), link_ec);
-    if (!link_ec) by_id[target.filename().string()].push_back(it->path().filename().string());
-  }
-  std::vector<std::string> ports;
-  for (fs::directory_iterator it(root / "dev", ec), end; !ec && it != end; it.increment(ec)) {
-    const std::string name = it->path().filename().string();
-    if (name.starts_with("ttyUSB") || name.starts_with("ttyACM") ||
-        (name.starts_with("ttyS") && has_uart(root, name)))
-      ports.push_back(name);
-  }
+  const std::vector<SerialPortEntry> ports = find_serial_ports();
   if (ports.empty()) {
     std::fputs("drivetap: no serial ports found (/dev/ttyUSB*, /dev/ttyACM*, /dev/ttyS*)\n",
                stderr);
     return 1;
   }
-  std::sort(ports.begin(), ports.end(), port_before);
   for (std::size_t k = 0; k < ports.size(); ++k) {
-    std::string line = fmt::format("{}. /dev/{}", k + 1, ports[k]);
-    if (const auto found = by_id.find(ports[k]); found != by_id.end()) {
-      std::sort(found->second.begin(), found->second.end());
-      line += fmt::format(" ({})", fmt::join(found->second, ", "));
-    }
+    std::string line = fmt::format("{}. {}", k + 1, ports[k].path);
+    if (!ports[k].by_id.empty()) line += fmt::format(" ({})", fmt::join(ports[k].by_id, ", "));
     std::printf("%s\n", printable(line, false).c_str());
   }
   return 0;

@@ -23,16 +23,21 @@ int main(int argc, char** argv) {
   // run ends as SIGPIPE would have ended it (finish_stdout()).
   std::signal(SIGXFSZ, SIG_IGN);
   std::signal(SIGPIPE, SIG_IGN);
-  // The short, tcpdump-like form: `drivetap -i /dev/ttyUSB0 -s "19200 8E1"` is a capture.
   std::vector<char*> args(argv, argv + argc);
+  // Wireshark running drivetap as an extcap (--extcap-interfaces, --capture, ...; or through a
+  // link named drivetap-extcap): `drivetap extcap ...`.
+  static char extcap_word[] = "extcap";
+  if (wireshark_called(argc, argv)) args.insert(args.begin() + 1, extcap_word);
+  // The short, tcpdump-like form: `drivetap -i /dev/ttyUSB0 -s "19200 8E1"` is a capture.
   static char capture_word[] = "capture";
-  if (argc > 1 &&
+  if (args.size() == static_cast<std::size_t>(argc) && argc > 1 &&
       (std::string_view(argv[1]) == "-i" || std::string_view(argv[1]) == "--interface" ||
        std::string_view(argv[1]).starts_with("-i/")))
     args.insert(args.begin() + 1, capture_word);
   // tshark's: `drivetap -r FILE ...` reads FILE (read takes -r too), `drivetap -D` lists ports.
   static char read_word[] = "read";
-  if (argc > 1 && std::string_view(argv[1]).starts_with("-r"))
+  if (args.size() == static_cast<std::size_t>(argc) && argc > 1 &&
+      std::string_view(argv[1]).starts_with("-r"))
     args.insert(args.begin() + 1, read_word);
   if (argc == 2 &&
       (std::string_view(argv[1]) == "-D" || std::string_view(argv[1]) == "--list-interfaces"))
@@ -48,9 +53,9 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", "drivetap 0.1.0");
   // In the order `drivetap --help` lists them.
   const std::vector<Command> commands = {
-      add_decode_command(app),  add_read_command(app),     add_diagnose_command(app),
-      add_capture_command(app), add_generate_command(app), add_profiles_command(app),
-      add_fields_command(app),
+      add_decode_command(app),  add_read_command(app),      add_diagnose_command(app),
+      add_capture_command(app), add_generate_command(app),  add_profiles_command(app),
+      add_fields_command(app),  add_wireshark_command(app), add_extcap_command(app),
   };
   // A first word that is no command and no option: the closest command is suggested.
   if (argc > 1 && argv[1][0] != '-') {

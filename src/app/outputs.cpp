@@ -207,6 +207,8 @@ void Outputs::close() {
                 options_.classic_pcap ? CaptureFormat::pcap : CaptureFormat::pcapng);
   const bool capture_closed =
       !capture_file_ || capture_file_ == stdout || std::fclose(capture_file_) == 0;
+  if (!capture_ok && reader_may_leave_ && capture_errno == EPIPE) reader_left_ = true;
+  if (reader_left_) return;
   if (!capture_ok)
     die(fmt::format("-w {}: write failed: {}", options_.write, std::strerror(capture_errno)), 1);
   if (!capture_closed)

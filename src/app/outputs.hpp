@@ -54,6 +54,10 @@ class Outputs {
 
   // Flushes and closes every output; a failed write (disk full, closed pipe) is an error.
   void close();
+  // The -w stream's reader may go away (Wireshark stopping an extcap capture): close() then
+  // ends the file quietly, and reader_left() says so.
+  void set_reader_may_leave(bool may) { reader_may_leave_ = may; }
+  [[nodiscard]] bool reader_left() const { return reader_left_; }
 
  private:
   const CommonOptions& options_;
@@ -74,6 +78,8 @@ class Outputs {
   std::unique_ptr<BesideSink> beside_;
   long capture_good_size_ = 0;  // the capture file up to its last packet flushed whole
   bool capture_failed_ = false;
+  bool reader_may_leave_ = false;
+  bool reader_left_ = false;
   // -Y: the compiled filter until sink() puts its sink in front of the others.
   std::optional<DisplayFilter> display_filter_;
   std::unique_ptr<DisplayFilterSink> filter_sink_;

@@ -1,0 +1,114 @@
+// drivetap command line: the files drivetap puts into Wireshark's folders
+// (src/app/wireshark_install.hpp).
+#include "app/wireshark_install.hpp"
+
+#include <fmt/format.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <system_error>
+
+namespace drivetap::app {
+
+namespace fs = std::filesystem;
+
+WiresharkFolders personal_wireshark_folders() {
+  fs::path config;
+  if (const char* xdg = std::getenv("XDG_CONFIG_HOME"); xdg && *xdg) {
+    config = fs::path(xdg) / "wireshark";
+  } else {
+    const char* home = std::getenv("HOME");
+    config = fs::path(home && *home ? home : ".") / ".config" / "wireshark";
+  }
+  return {config / "extcap"};
+}
+
+WiresharkFolders system_wireshark_folders() {
+  WiresharkFolders folders{"/usr/lib/x86_64-linux-gnu/wireshark/extcap"};
+  // (tshark prints its folders as "Name:<TAB>path"; stderr only warns about running as root.)
+  std::FILE* tshark = ::popen("tshark -G folders 2>/dev/null", "r");
+  if (!tshark) return folders;
+  char line[4096];
+  while (std::fgets(line, sizeof line, tshark)) {
+    std::string text(line);
+    while (!text.empty() && (text.back() == '\n' || text.back() == '\r')) text.pop_back();
+    const std::size_t colon = text.find(':');
+    if (colon == std::string::npos) continue;
+    const std::string name = text.substr(0, colon);
+    if (name != "Global Extcap path" && name != "Extcap path") continue;
+    const std::size_t start = text.find_first_not_of(" \t", colon + 1);
+    if (start != std::string::npos) folders.extcap = text.substr(start);
+  }
+  ::pclose(tshark);
+  return folders;
+}
+
+std::vector<WiresharkEntry> wireshark_entries(const WiresharkFolders& folders,
+                                              const fs::path& drivetap) {
+  std::vector<WiresharkEntry> entries;
+  // A link, not a copy: the extcap is the drivetap installed, and stays its version. The name
+  // tells drivetap it runs as an extcap.
+  WiresharkEntry extcap;
+  extcap.folder = folders.extcap;
+  extcap.name = "drivetap-extcap";
+  extcap.link_to = drivetap;
+  entries.push_back(extcap);
+  return entries;
+}
+
+bool install_wireshark_entries(const std::vector<WiresharkEntry>& entries,
+                               std::vector<std::string>* report, std::string* error) {
+  for (const WiresharkEntry& entry : entries) {
+    const fs::path path = entry.path();
+    std::error_code ec;
+    fs::create_directories(entry.folder, ec);
+    if (ec) {
+      *error = fmt::format("{}: cannot create: {}", entry.folder.string(), ec.message());
+      return false;
+    }
+    if (fs::is_symlink(path, ec) || fs::exists(path, ec)) fs::remove(path, ec);
+    if (ec) {
+      *error = fmt::format("{}: cannot replace: {}", path.string(), ec.message());
+      return false;
+    }
+    if (!entry.link_to.empty()) {
+      fs::create_symlink(entry.link_to, path, ec);
+      if (ec) {
+        *error = fmt::format("{}: cannot create: {}", path.string(), ec.message());
+        return false;
+      }
+      report->push_back(fmt::format("{} -> {}", path.string(), entry.link_to.string()));
+      continue;
+    }
+    std::ofstream out(path, std::ios::binary);
+    out << entry.content;
+    out.close();
+    if (!out) {
+      *error = fmt::format("{}: cannot write", path.string());
+      return false;
+    }
+    if (entry.executable)
+      fs::permissions(path, fs::perms::owner_exec | fs::perms::group_exec | fs::perms::others_exec,
+                      fs::perm_options::add, ec);
+    report->push_back(path.string());
+  }
+  return true;
+}
+
+bool uninstall_wireshark_entries(const std::vector<WiresharkEntry>& entries,
+                                 std::vector<std::string>* report, std::string* error) {
+  for (const WiresharkEntry& entry : entries) {
+    const fs::path path = entry.path();
+    std::error_code ec;
+    if (!fs::is_symlink(path, ec) && !fs::exists(path, ec)) continue;
+    if (!fs::remove(path, ec) || ec) {
+      *error = fmt::format("{}: cannot remove: {}", path.string(), ec.message());
+      return false;
+    }
+    report->push_back(path.string());
+  }
+  return true;
+}
+
+}  // namespace drivetap::app

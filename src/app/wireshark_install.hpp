@@ -1,0 +1,48 @@
+// drivetap command line: the files drivetap puts into Wireshark's folders (README "Capture from
+// Wireshark's dialog"), as a list of entries, each a file and the folder it goes to: installed
+// and removed by `drivetap wireshark` and checked by its tests.
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace drivetap::app {
+
+// Wireshark's folders that drivetap puts files into.
+struct WiresharkFolders {
+  std::filesystem::path extcap;  // extcap programs
+};
+
+// One file for Wireshark: a symbolic link to `link_to` (the drivetap binary), or, when that is
+// empty, a file holding `content` (with `executable`).
+struct WiresharkEntry {
+  std::filesystem::path folder;
+  std::string name;
+  std::filesystem::path link_to;
+  std::string content;
+  bool executable = false;
+  [[nodiscard]] std::filesystem::path path() const { return folder / name; }
+};
+
+// The personal folders: under $XDG_CONFIG_HOME/wireshark, else $HOME/.config/wireshark (where
+// Wireshark 4 looks for personal extcaps).
+WiresharkFolders personal_wireshark_folders();
+// The system-wide folders: the extcap folder `tshark -G folders` names ("Global Extcap path",
+// "Extcap path" before 4.2), else Debian's /usr/lib/x86_64-linux-gnu/wireshark/extcap.
+WiresharkFolders system_wireshark_folders();
+
+// What drivetap installs into `folders`: the extcap, drivetap-extcap, a link to `drivetap`.
+std::vector<WiresharkEntry> wireshark_entries(const WiresharkFolders& folders,
+                                              const std::filesystem::path& drivetap);
+
+// Puts each entry in place (its folder made, a file of the same name replaced); one line per
+// file to `report` ("extcap: PATH -> TARGET"). False with *error (naming the path) on the first
+// failure.
+bool install_wireshark_entries(const std::vector<WiresharkEntry>& entries,
+                               std::vector<std::string>* report, std::string* error);
+// Removes each entry that is there (a missing one is no error); one line per file removed.
+bool uninstall_wireshark_entries(const std::vector<WiresharkEntry>& entries,
+                                 std::vector<std::string>* report, std::string* error);
+
+}  // namespace drivetap::app
