@@ -51,9 +51,14 @@ void add_finding(Message& m, const Finding<Args...>& finding,
   add_finding_detail(m, finding, finding.detail(args...));
 }
 
-// Raises `implausible` (a protocol's `implausible`-kind finding, "{why} [{rule}, {source}]") for
-// the rule `p` breaks; nothing when p.ok().
-void add_implausible(Message& m, const Finding<std::string, const char*, const char*>& implausible,
-                     const Plausibility& p);
+// A protocol's `implausible` finding: the plausibility rule a telegram breaks, its detail
+// "{why} [{rule}, {source}]". Every protocol has one, alike but for its id.
+using ImplausibleFinding = Finding<std::string, const char*, const char*>;
+consteval ImplausibleFinding implausible_finding(const char* id) {
+  return {id, AnomalyKind::implausible, Severity::error, "{} [{}, {}]"};
+}
+
+// Raises `implausible` for the rule `p` breaks; nothing when p.ok().
+void add_implausible(Message& m, const ImplausibleFinding& implausible, const Plausibility& p);
 
 }  // namespace drivetap

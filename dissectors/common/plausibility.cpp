@@ -17,8 +17,7 @@ std::array<bool, 256> g_vendor_exception{};
 // The rule is named after what was found: "address 255 (248-255 are reserved) [modbus.address,
 // Modbus serial line §2.3]" (the kind's label says "not a telegram of its protocol"; the frame
 // says which protocol).
-void add_implausible(Message& m, const Finding<std::string, const char*, const char*>& implausible,
-                     const Plausibility& p) {
+void add_implausible(Message& m, const ImplausibleFinding& implausible, const Plausibility& p) {
   if (p.ok()) return;
   add_finding(m, implausible, p.why, p.broken->id, p.broken->source);
 }

@@ -41,12 +41,12 @@ inline constexpr std::array kErrorNumbers = {
 inline constexpr FieldDesc kStx{"danfoss_fc.stx", "Start (STX)", FieldType::hex, 8};
 inline constexpr FieldDesc kLge{"danfoss_fc.lge", "Telegram length (LGE)", FieldType::uint, 8};
 inline constexpr FieldDesc kAdr{"danfoss_fc.adr", "Address byte (ADR)", FieldType::hex, 8};
-inline constexpr FieldDesc kAddress{"danfoss_fc.addr",
-                                    "Drive address",
-                                    FieldType::uint,
-                                    8,
-                                    {},
-                                    "The address the ADR byte names, in either of its two forms"};
+inline constexpr FieldDesc kAddress{
+    .id = "danfoss_fc.addr",
+    .name = "Drive address",
+    .type = FieldType::uint,
+    .bits = 8,
+    .blurb = "The address the ADR byte names, in either of its two forms"};
 inline constexpr FieldDesc kBroadcast{"danfoss_fc.broadcast", "Broadcast", FieldType::boolean};
 inline constexpr FieldDesc kPke{"danfoss_fc.pke", "Parameter command (PKE)", FieldType::hex, 16};
 inline constexpr FieldDesc kAkRequest{.id = "danfoss_fc.pke.ak",
@@ -63,35 +63,23 @@ inline constexpr FieldDesc kPnu{.id = "danfoss_fc.pke.pnu",
                                 .type = FieldType::uint,
                                 .bits = 16,
                                 .bitmask = 0x0FFF};
-inline constexpr FieldDesc kParameter{"danfoss_fc.param",
-                                      "Parameter",
-                                      FieldType::text,
-                                      0,
-                                      {},
-                                      "The parameter as the drive's manual numbers it"};
+inline constexpr FieldDesc kParameter =
+    text_field("danfoss_fc.param", "Parameter", "The parameter as the drive's manual numbers it");
 inline constexpr FieldDesc kInd{"danfoss_fc.ind", "Index (IND)", FieldType::hex, 16};
 inline constexpr FieldDesc kPwe{"danfoss_fc.pwe", "Parameter value (PWE)", FieldType::uint, 32};
 inline constexpr FieldDesc kErrorNumber{"danfoss_fc.error", "Error number", FieldType::enumerated,
                                         16, kErrorNumbers};
-inline constexpr FieldDesc kText{"danfoss_fc.text", "Text", FieldType::text};
+inline constexpr FieldDesc kText = text_field("danfoss_fc.text", "Text");
 inline constexpr FieldDesc kCtw{"danfoss_fc.ctw", "Control word (CTW)", FieldType::hex, 16};
 inline constexpr FieldDesc kStw{"danfoss_fc.stw", "Status word (STW)", FieldType::hex, 16};
-inline constexpr FieldDesc kCtwMeaning{"danfoss_fc.ctw.meaning", "Control word meaning",
-                                       FieldType::text};
-inline constexpr FieldDesc kStwMeaning{"danfoss_fc.stw.meaning", "Status word meaning",
-                                       FieldType::text};
-inline constexpr FieldDesc kReference{"danfoss_fc.ref",
-                                      "Speed reference (REF)",
-                                      FieldType::text,
-                                      0,
-                                      {},
-                                      "Percent of the maximum reference"};
-inline constexpr FieldDesc kMav{"danfoss_fc.mav",
-                                "Main actual value (MAV)",
-                                FieldType::text,
-                                0,
-                                {},
-                                "Percent of the maximum reference"};
+inline constexpr FieldDesc kCtwMeaning =
+    text_field("danfoss_fc.ctw.meaning", "Control word meaning");
+inline constexpr FieldDesc kStwMeaning =
+    text_field("danfoss_fc.stw.meaning", "Status word meaning");
+inline constexpr FieldDesc kReference =
+    text_field("danfoss_fc.ref", "Speed reference (REF)", "Percent of the maximum reference");
+inline constexpr FieldDesc kMav =
+    text_field("danfoss_fc.mav", "Main actual value (MAV)", "Percent of the maximum reference");
 inline constexpr FieldDesc kPcd{"danfoss_fc.pcd", "Process data (PCD)", FieldType::hex, 16};
 inline constexpr FieldDesc kBcc{"danfoss_fc.bcc", "Block check (BCC)", FieldType::hex, 8};
 

@@ -35,8 +35,8 @@ inline constexpr Finding<unsigned, const char*> kFindingAkDirection{
 inline constexpr Finding<std::size_t> kFindingDataLength{
     "danfoss_fc.data_length", AnomalyKind::malformed, Severity::error,
     "{} data bytes: neither process data (4) nor a parameter block (12)"};
-inline constexpr Finding<std::string, const char*, const char*> kFindingImplausible{
-    "danfoss_fc.implausible", AnomalyKind::implausible, Severity::error, "{} [{}, {}]"};
+inline constexpr ImplausibleFinding kFindingImplausible =
+    implausible_finding("danfoss_fc.implausible");
 
 inline constexpr const FindingDesc* kAllFindings[] = {
     &kFindingFragment,    &kFindingStxBad,     &kFindingLgeMismatch, &kFindingPweLength,

@@ -58,7 +58,7 @@ inline constexpr std::array kRunActions = {
     ValueName{0xE, "emergency stop"},
 };
 
-inline constexpr FieldDesc kStart{"easydrive.start", "Start ('~')", FieldType::text};
+inline constexpr FieldDesc kStart = text_field("easydrive.start", "Start ('~')");
 inline constexpr FieldDesc kAddr{"easydrive.addr", "Address", FieldType::uint, 8};
 inline constexpr FieldDesc kCommand{"easydrive.cmd", "Command", FieldType::enumerated, 8,
                                     kCommands};
@@ -67,10 +67,10 @@ inline constexpr FieldDesc kResponse{"easydrive.resp", "Response code", FieldTyp
 inline constexpr FieldDesc kFault{"easydrive.fault", "Current fault code (AUX)", FieldType::uint,
                                   8};
 inline constexpr FieldDesc kIndex{"easydrive.index", "Index", FieldType::hex, 16};
-inline constexpr FieldDesc kIndexName{"easydrive.index_name", "Index meaning", FieldType::text};
+inline constexpr FieldDesc kIndexName = text_field("easydrive.index_name", "Index meaning");
 inline constexpr FieldDesc kData{"easydrive.data", "Data", FieldType::hex, 16};
-inline constexpr FieldDesc kValue{
-    "easydrive.value", "Value", FieldType::text, 0, {}, "The data in the unit the index gives it"};
+inline constexpr FieldDesc kValue =
+    text_field("easydrive.value", "Value", "The data in the unit the index gives it");
 inline constexpr FieldDesc kSum{"easydrive.sum", "Checksum (SUM)", FieldType::hex, 16};
 
 inline constexpr const FieldDesc* kAllFields[] = {

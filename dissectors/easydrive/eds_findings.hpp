@@ -27,8 +27,8 @@ inline constexpr Finding<unsigned, char, std::size_t> kFindingBadCharacter{
 inline constexpr Finding<std::size_t> kFindingLength{
     "easydrive.length", AnomalyKind::malformed, Severity::error,
     "{} characters before CR: a frame has 13 or 17"};
-inline constexpr Finding<std::string, const char*, const char*> kFindingImplausible{
-    "easydrive.implausible", AnomalyKind::implausible, Severity::error, "{} [{}, {}]"};
+inline constexpr ImplausibleFinding kFindingImplausible =
+    implausible_finding("easydrive.implausible");
 
 inline constexpr const FindingDesc* kAllFindings[] = {
     &kFindingNoStart, &kFindingNoCr, &kFindingBadCharacter, &kFindingLength, &kFindingImplausible,

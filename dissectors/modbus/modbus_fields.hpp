@@ -92,12 +92,11 @@ inline constexpr std::array kCoilValues = {
 inline constexpr FieldDesc kRtuUnitId{"mbrtu.unit_id", "Unit ID (station address)", FieldType::uint,
                                       8};
 inline constexpr FieldDesc kRtuCrc{
-    "mbrtu.crc16",
-    "CRC-16",
-    FieldType::hex,
-    16,
-    {},
-    "The two CRC bytes as they are on the wire (low byte first), read as one number"};
+    .id = "mbrtu.crc16",
+    .name = "CRC-16",
+    .type = FieldType::hex,
+    .bits = 16,
+    .blurb = "The two CRC bytes as they are on the wire (low byte first), read as one number"};
 // ASCII framing (no Wireshark dissector: drivetap's own prefix).
 inline constexpr FieldDesc kAsciiUnitId{"mbascii.unit_id", "Unit ID (station address)",
                                         FieldType::uint, 8};
@@ -122,12 +121,8 @@ inline constexpr FieldDesc kBitCount{"modbus.bit_cnt", "Quantity of coils or inp
                                      FieldType::uint, 16};
 inline constexpr FieldDesc kByteCount{"modbus.byte_cnt", "Byte count", FieldType::uint, 8};
 inline constexpr FieldDesc kRegisterValue{"modbus.regval_uint16", "Register", FieldType::uint, 16};
-inline constexpr FieldDesc kBitValues{"modbus.bits",
-                                      "Bit values",
-                                      FieldType::text,
-                                      0,
-                                      {},
-                                      "Coils or inputs, first one first (bit 0 of the first byte)"};
+inline constexpr FieldDesc kBitValues = text_field(
+    "modbus.bits", "Bit values", "Coils or inputs, first one first (bit 0 of the first byte)");
 inline constexpr FieldDesc kOutputAddress =
     sharing_id_of(kReference, "Output address", FieldType::hex);
 inline constexpr FieldDesc kCoilValue{"modbus.coil_value", "Coil value", FieldType::enumerated, 16,
@@ -190,13 +185,9 @@ inline constexpr FieldDesc kMeiObject{"modbus.object", "Object", FieldType::grou
 inline constexpr FieldDesc kMeiObjectLength{"modbus.objects_len", "Object length", FieldType::uint,
                                             8};
 inline constexpr FieldDesc kMeiObjectBytes{"modbus.object_value", "Object bytes", FieldType::bytes};
-inline constexpr FieldDesc kMeiObjectValue{
-    "modbus.object_str_value",
-    "Object value",
-    FieldType::text,
-    0,
-    {},
-    "The object's bytes as text, '.' for a byte that is no printable ASCII character"};
+inline constexpr FieldDesc kMeiObjectValue =
+    text_field("modbus.object_str_value", "Object value",
+               "The object's bytes as text, '.' for a byte that is no printable ASCII character");
 
 // The descriptors listed under each id (the ones sharing an id are not: shares_id_of).
 inline constexpr const FieldDesc* kRtuFramingFields[] = {&kRtuUnitId, &kRtuCrc};

@@ -72,8 +72,8 @@ inline constexpr Finding<double, std::size_t, double> kFindingRtuIntraFrameGap{
 inline constexpr Finding<double, double> kFindingRtuShortInterframeGap{
     "mbrtu.short_interframe_gap", AnomalyKind::short_interframe_gap, Severity::warning,
     "silence before frame {:.1f} characters (minimum t3.5 = {:.1f})"};
-inline constexpr Finding<std::string, const char*, const char*> kFindingRtuImplausible{
-    "mbrtu.implausible", AnomalyKind::implausible, Severity::error, "{} [{}, {}]"};
+inline constexpr ImplausibleFinding kFindingRtuImplausible =
+    implausible_finding("mbrtu.implausible");
 
 // Modbus ASCII framing (ascii_dissector.cpp).
 inline constexpr Finding<> kFindingAsciiLoneTerminator{
@@ -91,8 +91,8 @@ inline constexpr Finding<unsigned, std::size_t> kFindingAsciiNotHex{
 inline constexpr Finding<> kFindingAsciiLowerCase{
     "mbascii.lower_case", kMalformed, Severity::error,
     "lower-case hex digits (the protocol uses upper case)"};
-inline constexpr Finding<std::string, const char*, const char*> kFindingAsciiImplausible{
-    "mbascii.implausible", AnomalyKind::implausible, Severity::error, "{} [{}, {}]"};
+inline constexpr ImplausibleFinding kFindingAsciiImplausible =
+    implausible_finding("mbascii.implausible");
 
 // The PDU layer's findings, which both framings raise.
 inline constexpr const FindingDesc* kPduFindings[] = {

@@ -515,6 +515,119 @@ void dissect_file_record(PduReader& r, std::uint8_t fc, Direction dir, PduDecode
   });
 }
 
+// A function whose request carries no data (07, 0B, 0C, 11): the request is named; nothing may
+// follow it.
+void dissect_no_data_request(PduReader& r, std::uint8_t fc, PduDecode& d) {
+  d.describe_in_place([fc](auto& out) { append_function_name(out, fc); });
+  r.expect_end();
+}
+
+void dissect_exception_status_reply(PduReader& r, PduDecode& d) {
+  auto status = r.u8(kExceptionStatus);
+  if (status)
+    d.describe(
+        [&] { return fmt::format(FMT_COMPILE("Read Exception Status reply: 0x{:02X}"), *status); });
+  r.expect_end();
+}
+
+void dissect_comm_event_counter_reply(PduReader& r, PduDecode& d) {
+  auto status = r.u16(kCommStatus);
+  auto count = r.u16(kEventCount);
+  if (status && count)
+    d.describe([&] {
+      return fmt::format(FMT_COMPILE("Get Comm Event Counter reply: status 0x{:04X}, {} events"),
+                         *status, *count);
+    });
+  r.expect_end();
+}
+
+void dissect_comm_event_log_reply(PduReader& r, PduDecode& d) {
+  auto count = r.u8(kByteCount);
+  auto status = r.u16(kCommStatus);
+  auto events = r.u16(kEventCount);
+  auto messages = r.u16(kMessageCount);
+  if (count && status && events && messages) {
+    if (*count < 6) r.problem(kFindingEventByteCount, *count);
+    auto log = r.byte_values(kEvent, *count >= 6 ? *count - 6u : 0u);
+    d.describe([&] {
+      return fmt::format(FMT_COMPILE("Get Comm Event Log reply: {} events, {} messages, log {}"),
+                         *events, *messages, hex_list(log));
+    });
+  }
+  r.expect_end();
+}
+
+void dissect_server_id_reply(PduReader& r, PduDecode& d) {
+  auto count = r.u8(kByteCount);
+  if (count) {
+    auto id = r.bytes(kServerId, *count);
+    d.describe(
+        [&] { return fmt::format(FMT_COMPILE("Report Server ID reply: {}"), hex_list(id)); });
+  }
+  r.expect_end();
+}
+
+void dissect_mask_write_register(PduReader& r, bool req, PduDecode& d) {
+  auto addr = r.u16(kRegisterAddress);
+  auto and_mask = r.u16(kAndMask);
+  auto or_mask = r.u16(kOrMask);
+  r.expect_end();
+  if (addr && and_mask && or_mask)
+    d.describe([&] {
+      return fmt::format(FMT_COMPILE("Mask Write Register{} 0x{:04X} AND 0x{:04X} OR 0x{:04X}"),
+                         req ? "" : " reply", *addr, *and_mask, *or_mask);
+    });
+}
+
+void dissect_read_write_multiple_request(PduReader& r, PduDecode& d) {
+  auto rs = r.u16(kReadStart);
+  auto rq = r.u16(kReadQuantity);
+  auto ws = r.u16(kWriteStart);
+  auto wq = r.u16(kWriteQuantity);
+  auto count = r.u8(kByteCount);
+  if (rs && rq && ws && wq && count) {
+    check_quantity(r, *rq, 125, "registers to read");
+    check_quantity(r, *wq, 121, "registers to write");
+    if (*count != *wq * 2u) r.problem(kFindingWriteByteCount, *count, *wq);
+    auto values = read_registers(r, std::min<std::size_t>(*count, r.cursor().remaining()) / 2);
+    d.describe([&] {
+      return fmt::format(FMT_COMPILE("Read/Write Multiple Registers: read {}, write {} = {}"),
+                         range_text(*rs, *rq), range_text(*ws, *wq), register_list(values));
+    });
+  }
+  r.expect_end();
+}
+
+void dissect_fifo_request(PduReader& r, PduDecode& d) {
+  auto ptr = r.u16(kFifoPointer);
+  if (ptr) d.describe([&] { return fmt::format(FMT_COMPILE("Read FIFO Queue 0x{:04X}"), *ptr); });
+  r.expect_end();
+}
+
+void dissect_fifo_reply(PduReader& r, PduDecode& d) {
+  auto bytes = r.u16(kFifoByteCount);
+  auto count = r.u16(kFifoCount);
+  if (bytes && count) {
+    if (*bytes != 2u + *count * 2u) r.problem(kFindingFifoCount, *bytes, *count);
+    auto values = read_registers(r, r.cursor().remaining() / 2);
+    d.describe([&] {
+      return fmt::format(FMT_COMPILE("Read FIFO Queue reply: {} values = {}"), values.count,
+                         register_list(values));
+    });
+  }
+  r.expect_end();
+}
+
+// A function code the specification does not define: its data as bytes.
+void dissect_non_public(PduReader& r, std::uint8_t fc, PduDecode& d) {
+  auto data = r.bytes(kData, r.cursor().remaining());
+  d.describe([&] {
+    return fmt::format(FMT_COMPILE("Function 0x{:02X} (not a public code): {} data byte{}{}{}"), fc,
+                       data.size(), data.size() == 1 ? "" : "s", data.empty() ? "" : " ",
+                       hex_list(data));
+  });
+}
+
 void dissect_device_id(PduReader& r, Direction dir, PduDecode& d) {
   auto mei = r.u8(kMeiType);
   if (!mei) return;
@@ -588,22 +701,6 @@ PduDecode dissect_pdu(std::span<const std::uint8_t> frame, std::size_t pdu_offse
   return d;
 }
 
-namespace {
-
-// A function whose request carries no data (07, 0B, 0C, 11): the request is named, the reply read
-// by `read_reply`; nothing may follow either.
-template <class ReadReply>
-void dissect_no_data_request(PduReader& r, bool request, PduDecode& d, const char* name,
-                             ReadReply&& read_reply) {
-  if (request)
-    d.describe([name] { return std::string(name); });
-  else
-    read_reply();
-  r.expect_end();
-}
-
-}  // namespace
-
 void dissect_pdu_into(PduDecode& d, std::span<const std::uint8_t> frame, std::size_t pdu_offset,
                       std::size_t pdu_length, Direction dir, FieldTreeBuilder& tree) {
   d.info_text().clear();
@@ -648,131 +745,43 @@ void dissect_pdu_into(PduDecode& d, std::span<const std::uint8_t> frame, std::si
       dissect_write_single_register(r, dir, d);
       break;
     case 0x07:
-      dissect_no_data_request(r, req, d, "Read Exception Status", [&] {
-        auto status = r.u8(kExceptionStatus);
-        if (status)
-          d.describe([&] {
-            return fmt::format(FMT_COMPILE("Read Exception Status reply: 0x{:02X}"), *status);
-          });
-      });
+      req ? dissect_no_data_request(r, fc, d) : dissect_exception_status_reply(r, d);
       break;
     case 0x08:
       dissect_diagnostics(r, dir, d);
       break;
     case 0x0B:
-      dissect_no_data_request(r, req, d, "Get Comm Event Counter", [&] {
-        auto status = r.u16(kCommStatus);
-        auto count = r.u16(kEventCount);
-        if (status && count)
-          d.describe([&] {
-            return fmt::format(
-                FMT_COMPILE("Get Comm Event Counter reply: status 0x{:04X}, {} events"), *status,
-                *count);
-          });
-      });
+      req ? dissect_no_data_request(r, fc, d) : dissect_comm_event_counter_reply(r, d);
       break;
     case 0x0C:
-      dissect_no_data_request(r, req, d, "Get Comm Event Log", [&] {
-        auto count = r.u8(kByteCount);
-        auto status = r.u16(kCommStatus);
-        auto events = r.u16(kEventCount);
-        auto messages = r.u16(kMessageCount);
-        if (count && status && events && messages) {
-          if (*count < 6) r.problem(kFindingEventByteCount, *count);
-          auto log = r.byte_values(kEvent, *count >= 6 ? *count - 6u : 0u);
-          d.describe([&] {
-            return fmt::format(
-                FMT_COMPILE("Get Comm Event Log reply: {} events, {} messages, log {}"), *events,
-                *messages, hex_list(log));
-          });
-        }
-      });
+      req ? dissect_no_data_request(r, fc, d) : dissect_comm_event_log_reply(r, d);
       break;
     case 0x0F:
     case 0x10:
       req ? dissect_write_multiple_request(r, fc, d) : dissect_write_multiple_response(r, fc, d);
       break;
     case 0x11:
-      dissect_no_data_request(r, req, d, "Report Server ID", [&] {
-        auto count = r.u8(kByteCount);
-        if (count) {
-          auto id = r.bytes(kServerId, *count);
-          d.describe(
-              [&] { return fmt::format(FMT_COMPILE("Report Server ID reply: {}"), hex_list(id)); });
-        }
-      });
+      req ? dissect_no_data_request(r, fc, d) : dissect_server_id_reply(r, d);
       break;
     case 0x14:
     case 0x15:
       dissect_file_record(r, fc, dir, d);
       break;
-    case 0x16: {
-      auto addr = r.u16(kRegisterAddress);
-      auto and_mask = r.u16(kAndMask);
-      auto or_mask = r.u16(kOrMask);
-      r.expect_end();
-      if (addr && and_mask && or_mask)
-        d.describe([&] {
-          return fmt::format(FMT_COMPILE("Mask Write Register{} 0x{:04X} AND 0x{:04X} OR 0x{:04X}"),
-                             req ? "" : " reply", *addr, *and_mask, *or_mask);
-        });
+    case 0x16:
+      dissect_mask_write_register(r, req, d);
       break;
-    }
     case 0x17:
-      if (req) {
-        auto rs = r.u16(kReadStart);
-        auto rq = r.u16(kReadQuantity);
-        auto ws = r.u16(kWriteStart);
-        auto wq = r.u16(kWriteQuantity);
-        auto count = r.u8(kByteCount);
-        if (rs && rq && ws && wq && count) {
-          check_quantity(r, *rq, 125, "registers to read");
-          check_quantity(r, *wq, 121, "registers to write");
-          if (*count != *wq * 2u) r.problem(kFindingWriteByteCount, *count, *wq);
-          auto values =
-              read_registers(r, std::min<std::size_t>(*count, r.cursor().remaining()) / 2);
-          d.describe([&] {
-            return fmt::format(FMT_COMPILE("Read/Write Multiple Registers: read {}, write {} = {}"),
-                               range_text(*rs, *rq), range_text(*ws, *wq), register_list(values));
-          });
-        }
-        r.expect_end();
-      } else {
-        dissect_read_response(r, fc, d);
-      }
+      req ? dissect_read_write_multiple_request(r, d) : dissect_read_response(r, fc, d);
       break;
     case 0x18:
-      if (req) {
-        auto ptr = r.u16(kFifoPointer);
-        if (ptr)
-          d.describe([&] { return fmt::format(FMT_COMPILE("Read FIFO Queue 0x{:04X}"), *ptr); });
-        r.expect_end();
-      } else {
-        auto bytes = r.u16(kFifoByteCount);
-        auto count = r.u16(kFifoCount);
-        if (bytes && count) {
-          if (*bytes != 2u + *count * 2u) r.problem(kFindingFifoCount, *bytes, *count);
-          auto values = read_registers(r, r.cursor().remaining() / 2);
-          d.describe([&] {
-            return fmt::format(FMT_COMPILE("Read FIFO Queue reply: {} values = {}"), values.count,
-                               register_list(values));
-          });
-        }
-        r.expect_end();
-      }
+      req ? dissect_fifo_request(r, d) : dissect_fifo_reply(r, d);
       break;
     case 0x2B:
       dissect_device_id(r, dir, d);
       break;
-    default: {
-      auto data = r.bytes(kData, r.cursor().remaining());
-      d.describe([&] {
-        return fmt::format(FMT_COMPILE("Function 0x{:02X} (not a public code): {} data byte{}{}{}"),
-                           fc, data.size(), data.size() == 1 ? "" : "s", data.empty() ? "" : " ",
-                           hex_list(data));
-      });
+    default:
+      dissect_non_public(r, fc, d);
       break;
-    }
   }
   if (d.info_text().empty())
     d.describe([&] { return function_name(fc) + (req ? "" : " reply") + " (truncated)"; });

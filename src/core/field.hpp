@@ -90,6 +90,13 @@ constexpr FieldDesc sharing_id_of(const FieldDesc& of, std::string_view name, Fi
   return d;
 }
 
+// A field whose value is text its dissector makes (no width, no value names); `blurb` says what it
+// holds where the name does not say it all.
+constexpr FieldDesc text_field(std::string_view id, std::string_view name,
+                               std::string_view blurb = {}) {
+  return {.id = id, .name = name, .type = FieldType::text, .blurb = blurb};
+}
+
 // One occurrence of a field. Plain data (copied as bytes): its text, if any, is held by the tree
 // it belongs to (FieldTree::text), so a whole tree copies as two blocks, not a string per node.
 struct FieldNode {
