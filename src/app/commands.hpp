@@ -33,4 +33,7 @@ Command add_generate_command(CLI::App& app);  // generate.cpp: a large reproduci
 Command add_profiles_command(CLI::App& app);  // profiles.cpp: list and check drive profiles
 Command add_fields_command(CLI::App& app);    // fields.cpp: every field id (tshark -G fields)
 
+// wireshark.cpp: drivetap's Wireshark plugin printed or installed.
+Command add_wireshark_command(CLI::App& app);
+
 }  // namespace drivetap::app

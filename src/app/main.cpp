@@ -48,9 +48,9 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", "drivetap 0.1.0");
   // In the order `drivetap --help` lists them.
   const std::vector<Command> commands = {
-      add_decode_command(app),  add_read_command(app),     add_diagnose_command(app),
-      add_capture_command(app), add_generate_command(app), add_profiles_command(app),
-      add_fields_command(app),
+      add_decode_command(app),  add_read_command(app),      add_diagnose_command(app),
+      add_capture_command(app), add_generate_command(app),  add_profiles_command(app),
+      add_fields_command(app),  add_wireshark_command(app),
   };
   // A first word that is no command and no option: the closest command is suggested.
   if (argc > 1 && argv[1][0] != '-') {
