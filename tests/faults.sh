@@ -46,13 +46,15 @@ expect "JSON to a full disk" 1 '^drivetap: standard output: write failed: No spa
   sh -c '"$0" read -T json "$1" > /dev/full' "$drivetap" "$log"
 # A disk that fills mid-write, as a file size limit (ulimit -f 4: 4 KiB, the first stdio buffer
 # reach the disk, then EFBIG): the -w file is cut back to its last whole block or record and
-# reads back with the packets that fitted.
+# reads back with the packets that fitted. (The generated capture: session-e9's lean Modbus RTU
+# packets fit in 4 KiB as classic pcap.)
 for format in pcapng pcap; do
   flag=()
   [ "$format" = pcap ] && flag=(--pcap)
   out=$work/limited.$format
   expect "-w $format past a file size limit" 1 "^drivetap: -w $out: write failed: File too large\$" -- \
-    bash -c 'ulimit -f 4; exec "$@"' _ "$drivetap" read "$log" "${flag[@]}" -w "$out" -o /dev/null
+    bash -c 'ulimit -f 4; exec "$@"' _ "$drivetap" read "$work/big.pcapng" "${flag[@]}" -w "$out" \
+    -o /dev/null
   size=$(stat -c %s "$out")
   { [ "$size" -gt 0 ] && [ "$size" -le 4096 ]; } || fail "limited.$format: $size bytes"
   "$drivetap" read "$out" -o "$work/limited.txt" 2> "$work/reread.err" ||

@@ -41,7 +41,7 @@ const ProtocolDesc kFcProtocol{
     .field_protocols = kFieldProtocols,
     .findings = kAllFindings,
     .text_start = 0,
-    .wireshark_dissector = {},
+    .wireshark_dissector = "danfoss_fc",
     .parameter_numbering = &kNumbering,
 };
 

@@ -39,7 +39,7 @@ const ProtocolDesc kEdsProtocol{
     .field_protocols = kFieldProtocols,
     .findings = kAllFindings,
     .text_start = '~',
-    .wireshark_dissector = {},
+    .wireshark_dissector = "easydrive",
     .parameter_numbering = &kNumbering,
 };
 

@@ -46,6 +46,7 @@ const ProtocolDesc kRtuProtocol{
     .findings = kRtuFindings,
     .text_start = 0,
     .wireshark_dissector = "mbrtu",
+    .wireshark_builtin = true,
     .parameter_numbering = &kGgppNumbering,
 };
 
@@ -58,7 +59,7 @@ const ProtocolDesc kAsciiProtocol{
     .field_protocols = kAsciiFieldProtocols,
     .findings = kAsciiFindings,
     .text_start = ':',
-    .wireshark_dissector = {},
+    .wireshark_dissector = "mbascii",
 };
 
 }  // namespace drivetap::modbus

@@ -39,4 +39,7 @@ Command add_extcap_command(CLI::App& app);     // extcap.cpp: what Wireshark run
 // --extcap-*) or the name drivetap-extcap.
 bool wireshark_called(int argc, char** argv);
 
+// wireshark.cpp: drivetap's Wireshark plugin printed or installed.
+Command add_wireshark_command(CLI::App& app);
+
 }  // namespace drivetap::app

@@ -341,6 +341,13 @@ void refuse_shared_files(const std::vector<std::pair<std::string, std::string>>&
   }
 }
 
+std::vector<const DriveProfile*> loaded_drive_profiles(const CommonOptions& o) {
+  load_profiles(o, true);
+  std::vector<const DriveProfile*> loaded;
+  for (const DriveProfile& profile : g_profiles) loaded.push_back(&profile);
+  return loaded;
+}
+
 // Line settings and timing: the capture's own settings first, the command line over them.
 PipelineOptions make_pipeline_options(const CommonOptions& o, const RunSettings& capture) {
   std::string err;

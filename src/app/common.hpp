@@ -9,6 +9,7 @@
 #include <utility>
 #include <vector>
 
+#include "drive/profile.hpp"
 #include "pipeline/options.hpp"
 #include "sinks/time_format.hpp"
 #include "sources/logic/sigrok_file.hpp"
@@ -86,6 +87,10 @@ void finish_stdout();
 // Refuses (exit 2) an output that is an input or another output. `files`: {option, path}, the
 // inputs first.
 void refuse_shared_files(const std::vector<std::pair<std::string, std::string>>& files);
+
+// The drive profiles a run loads (built in, then --profile-dir and --profile), as `read` loads
+// them; they live as long as the process.
+std::vector<const DriveProfile*> loaded_drive_profiles(const CommonOptions& o);
 
 // Line settings and timing: the capture's own settings first, the command line over them; the
 // drive profiles loaded and --drive bound.

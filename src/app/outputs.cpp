@@ -46,6 +46,14 @@ CaptureSinkOptions capture_options(const CommonOptions& o, const PipelineOptions
 Outputs::Outputs(const CommonOptions& o, const ChannelTable& channels, const PipelineOptions& p,
                  bool timed, const RingOptions* ring)
     : options_(o), channels_(channels), character_time_(p.timing.character_time), timed_(timed) {
+  // --dlt user0 with a protocol given that Wireshark has no dissector for at link type 147:
+  // refused before any file is made (a detected one at its first telegram: CaptureSink::refusal).
+  if (!o.write.empty() && o.dlt == "user0" && p.protocol.desc() &&
+      !p.protocol.desc()->wireshark_builtin)
+    die(
+        fmt::format("--dlt user0: the bus speaks {}, which Wireshark has no dissector for at link "
+                    "type 147; write without --dlt (upper-PDU, drivetap's plugin decodes it)",
+                    protocol_label(p.protocol)));
   // A bad filter or field list stops the run before any file is made.
   std::string error;
   if (!o.display_filter.empty()) {
@@ -198,6 +206,12 @@ void Outputs::close() {
   const int text_errno = errno;
   const bool capture_ok = !capture_failed_ && (!capture_ || capture_->flush());
   const int capture_errno = capture_failed_ ? capture_errno_ : errno;
+  std::string refusal = capture_ ? capture_->refusal() : std::string();
+  if (ring_ && !ring_->refusal().empty()) {
+    const std::string ring_refusal = ring_->refusal();
+    ring_->close();
+    die(ring_refusal);  // what was written before it stays, whole
+  }
   if (ring_ && !ring_->close()) die(ring_->error(), 1);
   capture_.reset();
   // A failed write (disk full) leaves the file cut back to its last whole block: valid, with
@@ -209,6 +223,7 @@ void Outputs::close() {
       !capture_file_ || capture_file_ == stdout || std::fclose(capture_file_) == 0;
   if (!capture_ok && reader_may_leave_ && capture_errno == EPIPE) reader_left_ = true;
   if (reader_left_) return;
+  if (!refusal.empty()) die(refusal);  // what was written before it stays, whole
   if (!capture_ok)
     die(fmt::format("-w {}: write failed: {}", options_.write, std::strerror(capture_errno)), 1);
   if (!capture_closed)

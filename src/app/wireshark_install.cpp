@@ -8,24 +8,27 @@
 #include <cstdlib>
 #include <fstream>
 #include <system_error>
+#include <utility>
 
 namespace drivetap::app {
 
 namespace fs = std::filesystem;
 
 WiresharkFolders personal_wireshark_folders() {
+  const char* home = std::getenv("HOME");
+  const fs::path home_path(home && *home ? home : ".");
   fs::path config;
   if (const char* xdg = std::getenv("XDG_CONFIG_HOME"); xdg && *xdg) {
     config = fs::path(xdg) / "wireshark";
   } else {
-    const char* home = std::getenv("HOME");
-    config = fs::path(home && *home ? home : ".") / ".config" / "wireshark";
+    config = home_path / ".config" / "wireshark";
   }
-  return {config / "extcap"};
+  return {config / "extcap", home_path / ".local" / "lib" / "wireshark" / "plugins"};
 }
 
 WiresharkFolders system_wireshark_folders() {
-  WiresharkFolders folders{"/usr/lib/x86_64-linux-gnu/wireshark/extcap"};
+  WiresharkFolders folders{"/usr/lib/x86_64-linux-gnu/wireshark/extcap",
+                           "/usr/lib/x86_64-linux-gnu/wireshark/plugins"};
   // (tshark prints its folders as "Name:<TAB>path"; stderr only warns about running as root.)
   std::FILE* tshark = ::popen("tshark -G folders 2>/dev/null", "r");
   if (!tshark) return folders;
@@ -36,16 +39,17 @@ WiresharkFolders system_wireshark_folders() {
     const std::size_t colon = text.find(':');
     if (colon == std::string::npos) continue;
     const std::string name = text.substr(0, colon);
-    if (name != "Global Extcap path" && name != "Extcap path") continue;
     const std::size_t start = text.find_first_not_of(" \t", colon + 1);
-    if (start != std::string::npos) folders.extcap = text.substr(start);
+    if (start == std::string::npos) continue;
+    if (name == "Global Extcap path" || name == "Extcap path") folders.extcap = text.substr(start);
+    if (name == "Global Lua Plugins") folders.plugins = text.substr(start);
   }
   ::pclose(tshark);
   return folders;
 }
 
 std::vector<WiresharkEntry> wireshark_entries(const WiresharkFolders& folders,
-                                              const fs::path& drivetap) {
+                                              const fs::path& drivetap, std::string plugin_lua) {
   std::vector<WiresharkEntry> entries;
   // A link, not a copy: the extcap is the drivetap installed, and stays its version. The name
   // tells drivetap it runs as an extcap.
@@ -54,6 +58,12 @@ std::vector<WiresharkEntry> wireshark_entries(const WiresharkFolders& folders,
   extcap.name = "drivetap-extcap";
   extcap.link_to = drivetap;
   entries.push_back(extcap);
+  // The plugin is a copy: generated from this drivetap's tables and profiles.
+  WiresharkEntry plugin;
+  plugin.folder = folders.plugins;
+  plugin.name = "drivetap.lua";
+  plugin.content = std::move(plugin_lua);
+  entries.push_back(std::move(plugin));
   return entries;
 }
 

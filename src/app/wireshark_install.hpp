@@ -11,7 +11,8 @@ namespace drivetap::app {
 
 // Wireshark's folders that drivetap puts files into.
 struct WiresharkFolders {
-  std::filesystem::path extcap;  // extcap programs
+  std::filesystem::path extcap;   // extcap programs
+  std::filesystem::path plugins;  // Lua plugins
 };
 
 // One file for Wireshark: a symbolic link to `link_to` (the drivetap binary), or, when that is
@@ -25,16 +26,18 @@ struct WiresharkEntry {
   [[nodiscard]] std::filesystem::path path() const { return folder / name; }
 };
 
-// The personal folders: under $XDG_CONFIG_HOME/wireshark, else $HOME/.config/wireshark (where
-// Wireshark 4 looks for personal extcaps).
+// The personal folders: extcaps under $XDG_CONFIG_HOME/wireshark, else $HOME/.config/wireshark;
+// Lua plugins in $HOME/.local/lib/wireshark/plugins (where Wireshark 4 looks for them).
 WiresharkFolders personal_wireshark_folders();
-// The system-wide folders: the extcap folder `tshark -G folders` names ("Global Extcap path",
-// "Extcap path" before 4.2), else Debian's /usr/lib/x86_64-linux-gnu/wireshark/extcap.
+// The system-wide folders `tshark -G folders` names ("Global Extcap path", "Extcap path" before
+// 4.2; "Global Lua Plugins"), else Debian's under /usr/lib/x86_64-linux-gnu/wireshark.
 WiresharkFolders system_wireshark_folders();
 
-// What drivetap installs into `folders`: the extcap, drivetap-extcap, a link to `drivetap`.
+// What drivetap installs into `folders`: the extcap, drivetap-extcap, a link to `drivetap`; the
+// Lua plugin, drivetap.lua, holding `plugin_lua`.
 std::vector<WiresharkEntry> wireshark_entries(const WiresharkFolders& folders,
-                                              const std::filesystem::path& drivetap);
+                                              const std::filesystem::path& drivetap,
+                                              std::string plugin_lua);
 
 // Puts each entry in place (its folder made, a file of the same name replaced); one line per
 // file to `report` ("extcap: PATH -> TARGET"). False with *error (naming the path) on the first

@@ -44,8 +44,11 @@ struct ProtocolDesc {
   std::span<const FindingDesc* const> findings;  // every finding its dissector raises
   // The character its telegrams start with when typed as text (`decode`), 0 for a binary one.
   char text_start = 0;
-  // Wireshark's dissector for its telegrams in an exported-PDU capture ("mbrtu"), empty: none.
+  // The dissector named for its telegrams in an exported-PDU capture: Wireshark's own ("mbrtu",
+  // `wireshark_builtin`), or the one drivetap's Lua plugin registers (`drivetap wireshark
+  // --print-plugin`: "danfoss_fc"), which is its field layer's filter name; empty: none.
   std::string_view wireshark_dissector;
+  bool wireshark_builtin = false;  // stock Wireshark has `wireshark_dissector`
   // How the manuals of the drives that speak it number their parameters (a profile's
   // [parameters] rule), nullptr: none of its own.
   const ParameterNumbering* parameter_numbering = nullptr;

@@ -139,30 +139,8 @@ void add_registers(std::vector<DriveFieldValue>& out, const DriveProfile& p, Dir
 // The `drive.*` names: the shared ones a loaded profile can give, then the registers' ids.
 class DriveFieldSource final : public RecordFieldSource {
  public:
-  explicit DriveFieldSource(std::span<const DriveProfile* const> profiles) {
-    auto has_role = [&](RegisterRole role) {
-      for (const DriveProfile* p : profiles)
-        for (const RegisterDef& r : p->registers)
-          if (r.role == role) return true;
-      return false;
-    };
-    for (int i = 0; i < kSharedCount; ++i) {
-      const std::string_view id = kSharedIds[i];
-      bool can = !profiles.empty();
-      if (id == "setpoint") can = has_role(RegisterRole::setpoint);
-      if (id == "output_frequency") can = has_role(RegisterRole::output_frequency);
-      if (id == "output_current") can = has_role(RegisterRole::current);
-      if (id == "output_voltage") can = has_role(RegisterRole::voltage);
-      if (id == "status_word") can = has_role(RegisterRole::status);
-      if (id == "control_word") can = has_role(RegisterRole::control);
-      if (can) names_.push_back(std::string(id));
-    }
-    for (const DriveProfile* p : profiles)
-      for (const RegisterDef& r : p->registers)
-        if (!r.field_id.empty() && !is_shared_id(r.field_id) &&
-            std::find(names_.begin(), names_.end(), r.field_id) == names_.end())
-          names_.push_back(r.field_id);
-  }
+  explicit DriveFieldSource(std::span<const DriveProfile* const> profiles)
+      : names_(drive_field_ids(profiles)) {}
 
   [[nodiscard]] std::optional<int> resolve(std::string_view name) const override {
     if (!name.starts_with("drive.")) return std::nullopt;
@@ -233,6 +211,41 @@ void drive_field_values(const Message& m, std::vector<DriveFieldValue>& out) {
       add_text(out, "fault_name", std::string_view(w).substr(open + 2, w.size() - open - 3));
   }
   add_registers(out, p, m.direction, records);
+}
+
+std::vector<std::string> drive_field_ids(std::span<const DriveProfile* const> profiles) {
+  std::vector<std::string> names;
+  auto has_role = [&](RegisterRole role) {
+    for (const DriveProfile* p : profiles)
+      for (const RegisterDef& r : p->registers)
+        if (r.role == role) return true;
+    return false;
+  };
+  for (int i = 0; i < kSharedCount; ++i) {
+    const std::string_view id = kSharedIds[i];
+    bool can = !profiles.empty();
+    if (id == "setpoint") can = has_role(RegisterRole::setpoint);
+    if (id == "output_frequency") can = has_role(RegisterRole::output_frequency);
+    if (id == "output_current") can = has_role(RegisterRole::current);
+    if (id == "output_voltage") can = has_role(RegisterRole::voltage);
+    if (id == "status_word") can = has_role(RegisterRole::status);
+    if (id == "control_word") can = has_role(RegisterRole::control);
+    if (can) names.push_back(std::string(id));
+  }
+  for (const DriveProfile* p : profiles)
+    for (const RegisterDef& r : p->registers)
+      if (!r.field_id.empty() && !is_shared_id(r.field_id) &&
+          std::find(names.begin(), names.end(), r.field_id) == names.end())
+        names.push_back(r.field_id);
+  return names;
+}
+
+DriveFieldKind drive_field_kind(std::string_view id) {
+  if (id == "family" || id == "direction" || id == "fault_name") return DriveFieldKind::text;
+  if (id == "station" || id == "running" || id == "fault" || id == "status_word" ||
+      id == "control_word")
+    return DriveFieldKind::integer;
+  return DriveFieldKind::number;  // a quantity in its register's unit
 }
 
 void add_drive_field_source(std::span<const DriveProfile* const> profiles) {

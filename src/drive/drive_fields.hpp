@@ -32,6 +32,13 @@ struct DriveFieldValue {
 // Nothing when no profile read the frame. `out`'s storage is reused.
 void drive_field_values(const Message& m, std::vector<DriveFieldValue>& out);
 
+// The `drive.*` ids (without `drive.`) the given profiles can produce: the shared ones they have
+// registers for, then their registers' own ids.
+std::vector<std::string> drive_field_ids(std::span<const DriveProfile* const> profiles);
+// What drive_field_values() gives under `id`: an integer, a number in a unit, or a text.
+enum class DriveFieldKind : std::uint8_t { integer, number, text };
+DriveFieldKind drive_field_kind(std::string_view id);
+
 // Adds the `drive.*` source to the record fields (add_record_field_source), resolving the names
 // the given profiles can produce. Once per process; the profiles must outlive it.
 void add_drive_field_source(std::span<const DriveProfile* const> profiles);

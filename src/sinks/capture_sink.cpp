@@ -15,6 +15,8 @@
 #include <fmt/format.h>
 #include <pcap/pcap.h>
 
+#include "drive/drive_fields.hpp"
+#include "filter/record_fields.hpp"
 #include "formats/link_layer.hpp"
 #include "formats/shared_libraries.hpp"
 #include "formats/upper_pdu.hpp"
@@ -33,8 +35,77 @@ struct CaptureSink::Pending {
   bool broadcast = false;
   std::string protocol_column;
   std::string comment;
-  std::string_view wireshark_dissector;  // Wireshark's dissector for it ("mbrtu"), empty: none
+  std::string fields_line;  // the comment's second line (docs/formats.md "Packet comments")
+  std::string_view wireshark_dissector;  // the dissector tag ("mbrtu", "danfoss_fc"), empty: none
+  bool wireshark_builtin = false;        // stock Wireshark has that dissector
 };
+
+namespace {
+
+// A value of the comment's second line: '%', the space, controls and DEL percent-escaped, so that
+// items split at spaces and lines at line ends.
+void append_escaped(std::string& out, std::string_view text) {
+  for (const char c : text) {
+    const auto u = static_cast<unsigned char>(c);
+    if (u <= 0x20 || u == 0x7F || c == '%') {
+      out += '%';
+      out += kHexDigits[u >> 4];
+      out += kHexDigits[u & 0x0F];
+    } else {
+      out += c;
+    }
+  }
+}
+
+// The finding's id as filters name it: the protocol's typed id, else the generic kind.
+std::string_view finding_id_of(const Anomaly& a) {
+  return a.finding ? std::string_view(a.finding->id) : std::string_view(anomaly_id(a.kind));
+}
+
+}  // namespace
+
+std::string comment_fields_line(const Message& m) {
+  std::string line(kCommentFieldsVersion);
+  for (const FieldNode& node : m.fields) {
+    fmt::format_to(std::back_inserter(line), FMT_COMPILE(" {}@{}+{}"), node.desc->id, node.offset,
+                   node.length);
+    switch (node.desc->type) {
+      case FieldType::group:
+        break;
+      case FieldType::text:
+        line += '=';
+        append_escaped(line, m.fields.text(node));
+        break;
+      case FieldType::bytes:
+        line += '=';
+        append_field_bytes_hex(line, node, m.bytes, m.text_encoded);
+        break;
+      default:
+        line += '=';
+        append_int(line, node.value);
+        break;
+    }
+  }
+  for (const Anomaly& a : m.anomalies) {
+    line += " !";
+    line += finding_id_of(a);
+    line += '=';
+    append_escaped(line, a.detail);
+  }
+  thread_local std::vector<DriveFieldValue> values;
+  drive_field_values(m, values);
+  for (const DriveFieldValue& v : values) {
+    line += " drive.";
+    line += v.id;
+    line += '=';
+    append_escaped(line, v.text);
+  }
+  if (!m.drive_info.empty()) {
+    line += " drive=";
+    append_escaped(line, m.drive_info);
+  }
+  return line;
+}
 
 CaptureSink::CaptureSink(std::FILE* out, const ChannelTable& channels, CaptureSinkOptions options)
     : out_(out), channels_(channels), options_(std::move(options)), ng_(out) {
@@ -79,6 +150,19 @@ CaptureSink::Pending& CaptureSink::start_pending() {
 }
 
 void CaptureSink::on_frame(const Message& m) {
+  if (!refusal_.empty()) return;
+  if (options_.link_type == CaptureLinkType::user0 &&
+      !(m.protocol.desc() && m.protocol.desc()->wireshark_builtin)) {
+    // Link type 147 carries bare bytes that Wireshark maps to one dissector (Modbus RTU's): a
+    // telegram of another protocol would be shown as Modbus RTU. Nothing more is written.
+    write_pending();
+    refusal_ = fmt::format(
+        "--dlt user0: the bus speaks {}, which Wireshark has no dissector for at link type 147 "
+        "(frame {}); write without --dlt (upper-PDU, drivetap's plugin decodes it)",
+        protocol_label(m.protocol), m.frame.number);
+    status_.note_failure();
+    return;
+  }
   Pending& p = start_pending();
   p.number = m.frame.number;
   p.channel = m.frame.channel;
@@ -97,10 +181,14 @@ void CaptureSink::on_frame(const Message& m) {
     p.comment += "; ";
     p.comment += m.drive_info;
   }
+  p.fields_line.clear();
+  if (!options_.plain) p.fields_line = comment_fields_line(m);
   p.wireshark_dissector = m.protocol.desc() ? m.protocol.desc()->wireshark_dissector : "";
+  p.wireshark_builtin = m.protocol.desc() && m.protocol.desc()->wireshark_builtin;
 }
 
 void CaptureSink::on_noise(const Frame& f) {
+  if (!refusal_.empty()) return;
   Pending& p = start_pending();
   p.number = f.number;
   p.channel = f.channel;
@@ -114,16 +202,35 @@ void CaptureSink::on_noise(const Frame& f) {
   p.comment.clear();
   fmt::format_to(std::back_inserter(p.comment), FMT_COMPILE("noise: {} byte{} outside any frame"),
                  p.bytes.size(), p.bytes.size() == 1 ? "" : "s");
+  p.fields_line.assign(kCommentFieldsVersion);
   p.wireshark_dissector = {};
+  p.wireshark_builtin = false;
 }
 
 void CaptureSink::on_anomaly(const Anomaly& a) {
   if (!has_pending_ || a.frame_number != pending_->number) return;
+  // A frame's own findings are in its fields line already (Message::anomalies); the others
+  // (a noise record's, the conversation's) join it here.
+  if (pending_->kind == FrameKind::noise || finding_known_after_frame(a.kind)) {
+    pending_->fields_line += " !";
+    pending_->fields_line += finding_id_of(a);
+    pending_->fields_line += '=';
+    append_escaped(pending_->fields_line, a.detail);
+  }
   if (a.kind == AnomalyKind::checksum_bad || a.kind == AnomalyKind::checksum_swapped ||
       a.kind == AnomalyKind::noise)
     return;  // already in the comment's decode
   fmt::format_to(std::back_inserter(pending_->comment), FMT_COMPILE("; {}: {}"),
                  anomaly_label(a.kind), a.detail);
+}
+
+void CaptureSink::on_event(const BusEvent& e) {
+  // A drive event read from the frame waiting to be written joins its fields line.
+  if (!has_pending_ || e.frame == 0 || e.frame != pending_->number) return;
+  pending_->fields_line += " *";
+  append_escaped(pending_->fields_line, e.kind);
+  pending_->fields_line += '=';
+  append_escaped(pending_->fields_line, e.detail);
 }
 
 void CaptureSink::write_pending() {
@@ -135,27 +242,28 @@ void CaptureSink::write_pending() {
   std::vector<std::uint8_t>& data = data_;
   data.clear();
   if (options_.link_type == CaptureLinkType::upper_pdu) {
+    // The fewest tags: the dissector, and what stock Wireshark needs beside it. The direction
+    // is in the EPB flags (Wireshark's frame dissector sets the P2P direction from them), the
+    // decode in the packet comment.
     upper_pdu::Tags tags;
     if (p.kind == FrameKind::telegram && !p.wireshark_dissector.empty()) {
       tags.dissector = p.wireshark_dissector;
-      // Wireshark's Modbus RTU dissector tells queries from responses by port: destination 0
-      // (its default RTU "port" range) marks a query, source 0 a response.
-      if (p.direction == Direction::request) {
-        tags.source_port = 1;
-        tags.destination_port = 0;
-      } else if (p.direction == Direction::response) {
-        tags.source_port = 0;
-        tags.destination_port = 1;
+      if (p.wireshark_builtin) {
+        // Wireshark's Modbus RTU dissector tells queries from responses by port: destination 0
+        // (its default RTU "port" range) marks a query, source 0 a response.
+        if (p.direction == Direction::request) {
+          tags.source_port = 1;
+          tags.destination_port = 0;
+        } else if (p.direction == Direction::response) {
+          tags.source_port = 0;
+          tags.destination_port = 1;
+        }
       }
+      // (drivetap's plugin's dissectors set their columns; Wireshark applies a protocol-column
+      // tag only when it knows the dissector, so without the plugin the tag would be lost.)
     } else {
-      // Noise, and protocols Wireshark has no dissector for: labelled, decoded in the column.
-      tags.dissector = "data";
-      if (!options_.plain) tags.info_column = p.comment;
-    }
-    if (!options_.plain) {
-      tags.protocol_column = p.protocol_column;
-      if (p.direction == Direction::request) tags.direction = upper_pdu::kDirectionSent;
-      if (p.direction == Direction::response) tags.direction = upper_pdu::kDirectionReceived;
+      tags.dissector = "data";  // noise
+      if (!options_.plain) tags.protocol_column = p.protocol_column;
     }
     upper_pdu::append_tags(tags, data);
   }
@@ -228,7 +336,12 @@ void CaptureSink::write_pending() {
     if (p.direction == Direction::request) pkt.flags |= pcapng::kFlagOutbound;
     if (p.direction == Direction::response) pkt.flags |= pcapng::kFlagInbound;
     if (p.crc_error) pkt.flags |= pcapng::kFlagCrcError;
-    pkt.comment = p.comment;
+    comment_.assign(p.comment);
+    if (!p.fields_line.empty()) {
+      comment_ += '\n';
+      comment_ += p.fields_line;
+    }
+    pkt.comment = comment_;
     pkt.drivetap_option = option;
     ng_.packet(pkt);
     if (!ng_.ok()) status_.note_failure();

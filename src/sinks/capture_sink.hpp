@@ -66,6 +66,14 @@ std::FILE* open_output_file(const std::string& path);
 // the file back after its last whole line, so that no reader meets half a record.
 void cut_back_to_last_line(std::FILE* file);
 
+// The packet comment's second line, machine-readable for drivetap's Wireshark plugin
+// (docs/formats.md "Packet comments"): "drivetap/1", then space-separated items, each field of the
+// tree as `id@offset+length=value`, each finding as `!id=detail`, each drive value as
+// `drive.id=value`, the drive annotation as `drive=text`, each drive event read from the frame as
+// `*kind=detail`; values percent-escaped.
+inline constexpr std::string_view kCommentFieldsVersion = "drivetap/1";
+std::string comment_fields_line(const Message& m);
+
 // What the capture sinks (one file, or a ring of them) share: they write packets, and neither
 // transactions nor the summary.
 class PacketSink : public Sink {
@@ -87,8 +95,18 @@ class CaptureSink final : public PacketSink {
   void on_frame(const Message& message) override;
   void on_noise(const Frame& noise) override;
   void on_anomaly(const Anomaly& anomaly) override;
+  void on_event(const BusEvent& event) override;
   bool flush() override;
   [[nodiscard]] std::uint64_t packets() const { return packets_; }
+  // The comment's fields line needs the field tree (not with --plain: no comments).
+  [[nodiscard]] SinkNeeds needs() const override {
+    SinkNeeds n = PacketSink::needs();
+    n.fields = !options_.plain;
+    return n;
+  }
+  // `--dlt user0` and a telegram Wireshark has no dissector for at link type 147: the one line
+  // that refuses the run (nothing of it written); empty while none came.
+  [[nodiscard]] const std::string& refusal() const { return refusal_; }
 
  private:
   struct Pending;
@@ -110,7 +128,9 @@ class CaptureSink final : public PacketSink {
   bool has_pending_ = false;
   std::vector<std::uint8_t> option_;  // drivetap's EPB option, reused from packet to packet
   std::vector<std::uint8_t> data_;    // the packet's data (upper-PDU tags and bytes), reused
+  std::string comment_;               // the packet's comment, both lines, reused
   WriteStatus status_;
+  std::string refusal_;
 };
 
 }  // namespace drivetap

@@ -37,10 +37,19 @@ class RingCaptureSink final : public PacketSink {
   void on_frame(const Message& message) override;
   void on_noise(const Frame& noise) override;
   void on_anomaly(const Anomaly& anomaly) override;
+  void on_event(const BusEvent& event) override {
+    if (sink_) sink_->on_event(event);
+  }
   bool flush() override;
+  [[nodiscard]] SinkNeeds needs() const override {  // as each file's CaptureSink
+    SinkNeeds n = PacketSink::needs();
+    n.fields = !capture_options_.plain;
+    return n;
+  }
   // Flushes and closes the current file; false when a write failed (disk full).
   bool close();
   [[nodiscard]] const std::string& error() const { return error_; }
+  [[nodiscard]] std::string refusal() const { return sink_ ? sink_->refusal() : std::string(); }
   [[nodiscard]] std::uint64_t packets() const { return packets_; }
   [[nodiscard]] const std::string& current_file() const { return current_name_; }
 
