@@ -170,9 +170,9 @@ TEST(StatsTables, AsksForHeadsAloneAndKeepsTheMainSinksNeeds) {
 
   // Beside a sink that shows everything and decodes on its own thread: its needs, and the
   // counter's transactions.
-  class Shows final : public DroppingSink {
+  class Shows final : public RecordDroppingSink {
    public:
-    using DroppingSink::DroppingSink;
+    using RecordDroppingSink::RecordDroppingSink;
     [[nodiscard]] SinkNeeds needs() const override {
       SinkNeeds n;
       n.transactions = false;
@@ -181,9 +181,9 @@ TEST(StatsTables, AsksForHeadsAloneAndKeepsTheMainSinksNeeds) {
       return n;
     }
   };
-  class Nothing final : public DroppingSink {
+  class Nothing final : public RecordDroppingSink {
    public:
-    using DroppingSink::DroppingSink;
+    using RecordDroppingSink::RecordDroppingSink;
     [[nodiscard]] SinkNeeds needs() const override { return SinkNeeds::none(); }
   };
   TeeSink tee;

@@ -31,6 +31,38 @@ enum UartFlag : std::uint8_t {
 inline constexpr std::uint8_t kUartErrorFlags =
     kUartParityError | kUartFramingError | kUartBreak | kUartOverrun;
 
+// What a line carried at the UART level, character by character (a capture's, or one decoder's
+// run over samples): the characters received and those marked with each error, and, decoding
+// samples, what never became a character.
+struct UartCounts {
+  std::uint64_t characters = 0;  // everything received, breaks included
+  std::uint64_t parity_errors = 0;
+  std::uint64_t framing_errors = 0;  // breaks not included
+  std::uint64_t breaks = 0;
+  // Sampled captures only: pulses under the glitch filter, and falling edges whose start bit was
+  // gone at its centre.
+  std::uint64_t glitches = 0;
+  std::uint64_t false_starts = 0;
+
+  // A character received with the UartFlag bits `flags`.
+  void count_character(std::uint8_t flags) {
+    ++characters;
+    parity_errors += (flags & kUartParityError) != 0;
+    framing_errors += (flags & kUartFramingError) != 0;
+    breaks += (flags & kUartBreak) != 0;
+  }
+  // Totals of several lines or decoders.
+  UartCounts& operator+=(const UartCounts& o) {
+    characters += o.characters;
+    parity_errors += o.parity_errors;
+    framing_errors += o.framing_errors;
+    breaks += o.breaks;
+    glitches += o.glitches;
+    false_starts += o.false_starts;
+    return *this;
+  }
+};
+
 using ChannelId = std::uint16_t;
 
 struct ByteEvent {

@@ -573,10 +573,7 @@ Diagnosis diagnose_capture(ByteSource& source, const PipelineOptions& options,
     while (source.next(e)) {
       for (const Anomaly& a : source.take_findings()) pipeline.report(a);
       pipeline.push(e);
-      ++evidence.characters;
-      if (e.flags & kUartParityError) ++evidence.parity_errors;
-      if (e.flags & kUartFramingError) ++evidence.framing_errors;
-      if (e.flags & kUartBreak) ++evidence.breaks;
+      evidence.count_character(e.flags);
       if (stop && *stop) {
         result.interrupted = true;
         break;

@@ -26,17 +26,9 @@
 
 namespace drivetap {
 
-struct LineEvidence {
+// The UART level (UartCounts): every character received.
+struct LineEvidence : UartCounts {
   std::string settings;  // the line settings decoded with ("19200 8E1, inverted")
-
-  // UART level: every character received.
-  std::uint64_t characters = 0;
-  std::uint64_t parity_errors = 0;
-  std::uint64_t framing_errors = 0;  // breaks not included
-  std::uint64_t breaks = 0;
-  // Sampled captures only: pulses under the glitch filter, and start bits gone at their centre.
-  std::uint64_t glitches = 0;
-  std::uint64_t false_starts = 0;
 
   // Sampled captures: per decoded channel, what detection measured on it and how the settings
   // given with -s (if any) decode it. Verdicts about the line are per channel; one about the

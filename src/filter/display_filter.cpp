@@ -7,6 +7,7 @@
 #include <cctype>
 #include <charconv>
 #include <cmath>
+#include <iterator>
 
 namespace drivetap {
 namespace {
@@ -47,6 +48,29 @@ bool word_char(char c) {
   return std::isalnum(static_cast<unsigned char>(c)) != 0 || c == '_' || c == '.' || c == '-';
 }
 
+// The operators, each spelling before those it begins with ("<=" before "<").
+struct OperatorSpelling {
+  std::string_view text;
+  Token::Kind kind;
+};
+constexpr OperatorSpelling kOperators[] = {
+    {"(", Token::Kind::lparen}, {")", Token::Kind::rparen}, {"{", Token::Kind::lbrace},
+    {"}", Token::Kind::rbrace}, {",", Token::Kind::comma},  {"==", Token::Kind::eq},
+    {"!=", Token::Kind::ne},    {"!", Token::Kind::not_},   {"<=", Token::Kind::le},
+    {"<", Token::Kind::lt},     {">=", Token::Kind::ge},    {">", Token::Kind::gt},
+    {"&&", Token::Kind::and_},  {"||", Token::Kind::or_},   {"..", Token::Kind::range},
+};
+// Characters that begin an operator but are none alone, and what to write instead.
+struct LoneCharacter {
+  char character;
+  const char* error;
+};
+constexpr LoneCharacter kNotOperators[] = {
+    {'=', "'=' is no operator (compare with '==')"},
+    {'&', "'&' is no operator (use '&&' or 'and')"},
+    {'|', "'|' is no operator (use '||' or 'or')"},
+};
+
 class Lexer {
  public:
   explicit Lexer(std::string_view s) : s_(s) {}
@@ -59,56 +83,22 @@ class Lexer {
     if (i_ >= s_.size()) return true;
     const std::size_t start = i_;
     const char c = s_[i_];
-    auto two = [&](char second) { return i_ + 1 < s_.size() && s_[i_ + 1] == second; };
-    auto op = [&](Token::Kind k, std::size_t len) {
-      t.kind = k;
-      t.raw = s_.substr(start, len);
-      i_ += len;
-      return true;
-    };
-    switch (c) {
-      case '(':
-        return op(Token::Kind::lparen, 1);
-      case ')':
-        return op(Token::Kind::rparen, 1);
-      case '{':
-        return op(Token::Kind::lbrace, 1);
-      case '}':
-        return op(Token::Kind::rbrace, 1);
-      case ',':
-        return op(Token::Kind::comma, 1);
-      case '=':
-        if (two('=')) return op(Token::Kind::eq, 2);
-        error = "'=' is no operator (compare with '==')";
-        error_column = t.column;
-        return false;
-      case '!':
-        if (two('=')) return op(Token::Kind::ne, 2);
-        return op(Token::Kind::not_, 1);
-      case '<':
-        if (two('=')) return op(Token::Kind::le, 2);
-        return op(Token::Kind::lt, 1);
-      case '>':
-        if (two('=')) return op(Token::Kind::ge, 2);
-        return op(Token::Kind::gt, 1);
-      case '&':
-        if (two('&')) return op(Token::Kind::and_, 2);
-        error = "'&' is no operator (use '&&' or 'and')";
-        error_column = t.column;
-        return false;
-      case '|':
-        if (two('|')) return op(Token::Kind::or_, 2);
-        error = "'|' is no operator (use '||' or 'or')";
-        error_column = t.column;
-        return false;
-      case '.':
-        if (two('.')) return op(Token::Kind::range, 2);
-        break;
-      case '"':
-        return string(t, error, error_column);
-      default:
-        break;
+    for (const OperatorSpelling& o : kOperators) {
+      if (s_.substr(start).starts_with(o.text)) {
+        t.kind = o.kind;
+        t.raw = s_.substr(start, o.text.size());
+        i_ += o.text.size();
+        return true;
+      }
     }
+    for (const LoneCharacter& l : kNotOperators) {
+      if (c == l.character) {
+        error = l.error;
+        error_column = t.column;
+        return false;
+      }
+    }
+    if (c == '"') return string(t, error, error_column);
     if (std::isdigit(static_cast<unsigned char>(c)) != 0 ||
         (c == '-' && i_ + 1 < s_.size() && std::isdigit(static_cast<unsigned char>(s_[i_ + 1]))))
       return number(t, error, error_column);
@@ -237,7 +227,7 @@ class FilterParser {
 
   bool parse(std::string* error) {
     std::uint32_t root = 0;
-    if (!advance() || !parse_or(root)) return fail(error);
+    if (!advance() || !parse_binary(root)) return fail(error);
     if (token_.kind != Token::Kind::end) {
       set_error(fmt::format("unexpected '{}'", token_.raw), token_.column);
       return fail(error);
@@ -274,32 +264,39 @@ class FilterParser {
     return token_.kind == Kind::end ? "the end" : fmt::format("'{}'", token_.raw);
   }
 
-  bool parse_or(std::uint32_t& node) {
-    if (!parse_and(node)) return false;
-    while (token_.kind == Kind::or_) {
-      if (!advance()) return false;
-      std::uint32_t right = 0;
-      if (!parse_and(right)) return false;
-      DisplayFilter::Node n;
-      n.op = DisplayFilter::Node::Op::any;
-      n.first = node;
-      n.second = right;
-      node = add(n);
-    }
-    return true;
+  // A node of `op` over `first` (and `second`: all, any).
+  std::uint32_t add_logic(DisplayFilter::Node::Op op, std::uint32_t first,
+                          std::uint32_t second = 0) {
+    DisplayFilter::Node n;
+    n.op = op;
+    n.first = first;
+    n.second = second;
+    return add(n);
   }
 
-  bool parse_and(std::uint32_t& node) {
-    if (!parse_not(node)) return false;
-    while (token_.kind == Kind::and_) {
+  // The binary operators by precedence, loosest first (`a or b and c` is `a or (b and c)`); each
+  // groups to the left. The operands of the last are parse_not()'s.
+  struct BinaryOperator {
+    Kind token;
+    DisplayFilter::Node::Op op;
+  };
+  static constexpr BinaryOperator kBinaryOperators[] = {
+      {Kind::or_, DisplayFilter::Node::Op::any},
+      {Kind::and_, DisplayFilter::Node::Op::all},
+  };
+
+  // An expression of the operators from kBinaryOperators[level] on.
+  bool parse_binary(std::uint32_t& node, std::size_t level = 0) {
+    const auto parse_operand = [this, level](std::uint32_t& operand) {
+      return level + 1 < std::size(kBinaryOperators) ? parse_binary(operand, level + 1)
+                                                     : parse_not(operand);
+    };
+    if (!parse_operand(node)) return false;
+    while (token_.kind == kBinaryOperators[level].token) {
       if (!advance()) return false;
       std::uint32_t right = 0;
-      if (!parse_not(right)) return false;
-      DisplayFilter::Node n;
-      n.op = DisplayFilter::Node::Op::all;
-      n.first = node;
-      n.second = right;
-      node = add(n);
+      if (!parse_operand(right)) return false;
+      node = add_logic(kBinaryOperators[level].op, node, right);
     }
     return true;
   }
@@ -309,10 +306,7 @@ class FilterParser {
       if (!advance()) return false;
       std::uint32_t operand = 0;
       if (!parse_not(operand)) return false;
-      DisplayFilter::Node n;
-      n.op = DisplayFilter::Node::Op::negate;
-      n.first = operand;
-      node = add(n);
+      node = add_logic(DisplayFilter::Node::Op::negate, operand);
       return true;
     }
     return parse_primary(node);
@@ -321,7 +315,7 @@ class FilterParser {
   bool parse_primary(std::uint32_t& node) {
     if (token_.kind == Kind::lparen) {
       const std::size_t open = token_.column;
-      if (!advance() || !parse_or(node)) return false;
+      if (!advance() || !parse_binary(node)) return false;
       if (token_.kind != Kind::rparen) {
         set_error(
             fmt::format("expected ')' for the '(' at column {}, found {}", open, describe_end()),
@@ -393,12 +387,7 @@ class FilterParser {
       n.op = DisplayFilter::Node::Op::exists;
     }
     node = add(n);
-    if (negated_in) {
-      DisplayFilter::Node neg;
-      neg.op = DisplayFilter::Node::Op::negate;
-      neg.first = node;
-      node = add(neg);
-    }
+    if (negated_in) node = add_logic(DisplayFilter::Node::Op::negate, node);
     return true;
   }
 

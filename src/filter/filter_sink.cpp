@@ -16,26 +16,25 @@ constexpr std::size_t kRecentFrames = 1u << 16;
 DisplayFilterSink::DisplayFilterSink(DisplayFilter filter, Sink& inner,
                                      const ChannelTable& channels, TimeNs character_time,
                                      bool show_latency)
-    : filter_(std::move(filter)),
-      inner_(inner),
+    : ForwardingSink(inner),
+      filter_(std::move(filter)),
       views_(channels, character_time, show_latency),
       recent_selected_(kRecentFrames, 0) {}
 
 SinkNeeds DisplayFilterSink::needs() const {
-  SinkNeeds n = inner_.needs();
-  // Every frame comes here, decoded here: the filter reads its Message on this thread.
+  // Every frame comes here, decoded here (ForwardingSink): the filter reads its Message on this
+  // thread.
+  SinkNeeds n = ForwardingSink::needs();
   n.records = true;
   n.detail = n.detail || filter_.needs().detail;
   n.fields = (n.detail && n.fields) || filter_.needs().tree;
-  n.drive_info = false;
-  n.deferred_decode = false;
   return n;
 }
 
 void DisplayFilterSink::release_events(std::uint64_t number, bool selected) {
   if (held_events_.empty()) return;
   for (const BusEvent& e : held_events_)
-    if (e.frame == number && selected) inner_.on_event(e);
+    if (e.frame == number && selected) next_.on_event(e);
   std::erase_if(held_events_, [number](const BusEvent& e) { return e.frame <= number; });
 }
 
@@ -51,33 +50,19 @@ bool DisplayFilterSink::selected(std::uint64_t number) const {
   return number != 0 && recent_selected_[number % kRecentFrames] == number;
 }
 
-void DisplayFilterSink::on_frame(const Message& m) {
-  const RecordView r = views_.of(m);
-  const bool pass = filter_.matches(r);
-  note(m.frame.number, pass);
-  if (pass) inner_.on_frame(m);
-}
-
-void DisplayFilterSink::on_noise(const Frame& f) {
-  const RecordView r = views_.of(f);
-  const bool pass = filter_.matches(r);
-  note(f.number, pass);
-  if (pass) inner_.on_noise(f);
-}
-
 void DisplayFilterSink::on_anomaly(const Anomaly& a) {
-  if (selected(a.frame_number)) inner_.on_anomaly(a);
+  if (selected(a.frame_number)) next_.on_anomaly(a);
 }
 
 void DisplayFilterSink::on_transaction(const Transaction& t) {
-  if (selected(t.request_number) || selected(t.response_number)) inner_.on_transaction(t);
+  if (selected(t.request_number) || selected(t.response_number)) next_.on_transaction(t);
 }
 
 void DisplayFilterSink::on_event(const BusEvent& e) {
   if (e.frame > last_number_)
     held_events_.push_back(e);
   else if (selected(e.frame))
-    inner_.on_event(e);
+    next_.on_event(e);
 }
 
 void DisplayFilterSink::on_summary(const Stats& s) {
@@ -85,7 +70,7 @@ void DisplayFilterSink::on_summary(const Stats& s) {
   with_filter.display_filter = filter_.text();
   with_filter.filter_matched = matched_;
   with_filter.filter_records = records_;
-  inner_.on_summary(with_filter);
+  next_.on_summary(with_filter);
 }
 
 }  // namespace drivetap

@@ -13,24 +13,32 @@
 
 namespace drivetap {
 
-class DisplayFilterSink final : public Sink {
+class DisplayFilterSink final : public ForwardingSink {
  public:
   // `show_latency`: the records have real times (as the JSON sink's).
   DisplayFilterSink(DisplayFilter filter, Sink& inner, const ChannelTable& channels,
                     TimeNs character_time, bool show_latency);
 
-  void on_frame(const Message& m) override;
-  void on_noise(const Frame& f) override;
+  void on_frame(const Message& m) override { judge(m, m.frame.number, &Sink::on_frame); }
+  void on_noise(const Frame& f) override { judge(f, f.number, &Sink::on_noise); }
   void on_anomaly(const Anomaly& a) override;
   void on_transaction(const Transaction& t) override;
   void on_event(const BusEvent& e) override;
   void on_summary(const Stats& s) override;
-  bool flush() override { return inner_.flush(); }
   [[nodiscard]] SinkNeeds needs() const override;
 
   [[nodiscard]] std::uint64_t matched() const { return matched_; }
 
  private:
+  // A frame or noise record numbered `number`: judged by the filter, noted, and handed on to the
+  // next sink's `handler` when selected.
+  template <class Record>
+  [[gnu::always_inline]] void judge(const Record& record, std::uint64_t number,
+                                    void (Sink::*handler)(const Record&)) {
+    const bool pass = filter_.matches(views_.of(record));
+    note(number, pass);
+    if (pass) (next_.*handler)(record);
+  }
   void note(std::uint64_t number, bool selected);
   // Hands on the events held for frame `number` (those of a selected frame), before the frame as
   // they came, and drops them.
@@ -38,7 +46,6 @@ class DisplayFilterSink final : public Sink {
   [[nodiscard]] bool selected(std::uint64_t number) const;
 
   DisplayFilter filter_;
-  Sink& inner_;
   RecordViews views_;
   // The numbers of the latest selected frames, each at its number modulo the size: a transaction
   // or finding reported later (a timeout) finds its frame here. Fixed size: no allocation.

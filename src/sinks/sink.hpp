@@ -212,37 +212,58 @@ class TeeSink final : public Sink {
   std::vector<Sink*> sinks_;
 };
 
-// Drops every record and passes on flush(): the sinks below pass on to `inner_` only the kind of
-// record they keep.
-class DroppingSink : public Sink {
+// Hands every record on to `next_` as it came: the base of a sink in front of another that
+// changes some of what passes (it overrides only those events). The calls are the ones a sink
+// written out in full makes: one virtual call into the next sink per record. needs() are the next
+// sink's, but for the records' completion: this sink may read what it passes on, so it takes
+// telegrams decoded and their drive annotation written (on_deferred_frame() is then never
+// called; its default decodes here).
+class ForwardingSink : public Sink {
  public:
-  explicit DroppingSink(Sink& inner) : inner_(inner) {}
+  explicit ForwardingSink(Sink& next) : next_(next) {}
+  void on_frame(const Message& m) override { next_.on_frame(m); }
+  void on_noise(const Frame& f) override { next_.on_noise(f); }
+  void on_anomaly(const Anomaly& a) override { next_.on_anomaly(a); }
+  void on_transaction(const Transaction& t) override { next_.on_transaction(t); }
+  void on_summary(const Stats& s) override { next_.on_summary(s); }
+  void on_event(const BusEvent& e) override { next_.on_event(e); }
+  bool flush() override { return next_.flush(); }
+  [[nodiscard]] SinkNeeds needs() const override {
+    SinkNeeds n = next_.needs();
+    n.drive_info = n.deferred_decode = false;
+    return n;
+  }
+
+ protected:
+  Sink& next_;
+};
+
+// Drops the frame, noise, anomaly and transaction records: the sinks below pass on to the next
+// sink only the summary or only the events.
+class RecordDroppingSink : public ForwardingSink {
+ public:
+  using ForwardingSink::ForwardingSink;
   void on_frame(const Message&) override {}
   void on_noise(const Frame&) override {}
   void on_anomaly(const Anomaly&) override {}
   void on_transaction(const Transaction&) override {}
-  void on_summary(const Stats&) override {}
-  bool flush() override { return inner_.flush(); }
-
- protected:
-  Sink& inner_;
 };
 
 // Passes on only the closing summary: `drivetap read --stats` decodes everything and prints
 // nothing per frame (no formatting cost either).
-class SummaryOnlySink final : public DroppingSink {
+class SummaryOnlySink final : public RecordDroppingSink {
  public:
-  using DroppingSink::DroppingSink;
-  void on_summary(const Stats& s) override { inner_.on_summary(s); }
+  using RecordDroppingSink::RecordDroppingSink;
+  void on_event(const BusEvent&) override {}
   [[nodiscard]] SinkNeeds needs() const override { return SinkNeeds::none(); }
 };
 
 // Passes on only the events — the drive-state timeline with the bindings and protocol detection
 // that explain it (`drivetap read --events`).
-class EventsOnlySink final : public DroppingSink {
+class EventsOnlySink final : public RecordDroppingSink {
  public:
-  using DroppingSink::DroppingSink;
-  void on_event(const BusEvent& e) override { inner_.on_event(e); }
+  using RecordDroppingSink::RecordDroppingSink;
+  void on_summary(const Stats&) override {}
   [[nodiscard]] SinkNeeds needs() const override {
     SinkNeeds n;
     n.records = n.fields = n.transactions = false;

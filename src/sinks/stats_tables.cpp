@@ -291,17 +291,10 @@ void StatsTablesSink::on_deferred_frame(const DeferredTelegram& telegram) {
 }
 
 void StatsTablesSink::on_transaction(const Transaction& t) {
-  if (functions_) {
-    FunctionCounts& f = functions_by_key_[FunctionKey{t.protocol, t.function}];
-    if (t.request_number != 0) ++f.requests;
-    if (t.response_number != 0) ++f.replies;
-    if (t.outcome == Outcome::exception) ++f.exceptions;
-  }
+  if (functions_) functions_by_key_[FunctionKey{t.protocol, t.function}].count(t);
   if (!stations_ || t.address < 0) return;
   Station& s = station(t.channel, t.protocol, t.address);
-  if (t.request_number != 0) ++s.requests;
-  if (t.response_number != 0) ++s.replies;
-  if (t.outcome == Outcome::exception) ++s.exceptions;
+  s.count(t);
   if (t.outcome == Outcome::timeout) ++s.timeouts;
   if (t.latency >= 0 && timed_) s.latency.add(t.latency);
 }
@@ -571,34 +564,34 @@ SinkNeeds beside_needs(const SinkNeeds& main, const SinkNeeds& counter) {
 }  // namespace
 
 BesideSink::BesideSink(Sink& main, Sink& counter)
-    : main_(main),
+    : ForwardingSink(main),
       counter_(counter),
       main_needs_(main.needs()),
       counter_needs_(counter.needs()),
       needs_(beside_needs(main_needs_, counter_needs_)) {}
 
 void BesideSink::on_frame(const Message& m) {
-  main_.on_frame(m);
+  next_.on_frame(m);
   if (counter_needs_.records) counter_.on_frame(m);
 }
 
 void BesideSink::on_noise(const Frame& f) {
-  main_.on_noise(f);
+  next_.on_noise(f);
   if (counter_needs_.records) counter_.on_noise(f);
 }
 
 void BesideSink::on_anomaly(const Anomaly& a) {
-  main_.on_anomaly(a);
+  next_.on_anomaly(a);
   if (counter_needs_.records) counter_.on_anomaly(a);
 }
 
 void BesideSink::on_transaction(const Transaction& t) {
-  if (main_needs_.transactions) main_.on_transaction(t);
+  if (main_needs_.transactions) next_.on_transaction(t);
   if (counter_needs_.transactions) counter_.on_transaction(t);
 }
 
 void BesideSink::on_deferred_frame(const DeferredTelegram& telegram) {
-  if (main_needs_.records) main_.on_deferred_frame(telegram);
+  if (main_needs_.records) next_.on_deferred_frame(telegram);
   if (counter_needs_.records) counter_.on_deferred_frame(telegram);
 }
 

@@ -101,10 +101,19 @@ class StatsTablesSink final : public Sink {
              std::tuple(b.channel, protocol_id(b.protocol), b.address);
     }
   };
-  struct Station {
+  // What the transactions of a station, or of a function code, held: requests, replies and
+  // exception replies.
+  struct ExchangeCounts {
     std::uint64_t requests = 0;
     std::uint64_t replies = 0;
     std::uint64_t exceptions = 0;
+    void count(const Transaction& t) {
+      if (t.request_number != 0) ++requests;
+      if (t.response_number != 0) ++replies;
+      if (t.outcome == Outcome::exception) ++exceptions;
+    }
+  };
+  struct Station : ExchangeCounts {
     std::uint64_t timeouts = 0;
     std::uint64_t bad_checksums = 0;
     std::uint64_t bytes = 0;
@@ -123,11 +132,6 @@ class StatsTablesSink final : public Sink {
       return std::tuple(protocol_id(a.protocol), a.function) <
              std::tuple(protocol_id(b.protocol), b.function);
     }
-  };
-  struct FunctionCounts {
-    std::uint64_t requests = 0;
-    std::uint64_t replies = 0;
-    std::uint64_t exceptions = 0;
   };
   struct LoadCell {
     std::uint64_t frames = 0;
@@ -166,7 +170,7 @@ class StatsTablesSink final : public Sink {
   StationKey last_key_;
   Station* last_station_ = nullptr;
   std::vector<std::uint64_t> channel_bytes_;  // telegrams and noise, by channel
-  std::map<FunctionKey, FunctionCounts> functions_by_key_;
+  std::map<FunctionKey, ExchangeCounts> functions_by_key_;
   std::array<std::uint64_t, kGapBins> gap_bins_{};
   std::uint64_t gap_count_ = 0;
   TimeNs load_origin_ = -1;
@@ -178,22 +182,18 @@ class StatsTablesSink final : public Sink {
 // Hands every record to `main` and to `counter` (a StatsTablesSink): main's needs with the records
 // and transactions the counter asks for besides. Telegrams handed over undecoded go to both when
 // main takes records (main may decode on its own thread: the counter reads only their heads).
-class BesideSink final : public Sink {
+class BesideSink final : public ForwardingSink {
  public:
   BesideSink(Sink& main, Sink& counter);
   void on_frame(const Message& m) override;
   void on_noise(const Frame& f) override;
   void on_anomaly(const Anomaly& a) override;
   void on_transaction(const Transaction& t) override;
-  void on_event(const BusEvent& e) override { main_.on_event(e); }
-  void on_summary(const Stats& s) override { main_.on_summary(s); }
-  bool flush() override { return main_.flush(); }
   [[nodiscard]] SinkNeeds needs() const override { return needs_; }
   void on_deferred_frame(const DeferredTelegram& telegram) override;
-  [[nodiscard]] Sink& main() const { return main_; }
+  [[nodiscard]] Sink& main() const { return next_; }
 
  private:
-  Sink& main_;
   Sink& counter_;
   const SinkNeeds main_needs_;
   const SinkNeeds counter_needs_;

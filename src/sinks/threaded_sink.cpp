@@ -258,30 +258,14 @@ void ThreadedSink::on_frame(const Message& message) {
     Message completed = message;
     complete_drive_info(completed, scratch_[0].drive);
     inner_.on_frame(completed);
-  } else if (const Record* r = give(Kind::frame, &Record::message, message, &Sink::on_frame)) {
     given(message.frame.number);
-    weigh(r->message.frame.storage_bytes());
     return;
   }
-  given(message.frame.number);
-}
-void ThreadedSink::on_noise(const Frame& noise) {
-  if (const Record* r = give(Kind::noise, &Record::noise, noise, &Sink::on_noise)) {
-    given(noise.number);
-    weigh(r->noise.storage_bytes());
-    return;
-  }
-  given(noise.number);
-}
-void ThreadedSink::on_anomaly(const Anomaly& anomaly) {
-  give(Kind::anomaly, &Record::anomaly, anomaly, &Sink::on_anomaly);
+  give_numbered(Kind::frame, &Record::message, message, &Sink::on_frame, message.frame.number);
 }
 void ThreadedSink::on_transaction(const Transaction& transaction) {
   if (finished_) return inner_.on_transaction(transaction);
   next_slot(Kind::transaction, &Batch::transactions) = transaction;
-}
-void ThreadedSink::on_event(const BusEvent& event) {
-  give(Kind::event, &Record::event, event, &Sink::on_event);
 }
 
 void ThreadedSink::on_summary(const Stats& stats) {

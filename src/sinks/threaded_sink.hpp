@@ -67,11 +67,17 @@ class alignas(kCacheLineBytes) ThreadedSink final : public Sink {
   ThreadedSink& operator=(const ThreadedSink&) = delete;
 
   void on_frame(const Message& message) override;
-  void on_noise(const Frame& noise) override;
-  void on_anomaly(const Anomaly& anomaly) override;
+  void on_noise(const Frame& noise) override {
+    give_numbered(Kind::noise, &Record::noise, noise, &Sink::on_noise, noise.number);
+  }
+  void on_anomaly(const Anomaly& anomaly) override {
+    give(Kind::anomaly, &Record::anomaly, anomaly, &Sink::on_anomaly);
+  }
   void on_transaction(const Transaction& transaction) override;
   void on_summary(const Stats& stats) override;
-  void on_event(const BusEvent& event) override;
+  void on_event(const BusEvent& event) override {
+    give(Kind::event, &Record::event, event, &Sink::on_event);
+  }
   // Waits for the writer to replay everything, then flushes the inner sink (on this thread).
   bool flush() override;
   // The inner sink's needs, and: the drive annotation (Message::drive_profile) is written on the
@@ -188,6 +194,17 @@ class alignas(kCacheLineBytes) ThreadedSink final : public Sink {
     r.*slot = value;  // copy-assigned: the record's vectors and strings keep their storage
     return &r;
   }
+  // A frame or noise record (a Message or a Frame in `slot`), numbered `number`: given, then its
+  // frame's storage weighed.
+  template <class T>
+  void give_numbered(Kind kind, T Record::*slot, const T& value, void (Sink::*direct)(const T&),
+                     std::uint64_t number) {
+    const Record* r = give(kind, slot, value, direct);
+    given(number);
+    if (r) weigh(frame_of(r->*slot).storage_bytes());
+  }
+  static const Frame& frame_of(const Message& m) { return m.frame; }
+  static const Frame& frame_of(const Frame& f) { return f; }
   // Counts `bytes` of storage in the current batch; publishes it once it holds kBatchBytes.
   void weigh(std::size_t bytes);
   // The frame or noise record numbered `number` has been given (after its record is in the

@@ -129,6 +129,12 @@ std::uint64_t rise(std::uint32_t now, std::uint32_t before) {
   return static_cast<std::uint32_t>(now - before);  // the kernel's int counters wrap
 }
 
+// The kernel's counters as TIOCGICOUNT gives them (32 bits, wrapping).
+SerialPort::KernelCounters<std::uint32_t> kernel_counts(const serial_icounter_struct& c) {
+  const auto raw = [](int count) { return static_cast<std::uint32_t>(count); };
+  return {raw(c.rx), raw(c.frame), raw(c.parity), raw(c.brk), raw(c.overrun), raw(c.buf_overrun)};
+}
+
 }  // namespace
 
 // --- ParmrkDecoder -------------------------------------------------------------------------
@@ -390,10 +396,7 @@ std::unique_ptr<SerialPort> SerialPort::open(const SerialPortOptions& o, Channel
   serial_icounter_struct icount{};
   if (::ioctl(fd, TIOCGICOUNT, &icount) == 0) {
     port->counters_available_ = true;
-    port->last_kernel_ = {
-        static_cast<std::uint32_t>(icount.rx),      static_cast<std::uint32_t>(icount.frame),
-        static_cast<std::uint32_t>(icount.parity),  static_cast<std::uint32_t>(icount.brk),
-        static_cast<std::uint32_t>(icount.overrun), static_cast<std::uint32_t>(icount.buf_overrun)};
+    port->last_kernel_ = kernel_counts(icount);
   }
 
   port->wall_offset_ = o.clock.value_or(CaptureClock::take()).wall_offset;
@@ -415,23 +418,19 @@ SerialPort::Counters SerialPort::refresh_counters() {
   if (!counters_available_) return up;
   serial_icounter_struct icount{};
   if (::ioctl(fd_, TIOCGICOUNT, &icount) != 0) return up;
-  const KernelCounts now{
-      static_cast<std::uint32_t>(icount.rx),      static_cast<std::uint32_t>(icount.frame),
-      static_cast<std::uint32_t>(icount.parity),  static_cast<std::uint32_t>(icount.brk),
-      static_cast<std::uint32_t>(icount.overrun), static_cast<std::uint32_t>(icount.buf_overrun)};
-  up.rx = rise(now.rx, last_kernel_.rx);
-  up.frame = rise(now.frame, last_kernel_.frame);
-  up.parity = rise(now.parity, last_kernel_.parity);
-  up.brk = rise(now.brk, last_kernel_.brk);
-  up.overrun = rise(now.overrun, last_kernel_.overrun);
-  up.buf_overrun = rise(now.buf_overrun, last_kernel_.buf_overrun);
+  const KernelCounts now = kernel_counts(icount);
+  // Each counter's rise, added to its total since open.
+  const auto count = [&](std::uint64_t Counters::*total, std::uint32_t KernelCounts::*raw) {
+    up.*total = rise(now.*raw, last_kernel_.*raw);
+    counters_.*total += up.*total;
+  };
+  count(&Counters::rx, &KernelCounts::rx);
+  count(&Counters::frame, &KernelCounts::frame);
+  count(&Counters::parity, &KernelCounts::parity);
+  count(&Counters::brk, &KernelCounts::brk);
+  count(&Counters::overrun, &KernelCounts::overrun);
+  count(&Counters::buf_overrun, &KernelCounts::buf_overrun);
   last_kernel_ = now;
-  counters_.rx += up.rx;
-  counters_.frame += up.frame;
-  counters_.parity += up.parity;
-  counters_.brk += up.brk;
-  counters_.overrun += up.overrun;
-  counters_.buf_overrun += up.buf_overrun;
   return up;
 }
 

@@ -212,21 +212,17 @@ class SerialPort {
 
   // Kernel counters (TIOCGICOUNT) as deltas since open, as of the last read_available(); all
   // zero where the driver has none (a pty). Kept in 64 bits across the kernel's 32-bit wrap.
-  struct Counters {
-    std::uint64_t rx = 0;
-    std::uint64_t frame = 0;
-    std::uint64_t parity = 0;
-    std::uint64_t brk = 0;
-    std::uint64_t overrun = 0;
-    std::uint64_t buf_overrun = 0;
+  // (The kernel's own, raw and wrapping, are the same counters in 32 bits.)
+  template <class Count>
+  struct KernelCounters {
+    Count rx = 0, frame = 0, parity = 0, brk = 0, overrun = 0, buf_overrun = 0;
   };
+  using Counters = KernelCounters<std::uint64_t>;
   [[nodiscard]] Counters counters() const { return counters_; }
   [[nodiscard]] bool counters_available() const { return counters_available_; }
 
  private:
-  struct KernelCounts {  // the kernel's raw 32-bit counters
-    std::uint32_t rx = 0, frame = 0, parity = 0, brk = 0, overrun = 0, buf_overrun = 0;
-  };
+  using KernelCounts = KernelCounters<std::uint32_t>;  // as TIOCGICOUNT gives them
   struct ReadChunk {
     std::size_t end = 0;  // end offset in raw_
     TimeNs time = 0;

@@ -90,13 +90,7 @@ struct UartCharacter {
 
 // Running totals over everything pushed, including what no character carries: glitches after the
 // last character and false starts (a falling edge whose start bit was gone at its centre).
-struct UartDecoderStats {
-  std::uint64_t characters = 0;  // everything reported, breaks included
-  std::uint64_t parity_errors = 0;
-  std::uint64_t framing_errors = 0;
-  std::uint64_t breaks = 0;
-  std::uint64_t glitches = 0;
-  std::uint64_t false_starts = 0;
+struct UartDecoderStats : UartCounts {
   // Characters whose first stop bit was good but a later one low or cut short by the next start
   // bit: traffic that does not fit the 2 (or 1.5) stop bits it is decoded with.
   std::uint64_t short_stop_bits = 0;
@@ -109,12 +103,7 @@ struct UartDecoderStats {
 
   // Totals of several decoders (the channels of one line).
   UartDecoderStats& operator+=(const UartDecoderStats& o) {
-    characters += o.characters;
-    parity_errors += o.parity_errors;
-    framing_errors += o.framing_errors;
-    breaks += o.breaks;
-    glitches += o.glitches;
-    false_starts += o.false_starts;
+    UartCounts::operator+=(o);
     short_stop_bits += o.short_stop_bits;
     cut_by_end += o.cut_by_end;
     rests_at_space += o.rests_at_space;
