@@ -600,6 +600,7 @@ TEST(DriveReading, ReadingIntoOneReadingIsReadingAfresh) {
   o.reset_command = true;
   o.setpoint_command = Quantity{25, "25.00 Hz, a text too long for a short string"};
   o.fault.written = "4 (a text too long for a short string)";
+  ASSERT_FALSE(o.registers.empty());  // the fault register read
   const std::size_t capacity = o.fault.written.capacity();
   o.clear();
   EXPECT_TRUE(o == DriveObservation{});

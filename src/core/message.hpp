@@ -10,6 +10,7 @@
 
 #include "core/anomaly.hpp"
 #include "core/checksum.hpp"
+#include "core/drive_values.hpp"
 #include "core/field.hpp"
 #include "core/frame.hpp"
 #include "core/protocol_desc.hpp"
@@ -46,8 +47,11 @@ struct Message {
   // With drive_profile, for a reply: the bytes of the request it answers, empty when none.
   std::vector<std::uint8_t> request;
   // The profile the frame was read with (drive_info made or to make), nullptr when none: the
-  // `drive.*` record fields read the frame's values through it, with `request`, when asked.
+  // family of the `drive.*` record fields below.
   const DriveProfile* drive_read_with = nullptr;
+  // With drive_read_with: the values the pipeline's drive level read of the frame, in the order
+  // the `drive.*` fields give them (collect_drive_values(), drive/drive_fields.hpp).
+  std::vector<DriveValue> drive_values;
   // Findings about this frame (checksum, gaps, malformed content, UART errors), in byte order.
   std::vector<Anomaly> anomalies;
   // Filled by the pairing stage on responses: request end -> response start, ns; -1 when
@@ -144,6 +148,7 @@ inline void begin_message(Message& m, Frame&& frame, Protocol protocol, Directio
   m.drive_profile = nullptr;
   m.request.clear();
   m.drive_read_with = nullptr;
+  m.drive_values.clear();
   m.anomalies.clear();
   m.latency = -1;
   m.request_number = 0;

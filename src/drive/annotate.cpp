@@ -24,27 +24,32 @@ int decimals_of(double scale) {
   return d >= 6 ? 2 : d;
 }
 
-// The raw value as the register holds it: signed registers read as 16- or 32-bit two's
-// complement.
-std::int64_t raw_value(const RegisterDef& r, std::uint32_t raw, bool double_word) {
+}  // namespace
+
+std::int64_t register_raw_value(const RegisterDef& r, std::uint32_t raw, bool double_word) {
   if (!r.is_signed) return raw;
   return double_word ? static_cast<std::int32_t>(raw) : static_cast<std::int16_t>(raw & 0xFFFF);
 }
 
+namespace {
+
 double scaled(const RegisterDef& r, std::uint32_t raw, bool double_word) {
-  return static_cast<double>(raw_value(r, raw, double_word)) * r.scale;
+  return static_cast<double>(register_raw_value(r, raw, double_word)) * r.scale;
 }
 
 // The decimal scales append_scaled() prints as exact decimals, from integers (then two different
 // values never print alike): 10^-i at index i.
 constexpr double kDecimalScales[] = {1, 0.1, 0.01, 0.001, 0.0001, 0.00001};
 
-// The number of decimals of `scale` when it is one of kDecimalScales; -1 otherwise.
+}  // namespace
+
 int decimal_scale_index(double scale) {
   for (int i = 0; i < static_cast<int>(std::size(kDecimalScales)); ++i)
     if (scale == kDecimalScales[i]) return i;
   return -1;
 }
+
+namespace {
 
 // The scaled value as "{:.Nf}" prints it, N = decimals_of(scale). A scale of 1, 0.1, 0.01 ...
 // or a whole one makes it an exact decimal, printed from integers: the double's rounding error
@@ -53,7 +58,7 @@ template <class Out>
 void append_scaled(Out& out, const RegisterDef& r, std::uint32_t raw, bool double_word) {
   static constexpr std::int64_t kPowersOfTen[] = {1, 10, 100, 1000, 10000, 100000};
   static_assert(std::size(kPowersOfTen) == std::size(kDecimalScales));
-  const std::int64_t value = raw_value(r, raw, double_word);
+  const std::int64_t value = register_raw_value(r, raw, double_word);
   // A decimal scale, the usual one, is looked up in the table: decimals_of() gives each entry
   // its index (ProfileSchema.ScaledValuesReadAsTheDoublePrinted), and its loop of roundings costs
   // more than the rest of the value.
@@ -181,6 +186,7 @@ constexpr ReportedQuantity kReportedQuantities[] = {
 // (a command), else the drive reported it. (A quantity's text is made only when shown.)
 void observe(const DriveProfile& p, const RegisterDef& r, std::uint32_t raw, bool double_word,
              bool written, DriveObservation& o) {
+  o.registers.push_back({&r, raw, double_word});
   const StateBits& s = r.state;
   if (written) {
     switch (r.role) {
@@ -546,8 +552,8 @@ bool Quantity::same_text(const Quantity& other) const {
     const RegisterDef &a = *reg, &b = *other.reg;
     if (a.enum_name.empty() && b.enum_name.empty() && a.bits.empty() && b.bits.empty() &&
         a.scale == b.scale && a.unit == b.unit) {
-      const bool same =
-          raw_value(a, raw, double_word) == raw_value(b, other.raw, other.double_word);
+      const bool same = register_raw_value(a, raw, double_word) ==
+                        register_raw_value(b, other.raw, other.double_word);
       if (same || decimal_scale_index(a.scale) >= 0) return same;
     }
   }

@@ -55,6 +55,15 @@ struct Quantity {
   bool operator==(const Quantity& other) const { return value == other.value && same_text(other); }
 };
 
+// A register's value as a frame carried it (raw as on the wire; `double_word`: two registers'
+// worth).
+struct RegisterValue {
+  const RegisterDef* reg = nullptr;
+  std::uint32_t raw = 0;
+  bool double_word = false;
+  bool operator==(const RegisterValue&) const = default;
+};
+
 // What one frame showed about its drive. Status fields come from the drive's replies; command
 // fields from what the master wrote.
 struct DriveObservation {
@@ -65,6 +74,9 @@ struct DriveObservation {
   std::optional<bool> run_command, reverse_command;
   bool reset_command = false;
   std::optional<Quantity> setpoint_command;
+  // Every register, coil and parameter value the frame carried that the profile names, written
+  // or reported, in telegram order: the `drive.*` fields (drive/drive_fields.hpp).
+  std::vector<RegisterValue> registers;
 
   // Back to nothing observed (every member as a new observation has it); the strings keep their
   // storage. Member by member: assigning a new observation cost the hot path. A member added above
@@ -85,6 +97,7 @@ struct DriveObservation {
     reverse_command.reset();
     reset_command = false;
     setpoint_command.reset();
+    registers.clear();
   }
   bool operator==(const DriveObservation&) const = default;
 };
@@ -144,6 +157,13 @@ std::string describe_value(const DriveProfile& profile, const RegisterDef& reg, 
 // describe_value() appended to `out`.
 void append_value(std::string& out, const DriveProfile& profile, const RegisterDef& reg,
                   std::uint32_t raw, bool double_word = false);
+
+// The raw value as the register holds it: signed registers read as 16- or 32-bit two's
+// complement.
+std::int64_t register_raw_value(const RegisterDef& reg, std::uint32_t raw, bool double_word);
+// The number of decimals of `scale` when it is 1, 0.1, 0.01 ... 0.00001 (a scaled value is then
+// an exact decimal, spelt from integers); -1 otherwise.
+int decimal_scale_index(double scale);
 
 // "16-13 frequency" for a parameter, the register's name otherwise.
 std::string display_name(const RegisterDef& reg);

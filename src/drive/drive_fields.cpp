@@ -1,11 +1,11 @@
 // The drive layer's record fields (`drive.*`) (src/drive/drive_fields.hpp): a frame's drive values
-// read again through its profile when a filter, a field list or the JSON asks for them.
+// collected from the pipeline's observation, spelt when a filter, a field list or the JSON asks.
 #include "drive/drive_fields.hpp"
 
 #include <algorithm>
 #include <charconv>
 #include <cmath>
-#include <cstdio>
+#include <cstring>
 #include <memory>
 #include <optional>
 #include <string_view>
@@ -30,7 +30,7 @@ bool is_shared_id(std::string_view id) {
   return false;
 }
 
-// Decimals a scale shows (0.01 -> 2, 1 -> 0), as the annotation prints its values.
+// Decimals a scale shows in the values' text (0.01 -> 2, 1 -> 0; up to 6 for a binary scale).
 int scale_decimals(double scale) {
   int d = 0;
   double s = std::fabs(scale);
@@ -41,99 +41,113 @@ int scale_decimals(double scale) {
   return d;
 }
 
-// `v` spelt with `decimals`, and read back: the number a reader of the text gets.
-void set_number(DriveFieldValue& f, double v, int decimals) {
-  // (to_chars, not snprintf: the same correctly rounded digits, without the locale and format
-  // parsing that made this the largest cost of JSON with drive profiles.)
-  char buf[400];  // the most a double takes in fixed notation with up to 17 decimals
-  const auto [end, ec] =
-      std::to_chars(buf, buf + sizeof buf, v, std::chars_format::fixed, decimals);
-  f.text.assign(buf, ec == std::errc() ? static_cast<std::size_t>(end - buf) : 0);
-  // (A negative value that rounds to zero is spelt without its sign.)
-  if (f.text.starts_with('-') && f.text.find_first_not_of("-0.") == std::string::npos)
-    f.text.erase(0, 1);
-  f.is_number = true;
-  f.value = 0;
-  std::from_chars(f.text.data(), f.text.data() + f.text.size(), f.value);
+// `v` with `decimals` decimals, as std::to_chars spells the double (correctly rounded), into
+// `at`; returns the end. A negative value that rounds to zero is spelt without its sign.
+char* write_fixed(char* at, char* end, double v, int decimals) {
+  const auto [last, ec] = std::to_chars(at, end, v, std::chars_format::fixed, decimals);
+  if (ec != std::errc()) return at;
+  if (*at == '-' && std::string_view(at, last).find_first_not_of("-0.") == std::string_view::npos) {
+    std::memmove(at, at + 1, static_cast<std::size_t>(last - at - 1));
+    return last - 1;
+  }
+  return last;
 }
 
-DriveFieldValue& add(std::vector<DriveFieldValue>& out, std::string_view id) {
-  DriveFieldValue& f = out.emplace_back();
-  f.id = id;
-  return f;
+// `v` in decimal digits into `at`; returns the end.
+char* write_integer(char* at, std::int64_t v) {
+  return std::to_chars(at, at + 24, v).ptr;
 }
 
-void add_quantity(std::vector<DriveFieldValue>& out, std::string_view id,
+// A register's value in the profile's unit with scale_decimals() decimals: the text of the
+// double value raw * scale. Under a scale of 1, 0.1, 0.01 ... or a whole one (nearly every
+// register) the value is an exact decimal and is spelt from integers: the double's rounding error
+// is far below half its last digit for any 32-bit raw value, so the text is the same.
+char* write_register_value(char* at, char* end, const RegisterDef& r, std::uint32_t raw,
+                           bool double_word) {
+  static constexpr std::uint64_t kPowersOfTen[] = {1, 10, 100, 1000, 10000, 100000};
+  const std::int64_t value = register_raw_value(r, raw, double_word);
+  if (const int decimals = decimal_scale_index(r.scale); decimals >= 0) {
+    const std::uint64_t unit = kPowersOfTen[decimals];
+    const auto magnitude = static_cast<std::uint64_t>(value < 0 ? -value : value);
+    if (value < 0) *at++ = '-';
+    at = std::to_chars(at, end, magnitude / unit).ptr;
+    if (decimals > 0) {
+      *at++ = '.';
+      std::uint64_t fraction = magnitude % unit;
+      for (int i = decimals - 1; i >= 0; --i) {
+        at[i] = static_cast<char>('0' + fraction % 10);
+        fraction /= 10;
+      }
+      at += decimals;
+    }
+    return at;
+  }
+  if (r.scale == std::round(r.scale) && std::fabs(r.scale) <= 1e6)
+    return write_integer(at, value * static_cast<std::int64_t>(r.scale));
+  return write_fixed(at, end, static_cast<double>(value) * r.scale, scale_decimals(r.scale));
+}
+
+DriveValue& add(std::vector<DriveValue>& out, std::string_view id, DriveValue::Kind kind) {
+  DriveValue& v = out.emplace_back();
+  v.id = id;
+  v.kind = kind;
+  return v;
+}
+
+void add_integer(std::vector<DriveValue>& out, std::string_view id, std::int64_t integer) {
+  add(out, id, DriveValue::Kind::integer).integer = integer;
+}
+
+void add_text(std::vector<DriveValue>& out, std::string_view id, std::string_view text) {
+  add(out, id, DriveValue::Kind::text).text = text;
+}
+
+void add_register_value(std::vector<DriveValue>& out, std::string_view id, const RegisterDef& r,
+                        std::uint32_t raw, bool double_word) {
+  DriveValue& v = add(out, id, DriveValue::Kind::reg);
+  v.reg = &r;
+  v.raw = raw;
+  v.double_word = double_word;
+}
+
+// A reported quantity: always a register's value (Quantity::of()).
+void add_quantity(std::vector<DriveValue>& out, std::string_view id,
                   const std::optional<Quantity>& q) {
-  if (!q) return;
-  DriveFieldValue& f = add(out, id);
-  if (q->reg) {
-    set_number(f, q->value, scale_decimals(q->reg->scale));
-    f.unit = q->reg->unit;
-    f.has_raw = true;
-    f.raw = q->raw;
-  } else {
-    set_number(f, q->value, 6);
-    // (A value no register describes: its text as written, when it is a number.)
-    double v = 0;
-    const auto [end, ec] =
-        std::from_chars(q->written.data(), q->written.data() + q->written.size(), v);
-    if (ec == std::errc() && end == q->written.data() + q->written.size()) f.text = q->written;
+  if (q && q->reg) add_register_value(out, id, *q->reg, q->raw, q->double_word);
+}
+
+// The name in a fault's text "4 (overcurrent)" (Quantity::text()): what stands between its
+// first " (" and a closing ')' at its end; nullopt when there is none. Taken from where the text
+// takes it, the profile, so that it outlives the frame.
+std::optional<std::string_view> fault_name(const DriveProfile& p, std::uint32_t code,
+                                           const Quantity& fault) {
+  if (!fault.reg) {
+    // A fault report (its text made by the annotation: the code, and its name from the
+    // profile's fault table when it has one).
+    const auto names = p.enums.find("fault");
+    if (names == p.enums.end()) return std::nullopt;
+    const auto it = names->second.find(code);
+    if (it == names->second.end() || it->second.empty()) return std::nullopt;
+    return std::string_view(it->second);
   }
-}
-
-void add_integer(std::vector<DriveFieldValue>& out, std::string_view id, std::int64_t v) {
-  DriveFieldValue& f = add(out, id);
-  set_number(f, static_cast<double>(v), 0);
-}
-
-void add_text(std::vector<DriveFieldValue>& out, std::string_view id, std::string_view text) {
-  DriveFieldValue& f = add(out, id);
-  f.is_number = false;
-  f.text = text;
-}
-
-// A register's value under its id (and the raw status and control words).
-void add_register(std::vector<DriveFieldValue>& out, const DriveProfile& p, const RegisterDef& r,
-                  std::uint32_t raw, bool double_word) {
-  if (r.role == RegisterRole::status) add_integer(out, "status_word", raw);
-  if (r.role == RegisterRole::control) add_integer(out, "control_word", raw);
-  if (r.field_id.empty() || is_shared_id(r.field_id)) return;
-  add_quantity(out, r.field_id, Quantity::of(p, r, raw, double_word));
-}
-
-// The registers a telegram's records carry values of (as read_records() in annotate.cpp walks
-// them).
-void add_registers(std::vector<DriveFieldValue>& out, const DriveProfile& p, Direction direction,
-                   const DriveRecords& records) {
-  for (const DriveRecord& a : records.records) {
-    const std::span<const std::uint32_t> values = records.values_of(a);
-    if (a.type == DriveRecordType::process_words) {
-      const auto& slots = direction == Direction::request ? p.pcd_to_drive : p.pcd_from_drive;
-      for (std::size_t i = 0; i < slots.size() && i < values.size(); ++i)
-        if (const RegisterDef* r = p.find(RegisterKind::holding, slots[i]))
-          add_register(out, p, *r, values[i], false);
-      continue;
-    }
-    if (a.type != DriveRecordType::access || (a.op != AccessOp::write && a.op != AccessOp::value))
-      continue;
-    if (a.kind == RegisterKind::parameter) {
-      if (const RegisterDef* r = p.find(RegisterKind::parameter, a.first); r && !values.empty())
-        add_register(out, p, *r, values[0], a.double_word);
-      continue;
-    }
-    for (std::size_t i = 0; i < values.size(); ++i) {
-      const std::uint32_t address = a.first + static_cast<std::uint32_t>(i);
-      const RegisterDef* r =
-          a.kind == RegisterKind::holding ? p.find_holding(address) : p.find(a.kind, address);
-      if (!r) continue;
-      std::uint32_t raw = values[i];
-      const bool double_word = r->words == 2 && i + 1 < values.size() &&
-                               a.kind != RegisterKind::coil && a.kind != RegisterKind::discrete;
-      if (double_word) raw = raw << 16 | values[++i];
-      add_register(out, p, *r, raw, double_word);
-    }
+  const RegisterDef& r = *fault.reg;
+  if (!r.enum_name.empty()) {  // "4 (overcurrent)", or the table's lack said so
+    const auto& names = p.enums.at(r.enum_name);
+    const auto it = names.find(fault.raw);
+    if (it == names.end()) return std::string_view("not in the manual's table");
+    return std::string_view(it->second);
   }
+  if (!r.bits.empty()) return std::nullopt;  // "0x0004 [...]"
+  // A number and its unit: the digits hold no " (", so the name is the unit's.
+  const std::string_view unit = r.unit;
+  if (unit.empty() || !unit.ends_with(')')) return std::nullopt;
+  std::size_t from = 1;
+  if (!unit.starts_with('(')) {
+    const std::size_t open = unit.find(" (");
+    if (open == std::string_view::npos) return std::nullopt;
+    from = open + 2;
+  }
+  return unit.substr(from, unit.size() - from - 1);
 }
 
 // The `drive.*` names: the shared ones a loaded profile can give, then the registers' ids.
@@ -151,30 +165,24 @@ class DriveFieldSource final : public RecordFieldSource {
   }
 
   [[nodiscard]] RecordFieldNeeds needs(int) const override {
-    return {};  // read from the message's bytes and its profile
+    RecordFieldNeeds n;
+    n.drive_values = true;  // the message's (Message::drive_values)
+    return n;
   }
 
   bool values(int slot, const RecordView& record, std::string& scratch,
               ValueVisitor& visit) const override {
-    if (!record.message || !record.message->drive_read_with) return false;
-    // A frame's values are read once for all the fields asked of it (a thread's own: the filter
-    // and a writer thread's field list may read at once).
-    thread_local const Message* read_message = nullptr;
-    thread_local std::uint64_t read_number = 0;
-    thread_local TimeNs read_start = 0;
-    thread_local std::vector<DriveFieldValue> read;
-    const Message& m = *record.message;
-    if (read_message != &m || read_number != m.frame.number || read_start != m.frame.start()) {
-      drive_field_values(m, read);
-      read_message = &m;
-      read_number = m.frame.number;
-      read_start = m.frame.start();
-    }
+    if (!record.message) return false;
     const std::string& id = names_[static_cast<std::size_t>(slot)];
-    for (const DriveFieldValue& f : read) {
-      if (f.id != id) continue;
-      scratch = f.text;
-      if (visit.visit({f.is_number, f.value, scratch})) return true;
+    for (const DriveValue& v : record.message->drive_values) {
+      if (v.id != id) continue;
+      char buffer[kDriveNumberChars];
+      scratch = drive_value_text(v, buffer);
+      const bool is_number = v.kind != DriveValue::Kind::text;
+      double number = 0;
+      if (is_number)  // the number a reader of the text gets
+        std::from_chars(scratch.data(), scratch.data() + scratch.size(), number);
+      if (visit.visit({is_number, number, scratch})) return true;
     }
     return false;
   }
@@ -185,16 +193,9 @@ class DriveFieldSource final : public RecordFieldSource {
 
 }  // namespace
 
-void drive_field_values(const Message& m, std::vector<DriveFieldValue>& out) {
-  out.clear();
-  if (!m.drive_read_with) return;
-  const DriveProfile& p = *m.drive_read_with;
-  thread_local DriveReading reading;
-  const TelegramHead head = head_of(m);
-  const DriveRecords& records = reading.records.read(head, m.request);
-  read_for_drive_into(p, head, records, DriveReadingWants::observation, reading);
-  const DriveObservation& o = reading.observed;
-  if (m.address >= 0) add_integer(out, "station", m.address);
+void collect_drive_values(const DriveProfile& p, int station, const DriveObservation& o,
+                          std::vector<DriveValue>& out) {
+  if (station >= 0) add_integer(out, "station", station);
   add_text(out, "family", p.id);
   add_quantity(out, "setpoint", o.setpoint);
   add_quantity(out, "output_frequency", o.output_frequency);
@@ -204,13 +205,33 @@ void drive_field_values(const Message& m, std::vector<DriveFieldValue>& out) {
   if (o.reverse) add_text(out, "direction", *o.reverse ? "reverse" : "forward");
   if (o.fault_code) {
     add_integer(out, "fault", *o.fault_code);
-    // "4 (overcurrent)": the name between the parentheses.
-    const std::string w = o.fault.text();
-    const std::size_t open = w.find(" (");
-    if (open != std::string::npos && w.ends_with(')'))
-      add_text(out, "fault_name", std::string_view(w).substr(open + 2, w.size() - open - 3));
+    if (const auto name = fault_name(p, *o.fault_code, o.fault)) add_text(out, "fault_name", *name);
   }
-  add_registers(out, p, m.direction, records);
+  // A register's value under its id (and the raw status and control words).
+  for (const RegisterValue& v : o.registers) {
+    const RegisterDef& r = *v.reg;
+    if (r.role == RegisterRole::status) add_integer(out, "status_word", v.raw);
+    if (r.role == RegisterRole::control) add_integer(out, "control_word", v.raw);
+    if (r.field_id.empty() || r.shared_field_id) continue;
+    add_register_value(out, r.field_id, r, v.raw, v.double_word);
+  }
+}
+
+std::string_view drive_value_text(const DriveValue& v, std::span<char, kDriveNumberChars> buffer) {
+  char* const at = buffer.data();
+  switch (v.kind) {
+    case DriveValue::Kind::text:
+      return v.text;
+    case DriveValue::Kind::integer:
+      return {at, write_integer(at, v.integer)};
+    case DriveValue::Kind::reg:
+      break;
+  }
+  return {at, write_register_value(at, at + buffer.size(), *v.reg, v.raw, v.double_word)};
+}
+
+bool is_shared_drive_field_id(std::string_view id) {
+  return is_shared_id(id);
 }
 
 std::vector<std::string> drive_field_ids(std::span<const DriveProfile* const> profiles) {

@@ -3,34 +3,38 @@
 // filters", docs/formats.md; the profiles of dissectors/profiles/README.md).
 #pragma once
 
-#include <cstdint>
+#include <cstddef>
 #include <span>
 #include <string>
 #include <string_view>
 #include <vector>
 
-#include "core/message.hpp"
+#include "core/drive_values.hpp"
+#include "drive/annotate.hpp"
 #include "drive/profile.hpp"
 
 namespace drivetap {
 
-// One drive value of a frame: `id` without the `drive.` prefix ("output_frequency"); a number
-// (`value` in the profile's unit, `text` its JSON spelling, `raw` as the wire carries it when it
-// has a register) or a string (`is_number` false, `text`).
-struct DriveFieldValue {
-  std::string id;
-  bool is_number = true;
-  double value = 0;
-  std::string text;
-  std::string unit;
-  bool has_raw = false;
-  std::uint32_t raw = 0;
-};
+// The drive values of a frame of `station` (its address, -1 when none) that `profile` read into
+// `observed` (read_for_drive_into() with the observation), unspelt, in a fixed order: station,
+// family, the shared quantities, then the profile's registers in telegram order. The pipeline
+// hands them with the frame (Message::drive_values): no sink reads the frame again. `out` is
+// appended to.
+void collect_drive_values(const DriveProfile& profile, int station,
+                          const DriveObservation& observed, std::vector<DriveValue>& out);
 
-// The drive values of `m` (read with Message::drive_read_with and Message::request), in a fixed
-// order: station, family, the shared quantities, then the profile's registers in telegram order.
-// Nothing when no profile read the frame. `out`'s storage is reused.
-void drive_field_values(const Message& m, std::vector<DriveFieldValue>& out);
+// Whether `id` is one of the names every family shares ("setpoint", "status_word"; the order
+// collect_drive_values() gives them in).
+bool is_shared_drive_field_id(std::string_view id);
+
+// The most characters drive_value_text() writes of a number.
+inline constexpr std::size_t kDriveNumberChars = 400;
+
+// A value's text as the JSON record and the fields show it: a number's digits (a register's value
+// in the profile's unit, with the decimals its scale shows) or the text itself. A number's text
+// is written into `buffer`.
+std::string_view drive_value_text(const DriveValue& value,
+                                  std::span<char, kDriveNumberChars> buffer);
 
 // The `drive.*` ids (without `drive.`) the given profiles can produce: the shared ones they have
 // registers for, then their registers' own ids.

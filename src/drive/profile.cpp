@@ -19,6 +19,7 @@
 
 #include "core/printable.hpp"
 #include "core/protocol.hpp"
+#include "drive/drive_fields.hpp"
 
 namespace drivetap {
 
@@ -490,6 +491,7 @@ DriveProfile parse_tables(const toml::table& root) {
     if (!p.find(RegisterKind::holding, address))
       throw Bad{line_of(*root.get("process_data")), "process_data.from_drive",
                 fmt::format("no [[register]] with address {}", address)};
+  for (RegisterDef& r : p.registers) r.shared_field_id = is_shared_drive_field_id(r.field_id);
   p.build_index();
   return p;
 }

@@ -53,6 +53,9 @@ struct RegisterDef {
   // Its record field's name after `drive.` (the profile's `id`, else made from the name:
   // lowercase, each run of other characters than letters and digits one `_`).
   std::string field_id;
+  // field_id is one of the names every family shares (is_shared_drive_field_id()): its value is
+  // shown as the observation's, not as the register's.
+  bool shared_field_id = false;
   RegisterKind kind = RegisterKind::holding;
   RegisterAccess access = RegisterAccess::read_write;
   std::string unit;

@@ -347,6 +347,7 @@ class FilterParser {
     const RecordFieldNeeds needs = field->needs();
     out_.needs_.detail = out_.needs_.detail || needs.detail;
     out_.needs_.tree = out_.needs_.tree || needs.tree;
+    out_.needs_.drive_values = out_.needs_.drive_values || needs.drive_values;
     out_.fields_.push_back(*field);
     DisplayFilter::Node n;
     n.field = static_cast<std::uint32_t>(out_.fields_.size() - 1);

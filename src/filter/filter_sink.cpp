@@ -28,6 +28,7 @@ SinkNeeds DisplayFilterSink::needs() const {
   n.records = true;
   n.detail = n.detail || filter_.needs().detail;
   n.fields = (n.detail && n.fields) || filter_.needs().tree;
+  n.drive_values = n.drive_values || filter_.needs().drive_values;
   return n;
 }
 

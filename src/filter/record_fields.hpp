@@ -72,8 +72,9 @@ class ValueVisitor {
 
 // What reading a field costs the pipeline (folded into the filter sink's SinkNeeds).
 struct RecordFieldNeeds {
-  bool detail = false;  // Message::detail: the info line (summary) or the drive annotation
-  bool tree = false;    // Message::tree: the field tree
+  bool detail = false;        // Message::detail: the info line (summary) or the drive annotation
+  bool tree = false;          // Message::tree: the field tree
+  bool drive_values = false;  // Message::drive_values: the `drive.*` fields
 };
 
 // A source of fields beyond the record and the field tree, such as the drive layer's `drive.*`

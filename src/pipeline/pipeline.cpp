@@ -3,6 +3,7 @@
 
 #include "dissectors/common/plausibility.hpp"
 #include "drive/annotate.hpp"
+#include "drive/drive_fields.hpp"
 
 #include <fmt/compile.h>
 #include <fmt/format.h>
@@ -130,6 +131,7 @@ Pipeline::Pipeline(PipelineOptions options, const ChannelTable& channels, Sink& 
   defer_drive_info_ = needs.detail && needs.drive_info;
   hand_over_records_ = needs.records;
   hand_over_events_ = needs.events;
+  hand_over_drive_values_ = needs.drive_values;
   drive_level_ = !options_.drives.empty() || !options_.auto_candidates.empty();
   // With drive profiles, a sink that takes records must write their annotation itself
   // (defer_drive_info_): only the observation is made here. (Without detail, a Message still
@@ -868,7 +870,11 @@ void Pipeline::handle_telegram(TelegramView& t, const ProtocolDecoder& decoder, 
       std::swap(m.drive_info, drive_reading_.text);  // both keep their storage for later frames
       m.request.assign(request.begin(), request.end());
     }
-    if (detailed) m.drive_read_with = profile;
+    if (detailed) {
+      m.drive_read_with = profile;
+      if (hand_over_drive_values_)
+        collect_drive_values(*profile, in.address, drive_reading_.observed, m.drive_values);
+    }
   }
   if (st.detection_reads(decoder)) {
     if (good_telegram(in)) {
@@ -924,6 +930,11 @@ void Pipeline::handle_telegram(TelegramView& t, const ProtocolDecoder& decoder, 
       if (profile) {
         if (defer_drive_info_) telegram.drive_profile = profile;
         telegram.anomalies = drive_anomalies_;
+        if (hand_over_drive_values_) {
+          drive_values_.clear();
+          collect_drive_values(*profile, in.address, drive_reading_.observed, drive_values_);
+          telegram.drive_values = drive_values_;
+        }
       }
       sink_.on_deferred_frame(telegram);
     }

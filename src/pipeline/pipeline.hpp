@@ -201,15 +201,17 @@ class Pipeline {
   bool drive_level_ = false;  // profiles bound with --drive, or candidates for binding by guess
   // A telegram dissected to its head, with drive profiles: its timing-rule findings.
   std::vector<Anomaly> drive_anomalies_;
-  bool hand_over_records_ = true;  // the sink's needs' records
-  bool hand_over_events_ = true;   // the sink's needs' events: drive state changes as events
+  bool hand_over_records_ = true;       // the sink's needs' records
+  bool hand_over_events_ = true;        // the sink's needs' events: drive state changes as events
+  bool hand_over_drive_values_ = true;  // the sink's needs' drive_values
   TimeNs earliest_deadline_;
   std::uint64_t frame_counter_ = 0;
   TimeNs latest_time_ = std::numeric_limits<TimeNs>::min();
   std::map<int, TimeNs> last_reply_end_;  // per station address, for profile timing rules
   DriveBinder binder_;
   DriveTimeline timeline_;
-  DriveReading drive_reading_;  // every frame's drive reading (its storage is reused)
+  DriveReading drive_reading_;            // every frame's drive reading (its storage is reused)
+  std::vector<DriveValue> drive_values_;  // a deferred telegram's, from drive_reading_
   // Every frame's drive records, read once for the binder and the annotation (storage reused).
   DriveRecordReader drive_records_;
   bool finished_ = false;

@@ -83,7 +83,7 @@ class PacketSink : public Sink {
   // Packets carry the bytes and the info line as a comment, not the field tree.
   [[nodiscard]] SinkNeeds needs() const override {
     SinkNeeds n;
-    n.fields = n.transactions = false;
+    n.fields = n.transactions = n.drive_values = false;
     return n;
   }
 };

@@ -112,6 +112,7 @@ SinkNeeds FieldsSink::needs() const {
     const RecordFieldNeeds fn = f.needs();
     n.detail = n.detail || fn.detail;
     n.fields = n.fields || fn.tree;
+    n.drive_values = n.drive_values || fn.drive_values;
   }
   return n;
 }

@@ -163,16 +163,16 @@ template void append_json_quoted(std::string&, std::string_view);
 namespace {
 
 // The frame's `drive` object: the annotation's text, the station and family, and the values
-// under their `drive.*` ids (without the prefix; a value given twice is shown once, the first).
-// Nothing for a frame no profile says anything of.
+// under their `drive.*` ids (without the prefix; a value given twice is shown once, the first),
+// as the pipeline's drive level read them (Message::drive_values). Nothing for a frame no
+// profile says anything of.
 template <class Out>
 void append_drive_object(Out& line, const Message& m) {
-  thread_local std::vector<DriveFieldValue> values;
-  drive_field_values(m, values);
-  std::size_t shown = 0;
-  for (const DriveFieldValue& v : values)
-    if (v.id != "station" && v.id != "family") ++shown;
-  if (m.drive_info.empty() && shown == 0) return;
+  // (The station and family, which collect_drive_values() gives first, are keys of their own.)
+  std::span<const DriveValue> values = m.drive_values;
+  while (!values.empty() && (values.front().id == "station" || values.front().id == "family"))
+    values = values.subspan(1);
+  if (m.drive_info.empty() && values.empty()) return;
   line += ",\"drive\":{\"text\":";
   append_json_quoted(line, m.drive_info);
   if (m.drive_read_with) {
@@ -186,26 +186,30 @@ void append_drive_object(Out& line, const Message& m) {
   line += ",\"values\":{";
   bool first = true;
   for (std::size_t i = 0; i < values.size(); ++i) {
-    const DriveFieldValue& v = values[i];
-    if (v.id == "station" || v.id == "family") continue;
+    const DriveValue& v = values[i];
     bool repeated = false;
-    for (std::size_t k = 0; k < i; ++k) repeated = repeated || values[k].id == v.id;
+    for (std::size_t k = 0; k < i && !repeated; ++k)
+      repeated = values[k].reg == v.reg && values[k].id == v.id;
     if (repeated) continue;
     if (!first) line += ',';
     first = false;
-    append_json_quoted(line, v.id);
-    line += ":{\"value\":";
-    if (v.is_number)
-      line += v.text;
+    // (Field ids are letters, digits and '_' (valid_register_field_id()): nothing to escape.)
+    line += '"';
+    line += v.id;
+    line += "\":{\"value\":";
+    char buffer[kDriveNumberChars];
+    const std::string_view text = drive_value_text(v, buffer);
+    if (v.kind == DriveValue::Kind::text)
+      append_json_quoted(line, text);
     else
-      append_json_quoted(line, v.text);
-    if (!v.unit.empty()) {
-      line += ",\"unit\":";
-      append_json_quoted(line, v.unit);
-    }
-    if (v.has_raw) {
+      line += text;
+    if (v.kind == DriveValue::Kind::reg) {
+      if (!v.reg->unit.empty()) {
+        line += ",\"unit\":";
+        append_json_quoted(line, v.reg->unit);
+      }
       line += ",\"raw\":";
-      append_int(line, v.raw);
+      append_uint(line, v.raw);
     }
     line += '}';
   }

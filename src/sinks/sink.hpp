@@ -15,6 +15,7 @@
 #include "core/anomaly.hpp"
 #include "core/bus_event.hpp"
 #include "core/byte_event.hpp"
+#include "core/drive_values.hpp"
 #include "core/frame.hpp"
 #include "core/line_buffer.hpp"
 #include "core/message.hpp"
@@ -69,6 +70,8 @@ struct DeferredTelegram {
   // anomalies.
   const DriveProfile* drive_profile = nullptr;
   std::span<const Anomaly> anomalies;
+  // With drive profiles: the values the pipeline's drive level read (Message::drive_values).
+  std::span<const DriveValue> drive_values;
 
   // The Message the pipeline would have handed over: its decoder's dissection of the frame, with
   // the pipeline's numbers, pairing and drive-level findings, each anomaly numbered with the
@@ -89,6 +92,7 @@ struct DeferredTelegram {
       out.drive_read_with = drive_profile;
       out.request.assign(request.begin(), request.end());
     }
+    out.drive_values.assign(drive_values.begin(), drive_values.end());
   }
 };
 
@@ -114,6 +118,9 @@ struct SinkNeeds {
   // The sink decodes telegrams handed over undecoded (Sink::on_deferred_frame()) more cheaply
   // than the pipeline would (the ThreadedSink, on its writer thread).
   bool deferred_decode = false;
+  // With drive profiles: each frame's drive values (Message::drive_values, the `drive.*` fields
+  // and the JSON record's drive object), collected by the pipeline's drive level.
+  bool drive_values = true;
 
   // What a sink handing every record to both `a` and `b` needs: all either asks for, and
   // nothing completed by the sink (each member gets the same, completed, record).
@@ -124,12 +131,13 @@ struct SinkNeeds {
     n.fields = (a.detail && a.fields) || (b.detail && b.fields);
     n.transactions = a.transactions || b.transactions;
     n.events = a.events || b.events;
+    n.drive_values = a.drive_values || b.drive_values;
     return n;
   }
   // Nothing at all (the start of either() over a set of sinks).
   [[nodiscard]] static SinkNeeds none() {
     SinkNeeds n;
-    n.records = n.detail = n.fields = n.transactions = n.events = false;
+    n.records = n.detail = n.fields = n.transactions = n.events = n.drive_values = false;
     return n;
   }
 };

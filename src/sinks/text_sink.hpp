@@ -51,6 +51,7 @@ class alignas(kCacheLineBytes) TextSink final : public FormattingSink {
     SinkNeeds n;
     n.fields = options_.verbose;
     n.transactions = false;
+    n.drive_values = false;  // the annotation's text is all it shows of a drive
     return n;
   }
 

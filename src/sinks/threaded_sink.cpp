@@ -153,6 +153,9 @@ void ThreadedSink::replay(Batch& batch, Sink& target, Scratch& scratch) {
         if (!u.telegram.anomalies.empty())
           u.telegram.anomalies = std::span<const Anomaly>(batch.anomalies)
                                      .subspan(u.anomalies_at, u.telegram.anomalies.size());
+        if (!u.telegram.drive_values.empty())
+          u.telegram.drive_values = std::span<const DriveValue>(batch.drive_values)
+                                        .subspan(u.drive_values_at, u.telegram.drive_values.size());
         replay_undissected(u.telegram, target, scratch);
         if (scratch.decoded.frame.storage_bytes() > kKeptStorageBytes) scratch.decoded = Message{};
         break;
@@ -243,6 +246,11 @@ void ThreadedSink::on_deferred_frame(const DeferredTelegram& telegram) {
     std::vector<Anomaly>& anomalies = current_->anomalies;
     r.anomalies_at = static_cast<std::uint32_t>(anomalies.size());
     anomalies.insert(anomalies.end(), telegram.anomalies.begin(), telegram.anomalies.end());
+  }
+  if (!telegram.drive_values.empty()) {
+    std::vector<DriveValue>& values = current_->drive_values;
+    r.drive_values_at = static_cast<std::uint32_t>(values.size());
+    values.insert(values.end(), telegram.drive_values.begin(), telegram.drive_values.end());
   }
   std::vector<std::uint8_t>& bytes = current_->bytes;
   r.bytes_at = bytes.size();

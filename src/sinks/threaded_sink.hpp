@@ -111,7 +111,8 @@ class alignas(kCacheLineBytes) ThreadedSink final : public Sink {
   struct Undissected {
     DeferredTelegram telegram;
     std::size_t bytes_at = 0;
-    std::uint32_t anomalies_at = 0;  // telegram.anomalies' in Batch::anomalies
+    std::uint32_t anomalies_at = 0;     // telegram.anomalies' in Batch::anomalies
+    std::uint32_t drive_values_at = 0;  // telegram.drive_values' in Batch::drive_values
   };
   // A record of a kind but the two of nearly every record of a run (undissected telegrams and
   // transactions); only the member of its kind is meaningful. The others keep their storage.
@@ -151,10 +152,11 @@ class alignas(kCacheLineBytes) ThreadedSink final : public Sink {
     std::vector<std::uint8_t> bytes;  // the undissected telegrams'
     // Their anomalies found by the pipeline (drive timing rules: rare).
     std::vector<Anomaly> anomalies;
-    std::size_t storage_bytes = 0;  // of the frames of its records, and `bytes`
-    std::uint64_t sequence = 0;     // published as the sequence-th batch
-    std::uint64_t follows = 0;      // the number of the frame or noise record before it
-    LineBuffer text;                // with helpers: its records' text, once formatted
+    std::vector<DriveValue> drive_values;  // theirs with drive profiles
+    std::size_t storage_bytes = 0;         // of the frames of its records, and `bytes`
+    std::uint64_t sequence = 0;            // published as the sequence-th batch
+    std::uint64_t follows = 0;             // the number of the frame or noise record before it
+    LineBuffer text;                       // with helpers: its records' text, once formatted
     Batch() { order.reserve(kBatchRecords); }
     [[nodiscard]] bool empty() const { return order.empty(); }
     // Emptied for reuse (the records' storage kept).
@@ -163,6 +165,7 @@ class alignas(kCacheLineBytes) ThreadedSink final : public Sink {
       undissected.used = transactions.used = records.used = 0;
       bytes.clear();
       anomalies.clear();
+      drive_values.clear();
       storage_bytes = 0;
       text.clear();
     }
