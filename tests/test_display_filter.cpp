@@ -232,14 +232,28 @@ TEST(DisplayFilter, NeedsFollowTheNamesUsed) {
   ASSERT_TRUE(plain);
   EXPECT_FALSE(plain->needs().detail);
   EXPECT_FALSE(plain->needs().tree);
+  EXPECT_FALSE(plain->needs().message);  // judged on a telegram's head
   auto summary = DisplayFilter::compile("summary contains \"x\" || drive", &error);
   ASSERT_TRUE(summary);
   EXPECT_TRUE(summary->needs().detail);
   EXPECT_FALSE(summary->needs().tree);
   auto tree = DisplayFilter::compile(std::string(listed(FieldType::uint)->id) + " == 1", &error);
   ASSERT_TRUE(tree);
-  EXPECT_TRUE(tree->needs().detail);
+  // The tree without the texts (info line, drive annotation) no one reads.
+  EXPECT_FALSE(tree->needs().detail);
   EXPECT_TRUE(tree->needs().tree);
+  EXPECT_TRUE(tree->needs().message);
+  // A finding's presence is the head's; its text the Message's.
+  auto present = DisplayFilter::compile("checksum_bad && !malformed", &error);
+  ASSERT_TRUE(present);
+  EXPECT_FALSE(present->needs().message);
+  auto text = DisplayFilter::compile("checksum_bad contains \"CRC\"", &error);
+  ASSERT_TRUE(text);
+  EXPECT_TRUE(text->needs().message);
+  EXPECT_FALSE(text->needs().detail);
+  auto typed = DisplayFilter::compile("finding == \"checksum_bad\" || checksum_stated", &error);
+  ASSERT_TRUE(typed);
+  EXPECT_TRUE(typed->needs().message);
 }
 
 namespace {

@@ -353,6 +353,7 @@ class FilterParser {
     const RecordFieldNeeds needs = field->needs();
     out_.needs_.detail = out_.needs_.detail || needs.detail;
     out_.needs_.tree = out_.needs_.tree || needs.tree;
+    out_.needs_.message = out_.needs_.message || needs.message;
     out_.fields_.push_back(*field);
     DisplayFilter::Node n;
     n.field = static_cast<std::uint32_t>(out_.fields_.size() - 1);
@@ -392,6 +393,9 @@ class FilterParser {
     } else {
       n.op = DisplayFilter::Node::Op::exists;
     }
+    // A finding's text (what a comparison reads) is the Message's; its presence, the head's.
+    if (field->kind == RecordField::Kind::finding_kind && n.op != DisplayFilter::Node::Op::exists)
+      out_.needs_.message = true;
     node = add(n);
     if (negated_in) {
       DisplayFilter::Node neg;
@@ -537,19 +541,21 @@ bool holds(const RecordValue& v, DisplayFilter::Compare c, const DisplayFilter::
 
 // The tests on a field's values: each stops at the first value that decides.
 struct AnyValue final : ValueVisitor {
+  AnyValue() : ValueVisitor(false) {}
   bool visit(const RecordValue&) override { return true; }
 };
 struct AnyCompares final : ValueVisitor {
   DisplayFilter::Compare compare;
   const DisplayFilter::Literal* literal;
-  AnyCompares(DisplayFilter::Compare c, const DisplayFilter::Literal* l) : compare(c), literal(l) {}
+  AnyCompares(DisplayFilter::Compare c, const DisplayFilter::Literal* l)
+      : ValueVisitor(false), compare(c), literal(l) {}
   bool visit(const RecordValue& v) override { return holds(v, compare, *literal); }
 };
 // For !=: remembers whether the field had a value at all; stops at one equal to the literal.
 struct AnyEqual final : ValueVisitor {
   const DisplayFilter::Literal* literal;
   bool seen = false;
-  explicit AnyEqual(const DisplayFilter::Literal* l) : literal(l) {}
+  explicit AnyEqual(const DisplayFilter::Literal* l) : ValueVisitor(false), literal(l) {}
   bool visit(const RecordValue& v) override {
     seen = true;
     return holds(v, DisplayFilter::Compare::eq, *literal);
@@ -557,7 +563,7 @@ struct AnyEqual final : ValueVisitor {
 };
 struct AnyContains final : ValueVisitor {
   std::string_view needle;
-  explicit AnyContains(std::string_view n) : needle(n) {}
+  explicit AnyContains(std::string_view n) : ValueVisitor(false), needle(n) {}
   bool visit(const RecordValue& v) override {
     return !v.is_number && v.text.find(needle) != std::string_view::npos;
   }
@@ -565,7 +571,8 @@ struct AnyContains final : ValueVisitor {
 struct AnyInSet final : ValueVisitor {
   const DisplayFilter::Literal* first;
   std::uint32_t count;
-  AnyInSet(const DisplayFilter::Literal* f, std::uint32_t c) : first(f), count(c) {}
+  AnyInSet(const DisplayFilter::Literal* f, std::uint32_t c)
+      : ValueVisitor(false), first(f), count(c) {}
   bool visit(const RecordValue& v) override {
     for (std::uint32_t i = 0; i < count; ++i)
       if (equal(v, first[i])) return true;

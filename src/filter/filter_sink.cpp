@@ -18,15 +18,26 @@ DisplayFilterSink::DisplayFilterSink(DisplayFilter filter, Sink& inner,
                                      bool show_latency)
     : filter_(std::move(filter)),
       inner_(inner),
+      inner_needs_(inner.needs()),
+      by_head_(!filter_.needs().message && (!inner_needs_.records || inner_needs_.deferred_decode)),
       views_(channels, character_time, show_latency),
       recent_selected_(kRecentFrames, 0) {}
 
 SinkNeeds DisplayFilterSink::needs() const {
-  SinkNeeds n = inner_.needs();
-  // Every frame comes here, decoded here: the filter reads its Message on this thread.
+  SinkNeeds n = inner_needs_;
   n.records = true;
-  n.detail = n.detail || filter_.needs().detail;
-  n.fields = (n.detail && n.fields) || filter_.needs().tree;
+  if (by_head_) {
+    // Telegrams taken whole come undecoded; the others decoded as the inner sink needs them
+    // (the filter reads none of the detail, nor the annotation the inner sink may write).
+    n.deferred_decode = true;
+    return n;
+  }
+  // Every frame comes here, decoded here: the filter reads its Message on this thread, and the
+  // texts only when it or the inner sink reads them.
+  const RecordFieldNeeds f = filter_.needs();
+  n.detail = inner_needs_.detail || f.detail || f.tree;
+  n.fields = (inner_needs_.detail && inner_needs_.fields) || f.tree;
+  n.info_text = (inner_needs_.detail && inner_needs_.info_text) || f.detail;
   n.drive_info = false;
   n.deferred_decode = false;
   return n;
@@ -56,6 +67,13 @@ void DisplayFilterSink::on_frame(const Message& m) {
   const bool pass = filter_.matches(r);
   note(m.frame.number, pass);
   if (pass) inner_.on_frame(m);
+}
+
+void DisplayFilterSink::on_deferred_frame(const DeferredTelegram& telegram) {
+  const bool pass = filter_.matches(views_.of(telegram));
+  note(telegram.number, pass);
+  // (by_head_: an inner sink that takes records decodes them itself)
+  if (pass && inner_needs_.records) inner_.on_deferred_frame(telegram);
 }
 
 void DisplayFilterSink::on_noise(const Frame& f) {

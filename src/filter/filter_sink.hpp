@@ -3,6 +3,10 @@
 // findings, the transactions and the drive events of a selected frame. Records that belong to no
 // frame (protocol detection, a source's findings) are left out, as tshark -Y shows only packets.
 // The summary counts everything, and says how many records the filter selected.
+//
+// A filter whose names a telegram's head holds (RecordFieldNeeds::message false) is judged on the
+// head where the pipeline takes a telegram whole: the telegram comes undecoded
+// (on_deferred_frame()), and only one the filter selects is decoded, by the inner sink.
 #pragma once
 
 #include <cstdint>
@@ -25,6 +29,7 @@ class DisplayFilterSink final : public Sink {
   void on_transaction(const Transaction& t) override;
   void on_event(const BusEvent& e) override;
   void on_summary(const Stats& s) override;
+  void on_deferred_frame(const DeferredTelegram& telegram) override;
   bool flush() override { return inner_.flush(); }
   [[nodiscard]] SinkNeeds needs() const override;
 
@@ -39,6 +44,10 @@ class DisplayFilterSink final : public Sink {
 
   DisplayFilter filter_;
   Sink& inner_;
+  SinkNeeds inner_needs_;
+  // Telegrams are judged by their head when they come undecoded (decided once, from the filter's
+  // names and what the inner sink takes).
+  bool by_head_ = false;
   RecordViews views_;
   // The numbers of the latest selected frames, each at its number modulo the size: a transaction
   // or finding reported later (a timeout) finds its frame here. Fixed size: no allocation.

@@ -25,10 +25,15 @@
 
 namespace drivetap {
 
+struct DeferredTelegram;
+
 // One frame or noise record as the filter sees it.
 struct RecordView {
   const Message* message = nullptr;  // a telegram; or
-  const Frame* noise = nullptr;      // a noise record
+  const Frame* noise = nullptr;      // a noise record; or
+  // a telegram known by its head only (DeferredTelegram::head): only the fields whose needs()
+  // say no `message` can be read of it
+  const DeferredTelegram* telegram = nullptr;
   const ChannelTable* channels = nullptr;
   TimeNs character_time = 0;  // t_end: the last byte's start plus one character
   bool show_latency = true;   // false (decode): latency_ms and gap_before_ms are null, as in JSON
@@ -45,6 +50,7 @@ class RecordViews {
   RecordViews(const ChannelTable& channels, TimeNs character_time, bool show_latency)
       : channels_(channels), character_time_(character_time), show_latency_(show_latency) {}
   [[nodiscard]] RecordView of(const Message& message) const;
+  [[nodiscard]] RecordView of(const DeferredTelegram& telegram) const;
   RecordView of(const Frame& noise);  // valid until the next noise record
 
  private:
@@ -65,15 +71,25 @@ struct RecordValue {
 class ValueVisitor {
  public:
   virtual bool visit(const RecordValue& value) = 0;
+  // False for a visitor that reads numbers by value only (the filter's tests): an integer's
+  // `text` is then left empty, not written.
+  [[nodiscard]] bool wants_number_text() const { return wants_number_text_; }
 
  protected:
+  explicit ValueVisitor(bool wants_number_text = true) : wants_number_text_(wants_number_text) {}
   ~ValueVisitor() = default;
+
+ private:
+  bool wants_number_text_;
 };
 
 // What reading a field costs the pipeline (folded into the filter sink's SinkNeeds).
 struct RecordFieldNeeds {
-  bool detail = false;  // Message::detail: the info line (summary) or the drive annotation
-  bool tree = false;    // Message::tree: the field tree
+  bool detail = false;  // Message::info_text: the info line (summary) or the drive annotation
+  bool tree = false;    // Message::tree: the field tree (without the texts)
+  // The decoded Message: the field is not read from a telegram's head (the keys, checksum
+  // verdict and finding kinds a DeferredTelegram carries), so every telegram is decoded.
+  bool message = false;
 };
 
 // A source of fields beyond the record and the field tree, such as the drive layer's `drive.*`

@@ -126,6 +126,7 @@ Pipeline::Pipeline(PipelineOptions options, const ChannelTable& channels, Sink& 
   const SinkNeeds needs = sink.needs();
   message_.detail = needs.detail;
   message_.tree = needs.detail && needs.fields;
+  message_.info_text = needs.detail && needs.info_text;
   hand_over_transactions_ = needs.transactions;
   defer_drive_info_ = needs.detail && needs.drive_info;
   hand_over_records_ = needs.records;
@@ -134,8 +135,10 @@ Pipeline::Pipeline(PipelineOptions options, const ChannelTable& channels, Sink& 
   // With drive profiles, a sink that takes records must write their annotation itself
   // (defer_drive_info_): only the observation is made here. (Without detail, a Message still
   // carries the text an observation makes of an exception reply.)
+  // A sink that wants no detail shows no annotation: it needs none written.
   whole_telegrams_direct_ =
-      (!hand_over_records_ || (needs.deferred_decode && (!drive_level_ || defer_drive_info_))) &&
+      (!hand_over_records_ ||
+       (needs.deferred_decode && (!drive_level_ || defer_drive_info_ || !needs.detail))) &&
       options_.max_frames == 0;
   // The sink may read the profiles on its own thread: their lookup tables are built here, before
   // it gets any message (after this they are only read).
@@ -857,7 +860,7 @@ void Pipeline::handle_telegram(TelegramView& t, const ProtocolDecoder& decoder, 
     // The annotation's text is written here, or by the sink on its own thread (then only the
     // observation is made here: the timeline needs it now).
     read_for_drive_into(*profile, in, records.get(),
-                        detailed && m.detail && !defer_drive_info_
+                        detailed && m.detail && m.info_text && !defer_drive_info_
                             ? DriveReadingWants::text_and_observation
                             : DriveReadingWants::observation,
                         drive_reading_);
@@ -917,6 +920,7 @@ void Pipeline::handle_telegram(TelegramView& t, const ProtocolDecoder& decoder, 
       telegram.number = number;
       telegram.direction = dir;
       telegram.request = request;
+      telegram.head = &found;
       if (paired.paired) {
         telegram.latency = paired.latency;
         telegram.request_number = paired.request_number;
