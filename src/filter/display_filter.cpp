@@ -342,14 +342,9 @@ class FilterParser {
                 token_.column);
       return false;
     }
-    if ((field->kind == RecordField::Kind::finding_kind ||
-         field->kind == RecordField::Kind::finding_id) &&
-        finding_known_after_frame(field->finding_kind)) {
-      set_error(
-          fmt::format("'{}' is reported after its frame is shown: no filter sees it", token_.raw),
-          token_.column);
-      return false;
-    }
+    if (field->kind == RecordField::Kind::finding_kind &&
+        finding_known_after_frame(field->finding_kind))
+      out_.names_late_findings_ = true;
     const RecordFieldNeeds needs = field->needs();
     out_.needs_.detail = out_.needs_.detail || needs.detail;
     out_.needs_.tree = out_.needs_.tree || needs.tree;

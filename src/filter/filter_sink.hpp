@@ -4,12 +4,17 @@
 // frame (protocol detection, a source's findings) are left out, as tshark -Y shows only packets.
 // The summary counts everything, and says how many records the filter selected.
 //
+// A filter naming a finding reported after its frame (unanswered_request, ...) is also evaluated
+// against that finding's own record (its n, t, channel and its frame's protocol, addr, fc): a
+// match shows the finding, with the transaction that reported it.
+//
 // A filter whose names a telegram's head holds (RecordFieldNeeds::message false) is judged on the
 // head where the pipeline takes a telegram whole: the telegram comes undecoded
 // (on_deferred_frame()), and only one the filter selects is decoded, by the inner sink.
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 #include "filter/display_filter.hpp"
@@ -41,6 +46,8 @@ class DisplayFilterSink final : public Sink {
   // they came, and drops them.
   void release_events(std::uint64_t number, bool selected);
   [[nodiscard]] bool selected(std::uint64_t number) const;
+  // Notes what a late finding's record says of the frame `r` (a filter naming late findings).
+  void note_late_frame(const RecordView& r);
 
   DisplayFilter filter_;
   Sink& inner_;
@@ -55,6 +62,11 @@ class DisplayFilterSink final : public Sink {
   // Events read from a frame not handed over yet (a drive bound by the frame that showed it):
   // held until the filter has judged their frame.
   std::vector<BusEvent> held_events_;
+  // A filter naming late findings: what their records say of the latest frames (at the number
+  // modulo the size, as recent_selected_), and the transaction that is to report one (a timeout
+  // or an unsolicited reply of no selected frame), held until its finding is judged.
+  std::vector<LateFindingFrame> late_frames_;
+  std::optional<Transaction> held_transaction_;
   std::uint64_t last_number_ = 0;  // the latest frame or noise record judged
   std::uint64_t matched_ = 0;
   std::uint64_t records_ = 0;

@@ -179,6 +179,34 @@ bool head_has_finding(const RecordView& r, AnomalyKind kind) {
   return false;
 }
 
+// The keys of a late finding's record: the finding's n, t and channel, its frame's protocol, addr
+// and fc.
+bool late_key_values(RecordKey key, const RecordView& r, std::string& scratch,
+                     ValueVisitor& visit) {
+  const Anomaly& a = r.findings.front();
+  const LateFindingFrame& f = *r.late_frame;
+  const bool telegram = f.telegram && f.number == a.frame_number;
+  switch (key) {
+    case RecordKey::type:
+      return visit_string("anomaly", visit);
+    case RecordKey::n:
+      return a.frame_number != 0 &&
+             visit_int(static_cast<std::int64_t>(a.frame_number), scratch, visit);
+    case RecordKey::t:
+      return visit_time(a.time, scratch, visit);
+    case RecordKey::channel:
+      return visit_string(r.channels->at(a.channel).name, visit);
+    case RecordKey::protocol:
+      return telegram && visit_string(protocol_id(f.protocol), visit);
+    case RecordKey::addr:
+      return telegram && f.address >= 0 && visit_int(f.address, scratch, visit);
+    case RecordKey::fc:
+      return telegram && f.function >= 0 && visit_int(f.function, scratch, visit);
+    default:
+      return false;
+  }
+}
+
 bool key_values(RecordKey key, const RecordView& r, std::string& scratch, ValueVisitor& visit) {
   if (r.telegram) return head_key_values(key, r, scratch, visit);
   if (key == RecordKey::finding) {
@@ -188,6 +216,7 @@ bool key_values(RecordKey key, const RecordView& r, std::string& scratch, ValueV
     }
     return false;
   }
+  if (r.late_frame) return late_key_values(key, r, scratch, visit);
   if (r.noise) return noise_key_values(key, r, scratch, visit);
   const Message& m = *r.message;
   switch (key) {
@@ -398,6 +427,36 @@ RecordView RecordViews::of(const DeferredTelegram& telegram) const {
   r.character_time = character_time_;
   r.show_latency = show_latency_;
   return r;
+}
+
+RecordView RecordViews::of(const Anomaly& finding, const LateFindingFrame& frame) const {
+  RecordView r;
+  r.late_frame = &frame;
+  r.channels = &channels_;
+  r.character_time = character_time_;
+  r.show_latency = show_latency_;
+  r.findings = std::span<const Anomaly>(&finding, 1);
+  return r;
+}
+
+LateFindingFrame late_finding_frame_of(const RecordView& r) {
+  LateFindingFrame f;
+  if (r.message) {
+    f.number = r.message->frame.number;
+    f.telegram = true;
+    f.protocol = r.message->protocol;
+    f.address = r.message->address;
+    f.function = r.message->function;
+  } else if (r.telegram) {
+    f.number = r.telegram->number;
+    f.telegram = true;
+    f.protocol = r.telegram->decoder->protocol();
+    f.address = r.telegram->head->address;
+    f.function = r.telegram->head->function;
+  } else if (r.noise) {
+    f.number = r.noise->number;
+  }
+  return f;
 }
 
 RecordView RecordViews::of(const Frame& noise) {

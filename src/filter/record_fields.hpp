@@ -27,6 +27,17 @@ namespace drivetap {
 
 struct DeferredTelegram;
 
+// What the record of a finding reported after its frame (finding_known_after_frame()) says of
+// that frame besides the finding's own n, t and channel: its protocol, addr and fc (none for
+// noise).
+struct LateFindingFrame {
+  std::uint64_t number = 0;  // 0: the frame is not known
+  bool telegram = false;
+  Protocol protocol = Protocol::unknown;
+  int address = -1;
+  int function = -1;
+};
+
 // One frame or noise record as the filter sees it.
 struct RecordView {
   const Message* message = nullptr;  // a telegram; or
@@ -34,6 +45,8 @@ struct RecordView {
   // a telegram known by its head only (DeferredTelegram::head): only the fields whose needs()
   // say no `message` can be read of it
   const DeferredTelegram* telegram = nullptr;
+  // or the record of a late finding (the one in `findings`), with what it says of its frame
+  const LateFindingFrame* late_frame = nullptr;
   const ChannelTable* channels = nullptr;
   TimeNs character_time = 0;  // t_end: the last byte's start plus one character
   bool show_latency = true;   // false (decode): latency_ms and gap_before_ms are null, as in JSON
@@ -52,6 +65,8 @@ class RecordViews {
   [[nodiscard]] RecordView of(const Message& message) const;
   [[nodiscard]] RecordView of(const DeferredTelegram& telegram) const;
   RecordView of(const Frame& noise);  // valid until the next noise record
+  // The record of the late finding `finding` about the frame `frame` (both kept by the caller).
+  [[nodiscard]] RecordView of(const Anomaly& finding, const LateFindingFrame& frame) const;
 
  private:
   const ChannelTable& channels_;
@@ -152,8 +167,12 @@ struct RecordField {
 std::optional<RecordField> resolve_record_field(std::string_view name);
 
 // Findings reported after their frame was handed on (the conversation's and the capture packets'):
-// no filter can see them with the frame, so naming them is refused.
+// no filter sees them with the frame; a filter naming one is also evaluated against each such
+// finding's own record (RecordViews::of(const Anomaly&, ...)).
 bool finding_known_after_frame(AnomalyKind kind);
+
+// What a late finding's record says of a frame or noise record (RecordView of a frame).
+LateFindingFrame late_finding_frame_of(const RecordView& frame);
 
 // visit() of each value of `field` in `record` until one returns true; true when one did. Numbers
 // come with their JSON text; text is written into `scratch` where it is made (hex, summary).

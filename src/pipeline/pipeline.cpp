@@ -135,10 +135,8 @@ Pipeline::Pipeline(PipelineOptions options, const ChannelTable& channels, Sink& 
   // With drive profiles, a sink that takes records must write their annotation itself
   // (defer_drive_info_): only the observation is made here. (Without detail, a Message still
   // carries the text an observation makes of an exception reply.)
-  // A sink that wants no detail shows no annotation: it needs none written.
   whole_telegrams_direct_ =
-      (!hand_over_records_ ||
-       (needs.deferred_decode && (!drive_level_ || defer_drive_info_ || !needs.detail))) &&
+      (!hand_over_records_ || (needs.deferred_decode && (!drive_level_ || defer_drive_info_))) &&
       options_.max_frames == 0;
   // The sink may read the profiles on its own thread: their lookup tables are built here, before
   // it gets any message (after this they are only read).
