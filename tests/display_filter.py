@@ -4,7 +4,8 @@
 # `drivetap read -T json` and compares the frames it selects with `drivetap read -Y F -T json`;
 # it parses `-T fields -E separator=, -E quote=d` output with the csv module and compares it with
 # the JSON records; bad filters must exit 2 with one line naming the column; a filtered --stats
-# summary must count what the unfiltered one counts.
+# summary must count what the unfiltered one counts. A filter naming a finding reported after its
+# frame (LATER) is also evaluated against each such finding's own record (late_records()).
 # Usage: display_filter.py DRIVETAP SOURCE_DIR
 import csv
 import glob
@@ -19,7 +20,8 @@ import tempfile
 DRIVETAP, SOURCE = sys.argv[1], sys.argv[2]
 FAILURES = []
 
-# Findings the pipeline reports after their frame was handed on: not the frame's for a filter.
+# Findings the pipeline reports after their frame was handed on: not the frame's for a filter;
+# records of their own for a filter that names one.
 LATER = {"unanswered_request", "unsolicited_response", "packet_split_frame", "packet_merged_frames"}
 
 
@@ -46,6 +48,34 @@ def records_of(json_text):
         elif r["type"] == "anomaly" and out and r["frame"] == out[-1]["n"] and r["kind"] not in LATER:
             out[-1]["_findings"].append(r)
     return out
+
+
+def late_records(lines):
+    """Each late finding's own record: the finding, its n, t and channel, and its frame's protocol,
+    addr and fc (from the frame record it names; none for noise)."""
+    frames = {r["n"]: r for r in lines if r["type"] in ("frame", "noise")}
+    out = []
+    for i, r in enumerate(lines):
+        if r["type"] != "anomaly" or r["kind"] not in LATER:
+            continue
+        rec = {"type": "anomaly", "t": r["t"], "channel": r["channel"], "_findings": [r],
+               "_line": i}
+        if r["frame"] is not None:
+            rec["n"] = r["frame"]
+        f = frames.get(r["frame"])
+        if f is not None and f["type"] == "frame":
+            for k in ("protocol", "addr", "fc"):
+                rec[k] = f.get(k)
+        out.append(rec)
+    return out
+
+
+def names_later(expr):
+    if expr[0] in ("and", "or"):
+        return names_later(expr[1]) or names_later(expr[2])
+    if expr[0] == "not":
+        return names_later(expr[1])
+    return expr[1] in LATER
 
 
 def values(rec, name):
@@ -271,6 +301,12 @@ STATIC_FILTERS = [
     "!addr == 1", "! ! checksum", "finding", "finding contains \"gap\"", "short_interframe_gap",
     "malformed || implausible", "channel == \"bus\"", "close == content", "checksum_stated",
     "n > 10 && n <= 40", "n >= -1", "checksum < \"good\"",
+    # findings reported after their frame: their own records
+    "unanswered_request", "unanswered_request && addr == 2", "unsolicited_response",
+    "unanswered_request || unsolicited_response && fc == 3", "packet_split_frame",
+    "packet_merged_frames || addr == 1", "!unanswered_request && n < 20",
+    "unanswered_request contains \"function\" && protocol == \"modbus-rtu\"",
+    "finding == \"unanswered_request\" || unanswered_request && t > 1",
 ]
 
 
@@ -353,7 +389,26 @@ def check_drive_fields(args, path, recs):
                 return
 
 
-def check_filters(args, path, recs, events):
+def shown_besides_frames(expr, lines, picked):
+    """The anomaly and transaction records -Y shows, in order: those of the selected frames; with a
+    filter naming a late finding, each late finding whose own record it selects too, after the
+    transaction that reported it (a timeout, an unsolicited reply)."""
+    late = set()
+    if names_later(expr):
+        late = {r["_line"] for r in late_records(lines) if evaluate(expr, r)}
+    out = []
+    for i, r in enumerate(lines):
+        if r["type"] == "anomaly" and (r["frame"] in picked or i in late):
+            out.append(r)
+        elif r["type"] == "transaction":
+            if r["request_n"] in picked or r["response_n"] in picked:
+                out.append(r)
+            elif i + 1 in late and lines[i + 1]["frame"] in (r["request_n"], r["response_n"]):
+                out.append(r)
+    return out
+
+
+def check_filters(args, path, recs, events, lines):
     filters = STATIC_FILTERS + tree_filters(recs) + drive_filters(recs)
     for f in filters:
         expr = parse(f)
@@ -366,14 +421,20 @@ def check_filters(args, path, recs, events):
         got_n = [r["n"] for r in got if r["type"] in ("frame", "noise")]
         if got_n != want:
             fail("%s -Y %r: selected %s..., expected %s..." % (path, f, got_n[:8], want[:8]))
-        # What belongs to the selected frames, and nothing else.
+        # What belongs to the selected frames (and late findings selected), and nothing else.
         picked = set(got_n)
         for r in got:
-            if r["type"] == "anomaly" and r["frame"] not in picked:
+            if r["type"] == "anomaly" and r["frame"] not in picked and \
+                    not (names_later(expr) and r["kind"] in LATER):
                 fail("%s -Y %r: anomaly of unselected frame %s" % (path, f, r["frame"]))
             if r["type"] == "transaction" and r["request_n"] not in picked and \
-                    r["response_n"] not in picked:
+                    r["response_n"] not in picked and not names_later(expr):
                 fail("%s -Y %r: transaction of unselected frames" % (path, f))
+        got_besides = [r for r in got if r["type"] in ("anomaly", "transaction")]
+        want_besides = shown_besides_frames(expr, lines, set(want))
+        if got_besides != want_besides:
+            fail("%s -Y %r: %d findings and transactions, expected %d" %
+                 (path, f, len(got_besides), len(want_besides)))
         # The events read from the selected frames, every one of them.
         want_events = [e for e in events if e.get("frame") in set(want)]
         got_events = [r for r in got if r["type"] == "event"]
@@ -456,7 +517,7 @@ def check_fields(args, path, recs):
 BAD = [
     ("addr == && x", 9), ("addr ==", 8), ("(addr == 1", 11), ("nosuchfield == 1", 1),
     ("addr = 1", 6), ("addr == 1 &", 11), ("addr in {1 2", 13), ("summary contains 3", 18),
-    ("addr == 1)", 10), ("\"unterminated", 1), ("addr == 0xZZ", 9), ("unanswered_request", 1),
+    ("addr == 1)", 10), ("\"unterminated", 1), ("addr == 0xZZ", 9),
     ("addr in {}", 9), ("addr in {\"a\"..3}", 13), ("addr matches \"x\"", 6),
     ("&& addr", 1), ("addr == 1 or", 13),
 ]
@@ -481,7 +542,8 @@ def main():
                 continue  # (inputs that are refused are the golden tests' business)
             recs = records_of(out)
             events = [json.loads(l) for l in out.splitlines() if l.startswith('{"type":"event"')]
-            total += check_filters(args, path, recs, events)
+            lines = [json.loads(l) for l in out.splitlines()]
+            total += check_filters(args, path, recs, events, lines)
             check_stats(args, path)
             check_fields(args, path, recs)
             check_drive_fields(args, path, recs)

@@ -78,9 +78,6 @@ TEST(DisplayFilter, ParseErrorsSayWhereWithTheFilter) {
   EXPECT_NE(error_of("&& addr").find("expected a field name, found '&&' at column 1"),
             std::string::npos);
   EXPECT_NE(error_of("addr not 3").find("expected 'in' after 'not'"), std::string::npos);
-  // A finding reported after its frame: refused, not a filter that never matches.
-  EXPECT_NE(error_of("addr == 2 || unanswered_request").find("reported after its frame"),
-            std::string::npos);
 }
 
 TEST(DisplayFilter, AndBindsTighterThanOrAndNotTighterThanBoth) {
@@ -226,20 +223,69 @@ TEST(DisplayFilter, FindingsByKindTypedIdAndTheFindingField) {
   EXPECT_FALSE(passes("timing_rule", r));
 }
 
+TEST(DisplayFilter, ALateFindingIsJudgedOnItsOwnRecord) {
+  std::string error;
+  const auto plain = DisplayFilter::compile("addr == 2 || checksum_bad", &error);
+  ASSERT_TRUE(plain);
+  EXPECT_FALSE(plain->names_late_findings());
+  const auto late = DisplayFilter::compile("unanswered_request && addr == 2 && fc == 3", &error);
+  ASSERT_TRUE(late) << error;
+  EXPECT_TRUE(late->names_late_findings());
+  // Never a frame's: the frame is judged before the finding is known.
+  const Record r;  // addr 2, fc 3
+  EXPECT_FALSE(late->matches(r.view()));
+  // The finding's own record: its n, t, channel, and its frame's protocol, addr, fc.
+  const RecordViews views(r.channels, 0, true);
+  const LateFindingFrame frame = late_finding_frame_of(r.view());
+  EXPECT_EQ(frame.number, 7u);
+  const Anomaly timeout{AnomalyKind::unanswered_request, 1'500'000'000, r.m.frame.channel, 7,
+                        "request #7 to address 2 function 03: no reply"};
+  EXPECT_TRUE(late->matches(views.of(timeout, frame)));
+  const auto passes_late = [&](const std::string& text, const Anomaly& a) {
+    const auto f = DisplayFilter::compile(text, &error);
+    EXPECT_TRUE(f) << text << ": " << error;
+    return f && f->matches(views.of(a, frame));
+  };
+  EXPECT_TRUE(passes_late("type == \"anomaly\" && n == 7 && t == 1.5 && channel == bus", timeout));
+  EXPECT_TRUE(passes_late("unanswered_request contains \"no reply\"", timeout));
+  EXPECT_TRUE(passes_late("finding == \"unanswered_request\"", timeout));
+  EXPECT_FALSE(passes_late("unanswered_request && addr == 3", timeout));
+  EXPECT_FALSE(passes_late("unsolicited_response", timeout));
+  EXPECT_FALSE(passes_late("dir || checksum || hex", timeout));  // not the frame's other keys
+  // A finding of another frame than the one noted has no frame keys.
+  const Anomaly split{AnomalyKind::packet_split_frame, 0, r.m.frame.channel, 8, "frame #8"};
+  EXPECT_TRUE(passes_late("packet_split_frame && n == 8", split));
+  EXPECT_FALSE(passes_late("packet_split_frame && addr", split));
+}
+
 TEST(DisplayFilter, NeedsFollowTheNamesUsed) {
   std::string error;
   auto plain = DisplayFilter::compile("addr == 2 && checksum_bad && latency_ms > 1", &error);
   ASSERT_TRUE(plain);
   EXPECT_FALSE(plain->needs().detail);
   EXPECT_FALSE(plain->needs().tree);
+  EXPECT_FALSE(plain->needs().message);  // judged on a telegram's head
   auto summary = DisplayFilter::compile("summary contains \"x\" || drive", &error);
   ASSERT_TRUE(summary);
   EXPECT_TRUE(summary->needs().detail);
   EXPECT_FALSE(summary->needs().tree);
   auto tree = DisplayFilter::compile(std::string(listed(FieldType::uint)->id) + " == 1", &error);
   ASSERT_TRUE(tree);
-  EXPECT_TRUE(tree->needs().detail);
+  // The tree without the texts (info line, drive annotation) no one reads.
+  EXPECT_FALSE(tree->needs().detail);
   EXPECT_TRUE(tree->needs().tree);
+  EXPECT_TRUE(tree->needs().message);
+  // A finding's presence is the head's; its text the Message's.
+  auto present = DisplayFilter::compile("checksum_bad && !malformed", &error);
+  ASSERT_TRUE(present);
+  EXPECT_FALSE(present->needs().message);
+  auto text = DisplayFilter::compile("checksum_bad contains \"CRC\"", &error);
+  ASSERT_TRUE(text);
+  EXPECT_TRUE(text->needs().message);
+  EXPECT_FALSE(text->needs().detail);
+  auto typed = DisplayFilter::compile("finding == \"checksum_bad\" || checksum_stated", &error);
+  ASSERT_TRUE(typed);
+  EXPECT_TRUE(typed->needs().message);
 }
 
 namespace {

@@ -67,7 +67,7 @@ void dissect_rtu(Message& m, Frame&& frame, Direction direction, const FramingTi
   if (bytes.size() >= 4) {
     const std::size_t pdu_len = bytes.size() - 3;
     PduDecode pdu;
-    pdu.detail = m.detail;
+    pdu.detail = m.detail && m.info_text;
     pdu.info_into = &m.info;  // the line is written where m keeps it
     dissect_pdu_into(pdu, bytes, 1, pdu_len, direction, tree);
     m.exception_code = pdu.exception_code;

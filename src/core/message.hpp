@@ -64,12 +64,16 @@ struct Message {
   // False when no sink reads the field tree (text output without -V, pcapng): `fields` stay
   // empty while `info` is still made when `detail`.
   bool tree = true;
+  // False when no sink reads the info line or the drive annotation (a display filter that reads
+  // only the field tree): `info` and `drive_info` stay empty while `fields` are made with
+  // `detail` and `tree`.
+  bool info_text = true;
 
-  // Sets `info` to make() when the message is decoded in detail; make() is not called
-  // otherwise (formatting is most of the cost of a decode).
+  // Sets `info` to make() when the message is decoded in detail with its info line; make() is
+  // not called otherwise (formatting is most of the cost of a decode).
   template <class MakeText>
   void describe(MakeText&& make) {
-    if (detail) info = make();
+    if (detail && info_text) info = make();
   }
 };
 
@@ -122,10 +126,10 @@ inline constexpr std::size_t kTypicalFieldCount = 16;
 
 // What every dissector starts from: `m` reset to the frame, its bytes, protocol and direction.
 // The vectors and strings `m` held keep their storage (the pipeline decodes every frame of a run
-// into one Message, so the hot path does not allocate); `m.detail` and `m.tree` are kept. The
-// frame is swapped in: `frame` is left holding m's previous frame, whose storage its batch builds
-// a later frame in. `frame` may be m.frame itself, built in place (TelegramView::frame_for()): it
-// is then taken as it is.
+// into one Message, so the hot path does not allocate); `m.detail`, `m.tree` and `m.info_text` are
+// kept. The frame is swapped in: `frame` is left holding m's previous frame, whose storage its
+// batch builds a later frame in. `frame` may be m.frame itself, built in place
+// (TelegramView::frame_for()): it is then taken as it is.
 inline void begin_message(Message& m, Frame&& frame, Protocol protocol, Direction direction) {
   // Every member of Message is set here (tests/test_pipeline.cpp BeginMessageResetsEveryMember).
   // (A frame just built is not moved: its members, read back wider than they were written, would

@@ -336,18 +336,14 @@ class FilterParser {
                 token_.column);
       return false;
     }
-    if ((field->kind == RecordField::Kind::finding_kind ||
-         field->kind == RecordField::Kind::finding_id) &&
-        finding_known_after_frame(field->finding_kind)) {
-      set_error(
-          fmt::format("'{}' is reported after its frame is shown: no filter sees it", token_.raw),
-          token_.column);
-      return false;
-    }
+    if (field->kind == RecordField::Kind::finding_kind &&
+        finding_known_after_frame(field->finding_kind))
+      out_.names_late_findings_ = true;
     const RecordFieldNeeds needs = field->needs();
     out_.needs_.detail = out_.needs_.detail || needs.detail;
     out_.needs_.tree = out_.needs_.tree || needs.tree;
     out_.needs_.drive_values = out_.needs_.drive_values || needs.drive_values;
+    out_.needs_.message = out_.needs_.message || needs.message;
     out_.fields_.push_back(*field);
     DisplayFilter::Node n;
     n.field = static_cast<std::uint32_t>(out_.fields_.size() - 1);
@@ -387,6 +383,9 @@ class FilterParser {
     } else {
       n.op = DisplayFilter::Node::Op::exists;
     }
+    // A finding's text (what a comparison reads) is the Message's; its presence, the head's.
+    if (field->kind == RecordField::Kind::finding_kind && n.op != DisplayFilter::Node::Op::exists)
+      out_.needs_.message = true;
     node = add(n);
     if (negated_in) node = add_logic(DisplayFilter::Node::Op::negate, node);
     return true;
@@ -527,19 +526,21 @@ bool holds(const RecordValue& v, DisplayFilter::Compare c, const DisplayFilter::
 
 // The tests on a field's values: each stops at the first value that decides.
 struct AnyValue final : ValueVisitor {
+  AnyValue() : ValueVisitor(false) {}
   bool visit(const RecordValue&) override { return true; }
 };
 struct AnyCompares final : ValueVisitor {
   DisplayFilter::Compare compare;
   const DisplayFilter::Literal* literal;
-  AnyCompares(DisplayFilter::Compare c, const DisplayFilter::Literal* l) : compare(c), literal(l) {}
+  AnyCompares(DisplayFilter::Compare c, const DisplayFilter::Literal* l)
+      : ValueVisitor(false), compare(c), literal(l) {}
   bool visit(const RecordValue& v) override { return holds(v, compare, *literal); }
 };
 // For !=: remembers whether the field had a value at all; stops at one equal to the literal.
 struct AnyEqual final : ValueVisitor {
   const DisplayFilter::Literal* literal;
   bool seen = false;
-  explicit AnyEqual(const DisplayFilter::Literal* l) : literal(l) {}
+  explicit AnyEqual(const DisplayFilter::Literal* l) : ValueVisitor(false), literal(l) {}
   bool visit(const RecordValue& v) override {
     seen = true;
     return holds(v, DisplayFilter::Compare::eq, *literal);
@@ -547,7 +548,7 @@ struct AnyEqual final : ValueVisitor {
 };
 struct AnyContains final : ValueVisitor {
   std::string_view needle;
-  explicit AnyContains(std::string_view n) : needle(n) {}
+  explicit AnyContains(std::string_view n) : ValueVisitor(false), needle(n) {}
   bool visit(const RecordValue& v) override {
     return !v.is_number && v.text.find(needle) != std::string_view::npos;
   }
@@ -555,7 +556,8 @@ struct AnyContains final : ValueVisitor {
 struct AnyInSet final : ValueVisitor {
   const DisplayFilter::Literal* first;
   std::uint32_t count;
-  AnyInSet(const DisplayFilter::Literal* f, std::uint32_t c) : first(f), count(c) {}
+  AnyInSet(const DisplayFilter::Literal* f, std::uint32_t c)
+      : ValueVisitor(false), first(f), count(c) {}
   bool visit(const RecordValue& v) override {
     for (std::uint32_t i = 0; i < count; ++i)
       if (equal(v, first[i])) return true;

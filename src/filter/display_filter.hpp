@@ -26,6 +26,9 @@ class DisplayFilter {
   // What the pipeline must make for the filter to read its fields.
   [[nodiscard]] const RecordFieldNeeds& needs() const { return needs_; }
   [[nodiscard]] const std::string& text() const { return text_; }
+  // The filter names a finding reported after its frame (finding_known_after_frame()): it is
+  // also evaluated against each such finding's own record.
+  [[nodiscard]] bool names_late_findings() const { return names_late_findings_; }
 
   enum class Compare : std::uint8_t { eq, ne, lt, gt, le, ge };
   struct Literal {
@@ -58,6 +61,7 @@ class DisplayFilter {
   std::vector<Node> nodes_;
   std::uint32_t root_ = 0;
   RecordFieldNeeds needs_;
+  bool names_late_findings_ = false;
   mutable std::string scratch_;
 };
 

@@ -18,17 +18,39 @@ DisplayFilterSink::DisplayFilterSink(DisplayFilter filter, Sink& inner,
                                      bool show_latency)
     : ForwardingSink(inner),
       filter_(std::move(filter)),
+      inner_needs_(inner.needs()),
+      by_head_(!filter_.needs().message && (!inner_needs_.records || inner_needs_.deferred_decode)),
       views_(channels, character_time, show_latency),
-      recent_selected_(kRecentFrames, 0) {}
+      recent_selected_(kRecentFrames, 0) {
+  if (filter_.names_late_findings()) late_frames_.resize(kRecentFrames);
+}
 
 SinkNeeds DisplayFilterSink::needs() const {
-  // Every frame comes here, decoded here (ForwardingSink): the filter reads its Message on this
-  // thread.
-  SinkNeeds n = ForwardingSink::needs();
+  SinkNeeds n = inner_needs_;
   n.records = true;
-  n.detail = n.detail || filter_.needs().detail;
-  n.fields = (n.detail && n.fields) || filter_.needs().tree;
-  n.drive_values = n.drive_values || filter_.needs().drive_values;
+  if (by_head_) {
+    // Telegrams taken whole come undecoded; the others decoded as the inner sink needs them
+    // (the filter reads none of the detail, nor the annotation the inner sink may write).
+    n.deferred_decode = true;
+    if (!inner_needs_.records) {
+      // Nothing is decoded for the inner sink: the annotation is left to this sink, which
+      // writes none (so that the pipeline takes telegrams whole with drive profiles too), and a
+      // telegram not taken whole is decoded without tree or texts.
+      n.detail = n.drive_info = true;
+      n.fields = n.info_text = false;
+    }
+    n.drive_values = n.drive_values || filter_.needs().drive_values;
+    return n;
+  }
+  // Every frame comes here, decoded here: the filter reads its Message on this thread, and the
+  // texts only when it or the inner sink reads them.
+  const RecordFieldNeeds f = filter_.needs();
+  n.detail = inner_needs_.detail || f.detail || f.tree;
+  n.fields = (inner_needs_.detail && inner_needs_.fields) || f.tree;
+  n.info_text = (inner_needs_.detail && inner_needs_.info_text) || f.detail;
+  n.drive_values = n.drive_values || f.drive_values;
+  n.drive_info = false;
+  n.deferred_decode = false;
   return n;
 }
 
@@ -47,19 +69,69 @@ void DisplayFilterSink::note(std::uint64_t number, bool selected) {
   if (selected) ++matched_;
 }
 
+void DisplayFilterSink::note_late_frame(const RecordView& r) {
+  if (late_frames_.empty()) return;
+  held_transaction_.reset();
+  const LateFindingFrame f = late_finding_frame_of(r);
+  late_frames_[f.number % kRecentFrames] = f;
+}
+
 bool DisplayFilterSink::selected(std::uint64_t number) const {
   return number != 0 && recent_selected_[number % kRecentFrames] == number;
 }
 
+void DisplayFilterSink::on_frame(const Message& m) {
+  const RecordView r = views_.of(m);
+  note_late_frame(r);
+  const bool pass = filter_.matches(r);
+  note(m.frame.number, pass);
+  if (pass) next_.on_frame(m);
+}
+
+void DisplayFilterSink::on_deferred_frame(const DeferredTelegram& telegram) {
+  const RecordView r = views_.of(telegram);
+  note_late_frame(r);
+  const bool pass = filter_.matches(r);
+  note(telegram.number, pass);
+  // (by_head_: an inner sink that takes records decodes them itself)
+  if (pass && inner_needs_.records) next_.on_deferred_frame(telegram);
+}
+
+void DisplayFilterSink::on_noise(const Frame& f) {
+  const RecordView r = views_.of(f);
+  note_late_frame(r);
+  const bool pass = filter_.matches(r);
+  note(f.number, pass);
+  if (pass) next_.on_noise(f);
+}
+
 void DisplayFilterSink::on_anomaly(const Anomaly& a) {
-  if (selected(a.frame_number)) next_.on_anomaly(a);
+  std::optional<Transaction> reporter;
+  reporter.swap(held_transaction_);
+  if (selected(a.frame_number)) {
+    next_.on_anomaly(a);
+    return;
+  }
+  if (late_frames_.empty() || !finding_known_after_frame(a.kind)) return;
+  if (!filter_.matches(views_.of(a, late_frames_[a.frame_number % kRecentFrames]))) return;
+  if (reporter &&
+      (reporter->request_number == a.frame_number || reporter->response_number == a.frame_number))
+    next_.on_transaction(*reporter);
+  next_.on_anomaly(a);
 }
 
 void DisplayFilterSink::on_transaction(const Transaction& t) {
-  if (selected(t.request_number) || selected(t.response_number)) next_.on_transaction(t);
+  held_transaction_.reset();
+  if (selected(t.request_number) || selected(t.response_number)) {
+    next_.on_transaction(t);
+  } else if (!late_frames_.empty() &&
+             (t.outcome == Outcome::timeout || t.outcome == Outcome::unsolicited)) {
+    held_transaction_ = t;  // (the pipeline reports its finding next)
+  }
 }
 
 void DisplayFilterSink::on_event(const BusEvent& e) {
+  held_transaction_.reset();
   if (e.frame > last_number_)
     held_events_.push_back(e);
   else if (selected(e.frame))

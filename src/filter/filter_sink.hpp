@@ -3,9 +3,18 @@
 // findings, the transactions and the drive events of a selected frame. Records that belong to no
 // frame (protocol detection, a source's findings) are left out, as tshark -Y shows only packets.
 // The summary counts everything, and says how many records the filter selected.
+//
+// A filter naming a finding reported after its frame (unanswered_request, ...) is also evaluated
+// against that finding's own record (its n, t, channel and its frame's protocol, addr, fc): a
+// match shows the finding, with the transaction that reported it.
+//
+// A filter whose names a telegram's head holds (RecordFieldNeeds::message false) is judged on the
+// head where the pipeline takes a telegram whole: the telegram comes undecoded
+// (on_deferred_frame()), and only one the filter selects is decoded, by the inner sink.
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 #include "filter/display_filter.hpp"
@@ -19,33 +28,31 @@ class DisplayFilterSink final : public ForwardingSink {
   DisplayFilterSink(DisplayFilter filter, Sink& inner, const ChannelTable& channels,
                     TimeNs character_time, bool show_latency);
 
-  void on_frame(const Message& m) override { judge(m, m.frame.number, &Sink::on_frame); }
-  void on_noise(const Frame& f) override { judge(f, f.number, &Sink::on_noise); }
+  void on_frame(const Message& m) override;
+  void on_noise(const Frame& f) override;
   void on_anomaly(const Anomaly& a) override;
   void on_transaction(const Transaction& t) override;
   void on_event(const BusEvent& e) override;
   void on_summary(const Stats& s) override;
+  void on_deferred_frame(const DeferredTelegram& telegram) override;
   [[nodiscard]] SinkNeeds needs() const override;
 
   [[nodiscard]] std::uint64_t matched() const { return matched_; }
 
  private:
-  // A frame or noise record numbered `number`: judged by the filter, noted, and handed on to the
-  // next sink's `handler` when selected.
-  template <class Record>
-  [[gnu::always_inline]] void judge(const Record& record, std::uint64_t number,
-                                    void (Sink::*handler)(const Record&)) {
-    const bool pass = filter_.matches(views_.of(record));
-    note(number, pass);
-    if (pass) (next_.*handler)(record);
-  }
   void note(std::uint64_t number, bool selected);
   // Hands on the events held for frame `number` (those of a selected frame), before the frame as
   // they came, and drops them.
   void release_events(std::uint64_t number, bool selected);
   [[nodiscard]] bool selected(std::uint64_t number) const;
+  // Notes what a late finding's record says of the frame `r` (a filter naming late findings).
+  void note_late_frame(const RecordView& r);
 
   DisplayFilter filter_;
+  SinkNeeds inner_needs_;
+  // Telegrams are judged by their head when they come undecoded (decided once, from the filter's
+  // names and what the inner sink takes).
+  bool by_head_ = false;
   RecordViews views_;
   // The numbers of the latest selected frames, each at its number modulo the size: a transaction
   // or finding reported later (a timeout) finds its frame here. Fixed size: no allocation.
@@ -53,6 +60,11 @@ class DisplayFilterSink final : public ForwardingSink {
   // Events read from a frame not handed over yet (a drive bound by the frame that showed it):
   // held until the filter has judged their frame.
   std::vector<BusEvent> held_events_;
+  // A filter naming late findings: what their records say of the latest frames (at the number
+  // modulo the size, as recent_selected_), and the transaction that is to report one (a timeout
+  // or an unsolicited reply of no selected frame), held until its finding is judged.
+  std::vector<LateFindingFrame> late_frames_;
+  std::optional<Transaction> held_transaction_;
   std::uint64_t last_number_ = 0;  // the latest frame or noise record judged
   std::uint64_t matched_ = 0;
   std::uint64_t records_ = 0;

@@ -9,6 +9,7 @@
 #include "core/checksum.hpp"
 #include "core/format.hpp"
 #include "core/protocol_desc.hpp"
+#include "sinks/sink.hpp"
 #include "sinks/text_sink.hpp"
 
 namespace drivetap {
@@ -62,6 +63,7 @@ std::string_view frame_close_id(FrameClose c) {
 
 // Hands `visit` a number given as an integer.
 bool visit_int(std::int64_t v, std::string& scratch, ValueVisitor& visit) {
+  if (!visit.wants_number_text()) return visit.visit({true, static_cast<double>(v), {}});
   scratch.clear();
   append_int(scratch, v);
   return visit.visit({true, static_cast<double>(v), scratch});
@@ -118,7 +120,95 @@ bool noise_key_values(RecordKey key, const RecordView& r, std::string& scratch,
   }
 }
 
+// The keys of a telegram known by its head, as its decoded Message would give them (the keys a
+// head does not hold need the Message: RecordField::needs()).
+bool head_key_values(RecordKey key, const RecordView& r, std::string& scratch,
+                     ValueVisitor& visit) {
+  const DeferredTelegram& t = *r.telegram;
+  const TelegramFindings& head = *t.head;
+  switch (key) {
+    case RecordKey::type:
+      return visit_string("frame", visit);
+    case RecordKey::n:
+      return visit_int(static_cast<std::int64_t>(t.number), scratch, visit);
+    case RecordKey::t:
+      return visit_time(t.run.first, scratch, visit);
+    case RecordKey::t_end:
+      return visit_time(t.run.time(t.run.size() - 1) + r.character_time, scratch, visit);
+    case RecordKey::channel:
+      return visit_string(r.channels->at(t.run.channel).name, visit);
+    case RecordKey::dir:
+      return visit_string(direction_id(t.direction), visit);
+    case RecordKey::protocol:
+      return visit_string(protocol_id(t.decoder->protocol()), visit);
+    case RecordKey::addr:
+      return head.address >= 0 && visit_int(head.address, scratch, visit);
+    case RecordKey::fc:
+      return head.function >= 0 && visit_int(head.function, scratch, visit);
+    case RecordKey::hex:
+      scratch.clear();
+      append_hex_bytes(scratch, t.run.bytes, "");
+      return visit_string(scratch, visit);
+    case RecordKey::checksum:
+      return visit_string(to_string(head.verdict), visit);
+    case RecordKey::exception:
+      return head.is_exception && visit_int(head.exception_code, scratch, visit);
+    case RecordKey::latency_ms:
+      return t.request_number != 0 && t.latency >= 0 && r.show_latency &&
+             visit_ms(t.latency, scratch, visit);
+    case RecordKey::request_n:
+      return t.request_number != 0 &&
+             visit_int(static_cast<std::int64_t>(t.request_number), scratch, visit);
+    case RecordKey::gap_before_ms:
+      return t.taken.timing.gap_before >= 0 && r.show_latency &&
+             visit_ms(t.taken.timing.gap_before, scratch, visit);
+    case RecordKey::close:
+      return visit_string(frame_close_id(FrameClose::silence), visit);
+    default:
+      return false;  // (needs the Message)
+  }
+}
+
+// Whether the telegram known by its head has a finding of `kind`.
+bool head_has_finding(const RecordView& r, AnomalyKind kind) {
+  const TelegramFindings& head = *r.telegram->head;
+  if (kind == AnomalyKind::malformed && head.malformed > 0) return true;
+  if ((head.other_kinds & (1u << static_cast<unsigned>(kind))) != 0) return true;
+  for (const Anomaly& a : r.telegram->anomalies)
+    if (a.kind == kind) return true;
+  return false;
+}
+
+// The keys of a late finding's record: the finding's n, t and channel, its frame's protocol, addr
+// and fc.
+bool late_key_values(RecordKey key, const RecordView& r, std::string& scratch,
+                     ValueVisitor& visit) {
+  const Anomaly& a = r.findings.front();
+  const LateFindingFrame& f = *r.late_frame;
+  const bool telegram = f.telegram && f.number == a.frame_number;
+  switch (key) {
+    case RecordKey::type:
+      return visit_string("anomaly", visit);
+    case RecordKey::n:
+      return a.frame_number != 0 &&
+             visit_int(static_cast<std::int64_t>(a.frame_number), scratch, visit);
+    case RecordKey::t:
+      return visit_time(a.time, scratch, visit);
+    case RecordKey::channel:
+      return visit_string(r.channels->at(a.channel).name, visit);
+    case RecordKey::protocol:
+      return telegram && visit_string(protocol_id(f.protocol), visit);
+    case RecordKey::addr:
+      return telegram && f.address >= 0 && visit_int(f.address, scratch, visit);
+    case RecordKey::fc:
+      return telegram && f.function >= 0 && visit_int(f.function, scratch, visit);
+    default:
+      return false;
+  }
+}
+
 bool key_values(RecordKey key, const RecordView& r, std::string& scratch, ValueVisitor& visit) {
+  if (r.telegram) return head_key_values(key, r, scratch, visit);
   if (key == RecordKey::finding) {
     for (const Anomaly& a : r.findings) {
       if (a.finding && visit_string(a.finding->id, visit)) return true;
@@ -126,6 +216,7 @@ bool key_values(RecordKey key, const RecordView& r, std::string& scratch, ValueV
     }
     return false;
   }
+  if (r.late_frame) return late_key_values(key, r, scratch, visit);
   if (r.noise) return noise_key_values(key, r, scratch, visit);
   const Message& m = *r.message;
   switch (key) {
@@ -232,14 +323,20 @@ RecordFieldNeeds RecordField::needs() const {
   switch (kind) {
     case Kind::key:
       n.detail = key == RecordKey::summary || key == RecordKey::drive;
+      n.message = n.detail || key == RecordKey::checksum_stated ||
+                  key == RecordKey::checksum_computed || key == RecordKey::finding;
       break;
     case Kind::tree:
-      n.detail = n.tree = true;
+      n.tree = n.message = true;
+      break;
+    case Kind::finding_id:  // (a typed id is the Anomaly's)
+      n.message = true;
+      break;
+    case Kind::finding_kind:  // (its presence is the head's; its text, the Message's)
       break;
     case Kind::source:
       n = source->needs(slot);
-      break;
-    default:
+      n.message = true;
       break;
   }
   return n;
@@ -293,8 +390,11 @@ bool record_values(const RecordField& field, const RecordView& record, std::stri
     case RecordField::Kind::key:
       return key_values(field.key, record, scratch, visit);
     case RecordField::Kind::tree:
+      if (record.telegram) return false;  // (needs the Message)
       return tree_values(field.desc, record, scratch, visit);
     case RecordField::Kind::finding_kind:
+      if (record.telegram)  // (present or not: the filter reads no text of it)
+        return head_has_finding(record, field.finding_kind) && visit_string("", visit);
       for (const Anomaly& a : record.findings)
         if (a.kind == field.finding_kind && visit_string(a.detail, visit)) return true;
       return false;
@@ -318,6 +418,45 @@ RecordView RecordViews::of(const Message& message) const {
   r.show_latency = show_latency_;
   r.findings = message.anomalies;
   return r;
+}
+
+RecordView RecordViews::of(const DeferredTelegram& telegram) const {
+  RecordView r;
+  r.telegram = &telegram;
+  r.channels = &channels_;
+  r.character_time = character_time_;
+  r.show_latency = show_latency_;
+  return r;
+}
+
+RecordView RecordViews::of(const Anomaly& finding, const LateFindingFrame& frame) const {
+  RecordView r;
+  r.late_frame = &frame;
+  r.channels = &channels_;
+  r.character_time = character_time_;
+  r.show_latency = show_latency_;
+  r.findings = std::span<const Anomaly>(&finding, 1);
+  return r;
+}
+
+LateFindingFrame late_finding_frame_of(const RecordView& r) {
+  LateFindingFrame f;
+  if (r.message) {
+    f.number = r.message->frame.number;
+    f.telegram = true;
+    f.protocol = r.message->protocol;
+    f.address = r.message->address;
+    f.function = r.message->function;
+  } else if (r.telegram) {
+    f.number = r.telegram->number;
+    f.telegram = true;
+    f.protocol = r.telegram->decoder->protocol();
+    f.address = r.telegram->head->address;
+    f.function = r.telegram->head->function;
+  } else if (r.noise) {
+    f.number = r.noise->number;
+  }
+  return f;
 }
 
 RecordView RecordViews::of(const Frame& noise) {

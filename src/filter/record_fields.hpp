@@ -25,10 +25,28 @@
 
 namespace drivetap {
 
+struct DeferredTelegram;
+
+// What the record of a finding reported after its frame (finding_known_after_frame()) says of
+// that frame besides the finding's own n, t and channel: its protocol, addr and fc (none for
+// noise).
+struct LateFindingFrame {
+  std::uint64_t number = 0;  // 0: the frame is not known
+  bool telegram = false;
+  Protocol protocol = Protocol::unknown;
+  int address = -1;
+  int function = -1;
+};
+
 // One frame or noise record as the filter sees it.
 struct RecordView {
   const Message* message = nullptr;  // a telegram; or
-  const Frame* noise = nullptr;      // a noise record
+  const Frame* noise = nullptr;      // a noise record; or
+  // a telegram known by its head only (DeferredTelegram::head): only the fields whose needs()
+  // say no `message` can be read of it
+  const DeferredTelegram* telegram = nullptr;
+  // or the record of a late finding (the one in `findings`), with what it says of its frame
+  const LateFindingFrame* late_frame = nullptr;
   const ChannelTable* channels = nullptr;
   TimeNs character_time = 0;  // t_end: the last byte's start plus one character
   bool show_latency = true;   // false (decode): latency_ms and gap_before_ms are null, as in JSON
@@ -45,7 +63,10 @@ class RecordViews {
   RecordViews(const ChannelTable& channels, TimeNs character_time, bool show_latency)
       : channels_(channels), character_time_(character_time), show_latency_(show_latency) {}
   [[nodiscard]] RecordView of(const Message& message) const;
+  [[nodiscard]] RecordView of(const DeferredTelegram& telegram) const;
   RecordView of(const Frame& noise);  // valid until the next noise record
+  // The record of the late finding `finding` about the frame `frame` (both kept by the caller).
+  [[nodiscard]] RecordView of(const Anomaly& finding, const LateFindingFrame& frame) const;
 
  private:
   const ChannelTable& channels_;
@@ -65,16 +86,26 @@ struct RecordValue {
 class ValueVisitor {
  public:
   virtual bool visit(const RecordValue& value) = 0;
+  // False for a visitor that reads numbers by value only (the filter's tests): an integer's
+  // `text` is then left empty, not written.
+  [[nodiscard]] bool wants_number_text() const { return wants_number_text_; }
 
  protected:
+  explicit ValueVisitor(bool wants_number_text = true) : wants_number_text_(wants_number_text) {}
   ~ValueVisitor() = default;
+
+ private:
+  bool wants_number_text_;
 };
 
 // What reading a field costs the pipeline (folded into the filter sink's SinkNeeds).
 struct RecordFieldNeeds {
-  bool detail = false;        // Message::detail: the info line (summary) or the drive annotation
-  bool tree = false;          // Message::tree: the field tree
+  bool detail = false;        // Message::info_text: the info line (summary) or the drive annotation
+  bool tree = false;          // Message::tree: the field tree (without the texts)
   bool drive_values = false;  // Message::drive_values: the `drive.*` fields
+  // The decoded Message: the field is not read from a telegram's head (the keys, checksum
+  // verdict and finding kinds a DeferredTelegram carries), so every telegram is decoded.
+  bool message = false;
 };
 
 // A source of fields beyond the record and the field tree, such as the drive layer's `drive.*`
@@ -137,8 +168,12 @@ struct RecordField {
 std::optional<RecordField> resolve_record_field(std::string_view name);
 
 // Findings reported after their frame was handed on (the conversation's and the capture packets'):
-// no filter can see them with the frame, so naming them is refused.
+// no filter sees them with the frame; a filter naming one is also evaluated against each such
+// finding's own record (RecordViews::of(const Anomaly&, ...)).
 bool finding_known_after_frame(AnomalyKind kind);
+
+// What a late finding's record says of a frame or noise record (RecordView of a frame).
+LateFindingFrame late_finding_frame_of(const RecordView& frame);
 
 // visit() of each value of `field` in `record` until one returns true; true when one did. Numbers
 // come with their JSON text; text is written into `scratch` where it is made (hex, summary).

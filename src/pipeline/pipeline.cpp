@@ -127,6 +127,7 @@ Pipeline::Pipeline(PipelineOptions options, const ChannelTable& channels, Sink& 
   const SinkNeeds needs = sink.needs();
   message_.detail = needs.detail;
   message_.tree = needs.detail && needs.fields;
+  message_.info_text = needs.detail && needs.info_text;
   hand_over_transactions_ = needs.transactions;
   defer_drive_info_ = needs.detail && needs.drive_info;
   hand_over_records_ = needs.records;
@@ -859,7 +860,7 @@ void Pipeline::handle_telegram(TelegramView& t, const ProtocolDecoder& decoder, 
     // The annotation's text is written here, or by the sink on its own thread (then only the
     // observation is made here: the timeline needs it now).
     read_for_drive_into(*profile, in, records.get(),
-                        detailed && m.detail && !defer_drive_info_
+                        detailed && m.detail && m.info_text && !defer_drive_info_
                             ? DriveReadingWants::text_and_observation
                             : DriveReadingWants::observation,
                         drive_reading_);
@@ -923,6 +924,7 @@ void Pipeline::handle_telegram(TelegramView& t, const ProtocolDecoder& decoder, 
       telegram.number = number;
       telegram.direction = dir;
       telegram.request = request;
+      telegram.head = &found;
       if (paired.paired) {
         telegram.latency = paired.latency;
         telegram.request_number = paired.request_number;

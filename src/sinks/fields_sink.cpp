@@ -110,7 +110,7 @@ SinkNeeds FieldsSink::needs() const {
   n.records = true;
   for (const RecordField& f : options_.fields) {
     const RecordFieldNeeds fn = f.needs();
-    n.detail = n.detail || fn.detail;
+    n.detail = n.detail || fn.detail || fn.tree;
     n.fields = n.fields || fn.tree;
     n.drive_values = n.drive_values || fn.drive_values;
   }

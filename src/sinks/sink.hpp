@@ -72,6 +72,10 @@ struct DeferredTelegram {
   std::span<const Anomaly> anomalies;
   // With drive profiles: the values the pipeline's drive level read (Message::drive_values).
   std::span<const DriveValue> drive_values;
+  // What the pipeline's dissection to DissectDepth::head found of the telegram (keys, checksum
+  // verdict, finding kinds), for a sink that judges it by its head (the display filter). Valid
+  // during on_deferred_frame() only: a copy kept for later must not read it.
+  const TelegramFindings* head = nullptr;
 
   // The Message the pipeline would have handed over: its decoder's dissection of the frame, with
   // the pipeline's numbers, pairing and drive-level findings, each anomaly numbered with the
@@ -108,6 +112,9 @@ struct SinkNeeds {
   bool detail = true;
   // Messages' field trees (Message::tree); read only with `detail`.
   bool fields = true;
+  // With `detail`: the info lines and drive annotations too (Message::info_text); false only for
+  // a sink that reads the field tree alone (the display filter's).
+  bool info_text = true;
   // on_transaction() does something; transactions are still counted when not.
   bool transactions = true;
   // on_event() does something; drive state is still kept and its changes counted when not.
@@ -129,6 +136,7 @@ struct SinkNeeds {
     n.records = a.records || b.records;
     n.detail = a.detail || b.detail;
     n.fields = (a.detail && a.fields) || (b.detail && b.fields);
+    n.info_text = !(a.detail || b.detail) || (a.detail && a.info_text) || (b.detail && b.info_text);
     n.transactions = a.transactions || b.transactions;
     n.events = a.events || b.events;
     n.drive_values = a.drive_values || b.drive_values;
