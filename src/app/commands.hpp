@@ -32,5 +32,6 @@ Command add_capture_command(CLI::App& app);   // capture.cpp: live from serial p
 Command add_generate_command(CLI::App& app);  // generate.cpp: a large reproducible capture
 Command add_profiles_command(CLI::App& app);  // profiles.cpp: list and check drive profiles
 Command add_fields_command(CLI::App& app);    // fields.cpp: every field id (tshark -G fields)
+Command add_report_command(CLI::App& app);    // report.cpp: a capture drawn as an HTML page
 
 }  // namespace drivetap::app
