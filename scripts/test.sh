@@ -11,12 +11,12 @@ jobs=$(nproc 2>/dev/null || echo 2)
 
 cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo
 cmake --build build -j "$jobs"
-DRIVETAP_REQUIRE_TSHARK=1 DRIVETAP_REQUIRE_SIGROK=1 ctest --test-dir build --output-on-failure -j "$jobs"
+DRIVETAP_REQUIRE_TSHARK=1 DRIVETAP_REQUIRE_SIGROK=1 DRIVETAP_REQUIRE_CHROMIUM=1 ctest --test-dir build --output-on-failure -j "$jobs"
 
 cmake -S . -B build-asan -G Ninja -DCMAKE_BUILD_TYPE=Debug -DDRIVETAP_SANITIZE=ON
 cmake --build build-asan -j "$jobs"
 ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
-  DRIVETAP_REQUIRE_TSHARK=1 DRIVETAP_REQUIRE_SIGROK=1 ctest --test-dir build-asan --output-on-failure -j "$jobs"
+  DRIVETAP_REQUIRE_TSHARK=1 DRIVETAP_REQUIRE_SIGROK=1 DRIVETAP_REQUIRE_CHROMIUM=1 ctest --test-dir build-asan --output-on-failure -j "$jobs"
 
 bash scripts/tsan.sh build-tsan
 

@@ -50,7 +50,9 @@ complete_line() {
     [ ${#COMPREPLY[@]} -eq 0 ] || printf "%s\n" "${COMPREPLY[@]}"' _ "$completion" "$@"
 }
 got=$(complete_line "$bin" re | tr '\n' ' ')
-[ "$got" = "read " ] || fail "completion of 're': $got"
+[ "$got" = "read report " ] || fail "completion of 're': $got"
+got=$(complete_line "$bin" rea | tr '\n' ' ')
+[ "$got" = "read " ] || fail "completion of 'rea': $got"
 got=$(complete_line "$bin" diagnose --co | tr '\n' ' ')
 [ "$got" = "--color " ] || fail "completion of 'diagnose --co': $got"
 got=$(complete_line "$bin" diagnose -w | tr '\n' ' ')

@@ -9,7 +9,7 @@ _drivetap() {
     words=("${COMP_WORDS[@]}")
     cword=$COMP_CWORD
   }
-  local commands="decode read diagnose capture generate profiles wireshark"
+  local commands="decode read diagnose capture generate profiles report wireshark"
   local command="" i
   for ((i = 1; i < cword; i++)); do
     case " $commands " in *" ${words[i]} "*) command="${words[i]}"; break ;; esac

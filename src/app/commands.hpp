@@ -32,14 +32,12 @@ Command add_capture_command(CLI::App& app);    // capture.cpp: live from serial 
 Command add_generate_command(CLI::App& app);   // generate.cpp: a large reproducible capture
 Command add_profiles_command(CLI::App& app);   // profiles.cpp: list and check drive profiles
 Command add_fields_command(CLI::App& app);     // fields.cpp: every field id (tshark -G fields)
+Command add_report_command(CLI::App& app);     // report.cpp: a capture drawn as an HTML page
 Command add_wireshark_command(CLI::App& app);  // wireshark.cpp: install the extcap for Wireshark
 Command add_extcap_command(CLI::App& app);     // extcap.cpp: what Wireshark runs to capture
 
 // Whether Wireshark runs this program as an extcap (extcap.cpp): its arguments (--capture,
 // --extcap-*) or the name drivetap-extcap.
 bool wireshark_called(int argc, char** argv);
-
-// wireshark.cpp: drivetap's Wireshark plugin printed or installed.
-Command add_wireshark_command(CLI::App& app);
 
 }  // namespace drivetap::app

@@ -56,6 +56,7 @@ int main(int argc, char** argv) {
       add_decode_command(app),  add_read_command(app),      add_diagnose_command(app),
       add_capture_command(app), add_generate_command(app),  add_profiles_command(app),
       add_fields_command(app),  add_wireshark_command(app), add_extcap_command(app),
+      add_report_command(app),
   };
   // A first word that is no command and no option: the closest command is suggested.
   if (argc > 1 && argv[1][0] != '-') {

@@ -562,27 +562,9 @@ void DiagnosisSink::on_anomaly(const Anomaly& a) {
   }
 }
 
-Diagnosis diagnose_capture(ByteSource& source, const PipelineOptions& options,
-                           ChannelTable& channels, const volatile std::sig_atomic_t* stop) {
-  Diagnosis result;
-  LineEvidence& evidence = result.evidence;
-  DiagnosisSink sink(evidence, options.timing);
-  {
-    Pipeline pipeline(options, channels, sink);
-    ByteEvent e;
-    while (source.next(e)) {
-      for (const Anomaly& a : source.take_findings()) pipeline.report(a);
-      pipeline.push(e);
-      evidence.count_character(e.flags);
-      if (stop && *stop) {
-        result.interrupted = true;
-        break;
-      }
-    }
-    pipeline.finish();
-  }
-  result.error = source.error();
-  result.stats = sink.stats();
+void add_capture_evidence(LineEvidence& evidence, const ByteSource& source,
+                          const PipelineOptions& options, const ChannelTable& channels,
+                          const DiagnosisSink& sink) {
   for (const auto& [channel, carries] : sink.foreign())
     evidence.foreign_lines.emplace_back(
         channel < channels.size() ? channels.at(channel).name : fmt::format("{}", channel),
@@ -610,6 +592,30 @@ Diagnosis diagnose_capture(ByteSource& source, const PipelineOptions& options,
     for (const LineEvidence::Channel& c : evidence.channels)
       if (c.settings != evidence.channels.front().settings) evidence.settings = "per channel";
   }
+}
+
+Diagnosis diagnose_capture(ByteSource& source, const PipelineOptions& options,
+                           ChannelTable& channels, const volatile std::sig_atomic_t* stop) {
+  Diagnosis result;
+  LineEvidence& evidence = result.evidence;
+  DiagnosisSink sink(evidence, options.timing);
+  {
+    Pipeline pipeline(options, channels, sink);
+    ByteEvent e;
+    while (source.next(e)) {
+      for (const Anomaly& a : source.take_findings()) pipeline.report(a);
+      pipeline.push(e);
+      evidence.count_character(e.flags);
+      if (stop && *stop) {
+        result.interrupted = true;
+        break;
+      }
+    }
+    pipeline.finish();
+  }
+  result.error = source.error();
+  result.stats = sink.stats();
+  add_capture_evidence(evidence, source, options, channels, sink);
   result.verdicts = diagnose(evidence);
   return result;
 }

@@ -142,6 +142,13 @@ class DiagnosisSink final : public Sink {
   std::map<ChannelId, std::string> foreign_;
 };
 
+// What a capture adds to `evidence` beyond its records, once its pipeline has finished: the lines
+// detection found no drive protocol on, the line settings, a logic capture's sample evidence
+// (diagnose_capture() calls it; `drivetap report` once per capture).
+void add_capture_evidence(LineEvidence& evidence, const ByteSource& source,
+                          const PipelineOptions& options, const ChannelTable& channels,
+                          const DiagnosisSink& sink);
+
 // A whole diagnosis: the source (read_header() done) through the pipeline, nothing printed.
 struct Diagnosis {
   LineEvidence evidence;

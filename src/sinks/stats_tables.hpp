@@ -46,6 +46,12 @@ class LogHistogram {
   // The nearest-rank percentile (0 < percent <= 100): the value at rank ceil(percent/100 * count),
   // within the resolution above; -1 when empty.
   [[nodiscard]] TimeNs percentile(int percent) const;
+  // Each bucket that holds values, in increasing order: visit(low, width, count) (ns).
+  template <class Visit>
+  void for_each_bucket(Visit visit) const {
+    for (std::size_t b = 0; b < counts_.size(); ++b)
+      if (counts_[b] != 0) visit(bucket_low(b), bucket_width(b), counts_[b]);
+  }
 
   static std::size_t bucket_of(std::uint64_t value);
   static std::uint64_t bucket_low(std::size_t bucket);

@@ -1,0 +1,266 @@
+// `drivetap report CAPTURE... -o report.html`: one self-contained HTML page with plots of one or
+// more captures on one timeline (timing per docs/protocols.md §1; the page: docs/reference.md
+// "Report"). One pass of the pipeline per capture feeds the report's sink, the -z stations and
+// gaps counters and the diagnosis beside it; the page is written to a temporary file in the
+// target's directory and renamed over it at the end, so that no half-written page is left.
+#include <fmt/format.h>
+#include <CLI/CLI.hpp>
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "app/commands.hpp"
+#include "app/common.hpp"
+#include "app/inputs.hpp"
+#include "app/progress.hpp"
+#include "app/stop_signals.hpp"
+#include "diagnose/line_diagnosis.hpp"
+#include "filter/display_filter.hpp"
+#include "filter/filter_sink.hpp"
+#include "pipeline/pipeline.hpp"
+#include "sinks/json_sink.hpp"
+#include "sinks/report_sink.hpp"
+#include "sinks/stats_tables.hpp"
+#include "sources/read_ahead.hpp"
+
+namespace drivetap::app {
+namespace {
+
+// The options of `read` that do nothing for a page: removed from `report`'s command line.
+constexpr const char* kNotForReport[] = {
+    "-T", "-V", "--events", "--no-summary", "--stats", "-w", "--pcap", "--plain", "--dlt",
+    "-c", "-q", "-t",       "--color",      "-x",      "-e", "-E",     "-z"};
+
+// The temporary page until it is renamed over the target; removed when the run ends without
+// that (die() exits through std::exit, which runs atexit handlers).
+std::string g_temporary_page;
+void remove_temporary_page() {
+  if (!g_temporary_page.empty()) ::unlink(g_temporary_page.c_str());
+  g_temporary_page.clear();
+}
+
+// Whether a capture whose first byte is at `first` has wall-clock times (as `read` decides).
+bool is_wall_clock_time(TimeNs first) {
+  return first >= 1'000'000'000 * kNsPerSecond;
+}
+
+bool is_regular_file(const std::string& path) {
+  struct stat st {};
+  return path != "-" && ::stat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode);
+}
+
+// The diagnosis sink reads no field tree or info line: it asks for none.
+class DiagnosisWithoutDetail final : public Sink {
+ public:
+  explicit DiagnosisWithoutDetail(Sink& inner) : inner_(inner) {}
+  void on_frame(const Message& m) override { inner_.on_frame(m); }
+  void on_noise(const Frame& f) override { inner_.on_noise(f); }
+  void on_anomaly(const Anomaly& a) override { inner_.on_anomaly(a); }
+  void on_transaction(const Transaction& t) override { inner_.on_transaction(t); }
+  void on_event(const BusEvent& e) override { inner_.on_event(e); }
+  void on_summary(const Stats& s) override { inner_.on_summary(s); }
+  bool flush() override { return inner_.flush(); }
+  [[nodiscard]] SinkNeeds needs() const override {
+    SinkNeeds n;
+    n.detail = n.fields = false;
+    return n;
+  }
+
+ private:
+  Sink& inner_;
+};
+
+// The verdicts as the page shows them.
+std::string verdicts_json(const LineEvidence& e, const std::vector<Verdict>& verdicts) {
+  std::string out = fmt::format(R"({{"line":{},"source":"{}","verdicts":[)", json_quote(e.settings),
+                                e.from_samples ? "samples" : "bytes");
+  for (std::size_t i = 0; i < verdicts.size(); ++i)
+    out += fmt::format(R"({}{{"id":"{}","title":{},"evidence":{},"fix":{},"benign":{}}})",
+                       i ? "," : "", verdicts[i].id, json_quote(verdicts[i].title),
+                       json_quote(verdicts[i].evidence), json_quote(verdicts[i].fix),
+                       verdicts[i].benign);
+  out += "]}";
+  return out;
+}
+
+// Opens the temporary page beside `target` (same directory: the rename is atomic).
+std::FILE* open_temporary_page(const std::string& target) {
+  const std::filesystem::path path(target);
+  const std::filesystem::path dir = path.has_parent_path() ? path.parent_path() : ".";
+  std::string pattern = (dir / ("." + path.filename().string() + ".XXXXXX")).string();
+  const int fd = ::mkstemp(pattern.data());
+  if (fd < 0) die(fmt::format("-o {}: cannot create: {}", target, std::strerror(errno)));
+  g_temporary_page = pattern;
+  // mkstemp makes it private (0600): a page is as readable as any file the user makes.
+  const mode_t mask = ::umask(0);
+  ::umask(mask);
+  ::fchmod(fd, 0666 & ~mask);
+  std::FILE* file = ::fdopen(fd, "w");
+  if (!file) die(fmt::format("-o {}: cannot create: {}", target, std::strerror(errno)));
+  return file;
+}
+
+int run_report(const CommonOptions& o, const std::vector<std::string>& paths) {
+  if (paths.empty()) die("report: give one or more capture files (drivetap report FILE... -o F)");
+  if (o.output.empty()) die("report: give the page's file: -o report.html");
+  std::vector<std::pair<std::string, std::string>> files;
+  for (const std::string& path : paths) files.emplace_back("input", path);
+  files.emplace_back("-o", o.output);
+  refuse_shared_files(files);
+  // A bad filter stops the run before any file is made.
+  if (!o.display_filter.empty()) {
+    std::string error;
+    if (!DisplayFilter::compile(o.display_filter, &error)) die("-Y: " + error);
+  }
+  catch_stop_signals();
+  std::atexit(remove_temporary_page);
+  const bool to_stdout = o.output == "-";
+  std::FILE* page = to_stdout ? stdout : open_temporary_page(o.output);
+
+  ChannelTable channels;  // one for all captures: a channel of the same name is the same line
+  ReportSink report(channels);
+  LineEvidence evidence;
+  std::string settings_seen;
+  TimeNs timeline_end = -1;  // the latest byte so far, on the captures' clock
+  for (const std::string& path : paths) {
+    InputFile in;
+    int input_fd = -1;
+    std::unique_ptr<ByteSource> source = open_source(o, path, in, channels, &input_fd);
+    const PipelineOptions p = start_source(o, *source);
+    StatsTablesSink tables(
+        channels, p.timing, true,
+        {{StatisticKind::stations, kNsPerSecond}, {StatisticKind::gaps, kNsPerSecond}});
+    DiagnosisSink diagnosis(evidence, p.timing);
+    DiagnosisWithoutDetail diagnosis_light(diagnosis);
+    std::optional<DisplayFilterSink> filtered;
+    if (!o.display_filter.empty()) {
+      std::string error;
+      filtered.emplace(*DisplayFilter::compile(o.display_filter, &error), report, channels,
+                       p.timing.character_time, true);
+    }
+    TeeSink tee;
+    tee.add(filtered ? static_cast<Sink*>(&*filtered) : &report);
+    tee.add(&tables);
+    tee.add(&diagnosis_light);
+    Progress progress(o, in.name, input_fd);
+    bool begun = false;
+    bool interrupted = false;
+    const auto begin = [&](TimeNs first) {
+      ReportCapture c;
+      c.file = in.name;
+      c.format = input_format_name(in.format);
+      c.line = p.serial.to_string();
+      c.timing = p.timing;
+      c.wall_clock = first >= 0 && is_wall_clock_time(first);
+      // A capture without wall-clock times follows the one before on the timeline, a second on.
+      if (!c.wall_clock && timeline_end >= 0) c.shift = timeline_end + kNsPerSecond - first;
+      report.begin_capture(std::move(c));
+      begun = true;
+    };
+    {
+      Pipeline pipeline(p, channels, tee);
+      RunBatch batch;
+      std::optional<ReadAhead> ahead;
+      if ((in.format == InputFormat::pcapng || in.format == InputFormat::pcap) &&
+          is_regular_file(path))
+        ahead.emplace(*source);
+      while (ahead ? ahead->next_chunk(batch) : (batch.clear(), source->append_runs(batch))) {
+        if (!begun && !batch.empty()) begin(batch[0].first);
+        // The UART evidence of the diagnosis: every character and its marks.
+        evidence.characters += batch.byte_count();
+        for (std::size_t k = 0; k < batch.size(); ++k) {
+          const ByteRun run = batch[k];
+          for (const std::uint8_t flags : run.flags) {
+            if (flags & kUartParityError) ++evidence.parity_errors;
+            if (flags & kUartFramingError) ++evidence.framing_errors;
+            if (flags & kUartBreak) ++evidence.breaks;
+          }
+        }
+        if (!ahead)
+          for (const Anomaly& a : source->take_findings()) pipeline.report(a);
+        pipeline.push_runs(batch);
+        if (ahead)
+          for (std::size_t c = 0; c < pipeline.channel_count(); ++c)
+            ahead->precheck_with(static_cast<ChannelId>(c),
+                                 pipeline.precheck_decoder_of(static_cast<ChannelId>(c)));
+        if (g_stop) {
+          interrupted = true;
+          break;
+        }
+        progress.update(pipeline.stats().frames);
+      }
+      interrupted = interrupted || g_stop;
+      ahead.reset();
+      progress.clear();
+      if (!begun) begin(-1);
+      pipeline.finish();
+    }
+    timeline_end = std::max(timeline_end, report.timeline_end());
+    report.end_capture(tables.tables(true));
+    add_capture_evidence(evidence, *source, p, channels, diagnosis);
+    if (settings_seen.empty()) settings_seen = evidence.settings;
+    if (evidence.settings != settings_seen) settings_seen = "per capture";
+    for (const std::string& note : source->notes()) say(note);
+    const std::string error = source->error();
+    source.reset();
+    close_input(in);
+    // A damaged capture or a stop: no page (a page of part of the captures would pass for all).
+    if (interrupted) die("interrupted; no page written", 130);
+    if (!error.empty()) die(error, 1);
+  }
+  evidence.settings = settings_seen;
+  const std::vector<Verdict> verdicts = diagnose(evidence);
+  const bool written = report.write_page(page, verdicts_json(evidence, verdicts));
+  if (to_stdout) {
+    if (!written) die("standard output: write failed", 1);
+    return 0;
+  }
+  const bool closed = std::fflush(page) == 0 && ::fsync(::fileno(page)) == 0;
+  const int write_errno = errno;
+  if (std::fclose(page) != 0 || !written || !closed)
+    die(fmt::format("-o {}: write failed: {}", o.output, std::strerror(write_errno)), 1);
+  if (std::rename(g_temporary_page.c_str(), o.output.c_str()) != 0)
+    die(fmt::format("-o {}: cannot create: {}", o.output, std::strerror(errno)), 1);
+  g_temporary_page.clear();
+  return 0;
+}
+
+}  // namespace
+
+Command add_report_command(CLI::App& app) {
+  auto o = std::make_shared<CommonOptions>();
+  auto paths = std::make_shared<std::vector<std::string>>();
+  CLI::App* command = app.add_subcommand(
+      "report",
+      "Draw one or more captures as one self-contained HTML page with plots: drive telemetry, "
+      "latency per station, bus load, gaps, findings, the diagnosis");
+  add_common_options(command, *o, kReadCommand);
+  for (const char* name : kNotForReport)
+    for (CLI::Option* option : command->get_options())
+      if (option->check_name(name)) {
+        command->remove_option(option);
+        break;
+      }
+  if (CLI::Option* output = command->get_option_no_throw("-o"))
+    output->description("The page to write (HTML), e.g. report.html; '-' for stdout");
+  command->add_option("files", *paths, "Capture files, on one timeline in the order given");
+  command->add_option("-r,--read-file", *paths, "A capture file, as tshark -r FILE (repeatable)")
+      ->allow_extra_args(false);
+  return {command, [o, paths] {
+            refuse_idle_options(*o, kReadCommand);
+            return run_report(*o, *paths);
+          }};
+}
+
+}  // namespace drivetap::app
