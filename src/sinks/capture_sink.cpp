@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <cstring>
 #include <iterator>
 #include <optional>
@@ -92,13 +93,12 @@ std::string comment_fields_line(const Message& m) {
     line += '=';
     append_escaped(line, a.detail);
   }
-  thread_local std::vector<DriveFieldValue> values;
-  drive_field_values(m, values);
-  for (const DriveFieldValue& v : values) {
+  std::array<char, kDriveNumberChars> number;
+  for (const DriveValue& v : m.drive_values) {
     line += " drive.";
     line += v.id;
     line += '=';
-    append_escaped(line, v.text);
+    append_escaped(line, drive_value_text(v, number));
   }
   if (!m.drive_info.empty()) {
     line += " drive=";

@@ -98,10 +98,11 @@ class CaptureSink final : public PacketSink {
   void on_event(const BusEvent& event) override;
   bool flush() override;
   [[nodiscard]] std::uint64_t packets() const { return packets_; }
-  // The comment's fields line needs the field tree (not with --plain: no comments).
+  // The comment's fields line needs the field tree and the drive values (not with --plain: no
+  // comments).
   [[nodiscard]] SinkNeeds needs() const override {
     SinkNeeds n = PacketSink::needs();
-    n.fields = !options_.plain;
+    n.fields = n.drive_values = !options_.plain;
     return n;
   }
   // `--dlt user0` and a telegram Wireshark has no dissector for at link type 147: the one line

@@ -6,9 +6,12 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
+#include <charconv>
 #include <cmath>
 
 #include "core/format.hpp"
+#include "drive/profile.hpp"
 #include "sinks/json_sink.hpp"
 #include "sinks/report_assets.hpp"
 
@@ -27,9 +30,9 @@ std::string number(double v) {
 }
 
 // The drive values that are a quantity over time, not a key or a word.
-bool is_telemetry(const DriveFieldValue& v) {
-  return v.is_number && v.id != "station" && v.id != "running" && v.id != "fault" &&
-         v.id != "status_word" && v.id != "control_word";
+bool is_telemetry(const DriveValue& v) {
+  return v.kind != DriveValue::Kind::text && v.id != "station" && v.id != "running" &&
+         v.id != "fault" && v.id != "status_word" && v.id != "control_word";
 }
 
 // Hands each group of `factor` cells of `series` (merged) to `emit(column, cell)`, up to the
@@ -50,11 +53,12 @@ void for_each_column(const ColumnSeries<Cell>& series, TimeNs width, Emit emit) 
 ReportSink::ReportSink(const ChannelTable& channels) : channels_(channels) {}
 
 SinkNeeds ReportSink::needs() const {
-  // Records and transactions, without field trees or info lines: the drive values are read from
-  // the message through its profile (drive_field_values()).
+  // Records and transactions, without field trees or info lines, with the drive values the
+  // pipeline read (Message::drive_values).
   SinkNeeds n;
   n.detail = false;
   n.fields = false;
+  n.drive_values = true;
   return n;
 }
 
@@ -121,17 +125,22 @@ void ReportSink::on_frame(const Message& m) {
   d.channel = m.frame.channel;
   d.profile = m.drive_read_with->id;
   d.name = m.drive_read_with->name;
-  drive_field_values(m, values_);
-  for (const DriveFieldValue& v : values_) {
+  std::array<char, kDriveNumberChars> buffer;
+  for (const DriveValue& v : m.drive_values) {
     if (!is_telemetry(v)) continue;
+    // The number a reader of the value's text gets (the profile's unit and scale).
+    const std::string_view text = drive_value_text(v, buffer);
+    double value = 0;
+    std::from_chars(text.data(), text.data() + text.size(), value);
     auto series = std::find_if(d.series.begin(), d.series.end(),
                                [&v](const auto& s) { return s.first == v.id; });
     if (series == d.series.end()) {
-      d.series.emplace_back(v.id, ColumnSeries<MinMax>{});
+      d.series.emplace_back(std::string(v.id), ColumnSeries<MinMax>{});
       series = d.series.end() - 1;
     }
-    series->second.at(t).add(v.value);
-    if (!v.unit.empty()) d.units[v.id] = v.unit;
+    series->second.at(t).add(value);
+    if (v.kind == DriveValue::Kind::reg && v.reg && !v.reg->unit.empty())
+      d.units[std::string(v.id)] = v.reg->unit;
   }
   std::uint8_t bits = 0;
   if (d.fault_code || d.fault_word) bits |= kFault;

@@ -205,8 +205,7 @@ class ReportSink final : public Sink {
   int last_frame_address_ = -1;
   std::uint64_t last_request_ = 0;
   int last_request_address_ = -1;
-  std::vector<DriveFieldValue> values_;  // a frame's drive values, storage reused
-  Stats totals_;                         // the captures' summaries, added up
+  Stats totals_;  // the captures' summaries, added up
   std::uint64_t summaries_ = 0;
 };
 
