@@ -26,6 +26,42 @@ drivetap, root, part = sys.argv[1], sys.argv[2], sys.argv[3]
 screenshot_out = sys.argv[5] if len(sys.argv) > 5 and sys.argv[4] == "--screenshot" else None
 failures = []
 
+SHARED_IDS = {"station", "family", "setpoint", "output_frequency", "output_current", "output_voltage",
+              "running", "direction", "fault", "fault_name", "status_word", "control_word"}
+
+
+def register_field_id(name):
+    """A register's drive.* id made from its name, as the profile loader makes it."""
+    return "_".join(w.lower() for w in re.split(r"[^A-Za-z0-9]+", name) if w)
+
+
+def not_quantities():
+    """Per profile id: the register ids the report does not draw (a role not under a shared id,
+    bits, an enum or no unit), read from the profiles themselves (dissectors/profiles/*.toml)."""
+    import tomllib
+    out = {}
+    folder = os.path.join(root, "dissectors", "profiles")
+    for name in sorted(os.listdir(folder)):
+        if not name.endswith(".toml"):
+            continue
+        with open(os.path.join(folder, name), "rb") as f:
+            profile = tomllib.load(f)
+        ids, skipped = [], set()
+        for kind in ("register", "parameter"):
+            for r in profile.get(kind, []):
+                rid = r.get("id") or register_field_id(r["name"])
+                if rid in ids:  # a name twice: told apart by its number or address
+                    rid += "_" + (register_field_id(r["number"]) if kind == "parameter" else "%04x" % r["address"])
+                ids.append(rid)
+                role = r.get("role", "") and rid not in SHARED_IDS
+                if role or r.get("bits") or r.get("enum") or not r.get("unit"):
+                    skipped.add(rid)
+        out[profile["drive"]["id"]] = skipped
+    return out
+
+
+NOT_QUANTITIES = not_quantities()
+
 
 def check(ok, what):
     if not ok:
@@ -117,14 +153,19 @@ def check_capture_data(capture, tmp):
     for row in data["findings"]["rows"]:
         check(sum(c[1] for c in row["cells"]) == row["count"], f"{name}: heatmap cells of {row['kind']}")
 
-    # Drive values: each series' extremes and count are those of the frames' drive values.
+    # Drive values: each series' extremes and count are those of the frames' drive values that are
+    # quantities: numbers, and a register's own id only when its profile gives it a unit and no
+    # role, bits or enum (a role's value is drawn under its shared id or as states and events).
     values = {}
     for f in frames:
         d = f.get("drive")
         if not d:
             continue
+        not_drawn = NOT_QUANTITIES.get(d["family"], set())
         for vid, v in d.get("values", {}).items():
             if vid in ("running", "fault", "status_word", "control_word") or not isinstance(v.get("value"), (int, float)):
+                continue
+            if vid in not_drawn or ("raw" in v and "unit" not in v):
                 continue
             values.setdefault((d["station"], vid), []).append(v["value"])
     series = {}

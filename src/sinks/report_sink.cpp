@@ -31,8 +31,18 @@ std::string number(double v) {
 
 // The drive values that are a quantity over time, not a key or a word.
 bool is_telemetry(const DriveValue& v) {
-  return v.kind != DriveValue::Kind::text && v.id != "station" && v.id != "running" &&
-         v.id != "fault" && v.id != "status_word" && v.id != "control_word";
+  if (v.kind == DriveValue::Kind::text) return false;
+  if (v.kind == DriveValue::Kind::reg && v.reg) {
+    const RegisterDef& reg = *v.reg;
+    // A register with a role is drawn under its shared id (setpoint, output_frequency, ...) or
+    // as the state bands and events; bits, enumerated codes and words without a unit are not
+    // quantities worth a line.
+    if (reg.role != RegisterRole::none && !reg.shared_field_id && v.id == reg.field_id)
+      return false;
+    if (!reg.bits.empty() || !reg.enum_name.empty() || reg.unit.empty()) return false;
+  }
+  return v.id != "station" && v.id != "running" && v.id != "fault" && v.id != "status_word" &&
+         v.id != "control_word";
 }
 
 // Hands each group of `factor` cells of `series` (merged) to `emit(column, cell)`, up to the
