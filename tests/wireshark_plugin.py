@@ -196,6 +196,47 @@ def main():
             fail(f"Danfoss FC packets carry {sorted(tags)} bytes of tags (at most 32 expected)")
         print(f"packet size: a Danfoss FC packet is its telegram + {sorted(tags)} bytes of tags")
 
+        # 4b. the field tree has drivetap's shape (-V's indentation): each field under its parent.
+        import re
+        import xml.etree.ElementTree as ET
+        plugin_protos = {name for proto_id, name in PROTOCOLS.items() if name != "mbrtu"}
+        shapes = {}  # frame number -> [(id, depth)] of drivetap -V
+        current = None
+        for line in run([drivetap, "read", capture, "-V"]).stdout.splitlines():
+            head = re.match(r"^ *(\d+) +\d+\.\d+ ", line)
+            if head:
+                current = shapes.setdefault(int(head.group(1)), [])
+                continue
+            node = re.match(r"^        \[[^\]]*\]( +)(\S+)", line)
+            if node and current is not None:
+                current.append((node.group(2), node.start(2)))
+        for n, nodes in shapes.items():
+            if nodes:
+                top = min(col for _, col in nodes)
+                shapes[n] = [(fid, (col - top) // 2) for fid, col in nodes]
+        pdml = tshark(home, capture, "-Y", " || ".join(sorted(plugin_protos)), "-T", "pdml")
+        checked = nested = 0
+        for packet in ET.fromstring(pdml).iter("packet"):
+            number = int(next(f.get("show") for f in packet.iter("field")
+                              if f.get("name") == "frame.number"))
+            theirs = []
+
+            def walk(element, depth):
+                for child in element.findall("field"):
+                    theirs.append((child.get("name"), depth))
+                    walk(child, depth + 1)
+            for proto in packet.findall("proto"):
+                if proto.get("name") in plugin_protos:
+                    walk(proto, 0)
+            if theirs != shapes.get(number):
+                fail(f"packet {number}: tree {theirs[:6]}..., drivetap -V {shapes.get(number, [])[:6]}...")
+                break
+            checked += 1
+            nested += any(depth > 0 for _, depth in theirs)
+        if checked < 100 or nested == 0:
+            fail(f"tree shape: only {checked} packets ({nested} with nested fields) compared")
+        print(f"tree: {checked} packets have drivetap's field tree ({nested} nested)")
+
         # 5. without the plugin: opens, each comment starts with the decode.
         stock = rows(tshark(empty, capture, "-T", "fields", "-e", "frame.number", "-e",
                             "frame.comment"))

@@ -122,7 +122,9 @@ local function drivetap_comment()
   for _, fi in ipairs({ comment_field() }) do
     local text = tostring(fi.value)
     local decode, line = text:match("^([^\n]*)\n(drivetap/[^\n]*)")
-    if line and line:match("^drivetap/(%d+)") == FORMAT_VERSION then
+    -- (Each version only adds to the one before: every earlier one reads.)
+    local version = line and tonumber(line:match("^drivetap/(%d+)"))
+    if version and version <= tonumber(FORMAT_VERSION) then
       local items = {}
       local first = true
       for item in line:gmatch("%S+") do
@@ -135,9 +137,9 @@ local function drivetap_comment()
           local id, value = item:match("^%*([^=]*)=?(.*)$")
           items[#items + 1] = { kind = "event", id = id, value = unescape(value) }
         else
-          local id, offset, length, rest = item:match("^([^@=]+)@(%d+)%+(%d+)(.*)$")
+          local depth, id, offset, length, rest = item:match("^(>*)([^@=>]+)@(%d+)%+(%d+)(.*)$")
           if id then
-            items[#items + 1] = { kind = "field", id = id, offset = tonumber(offset),
+            items[#items + 1] = { kind = "field", id = id, depth = #depth, offset = tonumber(offset),
                                   length = tonumber(length),
                                   value = rest:sub(1, 1) == "=" and unescape(rest:sub(2)) or nil }
           else
@@ -160,22 +162,23 @@ local function add_field(tree, tvb, spec, item)
   end
   local ft, value = spec.ftype, item.value
   if ft == ftypes.NONE or value == nil then
-    if range then tree:add(spec.field, range) else tree:add(spec.field) end
+    if range then return tree:add(spec.field, range) else return tree:add(spec.field) end
   elseif ft == ftypes.STRING then
-    if range then tree:add(spec.field, range, value) else tree:add(spec.field, value) end
+    if range then return tree:add(spec.field, range, value) else return tree:add(spec.field, value) end
   elseif ft == ftypes.BYTES then
     if range and #value == 2 * item.length then
-      tree:add(spec.field, range)
+      return tree:add(spec.field, range)
     elseif #value > 0 then
       -- (Modbus ASCII: the bytes are the hex text of the span; shown decoded.)
-      tree:add(spec.field, ByteArray.new(value):tvb(spec.name)())
+      return tree:add(spec.field, ByteArray.new(value):tvb(spec.name)())
     end
   else
     local n = tonumber(value) or 0
     if spec.shift > 0 then n = n * 2 ^ spec.shift end
     if ft == ftypes.BOOLEAN then n = n ~= 0 and 1 or 0 end
-    if range then tree:add(spec.field, range, n) else tree:add(spec.field, n) end
+    if range then return tree:add(spec.field, range, n) else return tree:add(spec.field, n) end
   end
+  return nil
 end
 
 -- A protocol Wireshark has no dissector for: found by exported_pdu under its name.
@@ -191,9 +194,15 @@ for _, p in pairs(PROTOCOLS) do
                  or decode
     if rest:sub(1, 9) == "broadcast" then pinfo.cols.protocol = p.label .. " broadcast" end
     pinfo.cols.info = rest
+    -- The tree as drivetap's (-V): a field under the last one a level up.
+    local parents = { [0] = subtree }
     for _, item in ipairs(items) do
       local spec = item.kind == "field" and p.by_id[item.id]
-      if spec then add_field(subtree, tvb, spec, item) end
+      local parent = spec and parents[math.min(item.depth or 0, #parents)]
+      if spec then
+        parents[item.depth + 1] = add_field(parent, tvb, spec, item) or parent
+        for k = item.depth + 2, #parents do parents[k] = nil end
+      end
     end
     return tvb:len()
   end

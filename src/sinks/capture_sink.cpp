@@ -68,7 +68,9 @@ std::string_view finding_id_of(const Anomaly& a) {
 std::string comment_fields_line(const Message& m) {
   std::string line(kCommentFieldsVersion);
   for (const FieldNode& node : m.fields) {
-    fmt::format_to(std::back_inserter(line), FMT_COMPILE(" {}@{}+{}"), node.desc->id, node.offset,
+    line += ' ';
+    line.append(node.depth, '>');  // one '>' per level under the top: the tree's shape
+    fmt::format_to(std::back_inserter(line), FMT_COMPILE("{}@{}+{}"), node.desc->id, node.offset,
                    node.length);
     switch (node.desc->type) {
       case FieldType::group:

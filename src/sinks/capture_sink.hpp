@@ -67,11 +67,12 @@ std::FILE* open_output_file(const std::string& path);
 void cut_back_to_last_line(std::FILE* file);
 
 // The packet comment's second line, machine-readable for drivetap's Wireshark plugin
-// (docs/formats.md "Packet comments"): "drivetap/1", then space-separated items, each field of the
-// tree as `id@offset+length=value`, each finding as `!id=detail`, each drive value as
-// `drive.id=value`, the drive annotation as `drive=text`, each drive event read from the frame as
+// (docs/formats.md "Packet comments"): "drivetap/2", then space-separated items, each field of the
+// tree as `id@offset+length=value` after one '>' per level, each finding as `!id=detail`, each
+// drive value as `drive.id=value`, the drive annotation as `drive=text`, each drive event read from
+// the frame as
 // `*kind=detail`; values percent-escaped.
-inline constexpr std::string_view kCommentFieldsVersion = "drivetap/1";
+inline constexpr std::string_view kCommentFieldsVersion = "drivetap/2";
 std::string comment_fields_line(const Message& m);
 
 // What the capture sinks (one file, or a ring of them) share: they write packets, and neither
