@@ -139,7 +139,7 @@ def drivetap_fields(drivetap):
             fields[fid] = (name, ftype, proto, base, int(bitmask, 16))
         else:
             fail(f"line neither P nor F: {line!r}")
-    if len(fields) < 80 or len(layers) != 6:
+    if len(fields) < 80 or len(layers) != 7:
         fail(f"{len(fields)} fields in {len(layers)} layers: too few")
     return fields, layers
 
@@ -247,7 +247,7 @@ def record_value_fits(value, ftype, bitmask):
 def check_json(drivetap):
     fields, _ = drivetap_fields(drivetap)
     record_keys = {fid for fid, f in fields.items() if f[2] == "drivetap"}
-    seen, seen_keys = set(), set()
+    seen, seen_keys, seen_drive = set(), set(), set()
     with tempfile.TemporaryDirectory() as work:
         for label, command, stdin in json_inputs(drivetap, work):
             cwd = os.path.dirname(label) if os.path.isabs(label) else None
@@ -262,6 +262,15 @@ def check_json(drivetap):
                         if not record_value_fits(record[key], ftype, bitmask):
                             fail(f"{label}: frame {record.get('n')}: {key} = {record[key]!r} "
                                  f"is no {ftype}")
+                drive = record.get("drive")
+                if isinstance(drive, dict):  # the drive values: drive.<id>, of their kind
+                    for vid, v in drive.get("values", {}).items():
+                        fid = "drive." + vid
+                        seen_drive.add(fid)
+                        if fid not in fields:
+                            fail(f"{label}: frame {record.get('n')}: {fid} is not listed")
+                        elif fields[fid][1] != "FT_STRING" and not isinstance(v["value"], (int, float)):
+                            fail(f"{label}: frame {record.get('n')}: {fid} = {v['value']!r} is no {fields[fid][1]}")
                 for fid, value in record.get("fields", {}).items():
                     seen.add(fid)
                     if fid not in fields:
@@ -275,7 +284,10 @@ def check_json(drivetap):
         fail(f"only {len(seen)} ids printed over all inputs")
     if seen_keys != record_keys:
         fail(f"record fields no frame record has: {sorted(record_keys - seen_keys)}")
-    print(f"json: {len(seen)} ids printed, all listed; {len(seen_keys)} record keys of their type")
+    if len(seen_drive) < 20:
+        fail(f"only {len(seen_drive)} drive.* ids printed over all inputs")
+    print(f"json: {len(seen)} ids printed, all listed; {len(seen_keys)} record keys of their type; "
+          f"{len(seen_drive)} drive.* ids, all listed")
 
 
 def tshark_frames(pcapng):

@@ -7,8 +7,10 @@
 #include <string>
 
 #include "app/commands.hpp"
+#include "app/common.hpp"
 #include "core/field.hpp"
 #include "core/record_fields.hpp"
+#include "drive/drive_fields.hpp"
 
 namespace drivetap::app {
 namespace {
@@ -30,9 +32,24 @@ void print_layer(const FieldProtocol& layer) {
                one_column(d->blurb));
 }
 
+// The drive values the built-in profiles give (`drive.*`), as the Wireshark plugin types them.
+void print_drive_layer() {
+  fmt::print("P\tdrivetap drive values\tdrive\n");
+  for (const DriveFieldListing& f : drive_field_listing(loaded_drive_profiles(CommonOptions{}))) {
+    const bool word = f.id.ends_with("_word");
+    const auto [type, base] = f.kind == DriveFieldKind::text ? std::pair("FT_STRING", "")
+                              : f.kind == DriveFieldKind::integer
+                                  ? std::pair("FT_UINT32", word ? "BASE_HEX" : "BASE_DEC")
+                                  : std::pair("FT_DOUBLE", "");
+    fmt::print("F\t{}\tdrive.{}\t{}\tdrive\t{}\t0x0\t{}\n", one_column(f.name), f.id, type, base,
+               one_column(f.blurb));
+  }
+}
+
 int run_fields() {
   print_layer(kRecordFieldProtocol);
   for (const FieldProtocol* layer : all_field_protocols()) print_layer(*layer);
+  print_drive_layer();
   return 0;
 }
 

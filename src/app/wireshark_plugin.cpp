@@ -292,23 +292,17 @@ std::string wireshark_plugin_lua(std::span<const DriveProfile* const> profiles) 
       "  DRIVETAP_FIELDS[#DRIVETAP_FIELDS + 1] = f\n"
       "  VALUES[id] = { field = f, text = text }\n"
       "end\n";
-  for (const std::string& id : drive_field_ids(profiles)) {
-    const std::string full = "drive." + id;
-    switch (drive_field_kind(id)) {
-      case DriveFieldKind::text:
-        fmt::format_to(out, "value({0}, ProtoField.string({0}, {1}), true)\n", lua_string(full),
-                       lua_string(id));
-        break;
-      case DriveFieldKind::integer:
-        fmt::format_to(out, "value({0}, ProtoField.uint32({0}, {1}, {2}), false)\n",
-                       lua_string(full), lua_string(id),
-                       id.ends_with("_word") ? "base.HEX" : "base.DEC");
-        break;
-      case DriveFieldKind::number:
-        fmt::format_to(out, "value({0}, ProtoField.double({0}, {1}), false)\n", lua_string(full),
-                       lua_string(id));
-        break;
-    }
+  for (const DriveFieldListing& f : drive_field_listing(profiles)) {
+    const std::string_view ftype = f.kind == DriveFieldKind::text      ? "STRING"
+                                   : f.kind == DriveFieldKind::integer ? "UINT32"
+                                                                       : "DOUBLE";
+    const std::string_view base = f.kind != DriveFieldKind::integer ? "nil"
+                                  : f.id.ends_with("_word")         ? "base.HEX"
+                                                                    : "base.DEC";
+    fmt::format_to(out,
+                   "value({0}, ProtoField.new({1}, {0}, ftypes.{2}, nil, {3}, nil, {4}), {5})\n",
+                   lua_string("drive." + f.id), lua_string(f.name), ftype, base,
+                   lua_string(f.blurb), f.kind == DriveFieldKind::text ? "true" : "false");
   }
   // Findings: each protocol's typed ids as they are, the generic kinds as drivetap.<kind>; keyed
   // by the id the fields line gives.

@@ -9,6 +9,10 @@
 #include <memory>
 #include <optional>
 #include <string_view>
+#include <tuple>
+#include <utility>
+
+#include <fmt/format.h>
 
 #include "drive/annotate.hpp"
 #include "drive/records.hpp"
@@ -23,6 +27,22 @@ constexpr std::string_view kSharedIds[] = {
     "running", "direction", "fault",    "fault_name",       "status_word",    "control_word",
 };
 constexpr int kSharedCount = static_cast<int>(std::size(kSharedIds));
+// Their names and descriptions, in the same order.
+constexpr std::pair<std::string_view, std::string_view> kSharedListing[] = {
+    {"Station", "The bound drive's address"},
+    {"Drive family", "The id of the drive profile that read the frame"},
+    {"Setpoint", "The drive's setpoint, in its profile's unit"},
+    {"Output frequency", "The drive's output frequency (or speed), in its profile's unit"},
+    {"Output current", "The drive's output current, in its profile's unit"},
+    {"Output voltage", "The drive's output voltage, in its profile's unit"},
+    {"Running", "1: the drive says it runs, 0: stopped"},
+    {"Direction", "forward or reverse, as the drive says"},
+    {"Fault code", "The drive's fault code (0: none)"},
+    {"Fault", "The fault code's name in the drive's manual"},
+    {"Status word", "The drive's status word, raw"},
+    {"Control word", "The control word the master wrote, raw"},
+};
+static_assert(std::size(kSharedListing) == std::size(kSharedIds));
 
 bool is_shared_id(std::string_view id) {
   for (const std::string_view s : kSharedIds)
@@ -271,6 +291,49 @@ DriveFieldKind drive_field_kind(std::string_view id) {
 
 void add_drive_field_source(std::span<const DriveProfile* const> profiles) {
   add_record_field_source(std::make_unique<DriveFieldSource>(profiles));
+}
+
+std::vector<DriveFieldListing> drive_field_listing(std::span<const DriveProfile* const> profiles) {
+  static constexpr std::string_view kKindWords[] = {
+      "holding register", "input register", "coil", "discrete input", "running value", "parameter"};
+  std::vector<DriveFieldListing> out;
+  for (std::string& id : drive_field_ids(profiles)) {
+    DriveFieldListing f;
+    f.kind = drive_field_kind(id);
+    f.id = std::move(id);
+    bool shared = false;
+    for (int i = 0; i < kSharedCount; ++i)
+      if (kSharedIds[i] == f.id) {
+        std::tie(f.name, f.blurb) = kSharedListing[i];
+        shared = true;
+      }
+    // A profile's own register: named as the first profile that has it names it (capitalised, as
+    // Wireshark names fields), with where it is read; the others that have it too are listed
+    // after it (each id once per profile).
+    for (const DriveProfile* p : profiles) {
+      if (shared) break;
+      for (const RegisterDef& r : p->registers) {
+        if (r.field_id != f.id) continue;
+        if (!f.name.empty()) {
+          f.blurb += fmt::format("; also {}", p->id);
+          break;
+        }
+        f.name = r.name;
+        if (!f.name.empty() && f.name[0] >= 'a' && f.name[0] <= 'z') f.name[0] -= 'a' - 'A';
+        const std::string_view kind = kKindWords[static_cast<std::size_t>(r.kind)];
+        if (r.kind == RegisterKind::parameter)
+          f.blurb = fmt::format("{}: {} {}", p->name, kind, r.number);
+        else if (r.kind == RegisterKind::running)
+          f.blurb = fmt::format("{}: {} {}", p->name, kind, r.address);
+        else
+          f.blurb = fmt::format("{}: {} 0x{:04X}", p->name, kind, r.address);
+        if (!r.unit.empty()) f.blurb += fmt::format(", in {}", r.unit);
+        break;
+      }
+    }
+    out.push_back(std::move(f));
+  }
+  return out;
 }
 
 }  // namespace drivetap

@@ -43,6 +43,16 @@ std::vector<std::string> drive_field_ids(std::span<const DriveProfile* const> pr
 enum class DriveFieldKind : std::uint8_t { integer, number, text };
 DriveFieldKind drive_field_kind(std::string_view id);
 
+// A `drive.*` id as `drivetap fields` and the Wireshark plugin list it (without `drive.`).
+struct DriveFieldListing {
+  std::string id;
+  std::string name;  // "Output frequency", or the register's name in its profile
+  DriveFieldKind kind = DriveFieldKind::number;
+  std::string blurb;  // where the value comes from
+};
+// drive_field_ids() with a name and a description each, in the same order.
+std::vector<DriveFieldListing> drive_field_listing(std::span<const DriveProfile* const> profiles);
+
 // Adds the `drive.*` source to the record fields (add_record_field_source), resolving the names
 // the given profiles can produce. Once per process; the profiles must outlive it.
 void add_drive_field_source(std::span<const DriveProfile* const> profiles);
