@@ -53,3 +53,5 @@ unit = next((k for k in ids if k.endswith("unit_id") or k.endswith(".addr")), id
 fc = next((k for k in ids if k.endswith("func_code") or k.endswith(".fc")), ids[1])
 print("%s == 2 && %s == 3" % (unit, fc))' <"$tmp/head.json")"
 row "read --stats -Y '$tree_filter'" -Y "$tree_filter"
+# A tree id no telegram head holds: every telegram is decoded.
+row "read --stats -Y 'modbus.word_cnt > 4'" -Y 'modbus.word_cnt > 4'

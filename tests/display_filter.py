@@ -446,7 +446,19 @@ def check_filters(args, path, recs, events, lines):
     return len(filters)
 
 
-def check_stats(args, path):
+# Filters --stats -Y judges on a telegram's head where it can (the tree ids the head holds).
+STATS_FILTERS = ["mbrtu.unit_id == 2 && modbus.func_code == 3", "modbus.func_code == 16",
+                 "mbascii.unit_id || danfoss_fc.addr == 1", "mbrtu.unit_id", "!mbrtu.unit_id",
+                 "modbus.func_code != 3 && addr <= 2"]
+
+
+def check_stats(args, path, recs):
+    for f in STATS_FILTERS:  # the count: the frames the JSON records select
+        want = sum(1 for r in recs if evaluate(parse(f), r))
+        code, out, err = run(["read"] + args + ["--stats", "-T", "json", "-Y", f, path])
+        got = json.loads(out.splitlines()[-1]).get("filter", {}).get("matched") if code == 0 else None
+        if got != want:
+            fail("%s: --stats -Y %r matched %s, the JSON records %d (%s)" % (path, f, got, want, err.strip()))
     f = "addr == 2 && checksum_bad"
     _, plain, _ = run(["read"] + args + ["--stats", "-T", "json", path])
     code, filtered, err = run(["read"] + args + ["--stats", "-T", "json", "-Y", f, path])
@@ -544,7 +556,7 @@ def main():
             events = [json.loads(l) for l in out.splitlines() if l.startswith('{"type":"event"')]
             lines = [json.loads(l) for l in out.splitlines()]
             total += check_filters(args, path, recs, events, lines)
-            check_stats(args, path)
+            check_stats(args, path, recs)
             check_fields(args, path, recs)
             check_drive_fields(args, path, recs)
         check_bad(os.path.join(SOURCE, "captures", "seed-erman-e9", "input.log"))

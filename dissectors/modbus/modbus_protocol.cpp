@@ -48,6 +48,8 @@ const ProtocolDesc kRtuProtocol{
     .wireshark_dissector = "mbrtu",
     .wireshark_builtin = true,
     .parameter_numbering = &kGgppNumbering,
+    .head_address_field = &kRtuUnitId,
+    .head_function_field = &kFunction,
 };
 
 const ProtocolDesc kAsciiProtocol{
@@ -60,6 +62,8 @@ const ProtocolDesc kAsciiProtocol{
     .findings = kAsciiFindings,
     .text_start = ':',
     .wireshark_dissector = "mbascii",
+    .head_address_field = &kAsciiUnitId,
+    .head_function_field = &kFunction,
 };
 
 }  // namespace drivetap::modbus

@@ -52,6 +52,11 @@ struct ProtocolDesc {
   // How the manuals of the drives that speak it number their parameters (a profile's
   // [parameters] rule), nullptr: none of its own.
   const ParameterNumbering* parameter_numbering = nullptr;
+  // The fields whose values a telegram's head holds (TelegramFindings::address, and ::function
+  // under the field's bitmask) in every telegram it reads to the head: a display filter on them
+  // needs no decode. Null: the head does not hold it.
+  const FieldDesc* head_address_field = nullptr;
+  const FieldDesc* head_function_field = nullptr;
 };
 
 inline std::string_view protocol_id(Protocol p) {  // "modbus-rtu": JSON ids, stable

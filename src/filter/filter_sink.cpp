@@ -40,6 +40,9 @@ SinkNeeds DisplayFilterSink::needs() const {
       n.fields = n.info_text = false;
     }
     n.drive_values = n.drive_values || filter_.needs().drive_values;
+    // A telegram not read to its head (too short, UART marks, another protocol) is read in the
+    // tree the filter looks into.
+    if (filter_.needs().tree) n.detail = n.fields = true;
     return n;
   }
   // Every frame comes here, decoded here: the filter reads its Message on this thread, and the

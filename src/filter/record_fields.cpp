@@ -307,6 +307,36 @@ bool tree_values(const FieldDesc* key, const RecordView& r, std::string& scratch
   return false;
 }
 
+// Whether every telegram read to its head holds `key`'s value, or cannot have the field: for each
+// protocol, the field is one of its head's (ProtocolDesc::head_address_field, ...) or of none of
+// its layers.
+bool head_holds(const FieldDesc* key) {
+  for (const ProtocolDesc* p : registered_protocols()) {
+    if ((p->head_address_field && p->head_address_field->key() == key) ||
+        (p->head_function_field && p->head_function_field->key() == key))
+      continue;
+    for (const FieldProtocol* layer : p->field_protocols)
+      for (const FieldDesc* d : layer->fields)
+        if (d->key() == key) return false;
+  }
+  return true;
+}
+
+// A tree field of a telegram known by its head (head_holds() of it): the head's value, or none.
+bool head_tree_values(const FieldDesc* key, const RecordView& r, std::string& scratch,
+                      ValueVisitor& visit) {
+  const ProtocolDesc* p = r.telegram->decoder->protocol().desc();
+  const TelegramFindings& head = *r.telegram->head;
+  if (p && p->head_address_field && p->head_address_field->key() == key)
+    return head.address >= 0 && visit_int(head.address, scratch, visit);
+  if (p && p->head_function_field && p->head_function_field->key() == key) {
+    const std::uint32_t mask = key->bitmask ? key->bitmask : ~0u;
+    return head.function >= 0 &&
+           visit_int(static_cast<std::uint32_t>(head.function) & mask, scratch, visit);
+  }
+  return false;  // a field of another protocol's layers
+}
+
 }  // namespace
 
 void add_record_field_source(std::unique_ptr<RecordFieldSource> source) {
@@ -327,7 +357,8 @@ RecordFieldNeeds RecordField::needs() const {
                   key == RecordKey::checksum_computed || key == RecordKey::finding;
       break;
     case Kind::tree:
-      n.tree = n.message = true;
+      n.tree = true;  // (for the telegrams decoded anyway)
+      n.message = !head_holds(desc);
       break;
     case Kind::finding_id:  // (a typed id is the Anomaly's)
       n.message = true;
@@ -390,7 +421,7 @@ bool record_values(const RecordField& field, const RecordView& record, std::stri
     case RecordField::Kind::key:
       return key_values(field.key, record, scratch, visit);
     case RecordField::Kind::tree:
-      if (record.telegram) return false;  // (needs the Message)
+      if (record.telegram) return head_tree_values(field.desc, record, scratch, visit);
       return tree_values(field.desc, record, scratch, visit);
     case RecordField::Kind::finding_kind:
       if (record.telegram)  // (present or not: the filter reads no text of it)
