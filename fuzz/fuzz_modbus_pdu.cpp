@@ -37,7 +37,7 @@ void dissect(std::span<const std::uint8_t> frame, std::size_t offset, std::size_
 // The RTU decoder's dissection to the head of a telegram taken whole (DissectDepth::head) must be
 // what dissect_rtu() gives the Message: verdict, pairing members and every anomaly by kind.
 void check_summary(const Frame& frame, Direction dir, const FramingTiming& timing) {
-  const Message m = modbus::dissect_rtu(frame, dir, timing);
+  const Message m = dissected(modbus::dissect_rtu, Frame(frame), dir, timing);
   TelegramView t;
   t.run.bytes = m.bytes;
   t.taken.timing = {frame.gap_before, frame.max_intra_gap, frame.max_intra_gap_at};
@@ -113,7 +113,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     t += timing.character_time;
   }
   for (Direction dir : kDirections) {
-    const Message m = modbus::dissect_rtu(frame, dir, timing);
+    const Message m = dissected(modbus::dissect_rtu, Frame(frame), dir, timing);
     fuzz::check_field_spans(m);
     for (const FieldNode& n : m.fields) (void)format_field_value(m.fields, n, m.bytes);
   }

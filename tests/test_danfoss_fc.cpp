@@ -37,9 +37,10 @@ TEST(DanfossFc, AddressFormatsAndBroadcast) {
 }
 
 TEST(DanfossFc, WriteParameterTelegramOfTheIssue) {
-  const Message m = dissect_fc(frame_of({0x02, 0x0E, 0x81, 0xE1, 0x9E, 0, 0, 0, 0, 0x03, 0xE8, 0x04,
-                                         0x7C, 0x20, 0x00, 0x41}),
-                               Direction::request, {});
+  const Message m = dissected(dissect_fc,
+                              frame_of({0x02, 0x0E, 0x81, 0xE1, 0x9E, 0, 0, 0, 0, 0x03, 0xE8, 0x04,
+                                        0x7C, 0x20, 0x00, 0x41}),
+                              Direction::request, {});
   EXPECT_EQ(m.protocol, protocols::danfoss_fc);
   EXPECT_EQ(m.address, 1);
   EXPECT_EQ(m.checksum.verdict, ChecksumVerdict::good);
@@ -52,7 +53,8 @@ TEST(DanfossFc, WriteParameterTelegramOfTheIssue) {
 }
 
 TEST(DanfossFc, ErrorReplyAndStatusWord) {
-  const Message m = dissect_fc(
+  const Message m = dissected(
+      dissect_fc,
       frame_of({0x02, 0x0E, 0x01, 0x71, 0x9E, 0, 0, 0, 0, 0, 0x02, 0x06, 0x07, 0x00, 0x00, 0xE1}),
       Direction::response, {});
   EXPECT_EQ(m.checksum.verdict, ChecksumVerdict::good);
@@ -65,13 +67,15 @@ TEST(DanfossFc, ErrorReplyAndStatusWord) {
 }
 
 TEST(DanfossFc, BadBccAndLengthMismatchAreNamed) {
-  const Message bad = dissect_fc(frame_of({0x02, 0x06, 0x04, 0x04, 0x7C, 0x20, 0x00, 0x59}),
-                                 Direction::request, {});
+  const Message bad =
+      dissected(dissect_fc, frame_of({0x02, 0x06, 0x04, 0x04, 0x7C, 0x20, 0x00, 0x59}),
+                Direction::request, {});
   EXPECT_EQ(bad.checksum.verdict, ChecksumVerdict::bad);
   EXPECT_EQ(bad.checksum.stated_wire, 0x59u);
   EXPECT_EQ(bad.checksum.computed_wire, 0x58u);
-  const Message cut = dissect_fc(frame_of({0x02, 0x0E, 0x04, 0x04, 0x7C, 0x20, 0x00, 0x58}),
-                                 Direction::request, {});
+  const Message cut =
+      dissected(dissect_fc, frame_of({0x02, 0x0E, 0x04, 0x04, 0x7C, 0x20, 0x00, 0x58}),
+                Direction::request, {});
   bool named = false;
   for (const Anomaly& a : cut.anomalies) {
     if (a.detail.find("LGE 14 announces 16") != 0) continue;
@@ -85,8 +89,9 @@ TEST(DanfossFc, BadBccAndLengthMismatchAreNamed) {
 }
 
 TEST(DanfossFc, NegativeReferenceIsSignedPercent) {
-  const Message m = dissect_fc(frame_of({0x02, 0x06, 0x04, 0x04, 0x7C, 0xE0, 0x00, 0x00}),
-                               Direction::request, {});
+  const Message m =
+      dissected(dissect_fc, frame_of({0x02, 0x06, 0x04, 0x04, 0x7C, 0xE0, 0x00, 0x00}),
+                Direction::request, {});
   EXPECT_NE(m.info.find("REF -50.00 %"), std::string::npos) << m.info;
 }
 

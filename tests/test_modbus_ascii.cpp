@@ -32,7 +32,8 @@ TEST(ModbusAscii, LrcOfTheManualsExample) {
 }
 
 TEST(ModbusAscii, DecodesTheSpecRequest) {
-  const Message m = dissect_ascii(frame_of(":010325230001B3\r\n"), Direction::request, {});
+  const Message m =
+      dissected(dissect_ascii, frame_of(":010325230001B3\r\n"), Direction::request, {});
   EXPECT_EQ(m.protocol, protocols::modbus_ascii);
   EXPECT_EQ(m.address, 1);
   EXPECT_EQ(m.function, 3);
@@ -53,7 +54,8 @@ TEST(ModbusAscii, DecodesTheSpecRequest) {
 }
 
 TEST(ModbusAscii, BadLrcShowsStatedAndComputed) {
-  const Message m = dissect_ascii(frame_of(":010325230001B4\r\n"), Direction::request, {});
+  const Message m =
+      dissected(dissect_ascii, frame_of(":010325230001B4\r\n"), Direction::request, {});
   EXPECT_EQ(m.checksum.verdict, ChecksumVerdict::bad);
   EXPECT_EQ(m.checksum.stated_wire, 0xB4u);
   EXPECT_EQ(m.checksum.computed_wire, 0xB3u);

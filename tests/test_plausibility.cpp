@@ -133,8 +133,8 @@ TEST(Plausibility, EasydriveRules) {
 }
 
 TEST(Plausibility, ImplausibleTelegramIsNamedAndIsNoGoodTelegram) {
-  const Message m = danfoss_fc::dissect_fc(frame_of({0xFF, 0xFF, 0xFF, 0xFF}), Direction::unknown,
-                                           FramingTiming{});
+  const Message m = dissected(danfoss_fc::dissect_fc, frame_of({0xFF, 0xFF, 0xFF, 0xFF}),
+                              Direction::unknown, FramingTiming{});
   EXPECT_EQ(m.checksum.verdict, ChecksumVerdict::good) << "the checksum is what it is";
   EXPECT_TRUE(is_implausible(m));
   EXPECT_FALSE(good_telegram(head_of(m)));

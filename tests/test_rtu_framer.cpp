@@ -496,8 +496,10 @@ TEST(RtuFramer, AFrameTakenWholeCarriesTheCrcComputedOverIt) {
     SCOPED_TRACE(i);
     Frame without = frames[i];
     without.checksum_kind = FrameChecksum::none;
-    const Message carried = modbus::dissect_rtu(frames[i], Direction::unknown, timing);
-    const Message computed = modbus::dissect_rtu(without, Direction::unknown, timing);
+    const Message carried =
+        dissected(modbus::dissect_rtu, Frame(frames[i]), Direction::unknown, timing);
+    const Message computed =
+        dissected(modbus::dissect_rtu, std::move(without), Direction::unknown, timing);
     EXPECT_EQ(carried.checksum.verdict, i == 0 ? ChecksumVerdict::good : ChecksumVerdict::swapped);
     EXPECT_EQ(carried.checksum.verdict, computed.checksum.verdict);
     EXPECT_EQ(carried.checksum.stated_wire, computed.checksum.stated_wire);
@@ -514,10 +516,10 @@ TEST(RtuFramer, TheDissectorReadsTheCarriedCrc) {
   const FramingTiming timing = FramingTiming::from(k9600);
   f.checksum_kind = FrameChecksum::crc16_modbus;
   f.checksum = crc ^ 0x0101u;
-  EXPECT_EQ(modbus::dissect_rtu(f, Direction::request, timing).checksum.verdict,
+  EXPECT_EQ(dissected(modbus::dissect_rtu, Frame(f), Direction::request, timing).checksum.verdict,
             ChecksumVerdict::bad);
   f.checksum_kind = FrameChecksum::none;  // no CRC carried: the dissector computes it
-  EXPECT_EQ(modbus::dissect_rtu(f, Direction::request, timing).checksum.verdict,
+  EXPECT_EQ(dissected(modbus::dissect_rtu, Frame(f), Direction::request, timing).checksum.verdict,
             ChecksumVerdict::good);
 }
 

@@ -12,12 +12,18 @@
 
 namespace drivetap {
 
-// A dissector's form that decodes into a Message, reusing its storage (begin_message()).
-using DissectInto = void (*)(Message& out, Frame&& frame, Direction direction,
-                             const FramingTiming& timing, std::span<const std::uint8_t> request);
+// The two functions every protocol writes, declared by type so that each protocol's header names
+// them without spelling the signature again (`Dissector dissect_fc;`); a definition spells it out.
+// A dissector decodes into a Message, reusing its storage (begin_message()); `request` is the
+// request a reply answers (empty: none, or a protocol whose replies stand on their own).
+using Dissector = void(Message& out, Frame&& frame, Direction direction,
+                       const FramingTiming& timing, std::span<const std::uint8_t> request);
+// What a protocol's telegrams say to or of a drive (ProtocolDecoder::read_drive_records).
+using DriveReader = void(const TelegramHead& telegram, std::span<const std::uint8_t> request,
+                         DriveRecords& out);
 
-// The same into a new Message (the dissectors' second form, for tests and tools).
-inline Message dissected(DissectInto dissect, Frame&& frame, Direction direction,
+// A dissection into a new Message, for tests and tools: `dissected(dissect_rtu, frame, ...)`.
+inline Message dissected(Dissector* dissect, Frame&& frame, Direction direction,
                          const FramingTiming& timing, std::span<const std::uint8_t> request = {}) {
   Message m;
   dissect(m, std::move(frame), direction, timing, request);
@@ -31,10 +37,8 @@ struct DecoderFunctions {
   bool (*always_response)(std::span<const std::uint8_t> frame);
   bool (*recognisable)(std::span<const std::uint8_t> frame);
   ProtocolDecoder::PairingKeys (*pairing_keys)(std::span<const std::uint8_t> frame);
-  DissectInto dissect;
-  // What its telegrams say to or of a drive (ProtocolDecoder::read_drive_records).
-  void (*read_drive_records)(const TelegramHead& telegram, std::span<const std::uint8_t> request,
-                             DriveRecords& out);
+  Dissector* dissect;
+  DriveReader* read_drive_records;
 };
 
 // The functions' ProtocolDecoder (ProtocolDecoder says what each does), dissecting always in

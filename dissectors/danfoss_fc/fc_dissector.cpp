@@ -161,10 +161,6 @@ Plausibility fc_plausibility(std::span<const std::uint8_t> frame, Direction dire
   return p;
 }
 
-Message dissect_fc(Frame frame, Direction direction, const FramingTiming& timing) {
-  return dissected(dissect_fc, std::move(frame), direction, timing);
-}
-
 void dissect_fc(Message& m, Frame&& frame, Direction direction, const FramingTiming& timing,
                 std::span<const std::uint8_t> request) {
   (void)request;

@@ -38,12 +38,9 @@ std::string parameter_name(unsigned pnu);
 Plausibility fc_plausibility(std::span<const std::uint8_t> frame, Direction direction,
                              bool describe);
 
-// Decodes into `m`, reusing its storage (begin_message); the other form returns a new Message.
-// `request` is not read: replies of this protocol stand on their own
-// (ProtocolDecoder::dissect_into).
-void dissect_fc(Message& m, Frame&& frame, Direction direction, const FramingTiming& timing,
-                std::span<const std::uint8_t> request = {});
-Message dissect_fc(Frame frame, Direction direction, const FramingTiming& timing);
+// The dissector (decoder_of.hpp's Dissector). `request` is not read: replies of this protocol
+// stand on their own (ProtocolDecoder::dissect_into).
+Dissector dissect_fc;
 
 class FcRules final : public HybridFrameRules {
  public:
@@ -56,8 +53,7 @@ class FcRules final : public HybridFrameRules {
 };
 
 // What its telegrams say to or of a drive (ProtocolDecoder::read_drive_records; drive_reading.cpp).
-void read_fc_drive_records(const TelegramHead& telegram, std::span<const std::uint8_t> request,
-                           DriveRecords& out);
+DriveReader read_fc_drive_records;
 
 // The decoder: this protocol's functions (the .cpp) as a ProtocolDecoder.
 extern const DecoderFunctions kFcFunctions;

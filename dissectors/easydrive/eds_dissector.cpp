@@ -103,11 +103,6 @@ std::uint16_t ascii_sum(std::span<const std::uint8_t> text) {
   return s;
 }
 
-Message dissect_eds(Frame frame, Direction direction, const FramingTiming& timing,
-                    std::span<const std::uint8_t> request) {
-  return dissected(dissect_eds, std::move(frame), direction, timing, request);
-}
-
 void dissect_eds(Message& m, Frame&& frame, Direction direction, const FramingTiming& timing,
                  std::span<const std::uint8_t> request) {
   (void)timing;

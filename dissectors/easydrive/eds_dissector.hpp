@@ -23,22 +23,18 @@ long hex_field(std::span<const std::uint8_t> frame, std::size_t at, std::size_t 
 // Sum of the ASCII codes of `text` (the SUM field's rule), modulo 2^16.
 std::uint16_t ascii_sum(std::span<const std::uint8_t> text);
 
-// `request`: for a reply, the request it answers — its command and index say what the reply's
-// data is (a frequency, the status word).
-// The first form decodes into `m`, reusing its storage (begin_message).
 // The Easydrive plausibility rules (dissectors/common/plausibility.hpp): '~' first, CR last,
 // only 0-9 and A-F between, 13 or 17 characters before CR, and a command (0A..0F) or a response
 // code (00, 10..14, 20, 30) in the telegram's direction (unknown: either).
 Plausibility eds_plausibility(std::span<const std::uint8_t> frame, Direction direction,
                               bool describe);
-void dissect_eds(Message& m, Frame&& frame, Direction direction, const FramingTiming& timing,
-                 std::span<const std::uint8_t> request = {});
-Message dissect_eds(Frame frame, Direction direction, const FramingTiming& timing,
-                    std::span<const std::uint8_t> request = {});
+
+// The dissector (decoder_of.hpp's Dissector). `request`: for a reply, the request it answers —
+// its command and index say what the reply's data is (a frequency, the status word).
+Dissector dissect_eds;
 
 // What its telegrams say to or of a drive (ProtocolDecoder::read_drive_records; drive_reading.cpp).
-void read_eds_drive_records(const TelegramHead& telegram, std::span<const std::uint8_t> request,
-                            DriveRecords& out);
+DriveReader read_eds_drive_records;
 
 // The decoder: this protocol's functions (the .cpp) as a ProtocolDecoder.
 extern const DecoderFunctions kEdsFunctions;

@@ -111,10 +111,6 @@ Plausibility ascii_plausibility(std::span<const std::uint8_t> frame, const Ascii
                              direction, describe);
 }
 
-Message dissect_ascii(Frame frame, Direction direction, const FramingTiming& timing) {
-  return dissected(dissect_ascii, std::move(frame), direction, timing);
-}
-
 void dissect_ascii(Message& m, Frame&& frame, Direction direction, const FramingTiming& timing,
                    std::span<const std::uint8_t> request) {
   (void)request;

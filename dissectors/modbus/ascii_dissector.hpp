@@ -40,16 +40,12 @@ void spell_ascii_hex(std::span<const std::uint8_t> frame, std::vector<std::uint8
 Plausibility ascii_plausibility(std::span<const std::uint8_t> frame, const AsciiHex& hex,
                                 Direction direction, bool describe);
 
-// Decodes into `m`, reusing its storage (begin_message); the other form returns a new Message.
-// `request` is not read: replies of this protocol stand on their own
-// (ProtocolDecoder::dissect_into).
-void dissect_ascii(Message& m, Frame&& frame, Direction direction, const FramingTiming& timing,
-                   std::span<const std::uint8_t> request = {});
-Message dissect_ascii(Frame frame, Direction direction, const FramingTiming& timing);
+// The dissector (decoder_of.hpp's Dissector). `request` is not read: replies of this protocol
+// stand on their own (ProtocolDecoder::dissect_into).
+Dissector dissect_ascii;
 
 // What its telegrams say to or of a drive (ProtocolDecoder::read_drive_records; drive_reading.cpp).
-void read_ascii_drive_records(const TelegramHead& telegram, std::span<const std::uint8_t> request,
-                              DriveRecords& out);
+DriveReader read_ascii_drive_records;
 
 // The decoder: this protocol's functions (the .cpp) as a ProtocolDecoder.
 extern const DecoderFunctions kAsciiFunctions;

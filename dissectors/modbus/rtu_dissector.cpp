@@ -44,10 +44,6 @@ Plausibility rtu_plausibility(std::span<const std::uint8_t> frame, Direction dir
   return modbus_plausibility(frame[0], frame.subspan(1, frame.size() - 3), direction, describe);
 }
 
-Message dissect_rtu(Frame frame, Direction direction, const FramingTiming& timing) {
-  return dissected(dissect_rtu, std::move(frame), direction, timing);
-}
-
 void dissect_rtu(Message& m, Frame&& frame, Direction direction, const FramingTiming& timing,
                  std::span<const std::uint8_t> request) {
   (void)request;
@@ -116,7 +112,7 @@ bool RtuDecoder::dissect(TelegramView& t, Direction direction, const FramingTimi
   // frame with UART marks is read in detail (its marks are findings too).
   if (depth == DissectDepth::detail || bytes.size() < 4 ||
       (t.frame && t.frame->events.any_flags())) {
-    dissect_rtu(out, t.frame_for(out), direction, timing);
+    dissect_rtu(out, t.frame_for(out), direction, timing, {});
     return true;
   }
   // The framer's record of the telegram's timing and carried checksum.

@@ -30,16 +30,12 @@ Plausibility rtu_plausibility(std::span<const std::uint8_t> frame, Direction dir
 // Decodes `frame` as a Modbus RTU telegram travelling in `direction`. Checksum, malformed
 // content, gaps > t1.5 inside the frame, a short silence before it and UART-flagged bytes all
 // become anomalies of the message.
-// Decodes into `m`, reusing its storage (begin_message); the other form returns a new Message.
-// `request` is not read: replies of this protocol stand on their own
-// (ProtocolDecoder::dissect_into).
-void dissect_rtu(Message& m, Frame&& frame, Direction direction, const FramingTiming& timing,
-                 std::span<const std::uint8_t> request = {});
-Message dissect_rtu(Frame frame, Direction direction, const FramingTiming& timing);
+// The dissector (decoder_of.hpp's Dissector). `request` is not read: replies of this protocol
+// stand on their own (ProtocolDecoder::dissect_into).
+Dissector dissect_rtu;
 
 // What its telegrams say to or of a drive (ProtocolDecoder::read_drive_records; drive_reading.cpp).
-void read_rtu_drive_records(const TelegramHead& telegram, std::span<const std::uint8_t> request,
-                            DriveRecords& out);
+DriveReader read_rtu_drive_records;
 
 // Modbus RTU as a ProtocolDecoder for the pipeline: its functions (the .cpp) and its head reading.
 extern const DecoderFunctions kRtuFunctions;
