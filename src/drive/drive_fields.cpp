@@ -31,7 +31,7 @@ constexpr int kSharedCount = static_cast<int>(std::size(kSharedIds));
 constexpr std::pair<std::string_view, std::string_view> kSharedListing[] = {
     {"Station", "The bound drive's address"},
     {"Drive family", "The id of the drive profile that read the frame"},
-    {"Setpoint", "The drive's setpoint, in its profile's unit"},
+    {"Setpoint", "The setpoint the drive reports, else the one the master writes, in its profile's unit"},
     {"Output frequency", "The drive's output frequency (or speed), in its profile's unit"},
     {"Output current", "The drive's output current, in its profile's unit"},
     {"Output voltage", "The drive's output voltage, in its profile's unit"},
@@ -217,7 +217,8 @@ void collect_drive_values(const DriveProfile& p, int station, const DriveObserva
                           std::vector<DriveValue>& out) {
   if (station >= 0) add_integer(out, "station", station);
   add_text(out, "family", p.id);
-  add_quantity(out, "setpoint", o.setpoint);
+  // The setpoint the drive reports, else the one the master writes.
+  add_quantity(out, "setpoint", o.setpoint ? o.setpoint : o.setpoint_command);
   add_quantity(out, "output_frequency", o.output_frequency);
   add_quantity(out, "output_current", o.current);
   add_quantity(out, "output_voltage", o.voltage);
