@@ -3,14 +3,20 @@
 
 #include <fmt/format.h>
 
-#include <cstdio>
+#include <sys/stat.h>
 
+#include <cstdio>
+#include <optional>
+
+#include "app/progress.hpp"
 #include "app/stop_signals.hpp"
+#include "pipeline/pipeline.hpp"
 #include "sources/file/byte_log.hpp"
 #include "sources/file/capture_reader.hpp"
 #include "sources/logic/logic_source.hpp"
 #include "sources/logic/sigrok_file.hpp"
 #include "sources/logic/vcd_file.hpp"
+#include "sources/read_ahead.hpp"
 
 namespace drivetap::app {
 namespace {
@@ -28,6 +34,12 @@ LogicSourceOptions logic_source_options(const CommonOptions& o) {
     die("--invert: give the line settings too (-s \"19200 8E1\"), or neither: both are detected");
   }
   return so;
+}
+
+// A file named on the command line that is a regular file (not "-", a FIFO or a device).
+bool is_regular_file(const std::string& path) {
+  struct stat st {};
+  return path != "-" && ::stat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode);
 }
 
 }  // namespace
@@ -107,6 +119,50 @@ PipelineOptions start_source(const CommonOptions& o, ByteSource& source) {
   PipelineOptions p = make_pipeline_options(o, source.settings());
   source.set_character_time(p.timing.character_time);
   return p;
+}
+
+bool is_wall_clock_time(TimeNs first) {
+  return first >= 1'000'000'000 * kNsPerSecond;
+}
+
+bool read_capture(const CommonOptions& o, const std::string& path, const InputFile& in,
+                  int input_fd, ByteSource& source, Pipeline& pipeline,
+                  const CaptureReadHooks& hooks) {
+  Progress progress(o, in.name, input_fd);
+  RunBatch batch;
+  bool interrupted = false;
+  bool first_seen = false;
+  // pcap/pcapng files are read a few chunks ahead on a second thread (no findings; a regular
+  // file cannot block the reader for ever); other sources batch by batch on this one.
+  std::optional<ReadAhead> ahead;
+  if ((in.format == InputFormat::pcapng || in.format == InputFormat::pcap) && is_regular_file(path))
+    ahead.emplace(source);
+  // Each pass decodes one chunk or one batch of the source.
+  while (ahead ? ahead->next_chunk(batch) : (batch.clear(), source.append_runs(batch))) {
+    if (!first_seen && !batch.empty()) {
+      first_seen = true;
+      if (hooks.first_byte) hooks.first_byte(batch[0].first);
+    }
+    if (hooks.batch) hooks.batch(batch);
+    if (!ahead)
+      for (const Anomaly& a : source.take_findings()) pipeline.report(a);
+    pipeline.push_runs(batch);
+    // The reader makes the prechecks the pipeline asks for, by the decoders detected so far.
+    if (ahead)
+      for (std::size_t c = 0; c < pipeline.channel_count(); ++c)
+        ahead->precheck_with(static_cast<ChannelId>(c),
+                             pipeline.precheck_decoder_of(static_cast<ChannelId>(c)));
+    if (g_stop) {
+      interrupted = true;
+      break;
+    }
+    if (hooks.stop && hooks.stop()) break;
+    progress.update(pipeline.stats().frames);
+  }
+  interrupted = interrupted || g_stop;  // a source may end early, as at its end, when stopped
+  ahead.reset();  // the reader thread has stopped: the source is the caller's alone again
+  progress.clear();
+  return interrupted;
 }
 
 }  // namespace drivetap::app

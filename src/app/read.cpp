@@ -3,21 +3,16 @@
 #include <fmt/format.h>
 #include <CLI/CLI.hpp>
 
-#include <sys/stat.h>
-
 #include <memory>
-#include <optional>
 #include <string>
 
 #include "app/commands.hpp"
 #include "app/common.hpp"
 #include "app/inputs.hpp"
 #include "app/outputs.hpp"
-#include "app/progress.hpp"
 #include "app/stop_signals.hpp"
 #include "pipeline/pipeline.hpp"
 #include "sinks/time_format.hpp"
-#include "sources/read_ahead.hpp"
 
 namespace drivetap::app {
 namespace {
@@ -32,20 +27,6 @@ void say_rewritten_names(const ChannelTable& channels) {
                   ChannelTable::kMaxNameBytes, channels.first_rewritten_name()));
 }
 
-// Whether a capture whose first byte is at `first` has wall-clock times (ns since the epoch, as
-// the pcap of any tool and a live capture) rather than times from its start (a byte log, a logic
-// capture, and the pcapng drivetap writes of them): the time is after 2001-09-09, which no run
-// from its start reaches.
-bool is_wall_clock_time(TimeNs first) {
-  return first >= 1'000'000'000 * kNsPerSecond;
-}
-
-// A file named on the command line that is a regular file (not "-", a FIFO or a device).
-bool is_regular_file(const std::string& path) {
-  struct stat st {};
-  return path != "-" && ::stat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode);
-}
-
 int run_read(const CommonOptions& o, const std::string& path) {
   refuse_shared_files({{"input", path}, {"-o", o.output}, {"-w", o.write}});
   InputFile in;
@@ -58,49 +39,24 @@ int run_read(const CommonOptions& o, const std::string& path) {
   Outputs out(o, channels, p, /*timed=*/true);
   out.write_on_second_thread();
   Pipeline pipeline(p, channels, out.sink());
-  bool clock_set = false;
-  Progress progress(o, in.name, input_fd);
-
-  RunBatch batch;
-  bool interrupted = false;
+  CaptureReadHooks hooks;
+  // -t r counts from the first byte of a wall-clock capture; the others' clocks start at 0.
+  hooks.first_byte = [&](TimeNs first) {
+    const bool wall_clock = is_wall_clock_time(first);
+    out.set_clock(wall_clock, wall_clock ? first : 0);
+    if (!wall_clock && time_format_is_wall_clock(time_format_of(o)))
+      say(
+          fmt::format("-t {}: {} has no wall-clock time, only seconds from its start: times shown "
+                      "relative",
+                      o.time_format, in.name));
+  };
   std::uint64_t batches = 0;
-  // pcap/pcapng files are read a few chunks ahead on a second thread (no findings; a regular
-  // file cannot block the reader for ever); other sources batch by batch on this one.
-  std::optional<ReadAhead> ahead;
-  if ((in.format == InputFormat::pcapng || in.format == InputFormat::pcap) && is_regular_file(path))
-    ahead.emplace(*source);
-  // Each pass decodes one chunk or one batch of the source.
-  while (ahead ? ahead->next_chunk(batch) : (batch.clear(), source->append_runs(batch))) {
-    // -t r counts from the first byte of a wall-clock capture; the others' clocks start at 0.
-    if (!clock_set && !batch.empty()) {
-      const bool wall_clock = is_wall_clock_time(batch[0].first);
-      out.set_clock(wall_clock, wall_clock ? batch[0].first : 0);
-      if (!wall_clock && time_format_is_wall_clock(time_format_of(o)))
-        say(
-            fmt::format("-t {}: {} has no wall-clock time, only seconds from its start: times "
-                        "shown relative",
-                        o.time_format, in.name));
-      clock_set = true;
-    }
-    if (!ahead)
-      for (const Anomaly& a : source->take_findings()) pipeline.report(a);
-    pipeline.push_runs(batch);
-    // The reader makes the prechecks the pipeline asks for, by the decoders detected so far.
-    if (ahead)
-      for (std::size_t c = 0; c < pipeline.channel_count(); ++c)
-        ahead->precheck_with(static_cast<ChannelId>(c),
-                             pipeline.precheck_decoder_of(static_cast<ChannelId>(c)));
-    if (g_stop) {
-      interrupted = true;
-      break;
-    }
-    if (o.count > 0 && pipeline.stats().frames >= o.count) break;  // -c: as many as asked
-    progress.update(pipeline.stats().frames);
-    if (++batches % 256 == 0 && out.unread()) break;
-  }
-  interrupted = interrupted || g_stop;  // a source may end early, as at its end, when stopped
-  ahead.reset();  // the reader thread has stopped: the source is the caller's alone again
-  progress.clear();
+  hooks.stop = [&] {
+    if (o.count > 0 && pipeline.stats().frames >= o.count) return true;  // -c: as many as asked
+    // A failed text output with nothing else to write: the rest would be read for nothing.
+    return ++batches % 256 == 0 && out.unread();
+  };
+  const bool interrupted = read_capture(o, path, in, input_fd, *source, pipeline, hooks);
   // Whatever happened, what was read so far is decoded, summarised, written and flushed.
   pipeline.finish();
   out.close();

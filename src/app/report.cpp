@@ -23,7 +23,6 @@
 #include "app/commands.hpp"
 #include "app/common.hpp"
 #include "app/inputs.hpp"
-#include "app/progress.hpp"
 #include "app/stop_signals.hpp"
 #include "diagnose/line_diagnosis.hpp"
 #include "filter/display_filter.hpp"
@@ -32,7 +31,6 @@
 #include "sinks/json_sink.hpp"
 #include "sinks/report_sink.hpp"
 #include "sinks/stats_tables.hpp"
-#include "sources/read_ahead.hpp"
 
 namespace drivetap::app {
 namespace {
@@ -50,35 +48,15 @@ void remove_temporary_page() {
   g_temporary_page.clear();
 }
 
-// Whether a capture whose first byte is at `first` has wall-clock times (as `read` decides).
-bool is_wall_clock_time(TimeNs first) {
-  return first >= 1'000'000'000 * kNsPerSecond;
-}
-
-bool is_regular_file(const std::string& path) {
-  struct stat st {};
-  return path != "-" && ::stat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode);
-}
-
 // The diagnosis sink reads no field tree or info line: it asks for none.
-class DiagnosisWithoutDetail final : public Sink {
+class DiagnosisWithoutDetail final : public ForwardingSink {
  public:
-  explicit DiagnosisWithoutDetail(Sink& inner) : inner_(inner) {}
-  void on_frame(const Message& m) override { inner_.on_frame(m); }
-  void on_noise(const Frame& f) override { inner_.on_noise(f); }
-  void on_anomaly(const Anomaly& a) override { inner_.on_anomaly(a); }
-  void on_transaction(const Transaction& t) override { inner_.on_transaction(t); }
-  void on_event(const BusEvent& e) override { inner_.on_event(e); }
-  void on_summary(const Stats& s) override { inner_.on_summary(s); }
-  bool flush() override { return inner_.flush(); }
+  using ForwardingSink::ForwardingSink;
   [[nodiscard]] SinkNeeds needs() const override {
     SinkNeeds n;
     n.detail = n.fields = false;
     return n;
   }
-
- private:
-  Sink& inner_;
 };
 
 // The verdicts as the page shows them.
@@ -153,9 +131,7 @@ int run_report(const CommonOptions& o, const std::vector<std::string>& paths) {
     tee.add(filtered ? static_cast<Sink*>(&*filtered) : &report);
     tee.add(&tables);
     tee.add(&diagnosis_light);
-    Progress progress(o, in.name, input_fd);
     bool begun = false;
-    bool interrupted = false;
     const auto begin = [&](TimeNs first) {
       ReportCapture c;
       c.file = in.name;
@@ -168,41 +144,18 @@ int run_report(const CommonOptions& o, const std::vector<std::string>& paths) {
       report.begin_capture(std::move(c));
       begun = true;
     };
+    CaptureReadHooks hooks;
+    hooks.first_byte = begin;
+    // The UART evidence of the diagnosis: every character and its marks.
+    hooks.batch = [&evidence](const RunBatch& batch) {
+      evidence.characters += batch.byte_count();
+      for (std::size_t k = 0; k < batch.size(); ++k)
+        for (const std::uint8_t flags : batch[k].flags) evidence.count_marks(flags);
+    };
+    bool interrupted = false;
     {
       Pipeline pipeline(p, channels, tee);
-      RunBatch batch;
-      std::optional<ReadAhead> ahead;
-      if ((in.format == InputFormat::pcapng || in.format == InputFormat::pcap) &&
-          is_regular_file(path))
-        ahead.emplace(*source);
-      while (ahead ? ahead->next_chunk(batch) : (batch.clear(), source->append_runs(batch))) {
-        if (!begun && !batch.empty()) begin(batch[0].first);
-        // The UART evidence of the diagnosis: every character and its marks.
-        evidence.characters += batch.byte_count();
-        for (std::size_t k = 0; k < batch.size(); ++k) {
-          const ByteRun run = batch[k];
-          for (const std::uint8_t flags : run.flags) {
-            if (flags & kUartParityError) ++evidence.parity_errors;
-            if (flags & kUartFramingError) ++evidence.framing_errors;
-            if (flags & kUartBreak) ++evidence.breaks;
-          }
-        }
-        if (!ahead)
-          for (const Anomaly& a : source->take_findings()) pipeline.report(a);
-        pipeline.push_runs(batch);
-        if (ahead)
-          for (std::size_t c = 0; c < pipeline.channel_count(); ++c)
-            ahead->precheck_with(static_cast<ChannelId>(c),
-                                 pipeline.precheck_decoder_of(static_cast<ChannelId>(c)));
-        if (g_stop) {
-          interrupted = true;
-          break;
-        }
-        progress.update(pipeline.stats().frames);
-      }
-      interrupted = interrupted || g_stop;
-      ahead.reset();
-      progress.clear();
+      interrupted = read_capture(o, path, in, input_fd, *source, pipeline, hooks);
       if (!begun) begin(-1);
       pipeline.finish();
     }

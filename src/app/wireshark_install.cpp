@@ -7,12 +7,77 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <optional>
+#include <string_view>
 #include <system_error>
 #include <utility>
 
 namespace drivetap::app {
 
 namespace fs = std::filesystem;
+
+namespace {
+
+// Whether `ec` holds a failure; if so, `error` says which path it was and what could not be done.
+bool failed(const std::error_code& ec, const fs::path& path, std::string_view what,
+            std::string* error) {
+  if (!ec) return false;
+  *error = fmt::format("{}: cannot {}: {}", path.string(), what, ec.message());
+  return true;
+}
+
+// Puts `entry` in place: the line to report, or nullopt with *error.
+std::optional<std::string> install_entry(const WiresharkEntry& entry, std::string* error) {
+  const fs::path path = entry.path();
+  std::error_code ec;
+  fs::create_directories(entry.folder, ec);
+  if (failed(ec, entry.folder, "create", error)) return std::nullopt;
+  if (fs::is_symlink(path, ec) || fs::exists(path, ec)) fs::remove(path, ec);
+  if (failed(ec, path, "replace", error)) return std::nullopt;
+  if (!entry.link_to.empty()) {
+    fs::create_symlink(entry.link_to, path, ec);
+    if (failed(ec, path, "create", error)) return std::nullopt;
+    return fmt::format("{} -> {}", path.string(), entry.link_to.string());
+  }
+  std::ofstream out(path, std::ios::binary);
+  out << entry.content;
+  out.close();
+  if (!out) {
+    *error = fmt::format("{}: cannot write", path.string());
+    return std::nullopt;
+  }
+  if (entry.executable)
+    fs::permissions(path, fs::perms::owner_exec | fs::perms::group_exec | fs::perms::others_exec,
+                    fs::perm_options::add, ec);
+  return path.string();
+}
+
+// Removes `entry` if it is there: the line to report (empty: it was not there), or nullopt with
+// *error.
+std::optional<std::string> remove_entry(const WiresharkEntry& entry, std::string* error) {
+  const fs::path path = entry.path();
+  std::error_code ec;
+  if (!fs::is_symlink(path, ec) && !fs::exists(path, ec)) return std::string();
+  if (!fs::remove(path, ec) || ec) {
+    *error = fmt::format("{}: cannot remove: {}", path.string(), ec.message());
+    return std::nullopt;
+  }
+  return path.string();
+}
+
+// Makes `change` to each entry in turn, its lines added to `report`, until one fails.
+bool change_entries(const std::vector<WiresharkEntry>& entries,
+                    std::optional<std::string> (*change)(const WiresharkEntry&, std::string*),
+                    std::vector<std::string>* report, std::string* error) {
+  for (const WiresharkEntry& entry : entries) {
+    const std::optional<std::string> done = change(entry, error);
+    if (!done) return false;
+    if (!done->empty()) report->push_back(*done);
+  }
+  return true;
+}
+
+}  // namespace
 
 WiresharkFolders personal_wireshark_folders() {
   const char* home = std::getenv("HOME");
@@ -69,56 +134,12 @@ std::vector<WiresharkEntry> wireshark_entries(const WiresharkFolders& folders,
 
 bool install_wireshark_entries(const std::vector<WiresharkEntry>& entries,
                                std::vector<std::string>* report, std::string* error) {
-  for (const WiresharkEntry& entry : entries) {
-    const fs::path path = entry.path();
-    std::error_code ec;
-    fs::create_directories(entry.folder, ec);
-    if (ec) {
-      *error = fmt::format("{}: cannot create: {}", entry.folder.string(), ec.message());
-      return false;
-    }
-    if (fs::is_symlink(path, ec) || fs::exists(path, ec)) fs::remove(path, ec);
-    if (ec) {
-      *error = fmt::format("{}: cannot replace: {}", path.string(), ec.message());
-      return false;
-    }
-    if (!entry.link_to.empty()) {
-      fs::create_symlink(entry.link_to, path, ec);
-      if (ec) {
-        *error = fmt::format("{}: cannot create: {}", path.string(), ec.message());
-        return false;
-      }
-      report->push_back(fmt::format("{} -> {}", path.string(), entry.link_to.string()));
-      continue;
-    }
-    std::ofstream out(path, std::ios::binary);
-    out << entry.content;
-    out.close();
-    if (!out) {
-      *error = fmt::format("{}: cannot write", path.string());
-      return false;
-    }
-    if (entry.executable)
-      fs::permissions(path, fs::perms::owner_exec | fs::perms::group_exec | fs::perms::others_exec,
-                      fs::perm_options::add, ec);
-    report->push_back(path.string());
-  }
-  return true;
+  return change_entries(entries, install_entry, report, error);
 }
 
 bool uninstall_wireshark_entries(const std::vector<WiresharkEntry>& entries,
                                  std::vector<std::string>* report, std::string* error) {
-  for (const WiresharkEntry& entry : entries) {
-    const fs::path path = entry.path();
-    std::error_code ec;
-    if (!fs::is_symlink(path, ec) && !fs::exists(path, ec)) continue;
-    if (!fs::remove(path, ec) || ec) {
-      *error = fmt::format("{}: cannot remove: {}", path.string(), ec.message());
-      return false;
-    }
-    report->push_back(path.string());
-  }
-  return true;
+  return change_entries(entries, remove_entry, report, error);
 }
 
 }  // namespace drivetap::app

@@ -47,6 +47,10 @@ struct UartCounts {
   // A character received with the UartFlag bits `flags`.
   void count_character(std::uint8_t flags) {
     ++characters;
+    count_marks(flags);
+  }
+  // The error marks of a character counted already (UartFlag bits `flags`).
+  void count_marks(std::uint8_t flags) {
     parity_errors += (flags & kUartParityError) != 0;
     framing_errors += (flags & kUartFramingError) != 0;
     breaks += (flags & kUartBreak) != 0;

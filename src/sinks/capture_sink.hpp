@@ -79,8 +79,6 @@ std::string comment_fields_line(const Message& m);
 // transactions nor the summary.
 class PacketSink : public Sink {
  public:
-  void on_transaction(const Transaction&) override {}
-  void on_summary(const Stats&) override {}
   // Packets carry the bytes and the info line as a comment, not the field tree.
   [[nodiscard]] SinkNeeds needs() const override {
     SinkNeeds n;

@@ -43,9 +43,7 @@ class FieldsSink final : public FormattingSink {
 
   void on_frame(const Message& m) override;
   void on_noise(const Frame& f) override;
-  void on_anomaly(const Anomaly&) override {}
-  void on_transaction(const Transaction&) override {}
-  void on_summary(const Stats&) override {}  // (a table has no summary line: tshark prints none)
+  // (Anomalies, transactions: not rows; nor a summary line under the table: tshark prints none.)
   bool flush() override { return lines_.flush(); }
   [[nodiscard]] SinkNeeds needs() const override;
   LineBuffer* formatted() override { return nullptr; }

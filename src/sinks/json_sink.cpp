@@ -313,10 +313,10 @@ void JsonSink::append_fields_object(LineBuffer& out, const Message& m) {
 
 JsonSink::JsonSink(std::FILE* out, const ChannelTable& channels, TimeNs character_time,
                    bool show_latency)
-    : channels_(channels),
+    : LineFormattingSink(out),
+      channels_(channels),
       character_time_(character_time),
-      show_latency_(show_latency),
-      lines_(out) {}
+      show_latency_(show_latency) {}
 
 std::string_view JsonSink::quoted_channel(ChannelId id) {
   const Channel& channel = channels_.at(id);  // throws for an id of no channel, as before
@@ -527,10 +527,6 @@ void JsonSink::on_summary(const Stats& s) {
                         json_quote(s.display_filter), s.filter_matched, s.filter_records);
   line += "}"sv;
   lines_.write(line);
-}
-
-bool JsonSink::flush() {
-  return lines_.flush();
 }
 
 }  // namespace drivetap

@@ -17,7 +17,8 @@ namespace drivetap {
 
 // On cache lines of its own: the helpers of a ThreadedSink, one per thread, each write theirs for
 // every record, and are made one after the other on the heap.
-class alignas(kCacheLineBytes) JsonSink final : public FormattingSink {
+// Each record stands on its own: nothing to follow() when formatting in memory.
+class alignas(kCacheLineBytes) JsonSink final : public LineFormattingSink {
  public:
   JsonSink(std::FILE* out, const ChannelTable& channels, TimeNs character_time,
            bool show_latency = true);
@@ -27,12 +28,6 @@ class alignas(kCacheLineBytes) JsonSink final : public FormattingSink {
   void on_transaction(const Transaction& transaction) override;
   void on_summary(const Stats& stats) override;
   void on_event(const BusEvent& event) override;
-  bool flush() override;
-  // Made with no file (nullptr): writes into memory, for a ThreadedSink's helpers
-  // (FormattingSink, sink.hpp).
-  // (Each record stands on its own: nothing to follow.)
-  LineBuffer* formatted() override { return lines_.gathered(); }
-  void write_formatted(std::string_view text) override { lines_.write_lines(text); }
 
  private:
   // One id of a frame's field tree: its descriptor, first node and number of nodes.
@@ -46,7 +41,6 @@ class alignas(kCacheLineBytes) JsonSink final : public FormattingSink {
   const ChannelTable& channels_;
   TimeNs character_time_;
   bool show_latency_;
-  LineWriter lines_;  // records not written yet; frame and transaction records are built there
   std::vector<FieldKey> field_keys_;  // scratch: the ids of the frame's field tree
   // A channel's name as a JSON string (quoted at its first record: names never change).
   std::string_view quoted_channel(ChannelId id);

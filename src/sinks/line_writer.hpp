@@ -1,5 +1,6 @@
 // LineWriter: the text and JSON sinks' output — lines gathered in one buffer and written to the
-// file in blocks (to a terminal, line by line), with the first failed write's errno kept.
+// file in blocks (to a terminal, line by line), with the first failed write's errno kept; and
+// LineFormattingSink, their common base, whose formatting contract is the writer's.
 #pragma once
 
 #include <unistd.h>
@@ -74,6 +75,20 @@ class LineWriter {
   bool to_terminal_;
   WriteStatus status_;
   LineBuffer buffer_;  // whole lines not written yet, and the line being built
+};
+
+// A FormattingSink (sink.hpp) writing lines through a LineWriter: made with no file (nullptr), it
+// writes into memory, for a ThreadedSink's helpers; formatted(), write_formatted() and flush() are
+// the writer's.
+class LineFormattingSink : public FormattingSink {
+ public:
+  explicit LineFormattingSink(std::FILE* out) : lines_(out) {}
+  LineBuffer* formatted() final { return lines_.gathered(); }
+  void write_formatted(std::string_view text) final { lines_.write_lines(text); }
+  bool flush() final { return lines_.flush(); }
+
+ protected:
+  LineWriter lines_;  // lines not written yet; a record's line is built at its end
 };
 
 }  // namespace drivetap

@@ -152,17 +152,18 @@ struct SinkNeeds {
 
 // The contract: the pipeline's records, in bus order, and one description of what the sink
 // needs (needs()). Records may arrive on another thread than the one that made the sink only
-// through a ThreadedSink.
+// through a ThreadedSink. Every sink takes the frames and the noise, the bus's bytes; the other
+// records a sink without a use for them ignores (these defaults).
 class Sink {
  public:
   virtual ~Sink() = default;
   virtual void on_frame(const Message& message) = 0;
   virtual void on_noise(const Frame& noise) = 0;
   // Anomalies of a frame arrive right after it (frame_number set); others stand alone.
-  virtual void on_anomaly(const Anomaly& anomaly) = 0;
-  virtual void on_transaction(const Transaction& transaction) = 0;
-  virtual void on_summary(const Stats& stats) = 0;
-  // Conclusions about the bus (protocol detected on a channel). Sinks without a use ignore them.
+  virtual void on_anomaly(const Anomaly& anomaly) { (void)anomaly; }
+  virtual void on_transaction(const Transaction& transaction) { (void)transaction; }
+  virtual void on_summary(const Stats& stats) { (void)stats; }
+  // Conclusions about the bus (protocol detected on a channel).
   virtual void on_event(const BusEvent& event) { (void)event; }
   // Pushes buffered output to its file; returns false when a write failed, with errno saying why.
   virtual bool flush() = 0;

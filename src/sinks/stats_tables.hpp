@@ -76,9 +76,7 @@ class StatsTablesSink final : public Sink {
                   std::vector<StatisticRequest> requests);
   void on_frame(const Message& message) override;
   void on_noise(const Frame& noise) override;
-  void on_anomaly(const Anomaly&) override {}
   void on_transaction(const Transaction& transaction) override;
-  void on_summary(const Stats&) override {}
   bool flush() override { return true; }
   [[nodiscard]] SinkNeeds needs() const override;
   void on_deferred_frame(const DeferredTelegram& telegram) override;

@@ -123,7 +123,7 @@ std::string hex_dump(std::span<const std::uint8_t> bytes, std::string_view inden
 }
 
 TextSink::TextSink(std::FILE* out, const ChannelTable& channels, TextSinkOptions options)
-    : channels_(channels), options_(options), lines_(out) {}
+    : LineFormattingSink(out), channels_(channels), options_(options) {}
 
 namespace {
 
@@ -345,11 +345,6 @@ void TextSink::on_event(const BusEvent& e) {
     lines_.write(prefix(0, e.time, e.channel) + fmt::format(FMT_COMPILE("***  {}"), e.detail));
 }
 
-void TextSink::on_transaction(const Transaction&) {
-  // Paired replies carry their latency on the frame line; timeouts and unsolicited replies
-  // arrive as anomalies. Nothing else to print per transaction.
-}
-
 void TextSink::on_summary(const Stats& s) {
   if (!options_.summary) return;
   lines_.write("");
@@ -418,10 +413,6 @@ void TextSink::on_summary(const Stats& s) {
       lines_.write(fmt::format(FMT_COMPILE("{:14}last state: {}; {} event{}"), "", d.state,
                                d.events, d.events == 1 ? "" : "s"));
   }
-}
-
-bool TextSink::flush() {
-  return lines_.flush();
 }
 
 }  // namespace drivetap

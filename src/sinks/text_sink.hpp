@@ -31,22 +31,17 @@ struct TextSinkOptions {
 
 // On cache lines of its own: the helpers of a ThreadedSink, one per thread, each write theirs for
 // every record, and are made one after the other on the heap.
-class alignas(kCacheLineBytes) TextSink final : public FormattingSink {
+class alignas(kCacheLineBytes) TextSink final : public LineFormattingSink {
  public:
   TextSink(std::FILE* out, const ChannelTable& channels, TextSinkOptions options);
   void on_frame(const Message& message) override;
   void on_noise(const Frame& noise) override;
   void on_anomaly(const Anomaly& anomaly) override;
-  void on_transaction(const Transaction& transaction) override;
   void on_summary(const Stats& stats) override;
   void on_event(const BusEvent& event) override;
-  bool flush() override;
-  // Made with no file (nullptr): writes into memory, for a ThreadedSink's helpers
-  // (FormattingSink, sink.hpp).
-  LineBuffer* formatted() override { return lines_.gathered(); }
-  void write_formatted(std::string_view text) override { lines_.write_lines(text); }
   void follow(std::uint64_t number) override { last_frame_number_ = number; }
-  // The field tree is shown only with -V; transactions not at all (see on_transaction).
+  // The field tree is shown only with -V; transactions not at all: paired replies carry their
+  // latency on the frame line, timeouts and unsolicited replies arrive as anomalies.
   [[nodiscard]] SinkNeeds needs() const override {
     SinkNeeds n;
     n.fields = options_.verbose;
@@ -71,7 +66,6 @@ class alignas(kCacheLineBytes) TextSink final : public FormattingSink {
   TextSinkOptions options_;
   std::uint64_t last_frame_number_ = 0;
   TimeNs previous_record_time_ = -1;
-  LineWriter lines_;  // lines not written yet (flush() writes them); frame lines are built there
 };
 
 // The start of every text line, appended to `out` (std::string or LineBuffer): the record's
