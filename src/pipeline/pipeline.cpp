@@ -989,21 +989,17 @@ void Pipeline::emit_some_transactions(std::vector<Transaction>& transactions) {
   for (const Transaction& t : transactions) {
     stats_.count_transaction(t);
     if (hand_over_transactions_) sink_.on_transaction(t);
-    if (t.outcome == Outcome::timeout) {
-      emit_anomaly(
-          {AnomalyKind::unanswered_request, t.request_time, t.channel, t.request_number,
-           fmt::format(
-               FMT_COMPILE("request #{} to address {}{}: {}"), t.request_number, t.address,
-               t.function < 0 ? "" : fmt::format(FMT_COMPILE(" function {:02X}"), t.function),
-               t.detail)});
-    } else if (t.outcome == Outcome::unsolicited) {
-      emit_anomaly(
-          {AnomalyKind::unsolicited_response, t.response_time, t.channel, t.response_number,
-           fmt::format(
-               FMT_COMPILE("reply #{} from address {}{}: {}"), t.response_number, t.address,
-               t.function < 0 ? "" : fmt::format(FMT_COMPILE(" function {:02X}"), t.function),
-               t.detail)});
-    }
+    // A request no reply answered, or a reply that answers none: a finding on that telegram.
+    const bool timeout = t.outcome == Outcome::timeout;
+    if (!timeout && t.outcome != Outcome::unsolicited) continue;
+    const std::uint64_t number = timeout ? t.request_number : t.response_number;
+    emit_anomaly(
+        {timeout ? AnomalyKind::unanswered_request : AnomalyKind::unsolicited_response,
+         timeout ? t.request_time : t.response_time, t.channel, number,
+         fmt::format(FMT_COMPILE("{} #{} {} address {}{}: {}"), timeout ? "request" : "reply",
+                     number, timeout ? "to" : "from", t.address,
+                     t.function < 0 ? "" : fmt::format(FMT_COMPILE(" function {:02X}"), t.function),
+                     t.detail)});
   }
   transactions.clear();
 }
