@@ -115,6 +115,16 @@ TEST(DisplayFilter, EachComparisonInSymbolsAndWords) {
   EXPECT_FALSE(passes("dir == 1", r));
 }
 
+TEST(DisplayFilter, CloseNamesHowTheFrameEndedAsJsonDoes) {
+  Record r;
+  EXPECT_TRUE(passes("close == \"silence\"", r));
+  r.m.frame.close = FrameClose::content;
+  EXPECT_TRUE(passes("close == content", r));
+  EXPECT_FALSE(passes("close == silence", r));
+  r.m.frame.close = FrameClose::end_of_input;
+  EXPECT_TRUE(passes("close == \"end_of_input\"", r));
+}
+
 TEST(DisplayFilter, AbsentFieldsMatchNoComparisonAndTestExistence) {
   Record r;
   r.m.address = -1;  // JSON null

@@ -167,6 +167,25 @@ TEST(UartDecoder, UnusualFormatsRoundTrip) {
   }
 }
 
+// The simulator and the decoder share parity_bit(): checked here against the definition, the
+// ones counted bit by bit, so that a wrong bit cannot hide behind a round trip.
+TEST(UartParity, ParityBitMakesTheOnesEvenOrOddOrIsFixed) {
+  for (unsigned value = 0; value < 512; ++value) {
+    SCOPED_TRACE(value);
+    unsigned ones = 0;
+    for (unsigned bits = value; bits != 0; bits >>= 1) ones += bits & 1u;
+    const auto v = static_cast<std::uint16_t>(value);
+    EXPECT_EQ((ones + parity_bit(UartParity::even, v)) % 2, 0u);
+    EXPECT_EQ((ones + parity_bit(UartParity::odd, v)) % 2, 1u);
+    EXPECT_TRUE(parity_bit(UartParity::mark, v));
+    EXPECT_FALSE(parity_bit(UartParity::space, v));
+    EXPECT_FALSE(parity_bit(UartParity::none, v));
+  }
+  // 'A' (0x41) has two ones: even parity sends 0, odd parity 1.
+  EXPECT_FALSE(parity_bit(UartParity::even, 0x41));
+  EXPECT_TRUE(parity_bit(UartParity::odd, 0x41));
+}
+
 TEST(UartDecoder, MarkAndSpaceParityMistakenForEachOtherFailEveryCharacter) {
   for (auto [sent_parity, read_parity] : {std::pair{UartParity::mark, UartParity::space},
                                           std::pair{UartParity::space, UartParity::mark}}) {

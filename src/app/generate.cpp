@@ -134,8 +134,7 @@ int run_generate(const GenerateOptions& g) {
     if (std::fputs(truth.c_str(), truth_file) < 0 || std::fclose(truth_file) != 0)
       die(fmt::format("--truth {}: write failed: {}", g.truth, std::strerror(errno)), 1);
   }
-  generate::Counts total;
-  for (const generate::Counts& c : gen.counts()) total += c;
+  const generate::Counts& total = gen.total();
   const double took =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   std::fprintf(stderr,

@@ -10,10 +10,12 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <iterator>
 #include <string_view>
 #include <vector>
 
 #include "core/anomaly.hpp"
+#include "core/enum_text.hpp"
 #include "core/field.hpp"
 #include "core/protocol_desc.hpp"
 #include "drive/drive_fields.hpp"
@@ -87,16 +89,11 @@ std::string_view expert_group(AnomalyKind k) {
   return "SEQUENCE";
 }
 
+// Wireshark's expert severity (PI_NOTE, PI_WARN, PI_ERROR) of each Severity, in its order.
 std::string_view expert_severity(Severity s) {
-  switch (s) {
-    case Severity::error:
-      return "ERROR";
-    case Severity::warning:
-      return "WARN";
-    case Severity::note:
-      return "NOTE";
-  }
-  return "NOTE";
+  static constexpr std::string_view kExpertSeverities[] = {"NOTE", "WARN", "ERROR"};
+  static_assert(std::size(kExpertSeverities) == static_cast<std::size_t>(Severity::error) + 1);
+  return enum_text(s, kExpertSeverities, std::string_view{"NOTE"});
 }
 
 // A finding's expert abbreviation: its id, unless a field has that id (Modbus's reference_type is

@@ -5,6 +5,9 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <iterator>
+
+#include "core/enum_text.hpp"
 
 namespace drivetap {
 
@@ -55,42 +58,42 @@ std::string format_field_value(const FieldTree& tree, const FieldNode& node,
   return out;
 }
 
+namespace {
+
+// Wireshark's name and display base of each FieldType, in FieldType order, as `tshark -G fields`
+// prints them. A type named "" is an unsigned number whose name comes from its width
+// (FT_UINT8/16/32); a base of "" is one Wireshark prints none for, "0" a flag's (the width of
+// the bits it is a flag of: none).
+struct WiresharkType {
+  std::string_view type;
+  std::string_view base;
+};
+constexpr WiresharkType kWiresharkTypes[] = {
+    {"FT_NONE", ""},      // group
+    {"", "BASE_DEC"},     // uint
+    {"", "BASE_HEX"},     // hex
+    {"FT_BOOLEAN", "0"},  // boolean
+    {"", "BASE_DEC"},     // enumerated
+    {"FT_BYTES", ""},     // bytes
+    {"FT_STRING", ""},    // text
+    {"FT_DOUBLE", ""},    // real
+};
+static_assert(std::size(kWiresharkTypes) == static_cast<std::size_t>(FieldType::real) + 1);
+
+WiresharkType wireshark_type_of(FieldType t) {
+  return enum_text(t, kWiresharkTypes, kWiresharkTypes[0]);
+}
+
+}  // namespace
+
 std::string_view wireshark_field_type(const FieldDesc& d) {
-  switch (d.type) {
-    case FieldType::group:
-      return "FT_NONE";
-    case FieldType::uint:
-    case FieldType::hex:
-    case FieldType::enumerated:
-      return d.bits <= 8 ? "FT_UINT8" : d.bits <= 16 ? "FT_UINT16" : "FT_UINT32";
-    case FieldType::boolean:
-      return "FT_BOOLEAN";
-    case FieldType::bytes:
-      return "FT_BYTES";
-    case FieldType::text:
-      return "FT_STRING";
-    case FieldType::real:
-      return "FT_DOUBLE";
-  }
-  return "FT_NONE";
+  const std::string_view named = wireshark_type_of(d.type).type;
+  if (!named.empty()) return named;
+  return d.bits <= 8 ? "FT_UINT8" : d.bits <= 16 ? "FT_UINT16" : "FT_UINT32";
 }
 
 std::string_view wireshark_field_base(const FieldDesc& d) {
-  switch (d.type) {
-    case FieldType::uint:
-    case FieldType::enumerated:
-      return "BASE_DEC";
-    case FieldType::hex:
-      return "BASE_HEX";
-    case FieldType::boolean:
-      return "0";  // the width of the bits it is a flag of: none (tshark prints 0 for that)
-    case FieldType::group:
-    case FieldType::bytes:
-    case FieldType::text:
-    case FieldType::real:
-      return "";
-  }
-  return "";
+  return wireshark_type_of(d.type).base;
 }
 
 }  // namespace drivetap

@@ -4,7 +4,13 @@
 // them. Their ids are the JSON keys as they are (no prefix); their layer is `drivetap`.
 #pragma once
 
+#include <cstddef>
+#include <iterator>
+#include <string_view>
+
+#include "core/enum_text.hpp"
 #include "core/field.hpp"
+#include "core/frame.hpp"
 
 namespace drivetap {
 
@@ -49,6 +55,12 @@ inline constexpr FieldDesc kRecordClose{"close",
                                         {},
                                         "Why the framer ended the frame: silence, content or "
                                         "end_of_input"};
+// The value of `close`: "silence", "content" or "end_of_input".
+constexpr std::string_view frame_close_id(FrameClose c) {
+  constexpr std::string_view kIds[] = {"silence", "content", "end_of_input"};
+  static_assert(std::size(kIds) == static_cast<std::size_t>(FrameClose::end_of_input) + 1);
+  return enum_text(c, kIds, std::string_view{"silence"});
+}
 inline constexpr FieldDesc kRecordLatency{
     "latency_ms",
     "Reply latency",

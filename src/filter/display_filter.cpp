@@ -23,19 +23,15 @@ struct Token {
     lbrace,
     rbrace,
     comma,
-    range,  // ..
-    eq,
-    ne,
-    lt,
-    gt,
-    le,
-    ge,
+    range,    // ..
+    compare,  // ==, eq, <, lt, ...: which one in Token::compare
     and_,
     or_,
     not_,
   };
   Kind kind = Kind::end;
-  std::string_view raw;  // as written
+  DisplayFilter::Compare compare = DisplayFilter::Compare::eq;  // a `compare` token's
+  std::string_view raw;                                         // as written
   std::size_t column = 1;
   std::string text;   // a string's characters (escapes resolved)
   double number = 0;  // a number's value
@@ -48,16 +44,26 @@ bool word_char(char c) {
   return std::isalnum(static_cast<unsigned char>(c)) != 0 || c == '_' || c == '.' || c == '-';
 }
 
-// The operators, each spelling before those it begins with ("<=" before "<").
+// The comparisons, each with its symbol and its word; a symbol before those it begins ("<="
+// before "<"). The lexer reads them before the other operators ("!=" before "!").
+struct ComparisonSpelling {
+  std::string_view symbol;
+  std::string_view word;
+  DisplayFilter::Compare compare;
+};
+constexpr ComparisonSpelling kComparisons[] = {
+    {"==", "eq", DisplayFilter::Compare::eq}, {"!=", "ne", DisplayFilter::Compare::ne},
+    {"<=", "le", DisplayFilter::Compare::le}, {"<", "lt", DisplayFilter::Compare::lt},
+    {">=", "ge", DisplayFilter::Compare::ge}, {">", "gt", DisplayFilter::Compare::gt},
+};
+// The other operators, each spelling before those it begins with.
 struct OperatorSpelling {
   std::string_view text;
   Token::Kind kind;
 };
 constexpr OperatorSpelling kOperators[] = {
     {"(", Token::Kind::lparen}, {")", Token::Kind::rparen}, {"{", Token::Kind::lbrace},
-    {"}", Token::Kind::rbrace}, {",", Token::Kind::comma},  {"==", Token::Kind::eq},
-    {"!=", Token::Kind::ne},    {"!", Token::Kind::not_},   {"<=", Token::Kind::le},
-    {"<", Token::Kind::lt},     {">=", Token::Kind::ge},    {">", Token::Kind::gt},
+    {"}", Token::Kind::rbrace}, {",", Token::Kind::comma},  {"!", Token::Kind::not_},
     {"&&", Token::Kind::and_},  {"||", Token::Kind::or_},   {"..", Token::Kind::range},
 };
 // Characters that begin an operator but are none alone, and what to write instead.
@@ -83,14 +89,21 @@ class Lexer {
     if (i_ >= s_.size()) return true;
     const std::size_t start = i_;
     const char c = s_[i_];
-    for (const OperatorSpelling& o : kOperators) {
-      if (s_.substr(start).starts_with(o.text)) {
-        t.kind = o.kind;
-        t.raw = s_.substr(start, o.text.size());
-        i_ += o.text.size();
-        return true;
+    const std::string_view rest = s_.substr(start);
+    auto take = [&](Token::Kind kind, std::size_t length) {
+      t.kind = kind;
+      t.raw = rest.substr(0, length);
+      i_ += length;
+      return true;
+    };
+    for (const ComparisonSpelling& k : kComparisons) {
+      if (rest.starts_with(k.symbol)) {
+        t.compare = k.compare;
+        return take(Token::Kind::compare, k.symbol.size());
       }
     }
+    for (const OperatorSpelling& o : kOperators)
+      if (rest.starts_with(o.text)) return take(o.kind, o.text.size());
     for (const LoneCharacter& l : kNotOperators) {
       if (c == l.character) {
         error = l.error;
@@ -202,20 +215,25 @@ class Lexer {
   std::size_t i_ = 0;
 };
 
-// A word as the keyword or operator it spells (eq, and, ...), else `word`.
-Token::Kind keyword_of(std::string_view w) {
+// A word token as the keyword or operator it spells (and, eq, ...); any other stays a word.
+void spell_keyword(Token& t) {
   struct K {
     std::string_view word;
     Token::Kind kind;
   };
   static constexpr K kWords[] = {
-      {"and", Token::Kind::and_}, {"or", Token::Kind::or_}, {"not", Token::Kind::not_},
-      {"eq", Token::Kind::eq},    {"ne", Token::Kind::ne},  {"lt", Token::Kind::lt},
-      {"gt", Token::Kind::gt},    {"le", Token::Kind::le},  {"ge", Token::Kind::ge},
-  };
+      {"and", Token::Kind::and_}, {"or", Token::Kind::or_}, {"not", Token::Kind::not_}};
   for (const K& k : kWords)
-    if (k.word == w) return k.kind;
-  return Token::Kind::word;
+    if (k.word == t.raw) {
+      t.kind = k.kind;
+      return;
+    }
+  for (const ComparisonSpelling& k : kComparisons)
+    if (k.word == t.raw) {
+      t.kind = Token::Kind::compare;
+      t.compare = k.compare;
+      return;
+    }
 }
 
 }  // namespace
@@ -249,10 +267,7 @@ class FilterParser {
   }
   bool advance() {
     if (!lexer_.next(token_, error_, error_column_)) return false;
-    if (token_.kind == Kind::word) {
-      const Kind k = keyword_of(token_.raw);
-      if (k != Kind::word) token_.kind = k;
-    }
+    if (token_.kind == Kind::word) spell_keyword(token_);
     return true;
   }
   bool is_word(std::string_view w) const { return token_.kind == Kind::word && token_.raw == w; }
@@ -358,11 +373,11 @@ class FilterParser {
         return false;
       }
     }
-    if (const std::optional<DisplayFilter::Compare> c = comparison(token_.kind)) {
+    if (token_.kind == Kind::compare) {
       const std::string op(token_.raw);
+      n.compare = token_.compare;
       if (!advance()) return false;
       n.op = DisplayFilter::Node::Op::compare;
-      n.compare = *c;
       if (!parse_value(n.literal, op)) return false;
     } else if (is_word("contains")) {
       if (!advance()) return false;
@@ -389,25 +404,6 @@ class FilterParser {
     node = add(n);
     if (negated_in) node = add_logic(DisplayFilter::Node::Op::negate, node);
     return true;
-  }
-
-  static std::optional<DisplayFilter::Compare> comparison(Kind k) {
-    switch (k) {
-      case Kind::eq:
-        return DisplayFilter::Compare::eq;
-      case Kind::ne:
-        return DisplayFilter::Compare::ne;
-      case Kind::lt:
-        return DisplayFilter::Compare::lt;
-      case Kind::gt:
-        return DisplayFilter::Compare::gt;
-      case Kind::le:
-        return DisplayFilter::Compare::le;
-      case Kind::ge:
-        return DisplayFilter::Compare::ge;
-      default:
-        return std::nullopt;
-    }
   }
 
   // A number, a "string" or a bare word (a string: dir == request).

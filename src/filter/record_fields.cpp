@@ -4,61 +4,46 @@
 
 #include <charconv>
 #include <cstring>
+#include <iterator>
 #include <vector>
 
 #include "core/checksum.hpp"
 #include "core/format.hpp"
 #include "core/protocol_desc.hpp"
+#include "core/record_fields.hpp"
 #include "sinks/sink.hpp"
 #include "sinks/text_sink.hpp"
 
 namespace drivetap {
 namespace {
 
-struct KeyName {
-  std::string_view name;
-  RecordKey key;
-};
-
-constexpr KeyName kKeyNames[] = {
-    {"type", RecordKey::type},
-    {"n", RecordKey::n},
-    {"t", RecordKey::t},
-    {"t_end", RecordKey::t_end},
-    {"channel", RecordKey::channel},
-    {"dir", RecordKey::dir},
-    {"protocol", RecordKey::protocol},
-    {"addr", RecordKey::addr},
-    {"fc", RecordKey::fc},
-    {"hex", RecordKey::hex},
-    {"checksum", RecordKey::checksum},
-    {"checksum_stated", RecordKey::checksum_stated},
-    {"checksum_computed", RecordKey::checksum_computed},
-    {"exception", RecordKey::exception},
-    {"drive", RecordKey::drive},
-    {"latency_ms", RecordKey::latency_ms},
-    {"request_n", RecordKey::request_n},
-    {"gap_before_ms", RecordKey::gap_before_ms},
-    {"close", RecordKey::close},
-    {"summary", RecordKey::summary},
-    {"finding", RecordKey::finding},
-};
+// The name of each RecordKey, in its order: the JSON key it reads (and `finding`).
+constexpr std::string_view kKeyNames[] = {"type",
+                                          "n",
+                                          "t",
+                                          "t_end",
+                                          "channel",
+                                          "dir",
+                                          "protocol",
+                                          "addr",
+                                          "fc",
+                                          "hex",
+                                          "checksum",
+                                          "checksum_stated",
+                                          "checksum_computed",
+                                          "exception",
+                                          "drive",
+                                          "latency_ms",
+                                          "request_n",
+                                          "gap_before_ms",
+                                          "close",
+                                          "summary",
+                                          "finding"};
+static_assert(std::size(kKeyNames) == static_cast<std::size_t>(RecordKey::finding) + 1);
 
 std::vector<std::unique_ptr<RecordFieldSource>>& sources() {
   static std::vector<std::unique_ptr<RecordFieldSource>> list;
   return list;
-}
-
-std::string_view frame_close_id(FrameClose c) {
-  switch (c) {
-    case FrameClose::silence:
-      return "silence";
-    case FrameClose::content:
-      return "content";
-    case FrameClose::end_of_input:
-      return "end_of_input";
-  }
-  return "silence";
 }
 
 // Hands `visit` a number given as an integer.
@@ -375,11 +360,11 @@ RecordFieldNeeds RecordField::needs() const {
 
 std::optional<RecordField> resolve_record_field(std::string_view name) {
   RecordField f;
-  for (const KeyName& k : kKeyNames)
-    if (k.name == name) {
+  for (std::size_t k = 0; k < std::size(kKeyNames); ++k)
+    if (kKeyNames[k] == name) {
       f.kind = RecordField::Kind::key;
-      f.key = k.key;
-      f.name = k.name;
+      f.key = static_cast<RecordKey>(k);
+      f.name = kKeyNames[k];
       return f;
     }
   for (const FieldDesc* d : all_field_descriptors())
@@ -441,31 +426,30 @@ bool record_values(const RecordField& field, const RecordView& record, std::stri
   return false;
 }
 
-RecordView RecordViews::of(const Message& message) const {
+RecordView RecordViews::shared_view() const {
   RecordView r;
-  r.message = &message;
   r.channels = &channels_;
   r.character_time = character_time_;
   r.show_latency = show_latency_;
+  return r;
+}
+
+RecordView RecordViews::of(const Message& message) const {
+  RecordView r = shared_view();
+  r.message = &message;
   r.findings = message.anomalies;
   return r;
 }
 
 RecordView RecordViews::of(const DeferredTelegram& telegram) const {
-  RecordView r;
+  RecordView r = shared_view();
   r.telegram = &telegram;
-  r.channels = &channels_;
-  r.character_time = character_time_;
-  r.show_latency = show_latency_;
   return r;
 }
 
 RecordView RecordViews::of(const Anomaly& finding, const LateFindingFrame& frame) const {
-  RecordView r;
+  RecordView r = shared_view();
   r.late_frame = &frame;
-  r.channels = &channels_;
-  r.character_time = character_time_;
-  r.show_latency = show_latency_;
   r.findings = std::span<const Anomaly>(&finding, 1);
   return r;
 }
@@ -495,11 +479,8 @@ RecordView RecordViews::of(const Frame& noise) {
   noise_findings_.push_back(
       {AnomalyKind::noise, noise.start(), noise.channel, noise.number, noise_detail(noise.events)});
   append_uart_anomalies(noise.events, noise.number, noise_findings_);
-  RecordView r;
+  RecordView r = shared_view();
   r.noise = &noise;
-  r.channels = &channels_;
-  r.character_time = character_time_;
-  r.show_latency = show_latency_;
   r.findings = noise_findings_;
   return r;
 }

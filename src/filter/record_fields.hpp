@@ -69,6 +69,8 @@ class RecordViews {
   [[nodiscard]] RecordView of(const Anomaly& finding, const LateFindingFrame& frame) const;
 
  private:
+  // A view of no record yet: what the views of every record share.
+  [[nodiscard]] RecordView shared_view() const;
   const ChannelTable& channels_;
   TimeNs character_time_;
   bool show_latency_;

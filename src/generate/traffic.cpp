@@ -802,22 +802,6 @@ void Counts::add(const Record& r) {
   bad_replies += r.kind == RecordKind::reply && r.checksum == ChecksumVerdict::bad;
 }
 
-Counts& Counts::operator+=(const Counts& o) {
-  frames += o.frames;
-  requests += o.requests;
-  replies += o.replies;
-  exceptions += o.exceptions;
-  checksum_bad += o.checksum_bad;
-  checksum_swapped += o.checksum_swapped;
-  bad_replies += o.bad_replies;
-  noise_records += o.noise_records;
-  noise_bytes += o.noise_bytes;
-  parity_errors += o.parity_errors;
-  timing_rule += o.timing_rule;
-  bytes += o.bytes;
-  return *this;
-}
-
 // ---- generator ----
 
 SerialConfig Generator::serial() {
@@ -862,6 +846,7 @@ bool Generator::next(Record& out) {
   queues_[best].pop_front();
   out.link = best;
   counts_[best].add(out);
+  total_.add(out);
   ++written_;
   return true;
 }
@@ -885,13 +870,11 @@ std::string counts_json(const Counts& c) {
 }  // namespace
 
 std::string Generator::truth_json() const {
-  Counts total;
-  for (const Counts& c : counts_) total += c;
   std::string s = fmt::format(
       "{{\"generator\":\"drivetap generate\",\"seed\":{},\"frames_asked\":{},\"mix\":\"{}\","
       "\"serial\":\"{}\",\"drives\":\"{}\",\n\"total\":{{{}}},\n\"links\":[",
       options_.seed, options_.frames, options_.mix == Mix::all ? "all" : "modbus-rtu",
-      serial().to_string(), drive_bindings(), counts_json(total));
+      serial().to_string(), drive_bindings(), counts_json(total_));
   for (std::size_t i = 0; i < info_.size(); ++i)
     s += fmt::format("{}\n{{\"channel\":\"{}\",\"protocol\":\"{}\",\"drives\":\"{}\",{}}}",
                      i ? "," : "", info_[i].channel, info_[i].protocol, info_[i].drives,

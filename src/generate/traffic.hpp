@@ -74,7 +74,6 @@ struct Counts {
   // Every reply answers one request, and there are no broadcasts: the rest went unanswered.
   [[nodiscard]] std::uint64_t timeouts() const { return requests - replies; }
   void add(const Record& r);
-  Counts& operator+=(const Counts& o);
 };
 
 struct LinkInfo {
@@ -101,6 +100,8 @@ class Generator {
 
   [[nodiscard]] const std::vector<LinkInfo>& links() const { return info_; }
   [[nodiscard]] const std::vector<Counts>& counts() const { return counts_; }
+  // All links' counts together.
+  [[nodiscard]] const Counts& total() const { return total_; }
   // --drive bindings for every station: "1=e9 2=e5-8200 ...".
   [[nodiscard]] std::string drive_bindings() const;
   // The truth file: what was written, as one JSON object (counts in total and per link).
@@ -112,6 +113,7 @@ class Generator {
   std::vector<LinkInfo> info_;
   std::vector<std::deque<Record>> queues_;
   std::vector<Counts> counts_;
+  Counts total_;
   std::uint64_t written_ = 0;
 };
 

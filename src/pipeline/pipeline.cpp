@@ -985,25 +985,30 @@ void Pipeline::summarise_drives() {
   for (auto& [key, d] : drives) stats_.drives.push_back(std::move(d));
 }
 
+namespace {
+
+// The finding on a request no reply answered, or on a reply that answers none. (Out of line: rare,
+// and kept out of the loop over every transaction.)
+[[gnu::noinline]] Anomaly unpaired_finding(const Transaction& t) {
+  const bool timeout = t.outcome == Outcome::timeout;
+  const std::uint64_t number = timeout ? t.request_number : t.response_number;
+  return {
+      timeout ? AnomalyKind::unanswered_request : AnomalyKind::unsolicited_response,
+      timeout ? t.request_time : t.response_time, t.channel, number,
+      fmt::format(FMT_COMPILE("{} #{} {} address {}{}: {}"), timeout ? "request" : "reply", number,
+                  timeout ? "to" : "from", t.address,
+                  t.function < 0 ? "" : fmt::format(FMT_COMPILE(" function {:02X}"), t.function),
+                  t.detail)};
+}
+
+}  // namespace
+
 void Pipeline::emit_some_transactions(std::vector<Transaction>& transactions) {
   for (const Transaction& t : transactions) {
     stats_.count_transaction(t);
     if (hand_over_transactions_) sink_.on_transaction(t);
-    if (t.outcome == Outcome::timeout) {
-      emit_anomaly(
-          {AnomalyKind::unanswered_request, t.request_time, t.channel, t.request_number,
-           fmt::format(
-               FMT_COMPILE("request #{} to address {}{}: {}"), t.request_number, t.address,
-               t.function < 0 ? "" : fmt::format(FMT_COMPILE(" function {:02X}"), t.function),
-               t.detail)});
-    } else if (t.outcome == Outcome::unsolicited) {
-      emit_anomaly(
-          {AnomalyKind::unsolicited_response, t.response_time, t.channel, t.response_number,
-           fmt::format(
-               FMT_COMPILE("reply #{} from address {}{}: {}"), t.response_number, t.address,
-               t.function < 0 ? "" : fmt::format(FMT_COMPILE(" function {:02X}"), t.function),
-               t.detail)});
-    }
+    if (t.outcome == Outcome::timeout || t.outcome == Outcome::unsolicited)
+      emit_anomaly(unpaired_finding(t));
   }
   transactions.clear();
 }

@@ -60,33 +60,14 @@ void LineSimulator::send(std::uint16_t value) {
   };
   set_level(false, 0);  // the line is always idle between calls: the start edge is a toggle
   const double start_edge = toggle_times_.back();
-  unsigned ones = 0;
-  for (unsigned i = 0; i < uart.data_bits; ++i) {
-    const bool bit = ((value >> i) & 1u) != 0;
-    ones += bit;
-    set_level(bit, 1.0 + i);
-  }
+  for (unsigned i = 0; i < uart.data_bits; ++i) set_level(((value >> i) & 1u) != 0, 1.0 + i);
+  const auto data_mask = static_cast<std::uint16_t>((1u << uart.data_bits) - 1);
+  const auto data = static_cast<std::uint16_t>(value & data_mask);
   const double after_data = 1.0 + uart.data_bits;
-  switch (uart.parity) {
-    case UartParity::none:
-      break;
-    case UartParity::even:
-      set_level((ones & 1u) != 0, after_data);
-      break;
-    case UartParity::odd:
-      set_level((ones & 1u) == 0, after_data);
-      break;
-    case UartParity::mark:
-      set_level(true, after_data);
-      break;
-    case UartParity::space:
-      set_level(false, after_data);
-      break;
-  }
+  if (uart.parity != UartParity::none) set_level(parity_bit(uart.parity, data), after_data);
   set_level(true, after_data + (uart.parity == UartParity::none ? 0.0 : 1.0));
   now_ = start + uart.frame_bits() * samples_per_bit_;
-  const auto data_mask = static_cast<std::uint16_t>((1u << uart.data_bits) - 1);
-  characters_.push_back({static_cast<std::uint16_t>(value & data_mask), start_edge, now_});
+  characters_.push_back({data, start_edge, now_});
 }
 
 void LineSimulator::send(std::span<const std::uint8_t> bytes, double gap_bit_times) {

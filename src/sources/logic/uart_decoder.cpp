@@ -30,29 +30,26 @@ double stop_bit_count(StopBits stop_bits) {
   return 1.0;
 }
 
-bool parity_matches(UartParity parity, std::uint16_t value, bool parity_bit) {
-  const bool odd_ones = (std::popcount(value) & 1) != 0;
-  switch (parity) {
-    case UartParity::none:
-      return true;
-    case UartParity::even:
-      return odd_ones == parity_bit;
-    case UartParity::odd:
-      return odd_ones != parity_bit;
-    case UartParity::mark:
-      return parity_bit;
-    case UartParity::space:
-      return !parity_bit;
-  }
-  return true;
-}
-
 std::uint64_t default_glitch_filter(double samples_per_bit) {
   const auto eighth_bit = static_cast<std::uint64_t>(std::llround(samples_per_bit / 8.0));
   return eighth_bit < 1 ? 1 : eighth_bit;
 }
 
 }  // namespace
+
+bool parity_bit(UartParity parity, std::uint16_t value) {
+  switch (parity) {
+    case UartParity::even:
+    case UartParity::odd:  // the bit that makes the count of ones even, or odd
+      return ((std::popcount(value) & 1) != 0) != (parity == UartParity::odd);
+    case UartParity::mark:
+      return true;
+    case UartParity::none:
+    case UartParity::space:
+      return false;
+  }
+  return false;
+}
 
 UartSettings UartSettings::from(const SerialConfig& serial) {
   UartSettings s;
@@ -264,7 +261,7 @@ void UartDecoder::report(std::uint64_t end_sample, bool is_break, std::vector<Ua
     c.value = static_cast<std::uint16_t>((sampled_levels_ >> 1) & ((1u << data_bits_) - 1));
     const bool parity_seen = next_point_ > parity_point_;
     if (parity_ != UartParity::none && parity_seen &&
-        !parity_matches(parity_, c.value, ((sampled_levels_ >> parity_point_) & 1) != 0)) {
+        parity_bit(parity_, c.value) != (((sampled_levels_ >> parity_point_) & 1) != 0)) {
       c.flags |= kUartParityError;
       ++stats_.parity_errors;
     }

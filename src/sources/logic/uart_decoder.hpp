@@ -38,6 +38,10 @@ struct LevelRun {
 // Parity on the wire; mark and space are a fixed 1 or 0 (9-bit multidrop protocols use them).
 enum class UartParity : std::uint8_t { none, even, odd, mark, space };
 
+// The parity bit sent after the data bits `value` (false for none, which sends no parity bit):
+// what the simulator writes and the decoder expects.
+bool parity_bit(UartParity parity, std::uint16_t value);
+
 enum class StopBits : std::uint8_t { one, one_and_half, two };
 
 struct UartSettings {
