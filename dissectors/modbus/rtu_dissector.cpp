@@ -48,9 +48,12 @@ Message dissect_rtu(Frame frame, Direction direction, const FramingTiming& timin
   return dissected(dissect_rtu, std::move(frame), direction, timing);
 }
 
-void dissect_rtu(Message& m, Frame&& frame, Direction direction, const FramingTiming& timing,
-                 std::span<const std::uint8_t> request) {
-  (void)request;
+namespace {
+
+// dissect_rtu(); `known_plausible`: the telegram's head was found to keep the plausibility rules
+// (TelegramView::known_plausible), which are then not checked again.
+void dissect_rtu_into(Message& m, Frame&& frame, Direction direction, const FramingTiming& timing,
+                      bool known_plausible) {
   begin_message(m, std::move(frame), protocols::modbus_rtu, direction);
   const std::span<const std::uint8_t> bytes(m.bytes);
   const ChannelId ch = m.frame.channel;
@@ -88,7 +91,8 @@ void dissect_rtu(Message& m, Frame&& frame, Direction direction, const FramingTi
   }
 
   add_checksum_anomaly(m);
-  add_implausible(m, kFindingRtuImplausible, rtu_plausibility(bytes, direction, true));
+  if (!known_plausible)
+    add_implausible(m, kFindingRtuImplausible, rtu_plausibility(bytes, direction, true));
   if (m.frame.max_intra_gap > timing.t15) {
     const std::size_t at = m.frame.max_intra_gap_at;
     // At the byte after the silence, not the frame's start.
@@ -106,6 +110,14 @@ void dissect_rtu(Message& m, Frame&& frame, Direction direction, const FramingTi
   append_uart_anomalies(m.frame.events, 0, m.anomalies);
 }
 
+}  // namespace
+
+void dissect_rtu(Message& m, Frame&& frame, Direction direction, const FramingTiming& timing,
+                 std::span<const std::uint8_t> request) {
+  (void)request;
+  dissect_rtu_into(m, std::move(frame), direction, timing, false);
+}
+
 bool RtuDecoder::dissect(TelegramView& t, Direction direction, const FramingTiming& timing,
                          std::span<const std::uint8_t> request, DissectDepth depth, Message& out,
                          TelegramFindings* head) const {
@@ -116,7 +128,7 @@ bool RtuDecoder::dissect(TelegramView& t, Direction direction, const FramingTimi
   // frame with UART marks is read in detail (its marks are findings too).
   if (depth == DissectDepth::detail || bytes.size() < 4 ||
       (t.frame && t.frame->events.any_flags())) {
-    dissect_rtu(out, t.frame_for(out), direction, timing);
+    dissect_rtu_into(out, t.frame_for(out), direction, timing, t.known_plausible);
     return true;
   }
   // The framer's record of the telegram's timing and carried checksum.

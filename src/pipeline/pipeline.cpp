@@ -925,6 +925,7 @@ void Pipeline::handle_telegram(TelegramView& t, const ProtocolDecoder& decoder, 
       telegram.direction = dir;
       telegram.request = request;
       telegram.head = &found;
+      telegram.plausible = in.plausible;
       if (paired.paired) {
         telegram.latency = paired.latency;
         telegram.request_number = paired.request_number;

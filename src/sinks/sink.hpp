@@ -76,6 +76,9 @@ struct DeferredTelegram {
   // verdict, finding kinds), for a sink that judges it by its head (the display filter). Valid
   // during on_deferred_frame() only: a copy kept for later must not read it.
   const TelegramFindings* head = nullptr;
+  // The head found the telegram plausible (TelegramView::known_plausible): the decode here
+  // does not check the rules a second time.
+  bool plausible = false;
 
   // The Message the pipeline would have handed over: its decoder's dissection of the frame, with
   // the pipeline's numbers, pairing and drive-level findings, each anomaly numbered with the
@@ -84,6 +87,7 @@ struct DeferredTelegram {
     TelegramView t;
     t.run = run;
     t.taken = taken;
+    t.known_plausible = plausible;
     decoder->dissect(t, direction, timing, request, DissectDepth::detail, out, nullptr);
     out.frame.number = number;
     out.latency = latency;
