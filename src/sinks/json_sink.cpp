@@ -223,12 +223,16 @@ void append_drive_object(LineBuffer& line, const Message& m) {
       if (repeated) continue;
     }
     given |= bit;
-    if (!first) line += ',';
-    first = false;
+    // The separator, the key and the start of its object in one piece: ,"id":{"value":
     // (Field ids are letters, digits and '_' (valid_register_field_id()): nothing to escape.)
-    line += '"';
-    line += v.id;
-    line += "\":{\"value\":";
+    constexpr std::string_view kValueKey = "\":{\"value\":";
+    const std::size_t comma = first ? 0 : 1;
+    first = false;
+    char* at = line.extend(comma + 1 + v.id.size() + kValueKey.size());
+    *at = ',';  // (written over by the quote when there is no comma)
+    at[comma] = '"';
+    std::memcpy(at + comma + 1, v.id.data(), v.id.size());
+    std::memcpy(at + comma + 1 + v.id.size(), kValueKey.data(), kValueKey.size());
     if (v.kind == DriveValue::Kind::text) {
       append_json_quoted(line, v.text);
     } else {
