@@ -44,9 +44,12 @@ Plausibility rtu_plausibility(std::span<const std::uint8_t> frame, Direction dir
   return modbus_plausibility(frame[0], frame.subspan(1, frame.size() - 3), direction, describe);
 }
 
-void dissect_rtu(Message& m, Frame&& frame, Direction direction, const FramingTiming& timing,
-                 std::span<const std::uint8_t> request) {
-  (void)request;
+namespace {
+
+// dissect_rtu(); `known_plausible`: the telegram's head was found to keep the plausibility rules
+// (TelegramView::known_plausible), which are then not checked again.
+void dissect_rtu_into(Message& m, Frame&& frame, Direction direction, const FramingTiming& timing,
+                      bool known_plausible) {
   begin_message(m, std::move(frame), protocols::modbus_rtu, direction);
   const std::span<const std::uint8_t> bytes(m.bytes);
   const ChannelId ch = m.frame.channel;
@@ -84,7 +87,8 @@ void dissect_rtu(Message& m, Frame&& frame, Direction direction, const FramingTi
   }
 
   add_checksum_anomaly(m);
-  add_implausible(m, kFindingRtuImplausible, rtu_plausibility(bytes, direction, true));
+  if (!known_plausible)
+    add_implausible(m, kFindingRtuImplausible, rtu_plausibility(bytes, direction, true));
   if (m.frame.max_intra_gap > timing.t15) {
     const std::size_t at = m.frame.max_intra_gap_at;
     // At the byte after the silence, not the frame's start.
@@ -102,6 +106,14 @@ void dissect_rtu(Message& m, Frame&& frame, Direction direction, const FramingTi
   append_uart_anomalies(m.frame.events, 0, m.anomalies);
 }
 
+}  // namespace
+
+void dissect_rtu(Message& m, Frame&& frame, Direction direction, const FramingTiming& timing,
+                 std::span<const std::uint8_t> request) {
+  (void)request;
+  dissect_rtu_into(m, std::move(frame), direction, timing, false);
+}
+
 bool RtuDecoder::dissect(TelegramView& t, Direction direction, const FramingTiming& timing,
                          std::span<const std::uint8_t> request, DissectDepth depth, Message& out,
                          TelegramFindings* head) const {
@@ -112,7 +124,7 @@ bool RtuDecoder::dissect(TelegramView& t, Direction direction, const FramingTimi
   // frame with UART marks is read in detail (its marks are findings too).
   if (depth == DissectDepth::detail || bytes.size() < 4 ||
       (t.frame && t.frame->events.any_flags())) {
-    dissect_rtu(out, t.frame_for(out), direction, timing, {});
+    dissect_rtu_into(out, t.frame_for(out), direction, timing, t.known_plausible);
     return true;
   }
   // The framer's record of the telegram's timing and carried checksum.

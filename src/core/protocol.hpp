@@ -50,6 +50,9 @@ struct TelegramView {
   ByteRun run;
   Framer::WholeFrame taken;
   const TelegramPrecheck* precheck = nullptr;  // of the decoder that dissects it, or nullptr
+  // A dissection to the head found that the telegram keeps its protocol's plausibility rules
+  // (a telegram handed over undecoded): a dissection in detail may take that as its own verdict.
+  bool known_plausible = false;
 
   [[nodiscard]] std::span<const std::uint8_t> bytes() const {
     return frame ? frame->events.bytes() : run.bytes;
@@ -131,6 +134,5 @@ class ProtocolDecoder {
     return false;
   }
 };
-
 
 }  // namespace drivetap

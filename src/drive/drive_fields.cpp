@@ -238,6 +238,16 @@ void collect_drive_values(const DriveProfile& p, int station, const DriveObserva
   }
 }
 
+void complete_drive_info_and_values(Message& m, DriveReading& scratch) {
+  if (!m.drive_profile) return;
+  const DriveProfile& profile = *m.drive_profile;
+  read_for_drive_into(profile, head_of(m), m.request, DriveReadingWants::text_and_observation,
+                      scratch);
+  std::swap(m.drive_info, scratch.text);  // both keep their storage
+  m.drive_profile = nullptr;
+  collect_drive_values(profile, m.address, scratch.observed, m.drive_values);
+}
+
 std::string_view drive_value_text(const DriveValue& v, std::span<char, kDriveNumberChars> buffer) {
   char* const at = buffer.data();
   switch (v.kind) {

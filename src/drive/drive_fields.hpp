@@ -23,6 +23,12 @@ namespace drivetap {
 void collect_drive_values(const DriveProfile& profile, int station,
                           const DriveObservation& observed, std::vector<DriveValue>& out);
 
+// complete_drive_info() of a message whose drive values are still to collect: the reading that
+// writes the annotation, with its observation, also gives them (collect_drive_values() of the
+// message's station), as the pipeline's reading would have. Nothing for a message without
+// drive_profile.
+void complete_drive_info_and_values(Message& message, DriveReading& scratch);
+
 // Whether `id` is one of the names every family shares ("setpoint", "status_word"; the order
 // collect_drive_values() gives them in).
 bool is_shared_drive_field_id(std::string_view id);

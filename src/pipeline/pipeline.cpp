@@ -817,8 +817,10 @@ void Pipeline::handle_telegram(TelegramView& t, const ProtocolDecoder& decoder, 
                                          st.role, t.precheck);
   // A reply is dissected in the light of the request it answers (the drive level reads it
   // too): the pairer's own copy, which stays as it is until pairer_.add() below.
+  // (Only a decode shown to a sink and the drive level read it: the findings counted without
+  // them, `read --stats` with no profile, never depend on it.)
   std::span<const std::uint8_t> request;
-  if (dir == Direction::response)
+  if (dir == Direction::response && (hand_over_records_ || drive_level_))
     request = pairer_.awaited_request(link, keys.address, keys.function, start);
   // The Message only where a sink takes it from here: a sink that takes no records has the
   // telegram's head counted, one that decodes telegrams itself gets those taken whole undecoded
@@ -925,6 +927,7 @@ void Pipeline::handle_telegram(TelegramView& t, const ProtocolDecoder& decoder, 
       telegram.direction = dir;
       telegram.request = request;
       telegram.head = &found;
+      telegram.plausible = in.plausible;
       if (paired.paired) {
         telegram.latency = paired.latency;
         telegram.request_number = paired.request_number;
@@ -932,7 +935,9 @@ void Pipeline::handle_telegram(TelegramView& t, const ProtocolDecoder& decoder, 
       if (profile) {
         if (defer_drive_info_) telegram.drive_profile = profile;
         telegram.anomalies = drive_anomalies_;
-        if (hand_over_drive_values_) {
+        if (hand_over_drive_values_ && defer_drive_info_) {
+          telegram.drive_values_with_annotation = true;
+        } else if (hand_over_drive_values_) {
           drive_values_.clear();
           collect_drive_values(*profile, in.address, drive_reading_.observed, drive_values_);
           telegram.drive_values = drive_values_;

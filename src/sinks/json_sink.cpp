@@ -162,12 +162,39 @@ template void append_json_quoted(std::string&, std::string_view);
 
 namespace {
 
+// A short string quoted (a profile's id, a unit: a few characters, nearly never anything to
+// escape): checked character by character and copied at once, not scanned as a long one.
+void append_short_json_quoted(LineBuffer& line, std::string_view s) {
+  constexpr std::size_t kShort = 32;
+  if (s.size() <= kShort) {
+    bool plain = true;
+    for (const char c : s) plain &= !kNeedsEscape[static_cast<unsigned char>(c)];
+    if (plain) {
+      char* at = line.extend(s.size() + 2);
+      at[0] = '"';
+      std::memcpy(at + 1, s.data(), s.size());
+      at[s.size() + 1] = '"';
+      return;
+    }
+  }
+  append_json_quoted(line, s);
+}
+
+// One bit of 64 for a value's register and id: values given twice (the same register under the
+// same id) have the same bit, so a value whose bit is not yet set was not given before. (The id's
+// length and last character, not its address: equal ids may be different strings.)
+std::uint64_t identity_bit(const DriveValue& v) {
+  std::uint64_t h = (reinterpret_cast<std::uintptr_t>(v.reg) >> 4) + v.id.size() * 31 +
+                    (v.id.empty() ? 0u : static_cast<unsigned char>(v.id.back()));
+  h *= 0x9E3779B97F4A7C15u;
+  return std::uint64_t{1} << (h >> 58);
+}
+
 // The frame's `drive` object: the annotation's text, the station and family, and the values
 // under their `drive.*` ids (without the prefix; a value given twice is shown once, the first),
 // as the pipeline's drive level read them (Message::drive_values). Nothing for a frame no
 // profile says anything of.
-template <class Out>
-void append_drive_object(Out& line, const Message& m) {
+void append_drive_object(LineBuffer& line, const Message& m) {
   // (The station and family, which collect_drive_values() gives first, are keys of their own.)
   std::span<const DriveValue> values = m.drive_values;
   while (!values.empty() && (values.front().id == "station" || values.front().id == "family"))
@@ -181,32 +208,45 @@ void append_drive_object(Out& line, const Message& m) {
       append_int(line, m.address);
     }
     line += ",\"family\":";
-    append_json_quoted(line, m.drive_read_with->id);
+    append_short_json_quoted(line, m.drive_read_with->id);
   }
   line += ",\"values\":{";
   bool first = true;
+  std::uint64_t given = 0;  // identity_bit() of the values shown
   for (std::size_t i = 0; i < values.size(); ++i) {
     const DriveValue& v = values[i];
-    bool repeated = false;
-    for (std::size_t k = 0; k < i && !repeated; ++k)
-      repeated = values[k].reg == v.reg && values[k].id == v.id;
-    if (repeated) continue;
-    if (!first) line += ',';
-    first = false;
+    const std::uint64_t bit = identity_bit(v);
+    if ((given & bit) != 0) {  // perhaps given before: the values before it say
+      bool repeated = false;
+      for (std::size_t k = 0; k < i && !repeated; ++k)
+        repeated = values[k].reg == v.reg && values[k].id == v.id;
+      if (repeated) continue;
+    }
+    given |= bit;
+    // The separator, the key and the start of its object in one piece: ,"id":{"value":
     // (Field ids are letters, digits and '_' (valid_register_field_id()): nothing to escape.)
-    line += '"';
-    line += v.id;
-    line += "\":{\"value\":";
-    char buffer[kDriveNumberChars];
-    const std::string_view text = drive_value_text(v, buffer);
-    if (v.kind == DriveValue::Kind::text)
-      append_json_quoted(line, text);
-    else
-      line += text;
+    constexpr std::string_view kValueKey = "\":{\"value\":";
+    const std::size_t comma = first ? 0 : 1;
+    first = false;
+    char* at = line.extend(comma + 1 + v.id.size() + kValueKey.size());
+    *at = ',';  // (written over by the quote when there is no comma)
+    at[comma] = '"';
+    std::memcpy(at + comma + 1, v.id.data(), v.id.size());
+    std::memcpy(at + comma + 1 + v.id.size(), kValueKey.data(), kValueKey.size());
+    if (v.kind == DriveValue::Kind::text) {
+      append_json_quoted(line, v.text);
+    } else {
+      // The number's digits are written in place: room for the most, then cut to what they took.
+      const std::size_t from = line.size();
+      char* room = line.extend(kDriveNumberChars);
+      const std::string_view text =
+          drive_value_text(v, std::span<char, kDriveNumberChars>(room, kDriveNumberChars));
+      line.resize(from + text.size());
+    }
     if (v.kind == DriveValue::Kind::reg) {
       if (!v.reg->unit.empty()) {
         line += ",\"unit\":";
-        append_json_quoted(line, v.reg->unit);
+        append_short_json_quoted(line, v.reg->unit);
       }
       line += ",\"raw\":";
       append_uint(line, v.raw);

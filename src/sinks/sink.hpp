@@ -72,10 +72,17 @@ struct DeferredTelegram {
   std::span<const Anomaly> anomalies;
   // With drive profiles: the values the pipeline's drive level read (Message::drive_values).
   std::span<const DriveValue> drive_values;
+  // With drive_profile: the values are not given above but collected by the reading that writes
+  // the annotation (complete_drive_info_and_values(), drive/drive_fields.hpp), the same values
+  // from the same reading, made on the sink's thread and into the message at once.
+  bool drive_values_with_annotation = false;
   // What the pipeline's dissection to DissectDepth::head found of the telegram (keys, checksum
   // verdict, finding kinds), for a sink that judges it by its head (the display filter). Valid
   // during on_deferred_frame() only: a copy kept for later must not read it.
   const TelegramFindings* head = nullptr;
+  // The head found the telegram plausible (TelegramView::known_plausible): the decode here
+  // does not check the rules a second time.
+  bool plausible = false;
 
   // The Message the pipeline would have handed over: its decoder's dissection of the frame, with
   // the pipeline's numbers, pairing and drive-level findings, each anomaly numbered with the
@@ -84,6 +91,7 @@ struct DeferredTelegram {
     TelegramView t;
     t.run = run;
     t.taken = taken;
+    t.known_plausible = plausible;
     decoder->dissect(t, direction, timing, request, DissectDepth::detail, out, nullptr);
     out.frame.number = number;
     out.latency = latency;

@@ -6,6 +6,7 @@
 
 #include "core/protocol.hpp"
 #include "core/worker_thread.hpp"
+#include "drive/drive_fields.hpp"
 
 namespace drivetap {
 
@@ -228,7 +229,10 @@ void ThreadedSink::replay_undissected(const DeferredTelegram& telegram, Sink& ta
   decoded.detail = needs_.detail;
   decoded.tree = needs_.fields;
   telegram.decode_into(decoded);
-  if (decoded.drive_profile) complete_drive_info(decoded, scratch.drive);
+  if (telegram.drive_values_with_annotation)
+    complete_drive_info_and_values(decoded, scratch.drive);
+  else if (decoded.drive_profile)
+    complete_drive_info(decoded, scratch.drive);
   target.on_frame(decoded);
   // The message's anomalies follow it, as the pipeline hands them on.
   for (const Anomaly& a : decoded.anomalies) target.on_anomaly(a);
