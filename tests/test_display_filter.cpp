@@ -279,12 +279,21 @@ TEST(DisplayFilter, NeedsFollowTheNamesUsed) {
   ASSERT_TRUE(summary);
   EXPECT_TRUE(summary->needs().detail);
   EXPECT_FALSE(summary->needs().tree);
-  auto tree = DisplayFilter::compile(std::string(listed(FieldType::uint)->id) + " == 1", &error);
+  auto tree = DisplayFilter::compile("modbus.word_cnt == 1", &error);
   ASSERT_TRUE(tree);
   // The tree without the texts (info line, drive annotation) no one reads.
   EXPECT_FALSE(tree->needs().detail);
   EXPECT_TRUE(tree->needs().tree);
   EXPECT_TRUE(tree->needs().message);
+  // Tree ids a telegram's head holds (the protocol descriptor's head fields) are judged on the
+  // head; the tree is read of the telegrams decoded anyway.
+  auto head_tree = DisplayFilter::compile("mbrtu.unit_id == 2 && modbus.func_code == 3", &error);
+  ASSERT_TRUE(head_tree);
+  EXPECT_TRUE(head_tree->needs().tree);
+  EXPECT_FALSE(head_tree->needs().message);
+  auto mixed = DisplayFilter::compile("mbrtu.unit_id == 2 && mbrtu.crc16 == 1", &error);
+  ASSERT_TRUE(mixed);
+  EXPECT_TRUE(mixed->needs().message);
   // A finding's presence is the head's; its text the Message's.
   auto present = DisplayFilter::compile("checksum_bad && !malformed", &error);
   ASSERT_TRUE(present);
