@@ -310,10 +310,11 @@ void bus_findings(const LineEvidence& e, std::vector<Verdict>& out) {
     std::vector<std::string> where;
     for (const auto& [address, count] : breaks.stations)
       where.push_back(fmt::format("station {}: {}", address, count));
-    out.push_back({"timing-rule", fmt::format("A drive's timing rule is broken: {}", rule),
-                   fmt::format("{} times ({}; first: {})", breaks.count, fmt::join(where, ", "),
-                               breaks.first),
-                   timing_rule_fix(breaks.first)});
+    out.push_back(
+        {"timing-rule", fmt::format("A drive's timing rule is broken: {}", rule),
+         fmt::format("{} {} ({}; first: {})", breaks.count, breaks.count == 1 ? "time" : "times",
+                     fmt::join(where, ", "), breaks.first),
+         timing_rule_fix(breaks.first)});
   }
   const std::uint64_t split = e.findings[static_cast<std::size_t>(AnomalyKind::packet_split_frame)];
   const std::uint64_t merged =
@@ -325,9 +326,9 @@ void bus_findings(const LineEvidence& e, std::vector<Verdict>& out) {
   if (const std::uint64_t back = e.findings[static_cast<std::size_t>(AnomalyKind::time_reversed)];
       back > 0)
     out.push_back({"capture-clock", "The capture's timestamps went backwards",
-                   fmt::format("{} times: the capturing tool's clock, not the bus (timing "
+                   fmt::format("{} {}: the capturing tool's clock, not the bus (timing "
                                "findings next to them are unreliable)",
-                               back),
+                               back, back == 1 ? "time" : "times"),
                    "", true});
 }
 
