@@ -31,7 +31,8 @@ constexpr int kSharedCount = static_cast<int>(std::size(kSharedIds));
 constexpr std::pair<std::string_view, std::string_view> kSharedListing[] = {
     {"Station", "The bound drive's address"},
     {"Drive family", "The id of the drive profile that read the frame"},
-    {"Setpoint", "The setpoint the drive reports, else the one the master writes, in its profile's unit"},
+    {"Setpoint",
+     "The setpoint the drive reports, else the one the master writes, in its profile's unit"},
     {"Output frequency", "The drive's output frequency (or speed), in its profile's unit"},
     {"Output current", "The drive's output current, in its profile's unit"},
     {"Output voltage", "The drive's output voltage, in its profile's unit"},
