@@ -269,42 +269,35 @@ TEST(DisplayFilter, ALateFindingIsJudgedOnItsOwnRecord) {
 }
 
 TEST(DisplayFilter, NeedsFollowTheNamesUsed) {
-  std::string error;
-  auto plain = DisplayFilter::compile("addr == 2 && checksum_bad && latency_ms > 1", &error);
-  ASSERT_TRUE(plain);
-  EXPECT_FALSE(plain->needs().detail);
-  EXPECT_FALSE(plain->needs().tree);
-  EXPECT_FALSE(plain->needs().message);  // judged on a telegram's head
-  auto summary = DisplayFilter::compile("summary contains \"x\" || drive", &error);
-  ASSERT_TRUE(summary);
-  EXPECT_TRUE(summary->needs().detail);
-  EXPECT_FALSE(summary->needs().tree);
-  auto tree = DisplayFilter::compile("modbus.word_cnt == 1", &error);
-  ASSERT_TRUE(tree);
-  // The tree without the texts (info line, drive annotation) no one reads.
-  EXPECT_FALSE(tree->needs().detail);
-  EXPECT_TRUE(tree->needs().tree);
-  EXPECT_TRUE(tree->needs().message);
-  // Tree ids a telegram's head holds (the protocol descriptor's head fields) are judged on the
-  // head; the tree is read of the telegrams decoded anyway.
-  auto head_tree = DisplayFilter::compile("mbrtu.unit_id == 2 && modbus.func_code == 3", &error);
-  ASSERT_TRUE(head_tree);
-  EXPECT_TRUE(head_tree->needs().tree);
-  EXPECT_FALSE(head_tree->needs().message);
-  auto mixed = DisplayFilter::compile("mbrtu.unit_id == 2 && mbrtu.crc16 == 1", &error);
-  ASSERT_TRUE(mixed);
-  EXPECT_TRUE(mixed->needs().message);
-  // A finding's presence is the head's; its text the Message's.
-  auto present = DisplayFilter::compile("checksum_bad && !malformed", &error);
-  ASSERT_TRUE(present);
-  EXPECT_FALSE(present->needs().message);
-  auto text = DisplayFilter::compile("checksum_bad contains \"CRC\"", &error);
-  ASSERT_TRUE(text);
-  EXPECT_TRUE(text->needs().message);
-  EXPECT_FALSE(text->needs().detail);
-  auto typed = DisplayFilter::compile("finding == \"checksum_bad\" || checksum_stated", &error);
-  ASSERT_TRUE(typed);
-  EXPECT_TRUE(typed->needs().message);
+  struct Row {
+    const char* filter;
+    bool detail, tree, message;  // RecordFieldNeeds the filter must fold
+    const char* why;
+  };
+  const Row rows[] = {
+      {"addr == 2 && checksum_bad && latency_ms > 1", false, false, false,
+       "judged on a telegram's head"},
+      {"summary contains \"x\" || drive", true, false, true, "the texts, no tree"},
+      {"modbus.word_cnt == 1", false, true, true,
+       "the tree without the texts (info line, drive annotation) no one reads"},
+      {"mbrtu.unit_id == 2 && modbus.func_code == 3", false, true, false,
+       "tree ids the head holds (the protocol descriptor's head fields) are judged on the head; "
+       "the tree is read of the telegrams decoded anyway"},
+      {"mbrtu.unit_id == 2 && mbrtu.crc16 == 1", false, true, true, "one id no head holds"},
+      {"checksum_bad && !malformed", false, false, false, "a finding's presence is the head's"},
+      {"checksum_bad contains \"CRC\"", false, false, true, "a finding's text, the Message's"},
+      {"finding == \"checksum_bad\" || checksum_stated", false, false, true,
+       "typed ids and the stated checksum are the Message's"},
+  };
+  for (const Row& row : rows) {
+    SCOPED_TRACE(std::string(row.filter) + ": " + row.why);
+    std::string error;
+    auto filter = DisplayFilter::compile(row.filter, &error);
+    ASSERT_TRUE(filter) << error;
+    EXPECT_EQ(filter->needs().detail, row.detail);
+    EXPECT_EQ(filter->needs().tree, row.tree);
+    EXPECT_EQ(filter->needs().message, row.message);
+  }
 }
 
 namespace {
