@@ -35,15 +35,9 @@ void print_layer(const FieldProtocol& layer) {
 // The drive values the built-in profiles give (`drive.*`), as the Wireshark plugin types them.
 void print_drive_layer() {
   fmt::print("P\tdrivetap drive values\tdrive\n");
-  for (const DriveFieldListing& f : drive_field_listing(loaded_drive_profiles(CommonOptions{}))) {
-    const bool word = f.id.ends_with("_word");
-    const auto [type, base] = f.kind == DriveFieldKind::text ? std::pair("FT_STRING", "")
-                              : f.kind == DriveFieldKind::integer
-                                  ? std::pair("FT_UINT32", word ? "BASE_HEX" : "BASE_DEC")
-                                  : std::pair("FT_DOUBLE", "");
-    fmt::print("F\t{}\tdrive.{}\t{}\tdrive\t{}\t0x0\t{}\n", one_column(f.name), f.id, type, base,
-               one_column(f.blurb));
-  }
+  for (const DriveFieldListing& f : drive_field_listing(loaded_drive_profiles(CommonOptions{})))
+    fmt::print("F\t{}\tdrive.{}\t{}\tdrive\t{}\t0x0\t{}\n", one_column(f.name), f.id,
+               f.wireshark_type, f.wireshark_base, one_column(f.blurb));
 }
 
 int run_fields() {

@@ -41,14 +41,12 @@ std::string lua_string(std::string_view s) {
   return out + "\"";
 }
 
-// Wireshark's type and base names as Lua's `ftypes.X` and `base.X`.
-std::string lua_ftype(const FieldDesc& d) {
-  std::string_view t = wireshark_field_type(d);
+// Wireshark's type and base names ("FT_UINT8", "BASE_HEX") as Lua's `ftypes.X` and `base.X`.
+std::string lua_ftype(std::string_view t) {
   if (t.starts_with("FT_")) t.remove_prefix(3);
   return fmt::format("ftypes.{}", t);
 }
-std::string lua_base(const FieldDesc& d) {
-  std::string_view b = wireshark_field_base(d);
+std::string lua_base(std::string_view b) {
   if (b == "0") return "base.NONE";
   if (b.starts_with("BASE_")) return fmt::format("base.{}", b.substr(5));
   return "nil";
@@ -273,8 +271,9 @@ std::string wireshark_plugin_lua(std::span<const DriveProfile* const> profiles) 
     for (const FieldProtocol* layer : p->field_protocols)
       for (const FieldDesc* d : layer->fields)
         fmt::format_to(out, "  field(p, {}, {}, {}, {}, {}, {}, {})\n", lua_string(d->id),
-                       lua_string(d->name), lua_ftype(*d), lua_base(*d), lua_value_names(*d),
-                       d->bitmask, lua_string(d->blurb));
+                       lua_string(d->name), lua_ftype(wireshark_field_type(*d)),
+                       lua_base(wireshark_field_base(*d)), lua_value_names(*d), d->bitmask,
+                       lua_string(d->blurb));
     lua += "end\n";
   }
   // The postdissector's fields: findings, the drive annotation and events, the drive values.
@@ -289,18 +288,11 @@ std::string wireshark_plugin_lua(std::span<const DriveProfile* const> profiles) 
       "  DRIVETAP_FIELDS[#DRIVETAP_FIELDS + 1] = f\n"
       "  VALUES[id] = { field = f, text = text }\n"
       "end\n";
-  for (const DriveFieldListing& f : drive_field_listing(profiles)) {
-    const std::string_view ftype = f.kind == DriveFieldKind::text      ? "STRING"
-                                   : f.kind == DriveFieldKind::integer ? "UINT32"
-                                                                       : "DOUBLE";
-    const std::string_view base = f.kind != DriveFieldKind::integer ? "nil"
-                                  : f.id.ends_with("_word")         ? "base.HEX"
-                                                                    : "base.DEC";
-    fmt::format_to(out,
-                   "value({0}, ProtoField.new({1}, {0}, ftypes.{2}, nil, {3}, nil, {4}), {5})\n",
-                   lua_string("drive." + f.id), lua_string(f.name), ftype, base,
-                   lua_string(f.blurb), f.kind == DriveFieldKind::text ? "true" : "false");
-  }
+  for (const DriveFieldListing& f : drive_field_listing(profiles))
+    fmt::format_to(out, "value({0}, ProtoField.new({1}, {0}, {2}, nil, {3}, nil, {4}), {5})\n",
+                   lua_string("drive." + f.id), lua_string(f.name), lua_ftype(f.wireshark_type),
+                   lua_base(f.wireshark_base), lua_string(f.blurb),
+                   f.kind == DriveFieldKind::text ? "true" : "false");
   // Findings: each protocol's typed ids as they are, the generic kinds as drivetap.<kind>; keyed
   // by the id the fields line gives.
   lua +=

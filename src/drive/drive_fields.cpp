@@ -312,18 +312,22 @@ std::vector<DriveFieldListing> drive_field_listing(std::span<const DriveProfile*
   for (std::string& id : drive_field_ids(profiles)) {
     DriveFieldListing f;
     f.kind = drive_field_kind(id);
+    f.wireshark_type = f.kind == DriveFieldKind::text      ? "FT_STRING"
+                       : f.kind == DriveFieldKind::integer ? "FT_UINT32"
+                                                           : "FT_DOUBLE";
+    if (f.kind == DriveFieldKind::integer)
+      f.wireshark_base = id.ends_with("_word") ? "BASE_HEX" : "BASE_DEC";
     f.id = std::move(id);
-    bool shared = false;
-    for (int i = 0; i < kSharedCount; ++i)
-      if (kSharedIds[i] == f.id) {
-        std::tie(f.name, f.blurb) = kSharedListing[i];
-        shared = true;
-      }
+    if (is_shared_id(f.id)) {
+      for (int i = 0; i < kSharedCount; ++i)
+        if (kSharedIds[i] == f.id) std::tie(f.name, f.blurb) = kSharedListing[i];
+      out.push_back(std::move(f));
+      continue;
+    }
     // A profile's own register: named as the first profile that has it names it (capitalised, as
     // Wireshark names fields), with where it is read; the others that have it too are listed
     // after it (each id once per profile).
     for (const DriveProfile* p : profiles) {
-      if (shared) break;
       for (const RegisterDef& r : p->registers) {
         if (r.field_id != f.id) continue;
         if (!f.name.empty()) {

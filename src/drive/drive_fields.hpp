@@ -55,6 +55,10 @@ struct DriveFieldListing {
   std::string name;  // "Output frequency", or the register's name in its profile
   DriveFieldKind kind = DriveFieldKind::number;
   std::string blurb;  // where the value comes from
+  // As `tshark -G fields` types it: FT_STRING, FT_UINT32 (a raw word in BASE_HEX, other
+  // integers BASE_DEC) or FT_DOUBLE; base "" for none.
+  std::string_view wireshark_type;
+  std::string_view wireshark_base;
 };
 // drive_field_ids() with a name and a description each, in the same order.
 std::vector<DriveFieldListing> drive_field_listing(std::span<const DriveProfile* const> profiles);
