@@ -292,14 +292,20 @@ bool tree_values(const FieldDesc* key, const RecordView& r, std::string& scratch
   return false;
 }
 
+// Which value of a telegram's head the tree id `key` is in protocol `p`'s telegrams
+// (ProtocolDesc::head_address_field, head_function_field).
+enum class HeadValue : std::uint8_t { none, address, function };
+HeadValue head_value_of(const ProtocolDesc& p, const FieldDesc* key) {
+  if (p.head_address_field && p.head_address_field->key() == key) return HeadValue::address;
+  if (p.head_function_field && p.head_function_field->key() == key) return HeadValue::function;
+  return HeadValue::none;
+}
+
 // Whether every telegram read to its head holds `key`'s value, or cannot have the field: for each
-// protocol, the field is one of its head's (ProtocolDesc::head_address_field, ...) or of none of
-// its layers.
+// protocol, the field is one of its head's or of none of its layers.
 bool head_holds(const FieldDesc* key) {
   for (const ProtocolDesc* p : registered_protocols()) {
-    if ((p->head_address_field && p->head_address_field->key() == key) ||
-        (p->head_function_field && p->head_function_field->key() == key))
-      continue;
+    if (head_value_of(*p, key) != HeadValue::none) continue;
     for (const FieldProtocol* layer : p->field_protocols)
       for (const FieldDesc* d : layer->fields)
         if (d->key() == key) return false;
@@ -307,19 +313,24 @@ bool head_holds(const FieldDesc* key) {
   return true;
 }
 
-// A tree field of a telegram known by its head (head_holds() of it): the head's value, or none.
+// A tree field of a telegram known by its head (head_holds() of it): the head's value, or none
+// (a field of another protocol's layers).
 bool head_tree_values(const FieldDesc* key, const RecordView& r, std::string& scratch,
                       ValueVisitor& visit) {
   const ProtocolDesc* p = r.telegram->decoder->protocol().desc();
   const TelegramFindings& head = *r.telegram->head;
-  if (p && p->head_address_field && p->head_address_field->key() == key)
-    return head.address >= 0 && visit_int(head.address, scratch, visit);
-  if (p && p->head_function_field && p->head_function_field->key() == key) {
-    const std::uint32_t mask = key->bitmask ? key->bitmask : ~0u;
-    return head.function >= 0 &&
-           visit_int(static_cast<std::uint32_t>(head.function) & mask, scratch, visit);
+  switch (p ? head_value_of(*p, key) : HeadValue::none) {
+    case HeadValue::address:
+      return head.address >= 0 && visit_int(head.address, scratch, visit);
+    case HeadValue::function: {
+      const std::uint32_t mask = key->bitmask ? key->bitmask : ~0u;
+      return head.function >= 0 &&
+             visit_int(static_cast<std::uint32_t>(head.function) & mask, scratch, visit);
+    }
+    case HeadValue::none:
+      break;
   }
-  return false;  // a field of another protocol's layers
+  return false;
 }
 
 }  // namespace
