@@ -1,14 +1,16 @@
 #!/usr/bin/env bash
-# End to end against tshark: the same Modbus RTU pcapng through `drivetap read` in text,
-# JSON and --stats modes and through tshark (text, -T fields, -q -z io,stat,0), side by side:
-# seconds, packets/s, drivetap's ratio to tshark, peak RSS; `cat` of the file as the floor of any
-# reader (its ratio to io,stat bounds what --stats can reach) and drivetap_floor (bench/floor.cpp:
-# the file read with drivetap's reader and each packet's CRC checked, on one thread, nothing else
-# of a decode) as the floor of a --stats pass; then drivetap alone on the realistic
-# mix of the five drive families (tshark decodes neither the FC nor the '~' protocol). One table
-# per size, and drivetap's peak RSS across the sizes; then drivetap's peak RSS on a noisy bus seen
-# by a logic analyser (every byte stamped on its own: the frames whose storage is largest).
-# Writes bench/RESULTS.md (or $RESULTS).
+# End to end against tshark, on Modbus RTU pcapng from two writers: drivetap's generator and
+# bench/foreign_pcapng.py (another writer: 31 stations, random registers no drive family fits,
+# direction flags on every packet). Each file goes through tshark (text, -T fields, -q -z
+# io,stat,0) and through `drivetap read` in text, JSON and --stats, in the default mode (drive
+# profiles on: the headline) and with --drive none beside it: seconds, packets/s, drivetap's ratio
+# to tshark, peak RSS; `cat` of the file as the floor of any reader (its ratio to io,stat bounds
+# what --stats can reach) and drivetap_floor (bench/floor.cpp: the file read with drivetap's
+# reader and each packet's CRC checked, on one thread) as the floor of a --stats pass. Then
+# drivetap alone on the generated traffic as its own full pcapng and on the mix of the five drive
+# families (tshark decodes neither the FC nor the '~' protocol); the peak RSS across the sizes;
+# and drivetap's peak RSS on a noisy bus seen by a logic analyser (every byte stamped on its own:
+# the frames whose storage is largest). Writes bench/RESULTS.md (or $RESULTS).
 #
 #   bench/end_to_end.sh [BUILD_DIR] [FRAMES...]     default: build 1000000 10000000
 #   REPEAT=N bench/end_to_end.sh ...                  each tshark and drivetap row the best of N
@@ -16,14 +18,12 @@
 #   NOISE_BYTES=N bench/end_to_end.sh ...             bytes of the noisy capture (default 6000000)
 #   RESULTS=FILE bench/end_to_end.sh ...              the report there instead of bench/RESULTS.md
 #
-# Needs tshark and GNU time's /usr/bin/time (Debian: apt-get install tshark time).
+# Needs tshark, python3 and GNU time's /usr/bin/time (Debian: apt-get install tshark time).
 #
-# The captures come from `drivetap generate` (docs/reference.md "Generated captures"), seed 1:
-# the comparison runs on `--mix modbus-rtu --plain` (the frames alone, 80 bytes a packet, as
-# another capture tool writes them: the issue's file, whose `cat` takes about 0.01 s per 1 M packets); drivetap alone
-# then reads the same traffic as its own full pcapng (per-byte times, UART marks and the decode as
-# comments: 350 bytes a packet) and the --mix all capture. A 10 M run needs about 5.5 GB in
-# $TMPDIR; tshark needs about 1.5 GB of memory for it.
+# The generated capture is `drivetap generate --seed 1 --mix modbus-rtu --plain` (the frames
+# alone, 80 bytes a packet, as another capture tool writes them); the foreign one
+# `bench/foreign_pcapng.py FRAMES --seed 1` (82 bytes a packet). A 10 M run needs about 5.5 GB
+# in $TMPDIR and some 3 minutes of Python; tshark needs about 1.5 GB of memory for it.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 build=${1:-$root/build}
@@ -45,6 +45,7 @@ done
 [[ $repeat =~ ^[1-9][0-9]*$ ]] || die "REPEAT=$repeat: not a positive number of runs"
 [[ $noise_bytes =~ ^[1-9][0-9]*$ ]] || die "NOISE_BYTES=$noise_bytes: not a positive number of bytes"
 command -v tshark >/dev/null || die "tshark is not installed (Debian: apt-get install tshark)"
+command -v python3 >/dev/null || die "python3 is not installed (Debian: apt-get install python3)"
 [ -x /usr/bin/time ] || die "/usr/bin/time is not installed (Debian: apt-get install time)"
 [ -d "$(dirname "$results")" ] || die "RESULTS=$results: no directory $(dirname "$results")"
 work=$(mktemp -d)
@@ -94,36 +95,84 @@ report="$work/RESULTS.md"
   echo "# End-to-end results (bench/end_to_end.sh)"
   echo
   echo "Machine: $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //'), $(nproc) cores;"
-  echo "$(date -u +%Y-%m-%d); drivetap $(git -C "$root" rev-parse --short HEAD 2>/dev/null || echo '(not a git checkout)'); captures from"
-  echo "\`drivetap generate --seed 1\`: Modbus RTU as --plain pcapng for the comparison with tshark (and as drivetap's"
-  echo "full pcapng, drivetap alone); all links for the mix."
+  echo "$(date -u +%Y-%m-%d); drivetap $(git -C "$root" rev-parse --short HEAD 2>/dev/null || echo '(not a git checkout)'). Two sources of"
+  echo "Modbus RTU pcapng, both read by tshark and drivetap: \`drivetap generate --seed 1 --mix modbus-rtu"
+  echo "--plain\` (drivetap's generator: a few drives of the built-in families) and"
+  echo "\`bench/foreign_pcapng.py --seed 1\` (another writer: 31 stations polled for random registers, no"
+  echo "family fitting them, link type 252 with the direction in each packet's flags). drivetap runs in"
+  echo "its default mode (drive profiles on) and with \`--drive none\` beside it."
   echo "Each tshark and drivetap row is the best of $repeat run(s) (REPEAT), its memory the largest."
   echo "CPU s: user + system seconds of all the run's threads (drivetap reads ahead, decodes and"
   echo "writes on three; tshark decodes on one), the least of the runs, in /usr/bin/time's 10 ms"
   echo "steps: the work done, which this VM's neighbours disturb less than the wall clock."
 } >"$report"
 
-stats_rss=()
+# table TITLE PACKETS: the rows measured since the last table, with packets/s and each drivetap
+# row's ratio to the tshark run of the same output.
+table() {
+  local title=$1 packets=$2 r name seconds rss cpu cmd rate ratio against unit
+  {
+    echo
+    echo "$title"
+    echo
+    echo "| run | seconds | CPU s | packets/s | peak RSS MB | vs tshark | command |"
+    echo "|---|---|---|---|---|---|---|"
+    for r in "${rows[@]}"; do
+      IFS='|' read -r name seconds rss cpu cmd <<<"$r"
+      rate=$(awk -v p="$packets" -v s="$seconds" 'BEGIN { printf "%.0f", (s > 0 ? p / s : 0) }')
+      against=""
+      case $name in
+        "drivetap text"*) against="tshark text" unit=text ;;
+        "drivetap -T json"*) against="tshark -T fields" unit=fields ;;
+        "drivetap --stats"* | "cat (no decoding)" | "floor: read + CRC, one thread") against="tshark io,stat" unit=io,stat ;;
+      esac
+      ratio=""
+      [ -z "$against" ] || ratio=$(awk -v a="$(seconds_of "$against")" -v b="$seconds" -v u="$unit" 'BEGIN { printf "%.1fx %s", a / b, u }')
+      echo "| $name | $seconds | $cpu | $rate | $((rss / 1024)) | $ratio | \`${cmd//$work\//}\` |"
+    done
+  } >>"$report"
+}
+
+# compare FILE: tshark and drivetap on FILE, default mode and --drive none (the rows of a table).
+compare() {
+  local file=$1
+  measure "tshark text" tshark -r "$file"
+  measure "tshark -T fields" tshark -r "$file" -T fields -e modbus.func_code
+  measure "tshark io,stat" tshark -r "$file" -q -z io,stat,0
+  # The floor of any reader: the file's bytes copied out of the page cache once, nothing decoded.
+  measure "cat (no decoding)" cat "$file"
+  # The floor of --stats: reading and CRC-checking every packet on one thread, nothing else.
+  [ ! -x "$floor" ] || measure "floor: read + CRC, one thread" "$floor" "$file"
+  measure "drivetap text" "$drivetap" read "$file"
+  measure "drivetap -T json" "$drivetap" read -T json "$file"
+  measure "drivetap --stats" "$drivetap" read --stats "$file"
+  measure "drivetap text, --drive none" "$drivetap" read --drive none "$file"
+  measure "drivetap -T json, --drive none" "$drivetap" read --drive none -T json "$file"
+  measure "drivetap --stats, --drive none" "$drivetap" read --drive none --stats "$file"
+}
+
+memory=()
 for frames in "${sizes[@]}"; do
-  rows=()
   echo "== $frames frames" >&2
+  # drivetap's generator.
+  rows=()
   runs=1 measure "generate --mix modbus-rtu --plain" "$drivetap" generate --mix modbus-rtu \
     --frames "$frames" --plain -w "$work/bus.pcapng" --truth "$work/bus.json"
   packets=$(packets_of "$work/bus.json")
   size_mb=$(du -m "$work/bus.pcapng" | cut -f1)
-  measure "tshark text" tshark -r "$work/bus.pcapng"
-  measure "tshark -T fields" tshark -r "$work/bus.pcapng" -T fields -e modbus.func_code
-  measure "tshark io,stat" tshark -r "$work/bus.pcapng" -q -z io,stat,0
-  # The floor of any reader: the file's bytes copied out of the page cache once, nothing decoded.
-  measure "cat (no decoding)" cat "$work/bus.pcapng"
-  # The floor of --stats: reading and CRC-checking every packet on one thread, nothing else.
-  [ ! -x "$floor" ] || measure "floor: read + CRC, one thread" "$floor" "$work/bus.pcapng"
-  measure "drivetap text" "$drivetap" read --drive none "$work/bus.pcapng"
-  measure "drivetap -T json" "$drivetap" read --drive none -T json "$work/bus.pcapng"
-  measure "drivetap --stats" "$drivetap" read --drive none --stats "$work/bus.pcapng"
-  measure "drivetap text, drives" "$drivetap" read "$work/bus.pcapng"
+  compare "$work/bus.pcapng"
   rm -f "$work/bus.pcapng"
-  # The same traffic as drivetap's own full pcapng (no tshark rows: another file).
+  generated=("${rows[@]}")
+  # Another writer.
+  rows=()
+  runs=1 measure "bench/foreign_pcapng.py" python3 "$root/bench/foreign_pcapng.py" "$frames" \
+    "$work/foreign.pcapng" --seed 1
+  foreign_mb=$(du -m "$work/foreign.pcapng" | cut -f1)
+  compare "$work/foreign.pcapng"
+  rm -f "$work/foreign.pcapng"
+  foreign=("${rows[@]}")
+  # drivetap alone: the same traffic as its own full pcapng, and all links.
+  rows=()
   runs=1 measure "generate --mix modbus-rtu (full)" "$drivetap" generate --mix modbus-rtu \
     --frames "$frames" -w "$work/full.pcapng"
   full_mb=$(du -m "$work/full.pcapng" | cut -f1)
@@ -137,30 +186,44 @@ for frames in "${sizes[@]}"; do
   mix_mb=$(du -m "$work/mix.pcapng" | cut -f1)
   measure "drivetap text, mix, drives" "$drivetap" read "$work/mix.pcapng"
   rm -f "$work/mix.pcapng"
-  stats_rss+=("$frames:$(rss_of 'drivetap --stats'):$(rss_of 'drivetap text, drives'):$(rss_of 'tshark text')")
+  alone=("${rows[@]}")
+
+  # The headline: drivetap's default mode against tshark on both sources, --drive none beside it.
+  ratio_in() {  # ratio_in ROWS-NAME DRIVETAP-ROW TSHARK-ROW
+    local -n chosen=$1
+    rows=("${chosen[@]}")
+    awk -v a="$(seconds_of "$3")" -v b="$(seconds_of "$2")" 'BEGIN { printf "%.1fx", a / b }'
+  }
   {
     echo
     echo "## $frames frames"
     echo
-    echo "Modbus RTU capture: $packets packets, $size_mb MB of plain pcapng (tshark and drivetap both"
-    echo "read it), $full_mb MB as drivetap's full pcapng; the mix: $mix_packets packets, $mix_mb MB"
-    echo "(generation seconds and memory in the \`generate\` rows)."
+    echo "drivetap's speed as a multiple of tshark's on the same file (wall seconds), default mode /"
+    echo "\`--drive none\`:"
     echo
-    echo "| run | seconds | CPU s | packets/s | peak RSS MB | vs tshark | command |"
-    echo "|---|---|---|---|---|---|---|"
+    echo "| output (against tshark's) | generated: default | generated: --drive none | foreign: default | foreign: --drive none |"
+    echo "|---|---|---|---|---|"
+    for mode in "text|tshark text" "-T json|tshark -T fields" "--stats|tshark io,stat"; do
+      IFS='|' read -r out against <<<"$mode"
+      echo "| $out ($against) | $(ratio_in generated "drivetap $out" "$against") | $(ratio_in generated "drivetap $out, --drive none" "$against") | $(ratio_in foreign "drivetap $out" "$against") | $(ratio_in foreign "drivetap $out, --drive none" "$against") |"
+    done
+  } >>"$report"
+  rows=("${generated[@]}")
+  table "### Generated: $packets packets, $size_mb MB of plain pcapng" "$packets"
+  rss_generated="$(rss_of 'drivetap --stats'):$(rss_of 'drivetap text'):$(rss_of 'tshark text')"
+  rows=("${foreign[@]}")
+  table "### Foreign: $frames packets, $foreign_mb MB of pcapng (bench/foreign_pcapng.py)" "$frames"
+  memory+=("$frames:$rss_generated:$(rss_of 'drivetap --stats'):$(rss_of 'drivetap text'):$(rss_of 'tshark text')")
+  rows=("${alone[@]}")
+  {
+    echo
+    echo "### drivetap alone: the generated traffic as its full pcapng ($full_mb MB), all links ($mix_packets packets, $mix_mb MB)"
+    echo
+    echo "| run | seconds | CPU s | peak RSS MB | command |"
+    echo "|---|---|---|---|---|"
     for r in "${rows[@]}"; do
       IFS='|' read -r name seconds rss cpu cmd <<<"$r"
-      p=$packets
-      case $name in *mix*) p=$mix_packets ;; esac
-      rate=$(awk -v p="$p" -v s="$seconds" 'BEGIN { printf "%.0f", (s > 0 ? p / s : 0) }')
-      ratio=""
-      case $name in
-        "drivetap text" | "drivetap text, drives") ratio=$(awk -v a="$(seconds_of 'tshark text')" -v b="$seconds" 'BEGIN { printf "%.1fx text", a / b }') ;;
-        "drivetap -T json") ratio=$(awk -v a="$(seconds_of 'tshark -T fields')" -v b="$seconds" 'BEGIN { printf "%.1fx fields", a / b }') ;;
-        "drivetap --stats" | "cat (no decoding)" | "floor: read + CRC, one thread") ratio=$(awk -v a="$(seconds_of 'tshark io,stat')" -v b="$seconds" 'BEGIN { printf "%.1fx io,stat", a / b }') ;;
-        *"full pcapng") ratio="(another file)" ;;
-      esac
-      echo "| $name | $seconds | $cpu | $rate | $((rss / 1024)) | $ratio | \`${cmd//$work\//}\` |"
+      echo "| $name | $seconds | $cpu | $((rss / 1024)) | \`${cmd//$work\//}\` |"
     done
   } >>"$report"
 done
@@ -169,11 +232,11 @@ done
   echo
   echo "## Memory across sizes"
   echo
-  echo "Peak RSS in MB, drivetap read --stats / drivetap read with drives / tshark text:"
+  echo "Peak RSS in MB, drivetap read --stats / drivetap read (text) / tshark text, default mode:"
   echo
-  for s in "${stats_rss[@]}"; do
-    IFS=: read -r frames a b c <<<"$s"
-    echo "- $frames frames: $((a / 1024)) / $((b / 1024)) / $((c / 1024))"
+  for s in "${memory[@]}"; do
+    IFS=: read -r frames a b c d e f <<<"$s"
+    echo "- $frames frames: generated $((a / 1024)) / $((b / 1024)) / $((c / 1024)); foreign $((d / 1024)) / $((e / 1024)) / $((f / 1024))"
   done
 } >>"$report"
 

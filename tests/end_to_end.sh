@@ -2,8 +2,9 @@
 # bench/end_to_end.sh kept working: a small run of it writes the whole report.
 #   tests/end_to_end.sh DRIVETAP_BIN
 # 1. On 3000 frames and 3000 noise bytes, into a report of its own (RESULTS=, not
-#    bench/RESULTS.md): exit 0, every row of every table with its figures, drivetap's ratios to
-#    tshark, the packet count of the capture and the memory lines.
+#    bench/RESULTS.md): exit 0, the headline ratios, every row of every table (both sources,
+#    default mode and --drive none) with its figures and ratios to tshark, the packet counts and
+#    the memory lines.
 # 2. Bad arguments: one line naming the argument, exit 2, before any run.
 # Without tshark or /usr/bin/time the test is skipped (77), unless DRIVETAP_REQUIRE_TSHARK=1 (CI).
 set -uo pipefail
@@ -47,35 +48,50 @@ if ! RESULTS="$report" NOISE_BYTES=3000 bash "$script" "$build" 3000 >"$work/out
 fi
 [ -s "$report" ] || fail "no report written"
 cmp -s "$report" "$work/out" || fail "the report is not what it printed"
-grep -q '^## 3000 frames$' "$report" || fail "no table for 3000 frames"
-grep -q '^Modbus RTU capture: 3[0-9][0-9][0-9] packets' "$report" ||
-  fail "packet count: $(grep '^Modbus RTU capture' "$report")"
-# row NAME RATIO-REGEX: a row of the table with seconds, CPU, packets/s, RSS, ratio, command.
+grep -q '^## 3000 frames$' "$report" || fail "no section for 3000 frames"
+grep -q '^### Generated: 3[0-9][0-9][0-9] packets' "$report" ||
+  fail "generated packet count: $(grep '^### Generated' "$report")"
+grep -q '^### Foreign: 3000 packets' "$report" || fail "no foreign table: $(grep '^### Foreign' "$report")"
+# The headline: each output's ratio, default and --drive none, on both sources.
+for out in "text (tshark text)" "-T json (tshark -T fields)" "--stats (tshark io,stat)"; do
+  grep -Eq "^\| $(sed 's/[][\.*^$+?(){}|/-]/\\&/g' <<<"$out") \| [0-9.]+x \| [0-9.]+x \| [0-9.]+x \| [0-9.]+x \|$" "$report" ||
+    fail "headline row '$out' missing or malformed: $(grep -F "| $out |" "$report")"
+done
+# rows TABLE NAME RATIO-REGEX: in the table that begins with TABLE, a row with seconds, CPU,
+# packets/s, RSS, ratio, command.
 row() {
-  local name=$1 ratio=$2 line
-  line=$(grep -F "| $name |" "$report" | head -1)
-  [ -n "$line" ] || { fail "no row '$name'"; return; }
+  local table=$1 name=$2 ratio=$3 line
+  line=$(awk -v t="$table" 'index($0, t) == 1 { on = 1; next } /^##/ { on = 0 } on' "$report" |
+    grep -F "| $name |" | head -1)
+  [ -n "$line" ] || { fail "$table: no row '$name'"; return; }
   grep -Eq "^\| $(sed 's/[][\.*^$+?(){}|/]/\\&/g' <<<"$name") \| [0-9]+\.[0-9]{3} \| [0-9]+\.[0-9]{2} \| [0-9]+ \| [0-9]+ \| $ratio \| \`.+\` \|$" <<<"$line" ||
-    fail "row '$name' malformed: $line"
+    fail "$table: row '$name' malformed: $line"
 }
-row "generate --mix modbus-rtu --plain" ""
-row "tshark text" ""
-row "tshark -T fields" ""
-row "tshark io,stat" ""
-row "cat (no decoding)" "[0-9.]+x io,stat"
-# (drivetap_floor is built with the benchmarks, where Google Benchmark is installed.)
-[ ! -x "$build/bench/drivetap_floor" ] || row "floor: read + CRC, one thread" "[0-9.]+x io,stat"
-row "drivetap text" "[0-9.]+x text"
-row "drivetap -T json" "[0-9.]+x fields"
-row "drivetap --stats" "[0-9.]+x io,stat"
-row "drivetap text, drives" "[0-9.]+x text"
-row "generate --mix modbus-rtu (full)" ""
-row "cat, full pcapng" "\(another file\)"
-row "drivetap --stats, full pcapng" "\(another file\)"
-row "drivetap text, full pcapng" "\(another file\)"
-row "generate --mix all" ""
-row "drivetap text, mix, drives" ""
-grep -Eq '^- 3000 frames: [0-9]+ / [0-9]+ / [0-9]+$' "$report" || fail "no memory line for 3000 frames"
+for table in "### Generated" "### Foreign"; do
+  case $table in
+    *Generated) row "$table" "generate --mix modbus-rtu --plain" "" ;;
+    *) row "$table" "bench/foreign_pcapng.py" "" ;;
+  esac
+  row "$table" "tshark text" ""
+  row "$table" "tshark -T fields" ""
+  row "$table" "tshark io,stat" ""
+  row "$table" "cat (no decoding)" "[0-9.]+x io,stat"
+  # (drivetap_floor is built with the benchmarks, where Google Benchmark is installed.)
+  [ ! -x "$build/bench/drivetap_floor" ] || row "$table" "floor: read + CRC, one thread" "[0-9.]+x io,stat"
+  row "$table" "drivetap text" "[0-9.]+x text"
+  row "$table" "drivetap -T json" "[0-9.]+x fields"
+  row "$table" "drivetap --stats" "[0-9.]+x io,stat"
+  row "$table" "drivetap text, --drive none" "[0-9.]+x text"
+  row "$table" "drivetap -T json, --drive none" "[0-9.]+x fields"
+  row "$table" "drivetap --stats, --drive none" "[0-9.]+x io,stat"
+done
+for name in "generate --mix modbus-rtu (full)" "cat, full pcapng" "drivetap --stats, full pcapng" \
+  "drivetap text, full pcapng" "generate --mix all" "drivetap text, mix, drives"; do
+  grep -Eq "^\| $(sed 's/[][\.*^$+?(){}|/]/\\&/g' <<<"$name") \| [0-9]+\.[0-9]{3} \| [0-9]+\.[0-9]{2} \| [0-9]+ \| \`.+\` \|$" "$report" ||
+    fail "drivetap-alone row '$name' missing or malformed"
+done
+grep -Eq '^- 3000 frames: generated [0-9]+ / [0-9]+ / [0-9]+; foreign [0-9]+ / [0-9]+ / [0-9]+$' "$report" ||
+  fail "no memory line for 3000 frames"
 grep -q '^3000 bytes of noise' "$report" || fail "no noise table"
 for name in "drivetap --stats, noise log" "drivetap -T json, noise log" \
   "drivetap --stats, noise pcapng" "drivetap -T json, noise pcapng" "drivetap text, noise pcapng"; do

@@ -484,7 +484,8 @@ TEST(CaptureReader, PacketsTakenInBulkGiveTheEventsOfOneByOne) {
   // Another tool's upper-PDU packets, which append_runs() takes in bulk once their tag block is
   // known (append_plain_packets), among packets it leaves to the usual way: tag blocks it does not
   // remember (six kinds, four remembered), a packet larger than a batch, empty ones, a comment,
-  // a second interface. The events of the runs must be those next() gives one by one.
+  // a second interface, the direction in the flags of some. The events of the runs must be those
+  // next() gives one by one.
   std::vector<upper_pdu::Tags> kinds(6);
   for (std::size_t k = 0; k < kinds.size(); ++k) {
     kinds[k].dissector = "mbrtu";
@@ -505,6 +506,8 @@ TEST(CaptureReader, PacketsTakenInBulkGiveTheEventsOfOneByOne) {
       p.timestamp = static_cast<TimeNs>(i + 1) * 10 * kNsPerMs;
       p.data = data;
       if (i % 97 == 5) p.comment = "a comment";
+      // The direction in the packet's flags (of tags that give none: kinds 1 and 4), or none.
+      if (i % 3 == 0) p.flags = i % 2 == 0 ? pcapng::kFlagOutbound : pcapng::kFlagInbound;
       w.packet(p);
     }
   });

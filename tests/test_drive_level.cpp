@@ -5,7 +5,9 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <map>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -1398,9 +1400,12 @@ TEST(DriveBinder, BroadcastIsNeverBound) {
 // which the memo starts again: on a bus that never repeats a request (here distinct reads enough
 // for the memo to restart twice a pass) and on one that does (the same again), every request scores
 // what it scores on a binder that has seen nothing else. Each value is a multiple of 0.5, exact
-// in a double, so the sums compare exactly.
+// in a double, so the sums compare exactly. (The reads are spread over every station address, so
+// that no station's deficit decides it: a decided station is no longer weighed.)
 TEST(DriveBinder, RememberedEvidenceIsTheEvidenceAfresh) {
-  auto request = [](int i) {
+  constexpr int kStations = 247;
+  auto station = [](int i) { return 1 + i % kStations; };
+  auto request = [&](int i) {
     // Holding and input registers, four lengths, from each start address: the memo's key is
     // the function, the start and the count.
     const auto function = static_cast<std::uint8_t>(0x03 + i % 2);
@@ -1408,28 +1413,113 @@ TEST(DriveBinder, RememberedEvidenceIsTheEvidenceAfresh) {
     const int address = i / 8;
     const auto start = static_cast<std::uint8_t>(address >> 8);
     const auto low = static_cast<std::uint8_t>(address);
-    return decode(protocols::modbus_rtu, with_crc({0x05, function, start, low, 0x00, count}),
-                  Direction::request, {}, static_cast<std::uint64_t>(i + 1));
+    return decode(
+        protocols::modbus_rtu,
+        with_crc({static_cast<std::uint8_t>(station(i)), function, start, low, 0x00, count}),
+        Direction::request, {}, static_cast<std::uint64_t>(i + 1));
   };
   constexpr int kRequests = 3 * static_cast<int>(DriveBinder::kMaxRememberedRequests) - 100;
   BinderRig rig;
-  std::vector<double> expected(rig.candidates.size(), 0);
+  std::map<int, std::vector<double>> expected;
   for (int i = 0; i < kRequests; ++i) {
     BinderRig alone;
     alone.learn(request(i));
-    const std::vector<double>& score = alone.binder.stations().at({0, 5}).score;
-    for (std::size_t c = 0; c < expected.size(); ++c) expected[c] += score[c];
+    const std::vector<double>& score = alone.binder.stations().at({0, station(i)}).score;
+    std::vector<double>& sum = expected[station(i)];
+    sum.resize(score.size(), 0);
+    for (std::size_t c = 0; c < score.size(); ++c) sum[c] += score[c];
   }
   bool any = false;
-  for (const double e : expected) any = any || e != 0;
+  for (const auto& [address, sum] : expected)
+    for (const double e : sum) any = any || e != 0;
   ASSERT_TRUE(any) << "the requests scored nothing for any candidate";
   for (const int passes : {1, 2}) {
     for (int i = 0; i < kRequests; ++i) rig.learn(request(i));
-    const std::vector<double>& score = rig.binder.stations().at({0, 5}).score;
-    ASSERT_EQ(score.size(), expected.size());
-    for (std::size_t c = 0; c < expected.size(); ++c)
-      EXPECT_EQ(score[c], passes * expected[c]) << rig.candidates[c]->id << ", pass " << passes;
+    for (const auto& [address, sum] : expected) {
+      const DriveBinder::Station& st = rig.binder.stations().at({0, address});
+      ASSERT_EQ(st.decided_after, 0u) << "station " << address << " decided: not all weighed";
+      ASSERT_EQ(st.score.size(), sum.size());
+      for (std::size_t c = 0; c < sum.size(); ++c)
+        EXPECT_EQ(st.score[c], passes * sum[c])
+            << rig.candidates[c]->id << ", station " << address << ", pass " << passes;
+    }
   }
+}
+
+// A station whose evidence is decided is no longer weighed: reads of registers no family has
+// sink every profile to -kDecidedLead, the station is decided generic ("over the first N of M
+// frames, decided") and later reads leave its scores as they were; a telegram of another protocol
+// weighs again.
+TEST(DriveBinder, DecidedStationIsNoLongerWeighed) {
+  BinderRig rig;
+  // Reads of 32 input registers high in the address space: -1 an address for every family.
+  const auto read_far = with_crc({0x07, 0x04, 0xFF, 0x00, 0x00, 0x20});
+  int frames = 0;
+  while (rig.binder.stations().count({0, 7}) == 0 ||
+         rig.binder.stations().at({0, 7}).decided_after == 0) {
+    ASSERT_LT(frames, 100) << "never decided";
+    rig.learn(decode(protocols::modbus_rtu, read_far, Direction::request, {}, ++rig.number));
+    ++frames;
+  }
+  const DriveBinder::Station& st = rig.binder.stations().at({0, 7});
+  EXPECT_EQ(st.bound, -1);
+  EXPECT_EQ(st.decided_after, static_cast<std::uint64_t>(frames));
+  double best = -1e9;
+  for (std::size_t c = 0; c < st.score.size(); ++c)
+    if (!st.excluded[c]) best = std::max(best, st.score[c]);
+  EXPECT_LE(best, -DriveBinder::kDecidedLead);
+  EXPECT_GT(best, -DriveBinder::kDecidedLead - 32 - 2) << "decided only frames later";
+  const std::vector<double> decided = st.score;
+  const std::string evidence = rig.binder.evidence(st);
+  EXPECT_NE(evidence.find(fmt::format(" over the first {} of {} frames, decided)", frames, frames)),
+            std::string::npos)
+      << evidence;
+  for (int i = 0; i < 10; ++i)
+    rig.learn(decode(protocols::modbus_rtu, read_far, Direction::request, {}, ++rig.number));
+  EXPECT_EQ(st.score, decided);
+  EXPECT_EQ(st.frames, static_cast<std::uint64_t>(frames) + 10);
+  EXPECT_NE(rig.binder.evidence(st).find(
+                fmt::format(" over the first {} of {} frames, decided)", frames, frames + 10)),
+            std::string::npos)
+      << rig.binder.evidence(st);
+  EXPECT_TRUE(rig.events.empty());
+  // Another protocol: the station's telegrams are weighed again (an FC telegram for the one family
+  // that speaks it).
+  const Message fc =
+      decode(protocols::danfoss_fc, with_bcc({0x02, 0x06, 0x07, 0x04, 0x7C, 0x20, 0x00}),
+             Direction::request, {}, ++rig.number);
+  ASSERT_EQ(fc.address, 7);
+  const std::uint64_t before = st.frames;
+  rig.learn(fc);
+  EXPECT_EQ(st.frames, before + 1);
+  EXPECT_NE(st.score, decided);
+  // (Weighed, and decided again at once: every profile's deficit is still that deep.)
+  EXPECT_EQ(st.decided_after, before + 1);
+}
+
+// A bound profile whose own evidence sinks to -kDecidedLead is let go: the station goes back to
+// generic with an event, and is decided there once every profile's deficit is as deep.
+TEST(DriveBinder, BoundProfileSunkToTheDeficitIsLetGo) {
+  BinderRig rig;
+  for (int i = 0; i < 2; ++i)
+    rig.exchange(
+        protocols::modbus_rtu, with_crc({0x02, 0x03, 0x00, 0x00, 0x00, 0x05}),
+        with_crc({0x02, 0x03, 0x0A, 0x00, 0x0A, 0x13, 0x88, 0x13, 0x7D, 0x01, 0x7C, 0x00, 0x64}));
+  ASSERT_EQ(rig.bound_id(2), "e9");
+  const auto read_far = with_crc({0x02, 0x04, 0xFF, 0x00, 0x00, 0x20});
+  for (int i = 0; i < 20 && rig.bound_id(2) == "e9"; ++i)
+    rig.learn(decode(protocols::modbus_rtu, read_far, Direction::request, {}, ++rig.number));
+  EXPECT_EQ(rig.bound_id(2), "generic");
+  ASSERT_EQ(rig.events.size(), 2u);
+  EXPECT_EQ(rig.events[1].from, "e9");
+  EXPECT_EQ(rig.events[1].to, "generic");
+  EXPECT_NE(rig.events[1].detail.find("no family profile fits its traffic"), std::string::npos)
+      << rig.events[1].detail;
+  // Its deficit decides it soon after, with no further event.
+  for (int i = 0; i < 20 && rig.binder.stations().at({0, 2}).decided_after == 0; ++i)
+    rig.learn(decode(protocols::modbus_rtu, read_far, Direction::request, {}, ++rig.number));
+  EXPECT_GT(rig.binder.stations().at({0, 2}).decided_after, 0u);
+  EXPECT_EQ(rig.events.size(), 2u);
 }
 
 TEST(DriveBinder, ClearlyBetterEvidenceRebinds) {

@@ -78,6 +78,11 @@ std::optional<std::uint64_t> request_key(const DriveRecords& records) {
          static_cast<std::uint64_t>(r.count) << 32 | r.first;
 }
 
+// "the first 40 of 9379 frames" of a decided station: its evidence is what those showed.
+std::string decided_over(const DriveBinder::Station& st) {
+  return fmt::format("the first {} of {} frames", st.decided_after, st.frames);
+}
+
 }  // namespace
 
 std::span<const double> DriveBinder::request_evidence(std::uint64_t key,
@@ -110,6 +115,15 @@ const DriveProfile* DriveBinder::bound(std::size_t link, int address) const {
   return candidates_[static_cast<std::size_t>(it->second.bound)];
 }
 
+DriveBinder::Station& DriveBinder::station_of(std::size_t link, int address) {
+  if (address >= kIndexedAddresses) return stations_[{link, address}];
+  const std::size_t at = link * kIndexedAddresses + static_cast<std::size_t>(address);
+  if (at >= station_index_.size()) station_index_.resize(at + 1, nullptr);
+  Station*& station = station_index_[at];
+  if (!station) station = &stations_[{link, address}];
+  return *station;
+}
+
 std::pair<int, std::optional<double>> DriveBinder::best_of(const Station& st) const {
   int best = -1;
   std::optional<double> second;
@@ -138,7 +152,10 @@ std::string DriveBinder::evidence(const Station& st) const {
     if (best < 0) return "no family profile speaks its protocol at its address";
     const double top = st.score[static_cast<std::size_t>(best)];
     if (top <= 0)
-      return fmt::format("no family profile fits its traffic (best {})", name_with(top, -1));
+      return st.decided_after == 0
+                 ? fmt::format("no family profile fits its traffic (best {})", name_with(top, -1))
+                 : fmt::format("no family profile fits its traffic (best {} over {}, decided)",
+                               name_with(top, -1), decided_over(st));
     return fmt::format("too little evidence to choose ({}{})", name_with(top, -1),
                        second ? ", " + name_with(*second, best) : std::string());
   }
@@ -148,8 +165,11 @@ std::string DriveBinder::evidence(const Station& st) const {
     runner =
         "next best " +
         name_with(best == st.bound ? *second : st.score[static_cast<std::size_t>(best)], st.bound);
-  return fmt::format("auto, confidence {}: evidence {:+g} over {} frame{}, {}", st.confidence, own,
-                     st.frames, st.frames == 1 ? "" : "s", runner);
+  const std::string frames = st.decided_after == 0
+                                 ? fmt::format("{} frame{}", st.frames, st.frames == 1 ? "" : "s")
+                                 : decided_over(st) + " (decided)";
+  return fmt::format("auto, confidence {}: evidence {:+g} over {}, {}", st.confidence, own, frames,
+                     runner);
 }
 
 const DriveProfile* DriveBinder::learn_bound(std::size_t link, TelegramDriveRecords& telegram,
@@ -158,7 +178,7 @@ const DriveProfile* DriveBinder::learn_bound(std::size_t link, TelegramDriveReco
   // (Stations are made only below: no station has an address of 0 or less.)
   if (m.address <= 0 || candidates_.empty()) return nullptr;  // broadcasts bind nothing
   if (!good_telegram(m)) return bound(link, m.address);
-  Station& st = stations_[{link, m.address}];
+  Station& st = station_of(link, m.address);
   const auto bound_now = [&]() -> const DriveProfile* {
     return st.bound >= 0 ? candidates_[static_cast<std::size_t>(st.bound)] : nullptr;
   };
@@ -167,6 +187,10 @@ const DriveProfile* DriveBinder::learn_bound(std::size_t link, TelegramDriveReco
     st.excluded.assign(candidates_.size(), 0);
   }
   ++st.frames;
+  if (st.decided_after != 0) {
+    if (st.protocol == m.protocol) return bound_now();
+    st.decided_after = 0;  // another protocol: the evidence is weighed again
+  }
   const DriveRecords& records = telegram.get();
   // The same poll repeats all day: a request's evidence is remembered.
   const std::optional<std::uint64_t> key =
@@ -209,6 +233,9 @@ const DriveProfile* DriveBinder::learn_bound(std::size_t link, TelegramDriveReco
     changed = top - st.score[static_cast<std::size_t>(st.bound)] >= kRebindMargin;
   }
   if (st.bound >= 0 && st.excluded[static_cast<std::size_t>(st.bound)]) changed = true;
+  // A bound profile whose own evidence has sunk as low as decides a station generic is let go.
+  if (st.bound >= 0 && st.score[static_cast<std::size_t>(st.bound)] <= -kDecidedLead)
+    changed = true;
   const int was = st.bound;
   if (changed) st.bound = top >= kBindScore ? best : -1;
   if (st.bound >= 0) {
@@ -217,6 +244,9 @@ const DriveProfile* DriveBinder::learn_bound(std::size_t link, TelegramDriveReco
     st.confidence = own >= 8 && margin >= 6            ? "high"
                     : own >= kBindScore && margin >= 3 ? "medium"
                                                        : "low";
+    if (margin >= kDecidedLead) st.decided_after = st.frames;
+  } else if (top <= -kDecidedLead) {
+    st.decided_after = st.frames;
   }
   if (!changed) return bound_now();
   BusEvent& e = event.emplace();

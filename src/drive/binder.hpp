@@ -2,9 +2,11 @@
 // fits — protocol, station address range, function codes, register and parameter addresses it
 // reads and writes, vendor exception codes. Contract: learns only from good telegrams (checksum
 // and plausibility, good_telegram()); a station is bound once one profile leads every other by a
-// clear margin (never on low confidence), and rebound
-// only when another overtakes it by more; a station no profile fits stays on "generic Modbus"
-// (no drive-level annotation). Each binding change is a `drive_bound` BusEvent with the evidence.
+// clear margin (never on low confidence), rebound only when another overtakes it by more, and let
+// go when its own evidence sinks to -kDecidedLead; a station no profile fits stays on "generic
+// Modbus" (no drive-level annotation). A verdict with a lead of kDecidedLead is decided: the
+// station's telegrams are no longer weighed. Each binding change is a `drive_bound` BusEvent with
+// the evidence.
 #pragma once
 
 #include <cstdint>
@@ -28,6 +30,11 @@ namespace drivetap {
 class DriveBinder {
  public:
   explicit DriveBinder(std::vector<const DriveProfile*> candidates);
+  // (A copy's index would point into the original's stations; a move keeps the map's nodes.)
+  DriveBinder(const DriveBinder&) = delete;
+  DriveBinder& operator=(const DriveBinder&) = delete;
+  DriveBinder(DriveBinder&&) = default;
+  DriveBinder& operator=(DriveBinder&&) = default;
 
   // Weighs what `telegram` says about its station; `changed` is set to the event when the
   // station's binding changed. Returns the profile the station is bound to afterwards (bound()),
@@ -52,6 +59,10 @@ class DriveBinder {
     // Of the current binding: "high", "medium", "low" (static text: set on every frame).
     std::string_view confidence;
     std::uint64_t frames = 0;
+    // Frames weighed until the verdict was decided (0: not decided): a lead of kDecidedLead,
+    // after which the station's telegrams are no longer weighed (its protocol changing weighs
+    // them again).
+    std::uint64_t decided_after = 0;
     // The protocol of its last telegram and its protocol_bit(), worked out again only when the
     // protocol changes (a registry lookup for every frame cost the hot path).
     Protocol protocol = Protocol::unknown;
@@ -64,6 +75,11 @@ class DriveBinder {
   // Distinct requests whose evidence is remembered (for every candidate); past it the memo starts
   // again: a bound on memory for a bus that never repeats a request.
   static constexpr std::size_t kMaxRememberedRequests = 1024;
+  // The lead that decides a station for good: its bound profile over every other, or (generic)
+  // every profile's deficit. A rebinding needs a swing of more than that: a bus's traffic does not
+  // turn after hundreds of contradicting addresses, and weighing each request of a station that
+  // fits no family, with its random ranges, cost more than decoding it.
+  static constexpr double kDecidedLead = 256;
   // "auto, confidence high: evidence +12, next best ERMAN ER-G +3" for a station.
   [[nodiscard]] std::string evidence(const Station& station) const;
 
@@ -84,6 +100,12 @@ class DriveBinder {
   std::vector<std::uint32_t> protocols_;    // per candidate: protocol_bit() of each it speaks
   std::vector<AddressEvidence> addresses_;  // per candidate
   std::map<Key, Station> stations_;
+  // The station of (link, address) for addresses below kIndexedAddresses (every bus address of the
+  // four protocols), by link * kIndexedAddresses + address: one lookup a frame that does not walk
+  // the map (map nodes stay where they are).
+  static constexpr int kIndexedAddresses = 256;
+  std::vector<Station*> station_index_;
+  Station& station_of(std::size_t link, int address);
   DriveRecordReader records_;  // the telegram's, when the caller lends no reading
   // Request key -> offset in evidence_pool_ of its candidates' evidence
   // (kMaxRememberedRequests at most).

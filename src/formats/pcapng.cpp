@@ -392,10 +392,18 @@ bool Reader::peek_plain(PlainPacket& out) {
   if (interface >= interfaces_.size()) return false;
   const std::uint32_t captured = le32(body + 12);
   if (captured > body_size - 20) return false;
-  // No options: none at all, or the end-of-options first (walk_options() reads no further).
-  const std::size_t options_at = 20 + ((std::size_t{captured} + 3) & ~std::size_t{3});
-  if (options_at + 4 <= body_size && (body[options_at] | body[options_at + 1]) != kOptEnd)
-    return false;
+  // No options but the flags: none at all, or the end-of-options first, or one 4-byte flags
+  // option before either (walk_options() reads no further than an end-of-options or the
+  // block's end).
+  std::size_t options_at = 20 + ((std::size_t{captured} + 3) & ~std::size_t{3});
+  const auto option_code = [&](std::size_t at) { return body[at] | (body[at + 1] << 8); };
+  std::optional<std::uint32_t> flags;
+  if (options_at + 4 <= body_size && option_code(options_at) == kOptEpbFlags) {
+    if (option_code(options_at + 2) != 4 || options_at + 8 > body_size) return false;
+    flags = le32(body + options_at + 4);
+    options_at += 8;
+  }
+  if (options_at + 4 <= body_size && option_code(options_at) != kOptEnd) return false;
   const Interface& itf = interfaces_[interface];
   const std::uint64_t ts = (std::uint64_t{le32(body + 4)} << 32) | le32(body + 8);
   bool overflow = false;
@@ -403,6 +411,7 @@ bool Reader::peek_plain(PlainPacket& out) {
   if (overflow) return false;
   out.interface = interface;
   out.data = std::span<const std::uint8_t>(body + 20, captured);
+  out.flags = flags;
   peeked_ = total;
   return true;
 }

@@ -112,12 +112,14 @@ struct PacketRecord {
   std::uint64_t offset = 0;                       // file offset of the block
 };
 
-// An enhanced packet block with no options (PacketRecord with no flags, comment or drivetap
-// option): what Reader::peek_plain() gives. `data` views the reader's window until its next call.
+// An enhanced packet block with no options but its flags (PacketRecord with no comment or
+// drivetap option): what Reader::peek_plain() gives. `data` views the reader's window until its
+// next call.
 struct PlainPacket {
   std::uint32_t interface = 0;
   TimeNs timestamp = 0;
   std::span<const std::uint8_t> data;
+  std::optional<std::uint32_t> flags;  // the EPB flags option's value
 };
 
 // Blocks are read into a window of the file and parsed where they lie: from a regular file in
@@ -131,8 +133,9 @@ class Reader {
   void keep_comments(bool keep) { keep_comments_ = keep; }
   // Next packet block; false at a clean end of file or on error (error() non-empty).
   bool next(PacketRecord& out);
-  // The next block, when it is a well-formed enhanced packet block without options (what other
-  // capture tools write for every packet): parsed as next() would parse it, but not consumed
+  // The next block, when it is a well-formed enhanced packet block without options or with its
+  // flags alone (what other capture tools write for every packet, the flags giving the
+  // direction): parsed as next() would parse it, but not consumed
   // until take_peeked(). False for anything else, with nothing consumed and nothing reported:
   // next() then reads that block, with its findings. (The fast lane of a reader that takes most
   // packets without a PacketRecord.)

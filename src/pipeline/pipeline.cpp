@@ -305,14 +305,20 @@ template <bool Prechecked>
 void Pipeline::push_runs_as(const RunBatch& runs) {
   for (std::size_t k = 0; k < runs.size(); ++k) {
     const ByteRun run = runs[k];
-    // The next run on the same channel, with nothing pushed in between, tells whether this one
-    // is followed by a silence.
-    if (k + 1 < runs.size()) {
-      const ByteRun next = runs[k + 1];
-      if (next.channel == run.channel &&
-          push_whole(run, next.first, Prechecked ? runs.precheck(k) : nullptr))
-        continue;
+    // The next run on the same channel tells whether this one is followed by a silence. Runs of
+    // other channels may lie between them (a request and its reply, flagged as two directions)
+    // when each starts after that silence: byte by byte, the frame would be closed and handled
+    // before their first byte.
+    const std::size_t last = std::min(runs.size(), k + 1 + kWholeRunLookAhead);
+    std::size_t next = k + 1;
+    if (run.size() != 0) {
+      const TimeNs closed =
+          run.time(run.size() - 1) + options_.timing.character_time + options_.timing.t35;
+      while (next < last && runs[next].channel != run.channel && runs[next].first > closed) ++next;
     }
+    if (next < last && runs[next].channel == run.channel &&
+        push_whole(run, runs[next].first, Prechecked ? runs.precheck(k) : nullptr))
+      continue;
     push_run(run);
   }
 }

@@ -92,13 +92,16 @@ class Pipeline {
   struct ChannelState;
   ChannelState& state_for(ChannelId id);
   void advance_all(TimeNs now);
-  // push_runs() of a chunk with prechecks (RunBatch::has_prechecks) or without.
+  // push_runs() of a chunk with prechecks (RunBatch::has_prechecks) or without. A run is framed
+  // whole when the next run of its channel, at most kWholeRunLookAhead runs on, shows the silence
+  // after it.
+  static constexpr std::size_t kWholeRunLookAhead = 4;
   template <bool Prechecked>
   void push_runs_as(const RunBatch& runs);
   // The part of push() after the clock has moved to e's time: e to its channel's framer (or
   // detection).
   void frame_byte(ChannelState& st, const ByteEvent& e);
-  // push_run() of `run` when the next byte on its channel, with nothing else pushed before it,
+  // push_run() of `run` when the next byte on its channel, with nothing else pushed on it before,
   // starts at next_time: a whole frame between two silences goes to the framer at once
   // (Framer::take_whole), and is handled at once when it would be handled alone. False when the
   // run was not taken (push_run() it).

@@ -436,7 +436,11 @@ std::size_t CaptureReader::append_plain_packets(RunBatch& out) {
     // The tags of one of the last blocks, byte for byte.
     const KnownTags* known = known_tags_of(packet.data);
     if (!known) break;
-    const int direction = known->outbound ? (*known->outbound ? 1 : 2) : 0;
+    // The direction the tags give, else the one the flags give (as load_pcapng_packet()).
+    const std::uint32_t flagged = packet.flags.value_or(0) & 3;
+    const int direction = known->outbound ? (*known->outbound ? 1 : 2)
+                          : flagged != 0  ? (flagged == pcapng::kFlagOutbound ? 1 : 2)
+                                          : 0;
     const ChannelId channel = channel_cache_[packet.interface][direction];
     if (channel == kNoChannel) break;
     const std::span<const std::uint8_t> bytes = packet.data.subspan(known->bytes.size());
