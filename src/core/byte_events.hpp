@@ -104,8 +104,24 @@ struct ByteRun {
   }
 };
 
-// Runs as a source hands them on, a packet or a read at a time: each run's bytes and flags
-// copied into two buffers the batch keeps from use to use.
+// Evenly spaced bytes of one channel and source unit in a store of bytes, from its byte `index` to
+// the next stretch's index (or the store's end): byte i starts at first + (i - index) * step. A
+// RunBatch keeps each run as one, ByteEvents a frame's events as a few.
+struct ByteStretch {
+  std::uint32_t index = 0;
+  std::uint32_t origin = 0;
+  TimeNs first = 0;
+  TimeNs step = 0;
+  ChannelId channel = 0;
+
+  [[nodiscard]] TimeNs time(std::size_t i) const {
+    return first + static_cast<TimeNs>(i - index) * step;
+  }
+};
+
+// Runs as a source hands them on, a packet or a read at a time (far below the 4 GiB a
+// ByteStretch's index reaches): each run's bytes and flags copied into two buffers the batch
+// keeps from use to use.
 class RunBatch {
  public:
   [[nodiscard]] std::size_t size() const { return runs_.size(); }
@@ -113,10 +129,11 @@ class RunBatch {
   [[nodiscard]] std::size_t byte_count() const { return bytes_.size(); }
   [[nodiscard]] ByteRun operator[](std::size_t k) const {
     const Entry& e = runs_[k];
+    const std::size_t count = (k + 1 < runs_.size() ? runs_[k + 1].index : bytes_.size()) - e.index;
     const std::span<const std::uint8_t> flags =
-        e.flagged ? std::span<const std::uint8_t>(flags_).subspan(e.offset, e.count)
+        e.flagged ? std::span<const std::uint8_t>(flags_).subspan(e.index, count)
                   : std::span<const std::uint8_t>();
-    return {std::span<const std::uint8_t>(bytes_).subspan(e.offset, e.count),
+    return {std::span<const std::uint8_t>(bytes_).subspan(e.index, count),
             e.first,
             e.step,
             e.channel,
@@ -144,8 +161,9 @@ class RunBatch {
     if (run.bytes.empty()) return;
     const bool flagged = !run.flags.empty();
     if (flagged || !flags_.empty()) flags_.resize(bytes_.size(), 0);
-    runs_.push_back({bytes_.size(), run.size(), run.first, run.size() > 1 ? run.step : 0,
-                     run.channel, run.origin, flagged});
+    runs_.push_back({{static_cast<std::uint32_t>(bytes_.size()), run.origin, run.first,
+                      run.size() > 1 ? run.step : 0, run.channel},
+                     flagged});
     bytes_.insert(bytes_.end(), run.bytes.begin(), run.bytes.end());
     if (flagged) flags_.insert(flags_.end(), run.flags.begin(), run.flags.end());
   }
@@ -158,14 +176,8 @@ class RunBatch {
   }
 
  private:
-  struct Entry {
-    std::size_t offset = 0;
-    std::size_t count = 0;
-    TimeNs first = 0;
-    TimeNs step = 0;
-    ChannelId channel = 0;
-    std::uint32_t origin = 0;
-    bool flagged = false;  // flags_[offset, offset + count) are this run's
+  struct Entry : ByteStretch {
+    bool flagged = false;  // the run has UART flags: flags_ holds them, from index on
   };
   std::vector<std::uint8_t> bytes_;
   std::vector<std::uint8_t>
@@ -176,15 +188,7 @@ class RunBatch {
 
 class ByteEvents {
  public:
-  // Events [index, next stretch's index) start at first + (i - index) * step, on `channel`, from
-  // source unit `origin`.
-  struct Stretch {
-    std::uint32_t index = 0;
-    std::uint32_t origin = 0;
-    TimeNs first = 0;
-    TimeNs step = 0;
-    ChannelId channel = 0;
-  };
+  using Stretch = ByteStretch;
 
   class const_iterator {
    public:
@@ -274,10 +278,7 @@ class ByteEvents {
   // The parts of event i without making all of it.
   [[nodiscard]] std::span<const std::uint8_t> bytes() const { return bytes_; }
   [[nodiscard]] std::uint8_t byte(std::size_t i) const { return bytes_[i]; }
-  [[nodiscard]] TimeNs time(std::size_t i) const {
-    const Stretch& s = stretches_[stretch_of(i)];
-    return s.first + static_cast<TimeNs>(i - s.index) * s.step;
-  }
+  [[nodiscard]] TimeNs time(std::size_t i) const { return stretches_[stretch_of(i)].time(i); }
   [[nodiscard]] TimeNs front_time() const { return stretches_.front().first; }
   [[nodiscard]] TimeNs back_time() const { return back_time_; }
   [[nodiscard]] std::uint8_t flags(std::size_t i) const { return flags_.empty() ? 0 : flags_[i]; }
@@ -375,7 +376,7 @@ class ByteEvents {
       const Stretch& s = other.stretches_[k];
       const std::size_t stop = std::min(
           end, k + 1 < other.stretches_.size() ? other.stretches_[k + 1].index : other.size());
-      append_run(std::span(other.bytes_).subspan(i, stop - i), time_in(i, s), s.step, s.channel,
+      append_run(std::span(other.bytes_).subspan(i, stop - i), s.time(i), s.step, s.channel,
                  s.origin, flags.empty() ? flags : flags.subspan(i, stop - i));
       i = stop;
       ++k;
@@ -385,7 +386,7 @@ class ByteEvents {
     bytes_.pop_back();
     if (!flags_.empty()) flags_.pop_back();
     if (stretches_.back().index == bytes_.size()) stretches_.pop_back();
-    if (!bytes_.empty()) back_time_ = time_in(bytes_.size() - 1, stretches_.back());
+    if (!bytes_.empty()) back_time_ = stretches_.back().time(bytes_.size() - 1);
   }
   // Drops the first n events.
   void erase_front(std::size_t n) {
@@ -396,7 +397,7 @@ class ByteEvents {
     }
     const std::size_t k = stretch_of(n);
     Stretch head = stretches_[k];
-    head.first = time_in(n, head);
+    head.first = head.time(n);
     head.index = static_cast<std::uint32_t>(n);
     stretches_.erase(stretches_.begin(), stretches_.begin() + static_cast<std::ptrdiff_t>(k));
     stretches_.front() = head;
@@ -430,9 +431,6 @@ class ByteEvents {
   }
 
  private:
-  [[nodiscard]] static TimeNs time_in(std::size_t i, const Stretch& s) {
-    return s.first + static_cast<TimeNs>(i - s.index) * s.step;
-  }
   // A new stretch for `e` (the first byte of every frame).
   void start_stretch(const ByteEvent& e) {
     const std::size_t n = bytes_.size();
@@ -450,7 +448,7 @@ class ByteEvents {
   }
   [[nodiscard]] ByteEvent make(std::size_t i, std::size_t k) const {
     const Stretch& s = stretches_[k];
-    return {time_in(i, s), bytes_[i], flags(i), s.channel, s.origin};
+    return {s.time(i), bytes_[i], flags(i), s.channel, s.origin};
   }
   void push_flag(std::uint8_t flag, std::size_t n) {
     if (flag == 0 && flags_.empty()) return;
@@ -487,8 +485,9 @@ inline void RunBatch::add_events(std::span<const ByteEvent> events) {
     }
     const std::size_t count = j - i;
     if (flagged || !flags_.empty()) flags_.resize(bytes_.size(), 0);
-    runs_.push_back({bytes_.size(), count, head.time, count > 1 ? step : 0, head.channel,
-                     head.origin, flagged});
+    runs_.push_back({{static_cast<std::uint32_t>(bytes_.size()), head.origin, head.time,
+                      count > 1 ? step : 0, head.channel},
+                     flagged});
     for (std::size_t k = i; k < j; ++k) bytes_.push_back(events[k].byte);
     if (flagged)
       for (std::size_t k = i; k < j; ++k) flags_.push_back(events[k].flags);

@@ -98,6 +98,15 @@ struct TelegramHead {
   TimeNs latency = -1;
 };
 
+// A telegram's function as pairing matches a reply to its request: the code as on the wire (with
+// the exception bit), -1 when none, and the exception a reply reports. Both a telegram dissected
+// to its head only (TelegramFindings) and what pairing reads of it (PairingInput) carry it.
+struct TelegramFunction {
+  int function = -1;
+  bool is_exception = false;
+  int exception_code = -1;
+};
+
 // A good telegram: its checksum is good and it keeps its protocol's plausibility rules.
 inline bool good_telegram(const TelegramHead& h) {
   return h.verdict == ChecksumVerdict::good && h.plausible;

@@ -31,12 +31,9 @@ enum class DissectDepth {
 
 // What dissect() to DissectDepth::head gives of a telegram: what the Message would say of its
 // checksum, pairing keys and findings, without building one.
-struct TelegramFindings {
+struct TelegramFindings : TelegramFunction {
   ChecksumVerdict verdict = ChecksumVerdict::none;
   int address = -1;
-  int function = -1;
-  bool is_exception = false;
-  int exception_code = -1;
   std::size_t malformed = 0;      // `malformed` findings (a telegram may break several rules)
   std::uint32_t other_kinds = 0;  // bit k: one finding of AnomalyKind k, besides those
 };

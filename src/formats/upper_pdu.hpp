@@ -16,14 +16,6 @@
 
 namespace drivetap::upper_pdu {
 
-inline constexpr std::uint16_t kEndOfOptions = 0;
-inline constexpr std::uint16_t kDissectorName = 12;
-inline constexpr std::uint16_t kSourcePort = 25;
-inline constexpr std::uint16_t kDestinationPort = 26;
-inline constexpr std::uint16_t kProtocolColumn = 33;
-inline constexpr std::uint16_t kP2pDirection = 35;
-inline constexpr std::uint16_t kInfoColumn = 36;
-
 inline constexpr std::uint32_t kDirectionSent = 0;      // P2P_DIR_SENT: master -> slave
 inline constexpr std::uint32_t kDirectionReceived = 1;  // P2P_DIR_RECV: slave -> master
 

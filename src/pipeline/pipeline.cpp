@@ -849,9 +849,7 @@ void Pipeline::handle_telegram(TelegramView& t, const ProtocolDecoder& decoder, 
     in.verdict = found.verdict;
     in.plausible =
         (found.other_kinds & (1u << static_cast<unsigned>(AnomalyKind::implausible))) == 0;
-    in.function = found.function;
-    in.is_exception = found.is_exception;
-    in.exception_code = found.exception_code;
+    static_cast<TelegramFunction&>(in) = found;  // the function part, as the findings have it
     in.number = number;
     in.channel = channel;
     in.start = start;
