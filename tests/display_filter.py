@@ -452,8 +452,22 @@ STATS_FILTERS = ["mbrtu.unit_id == 2 && modbus.func_code == 3", "modbus.func_cod
                  "modbus.func_code != 3 && addr <= 2"]
 
 
+def every_tree_id_filters(recs):
+    """For every field-tree id of the records: its presence and one of its values, which --stats
+    -Y reads of each telegram's tree of the filter's ids alone (no head holds most ids)."""
+    out, seen = [], set()
+    for r in recs:
+        for k, v in r.get("fields", {}).items():
+            if k in seen:
+                continue
+            seen.add(k)
+            v = v[-1] if isinstance(v, list) else v
+            out += [k, "%s == %s" % (k, json.dumps(v, ensure_ascii=False))]
+    return out
+
+
 def check_stats(args, path, recs):
-    for f in STATS_FILTERS:  # the count: the frames the JSON records select
+    for f in STATS_FILTERS + every_tree_id_filters(recs):  # the count: what the JSON records select
         want = sum(1 for r in recs if evaluate(parse(f), r))
         code, out, err = run(["read"] + args + ["--stats", "-T", "json", "-Y", f, path])
         got = json.loads(out.splitlines()[-1]).get("filter", {}).get("matched") if code == 0 else None

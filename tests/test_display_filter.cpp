@@ -1,13 +1,19 @@
 // Display filters (-Y): parse errors with their column, precedence, each operator, fields with
-// several values, strings, contains and sets, findings, the names' needs, an added name source
-// (docs/reference.md "Display filters").
+// several values, strings, contains and sets, findings, the names' needs, an added name source,
+// the tree of a filter's ids alone (docs/reference.md "Display filters").
 #include <gtest/gtest.h>
 
 #include <memory>
+#include <set>
 #include <string>
+#include <vector>
 
+#include "core/protocol.hpp"
 #include "core/protocol_desc.hpp"
 #include "filter/display_filter.hpp"
+#include "generate/traffic.hpp"
+#include "pipeline/pipeline.hpp"
+#include "sinks/sink.hpp"
 
 using namespace drivetap;
 
@@ -271,22 +277,27 @@ TEST(DisplayFilter, ALateFindingIsJudgedOnItsOwnRecord) {
 TEST(DisplayFilter, NeedsFollowTheNamesUsed) {
   struct Row {
     const char* filter;
-    bool detail, tree, message;  // RecordFieldNeeds the filter must fold
+    bool detail, tree, message, telegram_tree;  // RecordFieldNeeds the filter must fold
     const char* why;
   };
   const Row rows[] = {
-      {"addr == 2 && checksum_bad && latency_ms > 1", false, false, false,
+      {"addr == 2 && checksum_bad && latency_ms > 1", false, false, false, false,
        "judged on a telegram's head"},
-      {"summary contains \"x\" || drive", true, false, true, "the texts, no tree"},
-      {"modbus.word_cnt == 1", false, true, true,
-       "the tree without the texts (info line, drive annotation) no one reads"},
-      {"mbrtu.unit_id == 2 && modbus.func_code == 3", false, true, false,
+      {"summary contains \"x\" || drive", true, false, true, false, "the texts, no tree"},
+      {"modbus.word_cnt == 1", false, true, false, true,
+       "the tree without the texts (info line, drive annotation) no one reads: a telegram judged "
+       "by its head is decoded for its tree alone"},
+      {"mbrtu.unit_id == 2 && modbus.func_code == 3", false, true, false, false,
        "tree ids the head holds (the protocol descriptor's head fields) are judged on the head; "
        "the tree is read of the telegrams decoded anyway"},
-      {"mbrtu.unit_id == 2 && mbrtu.crc16 == 1", false, true, true, "one id no head holds"},
-      {"checksum_bad && !malformed", false, false, false, "a finding's presence is the head's"},
-      {"checksum_bad contains \"CRC\"", false, false, true, "a finding's text, the Message's"},
-      {"finding == \"checksum_bad\" || checksum_stated", false, false, true,
+      {"mbrtu.unit_id == 2 && mbrtu.crc16 == 1", false, true, false, true, "one id no head holds"},
+      {"modbus.word_cnt == 1 && summary contains \"x\"", true, true, true, true,
+       "the tree and the Message's texts"},
+      {"checksum_bad && !malformed", false, false, false, false,
+       "a finding's presence is the head's"},
+      {"checksum_bad contains \"CRC\"", false, false, true, false,
+       "a finding's text, the Message's"},
+      {"finding == \"checksum_bad\" || checksum_stated", false, false, true, false,
        "typed ids and the stated checksum are the Message's"},
   };
   for (const Row& row : rows) {
@@ -297,6 +308,7 @@ TEST(DisplayFilter, NeedsFollowTheNamesUsed) {
     EXPECT_EQ(filter->needs().detail, row.detail);
     EXPECT_EQ(filter->needs().tree, row.tree);
     EXPECT_EQ(filter->needs().message, row.message);
+    EXPECT_EQ(filter->needs().telegram_tree, row.telegram_tree);
   }
 }
 
@@ -345,5 +357,120 @@ TEST(DisplayFilter, NoiseRecordsHaveTheirKeysAndFindings) {
     auto f = DisplayFilter::compile(no, &error);
     ASSERT_TRUE(f) << error;
     EXPECT_FALSE(f->matches(r)) << no;
+  }
+}
+
+namespace {
+
+// Every frame of the generator's mixed bus (four protocols, errors, noise), as the pipeline hands
+// it over decoded in full, with what it was dissected from.
+struct DissectedFrames final : Sink {
+  struct Input {
+    Frame frame;
+    Direction direction;
+    Protocol protocol;
+  };
+  std::vector<Input> inputs;
+  void on_frame(const Message& m) override { inputs.push_back({m.frame, m.direction, m.protocol}); }
+  void on_noise(const Frame&) override {}
+  bool flush() override { return true; }
+};
+
+// `full`'s nodes of the ids in `ids`, in order, their texts with them.
+FieldTree kept_of(const FieldTree& full, const FieldIdSet& ids) {
+  FieldTree out;
+  for (const FieldNode& n : full)
+    if (ids.contains(*n.desc)) out.push_back_from(full, n);
+  return out;
+}
+
+}  // namespace
+
+TEST(DisplayFilter, ATreeOfSomeIdsHoldsTheFullTreesNodesOfThem) {
+  // A filter's own decode (TelegramTree) keeps only the ids it reads: for every telegram of every
+  // protocol and each of its protocol's ids alone, and with the next id of its layer (a group
+  // with a child, two siblings), the kept tree is the full tree's nodes of those ids: values,
+  // spans (a group's over its children, kept or not), depths and texts.
+  DissectedFrames sink;
+  ChannelTable channels;
+  generate::Generator gen(generate::Options{3000, 7, generate::Mix::all});
+  PipelineOptions options;
+  options.serial = generate::Generator::serial();
+  options.timing = FramingTiming::from(options.serial);
+  Pipeline pipeline(options, channels, sink);
+  std::vector<int> channel_of(gen.links().size(), -1);
+  generate::Record r;
+  std::vector<ByteEvent> events;
+  while (gen.next(r)) {
+    if (channel_of[r.link] < 0) channel_of[r.link] = channels.intern(gen.links()[r.link].channel);
+    for (std::size_t i = 0; i < r.bytes.size(); ++i)
+      events.push_back({r.start + static_cast<TimeNs>(i) * options.timing.character_time,
+                        r.bytes[i], r.flags[i], static_cast<ChannelId>(channel_of[r.link]), 0});
+  }
+  pipeline.push_batch(events);
+  pipeline.finish();
+  ASSERT_GT(sink.inputs.size(), 2000u);
+
+  std::set<const FieldDesc*> seen;
+  std::size_t compared = 0;
+  Message full, kept;
+  for (const DissectedFrames::Input& in : sink.inputs) {
+    const ProtocolDecoder* decoder = decoder_for(in.protocol);
+    ASSERT_NE(decoder, nullptr);
+    decoder->dissect_into(full, Frame(in.frame), in.direction, options.timing);
+    for (const FieldProtocol* layer : in.protocol.desc()->field_protocols) {
+      for (std::size_t i = 0; i < layer->fields.size(); ++i) {
+        for (const std::size_t with : {i, i + 1}) {
+          if (with >= layer->fields.size()) continue;
+          FieldIdSet ids;
+          ids.add(*layer->fields[i]);
+          ids.add(*layer->fields[with]);
+          kept.fields.keep_only(&ids);
+          kept.info_text = false;
+          decoder->dissect_into(kept, Frame(in.frame), in.direction, options.timing);
+          kept.fields.keep_only(nullptr);
+          const FieldTree want = kept_of(full.fields, ids);
+          ASSERT_TRUE(kept.fields == want)
+              << "frame " << in.frame.number << ", " << layer->fields[i]->id << " with "
+              << layer->fields[with]->id << ": " << kept.fields.size() << " nodes, the full tree "
+              << want.size();
+          if (!want.empty()) seen.insert(layer->fields[i]->key());
+          ++compared;
+        }
+      }
+    }
+  }
+  // The ids the generator's telegrams carry (43 of the four protocols') were there to compare.
+  EXPECT_GT(compared, 50000u);
+  EXPECT_GE(seen.size(), 40u);
+}
+
+TEST(DisplayFilter, ATreeOfSomeIdsStretchesAKeptGroupOverItsDroppedChildren) {
+  FieldDesc group{.id = "t.group", .name = "group", .type = FieldType::group};
+  FieldDesc child{.id = "t.child", .name = "child"};
+  FieldDesc other{.id = "t.other", .name = "other"};
+  const auto build = [&](FieldTree& tree) {
+    FieldTreeBuilder b(tree);
+    b.add(other, 0, 1, 1);
+    b.open(group, 1, 1);
+    b.add(child, 1, 2, 2);
+    b.open(group, 3, 0);
+    b.add_text(child, 3, 4, "deep", 3);
+    b.close();
+    b.close();
+    b.add(other, 9, 1, 4);
+  };
+  FieldTree full;
+  build(full);
+  ASSERT_EQ(full.size(), 6u);
+  EXPECT_EQ(full[1].length, 6u);  // 1..7
+  for (const FieldDesc* only : {&group, &child, &other}) {
+    FieldIdSet ids;
+    ids.add(*only);
+    FieldTree kept;
+    kept.keep_only(&ids);
+    build(kept);
+    EXPECT_TRUE(kept == kept_of(full, ids)) << only->id;
+    EXPECT_EQ(kept.size(), 2u) << only->id;
   }
 }

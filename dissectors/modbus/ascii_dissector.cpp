@@ -134,6 +134,7 @@ void dissect_ascii(Message& m, Frame&& frame, Direction direction, const Framing
   m.is_exception = (bin[1] & 0x80) != 0;
   // Decode the binary PDU, then map every field onto its hex characters (2 per byte, after ':').
   FieldTree binary_fields;
+  binary_fields.keep_only(m.fields.kept_ids());
   FieldTreeBuilder binary_tree(binary_fields, m.detail && m.tree);
   binary_tree.add(kAsciiUnitId, 0, 1, bin[0]);
   PduDecode pdu = dissect_pdu(bin, 1, bin.size() - 2, direction, binary_tree, m.detail);

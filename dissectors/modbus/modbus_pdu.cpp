@@ -203,6 +203,7 @@ class PduReader {
     return s;
   }
   FieldTreeBuilder& tree() { return tree_; }
+  [[nodiscard]] bool describing() const { return out_.detail; }
   Cursor& cursor() { return cursor_; }
   std::size_t frame_offset() const { return base_ + cursor_.offset(); }
   template <class... Args>
@@ -320,6 +321,13 @@ std::string hex_list(std::span<const std::uint8_t> bytes, std::size_t limit = 16
 
 RegisterValues read_registers(PduReader& r, std::size_t count) {
   RegisterValues values;
+  // Values neither the tree keeps nor the info line lists (a --stats or display filter decode):
+  // stepped over, where the PDU holds them all.
+  if (!r.tree().keeps(kRegisterValue) && !r.describing() && r.cursor().remaining() >= 2 * count) {
+    r.cursor().take(2 * count);
+    values.count = count;
+    return values;
+  }
   for (std::size_t i = 0; i < count; ++i) {
     auto v = r.u16(kRegisterValue);
     if (!v) break;

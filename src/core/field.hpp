@@ -112,6 +112,24 @@ struct FieldNode {
 };
 static_assert(std::is_trivially_copyable_v<FieldNode>);
 
+// The ids a reader of a tree reads (a display filter's tree ids): a FieldTree told to keep only
+// them (FieldTree::keep_only) gets no node of another id, and each node it keeps is the node a full
+// tree has (value, span, depth, text). Few ids: looked up one by one.
+class FieldIdSet {
+ public:
+  void add(const FieldDesc& desc) {
+    if (!contains(desc)) keys_.push_back(desc.key());
+  }
+  [[nodiscard]] bool contains(const FieldDesc& desc) const {
+    const FieldDesc* key = desc.key();
+    return std::find(keys_.begin(), keys_.end(), key) != keys_.end();
+  }
+  [[nodiscard]] bool empty() const { return keys_.empty(); }
+
+ private:
+  std::vector<const FieldDesc*> keys_;  // listed descriptors (FieldDesc::key)
+};
+
 // The field tree of one frame: its nodes in pre-order, and the texts they name. Read like a
 // std::vector<FieldNode> (size, [], iteration); a node's text is text(node). The texts of all
 // nodes share one string, so copying a tree (a Message handed to the writer thread) costs two
@@ -131,10 +149,15 @@ class FieldTree {
   [[nodiscard]] const_iterator begin() const { return nodes_.begin(); }
   [[nodiscard]] const_iterator end() const { return nodes_.end(); }
 
+  // Clears the nodes and texts; the ids kept (keep_only) stay.
   void clear() {
     nodes_.clear();
     text_.clear();
   }
+  // From now on the tree's builders add only nodes of `ids` (nullptr: every node), a tree for a
+  // reader of those alone: the rest of the tree costs no node and no text. `ids` outlives it.
+  void keep_only(const FieldIdSet* ids) { kept_ids_ = ids; }
+  [[nodiscard]] const FieldIdSet* kept_ids() const { return kept_ids_; }
   void reserve(std::size_t nodes) { nodes_.reserve(nodes); }
   // A new node with no text, for the caller to fill in.
   FieldNode& emplace_back() { return nodes_.emplace_back(); }
@@ -175,22 +198,32 @@ class FieldTree {
  private:
   std::vector<FieldNode> nodes_;
   std::string text_;
+  const FieldIdSet* kept_ids_ = nullptr;
 };
 
 // Builds a pre-order field tree. Dissectors add nodes; open()/close() nest them.
 // A builder made with `enabled` false keeps nothing: a run that prints no per-frame decode
 // (`read --stats`) pays for no tree, as Wireshark dissects with a null tree when none is shown.
-// add() then hands back a scratch node, so dissector code runs the same either way.
+// add() then hands back a scratch node, so dissector code runs the same either way. A tree that
+// keeps only some ids (FieldTree::keep_only) gets the scratch node for the others' nodes: the kept
+// ones have the depth and, for a group, the span they have in the full tree.
 class FieldTreeBuilder {
  public:
-  explicit FieldTreeBuilder(FieldTree& out, bool enabled = true) : out_(out), enabled_(enabled) {}
+  explicit FieldTreeBuilder(FieldTree& out, bool enabled = true)
+      : out_(out), enabled_(enabled), kept_ids_(out.kept_ids()) {}
 
   [[nodiscard]] bool enabled() const { return enabled_; }
+  // Whether the tree gets nodes of `desc`'s id: a dissector may step over values no one reads.
+  [[nodiscard]] bool keeps(const FieldDesc& desc) const {
+    return enabled_ && (!kept_ids_ || kept_ids_->contains(desc));
+  }
 
   // Inlined: dissectors call it for every field, and without a tree it is a few stores.
   [[gnu::always_inline]] FieldNode& add(const FieldDesc& desc, std::size_t offset,
                                         std::size_t length, std::int64_t value = 0) {
-    FieldNode& n = enabled_ ? out_.emplace_back() : scratch_;
+    FieldNode& n = !enabled_   ? scratch_
+                   : kept_ids_ ? kept_node(desc, offset, length)
+                               : out_.emplace_back();
     n.desc = &desc;
     n.value = value;
     n.offset = static_cast<std::uint32_t>(offset);
@@ -203,33 +236,57 @@ class FieldTreeBuilder {
   FieldNode& add_text(const FieldDesc& desc, std::size_t offset, std::size_t length,
                       std::string_view text, std::int64_t value = 0) {
     FieldNode& n = add(desc, offset, length, value);
-    if (enabled_) out_.set_text(n, text);
+    if (&n != &scratch_) out_.set_text(n, text);
     return n;
   }
   // Adds a group node and nests what follows under it until close(), which stretches the
   // group's span over its children.
   void open(const FieldDesc& desc, std::size_t offset, std::size_t length, std::int64_t value = 0) {
-    add(desc, offset, length, value);
+    const FieldNode& n = add(desc, offset, length, value);
     if (!enabled_) return;
-    open_.push_back(out_.size() - 1);
+    open_.push_back(&n == &scratch_ ? kNotKept : out_.size() - 1);
+    if (kept_ids_) open_end_.push_back(n.offset + n.length);
     ++depth_;
   }
   void close() {
     if (open_.empty()) return;
-    FieldNode& group = out_[open_.back()];
-    for (std::size_t i = open_.back() + 1; i < out_.size(); ++i) {
+    const std::size_t at = open_.back();
+    open_.pop_back();
+    --depth_;
+    if (kept_ids_) {
+      // The end of everything under the group, kept or not (as the full tree stretches it).
+      const std::uint32_t end = open_end_.back();
+      open_end_.pop_back();
+      if (!open_end_.empty()) open_end_.back() = std::max(open_end_.back(), end);
+      if (at != kNotKept && end > out_[at].offset + out_[at].length)
+        out_[at].length = end - out_[at].offset;
+      return;
+    }
+    FieldNode& group = out_[at];
+    for (std::size_t i = at + 1; i < out_.size(); ++i) {
       const std::uint32_t end = out_[i].offset + out_[i].length;
       if (end > group.offset + group.length) group.length = end - group.offset;
     }
-    open_.pop_back();
-    --depth_;
   }
 
  private:
+  static constexpr std::size_t kNotKept = ~std::size_t{0};
+
+  // A node of a tree that keeps only some ids: its own for a kept id, else the scratch node.
+  [[gnu::always_inline]] FieldNode& kept_node(const FieldDesc& desc, std::size_t offset,
+                                              std::size_t length) {
+    if (!open_end_.empty())
+      open_end_.back() = std::max(open_end_.back(), static_cast<std::uint32_t>(offset + length));
+    return kept_ids_->contains(desc) ? out_.emplace_back() : scratch_;
+  }
+
   FieldTree& out_;
   bool enabled_;
-  FieldNode scratch_;              // what add() fills when the builder keeps nothing
-  std::vector<std::size_t> open_;  // indices of open group nodes
+  const FieldIdSet* kept_ids_;     // the tree's (FieldTree::keep_only), nullptr for all
+  FieldNode scratch_;              // what add() fills for a node the tree does not keep
+  std::vector<std::size_t> open_;  // indices of open group nodes (kNotKept: not kept)
+  // With kept_ids_: the end of the span of everything under each open group so far.
+  std::vector<std::uint32_t> open_end_;
   std::uint16_t depth_ = 0;
 };
 

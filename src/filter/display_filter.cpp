@@ -359,6 +359,8 @@ class FilterParser {
     out_.needs_.tree = out_.needs_.tree || needs.tree;
     out_.needs_.drive_values = out_.needs_.drive_values || needs.drive_values;
     out_.needs_.message = out_.needs_.message || needs.message;
+    out_.needs_.telegram_tree = out_.needs_.telegram_tree || needs.telegram_tree;
+    if (field->kind == RecordField::Kind::tree) out_.tree_ids_.add(*field->desc);
     out_.fields_.push_back(*field);
     DisplayFilter::Node n;
     n.field = static_cast<std::uint32_t>(out_.fields_.size() - 1);

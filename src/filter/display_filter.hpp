@@ -25,6 +25,8 @@ class DisplayFilter {
 
   // What the pipeline must make for the filter to read its fields.
   [[nodiscard]] const RecordFieldNeeds& needs() const { return needs_; }
+  // The field-tree ids it reads: a tree of these alone gives it the values a full tree does.
+  [[nodiscard]] const FieldIdSet& tree_ids() const { return tree_ids_; }
   [[nodiscard]] const std::string& text() const { return text_; }
   // The filter names a finding reported after its frame (finding_known_after_frame()): it is
   // also evaluated against each such finding's own record.
@@ -61,6 +63,7 @@ class DisplayFilter {
   std::vector<Node> nodes_;
   std::uint32_t root_ = 0;
   RecordFieldNeeds needs_;
+  FieldIdSet tree_ids_;
   bool names_late_findings_ = false;
   mutable std::string scratch_;
 };

@@ -21,6 +21,7 @@ DisplayFilterSink::DisplayFilterSink(DisplayFilter filter, Sink& inner,
       inner_needs_(inner.needs()),
       by_head_(!filter_.needs().message && (!inner_needs_.records || inner_needs_.deferred_decode)),
       views_(channels, character_time, show_latency),
+      telegram_tree_(filter_.tree_ids()),
       recent_selected_(kRecentFrames, 0) {
   if (filter_.names_late_findings()) late_frames_.resize(kRecentFrames);
 }
@@ -92,7 +93,11 @@ void DisplayFilterSink::on_frame(const Message& m) {
 }
 
 void DisplayFilterSink::on_deferred_frame(const DeferredTelegram& telegram) {
-  const RecordView r = views_.of(telegram);
+  RecordView r = views_.of(telegram);
+  if (filter_.needs().telegram_tree) {
+    telegram_tree_.reset(telegram);
+    r.telegram_tree = &telegram_tree_;
+  }
   note_late_frame(r);
   const bool pass = filter_.matches(r);
   note(telegram.number, pass);

@@ -10,7 +10,9 @@
 //
 // A filter whose names a telegram's head holds (RecordFieldNeeds::message false) is judged on the
 // head where the pipeline takes a telegram whole: the telegram comes undecoded
-// (on_deferred_frame()), and only one the filter selects is decoded, by the inner sink.
+// (on_deferred_frame()), and only one the filter selects is decoded, by the inner sink. Tree ids
+// no head holds are read of the telegram decoded here, when the filter first reads one, into a
+// tree of the filter's ids alone (TelegramTree).
 #pragma once
 
 #include <cstdint>
@@ -54,6 +56,8 @@ class DisplayFilterSink final : public ForwardingSink {
   // names and what the inner sink takes).
   bool by_head_ = false;
   RecordViews views_;
+  // A telegram judged by its head: its tree of the filter's ids, decoded when first read.
+  TelegramTree telegram_tree_;
   // The numbers of the latest selected frames, each at its number modulo the size: a transaction
   // or finding reported later (a timeout) finds its frame here. Fixed size: no allocation.
   std::vector<std::uint64_t> recent_selected_;

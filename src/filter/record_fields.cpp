@@ -264,10 +264,8 @@ bool key_values(RecordKey key, const RecordView& r, std::string& scratch, ValueV
 }
 
 // A tree node's value as JSON has it: a number, or the hex of a bytes field, or a text.
-bool tree_values(const FieldDesc* key, const RecordView& r, std::string& scratch,
+bool tree_values(const FieldDesc* key, const Message& m, std::string& scratch,
                  ValueVisitor& visit) {
-  if (!r.message) return false;
-  const Message& m = *r.message;
   for (const FieldNode& node : m.fields) {
     if (node.desc->key() != key) continue;
     bool stop = false;
@@ -354,7 +352,7 @@ RecordFieldNeeds RecordField::needs() const {
       break;
     case Kind::tree:
       n.tree = true;  // (for the telegrams decoded anyway)
-      n.message = !head_holds(desc);
+      n.telegram_tree = !in_head;
       break;
     case Kind::finding_id:  // (a typed id is the Anomaly's)
       n.message = true;
@@ -382,6 +380,7 @@ std::optional<RecordField> resolve_record_field(std::string_view name) {
     if (d->id == name) {
       f.kind = RecordField::Kind::tree;
       f.desc = d->key();
+      f.in_head = head_holds(f.desc);
       f.name = d->id;
       return f;
     }
@@ -417,8 +416,11 @@ bool record_values(const RecordField& field, const RecordView& record, std::stri
     case RecordField::Kind::key:
       return key_values(field.key, record, scratch, visit);
     case RecordField::Kind::tree:
-      if (record.telegram) return head_tree_values(field.desc, record, scratch, visit);
-      return tree_values(field.desc, record, scratch, visit);
+      if (record.message) return tree_values(field.desc, *record.message, scratch, visit);
+      if (!record.telegram) return false;
+      if (field.in_head) return head_tree_values(field.desc, record, scratch, visit);
+      return record.telegram_tree &&
+             tree_values(field.desc, record.telegram_tree->message(), scratch, visit);
     case RecordField::Kind::finding_kind:
       if (record.telegram)  // (present or not: the filter reads no text of it)
         return head_has_finding(record, field.finding_kind) && visit_string("", visit);
@@ -435,6 +437,20 @@ bool record_values(const RecordField& field, const RecordView& record, std::stri
       return field.source->values(field.slot, record, scratch, visit);
   }
   return false;
+}
+
+TelegramTree::TelegramTree(const FieldIdSet& ids) {
+  message_.detail = message_.tree = true;
+  message_.info_text = false;
+  message_.fields.keep_only(&ids);
+}
+
+const Message& TelegramTree::message() {
+  if (!decoded_) {
+    telegram_->dissect_into(message_);  // (the tree is all a filter reads of it)
+    decoded_ = true;
+  }
+  return message_;
 }
 
 RecordView RecordViews::shared_view() const {

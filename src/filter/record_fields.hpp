@@ -38,6 +38,25 @@ struct LateFindingFrame {
   int function = -1;
 };
 
+// The field tree of a telegram known by its head (RecordView::telegram) for the tree ids no head
+// holds: its dissection (DeferredTelegram::dissect_into), made when a field first asks for it, with
+// a tree of only the ids `ids` names (the filter's: FieldTree::keep_only) and no texts but theirs.
+class TelegramTree {
+ public:
+  explicit TelegramTree(const FieldIdSet& ids);
+  // The telegram whose tree is read next (valid until the next reset).
+  void reset(const DeferredTelegram& telegram) {
+    telegram_ = &telegram;
+    decoded_ = false;
+  }
+  [[nodiscard]] const Message& message();
+
+ private:
+  const DeferredTelegram* telegram_ = nullptr;
+  bool decoded_ = false;
+  Message message_;
+};
+
 // One frame or noise record as the filter sees it.
 struct RecordView {
   const Message* message = nullptr;  // a telegram; or
@@ -45,6 +64,8 @@ struct RecordView {
   // a telegram known by its head only (DeferredTelegram::head): only the fields whose needs()
   // say no `message` can be read of it
   const DeferredTelegram* telegram = nullptr;
+  // with it, for the tree ids no head holds: the telegram's tree, decoded on the first read
+  TelegramTree* telegram_tree = nullptr;
   // or the record of a late finding (the one in `findings`), with what it says of its frame
   const LateFindingFrame* late_frame = nullptr;
   const ChannelTable* channels = nullptr;
@@ -108,6 +129,9 @@ struct RecordFieldNeeds {
   // The decoded Message: the field is not read from a telegram's head (the keys, checksum
   // verdict and finding kinds a DeferredTelegram carries), so every telegram is decoded.
   bool message = false;
+  // A tree id no head holds: a telegram known by its head is decoded for its tree alone
+  // (RecordView::telegram_tree).
+  bool telegram_tree = false;
 };
 
 // A source of fields beyond the record and the field tree, such as the drive layer's `drive.*`
@@ -157,6 +181,7 @@ struct RecordField {
   Kind kind = Kind::key;
   RecordKey key = RecordKey::n;
   const FieldDesc* desc = nullptr;   // tree: the listed descriptor (FieldDesc::key)
+  bool in_head = false;              // tree: every telegram's head holds it (or no layer has it)
   AnomalyKind finding_kind{};        // finding_kind
   const char* finding_id = nullptr;  // finding_id: a protocol's typed id
   const RecordFieldSource* source = nullptr;

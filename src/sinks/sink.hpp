@@ -84,15 +84,19 @@ struct DeferredTelegram {
   // does not check the rules a second time.
   bool plausible = false;
 
-  // The Message the pipeline would have handed over: its decoder's dissection of the frame, with
-  // the pipeline's numbers, pairing and drive-level findings, each anomaly numbered with the
-  // frame, and the profile whose annotation is still to write. `out`'s storage is reused.
-  void decode_into(Message& out) const {
+  // Its decoder's dissection of the frame alone, into `out` (what decode_into() starts from).
+  void dissect_into(Message& out) const {
     TelegramView t;
     t.run = run;
     t.taken = taken;
     t.known_plausible = plausible;
     decoder->dissect(t, direction, timing, request, DissectDepth::detail, out, nullptr);
+  }
+  // The Message the pipeline would have handed over: its decoder's dissection of the frame, with
+  // the pipeline's numbers, pairing and drive-level findings, each anomaly numbered with the
+  // frame, and the profile whose annotation is still to write. `out`'s storage is reused.
+  void decode_into(Message& out) const {
+    dissect_into(out);
     out.frame.number = number;
     out.latency = latency;
     out.request_number = request_number;
