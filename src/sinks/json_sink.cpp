@@ -190,70 +190,13 @@ std::uint64_t identity_bit(const DriveValue& v) {
   return std::uint64_t{1} << (h >> 58);
 }
 
-// The frame's `drive` object: the annotation's text, the station and family, and the values
-// under their `drive.*` ids (without the prefix; a value given twice is shown once, the first),
-// as the pipeline's drive level read them (Message::drive_values). Nothing for a frame no
-// profile says anything of.
-void append_drive_object(LineBuffer& line, const Message& m) {
-  // (The station and family, which collect_drive_values() gives first, are keys of their own.)
-  std::span<const DriveValue> values = m.drive_values;
-  while (!values.empty() && (values.front().id == "station" || values.front().id == "family"))
-    values = values.subspan(1);
-  if (m.drive_info.empty() && values.empty()) return;
-  line += ",\"drive\":{\"text\":";
-  append_json_quoted(line, m.drive_info);
-  if (m.drive_read_with) {
-    if (m.address >= 0) {
-      line += ",\"station\":";
-      append_int(line, m.address);
-    }
-    line += ",\"family\":";
-    append_short_json_quoted(line, m.drive_read_with->id);
-  }
-  line += ",\"values\":{";
-  bool first = true;
-  std::uint64_t given = 0;  // identity_bit() of the values shown
-  for (std::size_t i = 0; i < values.size(); ++i) {
-    const DriveValue& v = values[i];
-    const std::uint64_t bit = identity_bit(v);
-    if ((given & bit) != 0) {  // perhaps given before: the values before it say
-      bool repeated = false;
-      for (std::size_t k = 0; k < i && !repeated; ++k)
-        repeated = values[k].reg == v.reg && values[k].id == v.id;
-      if (repeated) continue;
-    }
-    given |= bit;
-    // The separator, the key and the start of its object in one piece: ,"id":{"value":
-    // (Field ids are letters, digits and '_' (valid_register_field_id()): nothing to escape.)
-    constexpr std::string_view kValueKey = "\":{\"value\":";
-    const std::size_t comma = first ? 0 : 1;
-    first = false;
-    char* at = line.extend(comma + 1 + v.id.size() + kValueKey.size());
-    *at = ',';  // (written over by the quote when there is no comma)
-    at[comma] = '"';
-    std::memcpy(at + comma + 1, v.id.data(), v.id.size());
-    std::memcpy(at + comma + 1 + v.id.size(), kValueKey.data(), kValueKey.size());
-    if (v.kind == DriveValue::Kind::text) {
-      append_json_quoted(line, v.text);
-    } else {
-      // The number's digits are written in place: room for the most, then cut to what they took.
-      const std::size_t from = line.size();
-      char* room = line.extend(kDriveNumberChars);
-      const std::string_view text =
-          drive_value_text(v, std::span<char, kDriveNumberChars>(room, kDriveNumberChars));
-      line.resize(from + text.size());
-    }
-    if (v.kind == DriveValue::Kind::reg) {
-      if (!v.reg->unit.empty()) {
-        line += ",\"unit\":";
-        append_short_json_quoted(line, v.reg->unit);
-      }
-      line += ",\"raw\":";
-      append_uint(line, v.raw);
-    }
-    line += '}';
-  }
-  line += "}}";
+// `s` quoted: as it is when `plain` (a text of a profile whose texts are plain), else escaped.
+void append_profile_text_quoted(LineBuffer& line, std::string_view s, bool plain) {
+  if (!plain) return append_json_quoted(line, s);
+  char* at = line.extend(s.size() + 2);
+  at[0] = '"';
+  std::memcpy(at + 1, s.data(), s.size());
+  at[s.size() + 1] = '"';
 }
 
 }  // namespace
@@ -349,6 +292,164 @@ void JsonSink::append_fields_object(LineBuffer& out, const Message& m) {
     out += ']';
   }
   out += '}';
+}
+
+const JsonSink::RegisterPieces* JsonSink::switch_pieces(const DriveProfile& p) {
+  auto known = std::find_if(profile_pieces_.begin(), profile_pieces_.end(),
+                            [&p](const ProfilePieces& k) { return k.profile == &p; });
+  if (known == profile_pieces_.end()) {
+    ProfilePieces made{&p, std::vector<RegisterPieces>(p.registers.size())};
+    for (std::size_t i = 0; i < p.registers.size(); ++i) {
+      const RegisterDef& r = p.registers[i];
+      RegisterPieces& pieces = made.registers[i];
+      // (Field ids are letters, digits and '_' (valid_register_field_id()): nothing to escape.)
+      const std::string key = fmt::format(",\"{}\":{{\"value\":", r.field_id);
+      std::string tail = r.unit.empty() ? std::string() : ",\"unit\":" + json_quote(r.unit);
+      tail += ",\"raw\":";
+      const int decimals = decimal_scale_index(r.scale);
+      if (decimals < 0 || key.size() > RegisterPieces::kPieceChars ||
+          tail.size() > RegisterPieces::kPieceChars)
+        continue;
+      std::memcpy(pieces.key.data(), key.data(), key.size());
+      std::memcpy(pieces.tail.data(), tail.data(), tail.size());
+      pieces.key_size = static_cast<std::uint8_t>(key.size());
+      pieces.tail_size = static_cast<std::uint8_t>(tail.size());
+      pieces.decimals = static_cast<std::int8_t>(decimals);
+    }
+    profile_pieces_.push_back(std::move(made));
+    known = profile_pieces_.end() - 1;
+  }
+  pieces_profile_ = &p;
+  pieces_ = known->registers.data();  // (a vector's storage stays where it is when it moves)
+  return pieces_;
+}
+
+// The frame's `drive` object: the annotation's text, the station and family, and the values
+// under their `drive.*` ids (without the prefix; a value given twice is shown once, the first),
+// as the pipeline's drive level read them (Message::drive_values). Nothing for a frame no
+// profile says anything of.
+void JsonSink::append_drive_object(LineBuffer& line, const Message& m) {
+  // (The station and family, which collect_drive_values() gives first, are keys of their own.)
+  std::span<const DriveValue> values = m.drive_values;
+  while (!values.empty() && (values.front().id == "station" || values.front().id == "family"))
+    values = values.subspan(1);
+  if (m.drive_info.empty() && values.empty()) return;
+  // The annotation and the values' texts are made of the profile's texts, literals and numbers
+  // (DriveProfile::texts_plain): escaped only when the profile's texts may need it.
+  const DriveProfile* profile = m.drive_read_with;
+  const bool plain = profile && profile->texts_plain;
+  line += ",\"drive\":{\"text\":";
+  append_profile_text_quoted(line, m.drive_info, plain);
+  if (profile) {
+    if (m.address >= 0) {
+      line += ",\"station\":";
+      append_int(line, m.address);
+    }
+    line += ",\"family\":";
+    append_profile_text_quoted(line, profile->id, plain);
+  }
+  line += ",\"values\":";
+  // A register of the profile is written from its pieces.
+  const RegisterPieces* pieces = profile ? pieces_for(*profile) : nullptr;
+  const auto registers_at =
+      reinterpret_cast<std::uintptr_t>(profile ? profile->registers.data() : nullptr);
+  const std::size_t register_count = profile ? profile->registers.size() : 0;
+  constexpr std::string_view kValueKey = "\":{\"value\":";
+  char separator = '{';     // before the next value: the object's brace, then commas
+  std::uint64_t given = 0;  // identity_bit() of the values shown
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    const DriveValue& v = values[i];
+    const std::uint64_t bit = identity_bit(v);
+    if ((given & bit) != 0) {  // perhaps given before: the values before it say
+      bool repeated = false;
+      for (std::size_t k = 0; k < i && !repeated; ++k)
+        repeated = values[k].reg == v.reg && values[k].id == v.id;
+      if (repeated) continue;
+    }
+    given |= bit;
+    const RegisterPieces* p = nullptr;
+    if (v.kind == DriveValue::Kind::reg && pieces) {
+      const std::uintptr_t offset = reinterpret_cast<std::uintptr_t>(v.reg) - registers_at;
+      const std::size_t index = offset / sizeof(RegisterDef);
+      if (offset % sizeof(RegisterDef) == 0 && index < register_count &&
+          pieces[index].decimals >= 0)
+        p = &pieces[index];
+    }
+    const bool own_id = p && v.id.data() == v.reg->field_id.data();
+    if (p && (own_id || v.id.size() <= 32)) {
+      // The whole value in room taken at once: key, digits, unit and raw digits.
+      // (The pieces are copied whole: room for all their characters.)
+      constexpr std::size_t kMostChars =
+          RegisterPieces::kPieceChars + kDecimalScaledChars + RegisterPieces::kPieceChars + 20 + 1;
+      static_assert(2 + 32 + kValueKey.size() <= RegisterPieces::kPieceChars);
+      const std::size_t from = line.size();
+      char* at = line.extend(kMostChars);
+      if (own_id) {
+        std::memcpy(at, p->key.data(), RegisterPieces::kPieceChars);
+        at[0] = separator;
+        at += p->key_size;
+      } else {
+        at[0] = separator;
+        at[1] = '"';
+        at = write_chars(at + 2, v.id);
+        std::memcpy(at, kValueKey.data(), kValueKey.size());
+        at += kValueKey.size();
+      }
+      // The value's digits from integers (drive_value_text() spells them so), and the raw
+      // value's: the same digits when the value is the raw one.
+      const std::int64_t value = register_raw_value(*v.reg, v.raw, v.double_word);
+      char* const digits = at;
+      at = write_decimal_scaled(at, value, p->decimals);
+      const auto digit_count = static_cast<std::size_t>(at - digits);
+      std::memcpy(at, p->tail.data(), RegisterPieces::kPieceChars);
+      at += p->tail_size;
+      if (p->decimals == 0 && value == static_cast<std::int64_t>(v.raw)) {
+        at = write_chars(at, std::string_view(digits, digit_count));
+      } else {
+        const std::size_t count = decimal_digit_count(v.raw);
+        write_decimal_digits(std::span<char>(at, count), v.raw);
+        at += count;
+      }
+      *at++ = '}';
+      line.resize(from + static_cast<std::size_t>(at - (line.data() + from)));
+      separator = ',';
+      continue;
+    }
+    // The separator, the key and the start of its object in one piece: ,"id":{"value":
+    char* at = line.extend(2 + v.id.size() + kValueKey.size());
+    at[0] = separator;
+    at[1] = '"';
+    std::memcpy(at + 2, v.id.data(), v.id.size());
+    std::memcpy(at + 2 + v.id.size(), kValueKey.data(), kValueKey.size());
+    separator = ',';
+    switch (v.kind) {
+      case DriveValue::Kind::text:
+        append_profile_text_quoted(line, v.text, plain);
+        line += '}';
+        continue;
+      case DriveValue::Kind::integer:
+        append_int(line, v.integer);
+        line += '}';
+        continue;
+      case DriveValue::Kind::reg:
+        break;
+    }
+    // The number's digits are written in place: room for the most, then cut to what they took.
+    const std::size_t from = line.size();
+    char* room = line.extend(kDriveNumberChars);
+    const std::string_view text =
+        drive_value_text(v, std::span<char, kDriveNumberChars>(room, kDriveNumberChars));
+    line.resize(from + text.size());
+    if (!v.reg->unit.empty()) {
+      line += ",\"unit\":";
+      append_short_json_quoted(line, v.reg->unit);
+    }
+    line += ",\"raw\":";
+    append_uint(line, v.raw);
+    line += '}';
+  }
+  if (separator == '{') line += '{';  // no value
+  line += "}}";
 }
 
 JsonSink::JsonSink(std::FILE* out, const ChannelTable& channels, TimeNs character_time,
