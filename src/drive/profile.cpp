@@ -574,9 +574,20 @@ bool valid_register_field_id(std::string_view id) {
 }
 
 bool profile_texts_plain(const DriveProfile& p) {
+  // Printable ASCII but '"' and '\\', and well-formed UTF-8 characters other than C1 controls
+  // ("§"): what a JSON string holds as it is (its escaping leaves such characters alone).
   auto plain = [](std::string_view s) {
-    for (const char c : s)
-      if (c < 0x20 || c > 0x7E || c == '"' || c == '\\') return false;
+    for (std::size_t i = 0; i < s.size();) {
+      const auto c = static_cast<unsigned char>(s[i]);
+      if (c < 0x80) {
+        if (c < 0x20 || c == 0x7F || c == '"' || c == '\\') return false;
+        ++i;
+        continue;
+      }
+      const std::size_t n = utf8_length(s, i, /*allow_c1=*/false);
+      if (n == 0) return false;
+      i += n;
+    }
     return true;
   };
   auto names_plain = [&](const auto& names) {

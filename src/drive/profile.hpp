@@ -94,9 +94,10 @@ struct DriveProfile {
   std::map<std::uint32_t, std::string> parameter_errors;  // Danfoss FC protocol AK 7 numbers
   // Every text an annotation or a drive value takes from the profile (its id and name, the
   // registers' numbers, names, units and bit texts, the names of its enums, exceptions and
-  // parameter errors, its rule's noun) is printable ASCII but '"' and '\\': a text made of
-  // them, literals and numbers needs no escape in a JSON string. Set by parse_profile()
-  // (profile_texts_plain()); false, nothing assumed, for a profile made otherwise.
+  // parameter errors, its rule's noun) is printable ASCII but '"' and '\\', or well-formed UTF-8
+  // but C1 controls: a text made of them, literals and numbers is a JSON string's inside as it
+  // is. Set by parse_profile() (profile_texts_plain()); false, nothing assumed, for a profile
+  // made otherwise.
   bool texts_plain = false;
 
   [[nodiscard]] const RegisterDef* find(RegisterKind kind, std::uint32_t address) const;

@@ -324,10 +324,29 @@ const JsonSink::RegisterPieces* JsonSink::switch_pieces(const DriveProfile& p) {
   return pieces_;
 }
 
+namespace {
+
+// A literal copied to `at`; returns the end.
+template <std::size_t N>
+char* put(char* at, const char (&literal)[N]) {
+  std::memcpy(at, literal, N - 1);
+  return at + N - 1;
+}
+
+// `v`'s decimal digits to `at`; returns the end.
+char* put_uint(char* at, std::uint64_t v) {
+  const std::size_t count = decimal_digit_count(v);
+  write_decimal_digits(std::span<char>(at, count), v);
+  return at + count;
+}
+
+}  // namespace
+
 // The frame's `drive` object: the annotation's text, the station and family, and the values
 // under their `drive.*` ids (without the prefix; a value given twice is shown once, the first),
 // as the pipeline's drive level read them (Message::drive_values). Nothing for a frame no
-// profile says anything of.
+// profile says anything of. Written through a pointer into room taken ahead (a capacity check
+// for each piece cost more than the pieces).
 void JsonSink::append_drive_object(LineBuffer& line, const Message& m) {
   // (The station and family, which collect_drive_values() gives first, are keys of their own.)
   std::span<const DriveValue> values = m.drive_values;
@@ -338,23 +357,47 @@ void JsonSink::append_drive_object(LineBuffer& line, const Message& m) {
   // (DriveProfile::texts_plain): escaped only when the profile's texts may need it.
   const DriveProfile* profile = m.drive_read_with;
   const bool plain = profile && profile->texts_plain;
-  line += ",\"drive\":{\"text\":";
-  append_profile_text_quoted(line, m.drive_info, plain);
-  if (profile) {
-    if (m.address >= 0) {
-      line += ",\"station\":";
-      append_int(line, m.address);
+  if (plain) {
+    const std::string_view info = m.drive_info, family = profile->id;
+    constexpr std::size_t kHeadChars = 80;  // the head's characters but the two texts
+    char* at = line.extend(kHeadChars + info.size() + family.size());
+    const char* const start = at;
+    at = put(at, ",\"drive\":{\"text\":\"");
+    std::memcpy(at, info.data(), info.size());
+    at += info.size();
+    *at++ = '"';
+    if (m.address >= 0) at = put_uint(put(at, ",\"station\":"), static_cast<unsigned>(m.address));
+    at = put(at, ",\"family\":\"");
+    at = write_chars(at, family);
+    at = put(at, "\",\"values\":");
+    line.resize(line.size() - kHeadChars - info.size() - family.size() +
+                static_cast<std::size_t>(at - start));
+  } else {
+    line += ",\"drive\":{\"text\":";
+    append_json_quoted(line, m.drive_info);
+    if (profile) {
+      if (m.address >= 0) {
+        line += ",\"station\":";
+        append_int(line, m.address);
+      }
+      line += ",\"family\":";
+      append_json_quoted(line, profile->id);
     }
-    line += ",\"family\":";
-    append_profile_text_quoted(line, profile->id, plain);
+    line += ",\"values\":";
   }
-  line += ",\"values\":";
   // A register of the profile is written from its pieces.
   const RegisterPieces* pieces = profile ? pieces_for(*profile) : nullptr;
   const auto registers_at =
       reinterpret_cast<std::uintptr_t>(profile ? profile->registers.data() : nullptr);
   const std::size_t register_count = profile ? profile->registers.size() : 0;
-  constexpr std::string_view kValueKey = "\":{\"value\":";
+  // The room: [at, room_end) taken past the line's characters (which end at `at`).
+  constexpr std::size_t kIdChars = 32;    // the longest id written through the pointer
+  constexpr std::size_t kTextChars = 64;  // the longest text value written so
+  constexpr std::size_t kValueChars = 2 * RegisterPieces::kPieceChars + kDecimalScaledChars +
+                                      kTextChars + 20 + 1;  // the most a value takes so
+  static_assert(2 + kIdChars + 11 <= RegisterPieces::kPieceChars);
+  char* at = line.extend(values.size() * kValueChars + 1);
+  char* room_end = at + values.size() * kValueChars + 1;
   char separator = '{';     // before the next value: the object's brace, then commas
   std::uint64_t given = 0;  // identity_bit() of the values shown
   for (std::size_t i = 0; i < values.size(); ++i) {
@@ -376,25 +419,56 @@ void JsonSink::append_drive_object(LineBuffer& line, const Message& m) {
         p = &pieces[index];
     }
     const bool own_id = p && v.id.data() == v.reg->field_id.data();
-    if (p && (own_id || v.id.size() <= 32)) {
-      // The whole value in room taken at once: key, digits, unit and raw digits.
-      // (The pieces are copied whole: room for all their characters.)
-      constexpr std::size_t kMostChars =
-          RegisterPieces::kPieceChars + kDecimalScaledChars + RegisterPieces::kPieceChars + 20 + 1;
-      static_assert(2 + 32 + kValueKey.size() <= RegisterPieces::kPieceChars);
-      const std::size_t from = line.size();
-      char* at = line.extend(kMostChars);
-      if (own_id) {
-        std::memcpy(at, p->key.data(), RegisterPieces::kPieceChars);
-        at[0] = separator;
-        at += p->key_size;
+    const bool through_pointer =
+        (own_id || v.id.size() <= kIdChars) &&
+        (v.kind == DriveValue::Kind::integer || p ||
+         (v.kind == DriveValue::Kind::text && plain && v.text.size() <= kTextChars));
+    if (!through_pointer) {
+      // The general way, by appends: the line is given its size, and room taken afresh after.
+      const std::size_t room = static_cast<std::size_t>(room_end - at);
+      line.resize(line.size() - room);
+      line += separator;
+      line += '"';
+      line += v.id;
+      line += "\":{\"value\":";
+      if (v.kind == DriveValue::Kind::text) {
+        append_profile_text_quoted(line, v.text, plain);
       } else {
-        at[0] = separator;
-        at[1] = '"';
-        at = write_chars(at + 2, v.id);
-        std::memcpy(at, kValueKey.data(), kValueKey.size());
-        at += kValueKey.size();
+        // The number's digits are written in place: room for the most, then cut to what they
+        // took.
+        const std::size_t from = line.size();
+        char* digits = line.extend(kDriveNumberChars);
+        const std::string_view text =
+            drive_value_text(v, std::span<char, kDriveNumberChars>(digits, kDriveNumberChars));
+        line.resize(from + text.size());
+        if (v.kind == DriveValue::Kind::reg) {
+          if (!v.reg->unit.empty()) {
+            line += ",\"unit\":";
+            append_short_json_quoted(line, v.reg->unit);
+          }
+          line += ",\"raw\":";
+          append_uint(line, v.raw);
+        }
       }
+      line += '}';
+      separator = ',';
+      const std::size_t more = (values.size() - i) * kValueChars + 1;
+      at = line.extend(more);
+      room_end = at + more;
+      continue;
+    }
+    if (own_id) {
+      std::memcpy(at, p->key.data(), RegisterPieces::kPieceChars);
+      at[0] = separator;
+      at += p->key_size;
+    } else {
+      at[0] = separator;
+      at[1] = '"';
+      at = write_chars(at + 2, v.id);
+      at = put(at, "\":{\"value\":");
+    }
+    separator = ',';
+    if (p) {
       // The value's digits from integers (drive_value_text() spells them so), and the raw
       // value's: the same digits when the value is the raw one.
       const std::int64_t value = register_raw_value(*v.reg, v.raw, v.double_word);
@@ -403,52 +477,24 @@ void JsonSink::append_drive_object(LineBuffer& line, const Message& m) {
       const auto digit_count = static_cast<std::size_t>(at - digits);
       std::memcpy(at, p->tail.data(), RegisterPieces::kPieceChars);
       at += p->tail_size;
-      if (p->decimals == 0 && value == static_cast<std::int64_t>(v.raw)) {
+      if (p->decimals == 0 && value == static_cast<std::int64_t>(v.raw))
         at = write_chars(at, std::string_view(digits, digit_count));
-      } else {
-        const std::size_t count = decimal_digit_count(v.raw);
-        write_decimal_digits(std::span<char>(at, count), v.raw);
-        at += count;
-      }
-      *at++ = '}';
-      line.resize(from + static_cast<std::size_t>(at - (line.data() + from)));
-      separator = ',';
-      continue;
+      else
+        at = put_uint(at, v.raw);
+    } else if (v.kind == DriveValue::Kind::integer) {
+      if (v.integer < 0) *at++ = '-';
+      at = put_uint(at, v.integer < 0 ? 0 - static_cast<std::uint64_t>(v.integer)
+                                      : static_cast<std::uint64_t>(v.integer));
+    } else {
+      *at++ = '"';
+      std::memcpy(at, v.text.data(), v.text.size());
+      at += v.text.size();
+      *at++ = '"';
     }
-    // The separator, the key and the start of its object in one piece: ,"id":{"value":
-    char* at = line.extend(2 + v.id.size() + kValueKey.size());
-    at[0] = separator;
-    at[1] = '"';
-    std::memcpy(at + 2, v.id.data(), v.id.size());
-    std::memcpy(at + 2 + v.id.size(), kValueKey.data(), kValueKey.size());
-    separator = ',';
-    switch (v.kind) {
-      case DriveValue::Kind::text:
-        append_profile_text_quoted(line, v.text, plain);
-        line += '}';
-        continue;
-      case DriveValue::Kind::integer:
-        append_int(line, v.integer);
-        line += '}';
-        continue;
-      case DriveValue::Kind::reg:
-        break;
-    }
-    // The number's digits are written in place: room for the most, then cut to what they took.
-    const std::size_t from = line.size();
-    char* room = line.extend(kDriveNumberChars);
-    const std::string_view text =
-        drive_value_text(v, std::span<char, kDriveNumberChars>(room, kDriveNumberChars));
-    line.resize(from + text.size());
-    if (!v.reg->unit.empty()) {
-      line += ",\"unit\":";
-      append_short_json_quoted(line, v.reg->unit);
-    }
-    line += ",\"raw\":";
-    append_uint(line, v.raw);
-    line += '}';
+    *at++ = '}';
   }
-  if (separator == '{') line += '{';  // no value
+  if (separator == '{') *at++ = '{';  // no value
+  line.resize(line.size() - static_cast<std::size_t>(room_end - at));
   line += "}}";
 }
 
