@@ -56,7 +56,13 @@ void append_scaled(Out& out, const RegisterDef& r, std::uint32_t raw, bool doubl
   // its index (ProfileSchema.ScaledValuesReadAsTheDoublePrinted), and its loop of roundings costs
   // more than the rest of the value.
   if (const int decimals = decimal_scale_index(r.scale); decimals >= 0) {
-    append_decimal_scaled(out, value, decimals);
+    static constexpr std::uint64_t kPowersOfTen[] = {1, 10, 100, 1000, 10000, 100000};
+    const std::uint64_t unit = kPowersOfTen[decimals];
+    const std::uint64_t magnitude =
+        static_cast<std::uint64_t>(value < 0 ? -value : value);  // |value| < 2^32
+    if (value < 0) out += '-';
+    append_uint(out, magnitude / unit);
+    if (decimals > 0) append_fraction(out, magnitude % unit, decimals);
     return;
   }
   const int decimals = decimals_of(r.scale);

@@ -190,11 +190,6 @@ inline char* write_decimal_scaled(char* at, std::int64_t value, int decimals) {
   }
   return at;
 }
-template <class Out>
-void append_decimal_scaled(Out& out, std::int64_t value, int decimals) {
-  append_at_most(out, kDecimalScaledChars,
-                 [&](char* at) { return write_decimal_scaled(at, value, decimals); });
-}
 
 // "16-13 frequency" for a parameter, the register's name otherwise.
 std::string display_name(const RegisterDef& reg);
