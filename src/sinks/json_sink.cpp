@@ -554,7 +554,7 @@ void JsonSink::on_frame(const Message& m) {
     line += ",\"exception\":"sv;
     append_int(line, m.exception_code);
   }
-  append_drive_object(line, m);
+  if (!m.drive_info.empty() || !m.drive_values.empty()) append_drive_object(line, m);
   if (m.request_number != 0) {
     line += ",\"latency_ms\":"sv;
     if (m.latency >= 0 && show_latency_)
