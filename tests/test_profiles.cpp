@@ -5,7 +5,9 @@
 #include <string>
 
 #include "dissectors/modbus/modbus_protocol.hpp"
+#include "drive/drive_fields.hpp"
 #include "drive/profile.hpp"
+#include "sinks/json_sink.hpp"
 #include "sinks/threaded_sink.hpp"
 #include "test_support.hpp"
 
@@ -68,6 +70,105 @@ TEST(Profiles, RegisterFieldIdFromNameOrKey) {
       parse_profile(base + "[[register]]\naddress = 17\nname = \"DC bus\"\n", "t.toml", &e);
   ASSERT_TRUE(twice) << e.text();
   EXPECT_EQ(twice->registers[1].field_id, "dc_bus_0011");
+}
+
+// texts_plain says whether the JSON escaping leaves a profile's texts as they are.
+TEST(Profiles, TextsPlainWhenTheJsonEscapingLeavesThemAlone) {
+  for (const BuiltinProfileText& p : builtin_profile_texts()) {
+    ProfileError e;
+    auto profile = parse_profile(p.text, p.file, &e);
+    ASSERT_TRUE(profile) << e.text();
+    bool escaped = false;  // whether json_quote() changes any of its texts
+    auto check = [&](std::string_view s) {
+      escaped |= json_quote(s) != '"' + std::string(s) + '"';
+    };
+    check(profile->id);
+    check(profile->name);
+    for (const RegisterDef& r : profile->registers) {
+      for (const std::string* s : {&r.number, &r.name, &r.field_id, &r.unit}) check(*s);
+      for (const RegisterBit& b : r.bits) {
+        check(b.when_clear);
+        check(b.when_set);
+      }
+    }
+    for (const auto& [name, names] : profile->enums)
+      for (const auto& [number, text] : names) check(text);
+    for (const auto& [number, text] : profile->exceptions) check(text);
+    for (const auto& [number, text] : profile->parameter_errors) check(text);
+    EXPECT_EQ(profile->texts_plain, !escaped) << p.file;
+    EXPECT_TRUE(profile->texts_plain) << p.file;  // the JSON writes theirs without a scan
+  }
+  const std::string base =
+      "[drive]\nid = \"t\"\nname = \"T\"\nprotocols = [\"modbus-rtu\"]\n"
+      "[[register]]\naddress = 1\nid = \"r\"\nname = ";
+  for (const auto& [name, plain] : std::vector<std::pair<std::string, bool>>{
+           {"\"plain\"", true},
+           {"\"a \\\"quoted\\\" name\"", false},
+           {"\"back\\\\slash\"", false},
+           {"\"tab\\tname\"", false},
+           {"\"parameter 1-05 (\\u00a7 7.10.6)\"", true},  // well-formed UTF-8 stays as it is
+           {"\"C1 \\u0085 control\"", false},              // escaped in JSON
+       }) {
+    ProfileError e;
+    auto profile = parse_profile(base + name + "\nunit = \"Hz\"\n", "t.toml", &e);
+    ASSERT_TRUE(profile) << e.text();
+    EXPECT_EQ(profile->texts_plain, plain) << name;
+  }
+}
+
+// The JSON `drive` object written from a profile's plain texts and register pieces is byte for
+// byte the one the general way writes (every text escaped, every value spelt by
+// drive_value_text()), for every register of every built-in profile and raw values at the edges.
+TEST(Profiles, JsonDriveObjectFromPiecesIsTheGeneralOne) {
+  ChannelTable channels;
+  channels.intern("rtu");
+  auto json_of = [&](const Message& m) {
+    JsonSink sink(nullptr, channels, 1000, true);
+    sink.on_frame(m);
+    return std::string(sink.formatted()->view());
+  };
+  for (const BuiltinProfileText& p : builtin_profile_texts()) {
+    ProfileError e;
+    auto profile = parse_profile(p.text, p.file, &e);
+    ASSERT_TRUE(profile) << e.text();
+    DriveProfile general = *profile;  // (its registers are not the values')
+    general.texts_plain = false;
+    // One message for each raw value (a register's value under one id is written once).
+    for (const std::uint32_t raw : {0u, 1u, 9u, 10u, 99u, 100u, 12345u, 0x7FFFu, 0x8000u, 0xFFFFu,
+                                    0x10000u, 0x80000000u, 0xFFFFFFFFu}) {
+      Message m;
+      m.address = 7;
+      m.drive_info = "drive 7 (" + profile->name + "): ";
+      for (const RegisterDef& r : profile->registers) {
+        m.drive_info += r.name + " " + r.unit + "; ";
+        DriveValue v;
+        v.kind = DriveValue::Kind::reg;
+        v.reg = &r;
+        v.raw = raw;
+        v.double_word = raw > 0xFFFF;
+        v.id = r.field_id;
+        m.drive_values.push_back(v);
+        v.id = "setpoint";  // a shared id
+        m.drive_values.push_back(v);
+        DriveValue text;
+        text.kind = DriveValue::Kind::text;
+        text.id = "fault_name";
+        text.text = r.name;
+        text.reg = &r;
+        m.drive_values.push_back(text);
+        DriveValue integer;
+        integer.id = "status_word";
+        integer.integer = static_cast<std::int64_t>(raw) - 0x8000;
+        integer.reg = &r;
+        m.drive_values.push_back(integer);
+      }
+      m.drive_read_with = &*profile;
+      const std::string fast = json_of(m);
+      m.drive_read_with = &general;
+      EXPECT_EQ(fast, json_of(m)) << p.file << " raw " << raw;
+      EXPECT_NE(fast.find("\"values\":{\""), std::string::npos) << fast;
+    }
+  }
 }
 
 TEST(Profiles, E9FromManual000) {

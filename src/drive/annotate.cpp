@@ -26,11 +26,6 @@ int decimals_of(double scale) {
 
 }  // namespace
 
-std::int64_t register_raw_value(const RegisterDef& r, std::uint32_t raw, bool double_word) {
-  if (!r.is_signed) return raw;
-  return double_word ? static_cast<std::int32_t>(raw) : static_cast<std::int16_t>(raw & 0xFFFF);
-}
-
 namespace {
 
 double scaled(const RegisterDef& r, std::uint32_t raw, bool double_word) {
@@ -56,14 +51,13 @@ namespace {
 // is far below half the last digit for any 32-bit raw value, so the text is the same.
 template <class Out>
 void append_scaled(Out& out, const RegisterDef& r, std::uint32_t raw, bool double_word) {
-  static constexpr std::int64_t kPowersOfTen[] = {1, 10, 100, 1000, 10000, 100000};
-  static_assert(std::size(kPowersOfTen) == std::size(kDecimalScales));
   const std::int64_t value = register_raw_value(r, raw, double_word);
   // A decimal scale, the usual one, is looked up in the table: decimals_of() gives each entry
   // its index (ProfileSchema.ScaledValuesReadAsTheDoublePrinted), and its loop of roundings costs
   // more than the rest of the value.
   if (const int decimals = decimal_scale_index(r.scale); decimals >= 0) {
-    const auto unit = static_cast<std::uint64_t>(kPowersOfTen[decimals]);
+    static constexpr std::uint64_t kPowersOfTen[] = {1, 10, 100, 1000, 10000, 100000};
+    const std::uint64_t unit = kPowersOfTen[decimals];
     const std::uint64_t magnitude =
         static_cast<std::uint64_t>(value < 0 ? -value : value);  // |value| < 2^32
     if (value < 0) out += '-';

@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "core/format.hpp"
 #include "core/line_buffer.hpp"
 #include "core/message.hpp"
 #include "drive/profile.hpp"
@@ -160,10 +161,35 @@ void append_value(std::string& out, const DriveProfile& profile, const RegisterD
 
 // The raw value as the register holds it: signed registers read as 16- or 32-bit two's
 // complement.
-std::int64_t register_raw_value(const RegisterDef& reg, std::uint32_t raw, bool double_word);
+inline std::int64_t register_raw_value(const RegisterDef& reg, std::uint32_t raw,
+                                       bool double_word) {
+  if (!reg.is_signed) return raw;
+  return double_word ? static_cast<std::int32_t>(raw) : static_cast<std::int16_t>(raw & 0xFFFF);
+}
 // The number of decimals of `scale` when it is 1, 0.1, 0.01 ... 0.00001 (a scaled value is then
 // an exact decimal, spelt from integers); -1 otherwise.
 int decimal_scale_index(double scale);
+// `value` (a register's raw value, |value| < 2^32) under the scale 10^-decimals, decimals being
+// decimal_scale_index() of the scale (0 to 5), into `at`: "-12.05"; returns the end. Exact, from
+// integers: the text "{:.Nf}" prints of the double value * scale.
+inline constexpr std::size_t kDecimalScaledChars = 17;  // '-', 10 digits, '.', 5 decimals
+inline char* write_decimal_scaled(char* at, std::int64_t value, int decimals) {
+  static constexpr std::uint64_t kPowersOfTen[] = {1, 10, 100, 1000, 10000, 100000};
+  const std::uint64_t unit = kPowersOfTen[decimals];
+  const auto magnitude = static_cast<std::uint64_t>(value < 0 ? -value : value);
+  if (value < 0) *at++ = '-';
+  const std::uint64_t whole = magnitude / unit;
+  const std::size_t count = decimal_digit_count(whole);
+  write_decimal_digits(std::span<char>(at, count), whole);
+  at += count;
+  if (decimals > 0) {
+    *at++ = '.';
+    const auto places = static_cast<std::size_t>(decimals);
+    write_decimal_digits(std::span<char>(at, places), magnitude % unit);
+    at += places;
+  }
+  return at;
+}
 
 // "16-13 frequency" for a parameter, the register's name otherwise.
 std::string display_name(const RegisterDef& reg);

@@ -85,24 +85,9 @@ char* write_integer(char* at, std::int64_t v) {
 // is far below half its last digit for any 32-bit raw value, so the text is the same.
 char* write_register_value(char* at, char* end, const RegisterDef& r, std::uint32_t raw,
                            bool double_word) {
-  static constexpr std::uint64_t kPowersOfTen[] = {1, 10, 100, 1000, 10000, 100000};
   const std::int64_t value = register_raw_value(r, raw, double_word);
-  if (const int decimals = decimal_scale_index(r.scale); decimals >= 0) {
-    const std::uint64_t unit = kPowersOfTen[decimals];
-    const auto magnitude = static_cast<std::uint64_t>(value < 0 ? -value : value);
-    if (value < 0) *at++ = '-';
-    at = std::to_chars(at, end, magnitude / unit).ptr;
-    if (decimals > 0) {
-      *at++ = '.';
-      std::uint64_t fraction = magnitude % unit;
-      for (int i = decimals - 1; i >= 0; --i) {
-        at[i] = static_cast<char>('0' + fraction % 10);
-        fraction /= 10;
-      }
-      at += decimals;
-    }
-    return at;
-  }
+  if (const int decimals = decimal_scale_index(r.scale); decimals >= 0)
+    return write_decimal_scaled(at, value, decimals);
   if (r.scale == std::round(r.scale) && std::fabs(r.scale) <= 1e6)
     return write_integer(at, value * static_cast<std::int64_t>(r.scale));
   return write_fixed(at, end, static_cast<double>(value) * r.scale, scale_decimals(r.scale));

@@ -493,6 +493,7 @@ DriveProfile parse_tables(const toml::table& root) {
                 fmt::format("no [[register]] with address {}", address)};
   for (RegisterDef& r : p.registers) r.shared_field_id = is_shared_drive_field_id(r.field_id);
   p.build_index();
+  p.texts_plain = profile_texts_plain(p);
   return p;
 }
 
@@ -570,6 +571,40 @@ bool valid_register_field_id(std::string_view id) {
   for (const char c : id)
     if (!((c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_')) return false;
   return true;
+}
+
+bool profile_texts_plain(const DriveProfile& p) {
+  // Printable ASCII but '"' and '\\', and well-formed UTF-8 characters other than C1 controls
+  // ("§"): what a JSON string holds as it is (its escaping leaves such characters alone).
+  auto plain = [](std::string_view s) {
+    for (std::size_t i = 0; i < s.size();) {
+      const auto c = static_cast<unsigned char>(s[i]);
+      if (c < 0x80) {
+        if (c < 0x20 || c == 0x7F || c == '"' || c == '\\') return false;
+        ++i;
+        continue;
+      }
+      const std::size_t n = utf8_length(s, i, /*allow_c1=*/false);
+      if (n == 0) return false;
+      i += n;
+    }
+    return true;
+  };
+  auto names_plain = [&](const auto& names) {
+    for (const auto& [number, name] : names)
+      if (!plain(name)) return false;
+    return true;
+  };
+  if (!plain(p.id) || !plain(p.name)) return false;
+  if (p.parameter_rule && !plain(p.parameter_rule->noun)) return false;
+  for (const RegisterDef& r : p.registers) {
+    if (!plain(r.number) || !plain(r.name) || !plain(r.field_id) || !plain(r.unit)) return false;
+    for (const RegisterBit& b : r.bits)
+      if (!plain(b.when_clear) || !plain(b.when_set)) return false;
+  }
+  for (const auto& [name, names] : p.enums)
+    if (!names_plain(names)) return false;
+  return names_plain(p.exceptions) && names_plain(p.parameter_errors);
 }
 
 std::optional<DriveProfile> parse_profile(std::string_view toml_text, std::string_view file_name,

@@ -92,6 +92,13 @@ struct DriveProfile {
   std::map<std::string, std::map<std::uint32_t, std::string>> enums;
   std::map<std::uint32_t, std::string> exceptions;
   std::map<std::uint32_t, std::string> parameter_errors;  // Danfoss FC protocol AK 7 numbers
+  // Every text an annotation or a drive value takes from the profile (its id and name, the
+  // registers' numbers, names, units and bit texts, the names of its enums, exceptions and
+  // parameter errors, its rule's noun) is printable ASCII but '"' and '\\', or well-formed UTF-8
+  // but C1 controls: a text made of them, literals and numbers is a JSON string's inside as it
+  // is. Set by parse_profile() (profile_texts_plain()); false, nothing assumed, for a profile
+  // made otherwise.
+  bool texts_plain = false;
 
   [[nodiscard]] const RegisterDef* find(RegisterKind kind, std::uint32_t address) const;
   // Builds find()'s table now if `registers` changed since it was built. Afterwards, as long as
@@ -150,6 +157,10 @@ struct ProfileError {
   std::string message;
   [[nodiscard]] std::string text() const;
 };
+
+// Whether every text of `profile` that annotations and drive values show is plain, as
+// DriveProfile::texts_plain says.
+bool profile_texts_plain(const DriveProfile& profile);
 
 // A register's record field id made from its name: "Output frequency" -> "output_frequency".
 std::string register_field_id(std::string_view name);

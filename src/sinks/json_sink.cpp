@@ -190,70 +190,13 @@ std::uint64_t identity_bit(const DriveValue& v) {
   return std::uint64_t{1} << (h >> 58);
 }
 
-// The frame's `drive` object: the annotation's text, the station and family, and the values
-// under their `drive.*` ids (without the prefix; a value given twice is shown once, the first),
-// as the pipeline's drive level read them (Message::drive_values). Nothing for a frame no
-// profile says anything of.
-void append_drive_object(LineBuffer& line, const Message& m) {
-  // (The station and family, which collect_drive_values() gives first, are keys of their own.)
-  std::span<const DriveValue> values = m.drive_values;
-  while (!values.empty() && (values.front().id == "station" || values.front().id == "family"))
-    values = values.subspan(1);
-  if (m.drive_info.empty() && values.empty()) return;
-  line += ",\"drive\":{\"text\":";
-  append_json_quoted(line, m.drive_info);
-  if (m.drive_read_with) {
-    if (m.address >= 0) {
-      line += ",\"station\":";
-      append_int(line, m.address);
-    }
-    line += ",\"family\":";
-    append_short_json_quoted(line, m.drive_read_with->id);
-  }
-  line += ",\"values\":{";
-  bool first = true;
-  std::uint64_t given = 0;  // identity_bit() of the values shown
-  for (std::size_t i = 0; i < values.size(); ++i) {
-    const DriveValue& v = values[i];
-    const std::uint64_t bit = identity_bit(v);
-    if ((given & bit) != 0) {  // perhaps given before: the values before it say
-      bool repeated = false;
-      for (std::size_t k = 0; k < i && !repeated; ++k)
-        repeated = values[k].reg == v.reg && values[k].id == v.id;
-      if (repeated) continue;
-    }
-    given |= bit;
-    // The separator, the key and the start of its object in one piece: ,"id":{"value":
-    // (Field ids are letters, digits and '_' (valid_register_field_id()): nothing to escape.)
-    constexpr std::string_view kValueKey = "\":{\"value\":";
-    const std::size_t comma = first ? 0 : 1;
-    first = false;
-    char* at = line.extend(comma + 1 + v.id.size() + kValueKey.size());
-    *at = ',';  // (written over by the quote when there is no comma)
-    at[comma] = '"';
-    std::memcpy(at + comma + 1, v.id.data(), v.id.size());
-    std::memcpy(at + comma + 1 + v.id.size(), kValueKey.data(), kValueKey.size());
-    if (v.kind == DriveValue::Kind::text) {
-      append_json_quoted(line, v.text);
-    } else {
-      // The number's digits are written in place: room for the most, then cut to what they took.
-      const std::size_t from = line.size();
-      char* room = line.extend(kDriveNumberChars);
-      const std::string_view text =
-          drive_value_text(v, std::span<char, kDriveNumberChars>(room, kDriveNumberChars));
-      line.resize(from + text.size());
-    }
-    if (v.kind == DriveValue::Kind::reg) {
-      if (!v.reg->unit.empty()) {
-        line += ",\"unit\":";
-        append_short_json_quoted(line, v.reg->unit);
-      }
-      line += ",\"raw\":";
-      append_uint(line, v.raw);
-    }
-    line += '}';
-  }
-  line += "}}";
+// `s` quoted: as it is when `plain` (a text of a profile whose texts are plain), else escaped.
+void append_profile_text_quoted(LineBuffer& line, std::string_view s, bool plain) {
+  if (!plain) return append_json_quoted(line, s);
+  char* at = line.extend(s.size() + 2);
+  at[0] = '"';
+  std::memcpy(at + 1, s.data(), s.size());
+  at[s.size() + 1] = '"';
 }
 
 }  // namespace
@@ -351,6 +294,210 @@ void JsonSink::append_fields_object(LineBuffer& out, const Message& m) {
   out += '}';
 }
 
+const JsonSink::RegisterPieces* JsonSink::switch_pieces(const DriveProfile& p) {
+  auto known = std::find_if(profile_pieces_.begin(), profile_pieces_.end(),
+                            [&p](const ProfilePieces& k) { return k.profile == &p; });
+  if (known == profile_pieces_.end()) {
+    ProfilePieces made{&p, std::vector<RegisterPieces>(p.registers.size())};
+    for (std::size_t i = 0; i < p.registers.size(); ++i) {
+      const RegisterDef& r = p.registers[i];
+      RegisterPieces& pieces = made.registers[i];
+      // (Field ids are letters, digits and '_' (valid_register_field_id()): nothing to escape.)
+      const std::string key = fmt::format(",\"{}\":{{\"value\":", r.field_id);
+      std::string tail = r.unit.empty() ? std::string() : ",\"unit\":" + json_quote(r.unit);
+      tail += ",\"raw\":";
+      const int decimals = decimal_scale_index(r.scale);
+      if (decimals < 0 || key.size() > RegisterPieces::kPieceChars ||
+          tail.size() > RegisterPieces::kPieceChars)
+        continue;
+      std::memcpy(pieces.key.data(), key.data(), key.size());
+      std::memcpy(pieces.tail.data(), tail.data(), tail.size());
+      pieces.key_size = static_cast<std::uint8_t>(key.size());
+      pieces.tail_size = static_cast<std::uint8_t>(tail.size());
+      pieces.decimals = static_cast<std::int8_t>(decimals);
+    }
+    profile_pieces_.push_back(std::move(made));
+    known = profile_pieces_.end() - 1;
+  }
+  pieces_profile_ = &p;
+  pieces_ = known->registers.data();  // (a vector's storage stays where it is when it moves)
+  return pieces_;
+}
+
+namespace {
+
+// A literal copied to `at`; returns the end.
+template <std::size_t N>
+char* put(char* at, const char (&literal)[N]) {
+  std::memcpy(at, literal, N - 1);
+  return at + N - 1;
+}
+
+// `v`'s decimal digits to `at`; returns the end.
+char* put_uint(char* at, std::uint64_t v) {
+  const std::size_t count = decimal_digit_count(v);
+  write_decimal_digits(std::span<char>(at, count), v);
+  return at + count;
+}
+
+}  // namespace
+
+// The frame's `drive` object: the annotation's text, the station and family, and the values
+// under their `drive.*` ids (without the prefix; a value given twice is shown once, the first),
+// as the pipeline's drive level read them (Message::drive_values). Nothing for a frame no
+// profile says anything of. Written through a pointer into room taken ahead (a capacity check
+// for each piece cost more than the pieces).
+void JsonSink::append_drive_object(LineBuffer& line, const Message& m) {
+  // (The station and family, which collect_drive_values() gives first, are keys of their own.)
+  std::span<const DriveValue> values = m.drive_values;
+  while (!values.empty() && (values.front().id == "station" || values.front().id == "family"))
+    values = values.subspan(1);
+  if (m.drive_info.empty() && values.empty()) return;
+  // The annotation and the values' texts are made of the profile's texts, literals and numbers
+  // (DriveProfile::texts_plain): escaped only when the profile's texts may need it.
+  const DriveProfile* profile = m.drive_read_with;
+  const bool plain = profile && profile->texts_plain;
+  if (plain) {
+    const std::string_view info = m.drive_info, family = profile->id;
+    constexpr std::size_t kHeadChars = 80;  // the head's characters but the two texts
+    char* at = line.extend(kHeadChars + info.size() + family.size());
+    const char* const start = at;
+    at = put(at, ",\"drive\":{\"text\":\"");
+    std::memcpy(at, info.data(), info.size());
+    at += info.size();
+    *at++ = '"';
+    if (m.address >= 0) at = put_uint(put(at, ",\"station\":"), static_cast<unsigned>(m.address));
+    at = put(at, ",\"family\":\"");
+    at = write_chars(at, family);
+    at = put(at, "\",\"values\":");
+    line.resize(line.size() - kHeadChars - info.size() - family.size() +
+                static_cast<std::size_t>(at - start));
+  } else {
+    line += ",\"drive\":{\"text\":";
+    append_json_quoted(line, m.drive_info);
+    if (profile) {
+      if (m.address >= 0) {
+        line += ",\"station\":";
+        append_int(line, m.address);
+      }
+      line += ",\"family\":";
+      append_json_quoted(line, profile->id);
+    }
+    line += ",\"values\":";
+  }
+  // A register of the profile is written from its pieces.
+  const RegisterPieces* pieces = profile ? pieces_for(*profile) : nullptr;
+  const auto registers_at =
+      reinterpret_cast<std::uintptr_t>(profile ? profile->registers.data() : nullptr);
+  const std::size_t register_count = profile ? profile->registers.size() : 0;
+  // The room: [at, room_end) taken past the line's characters (which end at `at`).
+  constexpr std::size_t kIdChars = 32;    // the longest id written through the pointer
+  constexpr std::size_t kTextChars = 64;  // the longest text value written so
+  constexpr std::size_t kValueChars = 2 * RegisterPieces::kPieceChars + kDecimalScaledChars +
+                                      kTextChars + 20 + 1;  // the most a value takes so
+  static_assert(2 + kIdChars + 11 <= RegisterPieces::kPieceChars);
+  char* at = line.extend(values.size() * kValueChars + 1);
+  char* room_end = at + values.size() * kValueChars + 1;
+  char separator = '{';     // before the next value: the object's brace, then commas
+  std::uint64_t given = 0;  // identity_bit() of the values shown
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    const DriveValue& v = values[i];
+    const std::uint64_t bit = identity_bit(v);
+    if ((given & bit) != 0) {  // perhaps given before: the values before it say
+      bool repeated = false;
+      for (std::size_t k = 0; k < i && !repeated; ++k)
+        repeated = values[k].reg == v.reg && values[k].id == v.id;
+      if (repeated) continue;
+    }
+    given |= bit;
+    const RegisterPieces* p = nullptr;
+    if (v.kind == DriveValue::Kind::reg && pieces) {
+      const std::uintptr_t offset = reinterpret_cast<std::uintptr_t>(v.reg) - registers_at;
+      const std::size_t index = offset / sizeof(RegisterDef);
+      if (offset % sizeof(RegisterDef) == 0 && index < register_count &&
+          pieces[index].decimals >= 0)
+        p = &pieces[index];
+    }
+    const bool own_id = p && v.id.data() == v.reg->field_id.data();
+    const bool through_pointer =
+        (own_id || v.id.size() <= kIdChars) &&
+        (v.kind == DriveValue::Kind::integer || p ||
+         (v.kind == DriveValue::Kind::text && plain && v.text.size() <= kTextChars));
+    if (!through_pointer) {
+      // The general way, by appends: the line is given its size, and room taken afresh after.
+      const std::size_t room = static_cast<std::size_t>(room_end - at);
+      line.resize(line.size() - room);
+      line += separator;
+      line += '"';
+      line += v.id;
+      line += "\":{\"value\":";
+      if (v.kind == DriveValue::Kind::text) {
+        append_profile_text_quoted(line, v.text, plain);
+      } else {
+        // The number's digits are written in place: room for the most, then cut to what they
+        // took.
+        const std::size_t from = line.size();
+        char* digits = line.extend(kDriveNumberChars);
+        const std::string_view text =
+            drive_value_text(v, std::span<char, kDriveNumberChars>(digits, kDriveNumberChars));
+        line.resize(from + text.size());
+        if (v.kind == DriveValue::Kind::reg) {
+          if (!v.reg->unit.empty()) {
+            line += ",\"unit\":";
+            append_short_json_quoted(line, v.reg->unit);
+          }
+          line += ",\"raw\":";
+          append_uint(line, v.raw);
+        }
+      }
+      line += '}';
+      separator = ',';
+      const std::size_t more = (values.size() - i) * kValueChars + 1;
+      at = line.extend(more);
+      room_end = at + more;
+      continue;
+    }
+    if (own_id) {
+      std::memcpy(at, p->key.data(), RegisterPieces::kPieceChars);
+      at[0] = separator;
+      at += p->key_size;
+    } else {
+      at[0] = separator;
+      at[1] = '"';
+      at = write_chars(at + 2, v.id);
+      at = put(at, "\":{\"value\":");
+    }
+    separator = ',';
+    if (p) {
+      // The value's digits from integers (drive_value_text() spells them so), and the raw
+      // value's: the same digits when the value is the raw one.
+      const std::int64_t value = register_raw_value(*v.reg, v.raw, v.double_word);
+      char* const digits = at;
+      at = write_decimal_scaled(at, value, p->decimals);
+      const auto digit_count = static_cast<std::size_t>(at - digits);
+      std::memcpy(at, p->tail.data(), RegisterPieces::kPieceChars);
+      at += p->tail_size;
+      if (p->decimals == 0 && value == static_cast<std::int64_t>(v.raw))
+        at = write_chars(at, std::string_view(digits, digit_count));
+      else
+        at = put_uint(at, v.raw);
+    } else if (v.kind == DriveValue::Kind::integer) {
+      if (v.integer < 0) *at++ = '-';
+      at = put_uint(at, v.integer < 0 ? 0 - static_cast<std::uint64_t>(v.integer)
+                                      : static_cast<std::uint64_t>(v.integer));
+    } else {
+      *at++ = '"';
+      std::memcpy(at, v.text.data(), v.text.size());
+      at += v.text.size();
+      *at++ = '"';
+    }
+    *at++ = '}';
+  }
+  if (separator == '{') *at++ = '{';  // no value
+  line.resize(line.size() - static_cast<std::size_t>(room_end - at));
+  line += "}}";
+}
+
 JsonSink::JsonSink(std::FILE* out, const ChannelTable& channels, TimeNs character_time,
                    bool show_latency)
     : LineFormattingSink(out),
@@ -407,7 +554,7 @@ void JsonSink::on_frame(const Message& m) {
     line += ",\"exception\":"sv;
     append_int(line, m.exception_code);
   }
-  append_drive_object(line, m);
+  if (!m.drive_info.empty() || !m.drive_values.empty()) append_drive_object(line, m);
   if (m.request_number != 0) {
     line += ",\"latency_ms\":"sv;
     if (m.latency >= 0 && show_latency_)

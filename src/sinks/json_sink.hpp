@@ -2,6 +2,8 @@
 // lines". Records are gathered in a buffer and written in blocks; flush() writes what is buffered.
 #pragma once
 
+#include <array>
+#include <cstdint>
 #include <cstdio>
 #include <string>
 #include <string_view>
@@ -14,6 +16,9 @@
 #include "sinks/sink.hpp"
 
 namespace drivetap {
+
+struct DriveProfile;  // drive/profile.hpp
+struct RegisterDef;
 
 // On cache lines of its own: the helpers of a ThreadedSink, one per thread, each write theirs for
 // every record, and are made one after the other on the heap.
@@ -38,6 +43,30 @@ class alignas(kCacheLineBytes) JsonSink final : public LineFormattingSink {
   };
   // Appends the frame's field tree as an object keyed by id (field_keys_ is its scratch).
   void append_fields_object(LineBuffer& out, const Message& m);
+  // Appends the frame's `drive` object, if it has one.
+  void append_drive_object(LineBuffer& out, const Message& m);
+  // A register's values in the `drive` object, in pieces made once for each register of a
+  // profile: ,"id":{"value": and ,"unit":"Hz","raw": (or ,"raw":), each padded to kPieceChars
+  // (copied whole, cut to its size), and the decimals of its scale (decimal_scale_index()); -1
+  // when its values are written the general way (another scale, or a piece too long).
+  struct RegisterPieces {
+    static constexpr std::size_t kPieceChars = 48;
+    std::array<char, kPieceChars> key{}, tail{};
+    std::uint8_t key_size = 0, tail_size = 0;
+    std::int8_t decimals = -1;
+  };
+  struct ProfilePieces {
+    const DriveProfile* profile = nullptr;
+    std::vector<RegisterPieces> registers;  // by the index in the profile's register list
+  };
+  // The pieces of `profile`'s registers (made at its first frame).
+  const RegisterPieces* pieces_for(const DriveProfile& profile) {
+    return &profile == pieces_profile_ ? pieces_ : switch_pieces(profile);
+  }
+  const RegisterPieces* switch_pieces(const DriveProfile& profile);
+  std::vector<ProfilePieces> profile_pieces_;
+  const DriveProfile* pieces_profile_ = nullptr;  // the profile pieces_for() was asked for last
+  const RegisterPieces* pieces_ = nullptr;        // its pieces
   const ChannelTable& channels_;
   TimeNs character_time_;
   bool show_latency_;
