@@ -311,7 +311,7 @@ void Pipeline::push_runs_as(const RunBatch& runs) {
     // before their first byte.
     const std::size_t last = std::min(runs.size(), k + 1 + kWholeRunLookAhead);
     std::size_t next = k + 1;
-    if (run.size() != 0) {
+    if (next < last && runs[next].channel != run.channel && run.size() != 0) {
       const TimeNs closed =
           run.time(run.size() - 1) + options_.timing.character_time + options_.timing.t35;
       while (next < last && runs[next].channel != run.channel && runs[next].first > closed) ++next;
