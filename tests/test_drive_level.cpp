@@ -1239,6 +1239,12 @@ struct BinderRig {
     learn(q);
     learn(decode(p, rsp, Direction::response, q.bytes, ++number));
   }
+  // One E-9 status poll of station 2 and its reply (two bind the E-9 with a lead of 3).
+  void poll_e9() {
+    exchange(
+        protocols::modbus_rtu, with_crc({0x02, 0x03, 0x00, 0x00, 0x00, 0x05}),
+        with_crc({0x02, 0x03, 0x0A, 0x00, 0x0A, 0x13, 0x88, 0x13, 0x7D, 0x01, 0x7C, 0x00, 0x64}));
+  }
   [[nodiscard]] std::string bound_id(int address) const {
     const DriveProfile* p = binder.bound(0, address);
     return p ? p->id : "generic";
@@ -1271,10 +1277,7 @@ TEST(DriveBinder, E9PollingBindsE9) {
   EXPECT_EQ(e.detail.find("drive 2 bound to ERMAN E-9P/9G (auto, confidence "), 0u) << e.detail;
   EXPECT_EQ(e.confidence, "medium");
   // Polling again strengthens the binding without a new event.
-  for (int i = 0; i < 2; ++i)
-    rig.exchange(
-        protocols::modbus_rtu, with_crc({0x02, 0x03, 0x00, 0x00, 0x00, 0x05}),
-        with_crc({0x02, 0x03, 0x0A, 0x00, 0x0A, 0x13, 0x88, 0x13, 0x7D, 0x01, 0x7C, 0x00, 0x64}));
+  for (int i = 0; i < 2; ++i) rig.poll_e9();
   EXPECT_EQ(rig.events.size(), 1u);
   EXPECT_EQ(rig.bound_id(2), "e9");
   EXPECT_EQ(rig.binder.stations().at({0, 2}).frames, 8u);
@@ -1501,10 +1504,7 @@ TEST(DriveBinder, DecidedStationIsNoLongerWeighed) {
 // generic with an event, and is decided there once every profile's deficit is as deep.
 TEST(DriveBinder, BoundProfileSunkToTheDeficitIsLetGo) {
   BinderRig rig;
-  for (int i = 0; i < 2; ++i)
-    rig.exchange(
-        protocols::modbus_rtu, with_crc({0x02, 0x03, 0x00, 0x00, 0x00, 0x05}),
-        with_crc({0x02, 0x03, 0x0A, 0x00, 0x0A, 0x13, 0x88, 0x13, 0x7D, 0x01, 0x7C, 0x00, 0x64}));
+  for (int i = 0; i < 2; ++i) rig.poll_e9();
   ASSERT_EQ(rig.bound_id(2), "e9");
   const auto read_far = with_crc({0x02, 0x04, 0xFF, 0x00, 0x00, 0x20});
   for (int i = 0; i < 20 && rig.bound_id(2) == "e9"; ++i)
@@ -1525,10 +1525,7 @@ TEST(DriveBinder, BoundProfileSunkToTheDeficitIsLetGo) {
 TEST(DriveBinder, ClearlyBetterEvidenceRebinds) {
   BinderRig rig;
   // E-9 style reads of 0x0000..0x0004 bind the E-9 (the second: a lead of 3) ...
-  for (int i = 0; i < 2; ++i)
-    rig.exchange(
-        protocols::modbus_rtu, with_crc({0x02, 0x03, 0x00, 0x00, 0x00, 0x05}),
-        with_crc({0x02, 0x03, 0x0A, 0x00, 0x0A, 0x13, 0x88, 0x13, 0x7D, 0x01, 0x7C, 0x00, 0x64}));
+  for (int i = 0; i < 2; ++i) rig.poll_e9();
   ASSERT_EQ(rig.bound_id(2), "e9");
   ASSERT_EQ(rig.events.size(), 1u);
   // ... then the station is polled on the E5-8200 monitor block: rebound, a second event.

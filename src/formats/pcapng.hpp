@@ -55,6 +55,11 @@ inline constexpr std::uint32_t kDrivetapPen = 32473;
 // EPB flags: bits 0-1 direction (1 inbound, 2 outbound); bit 24 CRC error.
 inline constexpr std::uint32_t kFlagInbound = 1;
 inline constexpr std::uint32_t kFlagOutbound = 2;
+// The direction EPB flags give: outbound, inbound, or none (bits 0-1 zero, or no flags).
+inline std::optional<bool> outbound_of_flags(std::optional<std::uint32_t> flags) {
+  if (!flags || (*flags & 3) == 0) return std::nullopt;
+  return (*flags & 3) == kFlagOutbound;
+}
 inline constexpr std::uint32_t kFlagCrcError = 1u << 24;
 
 // Largest block accepted when reading: bounds memory on hostile files.

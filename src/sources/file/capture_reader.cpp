@@ -109,10 +109,17 @@ ChannelId CaptureReader::channel_for(const std::string& base, const SerialPayloa
   return channels_.intern(base);
 }
 
+namespace {
+// The slot of channel_cache_'s entry for a direction: none, outbound, inbound.
+int direction_slot(std::optional<bool> outbound) {
+  return outbound ? (*outbound ? 1 : 2) : 0;
+}
+}  // namespace
+
 ChannelId CaptureReader::pcapng_channel(std::uint32_t interface, const SerialPayload& payload) {
   // Serial packets of one interface and direction always land on the same channel: remembered,
   // so that the name is built and looked up once per interface rather than once per packet.
-  const int direction = payload.outbound ? (*payload.outbound ? 1 : 2) : 0;
+  const int direction = direction_slot(payload.outbound);
   if (payload.flow.empty()) {
     if (cache_section_ != ng_->sections()) {
       channel_cache_.clear();
@@ -269,8 +276,8 @@ bool CaptureReader::load_pcapng_packet() {
       }
     }
     const bool ours = ng_->written_by_drivetap() && !rec.drivetap_option.empty();
-    if (!ours && rec.flags && (*rec.flags & 3) != 0 && !payload->outbound && payload->flow.empty())
-      payload->outbound = (*rec.flags & 3) == pcapng::kFlagOutbound;
+    if (!ours && !payload->outbound && payload->flow.empty())
+      payload->outbound = pcapng::outbound_of_flags(rec.flags);
     if (ours) payload->outbound.reset();  // our channel names already say everything
     const ChannelId ch = pcapng_channel(rec.interface, *payload);
     if (ch == kNoChannel) {
@@ -437,10 +444,9 @@ std::size_t CaptureReader::append_plain_packets(RunBatch& out) {
     const KnownTags* known = known_tags_of(packet.data);
     if (!known) break;
     // The direction the tags give, else the one the flags give (as load_pcapng_packet()).
-    const std::uint32_t flagged = packet.flags.value_or(0) & 3;
-    const int direction = known->outbound ? (*known->outbound ? 1 : 2)
-                          : flagged != 0  ? (flagged == pcapng::kFlagOutbound ? 1 : 2)
-                                          : 0;
+    const std::optional<bool> outbound =
+        known->outbound ? known->outbound : pcapng::outbound_of_flags(packet.flags);
+    const int direction = direction_slot(outbound);
     const ChannelId channel = channel_cache_[packet.interface][direction];
     if (channel == kNoChannel) break;
     const std::span<const std::uint8_t> bytes = packet.data.subspan(known->bytes.size());
