@@ -321,10 +321,12 @@ std::string hex_list(std::span<const std::uint8_t> bytes, std::size_t limit = 16
 
 RegisterValues read_registers(PduReader& r, std::size_t count) {
   RegisterValues values;
-  // Values neither the tree keeps nor the info line lists (a --stats or display filter decode):
-  // stepped over, where the PDU holds them all.
-  if (!r.tree().keeps(kRegisterValue) && !r.describing() && r.cursor().remaining() >= 2 * count) {
-    r.cursor().take(2 * count);
+  // Values the tree does not keep are read straight off the cursor: only the ones the info line
+  // lists, the others stepped over, where the PDU holds them all.
+  if (!r.tree().keeps(kRegisterValue) && r.cursor().remaining() >= 2 * count) {
+    const std::size_t listed = r.describing() ? std::min(count, RegisterValues::kListed) : 0;
+    for (std::size_t i = 0; i < listed; ++i) values.first[i] = r.cursor().be16().value_or(0);
+    r.cursor().take(2 * (count - listed));
     values.count = count;
     return values;
   }

@@ -114,7 +114,11 @@ struct PduDecode {
     LineBuffer& line = scratch();
     line.clear();
     append(line);
-    info_text().assign(line.data(), line.size());
+    // clear() then append(): the line is never the string's own, so the copy needs none of
+    // assign()'s checks for overlap.
+    std::string& info_line = info_text();
+    info_line.clear();
+    info_line.append(line.data(), line.size());
   }
   static LineBuffer& scratch();
 };

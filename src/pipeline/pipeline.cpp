@@ -767,6 +767,12 @@ void Pipeline::check_packetization(FrameKind kind, std::uint32_t first, std::uin
     st.last_frame_number = number;
     return;
   }
+  report_packetization(kind, first, last, number, start, channel, st);
+}
+
+void Pipeline::report_packetization(FrameKind kind, std::uint32_t first, std::uint32_t last,
+                                    std::uint64_t number, TimeNs start, ChannelId channel,
+                                    ChannelState& st) {
   const char* what = kind == FrameKind::noise ? "noise record" : "frame";
   if (first != last) {
     emit_anomaly(

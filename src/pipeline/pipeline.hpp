@@ -152,6 +152,11 @@ class Pipeline {
   // The same for a record of `kind` whose bytes came from source packets first..last.
   void check_packetization(FrameKind kind, std::uint32_t first, std::uint32_t last,
                            std::uint64_t number, TimeNs start, ChannelId channel, ChannelState& st);
+  // Its findings, for a record that is not one packet's alone (kept apart from the check that
+  // nearly every record passes, which is then inlined).
+  void report_packetization(FrameKind kind, std::uint32_t first, std::uint32_t last,
+                            std::uint64_t number, TimeNs start, ChannelId channel,
+                            ChannelState& st);
   // The profile's timing rules (docs/protocols.md, each drive's section): findings into `found`,
   // their detail written only when `described`.
   void check_drive_timing(const TelegramHead& telegram, const DriveProfile& profile,
