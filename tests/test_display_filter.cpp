@@ -413,7 +413,7 @@ TEST(DisplayFilter, ATreeOfSomeIdsHoldsTheFullTreesNodesOfThem) {
 
   std::set<const FieldDesc*> seen;
   std::size_t compared = 0;
-  Message full, kept;
+  Message full, kept, alone;
   for (const DissectedFrames::Input& in : sink.inputs) {
     const ProtocolDecoder* decoder = decoder_for(in.protocol);
     ASSERT_NE(decoder, nullptr);
@@ -434,6 +434,21 @@ TEST(DisplayFilter, ATreeOfSomeIdsHoldsTheFullTreesNodesOfThem) {
               << "frame " << in.frame.number << ", " << layer->fields[i]->id << " with "
               << layer->fields[with]->id << ": " << kept.fields.size() << " nodes, the full tree "
               << want.size();
+          // The same to DissectDepth::fields, the tree alone (what TelegramTree reads), with
+          // the bytes and encoding a node's value is read from.
+          Frame frame(in.frame);
+          TelegramView view;
+          view.frame = &frame;
+          alone.fields.keep_only(&ids);
+          decoder->dissect(view, in.direction, options.timing, {}, DissectDepth::fields, alone,
+                           nullptr);
+          alone.fields.keep_only(nullptr);
+          ASSERT_TRUE(alone.fields == want)
+              << "frame " << in.frame.number << " to DissectDepth::fields, "
+              << layer->fields[i]->id << " with " << layer->fields[with]->id << ": "
+              << alone.fields.size() << " nodes, the full tree " << want.size();
+          ASSERT_EQ(alone.bytes, full.bytes) << "frame " << in.frame.number;
+          ASSERT_EQ(alone.text_encoded, full.text_encoded) << "frame " << in.frame.number;
           if (!want.empty()) seen.insert(layer->fields[i]->key());
           ++compared;
         }

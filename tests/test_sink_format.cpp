@@ -117,7 +117,8 @@ TEST(SinkFormat, JsonOfMalformedUtf8IsValidUtf8) {
   for (std::size_t at = 0; at < plain.size(); ++at) {
     std::string s = plain;
     s[at] = '\xFE';
-    EXPECT_EQ(json_quote(s), "\"" + plain.substr(0, at) + "\\ufffd" + plain.substr(at + 1) + "\"")
+    EXPECT_EQ(json_quote(s),
+              fmt::format("\"{}\\ufffd{}\"", plain.substr(0, at), plain.substr(at + 1)))
         << at;
   }
 }
@@ -297,7 +298,7 @@ TEST(SinkFormat, TextPrefixIsTheAlignedColumns) {
     for (const bool show_time : {true, false}) {
       const std::string time_column =
           show_time ? fmt::format("{:>14} ", format_seconds(t, 6)) : std::string();
-      const std::string expected = "|" +
+      const std::string expected = std::string("|") +
                                    (number ? fmt::format("{:>5}", number) : std::string("    -")) +
                                    " " + time_column + fmt::format("{:<3} ", channel);
       std::string s = "|";

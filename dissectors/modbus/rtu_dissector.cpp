@@ -46,6 +46,29 @@ Plausibility rtu_plausibility(std::span<const std::uint8_t> frame, Direction dir
 
 namespace {
 
+// The nodes of a telegram of 4 bytes or more, the PDU's from dissect_pdu_into() (which also
+// writes `pdu`'s info line and problems when asked): unit id, PDU, CRC as on the wire.
+[[gnu::always_inline]] inline void add_rtu_fields(FieldTreeBuilder& tree,
+                                                  std::span<const std::uint8_t> bytes,
+                                                  Direction direction, PduDecode& pdu) {
+  tree.add(kRtuUnitId, 0, 1, bytes[0]);
+  dissect_pdu_into(pdu, bytes, 1, bytes.size() - 3, direction, tree);
+  tree.add(kRtuCrc, bytes.size() - 2, 2,
+           (std::uint32_t{bytes[bytes.size() - 2]} << 8) | bytes[bytes.size() - 1]);
+}
+
+// DissectDepth::fields of a telegram of 4 bytes or more: its nodes, bytes and encoding alone.
+[[gnu::noinline]] void dissect_rtu_fields(Message& out, std::span<const std::uint8_t> bytes,
+                                          Direction direction) {
+  out.fields.clear();
+  out.bytes.assign(bytes.begin(), bytes.end());
+  out.text_encoded = false;
+  FieldTreeBuilder tree(out.fields);
+  PduDecode pdu;
+  pdu.detail = false;
+  add_rtu_fields(tree, bytes, direction, pdu);
+}
+
 // dissect_rtu(); `known_plausible`: the telegram's head was found to keep the plausibility rules
 // (TelegramView::known_plausible), which are then not checked again.
 void dissect_rtu_into(Message& m, Frame&& frame, Direction direction, const FramingTiming& timing,
@@ -55,20 +78,16 @@ void dissect_rtu_into(Message& m, Frame&& frame, Direction direction, const Fram
   const ChannelId ch = m.frame.channel;
   FieldTreeBuilder tree(m.fields, m.detail && m.tree);
 
-  if (!bytes.empty()) {
-    tree.add(kRtuUnitId, 0, 1, bytes[0]);
-    m.address = bytes[0];
-  }
+  if (!bytes.empty()) m.address = bytes[0];
   if (bytes.size() >= 2) {
     m.function = bytes[1];
     m.is_exception = (bytes[1] & 0x80) != 0;
   }
   if (bytes.size() >= 4) {
-    const std::size_t pdu_len = bytes.size() - 3;
     PduDecode pdu;
     pdu.detail = m.detail && m.info_text;
     pdu.info_into = &m.info;  // the line is written where m keeps it
-    dissect_pdu_into(pdu, bytes, 1, pdu_len, direction, tree);
+    add_rtu_fields(tree, bytes, direction, pdu);
     m.exception_code = pdu.exception_code;
     for (FoundProblem& problem : pdu.problems)
       add_finding_detail(m, *problem.finding, std::move(problem.detail));
@@ -78,8 +97,8 @@ void dissect_rtu_into(Message& m, Frame&& frame, Direction direction, const Fram
                        m.frame.checksum_kind == FrameChecksum::crc16_modbus
                            ? static_cast<std::uint16_t>(m.frame.checksum)
                            : crc16_modbus(bytes.first(bytes.size() - 2)));
-    tree.add(kRtuCrc, bytes.size() - 2, 2, m.checksum.stated_wire);
   } else {
+    if (!bytes.empty()) tree.add(kRtuUnitId, 0, 1, bytes[0]);
     m.describe([&] {
       return fmt::format(FMT_COMPILE("{}-byte fragment, too short for Modbus RTU"), bytes.size());
     });
@@ -125,6 +144,10 @@ bool RtuDecoder::dissect(TelegramView& t, Direction direction, const FramingTimi
   if (depth == DissectDepth::detail || bytes.size() < 4 ||
       (t.frame && t.frame->events.any_flags())) {
     dissect_rtu_into(out, t.frame_for(out), direction, timing, t.known_plausible);
+    return true;
+  }
+  if (depth == DissectDepth::fields) {
+    dissect_rtu_fields(out, bytes, direction);
     return true;
   }
   // The framer's record of the telegram's timing and carried checksum.

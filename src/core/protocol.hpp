@@ -27,6 +27,7 @@ struct FramerSettings {
 enum class DissectDepth {
   head,    // the keys, checksum verdict and findings (TelegramFindings), no Message
   detail,  // the Message, as detailed as Message::detail and Message::tree ask
+  fields,  // the Message's field tree alone, with what a node's value reads (bytes, encoding)
 };
 
 // What dissect() to DissectDepth::head gives of a telegram: what the Message would say of its
@@ -93,6 +94,10 @@ class ProtocolDecoder {
   //   what the closing summary, pairing and the drive level read) and returns false, leaving
   //   `out` alone; a protocol with no such reading of the telegram dissects in detail instead
   //   (returns true). The findings are exactly those the detail dissection would make.
+  // - DissectDepth::fields: makes only out.fields (the nodes of the ids it keeps), out.bytes and
+  //   out.text_encoded, the nodes those of the detail dissection, and returns true: the tree a
+  //   reader of field values looks into (the display filter's, for ids no head holds). The rest
+  //   of `out` is left as it was. A protocol with no such reading dissects in detail instead.
   // `request`: for a reply, the bytes of the request it answers (empty when unknown), for
   // protocols whose replies mean nothing without it.
   virtual bool dissect(TelegramView& t, Direction direction, const FramingTiming& timing,

@@ -447,7 +447,7 @@ TelegramTree::TelegramTree(const FieldIdSet& ids) {
 
 const Message& TelegramTree::message() {
   if (!decoded_) {
-    telegram_->dissect_into(message_);  // (the tree is all a filter reads of it)
+    telegram_->dissect_fields_into(message_);  // (the tree is all a filter reads of it)
     decoded_ = true;
   }
   return message_;

@@ -705,8 +705,10 @@ void JsonSink::on_summary(const Stats& s) {
   line += "]"sv;
   if (!s.source_notes.empty()) {
     line += ",\"source_notes\":["sv;
-    for (std::size_t i = 0; i < s.source_notes.size(); ++i)
-      line += (i ? "," : "") + json_quote(s.source_notes[i]);
+    for (std::size_t i = 0; i < s.source_notes.size(); ++i) {
+      if (i) line += ',';
+      line += json_quote(s.source_notes[i]);
+    }
     line += "]"sv;
   }
   if (!s.display_filter.empty())

@@ -85,12 +85,15 @@ struct DeferredTelegram {
   bool plausible = false;
 
   // Its decoder's dissection of the frame alone, into `out` (what decode_into() starts from).
-  void dissect_into(Message& out) const {
+  void dissect_into(Message& out) const { dissect_to(DissectDepth::detail, out); }
+  // Its field tree alone (DissectDepth::fields), into `out`.
+  void dissect_fields_into(Message& out) const { dissect_to(DissectDepth::fields, out); }
+  void dissect_to(DissectDepth depth, Message& out) const {
     TelegramView t;
     t.run = run;
     t.taken = taken;
     t.known_plausible = plausible;
-    decoder->dissect(t, direction, timing, request, DissectDepth::detail, out, nullptr);
+    decoder->dissect(t, direction, timing, request, depth, out, nullptr);
   }
   // The Message the pipeline would have handed over: its decoder's dissection of the frame, with
   // the pipeline's numbers, pairing and drive-level findings, each anomaly numbered with the
