@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Display filter cost: `drivetap read --stats` of a generated Modbus RTU capture against the same
-# with -Y, a filter on the JSON record's keys and one on field-tree ids (docs/performance.md
-# "Display filters"). Each row is the best wall and CPU time of REPEAT runs; the last column is the
-# ratio to the unfiltered --stats row (the target: at most 1.5).
+# with -Y: filters on the JSON record's keys, field-tree ids, a drive value and the info line
+# (docs/performance.md "Display filters"). Each row is the best wall and CPU time of REPEAT runs;
+# the last column is the ratio to the unfiltered --stats row (the target: at most 1.5).
 # Usage: bash bench/filter.sh [BUILD_DIR] [FRAMES]    (default: build-bench 1000000)
 set -euo pipefail
 build=${1:-build-bench}
@@ -53,5 +53,9 @@ unit = next((k for k in ids if k.endswith("unit_id") or k.endswith(".addr")), id
 fc = next((k for k in ids if k.endswith("func_code") or k.endswith(".fc")), ids[1])
 print("%s == 2 && %s == 3" % (unit, fc))' <"$tmp/head.json")"
 row "read --stats -Y '$tree_filter'" -Y "$tree_filter"
-# A tree id no telegram head holds: every telegram is decoded.
+# A tree id no telegram head holds: every telegram's field tree is dissected.
 row "read --stats -Y 'modbus.word_cnt > 4'" -Y 'modbus.word_cnt > 4'
+# A drive value: read from the values the drive level hands over with each telegram.
+row "read --stats -Y 'drive.output_frequency > 10'" -Y 'drive.output_frequency > 10'
+# The info line: every telegram is decoded with its texts.
+row "read --stats -Y 'summary contains \"Read\"'" -Y 'summary contains "Read"'

@@ -172,15 +172,16 @@ class DriveFieldSource final : public RecordFieldSource {
 
   [[nodiscard]] RecordFieldNeeds needs(int) const override {
     RecordFieldNeeds n;
-    n.drive_values = true;  // the message's (Message::drive_values)
+    // The message's (Message::drive_values), or those the pipeline hands over with a telegram
+    // judged by its head (DeferredTelegram::drive_values).
+    n.drive_values = true;
     return n;
   }
 
   bool values(int slot, const RecordView& record, std::string& scratch,
               ValueVisitor& visit) const override {
-    if (!record.message) return false;
     const std::string& id = names_[static_cast<std::size_t>(slot)];
-    for (const DriveValue& v : record.message->drive_values) {
+    for (const DriveValue& v : record.drive_values()) {
       if (v.id != id) continue;
       char buffer[kDriveNumberChars];
       scratch = drive_value_text(v, buffer);

@@ -41,6 +41,7 @@ SinkNeeds DisplayFilterSink::needs() const {
       n.fields = n.info_text = false;
     }
     n.drive_values = n.drive_values || filter_.needs().drive_values;
+    n.drive_values_at_hand_over = filter_.needs().drive_values;  // (read in on_deferred_frame())
     // A telegram not read to its head (too short, UART marks, another protocol) is read in the
     // tree the filter looks into.
     if (filter_.needs().tree) n.detail = n.fields = true;

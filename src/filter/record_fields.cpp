@@ -361,7 +361,6 @@ RecordFieldNeeds RecordField::needs() const {
       break;
     case Kind::source:
       n = source->needs(slot);
-      n.message = true;
       break;
   }
   return n;
@@ -451,6 +450,12 @@ const Message& TelegramTree::message() {
     decoded_ = true;
   }
   return message_;
+}
+
+std::span<const DriveValue> RecordView::drive_values() const {
+  if (message) return message->drive_values;
+  if (telegram) return telegram->drive_values;
+  return {};
 }
 
 RecordView RecordViews::shared_view() const {

@@ -74,6 +74,10 @@ struct RecordView {
   // The findings handed over with the record (a telegram's Message::anomalies; for noise, the
   // noise finding and its UART marks).
   std::span<const Anomaly> findings;
+
+  // Its drive values: the message's (Message::drive_values), or those handed over with the
+  // telegram (DeferredTelegram::drive_values); none for the other records.
+  [[nodiscard]] std::span<const DriveValue> drive_values() const;
 };
 
 // The views of one sink's records: what a record is read with (its channel names, the character

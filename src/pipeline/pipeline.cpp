@@ -133,6 +133,7 @@ Pipeline::Pipeline(PipelineOptions options, const ChannelTable& channels, Sink& 
   hand_over_records_ = needs.records;
   hand_over_events_ = needs.events;
   hand_over_drive_values_ = needs.drive_values;
+  drive_values_at_hand_over_ = needs.drive_values && needs.drive_values_at_hand_over;
   drive_level_ = !options_.drives.empty() || !options_.auto_candidates.empty();
   // With drive profiles, a sink that takes records must write their annotation itself
   // (defer_drive_info_): only the observation is made here. (Without detail, a Message still
@@ -945,7 +946,7 @@ void Pipeline::handle_telegram(TelegramView& t, const ProtocolDecoder& decoder, 
       if (profile) {
         if (defer_drive_info_) telegram.drive_profile = profile;
         telegram.anomalies = drive_anomalies_;
-        if (hand_over_drive_values_ && defer_drive_info_) {
+        if (hand_over_drive_values_ && defer_drive_info_ && !drive_values_at_hand_over_) {
           telegram.drive_values_with_annotation = true;
         } else if (hand_over_drive_values_) {
           drive_values_.clear();

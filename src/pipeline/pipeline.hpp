@@ -212,6 +212,7 @@ class Pipeline {
   bool hand_over_records_ = true;       // the sink's needs' records
   bool hand_over_events_ = true;        // the sink's needs' events: drive state changes as events
   bool hand_over_drive_values_ = true;  // the sink's needs' drive_values
+  bool drive_values_at_hand_over_ = false;  // the sink's needs' drive_values_at_hand_over
   TimeNs earliest_deadline_;
   std::uint64_t frame_counter_ = 0;
   TimeNs latest_time_ = std::numeric_limits<TimeNs>::min();

@@ -143,6 +143,10 @@ struct SinkNeeds {
   // With drive profiles: each frame's drive values (Message::drive_values, the `drive.*` fields
   // and the JSON record's drive object), collected by the pipeline's drive level.
   bool drive_values = true;
+  // With drive_values: the sink reads a telegram's values when it is handed over undecoded (the
+  // display filter judging it by its head), so the pipeline collects them then
+  // (DeferredTelegram::drive_values), not the sink's reading that writes the annotation.
+  bool drive_values_at_hand_over = false;
 
   // What a sink handing every record to both `a` and `b` needs: all either asks for, and
   // nothing completed by the sink (each member gets the same, completed, record).
@@ -155,6 +159,7 @@ struct SinkNeeds {
     n.transactions = a.transactions || b.transactions;
     n.events = a.events || b.events;
     n.drive_values = a.drive_values || b.drive_values;
+    n.drive_values_at_hand_over = a.drive_values_at_hand_over || b.drive_values_at_hand_over;
     return n;
   }
   // Nothing at all (the start of either() over a set of sinks).
