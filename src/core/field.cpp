@@ -18,8 +18,8 @@ std::string field_bytes_hex(const FieldNode& node, std::span<const std::uint8_t>
   return out;
 }
 
-// GCC 12 warns of an overlapping copy in the assignment of a literal to `out` below, which
-// cannot overlap (GCC bug 105329); a pragma, not other code, so the code stays as it is.
+// GCC 12 warns of an overlapping copy in the assignment of a short literal to `out` below, which
+// cannot overlap (GCC bug 105329): the warning is quietened, the code left as it is.
 #pragma GCC diagnostic push
 #if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC diagnostic ignored "-Wrestrict"
