@@ -444,9 +444,9 @@ TEST(DisplayFilter, ATreeOfSomeIdsHoldsTheFullTreesNodesOfThem) {
                            nullptr);
           alone.fields.keep_only(nullptr);
           ASSERT_TRUE(alone.fields == want)
-              << "frame " << in.frame.number << " to DissectDepth::fields, "
-              << layer->fields[i]->id << " with " << layer->fields[with]->id << ": "
-              << alone.fields.size() << " nodes, the full tree " << want.size();
+              << "frame " << in.frame.number << " to DissectDepth::fields, " << layer->fields[i]->id
+              << " with " << layer->fields[with]->id << ": " << alone.fields.size()
+              << " nodes, the full tree " << want.size();
           ASSERT_EQ(alone.bytes, full.bytes) << "frame " << in.frame.number;
           ASSERT_EQ(alone.text_encoded, full.text_encoded) << "frame " << in.frame.number;
           if (!want.empty()) seen.insert(layer->fields[i]->key());
