@@ -273,8 +273,11 @@ TEST(ChannelTable, NamesRolesAndLinks) {
 
 TEST(ChannelTable, StopsAtItsLimit) {
   ChannelTable t;
-  for (std::size_t i = 0; i < ChannelTable::kMaxChannels; ++i)
-    ASSERT_EQ(t.intern("c" + std::to_string(i)), i);
+  for (std::size_t i = 0; i < ChannelTable::kMaxChannels; ++i) {
+    std::string name = "c";
+    name += std::to_string(i);
+    ASSERT_EQ(t.intern(name), i);
+  }
   EXPECT_EQ(t.intern("one-more"), kNoChannel);
   EXPECT_EQ(t.intern("one-more", "", ChannelRole::bus), kNoChannel);
   EXPECT_EQ(t.intern("c7"), 7);  // names already known still resolve
