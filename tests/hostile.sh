@@ -151,6 +151,18 @@ rc=${PIPESTATUS[0]}
 "$drivetap" read --stats "$work/piped.pcap" > /dev/null 2> "$work/err" && ok "closed pipe: --pcap whole" ||
   fail "closed pipe: --pcap does not read back: $(cat "$work/err")"
 
+# 10b. The listings into a pipe whose reader is gone (`drivetap fields | head -1`): silent, the
+# exit SIGPIPE's (fmt::print's failed write once ended in std::terminate, "terminate called").
+for listing in fields profiles; do
+  out=$(python3 -c 'import os, subprocess, sys
+r, w = os.pipe()
+os.close(r)
+p = subprocess.run(sys.argv[1:], stdout=w, stderr=subprocess.PIPE)
+print(p.returncode, repr(p.stderr.decode()[:200]))' "$drivetap" "$listing")
+  [ "$out" = "141 ''" ] && ok "closed pipe: drivetap $listing" ||
+    fail "closed pipe: drivetap $listing: exit and stderr $out, expected 141 and nothing"
+done
+
 # 11. SIGINT and SIGTERM while the output blocks (a FIFO nobody reads).
 for sig in INT TERM; do
   mkfifo "$work/blocked.$sig"

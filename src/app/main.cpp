@@ -4,10 +4,12 @@
 #include <CLI/CLI.hpp>
 
 #include <algorithm>
+#include <cerrno>
 #include <csignal>
 #include <cstdio>
 #include <string>
 #include <string_view>
+#include <system_error>
 #include <vector>
 
 #include "app/commands.hpp"
@@ -79,8 +81,16 @@ int main(int argc, char** argv) {
     return 2;
   }
   int status = 2;
-  for (const Command& command : commands)
-    if (*command.given) status = command.run();
+  try {
+    for (const Command& command : commands)
+      if (*command.given) status = command.run();
+  } catch (const std::system_error& e) {
+    // fmt::print's failed write to standard output (a listing's: `drivetap fields | head`): ended
+    // as finish_stdout() ends any other, silently as SIGPIPE would for a reader that went away.
+    if (!std::ferror(stdout)) throw;
+    if (e.code().value() == EPIPE) std::_Exit(128 + SIGPIPE);
+    die(fmt::format("standard output: write failed: {}", e.code().message()), 1);
+  }
   finish_stdout();
   return status;
 }
