@@ -8,7 +8,9 @@
 #include <string>
 #include <vector>
 
+#include "core/anomaly.hpp"
 #include "core/field.hpp"
+#include "core/protocol_desc.hpp"
 #include "core/record_fields.hpp"
 
 using namespace drivetap;
@@ -29,6 +31,29 @@ TEST(FieldTable, IdsAreUniqueAndWellFormed) {
       EXPECT_FALSE(d->names.empty()) << id;
     }
   }
+}
+
+// A typed finding id is a filter name too (-Y mbrtu.intra_frame_gap): unique, of its layer's
+// form, under a layer's prefix (`drivetap fields` lists it there), and no field's id, which a
+// filter would read instead (modbus.coil_value was both).
+TEST(FieldTable, FindingIdsAreUniqueAndNoFieldsId) {
+  std::set<std::string_view> field_ids;
+  for (const FieldDesc* d : all_field_descriptors()) field_ids.insert(d->id);
+  std::set<std::string_view> layers;
+  for (const FieldProtocol* layer : all_field_protocols()) layers.insert(layer->filter_name);
+  const std::regex form("^[a-z][a-z0-9_]*(\\.[a-z0-9_]+)+$");
+  std::set<const FindingDesc*> descs;
+  std::set<std::string_view> ids;
+  for (const ProtocolDesc* p : registered_protocols())
+    for (const FindingDesc* f : p->findings) {
+      if (!descs.insert(f).second) continue;  // (a layer's findings shared by two protocols)
+      const std::string_view id = f->id;
+      EXPECT_TRUE(std::regex_match(std::string(id), form)) << id;
+      EXPECT_TRUE(ids.insert(id).second) << "duplicate finding id " << id;
+      EXPECT_EQ(field_ids.count(id), 0u) << id << " is a field's id too";
+      EXPECT_EQ(layers.count(id.substr(0, id.find('.'))), 1u) << id << ": under no layer";
+    }
+  EXPECT_GT(ids.size(), 20u);
 }
 
 bool is_number(FieldType t) {

@@ -45,13 +45,13 @@ inline constexpr Finding<std::size_t, std::size_t> kFindingByteCountPresent{
     "modbus.byte_count_present", kMalformed, Severity::error,
     "byte count says {} bytes, {} present"};
 inline constexpr Finding<std::size_t> kFindingCoilValue{
-    "modbus.coil_value", kMalformed, Severity::error,
+    "modbus.coil_value_invalid", kMalformed, Severity::error,
     "coil value 0x{:04X} is neither 0x0000 (OFF) nor 0xFF00 (ON)"};
 inline constexpr Finding<std::size_t, std::size_t, std::size_t> kFindingByteCountQuantity{
     "modbus.byte_count_quantity", kMalformed, Severity::error,
     "byte count {} does not match quantity {} (expected {})"};
 inline constexpr Finding<std::size_t> kFindingReferenceType{
-    "modbus.reference_type", kMalformed, Severity::error, "reference type {} (must be 6)"};
+    "modbus.reference_type_invalid", kMalformed, Severity::error, "reference type {} (must be 6)"};
 inline constexpr Finding<std::size_t, std::size_t> kFindingObjectsPresent{
     "modbus.objects_present", kMalformed, Severity::error, "{} objects announced, {} present"};
 inline constexpr Finding<std::size_t> kFindingEventByteCount{

@@ -4,11 +4,15 @@
 #include <CLI/CLI.hpp>
 
 #include <cstdio>
+#include <set>
 #include <string>
+#include <string_view>
 
 #include "app/commands.hpp"
 #include "app/common.hpp"
+#include "core/anomaly.hpp"
 #include "core/field.hpp"
+#include "core/protocol_desc.hpp"
 #include "core/record_fields.hpp"
 #include "drive/drive_fields.hpp"
 
@@ -24,12 +28,40 @@ std::string one_column(std::string_view text) {
   return out;
 }
 
-void print_layer(const FieldProtocol& layer) {
+// A finding's detail template as a blurb: its placeholders shown as "…".
+std::string template_blurb(std::string_view text) {
+  std::string out;
+  for (std::size_t at = 0; at < text.size(); ++at) {
+    if (text[at] == '{') {
+      const std::size_t close = text.find('}', at);
+      if (close != std::string_view::npos) {
+        out += "…";
+        at = close;
+        continue;
+      }
+    }
+    out += text[at];
+  }
+  return one_column(out);
+}
+
+// A layer's fields, then the typed findings whose ids it prefixes (as tshark lists a protocol's
+// expert infos with its fields): a filter or -e name whose value is the finding's detail.
+void print_layer(const FieldProtocol& layer, std::set<std::string_view>& findings_listed) {
   fmt::print("P\t{}\t{}\n", one_column(layer.name), layer.filter_name);
   for (const FieldDesc* d : layer.fields)
     fmt::print("F\t{}\t{}\t{}\t{}\t{}\t0x{:x}\t{}\n", one_column(d->name), d->id,
                wireshark_field_type(*d), layer.filter_name, wireshark_field_base(*d), d->bitmask,
                one_column(d->blurb));
+  for (const ProtocolDesc* p : registered_protocols())
+    for (const FindingDesc* f : p->findings) {
+      const std::string_view id = f->id;
+      if (!id.starts_with(layer.filter_name) || id.size() <= layer.filter_name.size() ||
+          id[layer.filter_name.size()] != '.' || !findings_listed.insert(id).second)
+        continue;
+      fmt::print("F\tFinding: {} ({})\t{}\tFT_STRING\t{}\t\t0x0\t{}\n", anomaly_id(f->kind),
+                 severity_id(f->severity), id, layer.filter_name, template_blurb(f->text));
+    }
 }
 
 // The drive values the built-in profiles give (`drive.*`), as the Wireshark plugin types them.
@@ -41,8 +73,9 @@ void print_drive_layer() {
 }
 
 int run_fields() {
-  print_layer(kRecordFieldProtocol);
-  for (const FieldProtocol* layer : all_field_protocols()) print_layer(*layer);
+  std::set<std::string_view> findings_listed;
+  print_layer(kRecordFieldProtocol, findings_listed);
+  for (const FieldProtocol* layer : all_field_protocols()) print_layer(*layer, findings_listed);
   print_drive_layer();
   return 0;
 }

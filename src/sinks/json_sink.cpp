@@ -598,11 +598,13 @@ void JsonSink::on_noise(const Frame& f) {
 }
 
 void JsonSink::on_anomaly(const Anomaly& a) {
+  // `finding`: the protocol's typed id (mbrtu.intra_frame_gap), where the finding has one.
   std::string line = fmt::format(
-      FMT_COMPILE("{{\"type\":\"anomaly\",\"t\":{},\"kind\":\"{}\",\"severity\":\"{}\","
+      FMT_COMPILE("{{\"type\":\"anomaly\",\"t\":{},\"kind\":\"{}\",{}\"severity\":\"{}\","
                   "\"channel\":{},\"frame\":{},\"detail\":{}}}"),
-      seconds(a.time), anomaly_id(a.kind), severity_id(anomaly_severity(a.kind)),
-      quoted_channel(a.channel),
+      seconds(a.time), anomaly_id(a.kind),
+      a.finding ? fmt::format(FMT_COMPILE("\"finding\":\"{}\","), a.finding->id) : std::string(),
+      severity_id(anomaly_severity(a.kind)), quoted_channel(a.channel),
       a.frame_number == 0 ? std::string("null") : fmt::format(FMT_COMPILE("{}"), a.frame_number),
       json_quote(a.detail));
   lines_.write(line);
