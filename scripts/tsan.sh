@@ -4,7 +4,7 @@
 # without helpers formatting on several threads, ReadAhead, the drive annotation written on the
 # writer thread, telegrams decoded on the writer thread), then `drivetap read` of generated captures
 # (all five drive families as pcapng and byte log; plain Modbus RTU) in every mode that runs the
-# read-ahead and writer threads. Captures of 20 000 records keep both threads busy at once: the
+# read-ahead and writer threads, and the display filter's thread. Captures of 20 000 records keep both threads busy at once: the
 # golden captures are too small for that (a race planted in ThreadedSink::run() passes them and
 # is caught here). Any report fails the pass (halt_on_error, exit code 66).
 #
@@ -27,8 +27,10 @@ trap 'rm -rf "$work"' EXIT
 drivetap=$build/drivetap
 "$drivetap" generate --frames 20000 --seed 3 -w "$work/mix.pcapng" -o "$work/mix.log"
 "$drivetap" generate --frames 20000 --seed 1 --mix modbus-rtu --plain -w "$work/rtu.pcapng"
+# (--stats -Y of a filter that decodes telegrams: the filter judges them on a thread of its own.)
 modes=("" "-V" "-T json" "--drive none" "--drive none -T json" "--stats" "--events"
-       "-w $work/out.pcapng" "--stats -w $work/out.pcapng")
+       "-w $work/out.pcapng" "--stats -w $work/out.pcapng" "--stats -Y summary"
+       "--stats -Y drive" "--stats -Y modbus.word_cnt" "-T json -Y drive")
 for input in mix.pcapng mix.log rtu.pcapng; do
   for mode in "${modes[@]}"; do
     # shellcheck disable=SC2086  # the mode's words are separate options

@@ -157,6 +157,7 @@ void Outputs::set_clock(bool wall_clock, TimeNs origin) {
 }
 
 void Outputs::write_on_second_thread() {
+  second_thread_ = true;
   if (!helpers_.empty()) {
     std::vector<FormattingSink*> helpers;
     for (const std::unique_ptr<FormattingSink>& helper : helpers_) helpers.push_back(helper.get());
@@ -168,10 +169,19 @@ void Outputs::write_on_second_thread() {
 
 Sink& Outputs::sink() {
   Sink& inner = threaded_ ? static_cast<Sink&>(*threaded_) : tee_;
-  if (display_filter_ && !filter_sink_)
+  if (display_filter_ && !filter_sink_) {
     filter_sink_ = std::make_unique<DisplayFilterSink>(std::move(*display_filter_), inner,
                                                        channels_, character_time_, timed_);
-  Sink& shown = filter_sink_ ? static_cast<Sink&>(*filter_sink_) : inner;
+    // A filter that decodes telegrams, where no output takes records (--stats): the decoding
+    // would be most of the decoding thread's work, so the records go to a second core, where
+    // the filter judges them in order. (A filter judged on heads costs less than the copies.)
+    if (second_thread_ && !inner.needs().records && filter_sink_->decodes_telegrams() &&
+        std::thread::hardware_concurrency() >= 2)
+      filter_thread_ = std::make_unique<ThreadedSink>(*filter_sink_);
+  }
+  Sink& shown = filter_thread_ ? static_cast<Sink&>(*filter_thread_)
+                : filter_sink_ ? static_cast<Sink&>(*filter_sink_)
+                               : inner;
   // -z counts every record, as the summary does (tshark's taps see every packet; -Y only
   // selects what is shown).
   if (!statistics_) return shown;
@@ -181,7 +191,9 @@ Sink& Outputs::sink() {
 }
 
 bool Outputs::flush() {
-  const bool ok = threaded_ ? threaded_->flush() : tee_.flush();
+  const bool ok = filter_thread_ ? filter_thread_->flush()
+                  : threaded_    ? threaded_->flush()
+                                 : tee_.flush();
   if (!ok && ring_ && !ring_->error().empty()) die(ring_->error(), 1);
   if (capture_file_ && capture_file_ != stdout) {
     if (ok) {
@@ -195,7 +207,9 @@ bool Outputs::flush() {
 }
 
 void Outputs::close() {
-  if (threaded_) threaded_->finish();  // every record replayed; the sinks are this thread's
+  // Every record replayed; the sinks are this thread's.
+  if (filter_thread_) filter_thread_->finish();
+  if (threaded_) threaded_->finish();
   // -z: the tables after everything else, the summary included (as tshark prints them).
   if (statistics_)
     statistics_->write_tables(options_.format == "json",

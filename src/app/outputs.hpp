@@ -42,7 +42,8 @@ class Outputs {
   // its start on that clock. Set before the first record reaches the sink.
   void set_clock(bool wall_clock, TimeNs origin);
   // The sink the pipeline writes to; with -Y, the filter in front of the others (made on the
-  // first call: after write_on_second_thread()); with -z, the statistics are counted beside
+  // first call: after write_on_second_thread(), which also puts a filter in front of outputs
+  // that take no records on a thread of its own); with -z, the statistics are counted beside
   // it.
   Sink& sink();
   // Whether nothing written from now on reaches anybody: the text output failed (its reader went
@@ -86,8 +87,12 @@ class Outputs {
   const ChannelTable& channels_;
   TimeNs character_time_ = 0;
   bool timed_ = true;
-  // Last: destroyed first, its thread joined before the sinks it writes to go.
+  // write_on_second_thread() was called.
+  bool second_thread_ = false;
+  // Last: destroyed first, their threads joined before the sinks they write to go. -Y where no
+  // output takes records (--stats, -q -z): the filter judges them on a thread of its own.
   std::unique_ptr<ThreadedSink> threaded_;
+  std::unique_ptr<ThreadedSink> filter_thread_;
 };
 
 }  // namespace drivetap::app

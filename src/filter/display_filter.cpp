@@ -356,6 +356,7 @@ class FilterParser {
       out_.names_late_findings_ = true;
     const RecordFieldNeeds needs = field->needs();
     out_.needs_.detail = out_.needs_.detail || needs.detail;
+    out_.needs_.annotation = out_.needs_.annotation || needs.annotation;
     out_.needs_.tree = out_.needs_.tree || needs.tree;
     out_.needs_.drive_values = out_.needs_.drive_values || needs.drive_values;
     out_.needs_.message = out_.needs_.message || needs.message;
@@ -524,7 +525,7 @@ bool holds(const RecordValue& v, DisplayFilter::Compare c, const DisplayFilter::
 
 // The tests on a field's values: each stops at the first value that decides.
 struct AnyValue final : ValueVisitor {
-  AnyValue() : ValueVisitor(false) {}
+  AnyValue() : ValueVisitor(false, true) {}
   bool visit(const RecordValue&) override { return true; }
 };
 struct AnyCompares final : ValueVisitor {

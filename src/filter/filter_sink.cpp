@@ -4,6 +4,8 @@
 #include <utility>
 #include <vector>
 
+#include "drive/annotate.hpp"
+
 namespace drivetap {
 namespace {
 
@@ -19,10 +21,11 @@ DisplayFilterSink::DisplayFilterSink(DisplayFilter filter, Sink& inner,
     : ForwardingSink(inner),
       filter_(std::move(filter)),
       inner_needs_(inner.needs()),
-      by_head_(!filter_.needs().message && (!inner_needs_.records || inner_needs_.deferred_decode)),
+      by_head_(!inner_needs_.records || inner_needs_.deferred_decode),
       views_(channels, character_time, show_latency),
-      telegram_tree_(filter_.tree_ids()),
-      recent_selected_(kRecentFrames, 0) {
+      telegram_decode_(filter_.tree_ids(), filter_.needs().annotation),
+      recent_selected_(kRecentFrames, 0),
+      drive_reading_(std::make_unique<DriveReading>()) {
   if (filter_.names_late_findings()) late_frames_.resize(kRecentFrames);
 }
 
@@ -35,10 +38,12 @@ SinkNeeds DisplayFilterSink::needs() const {
     n.deferred_decode = true;
     if (!inner_needs_.records) {
       // Nothing is decoded for the inner sink: the annotation is left to this sink, which
-      // writes none (so that the pipeline takes telegrams whole with drive profiles too), and a
-      // telegram not taken whole is decoded without tree or texts.
+      // writes it only where the filter reads it (so that the pipeline takes telegrams whole
+      // with drive profiles too), and a telegram not taken whole is decoded without tree or
+      // texts but those the filter reads.
       n.detail = n.drive_info = true;
-      n.fields = n.info_text = false;
+      n.fields = false;
+      n.info_text = filter_.needs().detail;
     }
     n.drive_values = n.drive_values || filter_.needs().drive_values;
     n.drive_values_at_hand_over = filter_.needs().drive_values;  // (read in on_deferred_frame())
@@ -85,8 +90,15 @@ bool DisplayFilterSink::selected(std::uint64_t number) const {
   return number != 0 && recent_selected_[number % kRecentFrames] == number;
 }
 
+const Message& DisplayFilterSink::annotated(const Message& m) {
+  if (!filter_.needs().annotation || !m.drive_profile) return m;
+  annotated_ = m;  // (the inner sink gets `m`, and writes the annotation itself)
+  complete_drive_info(annotated_, *drive_reading_);
+  return annotated_;
+}
+
 void DisplayFilterSink::on_frame(const Message& m) {
-  const RecordView r = views_.of(m);
+  const RecordView r = views_.of(annotated(m));
   note_late_frame(r);
   const bool pass = filter_.matches(r);
   note(m.frame.number, pass);
@@ -95,10 +107,8 @@ void DisplayFilterSink::on_frame(const Message& m) {
 
 void DisplayFilterSink::on_deferred_frame(const DeferredTelegram& telegram) {
   RecordView r = views_.of(telegram);
-  if (filter_.needs().telegram_tree) {
-    telegram_tree_.reset(telegram);
-    r.telegram_tree = &telegram_tree_;
-  }
+  telegram_decode_.reset(telegram);
+  r.decode = &telegram_decode_;
   note_late_frame(r);
   const bool pass = filter_.matches(r);
   note(telegram.number, pass);

@@ -8,14 +8,16 @@
 // against that finding's own record (its n, t, channel and its frame's protocol, addr, fc): a
 // match shows the finding, with the transaction that reported it.
 //
-// A filter whose names a telegram's head holds (RecordFieldNeeds::message false) is judged on the
-// head where the pipeline takes a telegram whole: the telegram comes undecoded
-// (on_deferred_frame()), and only one the filter selects is decoded, by the inner sink. Tree ids
-// no head holds are read of the telegram decoded here, when the filter first reads one, into a
-// tree of the filter's ids alone (TelegramTree).
+// Where the pipeline takes a telegram whole, the filter judges it by its head: the telegram comes
+// undecoded (on_deferred_frame()), and only one the filter selects is decoded, by the inner sink.
+// A name no head holds is read of the telegram decoded here when the filter first reads it
+// (TelegramDecode): a tree id of its tree of the filter's ids alone, a text (summary, drive, a
+// finding's) of its Message; a finding id only when the head has a finding of its kind. A filter
+// decodes only the telegrams whose cheaper tests did not decide first.
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <vector>
 
@@ -40,6 +42,11 @@ class DisplayFilterSink final : public ForwardingSink {
   [[nodiscard]] SinkNeeds needs() const override;
 
   [[nodiscard]] std::uint64_t matched() const { return matched_; }
+  // The filter reads what no telegram's head holds (a text, a tree id no head has, a typed
+  // finding): telegrams are decoded for it.
+  [[nodiscard]] bool decodes_telegrams() const {
+    return filter_.needs().message || filter_.needs().telegram_tree;
+  }
 
  private:
   void note(std::uint64_t number, bool selected);
@@ -47,6 +54,9 @@ class DisplayFilterSink final : public ForwardingSink {
   // they came, and drops them.
   void release_events(std::uint64_t number, bool selected);
   [[nodiscard]] bool selected(std::uint64_t number) const;
+  // `m`, with its drive annotation written where the filter reads it and the pipeline left it to
+  // the sinks (SinkNeeds::drive_info).
+  const Message& annotated(const Message& m);
   // Notes what a late finding's record says of the frame `r` (a filter naming late findings).
   void note_late_frame(const RecordView& r);
 
@@ -56,8 +66,8 @@ class DisplayFilterSink final : public ForwardingSink {
   // names and what the inner sink takes).
   bool by_head_ = false;
   RecordViews views_;
-  // A telegram judged by its head: its tree of the filter's ids, decoded when first read.
-  TelegramTree telegram_tree_;
+  // A telegram judged by its head: decoded when the filter first reads what no head holds.
+  TelegramDecode telegram_decode_;
   // The numbers of the latest selected frames, each at its number modulo the size: a transaction
   // or finding reported later (a timeout) finds its frame here. Fixed size: no allocation.
   std::vector<std::uint64_t> recent_selected_;
@@ -72,6 +82,10 @@ class DisplayFilterSink final : public ForwardingSink {
   std::uint64_t last_number_ = 0;  // the latest frame or noise record judged
   std::uint64_t matched_ = 0;
   std::uint64_t records_ = 0;
+  // A frame whose drive annotation the pipeline left to the sinks, annotated for a filter that
+  // reads it (annotated()).
+  Message annotated_;
+  std::unique_ptr<DriveReading> drive_reading_;
 };
 
 }  // namespace drivetap

@@ -9,8 +9,11 @@
 
 #include "core/checksum.hpp"
 #include "core/format.hpp"
+#include "core/line_buffer.hpp"
 #include "core/protocol_desc.hpp"
 #include "core/record_fields.hpp"
+#include "drive/annotate.hpp"
+#include "drive/drive_fields.hpp"
 #include "sinks/sink.hpp"
 #include "sinks/text_sink.hpp"
 
@@ -192,8 +195,37 @@ bool late_key_values(RecordKey key, const RecordView& r, std::string& scratch,
   }
 }
 
+// Whether the telegram known by its head has any finding.
+bool head_has_findings(const RecordView& r) {
+  const TelegramFindings& head = *r.telegram->head;
+  return head.malformed > 0 || head.other_kinds != 0 || !r.telegram->anomalies.empty();
+}
+
+// The record of a telegram known by its head, as its decoded Message gives it.
+RecordView decoded_view(const RecordView& r) {
+  RecordView d = r;
+  d.telegram = nullptr;
+  d.decode = nullptr;
+  d.message = &r.decode->message();
+  d.findings = d.message->anomalies;
+  return d;
+}
+
 bool key_values(RecordKey key, const RecordView& r, std::string& scratch, ValueVisitor& visit) {
-  if (r.telegram) return head_key_values(key, r, scratch, visit);
+  if (r.telegram) {
+    switch (key) {
+      case RecordKey::finding:  // (none without one of the head's finding kinds)
+        if (!head_has_findings(r)) return false;
+        [[fallthrough]];
+      case RecordKey::summary:
+      case RecordKey::drive:
+      case RecordKey::checksum_stated:
+      case RecordKey::checksum_computed:
+        return r.decode && key_values(key, decoded_view(r), scratch, visit);
+      default:
+        return head_key_values(key, r, scratch, visit);
+    }
+  }
   if (key == RecordKey::finding) {
     for (const Anomaly& a : r.findings) {
       if (a.finding && visit_string(a.finding->id, visit)) return true;
@@ -253,10 +285,13 @@ bool key_values(RecordKey key, const RecordView& r, std::string& scratch, ValueV
              visit_ms(m.frame.gap_before, scratch, visit);
     case RecordKey::close:
       return visit_string(frame_close_id(m.frame.close), visit);
-    case RecordKey::summary:
-      scratch.clear();
-      append_frame_summary(scratch, m, r.show_latency);
-      return visit_string(scratch, visit);
+    case RecordKey::summary: {
+      // Written where its pieces are appended inline (a filter reading it makes one a telegram).
+      thread_local LineBuffer line;
+      line.clear();
+      append_frame_summary(line, m, r.show_latency);
+      return visit_string(line.view(), visit);
+    }
     case RecordKey::finding:
       return false;  // (above)
   }
@@ -347,6 +382,7 @@ RecordFieldNeeds RecordField::needs() const {
   switch (kind) {
     case Kind::key:
       n.detail = key == RecordKey::summary || key == RecordKey::drive;
+      n.annotation = key == RecordKey::drive;
       n.message = n.detail || key == RecordKey::checksum_stated ||
                   key == RecordKey::checksum_computed || key == RecordKey::finding;
       break;
@@ -418,15 +454,22 @@ bool record_values(const RecordField& field, const RecordView& record, std::stri
       if (record.message) return tree_values(field.desc, *record.message, scratch, visit);
       if (!record.telegram) return false;
       if (field.in_head) return head_tree_values(field.desc, record, scratch, visit);
-      return record.telegram_tree &&
-             tree_values(field.desc, record.telegram_tree->message(), scratch, visit);
+      return record.decode && tree_values(field.desc, record.decode->tree(), scratch, visit);
     case RecordField::Kind::finding_kind:
-      if (record.telegram)  // (present or not: the filter reads no text of it)
-        return head_has_finding(record, field.finding_kind) && visit_string("", visit);
+      // A telegram known by its head: decoded for the finding's text, and only when it has one.
+      if (record.telegram) {
+        if (!head_has_finding(record, field.finding_kind)) return false;
+        if (visit.presence_only()) return visit_string("", visit);
+        return record.decode && record_values(field, decoded_view(record), scratch, visit);
+      }
       for (const Anomaly& a : record.findings)
         if (a.kind == field.finding_kind && visit_string(a.detail, visit)) return true;
       return false;
     case RecordField::Kind::finding_id:
+      // A typed id is one of its kind: a telegram known by its head without that kind has none.
+      if (record.telegram)
+        return head_has_finding(record, field.finding_kind) && record.decode &&
+               record_values(field, decoded_view(record), scratch, visit);
       for (const Anomaly& a : record.findings)
         if (a.finding && std::strcmp(a.finding->id, field.finding_id) == 0 &&
             visit_string(a.detail, visit))
@@ -438,16 +481,37 @@ bool record_values(const RecordField& field, const RecordView& record, std::stri
   return false;
 }
 
-TelegramTree::TelegramTree(const FieldIdSet& ids) {
-  message_.detail = message_.tree = true;
-  message_.info_text = false;
+TelegramDecode::TelegramDecode(const FieldIdSet& ids, bool annotate)
+    : annotate_(annotate), drive_(std::make_unique<DriveReading>()) {
+  tree_.detail = tree_.tree = true;
+  tree_.info_text = false;
+  tree_.fields.keep_only(&ids);
+  message_.detail = message_.info_text = true;
+  message_.tree = !ids.empty();
   message_.fields.keep_only(&ids);
 }
 
-const Message& TelegramTree::message() {
-  if (!decoded_) {
-    telegram_->dissect_fields_into(message_);  // (the tree is all a filter reads of it)
-    decoded_ = true;
+TelegramDecode::~TelegramDecode() = default;
+
+const Message& TelegramDecode::tree() {
+  if (message_made_ && message_.tree) return message_;
+  if (!tree_made_) {
+    telegram_->dissect_fields_into(tree_);  // (the tree is all a filter reads of it)
+    tree_made_ = true;
+  }
+  return tree_;
+}
+
+const Message& TelegramDecode::message() {
+  if (!message_made_) {
+    telegram_->decode_into(message_);
+    if (!annotate_)
+      message_.drive_profile = nullptr;  // (no field read reads the annotation)
+    else if (telegram_->drive_values_with_annotation)
+      complete_drive_info_and_values(message_, *drive_);
+    else
+      complete_drive_info(message_, *drive_);
+    message_made_ = true;
   }
   return message_;
 }

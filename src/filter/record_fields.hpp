@@ -38,23 +38,36 @@ struct LateFindingFrame {
   int function = -1;
 };
 
-// The field tree of a telegram known by its head (RecordView::telegram) for the tree ids no head
-// holds: its dissection (DeferredTelegram::dissect_into), made when a field first asks for it, with
-// a tree of only the ids `ids` names (the filter's: FieldTree::keep_only) and no texts but theirs.
-class TelegramTree {
+struct DriveReading;
+
+// A telegram known by its head (RecordView::telegram), decoded when a field first reads what no
+// head holds, and only then: to its tree of the filter's tree ids alone (DissectDepth::fields,
+// tree()), or to the Message the pipeline would have handed over (DeferredTelegram::decode_into,
+// message()): its info line, its findings with their texts and, with `annotate`, its drive
+// annotation. A filter that reads such a field after a cheaper test that fails decodes nothing.
+class TelegramDecode {
  public:
-  explicit TelegramTree(const FieldIdSet& ids);
-  // The telegram whose tree is read next (valid until the next reset).
+  // `ids`: the tree ids read (both trees keep only theirs).
+  TelegramDecode(const FieldIdSet& ids, bool annotate);
+  ~TelegramDecode();
+  TelegramDecode(const TelegramDecode&) = delete;
+  TelegramDecode& operator=(const TelegramDecode&) = delete;
+  // The telegram read next (valid until the next reset).
   void reset(const DeferredTelegram& telegram) {
     telegram_ = &telegram;
-    decoded_ = false;
+    tree_made_ = message_made_ = false;
   }
+  [[nodiscard]] const Message& tree();
   [[nodiscard]] const Message& message();
 
  private:
   const DeferredTelegram* telegram_ = nullptr;
-  bool decoded_ = false;
+  bool annotate_;
+  bool tree_made_ = false;
+  bool message_made_ = false;
+  Message tree_;
   Message message_;
+  std::unique_ptr<DriveReading> drive_;  // the annotation's storage, reused
 };
 
 // One frame or noise record as the filter sees it.
@@ -64,8 +77,8 @@ struct RecordView {
   // a telegram known by its head only (DeferredTelegram::head): only the fields whose needs()
   // say no `message` can be read of it
   const DeferredTelegram* telegram = nullptr;
-  // with it, for the tree ids no head holds: the telegram's tree, decoded on the first read
-  TelegramTree* telegram_tree = nullptr;
+  // with it, for the fields no head holds: the telegram decoded on the first read of one
+  TelegramDecode* decode = nullptr;
   // or the record of a late finding (the one in `findings`), with what it says of its frame
   const LateFindingFrame* late_frame = nullptr;
   const ChannelTable* channels = nullptr;
@@ -116,25 +129,32 @@ class ValueVisitor {
   // False for a visitor that reads numbers by value only (the filter's tests): an integer's
   // `text` is then left empty, not written.
   [[nodiscard]] bool wants_number_text() const { return wants_number_text_; }
+  // True for a visitor that asks only whether the field is there (its first value stops it):
+  // a finding's presence is then read off a telegram's head, its text not made.
+  [[nodiscard]] bool presence_only() const { return presence_only_; }
 
  protected:
-  explicit ValueVisitor(bool wants_number_text = true) : wants_number_text_(wants_number_text) {}
+  explicit ValueVisitor(bool wants_number_text = true, bool presence_only = false)
+      : wants_number_text_(wants_number_text), presence_only_(presence_only) {}
   ~ValueVisitor() = default;
 
  private:
   bool wants_number_text_;
+  bool presence_only_;
 };
 
 // What reading a field costs the pipeline (folded into the filter sink's SinkNeeds).
 struct RecordFieldNeeds {
   bool detail = false;        // Message::info_text: the info line (summary) or the drive annotation
+  bool annotation = false;    // Message::drive_info: the drive annotation (`drive`)
   bool tree = false;          // Message::tree: the field tree (without the texts)
   bool drive_values = false;  // Message::drive_values: the `drive.*` fields
   // The decoded Message: the field is not read from a telegram's head (the keys, checksum
-  // verdict and finding kinds a DeferredTelegram carries), so every telegram is decoded.
+  // verdict and finding kinds a DeferredTelegram carries); a telegram known by its head is
+  // decoded when the field is read (RecordView::decode, TelegramDecode::message()).
   bool message = false;
-  // A tree id no head holds: a telegram known by its head is decoded for its tree alone
-  // (RecordView::telegram_tree).
+  // A tree id no head holds: a telegram known by its head is decoded for its tree alone when
+  // the field is read (TelegramDecode::tree()).
   bool telegram_tree = false;
 };
 

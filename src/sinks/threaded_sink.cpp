@@ -34,6 +34,7 @@ ThreadedSink::ThreadedSink(Sink& inner, FormattingSink* formatting_inner,
     : inner_(inner),
       formatting_inner_(formatting_inner),
       needs_(threaded_needs(inner)),
+      inner_takes_undecoded_(inner.needs().deferred_decode),
       helpers_(std::move(helpers)),
       assist_(helpers_.size() >= 2),
       scratch_(std::max<std::size_t>(1, helpers_.size())),
@@ -157,6 +158,11 @@ void ThreadedSink::replay(Batch& batch, Sink& target, Scratch& scratch) {
         if (!u.telegram.drive_values.empty())
           u.telegram.drive_values = std::span<const DriveValue>(batch.drive_values)
                                         .subspan(u.drive_values_at, u.telegram.drive_values.size());
+        if (inner_takes_undecoded_) {
+          if (u.telegram.head) u.telegram.head = &u.head;
+          target.on_deferred_frame(u.telegram);
+          break;
+        }
         replay_undissected(u.telegram, target, scratch);
         if (scratch.decoded.frame.storage_bytes() > kKeptStorageBytes) scratch.decoded = Message{};
         break;
@@ -240,12 +246,16 @@ void ThreadedSink::replay_undissected(const DeferredTelegram& telegram, Sink& ta
 
 void ThreadedSink::on_deferred_frame(const DeferredTelegram& telegram) {
   if (finished_) {  // the writers have stopped: decoded here
-    replay_undissected(telegram, inner_, scratch_[0]);
+    if (inner_takes_undecoded_)
+      inner_.on_deferred_frame(telegram);
+    else
+      replay_undissected(telegram, inner_, scratch_[0]);
     given(telegram.number);
     return;
   }
   Undissected& r = next_slot(Kind::undissected, &Batch::undissected);
   r.telegram = telegram;
+  if (telegram.head) r.head = *telegram.head;
   if (!telegram.anomalies.empty()) {
     std::vector<Anomaly>& anomalies = current_->anomalies;
     r.anomalies_at = static_cast<std::uint32_t>(anomalies.size());

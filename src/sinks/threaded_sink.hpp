@@ -84,7 +84,8 @@ class alignas(kCacheLineBytes) ThreadedSink final : public Sink {
   // writer thread, before the inner sink gets the message (formatting it is a large part of the
   // decoding thread's work with drive profiles); telegrams handed over
   // undecoded are copied as they come and decoded on the writer thread, before the inner sink
-  // gets them and their anomalies.
+  // gets them and their anomalies (or, for an inner sink that judges them undecoded, the display
+  // filter's, handed on as they came).
   [[nodiscard]] SinkNeeds needs() const override { return needs_; }
   void on_deferred_frame(const DeferredTelegram& telegram) override;
   // Replays what is left and stops the writer thread; the inner sink is the caller's again.
@@ -110,6 +111,7 @@ class alignas(kCacheLineBytes) ThreadedSink final : public Sink {
   // `bytes` from `bytes_at`: its spans are set to them when replayed.
   struct Undissected {
     DeferredTelegram telegram;
+    TelegramFindings head;  // *telegram.head's copy (valid during the hand-over only)
     std::size_t bytes_at = 0;
     std::uint32_t anomalies_at = 0;     // telegram.anomalies' in Batch::anomalies
     std::uint32_t drive_values_at = 0;  // telegram.drive_values' in Batch::drive_values
@@ -235,6 +237,9 @@ class alignas(kCacheLineBytes) ThreadedSink final : public Sink {
   // With helpers: the inner sink, which writes their text.
   FormattingSink* const formatting_inner_;
   const SinkNeeds needs_;
+  // The inner sink judges undecoded telegrams itself (a display filter: SinkNeeds::
+  // deferred_decode): they are handed on undecoded, with their heads.
+  const bool inner_takes_undecoded_;
   std::vector<FormattingSink*> helpers_;
   const bool assist_;  // the pipeline thread formats with the last helper when it would wait
   std::vector<Scratch> scratch_;  // one per helper (after finish(), the first is the caller's)
