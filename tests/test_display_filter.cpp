@@ -274,6 +274,30 @@ TEST(DisplayFilter, ALateFindingIsJudgedOnItsOwnRecord) {
   EXPECT_FALSE(passes_late("packet_split_frame && addr", split));
 }
 
+// Whether every telegram is decoded for the filter (--stats then judges on a thread of its own):
+// what its first test reads. A test after a head key's reads only the telegrams the key lets by;
+// a finding's text or typed id only those whose head has its kind.
+TEST(DisplayFilter, TheFirstTestSaysWhetherEveryTelegramIsDecoded) {
+  const std::pair<const char*, bool> rows[] = {
+      {"summary contains \"Read\"", true},
+      {"summary contains \"Read\" && addr == 2", true},
+      {"addr == 2 && summary contains \"Read\"", false},
+      {"!(modbus.word_cnt > 4) || addr == 1", true},
+      {"(drive || addr == 1) && fc == 3", true},
+      {"checksum_stated == \"0A84\"", true},
+      {"mbrtu.unit_id == 2 && modbus.func_code == 3", false},
+      {"mbrtu.intra_frame_gap", false},
+      {"mbrtu.intra_frame_gap contains \"byte\"", false},
+      {"finding == \"modbus.extra_bytes\"", false},
+  };
+  for (const auto& [text, decodes] : rows) {
+    std::string error;
+    const std::optional<DisplayFilter> f = DisplayFilter::compile(text, &error);
+    ASSERT_TRUE(f.has_value()) << text << ": " << error;
+    EXPECT_EQ(f->first_test_decodes(), decodes) << text;
+  }
+}
+
 TEST(DisplayFilter, NeedsFollowTheNamesUsed) {
   struct Row {
     const char* filter;

@@ -578,6 +578,21 @@ bool DisplayFilter::matches(const RecordView& record) const {
   return eval(root_, record);
 }
 
+bool DisplayFilter::first_test_decodes() const {
+  // The test evaluated first: the left operand of each `&&` and `||` (the right one only when
+  // the left does not decide), the operand of `!`.
+  std::uint32_t at = root_;
+  while (nodes_[at].op == Node::Op::all || nodes_[at].op == Node::Op::any ||
+         nodes_[at].op == Node::Op::negate)
+    at = nodes_[at].first;
+  const RecordField& f = fields_[nodes_[at].field];
+  // (A finding's text or typed id is decoded only where the head has its kind.)
+  if (f.kind == RecordField::Kind::tree) return !f.in_head;
+  return f.kind == RecordField::Kind::key &&
+         (f.key == RecordKey::summary || f.key == RecordKey::drive ||
+          f.key == RecordKey::checksum_stated || f.key == RecordKey::checksum_computed);
+}
+
 bool DisplayFilter::eval(std::uint32_t index, const RecordView& record) const {
   const Node& n = nodes_[index];
   switch (n.op) {

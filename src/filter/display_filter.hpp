@@ -28,6 +28,9 @@ class DisplayFilter {
   // The field-tree ids it reads: a tree of these alone gives it the values a full tree does.
   [[nodiscard]] const FieldIdSet& tree_ids() const { return tree_ids_; }
   [[nodiscard]] const std::string& text() const { return text_; }
+  // The test the filter evaluates first reads what no telegram's head holds (a text, a tree id
+  // no head has): every telegram known by its head is decoded for it.
+  [[nodiscard]] bool first_test_decodes() const;
   // The filter names a finding reported after its frame (finding_known_after_frame()): it is
   // also evaluated against each such finding's own record.
   [[nodiscard]] bool names_late_findings() const { return names_late_findings_; }

@@ -42,10 +42,10 @@ class DisplayFilterSink final : public ForwardingSink {
   [[nodiscard]] SinkNeeds needs() const override;
 
   [[nodiscard]] std::uint64_t matched() const { return matched_; }
-  // The filter reads what no telegram's head holds (a text, a tree id no head has, a typed
-  // finding): telegrams are decoded for it.
-  [[nodiscard]] bool decodes_telegrams() const {
-    return filter_.needs().message || filter_.needs().telegram_tree;
+  // Every telegram judged by its head is decoded for the filter (DisplayFilter::
+  // first_test_decodes()).
+  [[nodiscard]] bool decodes_every_telegram() const {
+    return by_head_ && filter_.first_test_decodes();
   }
 
  private:
