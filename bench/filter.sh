@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Display filter cost: `drivetap read --stats` of a generated Modbus RTU capture against the same
-# with -Y: filters on the JSON record's keys, field-tree ids, a drive value and the info line
-# (docs/performance.md "Display filters"). Each row is the best wall and CPU time of REPEAT runs;
-# the last column is the ratio to the unfiltered --stats row (the target: at most 1.5).
+# with -Y: filters on the JSON record's keys, field-tree ids, a drive value, a typed finding id
+# and the info line (docs/performance.md "Display filters"). Each row is the best wall and CPU
+# time of REPEAT runs; the last column is the ratio to the unfiltered --stats row (the target: at
+# most 1.5).
 # Usage: bash bench/filter.sh [BUILD_DIR] [FRAMES]    (default: build-bench 1000000)
 set -euo pipefail
 build=${1:-build-bench}
@@ -57,5 +58,9 @@ row "read --stats -Y '$tree_filter'" -Y "$tree_filter"
 row "read --stats -Y 'modbus.word_cnt > 4'" -Y 'modbus.word_cnt > 4'
 # A drive value: read from the values the drive level hands over with each telegram.
 row "read --stats -Y 'drive.output_frequency > 10'" -Y 'drive.output_frequency > 10'
-# The info line: every telegram is decoded with its texts.
+# A typed finding id: judged on the head's finding kinds; decoded only where its kind is there.
+row "read --stats -Y 'mbrtu.intra_frame_gap'" -Y 'mbrtu.intra_frame_gap'
+# The info line after a head key: decoded only where the key matched.
+row "read --stats -Y 'addr == 2 && summary contains \"Read\"'" -Y 'addr == 2 && summary contains "Read"'
+# The info line alone: every telegram is decoded with its texts (on a thread of the filter's).
 row "read --stats -Y 'summary contains \"Read\"'" -Y 'summary contains "Read"'

@@ -255,7 +255,7 @@ void ThreadedSink::on_deferred_frame(const DeferredTelegram& telegram) {
   }
   Undissected& r = next_slot(Kind::undissected, &Batch::undissected);
   r.telegram = telegram;
-  if (telegram.head) r.head = *telegram.head;
+  if (inner_takes_undecoded_ && telegram.head) r.head = *telegram.head;
   if (!telegram.anomalies.empty()) {
     std::vector<Anomaly>& anomalies = current_->anomalies;
     r.anomalies_at = static_cast<std::uint32_t>(anomalies.size());
