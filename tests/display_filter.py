@@ -504,6 +504,21 @@ def check_stats(args, path, recs):
         fail("%s: text summary has no filter line" % path)
 
 
+def check_fields_selected(args, path, recs):
+    """-T fields -e n -Y of the filters on texts and findings: the frames the JSON records select.
+    (-T fields asks the pipeline for no texts of its own: the filter's must still be there, for
+    the telegrams it decodes itself and for those the pipeline decodes.)"""
+    texts = [f for f in STATIC_FILTERS + finding_filters(recs)
+             if re.search(r"summary|drive|finding|checksum_stated|\.", f) and not names_later(parse(f))]
+    for f in texts:
+        want = [r["n"] for r in recs if evaluate(parse(f), r)]
+        code, out, err = run(["read"] + args + ["-T", "fields", "-e", "n", "-Y", f, path])
+        got = [int(l) for l in out.split()] if code == 0 else None
+        if got != want:
+            fail("%s -T fields -Y %r: selected %s..., expected %s... (%s)" %
+                 (path, f, (got or [])[:8], want[:8], err.strip()))
+
+
 def check_fields(args, path, recs):
     tree_ids = []
     for r in recs:
@@ -589,6 +604,7 @@ def main():
             total += check_filters(args, path, recs, events, lines)
             check_stats(args, path, recs)
             check_fields(args, path, recs)
+            check_fields_selected(args, path, recs)
             check_drive_fields(args, path, recs)
         check_bad(os.path.join(SOURCE, "captures", "seed-erman-e9", "input.log"))
         # The README's drive 2 frequency over time: a row for each frame that shows it.

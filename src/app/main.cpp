@@ -87,7 +87,7 @@ int main(int argc, char** argv) {
   } catch (const std::system_error& e) {
     // fmt::print's failed write to standard output (a listing's: `drivetap fields | head`): ended
     // as finish_stdout() ends any other, silently as SIGPIPE would for a reader that went away.
-    if (!std::ferror(stdout)) throw;
+    if (!std::ferror(stdout) || e.code().category() != std::generic_category()) throw;
     if (e.code().value() == EPIPE) std::_Exit(128 + SIGPIPE);
     die(fmt::format("standard output: write failed: {}", e.code().message()), 1);
   }

@@ -172,12 +172,13 @@ Sink& Outputs::sink() {
   if (display_filter_ && !filter_sink_) {
     filter_sink_ = std::make_unique<DisplayFilterSink>(std::move(*display_filter_), inner,
                                                        channels_, character_time_, timed_);
-    // A filter that decodes every telegram, where no output takes records (--stats): the
-    // decoding would be most of the decoding thread's work, so the records go to a second core,
-    // where the filter judges them in order. (A filter that decodes some telegrams, or none,
-    // costs less on the decoding thread than the records' copies.)
-    if (second_thread_ && !inner.needs().records && filter_sink_->decodes_every_telegram() &&
-        std::thread::hardware_concurrency() >= 2)
+    // A filter that decodes every telegram, where no output takes records (--stats, --events):
+    // the decoding would be most of the decoding thread's work, so the records go to a second
+    // core, where the filter judges them in order. (A filter that decodes some telegrams, or
+    // none, costs less on the decoding thread than the records' copies; with -q -z nothing
+    // reads what it selects.)
+    if (second_thread_ && !inner.needs().records && !tee_.empty() &&
+        filter_sink_->decodes_every_telegram() && std::thread::hardware_concurrency() >= 2)
       filter_thread_ = std::make_unique<ThreadedSink>(*filter_sink_);
   }
   Sink& shown = filter_thread_ ? static_cast<Sink&>(*filter_thread_)

@@ -90,7 +90,8 @@ class Outputs {
   // write_on_second_thread() was called.
   bool second_thread_ = false;
   // Last: destroyed first, their threads joined before the sinks they write to go. -Y where no
-  // output takes records (--stats, -q -z): the filter judges them on a thread of its own.
+  // output takes records (--stats, --events) and the filter decodes every telegram: the filter
+  // judges them on a thread of its own.
   std::unique_ptr<ThreadedSink> threaded_;
   std::unique_ptr<ThreadedSink> filter_thread_;
 };

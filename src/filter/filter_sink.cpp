@@ -33,8 +33,9 @@ SinkNeeds DisplayFilterSink::needs() const {
   SinkNeeds n = inner_needs_;
   n.records = true;
   if (by_head_) {
-    // Telegrams taken whole come undecoded; the others decoded as the inner sink needs them
-    // (the filter reads none of the detail, nor the annotation the inner sink may write).
+    // Telegrams taken whole come undecoded (the filter decodes those it reads texts or trees
+    // of itself); the others decoded as the inner sink needs them, with the texts and tree the
+    // filter reads (below), the annotation left as the inner sink has it (annotated()).
     n.deferred_decode = true;
     if (!inner_needs_.records) {
       // Nothing is decoded for the inner sink: the annotation is left to this sink, which
@@ -48,8 +49,11 @@ SinkNeeds DisplayFilterSink::needs() const {
     n.drive_values = n.drive_values || filter_.needs().drive_values;
     n.drive_values_at_hand_over = filter_.needs().drive_values;  // (read in on_deferred_frame())
     // A telegram not read to its head (too short, UART marks, another protocol) is read in the
-    // tree the filter looks into.
+    // tree and with the texts the filter looks into. (With detail, the pipeline also leaves the
+    // annotation to the sinks, SinkNeeds::drive_info, and so takes telegrams whole with drive
+    // profiles too.)
     if (filter_.needs().tree) n.detail = n.fields = true;
+    if (filter_.needs().detail) n.detail = n.info_text = true;
     return n;
   }
   // Every frame comes here, decoded here: the filter reads its Message on this thread, and the

@@ -62,8 +62,8 @@ class DisplayFilterSink final : public ForwardingSink {
 
   DisplayFilter filter_;
   SinkNeeds inner_needs_;
-  // Telegrams are judged by their head when they come undecoded (decided once, from the filter's
-  // names and what the inner sink takes).
+  // Telegrams are judged by their head when they come undecoded (decided once, from what the
+  // inner sink takes).
   bool by_head_ = false;
   RecordViews views_;
   // A telegram judged by its head: decoded when the filter first reads what no head holds.

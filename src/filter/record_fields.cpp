@@ -216,9 +216,11 @@ bool key_values(RecordKey key, const RecordView& r, std::string& scratch, ValueV
     switch (key) {
       case RecordKey::finding:  // (none without one of the head's finding kinds)
         if (!head_has_findings(r)) return false;
-        [[fallthrough]];
+        return r.decode && key_values(key, decoded_view(r), scratch, visit);
+      case RecordKey::drive:  // (none where no drive profile reads the telegram)
+        if (!r.telegram->drive_profile) return false;
+        return r.decode && key_values(key, decoded_view(r), scratch, visit);
       case RecordKey::summary:
-      case RecordKey::drive:
       case RecordKey::checksum_stated:
       case RecordKey::checksum_computed:
         return r.decode && key_values(key, decoded_view(r), scratch, visit);
@@ -334,16 +336,28 @@ HeadValue head_value_of(const ProtocolDesc& p, const FieldDesc* key) {
   return HeadValue::none;
 }
 
+// Whether one of protocol `p`'s layers has the field `key`.
+bool has_field(const ProtocolDesc& p, const FieldDesc* key) {
+  for (const FieldProtocol* layer : p.field_protocols)
+    for (const FieldDesc* d : layer->fields)
+      if (d->key() == key) return true;
+  return false;
+}
+
 // Whether every telegram read to its head holds `key`'s value, or cannot have the field: for each
 // protocol, the field is one of its head's or of none of its layers.
 bool head_holds(const FieldDesc* key) {
-  for (const ProtocolDesc* p : registered_protocols()) {
-    if (head_value_of(*p, key) != HeadValue::none) continue;
-    for (const FieldProtocol* layer : p->field_protocols)
-      for (const FieldDesc* d : layer->fields)
-        if (d->key() == key) return false;
-  }
+  for (const ProtocolDesc* p : registered_protocols())
+    if (head_value_of(*p, key) == HeadValue::none && has_field(*p, key)) return false;
   return true;
+}
+
+// Whether the telegram's protocol is one of those `field` lists as lacking it.
+bool protocol_lacks(const RecordField& field, const DeferredTelegram& telegram) {
+  const ProtocolDesc* p = telegram.decoder->protocol().desc();
+  for (std::uint8_t i = 0; i < field.lacking_count; ++i)
+    if (field.lacking[i] == p) return true;
+  return false;
 }
 
 // A tree field of a telegram known by its head (head_holds() of it): the head's value, or none
@@ -416,6 +430,9 @@ std::optional<RecordField> resolve_record_field(std::string_view name) {
       f.kind = RecordField::Kind::tree;
       f.desc = d->key();
       f.in_head = head_holds(f.desc);
+      for (const ProtocolDesc* p : registered_protocols())
+        if (!has_field(*p, f.desc) && f.lacking_count < f.lacking.size())
+          f.lacking[f.lacking_count++] = p;
       f.name = d->id;
       return f;
     }
@@ -454,7 +471,8 @@ bool record_values(const RecordField& field, const RecordView& record, std::stri
       if (record.message) return tree_values(field.desc, *record.message, scratch, visit);
       if (!record.telegram) return false;
       if (field.in_head) return head_tree_values(field.desc, record, scratch, visit);
-      return record.decode && tree_values(field.desc, record.decode->tree(), scratch, visit);
+      return record.decode && !protocol_lacks(field, *record.telegram) &&
+             tree_values(field.desc, record.decode->tree(), scratch, visit);
     case RecordField::Kind::finding_kind:
       // A telegram known by its head: decoded for the finding's text, and only when it has one.
       if (record.telegram) {

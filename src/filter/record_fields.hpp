@@ -9,6 +9,7 @@
 // last the names of the sources added with add_record_field_source (the drive layer's `drive.*`).
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <optional>
@@ -26,6 +27,7 @@
 namespace drivetap {
 
 struct DeferredTelegram;
+struct ProtocolDesc;
 
 // What the record of a finding reported after its frame (finding_known_after_frame()) says of
 // that frame besides the finding's own n, t and channel: its protocol, addr and fc (none for
@@ -74,8 +76,8 @@ class TelegramDecode {
 struct RecordView {
   const Message* message = nullptr;  // a telegram; or
   const Frame* noise = nullptr;      // a noise record; or
-  // a telegram known by its head only (DeferredTelegram::head): only the fields whose needs()
-  // say no `message` can be read of it
+  // a telegram known by its head (DeferredTelegram::head): the fields whose needs() say no
+  // `message` or `telegram_tree` are read of the head, the others through `decode`
   const DeferredTelegram* telegram = nullptr;
   // with it, for the fields no head holds: the telegram decoded on the first read of one
   TelegramDecode* decode = nullptr;
@@ -204,8 +206,11 @@ struct RecordField {
   enum class Kind : std::uint8_t { key, tree, finding_kind, finding_id, source };
   Kind kind = Kind::key;
   RecordKey key = RecordKey::n;
-  const FieldDesc* desc = nullptr;   // tree: the listed descriptor (FieldDesc::key)
-  bool in_head = false;              // tree: every telegram's head holds it (or no layer has it)
+  const FieldDesc* desc = nullptr;  // tree: the listed descriptor (FieldDesc::key)
+  bool in_head = false;             // tree: every telegram's head holds it (or no layer has it)
+  // tree: the protocols none of whose layers has it (their telegrams are not decoded for it)
+  std::array<const ProtocolDesc*, 8> lacking{};
+  std::uint8_t lacking_count = 0;
   AnomalyKind finding_kind{};        // finding_kind
   const char* finding_id = nullptr;  // finding_id: a protocol's typed id
   const RecordFieldSource* source = nullptr;
@@ -227,7 +232,8 @@ bool finding_known_after_frame(AnomalyKind kind);
 LateFindingFrame late_finding_frame_of(const RecordView& frame);
 
 // visit() of each value of `field` in `record` until one returns true; true when one did. Numbers
-// come with their JSON text; text is written into `scratch` where it is made (hex, summary).
+// come with their JSON text; text is written into `scratch` where it is made (hex; the summary
+// into a buffer of the thread's own).
 bool record_values(const RecordField& field, const RecordView& record, std::string& scratch,
                    ValueVisitor& visit);
 

@@ -222,6 +222,7 @@ class FormattingSink : public Sink {
 class TeeSink final : public Sink {
  public:
   void add(Sink* s) { sinks_.push_back(s); }
+  [[nodiscard]] bool empty() const { return sinks_.empty(); }
   void on_frame(const Message& m) override { to_each(&Sink::on_frame, m); }
   void on_noise(const Frame& f) override { to_each(&Sink::on_noise, f); }
   void on_anomaly(const Anomaly& a) override { to_each(&Sink::on_anomaly, a); }

@@ -255,7 +255,10 @@ void ThreadedSink::on_deferred_frame(const DeferredTelegram& telegram) {
   }
   Undissected& r = next_slot(Kind::undissected, &Batch::undissected);
   r.telegram = telegram;
-  if (inner_takes_undecoded_ && telegram.head) r.head = *telegram.head;
+  if (inner_takes_undecoded_ && telegram.head)
+    r.head = *telegram.head;
+  else
+    r.telegram.head = nullptr;  // (no reader: not kept pointing into the pipeline)
   if (!telegram.anomalies.empty()) {
     std::vector<Anomaly>& anomalies = current_->anomalies;
     r.anomalies_at = static_cast<std::uint32_t>(anomalies.size());

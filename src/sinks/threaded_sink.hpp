@@ -111,7 +111,10 @@ class alignas(kCacheLineBytes) ThreadedSink final : public Sink {
   // `bytes` from `bytes_at`: its spans are set to them when replayed.
   struct Undissected {
     DeferredTelegram telegram;
-    TelegramFindings head;  // *telegram.head's copy (valid during the hand-over only)
+    // For an inner sink that judges telegrams undecoded: a copy of *telegram.head (which points
+    // into the pipeline, valid during the hand-over only); telegram.head is set to it when
+    // replayed, and is null for other inner sinks.
+    TelegramFindings head;
     std::size_t bytes_at = 0;
     std::uint32_t anomalies_at = 0;     // telegram.anomalies' in Batch::anomalies
     std::uint32_t drive_values_at = 0;  // telegram.drive_values' in Batch::drive_values
