@@ -486,7 +486,7 @@ def every_tree_id_filters(recs):
 def check_stats(args, path, recs):
     # The count: what the JSON records select. Texts and typed finding ids are read of the
     # telegrams --stats -Y decodes for the filter, the others of their heads.
-    for f in STATS_FILTERS + STATIC_FILTERS + finding_filters(recs) + every_tree_id_filters(recs):
+    for f in STATS_FILTERS + decoding_filters(recs) + every_tree_id_filters(recs):
         want = sum(1 for r in recs if evaluate(parse(f), r))
         code, out, err = run(["read"] + args + ["--stats", "-T", "json", "-Y", f, path])
         got = json.loads(out.splitlines()[-1]).get("filter", {}).get("matched") if code == 0 else None
@@ -504,13 +504,21 @@ def check_stats(args, path, recs):
         fail("%s: text summary has no filter line" % path)
 
 
+def decoding_filters(recs):
+    """Filters on findings (their presence the head's, their text and typed ids read of the
+    telegram decoded) and on what no head holds (texts, stated checksums)."""
+    kinds = ["malformed || implausible", "short_interframe_gap", "checksum_bad && addr == 1",
+             "malformed contains \"byte\"", "!implausible && n > 3"]  # (presence, then text)
+    return kinds + [f for f in STATIC_FILTERS + finding_filters(recs)
+                    if re.search(r"summary|drive|finding|checksum_stated|[a-z_]\.[a-z_]", f)
+                    and not names_later(parse(f))]
+
+
 def check_fields_selected(args, path, recs):
     """-T fields -e n -Y of the filters on texts and findings: the frames the JSON records select.
     (-T fields asks the pipeline for no texts of its own: the filter's must still be there, for
     the telegrams it decodes itself and for those the pipeline decodes.)"""
-    texts = [f for f in STATIC_FILTERS + finding_filters(recs)
-             if re.search(r"summary|drive|finding|checksum_stated|\.", f) and not names_later(parse(f))]
-    for f in texts:
+    for f in decoding_filters(recs):
         want = [r["n"] for r in recs if evaluate(parse(f), r)]
         code, out, err = run(["read"] + args + ["-T", "fields", "-e", "n", "-Y", f, path])
         got = [int(l) for l in out.split()] if code == 0 else None
