@@ -586,11 +586,11 @@ bool DisplayFilter::first_test_decodes() const {
          nodes_[at].op == Node::Op::negate)
     at = nodes_[at].first;
   const RecordField& f = fields_[nodes_[at].field];
-  // (A finding's text or typed id is decoded only where the head has its kind.)
-  if (f.kind == RecordField::Kind::tree) return !f.in_head;
-  return f.kind == RecordField::Kind::key &&
-         (f.key == RecordKey::summary || f.key == RecordKey::drive ||
-          f.key == RecordKey::checksum_stated || f.key == RecordKey::checksum_computed);
+  const RecordFieldNeeds n = f.needs();
+  // A key the head lacks, but `finding`, which is decoded only where the head has one (as a
+  // finding's text or typed id only where it has its kind).
+  return n.telegram_tree ||
+         (f.kind == RecordField::Kind::key && n.message && f.key != RecordKey::finding);
 }
 
 bool DisplayFilter::eval(std::uint32_t index, const RecordView& record) const {

@@ -158,11 +158,7 @@ void ThreadedSink::replay(Batch& batch, Sink& target, Scratch& scratch) {
         if (!u.telegram.drive_values.empty())
           u.telegram.drive_values = std::span<const DriveValue>(batch.drive_values)
                                         .subspan(u.drive_values_at, u.telegram.drive_values.size());
-        if (inner_takes_undecoded_) {
-          if (u.telegram.head) u.telegram.head = &u.head;
-          target.on_deferred_frame(u.telegram);
-          break;
-        }
+        if (inner_takes_undecoded_ && u.telegram.head) u.telegram.head = &u.head;
         replay_undissected(u.telegram, target, scratch);
         if (scratch.decoded.frame.storage_bytes() > kKeptStorageBytes) scratch.decoded = Message{};
         break;
@@ -231,6 +227,7 @@ void ThreadedSink::weigh(std::size_t bytes) {
 
 void ThreadedSink::replay_undissected(const DeferredTelegram& telegram, Sink& target,
                                       Scratch& scratch) const {
+  if (inner_takes_undecoded_) return target.on_deferred_frame(telegram);  // (it decodes them)
   Message& decoded = scratch.decoded;
   decoded.detail = needs_.detail;
   decoded.tree = needs_.fields;
@@ -246,10 +243,7 @@ void ThreadedSink::replay_undissected(const DeferredTelegram& telegram, Sink& ta
 
 void ThreadedSink::on_deferred_frame(const DeferredTelegram& telegram) {
   if (finished_) {  // the writers have stopped: decoded here
-    if (inner_takes_undecoded_)
-      inner_.on_deferred_frame(telegram);
-    else
-      replay_undissected(telegram, inner_, scratch_[0]);
+    replay_undissected(telegram, inner_, scratch_[0]);
     given(telegram.number);
     return;
   }

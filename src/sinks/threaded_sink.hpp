@@ -219,7 +219,8 @@ class alignas(kCacheLineBytes) ThreadedSink final : public Sink {
   // batch, before weigh(): a batch published from now on starts after it, Batch::follows).
   void given(std::uint64_t number) { last_number_ = number; }
   // An undissected telegram to `target`: decoded into scratch.decoded (its drive annotation
-  // written with scratch.drive), then it and its anomalies.
+  // written with scratch.drive), then it and its anomalies; or handed on undecoded to an inner
+  // sink that decodes telegrams itself.
   void replay_undissected(const DeferredTelegram& telegram, Sink& target, Scratch& scratch) const;
   void publish();                // hands the current batch, if it holds records, to the writer
   void wait_until_idle();        // until every published batch has been replayed
