@@ -16,7 +16,7 @@
 #   build-fuzz/fuzz/fuzz_<target> ARTIFACT
 # A dictionary fuzz/fuzz_<target>.dict, when there is one, is passed with -dict.
 # Environment: FUZZ_TIMEOUT (seconds one input may take before it counts as a hang, default 20);
-# FUZZ_BUILD (the build directory, default build-fuzz); FUZZ_JOBS (targets run at once, default
+# FUZZ_BUILD (the build directory, default build-fuzz; scripts/test.sh gives its sanitizer build); FUZZ_JOBS (targets run at once, default
 # 1).
 # Exit status 1 when any target found a crash, hang, leak or out-of-memory, or a regression
 # reproducer still fails.
@@ -44,18 +44,21 @@ done
 [ ${#targets[@]} -gt 0 ] || targets=("${all_targets[@]}")
 timeout=${FUZZ_TIMEOUT:-20}
 
-# clang with its libFuzzer runtime (only a recommendation of clang, so named), xxd and unzip for
-# the seeds.
+# clang with its libFuzzer runtime, xxd and unzip for the seeds (scripts/install-deps.sh).
 bash scripts/install-deps.sh clang libclang-rt-14-dev xxd unzip
 
 build=${FUZZ_BUILD:-$root/build-fuzz}
 jobs=$(nproc 2>/dev/null || echo 2)
 mkdir -p "$build"
-cmake -S . -B "$build" -G Ninja -DCMAKE_CXX_COMPILER=clang++ -DDRIVETAP_FUZZ=ON \
-  -DDRIVETAP_BUILD_TESTS=OFF -DCMAKE_BUILD_TYPE=RelWithDebInfo > "$build/configure.log" 2>&1 || {
-  cat "$build/configure.log" >&2
-  exit 1
-}
+# A build configured with the targets already (scripts/test.sh's sanitizer build, whose objects
+# they share) is built as it is; any other folder is configured for the targets alone.
+if ! grep -qs '^DRIVETAP_FUZZ:BOOL=ON$' "$build/CMakeCache.txt"; then
+  cmake -S . -B "$build" -G Ninja -DCMAKE_CXX_COMPILER=clang++ -DDRIVETAP_FUZZ=ON \
+    -DDRIVETAP_BUILD_TESTS=OFF -DCMAKE_BUILD_TYPE=RelWithDebInfo > "$build/configure.log" 2>&1 || {
+    cat "$build/configure.log" >&2
+    exit 1
+  }
+fi
 cmake --build "$build" -j "$jobs" --target fuzz
 
 # ---- seeds ----

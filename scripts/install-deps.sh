@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Installs drivetap's build and test dependencies from Debian (bookworm), as root; packages given
-# as arguments are installed too (scripts/fuzz.sh adds clang and its tools).
+# as arguments are installed too (scripts/test.sh and scripts/fuzz.sh add clang and the tools of
+# the sanitizer and fuzz builds).
 set -euo pipefail
 packages=(build-essential cmake ninja-build pkg-config libfmt-dev libcli11-dev libgtest-dev libgmock-dev
           libpcap-dev libtomlplusplus-dev libzip-dev libbenchmark-dev tshark sigrok-cli time python3

@@ -15,11 +15,11 @@ build=${1:-build-tsan}
 jobs=$(nproc 2>/dev/null || echo 2)
 
 cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DDRIVETAP_TSAN=ON \
-  -DDRIVETAP_BENCH=OFF
-cmake --build "$build" -j "$jobs" --target drivetap drivetap_tests
+  -DDRIVETAP_BENCH=OFF ${CCACHE_BASEDIR:+-DCMAKE_CXX_COMPILER_LAUNCHER=ccache} > /dev/null
+cmake --build "$build" -j "$jobs" --target drivetap drivetap_thread_tests
 export TSAN_OPTIONS="halt_on_error=1 exitcode=66 second_deadlock_stack=1"
 
-"$build/tests/drivetap_tests" --gtest_brief=1 \
+"$build/tests/drivetap_thread_tests" --gtest_brief=1 \
   --gtest_filter='ThreadedSink.*:ReadAhead.*:DriveAnnotation.*:Pipeline.TelegramsHandedOver*:Pipeline.FormattedOnSeveralThreads*'
 
 work=$(mktemp -d)

@@ -21,6 +21,19 @@ summary_field() { sed -n "s/^$2: *\([0-9]*\).*/\1/p" "$1"; }
 # was preempted): each may run into a neighbour or come apart.
 disturbed() { cat "$@" | grep -c 'pause inside as written\|behind its schedule'; }
 
+# until_true SECONDS COMMAND...: waits for a state (COMMAND succeeds), polling every 20 ms; false
+# when it has not come after SECONDS. The tests wait for what they need, never a fixed time.
+until_true() {
+  local end=$((SECONDS + $1))
+  shift
+  until "$@"; do
+    [ "$SECONDS" -ge "$end" ] && return 1
+    sleep 0.02
+  done
+}
+# at_least N PATTERN FILE: FILE has N lines matching PATTERN.
+at_least() { [ "$(grep -c -- "$2" "$3" 2>/dev/null)" -ge "$1" ]; }
+
 # The simulator and the capture whose counts are checked run at real-time priority where allowed:
 # on a busy machine a normal process loses the CPU for milliseconds, longer than the silences that
 # cut the frames. The counts allow for what the simulator still reports late; a capture preempted
@@ -119,7 +132,7 @@ for _ in $(seq 50); do [ -e "$link" ] && break; sleep 0.02; done
 "$drivetap" capture -i "$link" -s "19200 8E1" -P rtu --drive none -w "$tmp/int.pcapng" \
   >"$tmp/int.txt" 2>"$tmp/int.err" &
 cap=$!
-sleep 2
+until_true 20 at_least 30 "crc ok" "$tmp/int.txt" || fail "SIGINT: 30 frames not captured in 20 s"
 kill -INT "$cap"
 wait "$cap"
 rc=$?
@@ -205,9 +218,10 @@ for _ in $(seq 50); do [ -e "$link" ] && break; sleep 0.02; done
   >"$tmp/again.txt" 2>"$tmp/again.err" &
 cap=$!
 wait "$sim"
-sleep 0.5
+# The capture has read every byte once it says the port is gone.
+until_true 20 at_least 1 "gone" "$tmp/again.err" || fail "--reconnect: the port's loss not seen"
 "${rt[@]}" "$simbus" --link "$link" --serial "19200 8E1" --wait-ms 800 --frames 20 2>/dev/null
-sleep 0.3
+until_true 20 at_least 2 "gone" "$tmp/again.err" || fail "--reconnect: the second loss not seen"
 kill -INT "$cap"
 wait "$cap"
 rc=$?
@@ -231,7 +245,7 @@ for _ in $(seq 50); do [ -e "$tmp/a.tty" ] && [ -e "$tmp/b.tty" ] && break; slee
   --drive none --reconnect -w - >"$tmp/two.pcapng" 2>"$tmp/two.err" &
 cap=$!
 wait "$sim_a" "$sim_b"
-sleep 0.3
+until_true 20 at_least 2 "gone" "$tmp/two.err" || fail "two ports: the ports' loss not seen"
 kill -INT "$cap"
 wait "$cap"
 # 60 frames, no garbage; as for one port, a frame the simulator was late with may be cut.

@@ -6,7 +6,7 @@
 # the JSON records; bad filters must exit 2 with one line naming the column; a filtered --stats
 # summary must count what the unfiltered one counts. A filter naming a finding reported after its
 # frame (LATER) is also evaluated against each such finding's own record (late_records()).
-# Usage: display_filter.py DRIVETAP SOURCE_DIR
+# Usage: display_filter.py DRIVETAP SOURCE_DIR {filters|stats|fields}
 import csv
 import glob
 import io
@@ -16,6 +16,9 @@ import re
 import subprocess
 import sys
 import tempfile
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from cases import Cases  # noqa: E402
 
 DRIVETAP, SOURCE = sys.argv[1], sys.argv[2]
 FAILURES = []
@@ -599,41 +602,70 @@ def check_bad(path):
                  (f, code, err, column))
 
 
+PARTS = ("filters", "stats", "fields")
+
+
 def main():
+    """One part of the suite (ctest runs each as a test of its own): `filters` (-Y against the
+    JSON records), `stats` (--stats -Y counts) or `fields` (-T fields against the JSON records,
+    bad filters, the README's examples). Each input of a part is a case (tests/cases.py)."""
+    part = sys.argv[3] if len(sys.argv) > 3 else None
+    if part not in PARTS:
+        print("usage: display_filter.py DRIVETAP SOURCE_DIR {%s}" % "|".join(PARTS))
+        sys.exit(2)
+    cases = Cases("display_filter." + part)
     total = 0
     with tempfile.TemporaryDirectory() as tmp:
         for args, path in inputs(tmp):
+            if not cases.begin(case_name(path)):
+                continue
             code, out, err = run(["read"] + args + ["-T", "json", path])
             if code != 0:
                 continue  # (inputs that are refused are the golden tests' business)
             recs = records_of(out)
-            events = [json.loads(l) for l in out.splitlines() if l.startswith('{"type":"event"')]
-            lines = [json.loads(l) for l in out.splitlines()]
-            total += check_filters(args, path, recs, events, lines)
-            check_stats(args, path, recs)
-            check_fields(args, path, recs)
-            check_fields_selected(args, path, recs)
-            check_drive_fields(args, path, recs)
-        check_bad(os.path.join(SOURCE, "captures", "seed-erman-e9", "input.log"))
-        # The README's drive 2 frequency over time: a row for each frame that shows it.
-        e9 = os.path.join(SOURCE, "captures", "session-e9", "input.log")
-        code, out, err = run(["read", "--drive", "2=e9", "-T", "fields", "-e", "t", "-e",
-                              "drive.output_frequency", "-Y", "drive.output_frequency", e9])
-        rows = [l.split("\t") for l in out.splitlines()]
-        if code != 0 or not rows or any(len(r) != 2 or "" in r for r in rows):
-            fail("README drive.output_frequency example: exit %d %r %s" % (code, out[:200], err))
-        # A drive value no loaded profile gives is a filter error naming it.
-        code, out, err = run(["read", "-Y", "drive.no_such_value > 1", e9])
-        if code != 2 or "drive.no_such_value" not in err or len(err.splitlines()) != 1:
-            fail("-Y drive.no_such_value: exit %d %r" % (code, err))
-        # decode takes -Y too
-        code, out, _ = run(["decode", "-T", "json", "-Y", "fc == 3",
-                            "01 03 00 00 00 01 84 0A", "01 06 00 01 00 03 98 0B"])
-        frames = [json.loads(l) for l in out.splitlines() if '"type":"frame"' in l]
-        if code != 0 or [f["fc"] for f in frames] != [3]:
-            fail("decode -Y: %s" % out)
+            if part == "filters":
+                events = [json.loads(l) for l in out.splitlines() if l.startswith('{"type":"event"')]
+                lines = [json.loads(l) for l in out.splitlines()]
+                total += check_filters(args, path, recs, events, lines)
+            elif part == "stats":
+                check_stats(args, path, recs)
+            else:
+                check_fields(args, path, recs)
+                check_fields_selected(args, path, recs)
+                check_drive_fields(args, path, recs)
+        if part == "fields" and cases.begin("bad-filters-and-examples"):
+            check_bad(os.path.join(SOURCE, "captures", "seed-erman-e9", "input.log"))
+            check_examples()
+    for problem in cases.finish():
+        fail(problem)
     print("%d filter runs compared, %d failures" % (total, len(FAILURES)))
     sys.exit(1 if FAILURES else 0)
+
+
+def case_name(path):
+    """An input's case: its capture folder, or the generated file's name."""
+    folder = os.path.basename(os.path.dirname(path))
+    return os.path.basename(path) if path.startswith(tempfile.gettempdir()) else folder
+
+
+def check_examples():
+    # The README's drive 2 frequency over time: a row for each frame that shows it.
+    e9 = os.path.join(SOURCE, "captures", "session-e9", "input.log")
+    code, out, err = run(["read", "--drive", "2=e9", "-T", "fields", "-e", "t", "-e",
+                          "drive.output_frequency", "-Y", "drive.output_frequency", e9])
+    rows = [l.split("\t") for l in out.splitlines()]
+    if code != 0 or not rows or any(len(r) != 2 or "" in r for r in rows):
+        fail("README drive.output_frequency example: exit %d %r %s" % (code, out[:200], err))
+    # A drive value no loaded profile gives is a filter error naming it.
+    code, out, err = run(["read", "-Y", "drive.no_such_value > 1", e9])
+    if code != 2 or "drive.no_such_value" not in err or len(err.splitlines()) != 1:
+        fail("-Y drive.no_such_value: exit %d %r" % (code, err))
+    # decode takes -Y too
+    code, out, _ = run(["decode", "-T", "json", "-Y", "fc == 3",
+                        "01 03 00 00 00 01 84 0A", "01 06 00 01 00 03 98 0B"])
+    frames = [json.loads(l) for l in out.splitlines() if '"type":"frame"' in l]
+    if code != 0 or [f["fc"] for f in frames] != [3]:
+        fail("decode -Y: %s" % out)
 
 
 main()

@@ -16,6 +16,17 @@ tmp=$(mktemp -d)
 trap 'kill $(jobs -p) 2>/dev/null; rm -rf "$tmp"' EXIT
 failed=0
 fail() { echo "FAIL: $*"; failed=1; }
+# until_status N FILE: waits (up to 20 s, polling) until the control messages in FILE hold a status
+# bar count of N frames or more: the tests wait for what they need, never a fixed time.
+until_status() {
+  local end=$((SECONDS + 20)) n
+  while [ "$SECONDS" -lt "$end" ]; do
+    n=$(grep -ao "drivetap: [0-9]* frames" "$2" 2>/dev/null | tail -n 1 | tr -dc 0-9)
+    [ -n "$n" ] && [ "$n" -ge "$1" ] && return 0
+    sleep 0.02
+  done
+  return 1
+}
 have_tshark=0
 if command -v tshark >/dev/null; then
   have_tshark=1
@@ -191,7 +202,10 @@ control_reader=$!
   --line-format 8E1 --extcap-control-out "$tmp/control.out" --extcap-control-in "$tmp/control.in" \
   2>"$tmp/term.err" &
 cap=$!
-sleep 3
+started=$SECONDS
+# Until the status bar has counted 30 frames (tshark reads more than 20 packets, below).
+until_status 30 "$tmp/control.bytes" || fail "SIGTERM: 30 frames not counted in 20 s"
+elapsed=$((SECONDS - started + 1))
 kill -TERM "$cap"
 wait "$cap"
 rc=$?
@@ -210,7 +224,7 @@ if [ "$have_tshark" = 1 ]; then
   [ $((frames + ${noise:-0})) = "$packets" ] ||
     fail "SIGTERM: drivetap reads $frames frames and ${noise:-0} noise records, tshark $packets packets"
 fi
-python3 - "$tmp/control.bytes" "${packets:-0}" <<'EOF' || fail "control pipe"
+python3 - "$tmp/control.bytes" "${packets:-0}" "$elapsed" <<'EOF' || fail "control pipe"
 import re, sys
 data = open(sys.argv[1], "rb").read()
 messages, i = [], 0
@@ -224,7 +238,8 @@ assert i == len(data), "a message cut short"
 log = [p for c, k, p in messages if k == 2]
 status = [p for c, k, p in messages if k == 6]
 assert log and log[0].startswith("capturing on ") and "19200 8E1" in log[0], log
-assert 1 <= len(status) <= 2 * 3 + 2, f"{len(status)} status messages in 3 s"
+seconds = int(sys.argv[3])
+assert 1 <= len(status) <= 2 * seconds + 2, f"{len(status)} status messages in {seconds} s"
 counts = [int(re.match(r"drivetap: (\d+) frames \(\d+ checksum ok\), \d+ findings, \d+ noise records$", s).group(1)) for s in status]
 assert counts == sorted(counts) and counts[-1] > 0, counts
 packets = int(sys.argv[2])
@@ -258,8 +273,7 @@ control_reader=$!
 "$drivetap" --capture --extcap-interface "$tmp/detect.tty" --fifo "$tmp/detect.fifo" --detect \
   --protocol rtu --extcap-control-out "$tmp/detect.control" 2>"$tmp/detect.err" &
 cap=$!
-for _ in $(seq 300); do grep -aq "capturing on" "$tmp/detect.bytes" 2>/dev/null && break; sleep 0.1; done
-sleep 2
+until_status 1 "$tmp/detect.bytes" || fail "--detect: no frame counted in 20 s"
 kill -TERM "$cap"
 wait "$cap"
 rc=$?

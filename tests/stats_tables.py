@@ -12,6 +12,7 @@ For every capture in CAPTURES_DIR and for `drivetap generate` traffic (several l
    records, and so does `--drive none` (telegrams taken whole, handed over undecoded);
 3. the text tables say what the JSON records say.
 Unknown or malformed -z arguments: one line naming them, exit 2.
+Each input is a case (tests/cases.py), which the sanitizer build samples.
 """
 import json
 import math
@@ -21,6 +22,9 @@ import sys
 import tempfile
 from decimal import Decimal
 from collections import defaultdict
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from cases import Cases  # noqa: E402
 
 DRIVETAP = sys.argv[1]
 CAPTURES = sys.argv[2]
@@ -351,9 +355,11 @@ def main():
             log = os.path.join(work, f"generated-{seed}.log")
             run(["generate", "--frames", "20000", "--seed", str(seed), "-o", log])
             inputs.append((f"generate --seed {seed}", log))
-        stations_seen = 0
+        cases = Cases("stats_tables")
         for name, path in inputs:
-            check_input(name, path)
+            if cases.begin(name):
+                check_input(name, path)
+        cases.end()  # (what follows always runs)
         p = run(["read", inputs[-1][1], "-T", "json", "--stats", "-z", "stations"])
         stations_seen = sum('"stat":"stations"' in line for line in p.stdout.splitlines())
         if stations_seen < 4:
@@ -377,6 +383,8 @@ def main():
                 p = run(command[:1] + ["-z", bad] + command[1:], check=False)
                 if p.returncode != 2 or p.stderr.strip() != message or p.stdout:
                     fail(f"-z {bad}: exit {p.returncode}, stderr {p.stderr!r}, stdout {p.stdout[:80]!r}")
+    for problem in cases.finish():
+        fail(problem)
     print(f"{len(inputs)} inputs checked, {len(failures)} failures")
     return 1 if failures else 0
 

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Line verdicts against the truth and against independent decodes.
 
-    tests/verdicts.py DRIVETAP [--captures DIR]
+    tests/verdicts.py DRIVETAP {truth|generated|property} [--captures DIR]
 
 1. Truth: every logic capture whose line is known (the public recordings' MANIFEST, the
    generated unbiased pair) must be diagnosed with the right settings and polarity on each
@@ -16,7 +16,8 @@
    channel decode that channel with the fewest errors of all 36 formats in both polarities at the
    detected rate (recomputed here, one `diagnose -s` per candidate).
 
-Exit 0 when all hold; 77 (skipped) when sigrok-cli is missing and DRIVETAP_REQUIRE_SIGROK is unset.
+Each part is a ctest test of its own; each capture of truth and property is a case
+(tests/cases.py), which the sanitizer build samples. Exit 0 when all hold; 77 (skipped) when sigrok-cli is missing and DRIVETAP_REQUIRE_SIGROK is unset.
 """
 import concurrent.futures
 import difflib
@@ -26,6 +27,10 @@ import os
 import shutil
 import subprocess
 import sys
+import time
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from cases import Cases  # noqa: E402
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
@@ -72,13 +77,13 @@ def fail(message):
     print("FAIL " + message)
 
 
-def run(*args):
-    done = subprocess.run(args, capture_output=True, text=True, timeout=300)
+def run(*args, env=None):
+    done = subprocess.run(args, capture_output=True, text=True, timeout=300, env=env)
     return done.returncode, done.stdout, done.stderr
 
 
-def diagnose(drivetap, path, *options):
-    code, out, err = run(drivetap, "diagnose", "-T", "json", *options, path)
+def diagnose(drivetap, path, *options, env=None):
+    code, out, err = run(drivetap, "diagnose", "-T", "json", *options, path, env=env)
     if code != 0:
         raise RuntimeError(f"drivetap diagnose {' '.join(options)} {path}: exit {code}: {err}")
     return json.loads(out)
@@ -118,8 +123,10 @@ def sigrok_bytes(path, channel, options):
     return bytes(values)
 
 
-def check_truth(drivetap, captures, have_sigrok):
+def check_truth(drivetap, captures, have_sigrok, cases):
     for rel, lines, required, forbidden, sigrok in TRUTH:
+        if not cases.begin(rel.replace("/", ":")):
+            continue
         path = os.path.join(captures, rel)
         report = diagnose(drivetap, path)
         got = {c["name"]: c["line"] for c in report.get("channels", [])}
@@ -214,13 +221,18 @@ def errors_of(channel_report):
     return bad / chars if chars else 1.0, chars
 
 
-def check_property(drivetap, captures):
+def property_case(captures, path):
+    return os.path.relpath(path, captures).replace(os.sep, ":")
+
+
+def check_property(drivetap, captures, cases):
     files = sorted(glob.glob(os.path.join(captures, "**", "*.sr"), recursive=True) +
                    glob.glob(os.path.join(captures, "**", "*.vcd"), recursive=True))
     files = [f for f in files if os.sep + "regressions" + os.sep not in f]
+    files = [f for f in files if cases.wanted(property_case(captures, f))]
     jobs = []
     for path in files:
-        report = diagnose(drivetap, path)
+        report = diagnose(drivetap, path, env=cases.env(property_case(captures, path)))
         for channel in report.get("channels", []):
             detection = channel.get("detection")
             if not detection:
@@ -238,7 +250,10 @@ def check_property(drivetap, captures):
         options = ["-s", f"{baud} {bits}{parity}{stops}", "--channels", name]
         if inverted:
             options.append("--invert")
-        report = diagnose(drivetap, path, *options)
+        started = time.monotonic()
+        case = property_case(captures, path)
+        report = diagnose(drivetap, path, *options, env=cases.env(case))
+        cases.timed(case, time.monotonic() - started)
         return job, errors_of(report["channels"][0])
 
     results = {}
@@ -260,29 +275,38 @@ def check_property(drivetap, captures):
                  f"{best[1][0]:.3f} in {best[1][1]}")
     print(f"property: {checked} channels of {len(files)} logic captures, {len(jobs)} trial "
           f"decodes")
-    if checked == 0:
+    if checked == 0 and files:
         fail("property: no channel checked")
 
 
 def main():
-    if len(sys.argv) < 2:
+    parts = ("truth", "generated", "property")
+    if len(sys.argv) < 3 or sys.argv[2] not in parts:
         print(__doc__)
         return 2
     drivetap = os.path.abspath(sys.argv[1])
+    part = sys.argv[2]
     captures = os.path.join(ROOT, "captures")
-    if len(sys.argv) > 3 and sys.argv[2] == "--captures":
-        captures = sys.argv[3]
+    if len(sys.argv) > 4 and sys.argv[3] == "--captures":
+        captures = sys.argv[4]
     have_sigrok = shutil.which("sigrok-cli") is not None
     if not have_sigrok and os.environ.get("DRIVETAP_REQUIRE_SIGROK"):
         print("FAIL sigrok-cli is required (DRIVETAP_REQUIRE_SIGROK) but not installed")
         return 1
-    check_truth(drivetap, captures, have_sigrok)
-    check_generated(drivetap)
-    check_property(drivetap, captures)
+    cases = Cases("verdicts." + part)
+    if part == "truth":
+        check_truth(drivetap, captures, have_sigrok, cases)
+    elif part == "generated":
+        if cases.begin("generated"):
+            check_generated(drivetap)
+    else:
+        check_property(drivetap, captures, cases)
+    for problem in cases.finish():
+        fail(problem)
     if failures:
         print(f"{len(failures)} failures")
         return 1
-    if not have_sigrok:
+    if not have_sigrok and part == "truth":
         print("SKIP the sigrok-cli checks: sigrok-cli is not installed (apt-get install sigrok-cli)")
         return 77
     print("ok")
