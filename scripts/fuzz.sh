@@ -6,7 +6,7 @@
 #   bash scripts/fuzz.sh 120 pcapng byte_log
 #
 # Targets: byte_log pcapng pcap rtu_framer modbus_pdu upper_pdu_link modbus_ascii danfoss_fc
-# easydrive vcd sigrok profile toml_nesting hex_text (the "fuzz_" prefix is
+# easydrive vcd sigrok profile toml_nesting hex_text display_filter (the "fuzz_" prefix is
 # optional). Per target: working corpus build-fuzz/corpus/<target> (kept between runs), seeds
 # build-fuzz/seeds/<target> (remade each run), crash artifacts build-fuzz/artifacts/<target>/,
 # libFuzzer's log build-fuzz/logs/<target>.log. Reproducers saved under
@@ -31,7 +31,7 @@ if ! [[ "$seconds" =~ ^[0-9]+$ ]] || [ "$seconds" -eq 0 ]; then
   exit 2
 fi
 all_targets=(byte_log pcapng pcap rtu_framer modbus_pdu upper_pdu_link modbus_ascii danfoss_fc easydrive vcd
-  sigrok profile toml_nesting hex_text)
+  sigrok profile toml_nesting hex_text display_filter)
 targets=()
 for t in "$@"; do
   t=${t#fuzz_}
@@ -213,6 +213,19 @@ PY
   for f in "$seeds/modbus_pdu/"*; do
     [ -f "$f" ] && xxd -p "$f" | tr -d '\n' > "$seeds/hex_text/hex-$(basename "$f")"
   done
+  # Display filters: the tests' and the documentation's, and nesting near the limit (a first byte
+  # 0xFF makes 2^(second byte % 18) parentheses, fuzz/fuzz_display_filter.cpp).
+  python3 - "$seeds/display_filter" tests/display_filter.py <<'PY'
+import re, sys
+out, source = sys.argv[1], open(sys.argv[2]).read()
+filters = set(re.findall(r'"((?:[^"\\]|\\.)*)"', source[source.index("STATIC_FILTERS"):source.index("def finding_filters")]))
+for i, f in enumerate(sorted(filters)):
+    open(f"{out}/static-{i}", "w").write(f.encode().decode("unicode_escape"))
+open(f"{out}/deep-parentheses", "wb").write(b"\xff\x08addr == 1" + b")" * 256)
+open(f"{out}/deep-not", "w").write("!" * 300 + "addr == 1")
+open(f"{out}/long-chain", "w").write(" || ".join(["addr == 1"] * 2000))
+open(f"{out}/huge-number", "w").write("n < " + "9" * 309)
+PY
   # Every telegram of the captures seeds the protocol-decoder targets too.
   for t in modbus_ascii danfoss_fc easydrive; do
     cp "$seeds/modbus_pdu/"* "$seeds/$t/" 2> /dev/null || true

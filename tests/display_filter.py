@@ -644,8 +644,10 @@ def main():
 
 def case_name(path):
     """An input's case: its capture folder, or the generated file's name."""
-    folder = os.path.basename(os.path.dirname(path))
-    return os.path.basename(path) if path.startswith(tempfile.gettempdir()) else folder
+    folder = os.path.dirname(path)
+    if os.path.dirname(folder) == os.path.join(SOURCE, "captures"):
+        return os.path.basename(folder)
+    return os.path.basename(path)
 
 
 def check_examples():

@@ -67,7 +67,7 @@ TEST(DisplayFilter, ParseErrorsSayWhereWithTheFilter) {
   EXPECT_EQ(error_of("addr == && x"),
             "expected a value after '==', found '&&' at column 9: addr == && x");
   EXPECT_EQ(error_of("addr =="), "expected a value after '==', found the end at column 8: addr ==");
-  EXPECT_NE(error_of("(addr == 1").find("expected ')' for the '(' at column 1"), std::string::npos);
+  EXPECT_NE(error_of("(addr == 1").find("expected ')' for the '(' of column 1"), std::string::npos);
   EXPECT_NE(error_of("(addr == 1").find("at column 11"), std::string::npos);
   EXPECT_NE(error_of("nosuch == 1").find("unknown field 'nosuch'"), std::string::npos);
   EXPECT_NE(error_of("addr = 1").find("at column 6"), std::string::npos);
@@ -84,6 +84,53 @@ TEST(DisplayFilter, ParseErrorsSayWhereWithTheFilter) {
   EXPECT_NE(error_of("&& addr").find("expected a field name, found '&&' at column 1"),
             std::string::npos);
   EXPECT_NE(error_of("addr not 3").find("expected 'in' after 'not'"), std::string::npos);
+}
+
+// Hostile filters (issue 54): nesting is bounded with the column where it goes too deep; a long
+// chain of && or || is evaluated without recursion; a literal past 64 bits is refused, not read
+// as 0.
+TEST(DisplayFilter, NestingDeeperThan256IsRefusedWithItsColumn) {
+  const Record r;  // addr 2, fc 3
+  EXPECT_TRUE(passes(std::string(256, '(') + "addr == 2" + std::string(256, ')'), r));
+  EXPECT_EQ(error_of(std::string(10700, '(') + "addr == 2"),
+            "parentheses and '!' nest more than 256 deep at column 257: " +
+                std::string(10700, '(') + "addr == 2");
+  EXPECT_TRUE(passes(std::string(256, '!') + "addr == 2", r));
+  EXPECT_NE(error_of(std::string(130000, '!') + "addr == 2")
+                .find("parentheses and '!' nest more than 256 deep at column 257: "),
+            std::string::npos);
+  EXPECT_NE(error_of("!(" + std::string(255, '(') + "addr == 2").find("at column 257"),
+            std::string::npos);
+}
+
+TEST(DisplayFilter, LongChainsOfAndAndOrKeepTheirOrderAndMeaning) {
+  const Record r;  // addr 2, fc 3
+  std::string any = "addr == 9";
+  std::string all = "addr == 2";
+  for (int i = 0; i < 200000; ++i) {
+    any += " || fc == 9";
+    all += " && fc == 3";
+  }
+  EXPECT_FALSE(passes(any, r));
+  EXPECT_TRUE(passes(any + " || addr == 2", r));
+  EXPECT_TRUE(passes(all, r));
+  EXPECT_FALSE(passes(all + " && fc == 4", r));
+  EXPECT_TRUE(passes("addr == 9 || addr == 2 && fc == 3 || fc == 7", r));
+  EXPECT_FALSE(passes("addr == 2 && fc == 9 || addr == 9 && fc == 3", r));
+}
+
+TEST(DisplayFilter, LiteralsPast64BitsAreRefusedWithTheirColumn) {
+  const Record r;  // addr 2, fc 3
+  EXPECT_EQ(error_of("n < " + std::string(309, '9')),
+            "number out of range (a value has at most 64 bits: 18446744073709551615) at column "
+            "5: n < " + std::string(309, '9'));
+  EXPECT_NE(error_of("addr == 18446744073709551616").find("out of range"), std::string::npos);
+  EXPECT_NE(error_of("addr == -18446744073709551616").find("out of range (a value"),
+            std::string::npos);
+  EXPECT_NE(error_of("addr == 0x10000000000000000").find("number out of range"),
+            std::string::npos);
+  EXPECT_TRUE(passes("addr < 18446744073709551615", r));
+  EXPECT_TRUE(passes("addr > -18446744073709551615.5", r));
 }
 
 TEST(DisplayFilter, AndBindsTighterThanOrAndNotTighterThanBoth) {

@@ -11,6 +11,7 @@
 #include <utility>
 
 #include "core/message.hpp"
+#include "core/printable.hpp"
 #include "dissectors/common/plausibility.hpp"
 
 namespace drivetap {
@@ -38,10 +39,12 @@ struct FoundProblem {
   std::string detail;
 };
 
-// Raises `finding` on `m` with `detail` already made from its template.
+// Raises `finding` on `m` with `detail` already made from its template. A detail may quote bytes
+// from the bus (a stray character): made printable as a channel name is, so that no ESC or
+// invalid UTF-8 reaches a terminal, a CSV cell or a pcapng comment.
 inline void add_finding_detail(Message& m, const FindingDesc& finding, std::string detail) {
-  m.anomalies.push_back(
-      {finding.kind, m.frame.start(), m.frame.channel, 0, std::move(detail), &finding});
+  m.anomalies.push_back({finding.kind, m.frame.start(), m.frame.channel, 0,
+                         printable(detail, /*escape_backslash=*/false), &finding});
 }
 
 // Raises `finding` on `m`, its detail from `args`.

@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <memory>
 #include <optional>
 #include <string>
@@ -19,6 +20,7 @@
 #include "app/common.hpp"
 #include "app/outputs.hpp"
 #include "app/stop_signals.hpp"
+#include "core/printable.hpp"
 #include "diagnose/line_diagnosis.hpp"
 #include "pipeline/pipeline.hpp"
 #include "sinks/ring_capture_sink.hpp"
@@ -159,6 +161,21 @@ std::optional<ScanResult> scan_line_settings(const CommonOptions& o, const std::
 int run_capture(const CommonOptions& o, const CaptureOptions& c, const CaptureVoice& voice) {
   if (c.ports.empty()) die("capture: give at least one port with -i (e.g. -i /dev/ttyUSB0)");
   refuse_shared_files({{"-o", o.output}, {"-w", o.write}});
+  // One port given twice (by two names too: a by-id link and its tty) would have two readers
+  // share its bytes between them.
+  for (std::size_t k = 0; k < c.ports.size(); ++k)
+    for (std::size_t j = 0; j < k; ++j) {
+      const auto path_of = [](const std::string& port) {
+        const std::string path = port.substr(0, port.find('='));
+        std::error_code ec;
+        const std::filesystem::path real = std::filesystem::canonical(path, ec);
+        return ec ? std::filesystem::path(path).lexically_normal() : real;
+      };
+      if (path_of(c.ports[k]) == path_of(c.ports[j]))
+        die(fmt::format("-i {}: the same port as -i {}: give each port once",
+                        printable(c.ports[k], false), printable(c.ports[j], false)),
+            2);
+    }
   TimeNs autostop = 0;
   for (const std::string& a : c.autostop) {
     if (!a.starts_with("duration:")) die(fmt::format("-a {}: expected duration:SECONDS", a));

@@ -122,8 +122,25 @@ void remove_options_not_taken(CLI::App* cmd, unsigned command) {
 
 // tshark's conventions: -c, -q, -t, --color, --no-progress, -x.
 void add_tshark_options(CLI::App* cmd, CommonOptions& o) {
+  // Digits only, from 1: "-1", "" and 2^64 would otherwise pass for "no limit" (as tshark, 0
+  // is refused too).
   cmd->add_option("-c,--count", o.count,
-                  "Stop after N frames (as tshark -c; noise records do not count)");
+                  "Stop after N frames, N from 1 (as tshark -c; noise records do not count)")
+      ->check(CLI::Validator(
+          [](const std::string& text) -> std::string {
+            constexpr std::string_view kMax = "9223372036854775807";
+            const bool digits = !text.empty() && text.find_first_not_of("0123456789") ==
+                                                     std::string::npos;
+            const std::string_view number =
+                digits ? std::string_view(text).substr(std::min(text.find_first_not_of('0'),
+                                                                text.size()))
+                       : std::string_view();
+            if (!digits || number.empty() || number.size() > kMax.size() ||
+                (number.size() == kMax.size() && number > kMax))
+              return fmt::format("'{}' is not a number of frames from 1 to {}", text, kMax);
+            return {};
+          },
+          "N"));
   cmd->add_flag("-q,--quiet", o.quiet,
                 "No line per frame: the closing summary (or the -z statistics) alone");
   cmd->add_option("-t", o.time_format,
@@ -190,7 +207,8 @@ void add_common_options(CLI::App* cmd, CommonOptions& o, unsigned command) {
       ->allow_extra_args(false);
   cmd->add_option("-E", o.field_options,
                   "With -T fields: separator=,|/t|/s|C header=y|n quote=d|s|n occurrence=f|l|a "
-                  "aggregator=,|/s|C")
+                  "aggregator=,|/s|C (quote=d is for spreadsheets: a cell that starts with = + - "
+                  "@ and is no number gets a leading ', so that it is never run as a formula)")
       ->allow_extra_args(false);
   cmd->add_flag("-V,--verbose", o.verbose, "Text: show each frame's field tree with byte offsets");
   cmd->add_option("-s,--serial", o.serial,

@@ -26,6 +26,7 @@
 #include "app/commands.hpp"
 #include "app/common.hpp"
 #include "app/stop_signals.hpp"
+#include "core/printable.hpp"
 #include "core/protocol_desc.hpp"
 #include "sources/live/port_list.hpp"
 
@@ -276,7 +277,16 @@ int run_extcap_capture(const ExtcapOptions& e) {
   if (!e.baud.empty() || !e.line_format.empty())
     o.serial = fmt::format("{} {}", e.baud.empty() ? "9600" : e.baud,
                            e.line_format.empty() ? "8N1" : e.line_format);
-  if (!e.protocol.empty() && e.protocol != "auto") o.protocol = e.protocol;
+  if (!e.protocol.empty() && e.protocol != "auto") {
+    if (protocol_from_option(e.protocol) == Protocol::unknown) {
+      std::vector<std::string_view> names;
+      for (const ProtocolDesc* d : registered_protocols()) names.push_back(d->option_names.front());
+      die(fmt::format("--protocol {}: not a protocol (auto, {})", printable(e.protocol, false),
+                      fmt::join(names, ", ")),
+          2);
+    }
+    o.protocol = e.protocol;
+  }
   o.drives = split_drives(e.drives);
   o.t35 = e.t35;
   o.timeout = e.timeout;
@@ -289,6 +299,11 @@ int run_extcap_capture(const ExtcapOptions& e) {
   if (e.second_port.empty()) {
     c.ports = {port};
   } else {
+    // (run_capture refuses one port by two names too)
+    if (port_of(e.second_port) == port)
+      die(fmt::format("--second-port {}: the same port as --extcap-interface",
+                      printable(e.second_port, false)),
+          2);
     c.ports = {port + "=line.m", port_of(e.second_port) + "=line.s"};
   }
   ControlPipe control(e.control_out);

@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -72,20 +73,52 @@ std::string verdicts_json(const LineEvidence& e, const std::vector<Verdict>& ver
   return out;
 }
 
-// Opens the temporary page beside `target` (same directory: the rename is atomic).
-std::FILE* open_temporary_page(const std::string& target) {
+// Where `-o` puts the page. A regular file, or a name not there yet, gets a temporary file beside
+// it renamed over it at the end: all of the page or none of it. A symbolic link is followed to
+// the file it names (the link stays a link). A device, a FIFO or a socket (/dev/null, /dev/stdout)
+// is written straight, as `-` is: renaming a file over it would replace the device node. A
+// directory is refused.
+struct PageTarget {
+  std::string path;     // the file the page ends up in
+  bool direct = false;  // written straight, no temporary file
+};
+PageTarget page_target(const std::string& target) {
+  struct stat st {};
+  if (::stat(target.c_str(), &st) == 0) {
+    if (S_ISDIR(st.st_mode)) die(fmt::format("-o {}: is a directory", target), 1);
+    if (!S_ISREG(st.st_mode)) return {target, true};
+    std::error_code ec;
+    const std::filesystem::path real = std::filesystem::canonical(target, ec);
+    return {ec ? target : real.string(), false};
+  }
+  // Not there, or a link to a file not there yet: the link's target is created (40 links at most,
+  // as the kernel follows).
+  std::filesystem::path path(target);
+  for (int links = 0; links < 40; ++links) {
+    std::error_code ec;
+    if (!std::filesystem::is_symlink(path, ec)) break;
+    const std::filesystem::path to = std::filesystem::read_symlink(path, ec);
+    if (ec) break;
+    path = to.is_absolute() ? to : path.parent_path() / to;
+  }
+  return {path.string(), false};
+}
+
+// Opens the temporary page beside `target` (same directory: the rename is atomic). Its name is
+// short, so that any name the directory allows can be the target.
+std::FILE* open_temporary_page(const std::string& target, const std::string& shown) {
   const std::filesystem::path path(target);
   const std::filesystem::path dir = path.has_parent_path() ? path.parent_path() : ".";
-  std::string pattern = (dir / ("." + path.filename().string() + ".XXXXXX")).string();
+  std::string pattern = (dir / ".drivetap-XXXXXX").string();
   const int fd = ::mkstemp(pattern.data());
-  if (fd < 0) die(fmt::format("-o {}: cannot create: {}", target, std::strerror(errno)));
+  if (fd < 0) die(fmt::format("-o {}: cannot create: {}", shown, std::strerror(errno)));
   g_temporary_page = pattern;
   // mkstemp makes it private (0600): a page is as readable as any file the user makes.
   const mode_t mask = ::umask(0);
   ::umask(mask);
   ::fchmod(fd, 0666 & ~mask);
   std::FILE* file = ::fdopen(fd, "w");
-  if (!file) die(fmt::format("-o {}: cannot create: {}", target, std::strerror(errno)));
+  if (!file) die(fmt::format("-o {}: cannot create: {}", shown, std::strerror(errno)));
   return file;
 }
 
@@ -104,7 +137,14 @@ int run_report(const CommonOptions& o, const std::vector<std::string>& paths) {
   catch_stop_signals();
   std::atexit(remove_temporary_page);
   const bool to_stdout = o.output == "-";
-  std::FILE* page = to_stdout ? stdout : open_temporary_page(o.output);
+  const PageTarget target = to_stdout ? PageTarget{"-", true} : page_target(o.output);
+  std::FILE* page = stdout;
+  if (!to_stdout && target.direct) {
+    page = std::fopen(target.path.c_str(), "w");
+    if (!page) die(fmt::format("-o {}: cannot create: {}", o.output, std::strerror(errno)), 1);
+  } else if (!to_stdout) {
+    page = open_temporary_page(target.path, o.output);
+  }
 
   ChannelTable channels;  // one for all captures: a channel of the same name is the same line
   ReportSink report(channels);
@@ -176,14 +216,25 @@ int run_report(const CommonOptions& o, const std::vector<std::string>& paths) {
   const std::vector<Verdict> verdicts = diagnose(evidence);
   const bool written = report.write_page(page, verdicts_json(evidence, verdicts));
   if (to_stdout) {
-    if (!written) die("standard output: write failed", 1);
+    // A reader gone (`| head`): the silent exit of a process SIGPIPE ended, as everywhere.
+    if (!written || std::fflush(stdout) != 0) {
+      if (errno == EPIPE) std::_Exit(128 + SIGPIPE);
+      die(fmt::format("standard output: write failed: {}", std::strerror(errno)), 1);
+    }
+    return 0;
+  }
+  if (target.direct) {
+    const bool flushed = std::fflush(page) == 0;
+    const int write_errno = errno;
+    if (std::fclose(page) != 0 || !written || !flushed)
+      die(fmt::format("-o {}: write failed: {}", o.output, std::strerror(write_errno)), 1);
     return 0;
   }
   const bool closed = std::fflush(page) == 0 && ::fsync(::fileno(page)) == 0;
   const int write_errno = errno;
   if (std::fclose(page) != 0 || !written || !closed)
     die(fmt::format("-o {}: write failed: {}", o.output, std::strerror(write_errno)), 1);
-  if (std::rename(g_temporary_page.c_str(), o.output.c_str()) != 0)
+  if (std::rename(g_temporary_page.c_str(), target.path.c_str()) != 0)
     die(fmt::format("-o {}: cannot create: {}", o.output, std::strerror(errno)), 1);
   g_temporary_page.clear();
   return 0;

@@ -42,11 +42,12 @@ int run_wireshark(const WiresharkOptions& w) {
   std::error_code ec;
   const std::filesystem::path self = std::filesystem::read_symlink("/proc/self/exe", ec);
   if (ec) die(fmt::format("wireshark: cannot tell where drivetap is: {}", ec.message()), 1);
-  const WiresharkFolders folders =
-      w.system ? system_wireshark_folders() : personal_wireshark_folders();
+  std::string error;
+  std::optional<WiresharkFolders> personal;
+  if (!w.system && !(personal = personal_wireshark_folders(&error))) die(error, 1);
+  const WiresharkFolders folders = w.system ? system_wireshark_folders() : *personal;
   const std::vector<WiresharkEntry> entries = wireshark_entries(folders, self, lua);
   std::vector<std::string> report;
-  std::string error;
   const bool ok = w.install ? install_wireshark_entries(entries, &report, &error)
                             : uninstall_wireshark_entries(entries, &report, &error);
   for (const std::string& line : report)

@@ -32,24 +32,36 @@ std::optional<std::string> install_entry(const WiresharkEntry& entry, std::strin
   std::error_code ec;
   fs::create_directories(entry.folder, ec);
   if (failed(ec, entry.folder, "create", error)) return std::nullopt;
-  if (fs::is_symlink(path, ec) || fs::exists(path, ec)) fs::remove(path, ec);
-  if (failed(ec, path, "replace", error)) return std::nullopt;
+  // Made whole beside the old one, then renamed over it: a failed write (a full disk, a file-size
+  // limit) leaves the old file as it was and no truncated plugin for Wireshark to load.
+  const fs::path made = entry.folder / ("." + entry.name + ".new");
+  fs::remove(made, ec);
+  ec.clear();
   if (!entry.link_to.empty()) {
-    fs::create_symlink(entry.link_to, path, ec);
+    fs::create_symlink(entry.link_to, made, ec);
     if (failed(ec, path, "create", error)) return std::nullopt;
-    return fmt::format("{} -> {}", path.string(), entry.link_to.string());
+  } else {
+    std::ofstream out(made, std::ios::binary);
+    out << entry.content;
+    out.flush();
+    out.close();
+    if (!out) {
+      fs::remove(made, ec);
+      *error = fmt::format("{}: cannot write", path.string());
+      return std::nullopt;
+    }
+    if (entry.executable)
+      fs::permissions(made, fs::perms::owner_exec | fs::perms::group_exec | fs::perms::others_exec,
+                      fs::perm_options::add, ec);
   }
-  std::ofstream out(path, std::ios::binary);
-  out << entry.content;
-  out.close();
-  if (!out) {
-    *error = fmt::format("{}: cannot write", path.string());
-    return std::nullopt;
+  fs::rename(made, path, ec);
+  if (ec) {
+    std::error_code ignored;
+    fs::remove(made, ignored);
   }
-  if (entry.executable)
-    fs::permissions(path, fs::perms::owner_exec | fs::perms::group_exec | fs::perms::others_exec,
-                    fs::perm_options::add, ec);
-  return path.string();
+  if (failed(ec, path, "replace", error)) return std::nullopt;
+  return entry.link_to.empty() ? path.string()
+                               : fmt::format("{} -> {}", path.string(), entry.link_to.string());
 }
 
 // Removes `entry` if it is there: the line to report (empty: it was not there), or nullopt with
@@ -79,16 +91,20 @@ bool change_entries(const std::vector<WiresharkEntry>& entries,
 
 }  // namespace
 
-WiresharkFolders personal_wireshark_folders() {
+std::optional<WiresharkFolders> personal_wireshark_folders(std::string* error) {
   const char* home = std::getenv("HOME");
-  const fs::path home_path(home && *home ? home : ".");
-  fs::path config;
-  if (const char* xdg = std::getenv("XDG_CONFIG_HOME"); xdg && *xdg) {
-    config = fs::path(xdg) / "wireshark";
-  } else {
-    config = home_path / ".config" / "wireshark";
+  if (!home || !*home || fs::path(home).is_relative()) {
+    *error = fmt::format("wireshark: HOME is {}: the personal folders need an absolute home "
+                         "(or use --system)",
+                         home && *home ? fmt::format("'{}', not an absolute path", home) : "unset");
+    return std::nullopt;
   }
-  return {config / "extcap", home_path / ".local" / "lib" / "wireshark" / "plugins"};
+  const fs::path home_path(home);
+  fs::path config = home_path / ".config" / "wireshark";
+  // (A relative XDG_CONFIG_HOME is invalid, as the XDG spec says: ignored.)
+  if (const char* xdg = std::getenv("XDG_CONFIG_HOME"); xdg && *xdg && fs::path(xdg).is_absolute())
+    config = fs::path(xdg) / "wireshark";
+  return WiresharkFolders{config / "extcap", home_path / ".local" / "lib" / "wireshark" / "plugins"};
 }
 
 WiresharkFolders system_wireshark_folders() {

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -26,9 +27,10 @@ struct WiresharkEntry {
   [[nodiscard]] std::filesystem::path path() const { return folder / name; }
 };
 
-// The personal folders: extcaps under $XDG_CONFIG_HOME/wireshark, else $HOME/.config/wireshark;
-// Lua plugins in $HOME/.local/lib/wireshark/plugins (where Wireshark 4 looks for them).
-WiresharkFolders personal_wireshark_folders();
+// The personal folders: extcaps under $XDG_CONFIG_HOME/wireshark (when absolute), else
+// $HOME/.config/wireshark; Lua plugins in $HOME/.local/lib/wireshark/plugins (where Wireshark 4
+// looks for them). Nullopt with *error when HOME is unset or relative.
+std::optional<WiresharkFolders> personal_wireshark_folders(std::string* error);
 // The system-wide folders `tshark -G folders` names ("Global Extcap path", "Extcap path" before
 // 4.2; "Global Lua Plugins"), else Debian's under /usr/lib/x86_64-linux-gnu/wireshark.
 WiresharkFolders system_wireshark_folders();
@@ -39,7 +41,8 @@ std::vector<WiresharkEntry> wireshark_entries(const WiresharkFolders& folders,
                                               const std::filesystem::path& drivetap,
                                               std::string plugin_lua);
 
-// Puts each entry in place (its folder made, a file of the same name replaced); one line per
+// Puts each entry in place (its folder made, a file of the same name replaced by a rename, so
+// that a failed write leaves the old file whole); one line per
 // file to `report` ("extcap: PATH -> TARGET"). False with *error (naming the path) on the first
 // failure.
 bool install_wireshark_entries(const std::vector<WiresharkEntry>& entries,

@@ -270,10 +270,23 @@ RegisterDef parse_register(const toml::table& t, const std::string& path,
   r.name = string_at(t, "name", path + ".name", true);
   r.field_id = string_at(t, "id", path + ".id", false);
   if (r.field_id.empty()) {
+    // A name of no letters or digits ("###") gives no id: its value could not be shown or
+    // filtered.
     r.field_id = register_field_id(r.name);
+    if (r.field_id.empty())
+      throw Bad{line_of(*t.get("name")), path + ".name",
+                fmt::format("'{}' has no letter or digit to make its id of: give id = \"...\"",
+                            r.name)};
   } else if (!valid_register_field_id(r.field_id)) {
     throw Bad{line_of(*t.get("id")), path + ".id",
               "expected lowercase letters, digits and '_' (not first or last)"};
+  } else if (is_shared_drive_field_id(r.field_id)) {
+    // drive.running, drive.setpoint, ...: values drivetap fills from the registers' roles; a
+    // register named so would hide its own value.
+    throw Bad{line_of(*t.get("id")), path + ".id",
+              fmt::format("'{}' is a drive value drivetap fills itself (drive.{}): choose another "
+                          "id, or give the register that role",
+                          r.field_id, r.field_id)};
   }
   static constexpr std::string_view kAccessWords[] = {"r", "w", "rw"};
   r.access = enum_at(t, "access", path + ".access", kAccessWords,

@@ -174,6 +174,9 @@ class Lexer {
     return true;
   }
 
+  static constexpr const char* kOutOfRange =
+      "number out of range (a value has at most 64 bits: 18446744073709551615)";
+
   bool number(Token& t, std::string& error, std::size_t& error_column) {
     const std::size_t start = i_;
     const bool negative = s_[i_] == '-';
@@ -185,7 +188,7 @@ class Lexer {
       std::uint64_t v = 0;
       const auto r = std::from_chars(s_.data() + digits, s_.data() + i_, v, 16);
       if (digits == i_ || r.ec != std::errc{}) {
-        error = "bad hex number";
+        error = r.ec == std::errc::result_out_of_range ? kOutOfRange : "bad hex number";
         error_column = start + 1;
         return false;
       }
@@ -193,12 +196,23 @@ class Lexer {
     } else {
       while (i_ < s_.size() && std::isdigit(static_cast<unsigned char>(s_[i_])) != 0) ++i_;
       // A decimal point, not the ".." of a range.
+      const std::size_t integer_end = i_;
       if (i_ + 1 < s_.size() && s_[i_] == '.' &&
           std::isdigit(static_cast<unsigned char>(s_[i_ + 1])) != 0) {
         ++i_;
         while (i_ < s_.size() && std::isdigit(static_cast<unsigned char>(s_[i_])) != 0) ++i_;
       }
-      std::from_chars(s_.data() + start, s_.data() + i_, t.number);
+      // No value is larger than 64 bits: a literal past that (or past a double's range) would
+      // compare as some other number, or as 0.
+      std::uint64_t whole = 0;
+      const auto w = std::from_chars(s_.data() + (negative ? start + 1 : start),
+                                     s_.data() + integer_end, whole);
+      const auto r = std::from_chars(s_.data() + start, s_.data() + i_, t.number);
+      if (w.ec == std::errc::result_out_of_range || r.ec == std::errc::result_out_of_range) {
+        error = kOutOfRange;
+        error_column = start + 1;
+        return false;
+      }
     }
     if (i_ < s_.size() && word_char(s_[i_]) &&
         !(s_[i_] == '.' && i_ + 1 < s_.size() && s_[i_ + 1] == '.')) {
@@ -307,20 +321,36 @@ class FilterParser {
                                                      : parse_not(operand);
     };
     if (!parse_operand(node)) return false;
+    if (token_.kind != kBinaryOperators[level].token) return true;
+    // A chain `a && b && c` is kept as a && (b && c): the same tests in the same order, and
+    // eval() walks the chain in a loop, so a long chain costs no stack.
+    std::vector<std::uint32_t> operands{node};
     while (token_.kind == kBinaryOperators[level].token) {
       if (!advance()) return false;
       std::uint32_t right = 0;
       if (!parse_operand(right)) return false;
-      node = add_logic(kBinaryOperators[level].op, node, right);
+      operands.push_back(right);
     }
+    node = operands.back();
+    for (std::size_t k = operands.size() - 1; k-- > 0;)
+      node = add_logic(kBinaryOperators[level].op, operands[k], node);
     return true;
+  }
+
+  // Parentheses and `!` nest at most kMaxNesting deep: the parser and eval() recurse on them.
+  static constexpr std::size_t kMaxNesting = 256;
+  bool enter(std::size_t column) {
+    if (++nesting_ <= kMaxNesting) return true;
+    set_error(fmt::format("parentheses and '!' nest more than {} deep", kMaxNesting), column);
+    return false;
   }
 
   bool parse_not(std::uint32_t& node) {
     if (token_.kind == Kind::not_) {
-      if (!advance()) return false;
+      if (!enter(token_.column) || !advance()) return false;
       std::uint32_t operand = 0;
       if (!parse_not(operand)) return false;
+      --nesting_;
       node = add_logic(DisplayFilter::Node::Op::negate, operand);
       return true;
     }
@@ -330,10 +360,11 @@ class FilterParser {
   bool parse_primary(std::uint32_t& node) {
     if (token_.kind == Kind::lparen) {
       const std::size_t open = token_.column;
-      if (!advance() || !parse_binary(node)) return false;
+      if (!enter(open) || !advance() || !parse_binary(node)) return false;
+      --nesting_;
       if (token_.kind != Kind::rparen) {
         set_error(
-            fmt::format("expected ')' for the '(' at column {}, found {}", open, describe_end()),
+            fmt::format("expected ')' for the '(' of column {}, found {}", open, describe_end()),
             token_.column);
         return false;
       }
@@ -449,7 +480,7 @@ class FilterParser {
     n.literal = static_cast<std::uint32_t>(out_.literals_.size());
     while (token_.kind != Kind::rbrace) {
       if (token_.kind == Kind::end) {
-        set_error(fmt::format("expected '}}' for the '{{' at column {}", open), token_.column);
+        set_error(fmt::format("expected '}}' for the '{{' of column {}", open), token_.column);
         return false;
       }
       DisplayFilter::Literal lit;
@@ -486,6 +517,7 @@ class FilterParser {
   Token token_;
   std::string error_;
   std::size_t error_column_ = 1;
+  std::size_t nesting_ = 0;
 };
 
 namespace {
@@ -594,12 +626,17 @@ bool DisplayFilter::first_test_decodes() const {
 }
 
 bool DisplayFilter::eval(std::uint32_t index, const RecordView& record) const {
+  // A chain of && or || goes on in `second` (the parser's right fold): a loop, not recursion.
+  while (nodes_[index].op == Node::Op::all || nodes_[index].op == Node::Op::any) {
+    const Node& n = nodes_[index];
+    if (eval(n.first, record) != (n.op == Node::Op::all)) return n.op == Node::Op::any;
+    index = n.second;
+  }
   const Node& n = nodes_[index];
   switch (n.op) {
     case Node::Op::all:
-      return eval(n.first, record) && eval(n.second, record);
     case Node::Op::any:
-      return eval(n.first, record) || eval(n.second, record);
+      break;  // (the loop above)
     case Node::Op::negate:
       return !eval(n.first, record);
     case Node::Op::exists: {

@@ -117,6 +117,24 @@ SinkNeeds FieldsSink::needs() const {
   return n;
 }
 
+namespace {
+bool starts_formula(std::string_view text) {
+  if (text.empty() || std::string_view("=+-@\t\r").find(text[0]) == std::string_view::npos)
+    return false;
+  // A number (-12, +3.5) is no formula.
+  std::size_t i = 1, digits = 0, points = 0;
+  for (; i < text.size(); ++i) {
+    if (text[i] >= '0' && text[i] <= '9')
+      ++digits;
+    else if (text[i] == '.' && points == 0)
+      ++points;
+    else
+      break;
+  }
+  return !(text[0] == '-' || text[0] == '+') || i != text.size() || digits == 0;
+}
+}  // namespace
+
 // A value as the line holds it: quoted when -E quote says, a quote inside doubled (as CSV has it).
 void FieldsSink::append_value(std::string_view text) {
   LineBuffer& line = lines_.buffer();
@@ -125,6 +143,9 @@ void FieldsSink::append_value(std::string_view text) {
     return;
   }
   line += options_.quote;
+  // A spreadsheet (quote=d is CSV for one) runs a cell that starts with = + - @ as a formula: such
+  // a cell from the bus or the capture gets a leading ' (OWASP's advice); numbers stay numbers.
+  if (options_.quote == '"' && starts_formula(text)) line += '\'';
   for (const char c : text) {
     if (c == options_.quote) line += c;
     line += c;
@@ -132,17 +153,20 @@ void FieldsSink::append_value(std::string_view text) {
   line += options_.quote;
 }
 
-void FieldsSink::write_record(const RecordView& record, TimeNs time) {
+void FieldsSink::write_record(const RecordView& record, TimeNs time, TimeNs end) {
   for (std::size_t i = 0; i < options_.fields.size(); ++i) {
     if (i != 0) lines_.buffer() += options_.separator;
     value_.clear();
     const RecordField& field = options_.fields[i];
-    if (options_.clock && field.kind == RecordField::Kind::key && field.key == RecordKey::t) {
+    if (options_.clock && field.kind == RecordField::Kind::key &&
+        (field.key == RecordKey::t || field.key == RecordKey::t_end)) {
+      // t and t_end on the clock -t names (d and dd: since the previous record's start).
       // (Every record this sink gets is displayed: a display filter drops them before it.)
       TimeReference reference = *options_.clock;
       reference.previous_captured = previous_time_;
       reference.previous_displayed = previous_time_;
-      value_ = format_time(time, options_.time_format, reference);
+      value_ = format_time(field.key == RecordKey::t ? time : end, options_.time_format,
+                           reference);
     } else {
       Collect collect(value_, options_.occurrence, options_.aggregator);
       record_values(field, record, scratch_, collect);
@@ -155,12 +179,12 @@ void FieldsSink::write_record(const RecordView& record, TimeNs time) {
 
 void FieldsSink::on_frame(const Message& m) {
   const RecordView r = views_.of(m);
-  write_record(r, m.frame.start());
+  write_record(r, m.frame.start(), m.frame.events.back().time + r.character_time);
 }
 
 void FieldsSink::on_noise(const Frame& f) {
   const RecordView r = views_.of(f);
-  write_record(r, f.start());
+  write_record(r, f.start(), f.events.empty() ? 0 : f.events.back().time + r.character_time);
 }
 
 }  // namespace drivetap

@@ -50,7 +50,7 @@ class FieldsSink final : public FormattingSink {
   void write_formatted(std::string_view) override {}
 
  private:
-  void write_record(const RecordView& record, TimeNs time);
+  void write_record(const RecordView& record, TimeNs time, TimeNs end);
   void append_value(std::string_view text);
 
   FieldsOptions options_;

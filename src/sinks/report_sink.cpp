@@ -9,6 +9,7 @@
 #include <array>
 #include <charconv>
 #include <cmath>
+#include <limits>
 
 #include "core/format.hpp"
 #include "drive/profile.hpp"
@@ -83,7 +84,11 @@ void ReportSink::end_capture(std::string stations_json) {
 }
 
 TimeNs ReportSink::on_timeline(TimeNs t) const {
-  return t + shift_ - origin_;
+  // Exact for every time a source gives (|t| < 2^62); a shifted capture past that is held at
+  // +-2^62, not wrapped.
+  constexpr TimeNs kEdge = std::numeric_limits<TimeNs>::max() / 2;
+  const __int128 v = static_cast<__int128>(t) + shift_ - origin_;
+  return static_cast<TimeNs>(std::clamp<__int128>(v, -kEdge, kEdge));
 }
 
 void ReportSink::count_busy(ChannelId channel, std::size_t bytes, TimeNs start, bool telegram) {
@@ -92,7 +97,11 @@ void ReportSink::count_busy(ChannelId channel, std::size_t bytes, TimeNs start, 
     origin_ = start + shift_;
   }
   const TimeNs from = on_timeline(start);
-  const TimeNs to = from + static_cast<TimeNs>(bytes) * character_time_;
+  // (Times span at most +-2^62 ns: a stretch past the end of a 2^63 ns timeline is cut there.)
+  TimeNs to = 0;
+  if (__builtin_mul_overflow(static_cast<TimeNs>(bytes), character_time_, &to) ||
+      __builtin_add_overflow(from, to, &to))
+    to = std::numeric_limits<TimeNs>::max() / 2;
   first_ = first_ < 0 ? from : std::min(first_, from);
   last_ = std::max(last_, to);
   if (!captures_.empty()) {
@@ -105,10 +114,11 @@ void ReportSink::count_busy(ChannelId channel, std::size_t bytes, TimeNs start, 
   // falls in.
   ColumnSeries<Busy>& series = load_[channel];
   series.at(to);  // (widened first: the columns below stay put)
+  // Each step ends a column (widened above so that `to` falls in the last): at most kColumns
+  // steps, each of at least 1 ns.
   for (TimeNs t = std::max<TimeNs>(from, 0); t < to;) {
     Busy& cell = series.at(t);
-    const TimeNs column_end = (t / series.width() + 1) * series.width();
-    const TimeNs part = std::min(to, column_end) - t;
+    const TimeNs part = std::min(to - t, series.width() - t % series.width());
     cell.busy += part;
     if (telegram && t == std::max<TimeNs>(from, 0)) ++cell.frames;
     t += part;
@@ -428,10 +438,24 @@ std::string ReportSink::data_json(const std::string& diagnosis_json) const {
 }
 
 bool ReportSink::write_page(std::FILE* out, const std::string& diagnosis_json) const {
-  std::string data = data_json(diagnosis_json);
-  // Inside <script>, "</" could end the element: JSON spells it "<\/" all the same.
-  for (std::size_t at = data.find("</"); at != std::string::npos; at = data.find("</", at + 3))
-    data.replace(at, 2, "<\\/");
+  // Inside <script>, "</" could end the element and "<!--" start a comment that swallows the page's
+  // script: every <, > and & is written as its \u escape, which JSON reads as the same character
+  // (they occur only inside strings).
+  std::string data;
+  {
+    const std::string raw = data_json(diagnosis_json);
+    data.reserve(raw.size());
+    for (const char c : raw) {
+      if (c == '<')
+        data += "\\u003c";
+      else if (c == '>')
+        data += "\\u003e";
+      else if (c == '&')
+        data += "\\u0026";
+      else
+        data += c;
+    }
+  }
   const std::string_view page = report_page_template();
   // The template's two marks: the library and the data go there.
   constexpr std::string_view kLibraryMark = "/*@CHART_JS@*/";

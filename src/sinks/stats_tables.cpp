@@ -164,7 +164,7 @@ StatsTablesSink::StatsTablesSink(const ChannelTable& channels, FramingTiming tim
     stations_ = stations_ || r.kind == StatisticKind::stations;
     functions_ = functions_ || r.kind == StatisticKind::functions;
     gaps_ = gaps_ || r.kind == StatisticKind::gaps;
-    if (r.kind == StatisticKind::load) load_series_.push_back({r.interval, {}});
+    if (r.kind == StatisticKind::load) load_series_.push_back({r.interval, r.interval, {}});
   }
   scratch_.detail = false;
   scratch_.tree = false;
@@ -222,7 +222,25 @@ void StatsTablesSink::count_bytes(ChannelId channel, std::size_t size, TimeNs st
         if (telegram) ++cell.frames;
       }
     }
+    while (series.cells.size() > kMaxLoadIntervals) widen(series);
   }
+}
+
+void StatsTablesSink::widen(LoadSeries& series) {
+  // Interval k of the doubled width holds the old 2k and 2k + 1 (the origin stays).
+  std::map<std::int64_t, std::vector<LoadCell>> merged;
+  for (auto& [k, cells] : series.cells) {
+    std::vector<LoadCell>& into = merged[floor_div(k, 2)];
+    if (into.size() < cells.size()) into.resize(cells.size());
+    for (std::size_t c = 0; c < cells.size(); ++c) {
+      into[c].busy += cells[c].busy;
+      into[c].bytes += cells[c].bytes;
+      into[c].frames += cells[c].frames;
+    }
+  }
+  series.cells = std::move(merged);
+  series.interval *= 2;
+  series.last_cells = nullptr;
 }
 
 void StatsTablesSink::count_telegram(ChannelId channel, Protocol protocol, int address,
@@ -321,7 +339,7 @@ void StatsTablesSink::write_tables(bool json,
         break;
       case StatisticKind::load:
         for (const LoadSeries& series : load_series_)
-          if (series.interval == r.interval) load_table(out, json, series, write);
+          if (series.requested == r.interval) load_table(out, json, series, write);
         break;
     }
   }
@@ -492,13 +510,19 @@ void StatsTablesSink::load_table(std::string& out, bool json, const LoadSeries& 
     if (channel_bytes_[c] != 0) channels.push_back(static_cast<ChannelId>(c));
   std::size_t width = 8;  // the channel column's: its longest name
   for (const ChannelId c : channels) width = std::max(width, channels_.at(c).name.size());
+  const std::string asked =
+      fmt::format("{:g}", static_cast<double>(series.requested) / static_cast<double>(kNsPerSecond));
   if (!json)
     fmt::format_to(std::back_inserter(out),
                    "{}\nLoad (-z load,{}): busy = bytes x character time ({} ms) per interval; "
-                   "intervals from {} s\n{:<24} {:<{}} {:>8} {:>10} {:>7}\n",
-                   kRule, seconds, format_ms(timing_.character_time),
-                   format_seconds(load_origin_, 6), "interval (s)", "channel", width, "frames",
-                   "bytes", "busy %");
+                   "intervals from {} s{}\n{:<24} {:<{}} {:>8} {:>10} {:>7}\n",
+                   kRule, asked, format_ms(timing_.character_time),
+                   format_seconds(load_origin_, 6),
+                   series.interval == series.requested
+                       ? std::string()
+                       : fmt::format("; intervals of {} s: {} s gave more than {} with traffic",
+                                     seconds, asked, kMaxLoadIntervals),
+                   "interval (s)", "channel", width, "frames", "bytes", "busy %");
   const auto row = [&](std::int64_t from, std::int64_t to, const std::vector<LoadCell>* cells) {
     const TimeNs length = (to - from) * series.interval;
     for (const ChannelId c : channels) {

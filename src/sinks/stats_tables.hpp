@@ -143,8 +143,13 @@ class StatsTablesSink final : public Sink {
     TimeNs busy = 0;
   };
   // Load: each request's intervals, counted from the first record's start.
+  // At most this many intervals with traffic are kept a series: past it, the series' intervals
+  // are doubled (two merged into one) and its table says so, so that `-z load,0.001` over days
+  // of traffic keeps its memory and its rows bounded.
+  static constexpr std::size_t kMaxLoadIntervals = 100000;
   struct LoadSeries {
-    TimeNs interval = kNsPerSecond;
+    TimeNs requested = kNsPerSecond;  // the interval -z asked for
+    TimeNs interval = kNsPerSecond;   // the interval counted in: `requested` doubled as needed
     std::map<std::int64_t, std::vector<LoadCell>> cells;  // by interval, then channel
     // The interval last counted in (most frames fall in the one before them).
     std::int64_t last = 0;
@@ -155,6 +160,7 @@ class StatsTablesSink final : public Sink {
   void count_telegram(ChannelId channel, Protocol protocol, int address, Direction direction,
                       ChecksumVerdict verdict, std::size_t size, TimeNs start, TimeNs gap_before);
   void count_bytes(ChannelId channel, std::size_t size, TimeNs start, bool telegram);
+  static void widen(LoadSeries& series);
   Station& station(ChannelId channel, Protocol protocol, int address);
 
   void stations_table(std::string& out, bool json) const;

@@ -147,6 +147,18 @@ def make(directory, name):
     elif name == "pcapng-first-packet-at-zero":
         frame = bytes.fromhex("020300000004443a")
         pcapng(at + ".pcapng", [(k * 100000, frame) for k in range(3)])
+    elif name == "pcapng-span-9e9-seconds":
+        # Times from -4611686000 s to +4611686000 s (if_tsoffset): next to the +-2^62 ns limit, a
+        # span of nearly 2^63 ns.
+        pcapng(at + ".pcapng", [(0, bytes.fromhex("020300000004443a")),
+                                (9_223_372_000 * 1_000_000,
+                                 bytes.fromhex("0203080001000200030004" "0d14"))],
+               tsoffset=-4_611_686_000)
+    elif name == "pcapng-formula-interface-name":
+        # A spreadsheet formula as the interface (channel) name.
+        frame = bytes.fromhex("020300000004443a")
+        pcapng(at + ".pcapng", [(k * 100000, frame) for k in range(3)],
+               if_name=b"=HYPERLINK(\"http://x\")")
     elif name == "logic-long-idle":
         # 60 s of idle line at 10 MHz after 32 characters: decoding takes seconds of idle runs.
         streamed_sigrok(at + ".sr", "10 MHz",
