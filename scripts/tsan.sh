@@ -1,12 +1,13 @@
 #!/usr/bin/env bash
-# ThreadSanitizer pass of the README's test command (scripts/test.sh): builds drivetap and its unit
-# tests with -DDRIVETAP_TSAN=ON, runs the suites of the threaded parts (ThreadedSink with and
-# without helpers formatting on several threads, ReadAhead, the drive annotation written on the
-# writer thread, telegrams decoded on the writer thread), then `drivetap read` of generated captures
-# (all five drive families as pcapng and byte log; plain Modbus RTU) in every mode that runs the
-# read-ahead and writer threads, and the display filter's thread. Captures of 20 000 records keep both threads busy at once: the
-# golden captures are too small for that (a race planted in ThreadedSink::run() passes them and
-# is caught here). Any report fails the pass (halt_on_error, exit code 66).
+# ThreadSanitizer pass of the README's test command (scripts/test.sh): builds drivetap and the test
+# sources of the threaded parts (drivetap_thread_tests) with -DDRIVETAP_TSAN=ON, runs their suites
+# (ThreadedSink with and without helpers formatting on several threads, ReadAhead, the drive
+# annotation written on the writer thread, telegrams decoded on the writer thread), then
+# `drivetap read` of generated captures (all five drive families as pcapng and byte log; plain
+# Modbus RTU) in every mode that runs the read-ahead and writer threads, and the display filter's
+# thread. Captures of 20 000 records keep both threads busy at once: the golden captures are too
+# small for that (a race planted in ThreadedSink::run() passes them and is caught here). Any
+# report fails the pass (halt_on_error, exit code 66).
 #
 #   scripts/tsan.sh [BUILD_DIR]     default build-tsan
 set -euo pipefail
