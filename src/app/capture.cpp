@@ -163,19 +163,19 @@ int run_capture(const CommonOptions& o, const CaptureOptions& c, const CaptureVo
   refuse_shared_files({{"-o", o.output}, {"-w", o.write}});
   // One port given twice (by two names too: a by-id link and its tty) would have two readers
   // share its bytes between them.
-  for (std::size_t k = 0; k < c.ports.size(); ++k)
-    for (std::size_t j = 0; j < k; ++j) {
-      const auto path_of = [](const std::string& port) {
-        const std::string path = port.substr(0, port.find('='));
-        std::error_code ec;
-        const std::filesystem::path real = std::filesystem::canonical(path, ec);
-        return ec ? std::filesystem::path(path).lexically_normal() : real;
-      };
-      if (path_of(c.ports[k]) == path_of(c.ports[j]))
+  std::vector<std::filesystem::path> paths;
+  for (const std::string& port : c.ports) {
+    const std::string path = port.substr(0, port.find('='));
+    std::error_code ec;
+    const std::filesystem::path real = std::filesystem::canonical(path, ec);
+    paths.push_back(ec ? std::filesystem::path(path).lexically_normal() : real);
+  }
+  for (std::size_t k = 0; k < paths.size(); ++k)
+    for (std::size_t j = 0; j < k; ++j)
+      if (paths[k] == paths[j])
         die(fmt::format("-i {}: the same port as -i {}: give each port once",
                         printable(c.ports[k], false), printable(c.ports[j], false)),
             2);
-    }
   TimeNs autostop = 0;
   for (const std::string& a : c.autostop) {
     if (!a.starts_with("duration:")) die(fmt::format("-a {}: expected duration:SECONDS", a));
