@@ -6,7 +6,7 @@
 #   bash scripts/fuzz.sh 120 pcapng byte_log
 #
 # Targets: byte_log pcapng pcap rtu_framer modbus_pdu upper_pdu_link modbus_ascii danfoss_fc
-# easydrive vcd sigrok profile toml_nesting hex_text display_filter (the "fuzz_" prefix is
+# easydrive vcd sigrok profile toml_nesting hex_text display_filter report_timeline (the "fuzz_" prefix is
 # optional). Per target: working corpus build-fuzz/corpus/<target> (kept between runs), seeds
 # build-fuzz/seeds/<target> (remade each run), crash artifacts build-fuzz/artifacts/<target>/,
 # libFuzzer's log build-fuzz/logs/<target>.log. Reproducers saved under
@@ -31,7 +31,7 @@ if ! [[ "$seconds" =~ ^[0-9]+$ ]] || [ "$seconds" -eq 0 ]; then
   exit 2
 fi
 all_targets=(byte_log pcapng pcap rtu_framer modbus_pdu upper_pdu_link modbus_ascii danfoss_fc easydrive vcd
-  sigrok profile toml_nesting hex_text display_filter)
+  sigrok profile toml_nesting hex_text display_filter report_timeline)
 targets=()
 for t in "$@"; do
   t=${t#fuzz_}
@@ -225,6 +225,26 @@ open(f"{out}/deep-parentheses", "wb").write(b"\xff\x08addr == 1" + b")" * 256)
 open(f"{out}/deep-not", "w").write("!" * 300 + "addr == 1")
 open(f"{out}/long-chain", "w").write(" || ".join(["addr == 1"] * 2000))
 open(f"{out}/huge-number", "w").write("n < " + "9" * 309)
+PY
+  # Report timelines (fuzz/fuzz_report_timeline.cpp: a header of character time and load
+  # interval, then records of an operation byte, a time and their values): times and shifts next
+  # to +-2^62 ns, the shortest load interval, records far apart and back in time.
+  python3 - "$seeds/report_timeline" <<'PY'
+import struct, sys
+out = sys.argv[1]
+def record(op, t, *rest):
+    return bytes([op]) + struct.pack(">q", t) + b"".join(rest)
+def frame(op, t, latency):
+    return record(op, t, bytes([3, 8, 2, 1]), struct.pack(">q", latency))
+edge = 1 << 62
+seeds = {
+    "span-of-2-62": bytes([0, 1, 0]) + record(0, 0, struct.pack(">q", -edge)) + frame(1, 0, 1000) + frame(5, 2 * edge - 1, -1),
+    "shift-past-the-edge": bytes([0, 1, 0]) + record(0, 0, struct.pack(">q", edge)) + frame(2, edge, edge),
+    "back-in-time": bytes([4, 0, 40]) + record(0, 0, struct.pack(">q", 0)) + b"".join(frame(1 + 4 * (k % 3), (10 - k) * 10**9, k) for k in range(10)),
+    "stations": bytes([0, 104, 3]) + record(0, 0, struct.pack(">q", 0)) + b"".join(record(1, k * 10**6, bytes([0, 8, k % 256, k % 7]), struct.pack(">q", 5000)) for k in range(600)),
+}
+for name, data in seeds.items():
+    open(f"{out}/{name}", "wb").write(data)
 PY
   # Every telegram of the captures seeds the protocol-decoder targets too.
   for t in modbus_ascii danfoss_fc easydrive; do

@@ -123,12 +123,12 @@ TEST(DisplayFilter, LiteralsPast64BitsAreRefusedWithTheirColumn) {
   const Record r;  // addr 2, fc 3
   EXPECT_EQ(error_of("n < " + std::string(309, '9')),
             "number out of range (a value has at most 64 bits: 18446744073709551615) at column "
-            "5: n < " + std::string(309, '9'));
+            "5: n < " +
+                std::string(309, '9'));
   EXPECT_NE(error_of("addr == 18446744073709551616").find("out of range"), std::string::npos);
   EXPECT_NE(error_of("addr == -18446744073709551616").find("out of range (a value"),
             std::string::npos);
-  EXPECT_NE(error_of("addr == 0x10000000000000000").find("number out of range"),
-            std::string::npos);
+  EXPECT_NE(error_of("addr == 0x10000000000000000").find("number out of range"), std::string::npos);
   EXPECT_TRUE(passes("addr < 18446744073709551615", r));
   EXPECT_TRUE(passes("addr > -18446744073709551615.5", r));
 }
@@ -219,6 +219,23 @@ TEST(DisplayFilter, SetsAndRanges) {
   EXPECT_TRUE(passes("addr not in {3..5}", r));
   EXPECT_TRUE(passes("dir in {response request}", r));
   EXPECT_TRUE(passes("fc in {0x01..0x04}", r));
+  // Sorted once: repeats, overlapping ranges merged, a range backwards holding nothing, range ends
+  // inclusive, numbers and strings apart.
+  EXPECT_TRUE(passes("addr in {9 2 2 9}", r));
+  EXPECT_TRUE(passes("addr in {0..1 1..2}", r));
+  EXPECT_TRUE(passes("addr in {-5..0 1.5..3 2..2}", r));
+  EXPECT_FALSE(passes("addr in {3..1}", r));
+  EXPECT_TRUE(passes("addr in {3..1 2}", r));
+  EXPECT_TRUE(passes("addr in {2..2}", r));
+  EXPECT_FALSE(passes("addr in {2.5..9 0..1.5}", r));
+  EXPECT_FALSE(passes("addr in {\"2\"}", r));
+  EXPECT_FALSE(passes("dir in {2 0..9}", r));
+  EXPECT_TRUE(passes("dir in {zzz request aaa}", r));
+  std::string big = "addr in {";
+  for (int k = 20000; k > 2; --k) big += std::to_string(k) + " ";
+  EXPECT_FALSE(passes(big + "}", r));
+  EXPECT_TRUE(passes(big + "2}", r));
+  EXPECT_TRUE(passes(big + "0..2}", r));
 }
 
 TEST(DisplayFilter, AFieldWithSeveralValuesMatchesWhenAnyDoes) {

@@ -228,6 +228,33 @@ TEST(ByteTimeBackdater, ReadEndsWithItsLastCharacter) {
   EXPECT_EQ(one[0].time, 299 * ct);
 }
 
+// Bytes faster than the line rate (a pty, a wrong -s): the stamps run ahead of the reads up to
+// kMaxLead, then stay there; they never fall, so that merging the ports by time keeps each port's
+// arrival order (they once stepped back 500 ms, and the merge spliced later bytes before earlier).
+TEST(ByteTimeBackdater, BytesFasterThanTheLineKeepTheirOrder) {
+  constexpr TimeNs ct = 1'000'000;  // 1 ms a character; 10 characters read every 1 ms
+  ByteTimeBackdater backdater(ct);
+  TimeNs previous = -1;
+  TimeNs read_time = 1000 * ct;
+  for (int read = 0; read < 200; ++read, read_time += ct) {
+    std::vector<ByteEvent> chars(10);
+    backdater.stamp(chars, read_time);
+    for (const ByteEvent& e : chars) {
+      EXPECT_GE(e.time, previous) << "read " << read;
+      EXPECT_LE(e.time, read_time + ByteTimeBackdater::kMaxLead) << "read " << read;
+      previous = e.time;
+    }
+  }
+  // 2000 characters in 200 ms: the lead reached 500 ms after some 55 reads.
+  EXPECT_GT(backdater.overrun_reads(), 100u);
+  EXPECT_LT(backdater.overrun_reads(), 160u);
+  // The line falls silent: a read a second later is back-dated as usual.
+  std::vector<ByteEvent> after(2);
+  backdater.stamp(after, read_time + 2000 * ct);
+  EXPECT_EQ(after[0].time, read_time + 1998 * ct);
+  EXPECT_EQ(after[1].time, read_time + 1999 * ct);
+}
+
 // --- USB burst rule ------------------------------------------------------------------------
 
 SerialConfig config(std::string_view text) {

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cstdint>
 #include <random>
 #include <string>
@@ -84,6 +85,44 @@ TEST(StatsTables, PercentilesAreNearestRankWithin128th) {
   for (const TimeNs v : {5, 7, 9, 11}) small.add(v);
   EXPECT_EQ(small.percentile(50), 7);
   EXPECT_EQ(small.percentile(51), 9);
+}
+
+// The histogram keeps the buckets from its lowest value to its highest: values that arrive falling,
+// rising or in two halves merged give the same buckets and percentiles.
+TEST(StatsTables, HistogramKeepsItsRangeWhateverTheOrderAndMerges) {
+  std::mt19937_64 random(11);
+  std::vector<TimeNs> values;
+  for (int i = 0; i < 2000; ++i)
+    values.push_back(static_cast<TimeNs>(random() % (TimeNs{1} << (5 + random() % 30))));
+  std::vector<TimeNs> falling = values;
+  std::sort(falling.rbegin(), falling.rend());
+  LogHistogram in_order, reversed, first_half, second_half;
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    in_order.add(values[i]);
+    reversed.add(falling[i]);
+    (i % 2 ? first_half : second_half).add(values[i]);
+  }
+  first_half.merge(second_half);
+  const auto buckets = [](const LogHistogram& h) {
+    std::vector<std::array<std::uint64_t, 3>> out;
+    h.for_each_bucket([&out](std::uint64_t low, std::uint64_t width, std::uint64_t count) {
+      out.push_back({low, width, count});
+    });
+    return out;
+  };
+  EXPECT_EQ(buckets(in_order), buckets(reversed));
+  EXPECT_EQ(buckets(in_order), buckets(first_half));
+  for (const LogHistogram* h : {&reversed, &first_half}) {
+    EXPECT_EQ(h->count(), in_order.count());
+    EXPECT_EQ(h->min(), in_order.min());
+    EXPECT_EQ(h->max(), in_order.max());
+    for (const int p : {1, 50, 95, 99, 100}) EXPECT_EQ(h->percentile(p), in_order.percentile(p));
+  }
+  LogHistogram empty;
+  in_order.merge(empty);
+  EXPECT_EQ(in_order.count(), values.size());
+  empty.merge(in_order);
+  EXPECT_EQ(buckets(empty), buckets(in_order));
 }
 
 TEST(StatsTables, GapBinsSplitAtT15AndT35AndTheirDoublings) {

@@ -229,6 +229,7 @@ int run_capture(const CommonOptions& o, const CaptureOptions& c, const CaptureVo
 
   LiveCaptureHooks hooks;
   hooks.port_lost = [](const std::string& error) { say(error); };
+  hooks.warn = [](const std::string& warning) { say("warning: " + warning); };
   hooks.port_back = [&voice](const std::string& port) {
     if (voice.chatty) std::fprintf(stderr, "drivetap: %s: reconnected\n", port.c_str());
   };

@@ -9,6 +9,7 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <cctype>
 #include <cerrno>
 #include <chrono>
 #include <cstdio>
@@ -61,11 +62,25 @@ struct ExtcapOptions {
 constexpr std::string_view kVersion = "0.1.0";
 constexpr int kLoggerControl = 0;  // the "Log" button of the interface toolbar
 
-// A value in Wireshark's `{key=value}` sentences: braces would end it early.
+// Text shown in Wireshark's `{key=value}` sentences (a display, a tooltip): one line of printable
+// UTF-8 (a newline would end the sentence, invalid UTF-8 makes Wireshark drop it), its braces
+// shown as parentheses.
 std::string sentence_value(std::string_view text) {
   std::string out;
-  for (char ch : text) out += ch == '{' ? '(' : ch == '}' ? ')' : ch;
+  for (char ch : printable(text, false)) out += ch == '{' ? '(' : ch == '}' ? ')' : ch;
   return out;
+}
+
+// Whether Wireshark reads `value` back from `{value=...}` as it is, to hand it to
+// --extcap-interface: printable UTF-8 on one line, and no '}' that its sentence parser takes
+// for the end (one followed by '{' or by white space; extcap_parser.c).
+bool survives_sentence(std::string_view value) {
+  if (printable(value, false) != value) return false;
+  for (std::size_t k = 0; k + 1 < value.size(); ++k)
+    if (value[k] == '}' &&
+        (value[k + 1] == '{' || std::isspace(static_cast<unsigned char>(value[k + 1]))))
+      return false;
+  return true;
 }
 
 // An interface name as a port: a path as it is (a /dev path under DRIVETAP_DEVICE_ROOT, as
@@ -80,10 +95,16 @@ std::string port_of(const std::string& interface) {
 int print_interfaces() {
   fmt::print("extcap {{version={}}}{{display=drivetap RS-485 bus tap}}\n", kVersion);
   for (const SerialPortEntry& port : find_serial_ports()) {
+    if (!survives_sentence(port.path)) {
+      // (A changed name could not be captured: Wireshark would hand it back changed.)
+      say(fmt::format("{}: not listed for Wireshark: its name cannot pass through an extcap "
+                      "sentence unchanged (capture it with drivetap capture -i)",
+                      printable(port.path)));
+      continue;
+    }
     std::string display = "RS-485 tap " + port.path;
     if (!port.by_id.empty()) display += fmt::format(" ({})", fmt::join(port.by_id, ", "));
-    fmt::print("interface {{value={}}}{{display={}}}\n", sentence_value(port.path),
-               sentence_value(display));
+    fmt::print("interface {{value={}}}{{display={}}}\n", port.path, sentence_value(display));
   }
   // The toolbar's log: what drivetap says about the port (a slow USB latency timer, ...).
   // Declaring a control also makes Wireshark pass the control pipes, which carry the status bar.

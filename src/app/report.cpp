@@ -159,6 +159,7 @@ int run_report(const CommonOptions& o, const std::vector<std::string>& paths) {
     StatsTablesSink tables(
         channels, p.timing, true,
         {{StatisticKind::stations, kNsPerSecond}, {StatisticKind::gaps, kNsPerSecond}});
+    tables.limit_station_rows(ReportSink::kStationRows);
     DiagnosisSink diagnosis(evidence, p.timing);
     DiagnosisWithoutDetail diagnosis_light(diagnosis);
     std::optional<DisplayFilterSink> filtered;

@@ -4,9 +4,11 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cctype>
 #include <charconv>
 #include <cmath>
+#include <functional>
 #include <iterator>
 
 namespace drivetap {
@@ -477,7 +479,8 @@ class FilterParser {
     }
     const std::size_t open = token_.column;
     if (!advance()) return false;
-    n.literal = static_cast<std::uint32_t>(out_.literals_.size());
+    DisplayFilter::Set set;
+    bool any_member = false;
     while (token_.kind != Kind::rbrace) {
       if (token_.kind == Kind::end) {
         set_error(fmt::format("expected '}}' for the '{{' of column {}", open), token_.column);
@@ -485,6 +488,7 @@ class FilterParser {
       }
       DisplayFilter::Literal lit;
       if (!take_literal(lit, "in {")) return false;
+      any_member = true;
       if (token_.kind == Kind::range) {
         if (!lit.is_number) {
           set_error("a range needs numbers at both ends", token_.column);
@@ -496,18 +500,35 @@ class FilterParser {
                     token_.column);
           return false;
         }
-        lit.is_range = true;
-        lit.high = token_.number;
+        // A range whose low end is above its high one holds no value.
+        if (lit.number <= token_.number) set.ranges.emplace_back(lit.number, token_.number);
         if (!advance()) return false;
+      } else if (lit.is_number) {
+        set.numbers.push_back(lit.number);
+      } else {
+        set.texts.push_back(std::move(lit.text));
       }
-      out_.literals_.push_back(std::move(lit));
       if (token_.kind == Kind::comma && !advance()) return false;
     }
-    n.count = static_cast<std::uint32_t>(out_.literals_.size()) - n.literal;
-    if (n.count == 0) {
+    if (!any_member) {
       set_error("an empty set matches nothing", open);
       return false;
     }
+    std::ranges::sort(set.numbers);
+    set.numbers.erase(std::unique(set.numbers.begin(), set.numbers.end()), set.numbers.end());
+    std::ranges::sort(set.texts);
+    set.texts.erase(std::unique(set.texts.begin(), set.texts.end()), set.texts.end());
+    std::ranges::sort(set.ranges);
+    std::vector<std::pair<double, double>> merged;
+    for (const auto& r : set.ranges) {
+      if (!merged.empty() && r.first <= merged.back().second)
+        merged.back().second = std::max(merged.back().second, r.second);
+      else
+        merged.push_back(r);
+    }
+    set.ranges = std::move(merged);
+    out_.sets_.push_back(std::move(set));
+    n.literal = static_cast<std::uint32_t>(out_.sets_.size() - 1);
     return advance();
   }
 
@@ -521,12 +542,6 @@ class FilterParser {
 };
 
 namespace {
-
-bool equal(const RecordValue& v, const DisplayFilter::Literal& lit) {
-  if (lit.is_range) return v.is_number && v.number >= lit.number && v.number <= lit.high;
-  if (lit.is_number != v.is_number) return false;
-  return lit.is_number ? v.number == lit.number : v.text == lit.text;
-}
 
 // Whether `v` stands in relation `c` to the literal (values of another type never do).
 bool holds(const RecordValue& v, DisplayFilter::Compare c, const DisplayFilter::Literal& lit) {
@@ -585,18 +600,23 @@ struct AnyContains final : ValueVisitor {
   }
 };
 struct AnyInSet final : ValueVisitor {
-  const DisplayFilter::Literal* first;
-  std::uint32_t count;
-  AnyInSet(const DisplayFilter::Literal* f, std::uint32_t c)
-      : ValueVisitor(false), first(f), count(c) {}
-  bool visit(const RecordValue& v) override {
-    for (std::uint32_t i = 0; i < count; ++i)
-      if (equal(v, first[i])) return true;
-    return false;
-  }
+  const DisplayFilter::Set* set;
+  explicit AnyInSet(const DisplayFilter::Set* s) : ValueVisitor(false), set(s) {}
+  bool visit(const RecordValue& v) override { return set->holds(v); }
 };
 
 }  // namespace
+
+bool DisplayFilter::Set::holds(const RecordValue& v) const {
+  if (!v.is_number) return std::ranges::binary_search(texts, v.text, std::less<>{});
+  // NaN is unordered: a binary search would take it for any member.
+  if (std::isnan(v.number)) return false;
+  if (std::ranges::binary_search(numbers, v.number)) return true;
+  // The last range starting at or below the value is the only one that can hold it.
+  const auto after =
+      std::ranges::upper_bound(ranges, v.number, {}, &std::pair<double, double>::first);
+  return after != ranges.begin() && v.number <= std::prev(after)->second;
+}
 
 std::optional<DisplayFilter> DisplayFilter::compile(std::string_view text, std::string* error) {
   DisplayFilter f;
@@ -659,7 +679,7 @@ bool DisplayFilter::eval(std::uint32_t index, const RecordView& record) const {
       return record_values(fields_[n.field], record, scratch_, v);
     }
     case Node::Op::in_set: {
-      AnyInSet v(&literals_[n.literal], n.count);
+      AnyInSet v(&sets_[n.literal]);
       return record_values(fields_[n.field], record, scratch_, v);
     }
   }

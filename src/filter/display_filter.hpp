@@ -8,6 +8,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "filter/record_fields.hpp"
@@ -38,19 +39,24 @@ class DisplayFilter {
   enum class Compare : std::uint8_t { eq, ne, lt, gt, le, ge };
   struct Literal {
     bool is_number = false;
-    double number = 0;  // a number, or a range's low end
-    double high = 0;    // a range's high end (in a set only)
-    bool is_range = false;
+    double number = 0;
     std::string text;  // a string
+  };
+  // A set's members sorted, so that a test costs a few comparisons however many members it
+  // has: numbers and texts without repeats, ranges merged where they overlap.
+  struct Set {
+    std::vector<double> numbers;
+    std::vector<std::string> texts;
+    std::vector<std::pair<double, double>> ranges;  // low, high; disjoint, by low
+    [[nodiscard]] bool holds(const RecordValue& v) const;
   };
   struct Node {
     enum class Op : std::uint8_t { exists, compare, contains, in_set, all, any, negate };
     Op op = Op::exists;
     Compare compare = Compare::eq;
     std::uint32_t field = 0;  // index into fields_
-    // compare/contains: the literal; in_set: the first of `count` literals
+    // compare/contains: the literal; in_set: the set
     std::uint32_t literal = 0;
-    std::uint32_t count = 0;
     // all/any: the operands; negate: first
     std::uint32_t first = 0;
     std::uint32_t second = 0;
@@ -63,6 +69,7 @@ class DisplayFilter {
   std::string text_;
   std::vector<RecordField> fields_;
   std::vector<Literal> literals_;
+  std::vector<Set> sets_;
   std::vector<Node> nodes_;
   std::uint32_t root_ = 0;
   RecordFieldNeeds needs_;

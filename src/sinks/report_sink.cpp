@@ -125,14 +125,23 @@ void ReportSink::count_busy(ChannelId channel, std::size_t bytes, TimeNs start, 
   }
 }
 
-ReportSink::Drive& ReportSink::drive_of(std::size_t link, int address) {
+ReportSink::Drive* ReportSink::drive_of(std::size_t link, int address) {
   if (last_drive_ && last_drive_->link == link && last_drive_->address == address)
-    return *last_drive_;
-  Drive& d = drives_[{link, address}];
+    return last_drive_;
+  const std::pair<std::size_t, int> key{link, address};
+  auto it = drives_.find(key);
+  if (it == drives_.end()) {
+    if (drives_.size() >= kMaxDrives) {
+      drives_left_out_.insert(key);
+      return nullptr;
+    }
+    it = drives_.emplace(key, Drive{}).first;
+  }
+  Drive& d = it->second;
   last_drive_ = &d;
   d.link = link;
   d.address = address;
-  return d;
+  return &d;
 }
 
 void ReportSink::on_frame(const Message& m) {
@@ -141,7 +150,9 @@ void ReportSink::on_frame(const Message& m) {
   last_frame_address_ = m.address;
   if (!m.drive_read_with || m.address < 0) return;
   const TimeNs t = on_timeline(m.frame.start());
-  Drive& d = drive_of(channels_.link_index(m.frame.channel), m.address);
+  Drive* drive = drive_of(channels_.link_index(m.frame.channel), m.address);
+  if (!drive) return;
+  Drive& d = *drive;
   d.channel = m.frame.channel;
   d.profile = m.drive_read_with->id;
   d.name = m.drive_read_with->name;
@@ -176,7 +187,12 @@ void ReportSink::on_noise(const Frame& noise) {
 }
 
 void ReportSink::count_finding(AnomalyKind kind, int station, TimeNs t) {
-  FindingRow& row = findings_[{kind, station}];
+  auto it = findings_.find({kind, station});
+  if (it == findings_.end()) {
+    if (findings_.size() >= kMaxFindingRows) station = kOtherStations;
+    it = findings_.try_emplace({kind, station}).first;
+  }
+  FindingRow& row = it->second;
   ++row.cells.at(t).count;
   ++row.count;
 }
@@ -218,7 +234,9 @@ void ReportSink::on_event(const BusEvent& e) {
   if (e.kind != "command" && e.kind != "running" && e.kind != "direction" && e.kind != "setpoint" &&
       e.kind != "fault" && e.kind != "warning")
     return;
-  Drive& d = drive_of(channels_.link_index(e.channel), e.address);
+  Drive* drive = drive_of(channels_.link_index(e.channel), e.address);
+  if (!drive) return;
+  Drive& d = *drive;
   if (e.kind == "running") d.running = e.to == "running";
   if (e.kind == "fault") {
     // Two sources of a fault: the fault code and the status word's fault bit.
@@ -312,9 +330,22 @@ std::string ReportSink::data_json(const std::string& diagnosis_json) const {
   if (!out.empty() && out.back() == '\n') out.pop_back();
 
   // Bus load per channel: busy % of each column.
-  out += R"(,"load":[)";
+  // (the kLoadChannels channels busiest over the whole capture)
+  std::vector<std::pair<TimeNs, const std::pair<const ChannelId, ColumnSeries<Busy>>*>> channels;
+  for (const auto& entry : load_) {
+    TimeNs busy = 0;
+    for (std::size_t k = 0; k < entry.second.used(); ++k) busy += entry.second.cell(k).busy;
+    channels.emplace_back(busy, &entry);
+  }
+  std::stable_sort(channels.begin(), channels.end(),
+                   [](const auto& a, const auto& b) { return a.first > b.first; });
+  fmt::format_to(std::back_inserter(out), R"(,"load_channels":{},"load":[)", channels.size());
+  if (channels.size() > kLoadChannels) channels.resize(kLoadChannels);
+  std::sort(channels.begin(), channels.end(),
+            [](const auto& a, const auto& b) { return a.second->first < b.second->first; });
   bool first_load = true;
-  for (const auto& [channel, series] : load_) {
+  for (const auto& [busy, entry] : channels) {
+    const auto& [channel, series] = *entry;
     fmt::format_to(std::back_inserter(out), R"({}{{"channel":{},"points":[)", first_load ? "" : ",",
                    json_quote(channels_.at(channel).name));
     first_load = false;
@@ -330,9 +361,19 @@ std::string ReportSink::data_json(const std::string& diagnosis_json) const {
   out += "]";
 
   // Latency per station: the -z stations histogram's buckets, merged into a few display bins.
-  out += R"(,"latency":[)";
+  // (every station when they are kLatencyCharts or fewer; else those with the most replies timed)
+  std::vector<const std::pair<const StationKey, Station>*> timed;
+  for (const auto& entry : stations_) timed.push_back(&entry);
+  fmt::format_to(std::back_inserter(out), R"(,"latency_stations":{},"latency":[)", timed.size());
+  if (timed.size() > kLatencyCharts) {
+    std::stable_sort(timed.begin(), timed.end(), [](const auto* a, const auto* b) {
+      return a->second.latency.count() > b->second.latency.count();
+    });
+    timed.resize(kLatencyCharts);
+  }
   bool first_station = true;
-  for (const auto& [key, s] : stations_) {
+  for (const auto* entry : timed) {
+    const auto& [key, s] = *entry;
     const auto& [channel, protocol, address] = key;
     const LogHistogram& l = s.latency;
     fmt::format_to(std::back_inserter(out),
@@ -413,15 +454,47 @@ std::string ReportSink::data_json(const std::string& diagnosis_json) const {
                      json_quote(d.events[i].detail));
     fmt::format_to(std::back_inserter(out), R"(],"events_left_out":{}}})", d.events_left_out);
   }
-  out += "]";
+  fmt::format_to(std::back_inserter(out), R"(],"drives_left_out":{})", drives_left_out_.size());
 
-  // Findings: a row per kind and station, the columns of the heatmap with their counts.
+  // Findings: a row per kind and station, the columns of the heatmap with their counts; past the
+  // kFindingRows rows with the most findings, one row per kind for the other stations.
   const TimeNs heat_width =
       width * static_cast<TimeNs>(ColumnSeries<Count>::kColumns / kHeatColumns);
+  using RowEntry = std::pair<std::pair<AnomalyKind, int>, const FindingRow*>;
+  std::vector<RowEntry> rows;
+  for (const auto& [key, row] : findings_) rows.emplace_back(key, &row);
+  std::map<std::pair<AnomalyKind, int>, FindingRow> merged;
+  const auto add_row = [](FindingRow& into, const FindingRow& from) {
+    into.count += from.count;
+    into.cells.widen_to(from.cells.width());
+    for (std::size_t c = 0; c < from.cells.used(); ++c)
+      if (from.cells.cell(c).count != 0)
+        into.cells.at(static_cast<TimeNs>(c) * from.cells.width()).count +=
+            from.cells.cell(c).count;
+  };
+  if (rows.size() > kFindingRows) {
+    std::stable_sort(rows.begin(), rows.end(), [](const RowEntry& a, const RowEntry& b) {
+      return a.second->count > b.second->count;
+    });
+    for (std::size_t k = kFindingRows; k < rows.size(); ++k)
+      add_row(merged[{rows[k].first.first, kOtherStations}], *rows[k].second);
+    rows.resize(kFindingRows);
+    // (a kind's own "other stations" row, kept among the busiest, joins the merged one)
+    std::erase_if(rows, [&](const RowEntry& r) {
+      const auto other = merged.find(r.first);
+      if (other == merged.end()) return false;
+      add_row(other->second, *r.second);
+      return true;
+    });
+    for (const auto& [key, row] : merged) rows.emplace_back(key, &row);
+    std::sort(rows.begin(), rows.end(),
+              [](const RowEntry& a, const RowEntry& b) { return a.first < b.first; });
+  }
   fmt::format_to(std::back_inserter(out), R"(,"findings":{{"column_s":{},"rows":[)",
                  seconds(heat_width));
   bool first_row = true;
-  for (const auto& [key, row] : findings_) {
+  for (const auto& [key, row_pointer] : rows) {
+    const FindingRow& row = *row_pointer;
     fmt::format_to(std::back_inserter(out), R"({}{{"kind":{},"station":{},"count":{},"cells":[)",
                    first_row ? "" : ",", json_quote(anomaly_id(key.first)), key.second, row.count);
     first_row = false;

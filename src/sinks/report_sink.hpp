@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <map>
 #include <optional>
+#include <set>
 #include <string>
 #include <tuple>
 #include <vector>
@@ -87,6 +88,19 @@ class ReportSink final : public Sink {
   static constexpr std::size_t kMaxEvents = 4000;
   // Columns of the findings heatmap (each a few of the series' columns).
   static constexpr std::size_t kHeatColumns = 128;
+  // What the page holds however many stations a capture has (docs/reference.md "Report"): the
+  // busiest stations' rows and latency histograms, the rest summed in one row; the busiest
+  // channels' load; the first drives
+  // charted; the findings rows with the most findings, the rest one row per kind. Kept in memory:
+  // each station's counts, and up to kMaxFindingRows rows of findings (those past it are counted
+  // in their kind's "other stations" row).
+  static constexpr std::size_t kStationRows = 64;
+  static constexpr std::size_t kLoadChannels = 16;
+  static constexpr std::size_t kLatencyCharts = 48;
+  static constexpr std::size_t kMaxDrives = 128;
+  static constexpr std::size_t kFindingRows = 64;
+  static constexpr std::size_t kMaxFindingRows = 1024;
+  static constexpr int kOtherStations = -2;  // a findings row of stations not listed alone
 
   explicit ReportSink(const ChannelTable& channels);
 
@@ -182,7 +196,8 @@ class ReportSink final : public Sink {
   [[nodiscard]] TimeNs on_timeline(TimeNs t) const;
   void count_busy(ChannelId channel, std::size_t bytes, TimeNs start, bool telegram);
   void count_finding(AnomalyKind kind, int station, TimeNs t);
-  Drive& drive_of(std::size_t link, int address);
+  // The drive's series, or null for a drive past the first kMaxDrives (then counted).
+  Drive* drive_of(std::size_t link, int address);
 
   const ChannelTable& channels_;
   std::vector<ReportCapture> captures_;
@@ -194,6 +209,7 @@ class ReportSink final : public Sink {
   std::map<ChannelId, ColumnSeries<Busy>> load_;
   std::map<StationKey, Station> stations_;
   std::map<std::pair<std::size_t, int>, Drive> drives_;
+  std::set<std::pair<std::size_t, int>> drives_left_out_;  // past kMaxDrives
   Drive* last_drive_ = nullptr;  // the drive of the last frame read (most frames: the same)
   StationKey last_station_key_;
   Station* last_station_ = nullptr;

@@ -121,14 +121,32 @@ std::uint64_t LogHistogram::bucket_width(std::size_t bucket) {
   return std::uint64_t{1} << ((bucket - kLinear) / kSub + 1);
 }
 
+void LogHistogram::count(std::size_t bucket, std::uint64_t n) {
+  if (counts_.empty()) {
+    first_ = bucket;
+  } else if (bucket < first_) {
+    counts_.insert(counts_.begin(), first_ - bucket, 0);
+    first_ = bucket;
+  }
+  if (bucket - first_ >= counts_.size()) counts_.resize(bucket - first_ + 1);
+  counts_[bucket - first_] += n;
+}
+
 void LogHistogram::add(TimeNs value) {
   if (value < 0) return;
-  const std::size_t b = bucket_of(static_cast<std::uint64_t>(value));
-  if (b >= counts_.size()) counts_.resize(b + 1);
-  ++counts_[b];
+  count(bucket_of(static_cast<std::uint64_t>(value)), 1);
   min_ = count_ == 0 ? value : std::min(min_, value);
   max_ = count_ == 0 ? value : std::max(max_, value);
   ++count_;
+}
+
+void LogHistogram::merge(const LogHistogram& other) {
+  if (other.count_ == 0) return;
+  for (std::size_t k = 0; k < other.counts_.size(); ++k)
+    if (other.counts_[k] != 0) count(other.first_ + k, other.counts_[k]);
+  min_ = count_ == 0 ? other.min_ : std::min(min_, other.min_);
+  max_ = count_ == 0 ? other.max_ : std::max(max_, other.max_);
+  count_ += other.count_;
 }
 
 TimeNs LogHistogram::percentile(int percent) const {
@@ -140,9 +158,10 @@ TimeNs LogHistogram::percentile(int percent) const {
   if (rank == 1) return min_;
   if (rank == count_) return max_;
   std::uint64_t seen = 0;
-  for (std::size_t b = 0; b < counts_.size(); ++b) {
-    seen += counts_[b];
+  for (std::size_t k = 0; k < counts_.size(); ++k) {
+    seen += counts_[k];
     if (seen < rank) continue;
+    const std::size_t b = first_ + k;
     const auto mid = static_cast<TimeNs>(bucket_low(b) + bucket_width(b) / 2);
     return std::clamp(mid, min_, max_);
   }
@@ -347,9 +366,36 @@ void StatsTablesSink::write_tables(bool json,
 }
 
 void StatsTablesSink::stations_table(std::string& out, bool json) const {
+  // The stations listed: all of them, or the busiest station_rows_ (in key order) and the rest
+  // summed into `others`.
+  using Entry = const std::pair<const StationKey, Station>*;
+  std::vector<Entry> listed;
+  listed.reserve(stations_by_key_.size());
+  for (const auto& entry : stations_by_key_) listed.push_back(&entry);
+  Station others;
+  std::size_t other_count = 0;
+  if (listed.size() > station_rows_) {
+    const auto busier = [](Entry a, Entry b) {
+      return a->second.requests + a->second.replies > b->second.requests + b->second.replies;
+    };
+    std::stable_sort(listed.begin(), listed.end(), busier);
+    for (auto it = listed.begin() + static_cast<std::ptrdiff_t>(station_rows_); it != listed.end();
+         ++it) {
+      const Station& s = (*it)->second;
+      others.requests += s.requests;
+      others.replies += s.replies;
+      others.exceptions += s.exceptions;
+      others.timeouts += s.timeouts;
+      others.bad_checksums += s.bad_checksums;
+      others.bytes += s.bytes;
+      others.latency.merge(s.latency);
+      ++other_count;
+    }
+    listed.resize(station_rows_);
+    std::sort(listed.begin(), listed.end(), [](Entry a, Entry b) { return a->first < b->first; });
+  }
   std::size_t width = 8;  // the channel column's: its longest name
-  for (const auto& [key, s] : stations_by_key_)
-    width = std::max(width, channels_.at(key.channel).name.size());
+  for (const Entry e : listed) width = std::max(width, channels_.at(e->first.channel).name.size());
   if (!json) {
     fmt::format_to(std::back_inserter(out),
                    "{}\nStations (-z stations): latency and poll interval in ms; share: % of the "
@@ -362,21 +408,28 @@ void StatsTablesSink::stations_table(std::string& out, bool json) const {
                    "badsum", "lat_min", "lat_p50", "lat_p95", "lat_p99", "lat_max", "poll",
                    "jitter", "bytes", "share");
   }
-  for (const auto& [key, s] : stations_by_key_) {
-    const std::string_view channel = channels_.at(key.channel).name;
+  // One row; `key` null for the others' sum (no channel, so no share or poll interval).
+  const auto row = [&](const StationKey* key, const Station& s) {
+    const std::string_view channel =
+        key ? std::string_view(channels_.at(key->channel).name) : std::string_view();
     const std::uint64_t channel_bytes =
-        key.channel < channel_bytes_.size() ? channel_bytes_[key.channel] : 0;
+        key && key->channel < channel_bytes_.size() ? channel_bytes_[key->channel] : 0;
     const bool polled = s.polls > 0;
     const double jitter = polled ? std::sqrt(s.poll_m2 / static_cast<double>(s.polls)) : 0;
     const LogHistogram& l = s.latency;
     if (json) {
-      out += R"({"type":"stat","stat":"stations","channel":)";
-      out += json_quote(channel);
+      out += R"({"type":"stat","stat":"stations",)";
+      if (key)
+        fmt::format_to(std::back_inserter(out), R"("channel":{},"protocol":"{}","addr":{},)",
+                       json_quote(channel), protocol_id(key->protocol), key->address);
+      else
+        fmt::format_to(std::back_inserter(out),
+                       R"("channel":null,"protocol":null,"addr":null,"other_stations":{},)",
+                       other_count);
       fmt::format_to(std::back_inserter(out),
-                     R"(,"protocol":"{}","addr":{},"requests":{},"replies":{},"exceptions":{},)"
-                     R"("timeouts":{},"bad_checksums":{},"latency_ms":)",
-                     protocol_id(key.protocol), key.address, s.requests, s.replies, s.exceptions,
-                     s.timeouts, s.bad_checksums);
+                     R"("requests":{},"replies":{},"exceptions":{},"timeouts":{},)"
+                     R"("bad_checksums":{},"latency_ms":)",
+                     s.requests, s.replies, s.exceptions, s.timeouts, s.bad_checksums);
       if (l.count() == 0)
         out += "null";
       else
@@ -391,23 +444,30 @@ void StatsTablesSink::stations_table(std::string& out, bool json) const {
         fmt::format_to(std::back_inserter(out), R"({{"count":{},"mean":{},"jitter":{}}})", s.polls,
                        ms_of(s.poll_mean), ms_of(jitter));
       fmt::format_to(std::back_inserter(out), R"(,"bytes":{},"share_pct":{}}})", s.bytes,
-                     percent(s.bytes, channel_bytes));
+                     key ? percent(s.bytes, channel_bytes) : std::string("null"));
       out += '\n';
-      continue;
+      return;
     }
     const bool lat = l.count() > 0;
-    fmt::format_to(std::back_inserter(out),
-                   "{:<{}} {:<12} {:>4} {:>8} {:>8} {:>5} {:>8} {:>6} {:>9} {:>9} {:>9} {:>9} "
-                   "{:>9} {:>9} {:>9} {:>10} {:>6.1f}\n",
-                   channel, width, protocol_id(key.protocol), key.address, s.requests, s.replies,
-                   s.exceptions, s.timeouts, s.bad_checksums, ms_or(lat ? l.min() : -1, "-"),
-                   ms_or(lat ? l.percentile(50) : -1, "-"), ms_or(lat ? l.percentile(95) : -1, "-"),
-                   ms_or(lat ? l.percentile(99) : -1, "-"), ms_or(lat ? l.max() : -1, "-"),
-                   polled ? ms_of(s.poll_mean) : "-", polled ? ms_of(jitter) : "-", s.bytes,
-                   channel_bytes == 0
-                       ? 0.0
-                       : 100.0 * static_cast<double>(s.bytes) / static_cast<double>(channel_bytes));
-  }
+    const std::string name =
+        key ? std::string(channel) : fmt::format("({} other stations)", other_count);
+    fmt::format_to(
+        std::back_inserter(out),
+        "{:<{}} {:<12} {:>4} {:>8} {:>8} {:>5} {:>8} {:>6} {:>9} {:>9} {:>9} {:>9} "
+        "{:>9} {:>9} {:>9} {:>10} {:>6}\n",
+        name, width, key ? protocol_id(key->protocol) : "-",
+        key ? std::to_string(key->address) : std::string("-"), s.requests, s.replies, s.exceptions,
+        s.timeouts, s.bad_checksums, ms_or(lat ? l.min() : -1, "-"),
+        ms_or(lat ? l.percentile(50) : -1, "-"), ms_or(lat ? l.percentile(95) : -1, "-"),
+        ms_or(lat ? l.percentile(99) : -1, "-"), ms_or(lat ? l.max() : -1, "-"),
+        polled ? ms_of(s.poll_mean) : "-", polled ? ms_of(jitter) : "-", s.bytes,
+        key ? fmt::format("{:.1f}", channel_bytes == 0 ? 0.0
+                                                       : 100.0 * static_cast<double>(s.bytes) /
+                                                             static_cast<double>(channel_bytes))
+            : std::string("-"));
+  };
+  for (const Entry e : listed) row(&e->first, e->second);
+  if (other_count > 0) row(nullptr, others);
   if (!json) {
     if (stations_by_key_.empty()) out += "(no stations)\n";
     fmt::format_to(std::back_inserter(out), "{}\n", kRule);
@@ -510,14 +570,13 @@ void StatsTablesSink::load_table(std::string& out, bool json, const LoadSeries& 
     if (channel_bytes_[c] != 0) channels.push_back(static_cast<ChannelId>(c));
   std::size_t width = 8;  // the channel column's: its longest name
   for (const ChannelId c : channels) width = std::max(width, channels_.at(c).name.size());
-  const std::string asked =
-      fmt::format("{:g}", static_cast<double>(series.requested) / static_cast<double>(kNsPerSecond));
+  const std::string asked = fmt::format(
+      "{:g}", static_cast<double>(series.requested) / static_cast<double>(kNsPerSecond));
   if (!json)
     fmt::format_to(std::back_inserter(out),
                    "{}\nLoad (-z load,{}): busy = bytes x character time ({} ms) per interval; "
                    "intervals from {} s{}\n{:<24} {:<{}} {:>8} {:>10} {:>7}\n",
-                   kRule, asked, format_ms(timing_.character_time),
-                   format_seconds(load_origin_, 6),
+                   kRule, asked, format_ms(timing_.character_time), format_seconds(load_origin_, 6),
                    series.interval == series.requested
                        ? std::string()
                        : fmt::format("; intervals of {} s: {} s gave more than {} with traffic",

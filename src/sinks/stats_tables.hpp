@@ -49,16 +49,22 @@ class LogHistogram {
   // Each bucket that holds values, in increasing order: visit(low, width, count) (ns).
   template <class Visit>
   void for_each_bucket(Visit visit) const {
-    for (std::size_t b = 0; b < counts_.size(); ++b)
-      if (counts_[b] != 0) visit(bucket_low(b), bucket_width(b), counts_[b]);
+    for (std::size_t k = 0; k < counts_.size(); ++k)
+      if (counts_[k] != 0) visit(bucket_low(first_ + k), bucket_width(first_ + k), counts_[k]);
   }
+  // Adds the values `other` holds.
+  void merge(const LogHistogram& other);
 
   static std::size_t bucket_of(std::uint64_t value);
   static std::uint64_t bucket_low(std::size_t bucket);
   static std::uint64_t bucket_width(std::size_t bucket);
 
  private:
-  std::vector<std::uint64_t> counts_;  // grown to the highest bucket used (at most some 3800)
+  // Buckets first_ .. first_ + size - 1: from the lowest used to the highest (of some 3800), so
+  // that a station whose replies take 10-20 ms keeps some 70 counts, not 1500.
+  void count(std::size_t bucket, std::uint64_t n);
+  std::vector<std::uint64_t> counts_;
+  std::size_t first_ = 0;
   std::uint64_t count_ = 0;
   TimeNs min_ = -1;
   TimeNs max_ = -1;
@@ -80,6 +86,9 @@ class StatsTablesSink final : public Sink {
   bool flush() override { return true; }
   [[nodiscard]] SinkNeeds needs() const override;
   void on_deferred_frame(const DeferredTelegram& telegram) override;
+  // -z stations lists only the `rows` busiest stations (most requests and replies) and sums the
+  // rest in one last row (the report: its page stays small whatever the station count).
+  void limit_station_rows(std::size_t rows) { station_rows_ = rows; }
 
   // The tables, in the order requested: text (tshark's "====" blocks) or JSON lines (one
   // {"type":"stat",...} record per row).
@@ -174,6 +183,7 @@ class StatsTablesSink final : public Sink {
   bool timed_;
   std::vector<StatisticRequest> requests_;
   bool stations_ = false, functions_ = false, gaps_ = false;
+  std::size_t station_rows_ = static_cast<std::size_t>(-1);
 
   std::map<StationKey, Station> stations_by_key_;
   // The station last counted (a reply follows its request): its key and row.

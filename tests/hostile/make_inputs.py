@@ -41,6 +41,43 @@ def pcapng(path, packets, link_type=147, if_name=None, tsresol=None, tsoffset=No
         f.write(b"".join(blocks))
 
 
+def crc16(data):
+    crc = 0xFFFF
+    for b in data:
+        crc ^= b
+        for _ in range(8):
+            crc = (crc >> 1) ^ 0xA001 if crc & 1 else crc >> 1
+    return data + struct.pack("<H", crc)
+
+
+def pcapng_interfaces(path, interfaces, packets, link_type=147):
+    """packets: (time_us, interface, bytes) on `interfaces` interfaces."""
+    blocks = [pcapng_block(0x0A0D0D0A, struct.pack("<IHHq", 0x1A2B3C4D, 1, 0, -1))]
+    for k in range(interfaces):
+        name = f"bus{k}".encode()
+        blocks.append(pcapng_block(1, struct.pack("<HHI", link_type, 0, 0) +
+                                   pcapng_option(2, name) + pcapng_option(0, b"")))
+    for t, interface, data in packets:
+        blocks.append(pcapng_block(6, struct.pack("<IIIII", interface, t >> 32, t & 0xFFFFFFFF,
+                                                  len(data), len(data)) + data))
+    with open(path, "wb") as f:
+        f.write(b"".join(blocks))
+
+
+def many_stations(path, interfaces):
+    """Every Modbus address 1..247 polled once on each of `interfaces` buses, one bus after the
+    other, each request answered 20 ms later; then station 1 of each bus polled 8 times more:
+    247 x `interfaces` stations."""
+    packets = []
+    t = 0
+    for address in list(range(1, 248)) + [1] * 8:
+        for interface in range(interfaces):
+            packets.append((t, interface, crc16(bytes([address, 3, 0, 0, 0, 1]))))
+            packets.append((t + 20000, interface, crc16(bytes([address, 3, 2, 0, address]))))
+            t += 25000
+    pcapng_interfaces(path, interfaces, packets)
+
+
 def random_packets(path, megabytes):
     """Random bytes in packets of 1..64 bytes, 5 ms apart: no protocol at all."""
     r = random.Random(36)
@@ -159,6 +196,8 @@ def make(directory, name):
         frame = bytes.fromhex("020300000004443a")
         pcapng(at + ".pcapng", [(k * 100000, frame) for k in range(3)],
                if_name=b"=HYPERLINK(\"http://x\")")
+    elif name == "pcapng-63232-stations":
+        many_stations(at + ".pcapng", 256)
     elif name == "logic-long-idle":
         # 60 s of idle line at 10 MHz after 32 characters: decoding takes seconds of idle runs.
         streamed_sigrok(at + ".sr", "10 MHz",

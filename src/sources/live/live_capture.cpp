@@ -1,6 +1,8 @@
 // Live capture from serial ports: the listening loop (src/sources/live/live_capture.hpp).
 #include "sources/live/live_capture.hpp"
 
+#include <fmt/format.h>
+
 #include <poll.h>
 #include <unistd.h>
 
@@ -41,6 +43,7 @@ LiveCaptureEnd LiveCapture::run(Pipeline& pipeline, const LiveCaptureHooks& hook
   std::vector<ByteEvent> pending;  // read, not yet pushed: sorted by time before each push
   std::size_t sorted_pending = 0;  // pending[0, sorted_pending) is in time order
   std::vector<ByteEvent> fresh;
+  std::vector<bool> said_too_fast(ports_.size(), false);
   auto limit_reached = [&] { return max_frames > 0 && pipeline.stats().frames >= max_frames; };
   LiveCaptureEnd end = LiveCaptureEnd::stopped;
   while (!stop) {
@@ -85,6 +88,15 @@ LiveCaptureEnd LiveCapture::run(Pipeline& pipeline, const LiveCaptureHooks& hook
       fresh.clear();
       const bool alive = ports_[k]->read_available(fresh);
       pending.insert(pending.end(), fresh.begin(), fresh.end());
+      if (!said_too_fast[k] && ports_[k]->line_rate_exceeded()) {
+        said_too_fast[k] = true;
+        if (hooks.warn)
+          hooks.warn(
+              fmt::format("{}: bytes come faster than {} can carry: wrong line settings, "
+                          "or a pty or network port; they keep their arrival order, their "
+                          "times do not follow the line",
+                          names[k].substr(0, names[k].find('=')), options_.serial.to_string()));
+      }
       if (!alive) {
         hooks.port_lost(ports_[k]->error());
         for (const std::string& n : ports_[k]->notes()) pipeline.add_source_note(n);

@@ -40,6 +40,8 @@ struct LiveCaptureOptions {
 struct LiveCaptureHooks {
   std::function<void(const std::string& error)> port_lost;
   std::function<void(const std::string& port)> port_back;  // reopened (reconnect)
+  // Said once a port, when bytes first come faster than its line settings can carry.
+  std::function<void(const std::string& warning)> warn;
   // Every output flushed, each round; false when a write failed (the loop ends).
   std::function<bool()> flush;
 };

@@ -205,19 +205,22 @@ std::uint8_t ParmrkDecoder::error_flags(UartErrorCounts& unexplained) const {
 
 void ByteTimeBackdater::stamp(std::span<ByteEvent> read_characters, TimeNs read_time) {
   const auto n = static_cast<TimeNs>(read_characters.size());
-  if (have_previous_ && n > 0 && previous_end_ - read_time > kMaxLead) {
-    // The line rate cannot be kept: the bytes are stamped at their arrival (times may step back
-    // by up to kMaxLead, once), and the stamps stay bounded in memory and in time.
-    ++overrun_reads_;
-    have_previous_ = false;
-  }
+  const TimeNs limit = read_time + kMaxLead;
+  bool held = false;
   for (TimeNs k = 0; k < n; ++k) {
     TimeNs start = read_time - (n - k) * character_time_;
     if (have_previous_ && start < previous_end_) start = previous_end_;
+    if (start > limit) {
+      // (not below the previous stamp, should the clock have stepped back)
+      start = have_previous_ ? std::max(limit, previous_start_) : limit;
+      held = true;
+    }
     read_characters[static_cast<std::size_t>(k)].time = start;
+    previous_start_ = start;
     previous_end_ = start + character_time_;
     have_previous_ = true;
   }
+  if (held) ++overrun_reads_;
 }
 
 // --- ReadPatternMonitor --------------------------------------------------------------------
@@ -520,8 +523,9 @@ std::vector<std::string> SerialPort::notes() const {
   out.push_back(fmt::format("{}: {}", path_, monitor_.verdict()));
   if (backdater_.overrun_reads() > 0)
     out.push_back(fmt::format(
-        "{}: bytes came faster than {} allows ({} reads): their times could not be kept to the "
-        "line rate and were taken at their arrival (wrong line settings, or a flooded port)",
+        "{}: bytes came faster than {} can carry ({} reads): their times could not follow the "
+        "line rate, and were held at most 500 ms ahead of their arrival, in arrival order "
+        "(wrong line settings, a pty or network port, or a flooded port)",
         path_, serial_.to_string(), backdater_.overrun_reads()));
   return out;
 }

@@ -115,20 +115,23 @@ class ParmrkDecoder {
 // Back-dates the characters of each read. A read returns just after its last character arrived:
 // character k of n read at `read_time` started at read_time - (n - k) * character_time, but never
 // before the previous character of this port ended (bytes on one wire cannot overlap; the
-// pipeline relies on it). So times only grow, by at least one character time per character.
+// pipeline relies on it). So times only grow, by one character time per character, until bytes
+// come faster than the line rate carries them (a pty, a network port, a wrong -s): then the
+// stamps would run ever further ahead of the clock, and past kMaxLead they stay there, equal,
+// rather than step back. A port's times never fall: the capture merges its ports by time, and
+// arrival order is the one truth the port gives.
 class ByteTimeBackdater {
  public:
   explicit ByteTimeBackdater(TimeNs character_time) : character_time_(character_time) {}
   // Sets the time of each event of one read, in order.
   void stamp(std::span<ByteEvent> read_characters, TimeNs read_time);
-  // Bytes that came faster than the line rate allows (a flooded port, wrong settings) would be
-  // stamped ever further into the future; past this lead they are stamped at their arrival.
   static constexpr TimeNs kMaxLead = 500 * kNsPerMs;
-  // Reads whose bytes were stamped at arrival because the line rate could not be kept.
+  // Reads with a byte held at kMaxLead because the line rate could not be kept.
   [[nodiscard]] std::uint64_t overrun_reads() const { return overrun_reads_; }
 
  private:
   TimeNs character_time_;
+  TimeNs previous_start_ = 0;
   TimeNs previous_end_ = 0;
   bool have_previous_ = false;
   std::uint64_t overrun_reads_ = 0;
@@ -209,6 +212,8 @@ class SerialPort {
   // False once the read pattern shows USB burst artefacts (ReadPatternMonitor): per-byte times
   // then carry no inter-frame silence and framing must rely on content.
   [[nodiscard]] bool timing_trusted() const { return monitor_.timing_trusted(); }
+  // Bytes have come faster than the line settings can carry (ByteTimeBackdater).
+  [[nodiscard]] bool line_rate_exceeded() const { return backdater_.overrun_reads() > 0; }
 
   // Kernel counters (TIOCGICOUNT) as deltas since open, as of the last read_available(); all
   // zero where the driver has none (a pty). Kept in 64 bits across the kernel's 32-bit wrap.
