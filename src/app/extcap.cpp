@@ -97,7 +97,8 @@ int print_interfaces() {
   for (const SerialPortEntry& port : find_serial_ports()) {
     if (!survives_sentence(port.path)) {
       // (A changed name could not be captured: Wireshark would hand it back changed.)
-      say(fmt::format("{}: not listed for Wireshark: its name cannot pass through an extcap "
+      say(
+          fmt::format("{}: not listed for Wireshark: its name cannot pass through an extcap "
                       "sentence unchanged (capture it with drivetap capture -i)",
                       printable(port.path)));
       continue;
