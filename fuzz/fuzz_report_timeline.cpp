@@ -4,6 +4,7 @@
 // any station. Every loop over intervals must end in a bounded number of steps (libFuzzer's
 // timeout catches one that does not), no arithmetic may overflow (UBSan), and the page's data
 // must be one balanced JSON object.
+#include <algorithm>
 #include <cstdint>
 #include <cstring>
 #include <string>
@@ -11,6 +12,7 @@
 #include "core/anomaly.hpp"
 #include "core/message.hpp"
 #include "core/protocol_desc.hpp"
+#include "core/time.hpp"
 #include "core/transaction.hpp"
 #include "fuzz/fuzz_common.hpp"
 #include "sinks/report_sink.hpp"
@@ -62,9 +64,10 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   Input in{data, size};
   ChannelTable channels;
   const ChannelId a = channels.intern("a"), b = channels.intern("b");
-  // The header: the character time (1 ns .. 65 us), the -z load interval (1 ns .. 2^40 ns).
-  const TimeNs character = 1 + (in.byte() << 8 | in.byte());
-  const TimeNs interval = TimeNs{1} << (in.byte() % 41);
+  // The header: the character time (250 ns .. 268 ms: 4 Mbaud to below 50 baud), the -z load
+  // interval (what -z takes: 1 ms .. 86400 s).
+  const TimeNs character = 250 + (TimeNs{in.byte()} << 20 | TimeNs{in.byte()} << 12);
+  const TimeNs interval = std::min<TimeNs>(kNsPerMs << (in.byte() % 27), 86400 * kNsPerSecond);
   const FramingTiming timing{character * 3 / 2, character * 7 / 2, character};
   ReportSink report(channels);
   StatsTablesSink tables(channels, timing, true,
@@ -78,7 +81,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   // byte of the input, so the loop ends.)
   for (int records = 0; !in.done() && records < 4096; ++records) {
     const std::uint8_t op = in.byte();
-    const TimeNs t = in.i64();
+    // (as every source keeps them: inside +-2^62 ns)
+    const TimeNs t = in.i64() % kTimeLimit;
     if (!open || op % 16 == 0) {
       if (open) report.end_capture(tables.tables(true));
       ReportCapture c;

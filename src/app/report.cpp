@@ -10,12 +10,14 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <string>
@@ -181,7 +183,12 @@ int run_report(const CommonOptions& o, const std::vector<std::string>& paths) {
       c.timing = p.timing;
       c.wall_clock = first >= 0 && is_wall_clock_time(first);
       // A capture without wall-clock times follows the one before on the timeline, a second on.
-      if (!c.wall_clock && timeline_end >= 0) c.shift = timeline_end + kNsPerSecond - first;
+      // (held within +-2^62, as the report's times are: hostile times cannot wrap it)
+      if (!c.wall_clock && timeline_end >= 0) {
+        constexpr TimeNs kEdge = std::numeric_limits<TimeNs>::max() / 2;
+        c.shift = static_cast<TimeNs>(std::clamp<__int128>(
+            static_cast<__int128>(timeline_end) + kNsPerSecond - first, -kEdge, kEdge));
+      }
       report.begin_capture(std::move(c));
       begun = true;
     };

@@ -83,6 +83,13 @@ void ReportSink::end_capture(std::string stations_json) {
   if (!captures_.empty()) captures_.back().stations_json = std::move(stations_json);
 }
 
+TimeNs ReportSink::shifted(TimeNs t) const {
+  // (held at +-2^62, as on_timeline() is: a shift from a capture near the edge cannot wrap)
+  constexpr TimeNs kEdge = std::numeric_limits<TimeNs>::max() / 2;
+  return static_cast<TimeNs>(
+      std::clamp<__int128>(static_cast<__int128>(t) + shift_, -kEdge, kEdge));
+}
+
 TimeNs ReportSink::on_timeline(TimeNs t) const {
   // Exact for every time a source gives (|t| < 2^62); a shifted capture past that is held at
   // +-2^62, not wrapped.
@@ -94,7 +101,7 @@ TimeNs ReportSink::on_timeline(TimeNs t) const {
 void ReportSink::count_busy(ChannelId channel, std::size_t bytes, TimeNs start, bool telegram) {
   if (!have_origin_) {
     have_origin_ = true;
-    origin_ = start + shift_;
+    origin_ = shifted(start);
   }
   const TimeNs from = on_timeline(start);
   // (Times span at most +-2^62 ns: a stretch past the end of a 2^63 ns timeline is cut there.)
@@ -206,7 +213,7 @@ void ReportSink::on_anomaly(const Anomaly& a) {
     station = last_request_address_;
   if (!have_origin_) {
     have_origin_ = true;
-    origin_ = a.time + shift_;
+    origin_ = shifted(a.time);
   }
   ++finding_totals_[static_cast<std::size_t>(a.kind)];
   count_finding(a.kind, station, on_timeline(a.time));

@@ -194,6 +194,8 @@ class ReportSink final : public Sink {
   };
 
   [[nodiscard]] TimeNs on_timeline(TimeNs t) const;
+  // `t` on the shifted clock (the origin's), held within +-2^62.
+  [[nodiscard]] TimeNs shifted(TimeNs t) const;
   void count_busy(ChannelId channel, std::size_t bytes, TimeNs start, bool telegram);
   void count_finding(AnomalyKind kind, int station, TimeNs t);
   // The drive's series, or null for a drive past the first kMaxDrives (then counted).

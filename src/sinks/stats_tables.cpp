@@ -8,6 +8,7 @@
 #include <bit>
 #include <charconv>
 #include <cmath>
+#include <limits>
 #include <set>
 
 #include "core/format.hpp"
@@ -218,8 +219,16 @@ void StatsTablesSink::count_bytes(ChannelId channel, std::size_t size, TimeNs st
   }
   // The line is busy a character time a byte, from the first byte on: that time is split over the
   // intervals it falls in; the frame counts in the interval it starts in.
-  const TimeNs busy_from = start - load_origin_;
-  const TimeNs busy_to = busy_from + static_cast<TimeNs>(size) * timing_.character_time;
+  // (Held inside +-(2^63 - two days): sources keep times inside +-2^62, so a span from one end
+  // to the other nears 2^63, and (k + 1) * interval must not wrap for the longest interval.)
+  constexpr TimeNs kEdge = std::numeric_limits<TimeNs>::max() - 2 * 86400 * kNsPerSecond;
+  const auto held = [](__int128 t) {
+    return static_cast<TimeNs>(std::clamp<__int128>(t, -kEdge, kEdge));
+  };
+  const TimeNs busy_from = held(static_cast<__int128>(start) - load_origin_);
+  const TimeNs busy_to =
+      held(static_cast<__int128>(busy_from) +
+           static_cast<__int128>(size) * static_cast<__int128>(timing_.character_time));
   for (LoadSeries& series : load_series_) {
     const std::int64_t first = floor_div(busy_from, series.interval);
     for (std::int64_t k = first; k * series.interval < busy_to; ++k) {
