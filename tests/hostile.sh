@@ -654,6 +654,91 @@ assert values == ["/dev/ttyUSB0", "/dev/ttyUSB{7}"], values
 PY
 fi
 
+# 31. An ending invented a fault: a request still waiting when -c cut the input or SIGINT stopped a
+# capture was a timeout with an unanswered-request finding, 15 ms after it was sent with a 1 s
+# timeout. It is `pending` now. And -Y unanswered_request printed its findings while the summary
+# said "matched 0": the findings it selects by their own record are counted beside the frames.
+if case_begin h31-endings-are-not-faults; then
+"$drivetap" read --stats -T json -c 5 "$log" 2>/dev/null | tail -n 1 > "$work/cut.json"
+python3 - "$work/cut.json" <<'PY' && ok "read -c 5: the request left waiting is pending" || fail "read -c 5: $(cat "$work/cut.json")"
+import json, sys
+s = json.loads(open(sys.argv[1]).read())
+t = s["transactions"]
+assert t["pending"] == 1 and t["timeout"] == 0 and s["anomalies"]["unanswered_request"] == 0, t
+PY
+python3 - "$work/int.tty" "$work/int.go" > /dev/null 2>&1 <<'PY' &
+import os, pty, sys, time, tty
+master, slave = pty.openpty()
+tty.setraw(slave)
+os.symlink(os.ttyname(slave), sys.argv[1])
+while not os.path.exists(sys.argv[2]):
+    time.sleep(0.01)
+os.write(master, bytes.fromhex("020300000005 85FA".replace(" ", "")))
+time.sleep(30)
+PY
+for _ in $(seq 50); do [ -e "$work/int.tty" ] && break; sleep 0.1; done
+"$drivetap" capture -i "$work/int.tty" -s "19200 8E1" -P rtu --timeout 5s -T json --stats \
+  > "$work/int.json" 2> "$work/int.err" &
+capture=$!
+until_process "SIGINT on a pending request" "$capture" caught &&
+  for _ in $(seq 200); do grep -q "capturing on" "$work/int.err" 2>/dev/null && break; sleep 0.05; done
+touch "$work/int.go"
+# (the request's last byte and the silence that closes it: a few ms at 19200 baud)
+sleep 0.3
+kill -INT "$capture"
+wait "$capture"
+kill %1 2>/dev/null
+python3 - "$work/int.json" <<'PY' && ok "SIGINT: the request left waiting is pending" || fail "SIGINT on a pending request: $(tail -c 400 "$work/int.json")"
+import json, sys
+s = [json.loads(l) for l in open(sys.argv[1]) if l.strip()][-1]
+t = s["transactions"]
+assert s["type"] == "summary" and t["pending"] == 1 and t["timeout"] == 0, t
+assert s["anomalies"]["unanswered_request"] == 0, s["anomalies"]
+PY
+"$drivetap" generate --frames 300 --seed 1 --mix modbus-rtu -o "$work/late.log" 2>/dev/null
+"$drivetap" read -Y unanswered_request "$work/late.log" > "$work/late.txt" 2>&1
+printed=$(grep -c '!!!  unanswered request' "$work/late.txt")
+[ "$printed" -gt 0 ] && grep -q "^filter: .* matched 0 of 300 frames, and $printed findings reported after their frame$" "$work/late.txt" &&
+  ok "-Y unanswered_request: the $printed findings it printed counted" ||
+  fail "-Y unanswered_request: $printed printed, summary: $(grep '^filter' "$work/late.txt")"
+fi
+
+# 32. Values from damaged telegrams: a reply whose CRC failed gave drive 2 an output current of
+# 3280.2 A in -T fields -e drive.*, in the report's chart and on its = line with no caveat. A
+# telegram whose checksum or plausibility fails now observes nothing: its = line says "damaged
+# telegram, not used", and no drive value of it reaches JSON, -T fields or the report.
+if case_begin h32-damaged-values-not-used; then
+"$drivetap" generate --frames 3000 --seed 1 -o "$work/damaged.log" 2>/dev/null
+"$drivetap" read -T json "$work/damaged.log" > "$work/damaged.json" 2>/dev/null
+"$drivetap" read -T fields -e n -e drive.output_current -Y drive.output_current "$work/damaged.log" \
+  > "$work/damaged.fields" 2>/dev/null
+"$drivetap" report "$work/damaged.log" -o "$work/damaged.html" 2>/dev/null
+python3 - "$work/damaged.json" "$work/damaged.fields" "$work/damaged.html" <<'PY' && ok "damaged telegrams: no value used, each marked" || fail "damaged telegrams: a value used"
+import json, re, sys
+frames = [r for r in map(json.loads, open(sys.argv[1])) if r.get("type") == "frame"]
+damaged = [r for r in frames if r["checksum"] != "good" and r.get("drive")]
+assert damaged, "no damaged telegram read for a drive"
+for r in damaged:
+    assert not r["drive"]["values"], (r["n"], r["drive"])
+    assert "damaged telegram, not used: " in r["drive"]["text"], (r["n"], r["drive"]["text"])
+good = {r["n"] for r in frames if r["checksum"] == "good"}
+listed = [line.split("\t") for line in open(sys.argv[2]) if line.strip()]
+assert listed and all(int(n) in good for n, _ in listed), [n for n, _ in listed if int(n) not in good][:5]
+# The report's output current: within what the good telegrams carried, per drive.
+currents = {}
+for r in frames:
+    v = r.get("drive", {}).get("values", {}).get("output_current")
+    if r["checksum"] == "good" and v:
+        currents.setdefault(r["addr"], []).append(v["value"])
+data = json.loads(re.search(r'<script type="application/json" id="report-data">(.*?)</script>', open(sys.argv[3]).read(), re.S).group(1))
+for d in data["drives"]:
+    for sr in d["series"]:
+        if sr["id"] == "output_current":
+            top = max(p[2] for p in sr["points"])
+            assert top <= max(currents[d["addr"]]) + 0.05, (d["addr"], top, max(currents[d["addr"]]))
+PY
+fi
+
 # Minor: a NUL in an error message, a VCD with a BOM, a channel named twice.
 if case_begin minor; then
 printf '0.0 bus 02 0\x003\n' > "$work/nul.log"

@@ -401,7 +401,7 @@ def check_browser():
                 copy.write(line)
         for capture, expected, extra in (
                 ("session-e9/input.log", ["drive-", "latency-", "load", "gaps-", "findings-heatmap"], []),
-                ("seed-danfoss-fc/input.log", ["latency-", "load", "gaps-", "findings-heatmap"], []),
+                ("seed-danfoss-fc/input.log", ["latency-", "load", "gaps-"], []),  # (no finding: its last request is pending)
                 (hostile, ["drive-", "latency-", "load", "gaps-", "findings-heatmap"], []),
                 ("session-e9/input.log", ["drive-", "latency-", "load", "gaps-", "findings-heatmap"],
                  ["--profile", profile, "--drive", "2=e9"])):

@@ -55,6 +55,9 @@ struct Stats {
   std::string display_filter;
   std::uint64_t filter_matched = 0;
   std::uint64_t filter_records = 0;
+  // Findings reported after their frame that -Y selected by their own record (their frame not
+  // selected): printed, and so counted apart.
+  std::uint64_t filter_late_findings = 0;
 
   void count_frame(const Message& m);
   // The same for a telegram of `size` bytes, the first starting at `first`, the last at `last`;

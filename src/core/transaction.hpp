@@ -18,8 +18,11 @@ enum class Outcome : std::uint8_t {
   broadcast,    // address 0: no response expected
   unsolicited,  // a response with no request waiting for it
   bad_reply,    // a response to a waiting request, its checksum bad: the master cannot use it
+  // A request still waiting when the input ended, -c cut it or a signal stopped the capture: its
+  // reply may have been on the way. Neither a timeout nor a finding.
+  pending,
 };
-inline constexpr std::size_t kOutcomeCount = 6;
+inline constexpr std::size_t kOutcomeCount = 7;
 
 std::string_view outcome_id(Outcome o);
 

@@ -140,6 +140,7 @@ void DisplayFilterSink::on_anomaly(const Anomaly& a) {
   if (reporter &&
       (reporter->request_number == a.frame_number || reporter->response_number == a.frame_number))
     next_.on_transaction(*reporter);
+  ++matched_late_;
   next_.on_anomaly(a);
 }
 
@@ -166,6 +167,7 @@ void DisplayFilterSink::on_summary(const Stats& s) {
   with_filter.display_filter = filter_.text();
   with_filter.filter_matched = matched_;
   with_filter.filter_records = records_;
+  with_filter.filter_late_findings = matched_late_;
   next_.on_summary(with_filter);
 }
 

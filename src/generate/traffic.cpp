@@ -831,6 +831,7 @@ Generator::Generator(const Options& options) : options_(options) {
   }
   queues_.resize(links_.size());
   counts_.resize(links_.size());
+  open_request_end_.assign(links_.size(), -1);
 }
 
 Generator::~Generator() = default;
@@ -847,6 +848,11 @@ bool Generator::next(Record& out) {
   out.link = best;
   counts_[best].add(out);
   total_.add(out);
+  open_request_end_[best] =
+      out.kind == RecordKind::request
+          ? out.start + static_cast<TimeNs>(out.bytes.size()) * serial().character_time()
+          : -1;
+  last_start_ = std::max(last_start_, out.start);
   ++written_;
   return true;
 }
@@ -861,24 +867,34 @@ namespace {
 std::string counts_json(const Counts& c) {
   return fmt::format(
       "\"frames\":{},\"requests\":{},\"replies\":{},\"ok\":{},\"exceptions\":{},\"timeouts\":{},"
-      "\"bad_replies\":{},\"checksum_bad\":{},\"checksum_swapped\":{},\"noise_records\":{},"
+      "\"pending\":{},\"bad_replies\":{},\"checksum_bad\":{},\"checksum_swapped\":{},\"noise_"
+      "records\":{},"
       "\"noise_bytes\":{},\"parity_errors\":{},\"timing_rule\":{},\"bytes\":{}",
       c.frames, c.requests, c.replies, c.replies - c.exceptions - c.bad_replies, c.exceptions,
-      c.timeouts(), c.bad_replies, c.checksum_bad, c.checksum_swapped, c.noise_records,
+      c.timeouts(), c.pending, c.bad_replies, c.checksum_bad, c.checksum_swapped, c.noise_records,
       c.noise_bytes, c.parity_errors, c.timing_rule, c.bytes);
 }
 }  // namespace
 
 std::string Generator::truth_json() const {
+  // A link's last request, unanswered, is pending unless a later frame (of any link) came past
+  // drivetap's default reply timeout (1 s) after it: then it timed out.
+  std::vector<Counts> links = counts_;
+  Counts total = total_;
+  for (std::size_t i = 0; i < links.size(); ++i)
+    if (open_request_end_[i] >= 0 && last_start_ - open_request_end_[i] <= kNsPerSecond) {
+      ++links[i].pending;
+      ++total.pending;
+    }
   std::string s = fmt::format(
       "{{\"generator\":\"drivetap generate\",\"seed\":{},\"frames_asked\":{},\"mix\":\"{}\","
       "\"serial\":\"{}\",\"drives\":\"{}\",\n\"total\":{{{}}},\n\"links\":[",
       options_.seed, options_.frames, options_.mix == Mix::all ? "all" : "modbus-rtu",
-      serial().to_string(), drive_bindings(), counts_json(total_));
+      serial().to_string(), drive_bindings(), counts_json(total));
   for (std::size_t i = 0; i < info_.size(); ++i)
     s += fmt::format("{}\n{{\"channel\":\"{}\",\"protocol\":\"{}\",\"drives\":\"{}\",{}}}",
                      i ? "," : "", info_[i].channel, info_[i].protocol, info_[i].drives,
-                     counts_json(counts_[i]));
+                     counts_json(links[i]));
   s += "\n]}\n";
   return s;
 }

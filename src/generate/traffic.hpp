@@ -71,8 +71,10 @@ struct Counts {
   std::uint64_t bad_replies = 0;  // replies with a bad checksum: the `bad_reply` outcome
   std::uint64_t noise_records = 0, noise_bytes = 0, parity_errors = 0, timing_rule = 0;
   std::uint64_t bytes = 0;
+  // A request left waiting at the end, whose reply may have been on the way: drivetap's `pending`.
+  std::uint64_t pending = 0;
   // Every reply answers one request, and there are no broadcasts: the rest went unanswered.
-  [[nodiscard]] std::uint64_t timeouts() const { return requests - replies; }
+  [[nodiscard]] std::uint64_t timeouts() const { return requests - replies - pending; }
   void add(const Record& r);
 };
 
@@ -113,6 +115,9 @@ class Generator {
   std::vector<LinkInfo> info_;
   std::vector<std::deque<Record>> queues_;
   std::vector<Counts> counts_;
+  // Per link: the end of its last record when that is a request (else -1); the last start of all.
+  std::vector<TimeNs> open_request_end_;
+  TimeNs last_start_ = 0;
   Counts total_;
   std::uint64_t written_ = 0;
 };

@@ -11,9 +11,9 @@
 namespace drivetap {
 
 std::string_view outcome_id(Outcome o) {
-  static constexpr std::string_view kOutcomeIds[] = {"ok",        "exception",   "timeout",
-                                                     "broadcast", "unsolicited", "bad_reply"};
-  static_assert(std::size(kOutcomeIds) == static_cast<std::size_t>(Outcome::bad_reply) + 1);
+  static constexpr std::string_view kOutcomeIds[] = {
+      "ok", "exception", "timeout", "broadcast", "unsolicited", "bad_reply", "pending"};
+  static_assert(std::size(kOutcomeIds) == static_cast<std::size_t>(Outcome::pending) + 1);
   return enum_text(o, kOutcomeIds, std::string_view{"ok"});
 }
 
@@ -56,10 +56,11 @@ void Pairer::remove_pending(Drop&& drop) {
   live_ = kept;
 }
 
-void Pairer::close_unanswered(const Pending& p, std::string detail, std::vector<Transaction>& out) {
+void Pairer::close_unanswered(const Pending& p, std::string detail, std::vector<Transaction>& out,
+                              Outcome outcome) {
   if (!options_.clocked) return;  // (no clock: not known to be unanswered, see PairerOptions)
   Transaction t;
-  t.outcome = Outcome::timeout;
+  t.outcome = outcome;
   t.protocol = p.protocol;
   t.channel = p.channel;
   t.address = p.address;
@@ -199,7 +200,7 @@ PairingResult Pairer::add(std::size_t link, const PairingInput& m, std::vector<T
 
 void Pairer::finish(std::vector<Transaction>& out) {
   for (std::size_t i = 0; i < live_; ++i)
-    close_unanswered(slots_[i], "capture ended before a reply", out);
+    close_unanswered(slots_[i], "capture ended before a reply", out, Outcome::pending);
   live_ = 0;
 }
 

@@ -80,7 +80,8 @@ class Pairer {
     Protocol protocol;
     std::vector<std::uint8_t> bytes;  // the request itself: replies are read in its light
   };
-  void close_unanswered(const Pending& p, std::string detail, std::vector<Transaction>& out);
+  void close_unanswered(const Pending& p, std::string detail, std::vector<Transaction>& out,
+                        Outcome outcome = Outcome::timeout);
   void expire_some(TimeNs now, std::vector<Transaction>& out);  // expire(), the first is due
   // Drops the requests `drop` picks, keeping the order of the rest. A dropped request's slot (and
   // its bytes' storage) waits past the live ones for the next request: pairing allocates nothing

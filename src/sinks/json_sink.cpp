@@ -690,10 +690,12 @@ void JsonSink::on_summary(const Stats& s) {
       "{{\"type\":\"summary\",\"bytes\":{},\"frames\":{},\"noise_records\":{},\"noise_bytes\":{},"
       "\"checksum\":{{\"good\":{},\"bad\":{},\"swapped\":{},\"none\":{}}},\"good_telegrams\":{},"
       "\"transactions\":{{\"total\":{},\"ok\":{},\"exception\":{},\"timeout\":{},\"broadcast\":{},"
-      "\"unsolicited\":{},\"bad_reply\":{}}},\"latency_ms\":{},\"anomalies_total\":{},"
+      "\"unsolicited\":{},\"bad_reply\":{},\"pending\":{}}},\"latency_ms\":{},"
+      "\"anomalies_total\":{},"
       "\"anomalies\":{{{}}}}}",
       s.bytes, s.frames, s.noise_records, s.noise_bytes, c[1], c[2], c[3], c[0], s.good_telegrams,
-      s.transactions, o[0], o[1], o[2], o[3], o[4], o[5], latency, s.anomaly_total, anomalies);
+      s.transactions, o[0], o[1], o[2], o[3], o[4], o[5], o[6], latency, s.anomaly_total,
+      anomalies);
   line.pop_back();  // the closing brace: drives follow
   line += ",\"drives\":["sv;
   for (std::size_t i = 0; i < s.drives.size(); ++i) {
@@ -714,8 +716,10 @@ void JsonSink::on_summary(const Stats& s) {
     line += "]"sv;
   }
   if (!s.display_filter.empty())
-    line += fmt::format(FMT_COMPILE(",\"filter\":{{\"text\":{},\"matched\":{},\"frames\":{}}}"),
-                        json_quote(s.display_filter), s.filter_matched, s.filter_records);
+    line += fmt::format(
+        FMT_COMPILE(
+            ",\"filter\":{{\"text\":{},\"matched\":{},\"frames\":{},\"late_findings\":{}}}"),
+        json_quote(s.display_filter), s.filter_matched, s.filter_records, s.filter_late_findings);
   line += "}"sv;
   lines_.write(line);
 }

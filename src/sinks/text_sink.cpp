@@ -383,10 +383,11 @@ void TextSink::on_summary(const Stats& s) {
   std::string tx = fmt::format(
       FMT_COMPILE(
           "transactions: {} (ok {}, exception {}, timeout {}, broadcast {}, unsolicited {}, bad "
-          "reply {})"),
+          "reply {}, pending {})"),
       s.transactions, o[static_cast<int>(Outcome::ok)], o[static_cast<int>(Outcome::exception)],
       o[static_cast<int>(Outcome::timeout)], o[static_cast<int>(Outcome::broadcast)],
-      o[static_cast<int>(Outcome::unsolicited)], o[static_cast<int>(Outcome::bad_reply)]);
+      o[static_cast<int>(Outcome::unsolicited)], o[static_cast<int>(Outcome::bad_reply)],
+      o[static_cast<int>(Outcome::pending)]);
   if (s.latency_count > 0 && options_.show_time)
     tx += fmt::format(
         FMT_COMPILE("; reply latency min {} / avg {} / max {} ms"), format_ms(s.latency_min),
@@ -404,9 +405,15 @@ void TextSink::on_summary(const Stats& s) {
   lines_.write(an);
   for (const std::string& note : s.source_notes)
     lines_.write(fmt::format(FMT_COMPILE("source:       {}"), note));
-  if (!s.display_filter.empty())
-    lines_.write(fmt::format(FMT_COMPILE("filter:       -Y '{}' matched {} of {} frames"),
-                             s.display_filter, s.filter_matched, s.filter_records));
+  if (!s.display_filter.empty()) {
+    std::string line = fmt::format(FMT_COMPILE("filter:       -Y '{}' matched {} of {} frames"),
+                                   s.display_filter, s.filter_matched, s.filter_records);
+    if (s.filter_late_findings > 0)
+      line += fmt::format(FMT_COMPILE(", and {} finding{} reported after {} frame"),
+                          s.filter_late_findings, s.filter_late_findings == 1 ? "" : "s",
+                          s.filter_late_findings == 1 ? "its" : "their");
+    lines_.write(line);
+  }
   for (const DriveSummary& d : s.drives) {
     lines_.write(
         fmt::format(FMT_COMPILE("drive {:<7} {}{}{}"), d.address, d.profile_name,
