@@ -4,10 +4,11 @@
 # tshark's own parser too), then --capture --fifo on the simulated bus (tools/drivetap-simbus):
 # the stream tshark reads has the frames the simulator sent and the decode of `drivetap capture
 # -w` of the same traffic; SIGTERM mid-run leaves a stream tshark reads to the end; the control
-# pipe carries status-bar counts; a reader that goes away ends it quietly; --detect searches the
-# settings first; a missing port gives one line and a non-zero exit. Then a round
-# trip through tshark itself: `drivetap wireshark --install` into a temporary HOME, tshark -D lists
-# the port, tshark -i captures from the simulated bus; --uninstall takes it away again.
+# pipe carries status-bar counts; a reader that goes away ends it quietly; bytes faster than the
+# line settings are a warning in Wireshark's log; --detect searches the settings first; a missing
+# port gives one line and a non-zero exit. Then a round trip through tshark itself: `drivetap
+# wireshark --install` into a temporary HOME, tshark -D lists the port, tshark -i captures from
+# the simulated bus; --uninstall takes it away again.
 # Usage: tests/extcap.sh DRIVETAP SIMBUS
 set -uo pipefail
 drivetap=$1
@@ -291,6 +292,32 @@ if [ "$have_tshark" = 1 ]; then
   tshark -r "$tmp/detect.pcapng" -T fields -e frame.interface_description 2>/dev/null |
     grep -q "^${detected#detected }" || fail "--detect: the interface does not carry ${detected#detected }"
 fi
+
+# Bytes faster than the line settings (a pty at 19200 read as 1200): the warning goes to
+# Wireshark's log through the control pipe, not to stderr, which Wireshark shows as an error.
+"$simbus" --link "$tmp/fast.tty" --serial "19200 8N1" --wait-ms 300 --duration 25 2>/dev/null &
+sim=$!
+for _ in $(seq 50); do [ -e "$tmp/fast.tty" ] && break; sleep 0.02; done
+mkfifo "$tmp/fast.fifo" "$tmp/fast.control"
+cat "$tmp/fast.fifo" >/dev/null &
+reader=$!
+cat "$tmp/fast.control" >"$tmp/fast.bytes" &
+control_reader=$!
+"$drivetap" --capture --extcap-interface "$tmp/fast.tty" --fifo "$tmp/fast.fifo" --baud 1200 \
+  --line-format 8N1 --extcap-control-out "$tmp/fast.control" 2>"$tmp/fast.err" &
+cap=$!
+end=$((SECONDS + 20))
+until grep -aq "warning: $tmp/fast.tty: bytes come faster than 1200 8N1" "$tmp/fast.bytes" ||
+  [ "$SECONDS" -ge "$end" ]; do sleep 0.05; done
+kill -TERM "$cap"
+wait "$cap"
+rc=$?
+wait "$reader" "$control_reader"
+kill "$sim" 2>/dev/null
+wait "$sim" 2>/dev/null
+[ "$rc" = 0 ] && [ ! -s "$tmp/fast.err" ] &&
+  [ "$(grep -ac "bytes come faster than" "$tmp/fast.bytes")" = 1 ] ||
+  fail "too fast: exit $rc, stderr: $(cat "$tmp/fast.err"), log: $(tr -c '[:print:]' ' ' <"$tmp/fast.bytes" | head -c 300)"
 
 # The round trip through tshark: installed into a temporary HOME, listed by tshark -D, captured
 # by tshark -i from the simulated bus behind the fake tree's ttyUSB0.

@@ -229,7 +229,10 @@ int run_capture(const CommonOptions& o, const CaptureOptions& c, const CaptureVo
 
   LiveCaptureHooks hooks;
   hooks.port_lost = [](const std::string& error) { say(error); };
-  hooks.warn = [](const std::string& warning) { say("warning: " + warning); };
+  hooks.warn = [&voice](const std::string& warning) {
+    if (voice.chatty) say("warning: " + warning);
+    if (voice.warning) voice.warning(warning);
+  };
   hooks.port_back = [&voice](const std::string& port) {
     if (voice.chatty) std::fprintf(stderr, "drivetap: %s: reconnected\n", port.c_str());
   };
