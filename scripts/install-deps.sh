@@ -5,7 +5,7 @@
 set -euo pipefail
 packages=(build-essential cmake ninja-build pkg-config libfmt-dev libcli11-dev libgtest-dev libgmock-dev
           libpcap-dev libtomlplusplus-dev libzip-dev libbenchmark-dev tshark sigrok-cli time python3
-          libjs-chart.js chromium
+          libjs-chart.js chromium python3-pymodbus
           "$@")
 missing=()
 for p in "${packages[@]}"; do

@@ -43,7 +43,8 @@ stage_done install
 # to the clone, not with the working directory).
 export CCACHE_BASEDIR=$root CCACHE_NOHASHDIR=true CCACHE_COMPILERCHECK=content
 ccache=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
-require=(DRIVETAP_REQUIRE_TSHARK=1 DRIVETAP_REQUIRE_SIGROK=1 DRIVETAP_REQUIRE_CHROMIUM=1)
+require=(DRIVETAP_REQUIRE_TSHARK=1 DRIVETAP_REQUIRE_SIGROK=1 DRIVETAP_REQUIRE_CHROMIUM=1
+         DRIVETAP_REQUIRE_PYMODBUS=1)
 
 cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo "${ccache[@]}" > /dev/null
 cmake --build build -j "$jobs"

@@ -1221,7 +1221,7 @@ TEST(DriveTimeline, UndescribedChangesKeepTheStateAndTheCount) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Drive binding by guess, with every built-in profile as a candidate.
+// Drive binding by evidence, with every built-in profile as a candidate.
 
 namespace {
 
@@ -1231,10 +1231,11 @@ struct BinderRig {
   std::vector<BusEvent> events;
   std::uint64_t number = 0;
 
-  // (learn_bound(): the binding after it checked against bound().)
-  void learn(const Message& m) {
+  // (learn_bound(): the binding after it checked against bound().) A reply with the request it
+  // answers, as the pipeline hands it over.
+  void learn(const Message& m, std::span<const std::uint8_t> request = {}) {
     std::optional<BusEvent> e;
-    const DriveProfile* now = binder.learn_bound(0, head_of(m), e);
+    const DriveProfile* now = binder.learn_bound(0, head_of(m), e, request);
     EXPECT_EQ(now, binder.bound(0, m.address)) << "frame " << m.frame.number;
     if (e) events.push_back(*e);
   }
@@ -1243,9 +1244,10 @@ struct BinderRig {
                 const std::vector<std::uint8_t>& rsp) {
     const Message q = decode(p, req, Direction::request, {}, ++number);
     learn(q);
-    learn(decode(p, rsp, Direction::response, q.bytes, ++number));
+    learn(decode(p, rsp, Direction::response, q.bytes, ++number), q.bytes);
   }
-  // One E-9 status poll of station 2 and its reply (two bind the E-9 with a lead of 3).
+  // One E-9 status poll of station 2 and its reply: status 0x000A (forward, fault) sets only
+  // bits the manual describes, and only the E-9 names the register so.
   void poll_e9() {
     exchange(
         protocols::modbus_rtu, with_crc({0x02, 0x03, 0x00, 0x00, 0x00, 0x05}),
@@ -1255,21 +1257,24 @@ struct BinderRig {
     const DriveProfile* p = binder.bound(0, address);
     return p ? p->id : "generic";
   }
+  [[nodiscard]] const DriveBinder::Tally& tally(int address, std::string_view id) const {
+    const DriveBinder::Station& st = binder.stations().at({0, address});
+    for (std::size_t c = 0; c < candidates.size(); ++c)
+      if (candidates[c]->id == id) return st.tally[c];
+    throw std::runtime_error("no candidate " + std::string(id));
+  }
 };
 
 }  // namespace
 
-TEST(DriveBinder, E9PollingBindsE9) {
+TEST(DriveBinder, E9PollingBindsE9OnTwoTransactionsAndIsHighFromEight) {
   BinderRig rig;
-  // One poll leads the next family by 2 only: confidence low, and nothing is bound on that.
-  rig.exchange(
-      protocols::modbus_rtu, with_crc({0x02, 0x03, 0x00, 0x00, 0x00, 0x05}),
-      with_crc({0x02, 0x03, 0x0A, 0x00, 0x0A, 0x13, 0x88, 0x13, 0x7D, 0x01, 0x7C, 0x00, 0x64}));
+  // One transaction is never enough.
+  rig.poll_e9();
   EXPECT_EQ(rig.bound_id(2), "generic");
   EXPECT_TRUE(rig.events.empty());
-  rig.exchange(
-      protocols::modbus_rtu, with_crc({0x02, 0x03, 0x00, 0x00, 0x00, 0x05}),
-      with_crc({0x02, 0x03, 0x0A, 0x00, 0x0A, 0x13, 0x88, 0x13, 0x7D, 0x01, 0x7C, 0x00, 0x64}));
+  EXPECT_EQ(rig.tally(2, "e9").alone, 1u);
+  rig.poll_e9();
   EXPECT_EQ(rig.bound_id(2), "e9");
   ASSERT_EQ(rig.events.size(), 1u);
   const BusEvent& e = rig.events[0];
@@ -1278,51 +1283,134 @@ TEST(DriveBinder, E9PollingBindsE9) {
   EXPECT_EQ(e.to, "e9");
   EXPECT_EQ(e.from, "");
   EXPECT_EQ(e.address, 2);
-  EXPECT_EQ(e.frame, 3u);
+  EXPECT_EQ(e.frame, 4u);  // the second reply
   EXPECT_EQ(e.protocol, protocols::modbus_rtu);
-  EXPECT_EQ(e.detail.find("drive 2 bound to ERMAN E-9P/9G (auto, confidence "), 0u) << e.detail;
+  EXPECT_EQ(e.detail,
+            "drive 2 bound to ERMAN E-9P/9G (auto, confidence medium: ERMAN E-9P/9G: 2 "
+            "transactions only it explains (a status word setting only bits the manual describes), 0 "
+            "contradicting, over 2 paired transactions; next best " +
+                rig.binder.evidence(rig.binder.stations().at({0, 2})).substr(
+                    rig.binder.evidence(rig.binder.stations().at({0, 2})).find("next best ") +
+                    10) +
+                ")");
   EXPECT_EQ(e.confidence, "medium");
-  // Polling again strengthens the binding without a new event.
-  for (int i = 0; i < 2; ++i) rig.poll_e9();
+  for (int i = 0; i < 5; ++i) rig.poll_e9();
+  EXPECT_EQ(rig.binder.stations().at({0, 2}).confidence, "medium");  // 7
+  rig.poll_e9();
+  EXPECT_EQ(rig.binder.stations().at({0, 2}).confidence, "high");  // 8
   EXPECT_EQ(rig.events.size(), 1u);
-  EXPECT_EQ(rig.bound_id(2), "e9");
-  EXPECT_EQ(rig.binder.stations().at({0, 2}).frames, 8u);
+  EXPECT_EQ(rig.binder.stations().at({0, 2}).frames, 16u);
+  EXPECT_EQ(rig.binder.stations().at({0, 2}).transactions, 8u);
 }
 
-TEST(DriveBinder, ErgInputReadsBindErg) {
+TEST(DriveBinder, RequestsAndRepliesAloneProveNothing) {
   BinderRig rig;
-  rig.exchange(
-      protocols::modbus_rtu, with_crc({0x01, 0x04, 0x00, 0x01, 0x00, 0x06}),
-      with_crc({0x01, 0x04, 0x0C, 0x01, 0xF4, 0, 0, 0x00, 0x64, 0, 0, 0x02, 0x1C, 0x00, 0x28}));
-  rig.exchange(protocols::modbus_rtu, with_crc({0x01, 0x04, 0x04, 0x00, 0x00, 0x04}),
-               with_crc({0x01, 0x04, 0x08, 0x00, 0x01, 0, 0, 0, 0, 0, 0}));
+  const auto poll = with_crc({0x02, 0x03, 0x00, 0x00, 0x00, 0x05});
+  const auto reply =
+      with_crc({0x02, 0x03, 0x0A, 0x00, 0x0A, 0x13, 0x88, 0x13, 0x7D, 0x01, 0x7C, 0x00, 0x64});
+  for (int i = 0; i < 20; ++i)
+    rig.learn(decode(protocols::modbus_rtu, poll, Direction::request, {}, ++rig.number));
+  // Replies read without the request they answer (the pairer had none).
+  for (int i = 0; i < 20; ++i)
+    rig.learn(decode(protocols::modbus_rtu, reply, Direction::response, poll, ++rig.number));
+  EXPECT_EQ(rig.bound_id(2), "generic");
+  EXPECT_TRUE(rig.events.empty());
+  const DriveBinder::Station& st = rig.binder.stations().at({0, 2});
+  EXPECT_EQ(st.transactions, 0u);
+  EXPECT_EQ(rig.binder.evidence(st),
+            "no reply paired with its request yet: requests and replies alone prove nothing");
+  // FC requests alone, of the one family that speaks the protocol, prove nothing either.
+  BinderRig fc;
+  for (int i = 0; i < 10; ++i)
+    fc.learn(decode(protocols::danfoss_fc, with_bcc({0x02, 0x06, 0x01, 0x04, 0x7C, 0x20, 0x00}),
+                    Direction::request, {}, ++fc.number));
+  EXPECT_EQ(fc.bound_id(1), "generic");
+}
+
+// Generic slaves answering on the E-9's own addresses: zeros prove nothing however often; a
+// status word with bits the E-9 manual does not describe contradicts it, and a control word
+// (ER-G's register 1) read back proves nothing, whatever it holds. Neither is ever bound.
+TEST(DriveBinder, GenericSlaveOnAFamilysAddressesStaysGeneric) {
+  BinderRig zeros;
+  for (int i = 0; i < 300; ++i)
+    zeros.exchange(protocols::modbus_rtu, with_crc({0x02, 0x03, 0x00, 0x00, 0x00, 0x05}),
+                   with_crc({0x02, 0x03, 0x0A, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0}));
+  EXPECT_EQ(zeros.bound_id(2), "generic");
+  EXPECT_TRUE(zeros.events.empty());
+  EXPECT_EQ(zeros.tally(2, "e9").fits, 0u);
+  EXPECT_EQ(zeros.tally(2, "e9").contradicts, 0u);
+  EXPECT_EQ(zeros.binder.evidence(zeros.binder.stations().at({0, 2})).find(
+                "no family profile fits its traffic (over 300 paired transactions; best "),
+            0u)
+      << zeros.binder.evidence(zeros.binder.stations().at({0, 2}));
+  BinderRig counting;
+  for (int i = 0; i < 20; ++i)
+    counting.exchange(protocols::modbus_rtu, with_crc({0x02, 0x03, 0x00, 0x00, 0x00, 0x05}),
+                      with_crc({0x02, 0x03, 0x0A, 0x12, 0x34, 0, 1, 0, 2, 0, 3, 0, 4}));
+  EXPECT_EQ(counting.bound_id(2), "generic");
+  EXPECT_EQ(counting.tally(2, "e9").contradicts, 20u);
+  EXPECT_TRUE(counting.tally(2, "e9").denied & reason_bit(BindingReason::undescribed_bits));
+  EXPECT_EQ(counting.tally(2, "erg").fits, 0u);
+}
+
+TEST(DriveBinder, ErgStateWordBindsErg) {
+  BinderRig rig;
+  for (int i = 0; i < 2; ++i)  // state 1, "running, steady frequency", from the manual's table
+    rig.exchange(protocols::modbus_rtu, with_crc({0x01, 0x04, 0x04, 0x00, 0x00, 0x02}),
+                 with_crc({0x01, 0x04, 0x04, 0x00, 0x01, 0, 0}));
   EXPECT_EQ(rig.bound_id(1), "erg");
   ASSERT_EQ(rig.events.size(), 1u);
   EXPECT_EQ(rig.events[0].profile, "erg");
-  EXPECT_EQ(rig.events[0].address, 1);
+  EXPECT_NE(rig.events[0].detail.find("a value the manual's table lists"), std::string::npos);
+  // A state outside the table contradicts it (with the overload bit beside it, 0x21 fits).
+  BinderRig odd;
+  odd.exchange(protocols::modbus_rtu, with_crc({0x01, 0x04, 0x04, 0x00, 0x00, 0x02}),
+               with_crc({0x01, 0x04, 0x04, 0x00, 0x09, 0, 0}));
+  odd.exchange(protocols::modbus_rtu, with_crc({0x01, 0x04, 0x04, 0x00, 0x00, 0x02}),
+               with_crc({0x01, 0x04, 0x04, 0x00, 0x21, 0, 0}));
+  EXPECT_EQ(odd.tally(1, "erg").contradicts, 1u);
+  EXPECT_EQ(odd.tally(1, "erg").fits, 1u);
 }
 
 TEST(DriveBinder, E5MonitorReadBindsE5) {
   BinderRig rig;
-  rig.exchange(protocols::modbus_rtu, with_crc({0x01, 0x03, 0x25, 0x20, 0x00, 0x08}),
-               with_crc({0x01, 0x03, 0x10, 0x00, 0x03, 0, 0, 0, 0, 0x17, 0x70, 0x17, 0x70, 0x0E,
-                         0xD8, 0x02, 0x1C, 0x00, 0x32}));
+  for (int i = 0; i < 2; ++i)
+    rig.exchange(protocols::modbus_rtu, with_crc({0x01, 0x03, 0x25, 0x20, 0x00, 0x08}),
+                 with_crc({0x01, 0x03, 0x10, 0x00, 0x03, 0, 0, 0, 0, 0x17, 0x70, 0x17, 0x70, 0x0E,
+                           0xD8, 0x02, 0x1C, 0x00, 0x32}));
   EXPECT_EQ(rig.bound_id(1), "e5-8200");
   ASSERT_EQ(rig.events.size(), 1u);
   EXPECT_EQ(rig.events[0].profile, "e5-8200");
 
-  // Modbus ASCII: only the E5-8200 speaks it; the monitor block read binds it.
+  // Modbus ASCII: the same.
   BinderRig ascii;
-  ascii.exchange(protocols::modbus_ascii, ascii_frame({0x01, 0x03, 0x25, 0x20, 0x00, 0x08}),
-                 ascii_frame({0x01, 0x03, 0x10, 0x00, 0x03, 0, 0, 0, 0, 0x17, 0x70, 0x17, 0x70,
-                              0x0E, 0xD8, 0x02, 0x1C, 0x00, 0x32}));
+  for (int i = 0; i < 2; ++i)
+    ascii.exchange(protocols::modbus_ascii, ascii_frame({0x01, 0x03, 0x25, 0x20, 0x00, 0x08}),
+                   ascii_frame({0x01, 0x03, 0x10, 0x00, 0x03, 0, 0, 0, 0, 0x17, 0x70, 0x17, 0x70,
+                                0x0E, 0xD8, 0x02, 0x1C, 0x00, 0x32}));
   EXPECT_EQ(ascii.bound_id(1), "e5-8200");
   EXPECT_EQ(ascii.events.size(), 1u);
 }
 
+TEST(DriveBinder, VendorExceptionCodeFitsTheFamilyThatListsIt) {
+  // (drivetap allows the vendor codes of the profiles it loads, src/app/common.cpp.)
+  allow_vendor_exception_code(0x52);
+  BinderRig rig;
+  for (int i = 0; i < 2; ++i)  // 0x52, E5-8200's own exception code
+    rig.exchange(protocols::modbus_rtu, with_crc({0x01, 0x03, 0x25, 0x20, 0x00, 0x08}),
+                 with_crc({0x01, 0x83, 0x52}));
+  EXPECT_EQ(rig.bound_id(1), "e5-8200");
+  EXPECT_NE(rig.events.at(0).detail.find("an exception code the manual lists"),
+            std::string::npos);
+  // A refused request contradicts nothing by its size: 40 registers is past E5-8200's 37.
+  BinderRig big;
+  big.exchange(protocols::modbus_rtu, with_crc({0x01, 0x03, 0x25, 0x20, 0x00, 0x28}),
+               with_crc({0x01, 0x83, 0x02}));
+  EXPECT_EQ(big.tally(1, "e5-8200").contradicts, 0u);
+}
+
 TEST(DriveBinder, VltAquaModbusAndFcBindVltAqua) {
-  // Polling STW (register 50200, wire 50199 = 0xC417): one read of one register is too little
-  // evidence (+1); the second poll binds (the other families lose a point a poll: a lead of 3).
+  // Polling STW (register 50200, wire 50199 = 0xC417): a word of described bits.
   BinderRig rig;
   for (int i = 0; i < 2; ++i)
     rig.exchange(protocols::modbus_rtu, with_crc({0x01, 0x03, 0xC4, 0x17, 0x00, 0x01}),
@@ -1330,9 +1418,9 @@ TEST(DriveBinder, VltAquaModbusAndFcBindVltAqua) {
   EXPECT_EQ(rig.bound_id(1), "vlt-aqua");
   ASSERT_EQ(rig.events.size(), 1u);
   EXPECT_EQ(rig.events[0].profile, "vlt-aqua");
-  EXPECT_EQ(rig.events[0].frame, 3u);
+  EXPECT_EQ(rig.events[0].frame, 4u);
 
-  // One FC request is +2: the second binds.
+  // FC: its own protocol, on each paired transaction.
   BinderRig fc;
   for (int i = 0; i < 2; ++i)
     fc.exchange(protocols::danfoss_fc, with_bcc({0x02, 0x06, 0x01, 0x04, 0x7C, 0x20, 0x00}),
@@ -1341,12 +1429,13 @@ TEST(DriveBinder, VltAquaModbusAndFcBindVltAqua) {
   ASSERT_EQ(fc.events.size(), 1u);
   EXPECT_EQ(fc.events[0].profile, "vlt-aqua");
   EXPECT_EQ(fc.events[0].protocol, protocols::danfoss_fc);
-  EXPECT_EQ(fc.events[0].frame, 3u);
+  EXPECT_EQ(fc.events[0].frame, 4u);
+  EXPECT_NE(fc.events[0].detail.find("its own protocol"), std::string::npos);
 }
 
 TEST(DriveBinder, EasydriveBindsEds1000) {
   BinderRig rig;
-  for (int i = 0; i < 2; ++i)  // +2 a request: the second binds
+  for (int i = 0; i < 2; ++i)
     rig.exchange(protocols::easydrive, eds_frame("010B000F"), eds_frame("0100000F0001"));
   EXPECT_EQ(rig.bound_id(1), "eds1000");
   ASSERT_EQ(rig.events.size(), 1u);
@@ -1377,6 +1466,20 @@ TEST(DriveBinder, BadChecksumsTeachNothing) {
   EXPECT_EQ(rig.binder.bound(0, 1), nullptr);
   EXPECT_TRUE(rig.events.empty());
   EXPECT_TRUE(rig.binder.stations().empty());
+  // A damaged request between a good one and the reply: the reply answers the damaged one, and
+  // the good request is put aside.
+  BinderRig aside;
+  const auto poll = with_crc({0x02, 0x03, 0x00, 0x00, 0x00, 0x05});
+  const auto reply =
+      with_crc({0x02, 0x03, 0x0A, 0x00, 0x0A, 0x13, 0x88, 0x13, 0x7D, 0x01, 0x7C, 0x00, 0x64});
+  for (int i = 0; i < 3; ++i) {
+    aside.learn(decode(protocols::modbus_rtu, poll, Direction::request, {}, ++aside.number));
+    aside.learn(decode(protocols::modbus_rtu, bad_crc, Direction::request, {}, ++aside.number));
+    aside.learn(decode(protocols::modbus_rtu, reply, Direction::response, poll, ++aside.number),
+                poll);
+  }
+  EXPECT_EQ(aside.binder.stations().at({0, 2}).transactions, 0u);
+  EXPECT_EQ(aside.bound_id(2), "generic");
 }
 
 TEST(DriveBinder, DiagnosticsAloneStaysGeneric) {
@@ -1389,7 +1492,10 @@ TEST(DriveBinder, DiagnosticsAloneStaysGeneric) {
   const DriveBinder::Station& st = rig.binder.stations().at({0, 2});
   EXPECT_EQ(st.bound, -1);
   EXPECT_EQ(st.frames, 8u);
-  EXPECT_EQ(rig.binder.evidence(st).find("no family profile fits its traffic (best "), 0u)
+  EXPECT_EQ(st.transactions, 4u);
+  EXPECT_EQ(rig.binder.evidence(st).find("no family profile fits its traffic (over 4 paired "
+                                         "transactions; best "),
+            0u)
       << rig.binder.evidence(st);
 }
 
@@ -1405,148 +1511,146 @@ TEST(DriveBinder, BroadcastIsNeverBound) {
   EXPECT_TRUE(rig.binder.stations().empty());
 }
 
-// A request's evidence is worked out once for every candidate and remembered, up to a bound past
+// A request's addressing is judged once for every candidate and remembered, up to a bound past
 // which the memo starts again: on a bus that never repeats a request (here distinct reads enough
-// for the memo to restart twice a pass) and on one that does (the same again), every request scores
-// what it scores on a binder that has seen nothing else. Each value is a multiple of 0.5, exact
-// in a double, so the sums compare exactly. (The reads are spread over every station address, so
-// that no station's deficit decides it: a decided station is no longer weighed.)
-TEST(DriveBinder, RememberedEvidenceIsTheEvidenceAfresh) {
+// for the memo to restart twice a pass) and on one that does (the same again), every transaction
+// is judged as on a binder that has seen nothing else. (The reads are spread over every station
+// address, so that no station is decided: a decided station is no longer weighed.)
+TEST(DriveBinder, RememberedJudgementsAreTheJudgementsAfresh) {
   constexpr int kStations = 247;
   auto station = [](int i) { return 1 + i % kStations; };
-  auto request = [&](int i) {
-    // Holding and input registers, four lengths, from each start address: the memo's key is
-    // the function, the start and the count.
+  auto exchange = [&](BinderRig& rig, int i) {
     const auto function = static_cast<std::uint8_t>(0x03 + i % 2);
     const auto count = static_cast<std::uint8_t>(1 + 3 * (i / 2 % 4));
     const int address = i / 8;
-    const auto start = static_cast<std::uint8_t>(address >> 8);
-    const auto low = static_cast<std::uint8_t>(address);
-    return decode(
-        protocols::modbus_rtu,
-        with_crc({static_cast<std::uint8_t>(station(i)), function, start, low, 0x00, count}),
-        Direction::request, {}, static_cast<std::uint64_t>(i + 1));
+    const auto unit = static_cast<std::uint8_t>(station(i));
+    std::vector<std::uint8_t> reply = {unit, function, static_cast<std::uint8_t>(2 * count)};
+    for (int k = 0; k < count; ++k) {  // words that set one bit: they fit or contradict
+      reply.push_back(0);
+      reply.push_back(static_cast<std::uint8_t>(1u << (k % 8)));
+    }
+    rig.exchange(protocols::modbus_rtu,
+                 with_crc({unit, function, static_cast<std::uint8_t>(address >> 8),
+                           static_cast<std::uint8_t>(address), 0x00, count}),
+                 with_crc(reply));
   };
   constexpr int kRequests = 3 * static_cast<int>(DriveBinder::kMaxRememberedRequests) - 100;
-  BinderRig rig;
-  std::map<int, std::vector<double>> expected;
+  std::map<int, std::vector<DriveBinder::Tally>> expected;
   for (int i = 0; i < kRequests; ++i) {
     BinderRig alone;
-    alone.learn(request(i));
-    const std::vector<double>& score = alone.binder.stations().at({0, station(i)}).score;
-    std::vector<double>& sum = expected[station(i)];
-    sum.resize(score.size(), 0);
-    for (std::size_t c = 0; c < score.size(); ++c) sum[c] += score[c];
+    exchange(alone, i);
+    const auto& tally = alone.binder.stations().at({0, station(i)}).tally;
+    auto& sum = expected[station(i)];
+    sum.resize(tally.size());
+    for (std::size_t c = 0; c < tally.size(); ++c) {
+      sum[c].fits += tally[c].fits;
+      sum[c].contradicts += tally[c].contradicts;
+    }
   }
   bool any = false;
   for (const auto& [address, sum] : expected)
-    for (const double e : sum) any = any || e != 0;
-  ASSERT_TRUE(any) << "the requests scored nothing for any candidate";
-  for (const int passes : {1, 2}) {
-    for (int i = 0; i < kRequests; ++i) rig.learn(request(i));
+    for (const auto& t : sum) any = any || t.fits != 0 || t.contradicts != 0;
+  ASSERT_TRUE(any) << "the transactions showed nothing for any candidate";
+  BinderRig rig;
+  for (const std::uint32_t passes : {1u, 2u}) {
+    for (int i = 0; i < kRequests; ++i) exchange(rig, i);
     for (const auto& [address, sum] : expected) {
       const DriveBinder::Station& st = rig.binder.stations().at({0, address});
       ASSERT_EQ(st.decided_after, 0u) << "station " << address << " decided: not all weighed";
-      ASSERT_EQ(st.score.size(), sum.size());
-      for (std::size_t c = 0; c < sum.size(); ++c)
-        EXPECT_EQ(st.score[c], passes * sum[c])
+      for (std::size_t c = 0; c < sum.size(); ++c) {
+        EXPECT_EQ(st.tally[c].fits, passes * sum[c].fits)
             << rig.candidates[c]->id << ", station " << address << ", pass " << passes;
+        EXPECT_EQ(st.tally[c].contradicts, passes * sum[c].contradicts)
+            << rig.candidates[c]->id << ", station " << address << ", pass " << passes;
+      }
     }
   }
 }
 
-// A station whose evidence is decided is no longer weighed: reads of registers no family has
-// sink every profile to -kDecidedLead, the station is decided generic ("over the first N of M
-// frames, decided") and later reads leave its scores as they were; a telegram of another protocol
-// weighs again.
+// A station every family's profile contradicts kDecidedContradictions times is decided generic
+// and no longer weighed; a telegram of another protocol weighs it again.
 TEST(DriveBinder, DecidedStationIsNoLongerWeighed) {
   BinderRig rig;
-  // Reads of 32 input registers high in the address space: -1 an address for every family.
+  // Reads of 32 input registers high in the address space: no family has them.
   const auto read_far = with_crc({0x07, 0x04, 0xFF, 0x00, 0x00, 0x20});
-  int frames = 0;
+  std::vector<std::uint8_t> zeros = {0x07, 0x04, 0x40};
+  zeros.resize(3 + 0x40, 0);
+  const auto reply = with_crc(zeros);
+  std::uint32_t transactions = 0;
   while (rig.binder.stations().count({0, 7}) == 0 ||
          rig.binder.stations().at({0, 7}).decided_after == 0) {
-    ASSERT_LT(frames, 100) << "never decided";
-    rig.learn(decode(protocols::modbus_rtu, read_far, Direction::request, {}, ++rig.number));
-    ++frames;
+    ASSERT_LT(transactions, 100u) << "never decided";
+    rig.exchange(protocols::modbus_rtu, read_far, reply);
+    ++transactions;
   }
   const DriveBinder::Station& st = rig.binder.stations().at({0, 7});
   EXPECT_EQ(st.bound, -1);
-  EXPECT_EQ(st.decided_after, static_cast<std::uint64_t>(frames));
-  double best = -1e9;
-  for (std::size_t c = 0; c < st.score.size(); ++c)
-    if (!st.excluded[c]) best = std::max(best, st.score[c]);
-  EXPECT_LE(best, -DriveBinder::kDecidedLead);
-  EXPECT_GT(best, -DriveBinder::kDecidedLead - 32 - 2) << "decided only frames later";
-  const std::vector<double> decided = st.score;
+  EXPECT_EQ(transactions, DriveBinder::kDecidedContradictions);
+  EXPECT_EQ(st.decided_after, 2u * transactions);
   const std::string evidence = rig.binder.evidence(st);
-  EXPECT_NE(evidence.find(fmt::format(" over the first {} of {} frames, decided)", frames, frames)),
+  EXPECT_NE(evidence.find(fmt::format("decided after {} of {} frames", 2 * transactions,
+                                      2 * transactions)),
             std::string::npos)
       << evidence;
-  for (int i = 0; i < 10; ++i)
-    rig.learn(decode(protocols::modbus_rtu, read_far, Direction::request, {}, ++rig.number));
-  EXPECT_EQ(st.score, decided);
-  EXPECT_EQ(st.frames, static_cast<std::uint64_t>(frames) + 10);
-  EXPECT_NE(rig.binder.evidence(st).find(
-                fmt::format(" over the first {} of {} frames, decided)", frames, frames + 10)),
-            std::string::npos)
-      << rig.binder.evidence(st);
+  for (int i = 0; i < 10; ++i) rig.exchange(protocols::modbus_rtu, read_far, reply);
+  EXPECT_EQ(st.transactions, transactions);
+  EXPECT_EQ(st.frames, 2u * transactions + 20);
   EXPECT_TRUE(rig.events.empty());
-  // Another protocol: the station's telegrams are weighed again (an FC telegram for the one family
-  // that speaks it).
-  const Message fc =
-      decode(protocols::danfoss_fc, with_bcc({0x02, 0x06, 0x07, 0x04, 0x7C, 0x20, 0x00}),
-             Direction::request, {}, ++rig.number);
-  ASSERT_EQ(fc.address, 7);
-  const std::uint64_t before = st.frames;
-  rig.learn(fc);
-  EXPECT_EQ(st.frames, before + 1);
-  EXPECT_NE(st.score, decided);
-  // (Weighed, and decided again at once: every profile's deficit is still that deep.)
-  EXPECT_EQ(st.decided_after, before + 1);
+  // Another protocol: weighed again (FC transactions for the one family that speaks it bind it).
+  for (int i = 0; i < 2; ++i)
+    rig.exchange(protocols::danfoss_fc, with_bcc({0x02, 0x06, 0x07, 0x04, 0x7C, 0x20, 0x00}),
+                 with_bcc({0x02, 0x06, 0x07, 0x0E, 0x07, 0x20, 0x00}));
+  EXPECT_EQ(st.transactions, transactions + 2);
+  EXPECT_EQ(st.decided_after, 0u);
 }
 
-// A bound profile whose own evidence sinks to -kDecidedLead is let go: the station goes back to
-// generic with an event, and is decided there once every profile's deficit is as deep.
-TEST(DriveBinder, BoundProfileSunkToTheDeficitIsLetGo) {
+// A bound family contradicted by more than one transaction in four of those it fits is let go,
+// with an event, and its account says what contradicted it.
+TEST(DriveBinder, ContradictedFamilyIsLetGo) {
   BinderRig rig;
-  for (int i = 0; i < 2; ++i) rig.poll_e9();
+  for (int i = 0; i < 4; ++i) rig.poll_e9();
   ASSERT_EQ(rig.bound_id(2), "e9");
-  const auto read_far = with_crc({0x02, 0x04, 0xFF, 0x00, 0x00, 0x20});
-  for (int i = 0; i < 20 && rig.bound_id(2) == "e9"; ++i)
-    rig.learn(decode(protocols::modbus_rtu, read_far, Direction::request, {}, ++rig.number));
-  EXPECT_EQ(rig.bound_id(2), "generic");
+  // Status words with bits the E-9 manual does not describe.
+  const auto poll = with_crc({0x02, 0x03, 0x00, 0x00, 0x00, 0x05});
+  const auto odd = with_crc({0x02, 0x03, 0x0A, 0x80, 0x00, 0, 0, 0, 0, 0, 0, 0, 0});
+  rig.exchange(protocols::modbus_rtu, poll, odd);
+  EXPECT_EQ(rig.bound_id(2), "e9");  // 1 in 4
+  rig.exchange(protocols::modbus_rtu, poll, odd);
+  EXPECT_EQ(rig.bound_id(2), "generic");  // 2 in 4
   ASSERT_EQ(rig.events.size(), 2u);
   EXPECT_EQ(rig.events[1].from, "e9");
   EXPECT_EQ(rig.events[1].to, "generic");
-  EXPECT_NE(rig.events[1].detail.find("no family profile fits its traffic"), std::string::npos)
+  EXPECT_EQ(rig.events[1].detail.find("drive 2 let go: its traffic contradicts the family that "
+                                      "fits it"),
+            0u)
       << rig.events[1].detail;
-  // Its deficit decides it soon after, with no further event.
-  for (int i = 0; i < 20 && rig.binder.stations().at({0, 2}).decided_after == 0; ++i)
-    rig.learn(decode(protocols::modbus_rtu, read_far, Direction::request, {}, ++rig.number));
-  EXPECT_GT(rig.binder.stations().at({0, 2}).decided_after, 0u);
-  EXPECT_EQ(rig.events.size(), 2u);
+  EXPECT_NE(rig.events[1].detail.find("2 contradicting (a bit the manual does not describe)"),
+            std::string::npos)
+      << rig.events[1].detail;
 }
 
-TEST(DriveBinder, ClearlyBetterEvidenceRebinds) {
+// A station polled first as an E-9 and then on the E5-8200 monitor block: the E-9 is let go when
+// the reads of addresses it does not have contradict it, and the E5-8200 bound once it alone
+// explains more transactions than the E-9 did.
+TEST(DriveBinder, AnotherFamilysEvidenceRebinds) {
   BinderRig rig;
-  // E-9 style reads of 0x0000..0x0004 bind the E-9 (the second: a lead of 3) ...
   for (int i = 0; i < 2; ++i) rig.poll_e9();
   ASSERT_EQ(rig.bound_id(2), "e9");
-  ASSERT_EQ(rig.events.size(), 1u);
-  // ... then the station is polled on the E5-8200 monitor block: rebound, a second event.
-  rig.exchange(protocols::modbus_rtu, with_crc({0x02, 0x03, 0x25, 0x20, 0x00, 0x08}),
-               with_crc({0x02, 0x03, 0x10, 0x00, 0x03, 0, 0, 0, 0, 0x17, 0x70, 0x17, 0x70, 0x0E,
-                         0xD8, 0x02, 0x1C, 0x00, 0x32}));
+  for (int i = 0; i < 8; ++i)
+    rig.exchange(protocols::modbus_rtu, with_crc({0x02, 0x03, 0x25, 0x20, 0x00, 0x08}),
+                 with_crc({0x02, 0x03, 0x10, 0x00, 0x03, 0, 0, 0, 0, 0x17, 0x70, 0x17, 0x70, 0x0E,
+                           0xD8, 0x02, 0x1C, 0x00, 0x32}));
   EXPECT_EQ(rig.bound_id(2), "e5-8200");
-  ASSERT_EQ(rig.events.size(), 2u);
-  const BusEvent& e = rig.events[1];
-  EXPECT_EQ(e.kind, "drive_bound");
+  ASSERT_EQ(rig.events.size(), 3u);
+  EXPECT_EQ(rig.events[1].to, "generic");
+  EXPECT_EQ(rig.events[1].frame, 6u);
+  const BusEvent& e = rig.events[2];
   EXPECT_EQ(e.profile, "e5-8200");
-  EXPECT_EQ(e.to, "e5-8200");
-  EXPECT_EQ(e.from, "e9");  // BusEvent: from = the previous value, known here
-  EXPECT_EQ(e.frame, 5u);
-  EXPECT_EQ(e.detail.find("drive 2 bound to E5-8200 (auto, confidence "), 0u) << e.detail;
+  EXPECT_EQ(e.from, "");
+  // The third: the E5-8200 explains 3 alone, the E-9 2 (a tie binds neither); the E-9 polls read
+  // addresses the E5-8200's parameter rule has, and contradict it in nothing.
+  EXPECT_EQ(e.frame, 10u);
+  EXPECT_EQ(e.detail.find("drive 2 bound to E5-8200 (auto, confidence medium: "), 0u) << e.detail;
   // A frame with a bad checksum teaches nothing, and its station stays bound.
   auto bad = with_crc({0x02, 0x03, 0x25, 0x20, 0x00, 0x08});
   bad.back() ^= 0x01;
@@ -1558,12 +1662,10 @@ TEST(DriveBinder, ClearlyBetterEvidenceRebinds) {
 }
 
 // The pipeline reads a telegram's records once, a reply with its request, and hands that reading
-// to the binder and then to the annotation; a binder reading on its own reads a reply without
-// its request. Both must bind alike: over exchanges of every protocol (register and coil reads
-// and their replies, writes, exception replies with standard and vendor codes), the stations'
-// scores, exclusions, bindings and confidence and the binding events are the same, and the
-// shared reading is the one with the request (a reply's values are there for the annotation).
-TEST(DriveBinder, RepliesReadWithTheirRequestBindAsReadAlone) {
+// to the binder and then to the annotation: it binds as the binder's own reading does, over
+// exchanges of every protocol (register and coil reads and their replies, writes, exception
+// replies with standard and vendor codes).
+TEST(DriveBinder, SharedReadingBindsAsItsOwn) {
   struct Exchange {
     Protocol protocol;
     std::vector<std::uint8_t> request, reply;
@@ -1600,7 +1702,7 @@ TEST(DriveBinder, RepliesReadWithTheirRequestBindAsReadAlone) {
       const Message r = decode(x.protocol, x.reply, Direction::response, q.bytes, ++number);
       for (const auto& [m, request] :
            {std::pair<const Message*, std::span<const std::uint8_t>>{&q, {}}, {&r, q.bytes}}) {
-        alone.learn(*m);
+        alone.learn(*m, request);
         const TelegramHead head = head_of(*m);
         TelegramDriveRecords records(reader, head, request);
         std::optional<BusEvent> e;
@@ -1617,7 +1719,11 @@ TEST(DriveBinder, RepliesReadWithTheirRequestBindAsReadAlone) {
   ASSERT_EQ(shared.binder.stations().size(), alone.binder.stations().size());
   for (const auto& [key, st] : alone.binder.stations()) {
     const DriveBinder::Station& other = shared.binder.stations().at(key);
-    EXPECT_EQ(other.score, st.score) << "station " << key.second;
+    for (std::size_t c = 0; c < st.tally.size(); ++c) {
+      EXPECT_EQ(other.tally[c].fits, st.tally[c].fits) << "station " << key.second;
+      EXPECT_EQ(other.tally[c].alone, st.tally[c].alone) << "station " << key.second;
+      EXPECT_EQ(other.tally[c].contradicts, st.tally[c].contradicts) << "station " << key.second;
+    }
     EXPECT_EQ(other.excluded, st.excluded) << "station " << key.second;
     EXPECT_EQ(other.bound, st.bound) << "station " << key.second;
     EXPECT_EQ(other.confidence, st.confidence) << "station " << key.second;

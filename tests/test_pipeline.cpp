@@ -481,12 +481,18 @@ TEST(Pipeline, HeadDissectionCountsWhatDecodingFinds) {
             (adjust == Adjust::none || adjust == Adjust::split_directions)) {
           EXPECT_LT(counted.messages, decoded.messages / 10);
         }
-        if (drives) {  // the drive level was at work: bindings and state changes
+        // The drive level at work: bindings and state changes. (Binding needs paired
+        // transactions: 7 data bits break most checksums, and requests and replies on channels
+        // of their own here are two links, whose telegrams never pair.)
+        const bool paired = adjust != Adjust::seven_bits && adjust != Adjust::split_directions;
+        if (drives && paired) {
           EXPECT_GT(std::count_if(
                         counted_events.begin(), counted_events.end(),
                         [](const std::string& e) { return e.starts_with("event drive_bound"); }),
                     0);
           EXPECT_GT(counted_events.size(), 20u);
+        }
+        if (drives) {
           // A sink that shows no events (`read --stats`): the same summary, drive states and
           // counts of their changes included, and no state change made an event.
           TranscriptSink quiet(false);
@@ -507,7 +513,9 @@ TEST(Pipeline, HeadDissectionCountsWhatDecodingFinds) {
             for (const char* kind :
                  {"command", "setpoint", "running", "direction", "fault", "warning"})
               EXPECT_FALSE(e.starts_with(fmt::format("event {} ", kind))) << e;
-          EXPECT_LT(quiet_events.size(), counted_events.size());
+          if (paired) {
+            EXPECT_LT(quiet_events.size(), counted_events.size());
+          }
         }
       }
     }

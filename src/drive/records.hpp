@@ -37,8 +37,7 @@ class DriveRecordReader {
 
 // One telegram's drive records, read when first asked for and kept for the rest of the telegram's
 // way through the drive level: the binder and the annotation share one reading. A reply is read
-// with its request, which only adds records the binder does not weigh (it weighs a reply's
-// exceptions, which a reply carries alone).
+// with its request (the binder weighs a reply only so).
 class TelegramDriveRecords {
  public:
   // `reader` lends its storage; `telegram` and `request` must outlive this.
@@ -46,6 +45,8 @@ class TelegramDriveRecords {
                        std::span<const std::uint8_t> request)
       : reader_(reader), telegram_(telegram), request_(request) {}
   [[nodiscard]] const TelegramHead& telegram() const { return telegram_; }
+  // A reply read with the request it answers.
+  [[nodiscard]] bool answers_request() const { return !request_.empty(); }
   const DriveRecords& get() {
     if (!read_) {
       reader_.read(telegram_, request_);

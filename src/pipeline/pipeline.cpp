@@ -977,7 +977,7 @@ void Pipeline::summarise_drives() {
     d.link = key.first;
     d.address = key.second;
     d.profile = station.bound >= 0 ? binder_.candidate(station.bound).id : "generic";
-    d.profile_name = station.bound >= 0 ? binder_.candidate(station.bound).name : "generic Modbus";
+    d.profile_name = station.bound >= 0 ? binder_.candidate(station.bound).name : "generic";
     d.binding = binder_.evidence(station);
   }
   for (const auto& [key, state] : timeline_.drives()) {
