@@ -28,6 +28,16 @@ until_status() {
   done
   return 1
 }
+# stop_capture: SIGTERM to the capture ($cap), its exit status in rc; then its two readers
+# ($reader, $control_reader) end and the simulator ($sim) is stopped.
+stop_capture() {
+  kill -TERM "$cap"
+  wait "$cap"
+  rc=$?
+  wait "$reader" "$control_reader"
+  kill "$sim" 2>/dev/null
+  wait "$sim" 2>/dev/null
+}
 have_tshark=0
 if command -v tshark >/dev/null; then
   have_tshark=1
@@ -207,12 +217,7 @@ started=$SECONDS
 # Until the status bar has counted 30 frames (tshark reads more than 20 packets, below).
 until_status 30 "$tmp/control.bytes" || fail "SIGTERM: 30 frames not counted in 20 s"
 elapsed=$((SECONDS - started + 1))
-kill -TERM "$cap"
-wait "$cap"
-rc=$?
-wait "$reader" "$control_reader"
-kill "$sim" 2>/dev/null
-wait "$sim" 2>/dev/null
+stop_capture
 [ "$rc" = 0 ] && [ ! -s "$tmp/term.err" ] || fail "SIGTERM: exit $rc, stderr: $(cat "$tmp/term.err")"
 if [ "$have_tshark" = 1 ]; then
   packets=$(tshark -r "$tmp/term.pcapng" 2>"$tmp/term.tshark" | wc -l)
@@ -275,12 +280,7 @@ control_reader=$!
   --protocol rtu --extcap-control-out "$tmp/detect.control" 2>"$tmp/detect.err" &
 cap=$!
 until_status 1 "$tmp/detect.bytes" || fail "--detect: no frame counted in 20 s"
-kill -TERM "$cap"
-wait "$cap"
-rc=$?
-wait "$reader" "$control_reader"
-kill "$sim" 2>/dev/null
-wait "$sim" 2>/dev/null
+stop_capture
 [ "$rc" = 0 ] && [ ! -s "$tmp/detect.err" ] || fail "--detect: exit $rc: $(cat "$tmp/detect.err")"
 detected=$(grep -ao "detected [0-9]* 8[NEO]1" "$tmp/detect.bytes")
 [ "$(grep -ac "detecting the line settings: " "$tmp/detect.bytes")" -ge 1 ] && [ -n "$detected" ] &&
@@ -309,12 +309,7 @@ cap=$!
 end=$((SECONDS + 20))
 until grep -aq "warning: $tmp/fast.tty: bytes come faster than 1200 8N1" "$tmp/fast.bytes" ||
   [ "$SECONDS" -ge "$end" ]; do sleep 0.05; done
-kill -TERM "$cap"
-wait "$cap"
-rc=$?
-wait "$reader" "$control_reader"
-kill "$sim" 2>/dev/null
-wait "$sim" 2>/dev/null
+stop_capture
 [ "$rc" = 0 ] && [ ! -s "$tmp/fast.err" ] &&
   [ "$(grep -ac "bytes come faster than" "$tmp/fast.bytes")" = 1 ] ||
   fail "too fast: exit $rc, stderr: $(cat "$tmp/fast.err"), log: $(tr -c '[:print:]' ' ' <"$tmp/fast.bytes" | head -c 300)"
