@@ -68,6 +68,7 @@ for pair in session-e9:"ERMAN E-9P/9G" session-erg:"ERMAN ER-G" session-e5-8200:
   [ "$bindings" = "bound to $family " ] || fail "$dir: bindings were '$bindings', expected '$family'"
 done
 
+# (Outputs are read whole before grep -q: under pipefail, grep leaving early would fail them.)
 # 7. A sigrok session through the command: frames decoded from the samples; a bad --channels name
 #    is a one-line error naming the option and the channels there are.
 out=$("$drivetap" read "$root/captures/sigrok-flowmeter-graph-tool/flowmeter_graph_tool.sr" 2>/dev/null)
@@ -88,7 +89,7 @@ out=$("$drivetap" diagnose "$bc"); rc=$?
 grep -q "^line: *19200 8E1, inverted (detected)" <<<"$out" || fail "diagnose brainchild: line settings"
 grep -q "\[inverted-line\]" <<<"$out" || fail "diagnose brainchild: no inverted-line verdict"
 [ "$(grep -c '^  \[' <<<"$out")" = 1 ] || fail "diagnose brainchild: more than the inversion: $out"
-"$drivetap" diagnose -T json "$bc" | grep -q '"id":"inverted-line"' || fail "diagnose -T json"
+grep -q '"id":"inverted-line"' <<<"$("$drivetap" diagnose -T json "$bc")" || fail "diagnose -T json"
 for fm in sigrok-flowmeter-graph-tool/flowmeter_graph_tool.sr \
           sigrok-flowmeter-target-15liter-per-min/flowmeter_target_15liter_per_min.sr; do
   out=$("$drivetap" diagnose "$root/captures/$fm")
@@ -101,7 +102,7 @@ grep -q "\[baud-mismatch\] Baud rate mismatch: the line runs at 19200, not 9600"
 vcd="$root/captures/vcd/brainchild-io-16do.vcd"
 out=$("$drivetap" read "$vcd" 2>&1)
 grep -q "^transactions: *15 (ok 15," <<<"$out" || fail "brainchild VCD: expected 15 good transactions"
-"$drivetap" diagnose "$vcd" | grep -q "\[inverted-line\]" || fail "diagnose brainchild VCD"
+grep -q "\[inverted-line\]" <<<"$("$drivetap" diagnose "$vcd")" || fail "diagnose brainchild VCD"
 err=$("$drivetap" read --invert "$bc" 2>&1 >/dev/null); rc=$?
 [ "$rc" = 2 ] && grep -q "^drivetap: --invert: give the line settings too" <<<"$err" ||
   fail "--invert without -s: exit $rc, stderr: $err"
@@ -112,7 +113,8 @@ full=$("$drivetap" read "$log" | sed -n '/^--- summary ---$/,$p')
 stats=$("$drivetap" read --stats "$log" | sed '/^$/d')
 [ "$stats" = "$full" ] || fail "--stats: summary differs from a full run's"
 [ "$("$drivetap" read --stats -T json "$log" | grep -c .)" = 1 ] || fail "--stats -T json: not one line"
-"$drivetap" read --stats -T json "$log" | grep -q '^{"type":"summary"' || fail "--stats -T json: no summary"
+grep -q '^{"type":"summary"' <<<"$("$drivetap" read --stats -T json "$log")" ||
+  fail "--stats -T json: no summary"
 
 # 10. Start-up: libpcap and libzip are loaded when a classic pcap or a sigrok session needs them,
 #     not at every start (src/formats/shared_libraries.hpp); both still read and write.
@@ -124,7 +126,9 @@ tmp=$(mktemp -d)
 [ "$("$drivetap" read "$tmp/e9.pcap" | grep '^frames:')" = "$(grep '^frames:' <<<"$full")" ] ||
   fail "the classic pcap written and read back: other frames"
 sr="$root/captures/sigrok-brainchild-io-16do/brainchild-io-16do.sr"
-"$drivetap" read "$sr" 2>/dev/null | grep -q '^frames: .*checksum ok [1-9]' || fail "a sigrok session: no good frame"
+out=$("$drivetap" read "$sr" 2>"$tmp/sr.err"); rc=$?
+grep -q '^frames: .*checksum ok [1-9]' <<<"$out" ||
+  fail "a sigrok session: no good frame (exit $rc; stderr: $(tail -n 3 "$tmp/sr.err"); $(grep -A3 '^frames:' <<<"$out"))"
 rm -rf "$tmp"
 
 [ "$failed" = 0 ] && echo "ok cli"

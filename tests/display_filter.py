@@ -654,9 +654,10 @@ def check_examples():
     # The README's drive 2 frequency over time: a row for each frame that shows it.
     e9 = os.path.join(SOURCE, "captures", "session-e9", "input.log")
     code, out, err = run(["read", "--drive", "2=e9", "-T", "fields", "-e", "t", "-e",
-                          "drive.output_frequency", "-Y", "drive.output_frequency", e9])
+                          "drive.output_frequency", "-e", "drive.output_frequency.unit", "-Y",
+                          "drive.output_frequency", e9])
     rows = [l.split("\t") for l in out.splitlines()]
-    if code != 0 or not rows or any(len(r) != 2 or "" in r for r in rows):
+    if code != 0 or not rows or any(len(r) != 3 or "" in r or r[2] != "Hz" for r in rows):
         fail("README drive.output_frequency example: exit %d %r %s" % (code, out[:200], err))
     # A drive value no loaded profile gives is a filter error naming it.
     code, out, err = run(["read", "-Y", "drive.no_such_value > 1", e9])

@@ -13,7 +13,8 @@
 2. json: every key of a `fields` object in `read -T json` of every capture in captures/ (and of
    generated traffic and one frame pair of each public Modbus function) is listed, and its values
    have the listed type: an integer within the width and bitmask, a hex string, a string; the
-   record fields (layer `drivetap`) are frame records' keys, each with values of its type.
+   record fields (layer `drivetap`) are frame records' keys, each with values of its type; each
+   drive.* id is in one unit, the one listed (`drive.<id>.unit`), also as `-e drive.<id>.unit`.
 3. values: the Modbus frames written as pcapng (`decode -w`) and read by tshark: for each frame,
    each id both print has the same values in both.
 
@@ -112,7 +113,7 @@ def modbus_hex():
 
 
 def drivetap_fields(drivetap):
-    """{id: (name, type, layer, base, bitmask)}, checking the listing's form."""
+    """{id: (name, type, layer, base, bitmask, blurb)}, checking the listing's form."""
     fields, layers = {}, {}
     layer = None
     for line in run([drivetap, "fields"]).splitlines():
@@ -129,14 +130,14 @@ def drivetap_fields(drivetap):
             if len(cols) != 8:
                 fail(f"F line of {len(cols)} columns: {line!r}")
                 continue
-            _, name, fid, ftype, proto, base, bitmask, _blurb = cols
+            _, name, fid, ftype, proto, base, bitmask, blurb = cols
             if fid in fields:
                 fail(f"id {fid} listed twice")
             if proto != layer:
                 fail(f"{fid}: protocol {proto} is not the layer above it ({layer})")
             if not name or ftype not in TYPE_CLASS:
                 fail(f"{fid}: name {name!r}, type {ftype}")
-            fields[fid] = (name, ftype, proto, base, int(bitmask, 16))
+            fields[fid] = (name, ftype, proto, base, int(bitmask, 16), blurb)
         else:
             fail(f"line neither P nor F: {line!r}")
     if len(fields) < 80 or len(layers) != 7:
@@ -169,7 +170,7 @@ def check_list(drivetap):
         if layer in ws_protocols and (layer not in SHARED_LAYERS or ws_protocols[layer] != name):
             fail(f"layer {layer} ({name}) is Wireshark's protocol {ws_protocols[layer]}")
     shared = 0
-    for fid, (_, ftype, proto, _, _) in fields.items():
+    for fid, (_, ftype, proto, _, _, _) in fields.items():
         if fid in ws_fields:
             ws_type, ws_proto = ws_fields[fid]
             shared += 1
@@ -248,6 +249,10 @@ def check_json(drivetap):
     fields, _ = drivetap_fields(drivetap)
     record_keys = {fid for fid, f in fields.items() if f[2] == "drivetap"}
     seen, seen_keys, seen_drive = set(), set(), set()
+    # One unit per drive.* id: the listing's (`drive.<id>.unit`, "Always U"), none when unlisted.
+    listed_unit = {fid[:-len(".unit")]: f[5].removeprefix("Always ") for fid, f in fields.items()
+                   if fid.startswith("drive.") and fid.endswith(".unit")}
+    units_seen = {}
     with tempfile.TemporaryDirectory() as work:
         for label, command, stdin in json_inputs(drivetap, work):
             cwd = os.path.dirname(label) if os.path.isabs(label) else None
@@ -267,6 +272,8 @@ def check_json(drivetap):
                     for vid, v in drive.get("values", {}).items():
                         fid = "drive." + vid
                         seen_drive.add(fid)
+                        if isinstance(v.get("value"), (int, float)) and "raw" in v:
+                            units_seen.setdefault(fid, set()).add(v.get("unit", ""))
                         if fid not in fields:
                             fail(f"{label}: frame {record.get('n')}: {fid} is not listed")
                         elif fields[fid][1] != "FT_STRING" and not isinstance(v["value"], (int, float)):
@@ -280,6 +287,31 @@ def check_json(drivetap):
                         ftype, bitmask = fields[fid][1], fields[fid][4]
                         if not value_fits(v, ftype, bitmask):
                             fail(f"{label}: frame {record.get('n')}: {fid} = {v!r} is no {ftype}")
+    for fid, units in sorted(units_seen.items()):
+        if units != {listed_unit.get(fid, "")}:
+            fail(f"{fid}: units {sorted(units)} in the JSON, listed {listed_unit.get(fid, '')!r}")
+    for fid, unit in (("drive.output_frequency", "Hz"), ("drive.output_frequency_pct", "%"),
+                      ("drive.setpoint", "Hz"), ("drive.setpoint_pct", "%"),
+                      ("drive.output_current", "A"), ("drive.output_voltage", "V")):
+        if listed_unit.get(fid) != unit or fid not in units_seen:
+            fail(f"{fid}: listed in {listed_unit.get(fid)!r}, not {unit!r}, or never printed")
+    # -e drive.<id>.unit: the listed unit beside each value, in every session capture.
+    for session in sorted(glob.glob(os.path.join(ROOT, "captures", "session-*", "input.*"))):
+        ids = ["drive.output_frequency", "drive.output_frequency_pct", "drive.setpoint",
+               "drive.setpoint_pct", "drive.output_current"]
+        args = [a for i in ids for a in ("-e", i, "-e", i + ".unit")]
+        out = run([drivetap, "read", session, "-T", "fields", "-E", "separator=/t", *args])
+        rows = 0
+        for line in out.splitlines():
+            cols = line.split("\t")
+            for k, fid in enumerate(ids):
+                value, unit = cols[2 * k], cols[2 * k + 1]
+                if value and unit != listed_unit[fid] or not value and unit:
+                    fail(f"{session}: {fid} = {value!r}, {fid}.unit = {unit!r}")
+                rows += bool(value)
+        if rows == 0:
+            fail(f"{session}: no shared quantity with its unit")
+    print(f"units: {len(units_seen)} drive.* ids each in one unit, the listed one")
     if len(seen) < 60:
         fail(f"only {len(seen)} ids printed over all inputs")
     if seen_keys != record_keys:

@@ -2,9 +2,10 @@
 # `drivetap report` (docs/reference.md "Report"), in two parts:
 #   data     the data embedded in the page of bundled captures against `drivetap read -T json` of
 #            the same captures, recomputed here (counts per station, latency percentiles,
-#            findings, drive values, events, load); several captures on one timeline; the page
-#            fetches nothing; bad input: read's one-line error and exit status, and no page or
-#            temporary file left behind (also when stopped by a signal);
+#            findings, drive values, events, state bands at the events' frames, load); several
+#            captures on one timeline; the page fetches nothing; bad input: read's one-line error
+#            and exit status, and no page or temporary file left behind (also when stopped by a
+#            signal);
 #   browser  the page rendered in headless Chromium: no script error, every chart drawn and not
 #            blank (the canvas pixels the page counts, and the screenshot's pixels in each chart's
 #            region). Skipped (77) without chromium unless DRIVETAP_REQUIRE_CHROMIUM=1 (CI).
@@ -25,8 +26,8 @@ drivetap, root, part = sys.argv[1], sys.argv[2], sys.argv[3]
 screenshot_out = sys.argv[5] if len(sys.argv) > 5 and sys.argv[4] == "--screenshot" else None
 failures = []
 
-SHARED_IDS = {"station", "family", "setpoint", "output_frequency", "output_current", "output_voltage",
-              "running", "direction", "fault", "fault_name", "status_word", "control_word"}
+SHARED_IDS = {"station", "family", "setpoint", "setpoint_pct", "output_frequency", "output_frequency_pct",
+              "output_current", "output_voltage", "running", "direction", "fault", "fault_name", "status_word", "control_word"}
 
 
 def register_field_id(name):
@@ -191,6 +192,49 @@ def check_capture_data(capture, tmp):
         for e in drive["events"]:
             got_events[(drive["addr"], e[1])] = got_events.get((drive["addr"], e[1]), 0) + 1
     check(got_events == want_events, f"{name}: events {got_events} vs {want_events}")
+
+    # State bands change at the frame whose event changed the state: each column's last state
+    # (what holds until the next column drawn) is the state after the events before the column's
+    # end, recomputed from --events (running: its `to`; a fault: the status word's or the code's).
+    width = data["column_s"]
+    colour = lambda bits: 4 if bits & 4 else 1 if bits & 1 else 2 if bits & 2 else 8
+    bands_checked = 0
+    for drive in data["drives"]:
+        if drive["events_left_out"]:
+            continue
+        mine = [e for e in ev if e["type"] == "event" and e.get("address") == drive["addr"]
+                and e["kind"] in ("running", "fault")]
+        times = [e[0] for e in drive["events"] if e[1] in ("running", "fault")]
+        check(len(times) == len(mine), f"{name}: drive {drive['addr']}: state events differ")
+        after = []  # (time on the page's timeline, state bits after the event)
+        running, fault_word, fault_code = None, False, False
+        for t, e in zip(times, mine):
+            if e["kind"] == "running":
+                running = e["to"] == "running"
+            elif "status word" in e["detail"]:
+                fault_word = e["to"] != ""
+            else:
+                fault_code = e["to"] != ""
+            bits = (4 if fault_word or fault_code else 0) | (0 if running is None else 1 if running else 2)
+            after.append((t, bits or 8))
+        for mid, bits, last in drive["states"]:
+            end = mid + width / 2
+            if any(abs(t - end) < 1e-6 for t, _ in after):
+                continue  # an event on the column's edge: either side is right
+            state = 8
+            for t, b in after:
+                if t < end:
+                    state = b
+            check(colour(last) == colour(state),
+                  f"{name}: drive {drive['addr']}: the band after {mid:.3f} s is {colour(last)}, "
+                  f"the events say {colour(state)}")
+            bands_checked += 1
+        # A transition is drawn at its event: the column holding it ends in the new state.
+        for t, b in after:
+            col = [c for c in drive["states"] if c[0] - width / 2 <= t < c[0] + width / 2]
+            check(bool(col), f"{name}: drive {drive['addr']}: no state column at the event at {t}")
+    check(bands_checked > 0 or not any(d["events"] for d in data["drives"]),
+          f"{name}: no state band checked")
 
     # Load: the busy time of all columns adds up to bytes x character time.
     char_ms = data["captures"][0]["character_ms"]

@@ -45,8 +45,8 @@ TEST(DanfossFc, WriteParameterTelegramOfTheIssue) {
   EXPECT_EQ(m.address, 1);
   EXPECT_EQ(m.checksum.verdict, ChecksumVerdict::good);
   EXPECT_EQ(m.info,
-            "write 4-14 = 1000 (RAM+EEPROM, word), CTW 0x047C [ramp, no coast, no quick stop, "
-            "ramp enabled, start, data valid], REF 50.00 %");
+            "write 4-14 = 1000 (RAM+EEPROM, word), CTW 0x047C [ramp, no coast, ramp, use ramp, "
+            "start, data valid], REF 50.000 %");
   EXPECT_EQ(field_text(m, "danfoss_fc.param"), "4-14");
   EXPECT_EQ(field_text(m, "danfoss_fc.pwe"), "1000");
   EXPECT_TRUE(m.anomalies.empty());
@@ -61,7 +61,8 @@ TEST(DanfossFc, ErrorReplyAndStatusWord) {
   EXPECT_NE(m.info.find("4-14: cannot execute, error 2 (upper or lower limit exceeded)"),
             std::string::npos)
       << m.info;
-  EXPECT_NE(m.info.find("STW 0x0607 [control ready, drive ready, enabled, bus control"),
+  EXPECT_NE(m.info.find("STW 0x0607 [control ready, drive ready, enabled, speed != reference, "
+                        "bus control, frequency within limits, not running]"),
             std::string::npos)
       << m.info;
 }
@@ -92,7 +93,7 @@ TEST(DanfossFc, NegativeReferenceIsSignedPercent) {
   const Message m =
       dissected(dissect_fc, frame_of({0x02, 0x06, 0x04, 0x04, 0x7C, 0xE0, 0x00, 0x00}),
                 Direction::request, {});
-  EXPECT_NE(m.info.find("REF -50.00 %"), std::string::npos) << m.info;
+  EXPECT_NE(m.info.find("REF -50.000 %"), std::string::npos) << m.info;
 }
 
 TEST(DanfossFc, FramesBackToBackWithNoiseThroughThePipeline) {

@@ -11,7 +11,8 @@ with `read -w`, the plugin installed with `drivetap wireshark --install` into a 
    values `drivetap read -T fields -e ID` gives (numbers compared as numbers: Wireshark spells a
    hex field 0x.., a double without trailing zeros);
 3. bad checksums are expert errors (`_ws.expert.severity`) and `drivetap.checksum_bad`;
-4. a Danfoss FC packet is its telegram and at most 32 bytes of tags;
+4. a Danfoss FC packet is its telegram and at most 32 bytes of tags; its tree has drivetap's
+   shape, and its AK is labelled by the telegram's direction;
 5. without the plugin (empty HOME) the file opens and each packet comment starts with the decode;
 6. `--dlt user0` on a Danfoss FC bus is refused with one line, exit 2.
 
@@ -236,6 +237,26 @@ def main():
         if checked < 100 or nested == 0:
             fail(f"tree shape: only {checked} packets ({nested} with nested fields) compared")
         print(f"tree: {checked} packets have drivetap's field tree ({nested} nested)")
+
+        # 4c. a field whose meaning depends on the direction (Danfoss FC's AK) is labelled by the
+        # telegram's direction: "Request (AK)" on a request, "Response (AK)" on a reply.
+        direction = {r["n"]: r.get("dir") for r in frames}
+        labels = {"request": "Request (AK)", "response": "Response (AK)"}
+        seen = {}
+        for packet in ET.fromstring(pdml).iter("packet"):
+            number = int(next(f.get("show") for f in packet.iter("field")
+                              if f.get("name") == "frame.number"))
+            for f in packet.iter("field"):
+                if f.get("name") != "danfoss_fc.pke.ak":
+                    continue
+                want = labels.get(direction.get(number))
+                label = f.get("showname", "")
+                seen[direction.get(number)] = seen.get(direction.get(number), 0) + 1
+                if not want or want not in label:
+                    fail(f"packet {number} ({direction.get(number)}): AK labelled {label!r}")
+        if not seen.get("request") or not seen.get("response"):
+            fail(f"AK labels: only {seen} packets with an AK")
+        print(f"AK: labelled by direction on {seen} packets")
 
         # 5. without the plugin: opens, each comment starts with the decode.
         stock = rows(tshark(empty, capture, "-T", "fields", "-e", "frame.number", "-e",

@@ -1,4 +1,4 @@
-// Danfoss FC protocol dissector (docs/protocols.md §4; 002 §7.2-7.5 telegram, §7.11 CTW/STW bits).
+// Danfoss FC protocol dissector (docs/protocols.md §4; 002 §7.2-7.5 telegram, §7.11 CTW/STW).
 #include "dissectors/danfoss_fc/fc_dissector.hpp"
 
 #include <fmt/compile.h>
@@ -8,6 +8,7 @@
 #include "dissectors/common/hybrid_framer_impl.hpp"
 #include "dissectors/danfoss_fc/fc_fields.hpp"
 #include "dissectors/danfoss_fc/fc_findings.hpp"
+#include "dissectors/danfoss_fc/fc_words.hpp"
 
 namespace drivetap::danfoss_fc {
 
@@ -47,62 +48,19 @@ std::string join(const std::vector<std::string>& parts) {
   return out;
 }
 
-// FC profile control word (002 §7.11.1): every bit that is set, by name, and the cleared bits
-// that command something (coast, quick stop, DC brake, freeze) in capitals.
-std::string ctw_meaning(std::uint16_t w) {
+// A control or status word's meaning under its table (fc_words.hpp): the one the drive level's
+// `=` line gives for the same word.
+std::string word_meaning(const WordBits& word, std::uint16_t w) {
   std::string s;
-  auto bit = [&](int n) { return ((w >> n) & 1) != 0; };
-  if ((w & 0x3) != 0) {
-    append_part(s, "preset reference ");
-    s += static_cast<char>('0' + (w & 0x3));
-  }
-  append_part(s, bit(2) ? "ramp" : "DC BRAKE");
-  append_part(s, bit(3) ? "no coast" : "COAST");
-  append_part(s, bit(4) ? "no quick stop" : "QUICK STOP");
-  append_part(s, bit(5) ? "ramp enabled" : "FREEZE OUTPUT");
-  append_part(s, bit(6) ? "start" : "stop");
-  if (bit(7)) append_part(s, "reset");
-  if (bit(8)) append_part(s, "jog");
-  if (bit(9)) append_part(s, "ramp 2");
-  append_part(s, bit(10) ? "data valid" : "data not valid");
-  if (bit(11)) append_part(s, "relay 01 on");
-  if (bit(12)) append_part(s, "relay 02 on");
-  if (((w >> 13) & 0x3) != 0) {
-    append_part(s, "set-up ");
-    s += static_cast<char>('0' + ((w >> 13) & 0x3) + 1);
-  }
-  if (bit(15)) append_part(s, "reverse");
-  return s;
-}
-
-// FC profile status word (002 §7.11.2): the bits that are set (and coasting when bit 2 is 0).
-std::string stw_meaning(std::uint16_t w) {
-  static constexpr const char* kNames[16] = {"control ready",
-                                             "drive ready",
-                                             "enabled",
-                                             "TRIP",
-                                             "error (no trip)",
-                                             nullptr,
-                                             "TRIP LOCK",
-                                             "WARNING",
-                                             "speed = reference",
-                                             "bus control",
-                                             "frequency within limits",
-                                             "running",
-                                             "stopped/autostart (overheat)",
-                                             "VOLTAGE EXCEEDED",
-                                             "TORQUE EXCEEDED",
-                                             "THERMAL TIMER EXCEEDED"};
-  std::string s;
-  for (int n = 0; n < 16; ++n)
-    if (((w >> n) & 1) && kNames[n]) append_part(s, kNames[n]);
-  if (!(w & 0x4)) append_part(s, "coasting");
+  append_bit_names(s, word.bits, w);
   return s.empty() ? "none" : s;
 }
 
+// REF and MAV (§7.11.3: 16384 = 100 %), with the 3 decimals of their resolution (0.0061 %), as
+// the drive level shows the same words.
 std::string percent(std::uint16_t raw) {
   const auto v = static_cast<std::int16_t>(raw);
-  return fmt::format(FMT_COMPILE("{:.2f} %"), static_cast<double>(v) * 100.0 / 16384.0);
+  return fmt::format(FMT_COMPILE("{:.3f} %"), static_cast<double>(v) * 100.0 / 16384.0);
 }
 
 bool is_request_only_ak(unsigned ak) {
@@ -261,13 +219,13 @@ void dissect_fc(Message& m, Frame&& frame, Direction direction, const FramingTim
     const std::uint16_t pcd1 = c.be16().value_or(0);
     const std::uint16_t pcd2 = c.be16().value_or(0);
     if (direction == Direction::response) {
-      const std::string meaning = stw_meaning(pcd1);
+      const std::string meaning = word_meaning(kStwBits, pcd1);
       const std::string mav = percent(pcd2);
       tree.add_text(kStw, at, 2, meaning, pcd1);
       tree.add_text(kMav, at + 2, 2, mav);
       info.push_back(fmt::format(FMT_COMPILE("STW 0x{:04X} [{}], MAV {}"), pcd1, meaning, mav));
     } else if (direction == Direction::request) {
-      const std::string meaning = ctw_meaning(pcd1);
+      const std::string meaning = word_meaning(kCtwBits, pcd1);
       const std::string reference = percent(pcd2);
       tree.add_text(kCtw, at, 2, meaning, pcd1);
       tree.add_text(kReference, at + 2, 2, reference);

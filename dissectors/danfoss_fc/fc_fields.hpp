@@ -89,9 +89,13 @@ inline constexpr const FieldDesc* kAllFields[] = {
     &kStw, &kCtwMeaning, &kStwMeaning, &kReference, &kMav,         &kPcd,  &kBcc,
 };
 // kAkResponse shares the id "danfoss_fc.pke.ak" with kAkRequest (the meaning depends on the
-// direction); it is listed once, under kAkRequest (kAkResponse.shares_id_of).
+// direction); it is listed once, under kAkRequest (kAkResponse.shares_id_of), and is the label of
+// a reply's AK in Wireshark (kResponseFields).
 
-inline constexpr FieldProtocol kFieldProtocol{"Danfoss FC", "danfoss_fc", kAllFields};
+inline constexpr const FieldDesc* kResponseFields[] = {&kAkResponse};
+
+inline constexpr FieldProtocol kFieldProtocol{"Danfoss FC", "danfoss_fc", kAllFields,
+                                              kResponseFields};
 inline constexpr const FieldProtocol* kFieldProtocols[] = {&kFieldProtocol};
 
 }  // namespace drivetap::danfoss_fc

@@ -6,6 +6,7 @@
 #include "dissectors/danfoss_fc/fc_dissector.hpp"
 #include "dissectors/danfoss_fc/fc_fields.hpp"
 #include "dissectors/danfoss_fc/fc_findings.hpp"
+#include "dissectors/danfoss_fc/fc_words.hpp"
 
 namespace drivetap::danfoss_fc {
 namespace {
@@ -40,6 +41,7 @@ const ProtocolDesc kFcProtocol{
     .decoder = &kDecoder,
     .field_protocols = kFieldProtocols,
     .findings = kAllFindings,
+    .words = kAllWords,
     .text_start = 0,
     .wireshark_dissector = "danfoss_fc",
     .parameter_numbering = &kNumbering,

@@ -67,9 +67,14 @@ void print_layer(const FieldProtocol& layer, std::set<std::string_view>& finding
 // The drive values the built-in profiles give (`drive.*`), as the Wireshark plugin types them.
 void print_drive_layer() {
   fmt::print("P\tdrivetap drive values\tdrive\n");
-  for (const DriveFieldListing& f : drive_field_listing(loaded_drive_profiles(CommonOptions{})))
-    fmt::print("F\t{}\tdrive.{}\t{}\tdrive\t{}\t0x0\t{}\n", one_column(f.name), f.id,
+  // (A value with a unit: its name says it, and drive.<id>.unit gives it as a column.)
+  for (const DriveFieldListing& f : drive_field_listing(loaded_drive_profiles(CommonOptions{}))) {
+    fmt::print("F\t{}\tdrive.{}\t{}\tdrive\t{}\t0x0\t{}\n", one_column(drive_field_label(f)), f.id,
                f.wireshark_type, f.wireshark_base, one_column(f.blurb));
+    if (!f.unit.empty())
+      fmt::print("F\t{} unit\tdrive.{}.unit\tFT_STRING\tdrive\t\t0x0\tAlways {}\n",
+                 one_column(f.name), f.id, one_column(f.unit));
+  }
 }
 
 int run_fields() {

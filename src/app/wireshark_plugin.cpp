@@ -192,7 +192,9 @@ for _, p in pairs(PROTOCOLS) do
     -- The tree as drivetap's (-V): a field under the last one a level up.
     local parents = { [0] = subtree }
     for _, item in ipairs(items) do
-      local spec = item.kind == "field" and p.by_id[item.id]
+      -- (A reply, inbound in the EPB flags, names a direction's field by the reply's label.)
+      local spec = item.kind == "field" and
+                   (pinfo.p2p_dir == P2P_DIR_RECV and p.reply_by_id[item.id] or p.by_id[item.id])
       local parent = spec and parents[math.min(item.depth or 0, #parents)]
       if spec then
         parents[item.depth + 1] = add_field(parent, tvb, spec, item) or parent
@@ -251,29 +253,37 @@ std::string wireshark_plugin_lua(std::span<const DriveProfile* const> profiles) 
   lua +=
       "local PROTOCOLS = {}\n"
       "local function protocol(name, label)\n"
-      "  local p = { proto = Proto(name, label), label = label, list = {}, by_id = {} }\n"
+      "  local p = { proto = Proto(name, label), label = label, list = {}, by_id = {}, reply_by_id "
+      "= {} }\n"
       "  PROTOCOLS[name] = p\n"
       "  return p\n"
       "end\n"
-      "local function field(p, id, name, ftype, display, names, mask, blurb)\n"
+      "local function field(p, id, name, ftype, display, names, mask, blurb, reply)\n"
       "  local f = ProtoField.new(name, id, ftype, names, display, mask ~= 0 and mask or nil,\n"
       "                           blurb ~= \"\" and blurb or nil)\n"
       "  local shift = 0\n"
       "  while mask ~= 0 and mask % 2 == 0 do mask = mask / 2; shift = shift + 1 end\n"
       "  p.list[#p.list + 1] = f\n"
-      "  p.by_id[id] = { field = f, ftype = ftype, shift = shift, name = name }\n"
+      "  local by_id = reply and p.reply_by_id or p.by_id\n"
+      "  by_id[id] = { field = f, ftype = ftype, shift = shift, name = name }\n"
       "end\n\n";
   // The protocols' fields, each layer's as `drivetap fields` lists them.
   for (const ProtocolDesc* p : registered_protocols()) {
     if (p->wireshark_dissector.empty() || p->wireshark_builtin) continue;
     fmt::format_to(out, "do\n  local p = protocol({}, {})\n", lua_string(p->wireshark_dissector),
                    lua_string(p->label));
-    for (const FieldProtocol* layer : p->field_protocols)
-      for (const FieldDesc* d : layer->fields)
-        fmt::format_to(out, "  field(p, {}, {}, {}, {}, {}, {}, {})\n", lua_string(d->id),
-                       lua_string(d->name), lua_ftype(wireshark_field_type(*d)),
-                       lua_base(wireshark_field_base(*d)), lua_value_names(*d), d->bitmask,
-                       lua_string(d->blurb));
+    // (A reply's label of a shared id, FieldProtocol::response_fields, is the same field under the
+    // same id: Wireshark keeps both, and a reply's tree shows the reply's.)
+    auto add_field = [&](const FieldDesc* d, bool reply) {
+      fmt::format_to(out, "  field(p, {}, {}, {}, {}, {}, {}, {}{})\n", lua_string(d->id),
+                     lua_string(d->name), lua_ftype(wireshark_field_type(*d)),
+                     lua_base(wireshark_field_base(*d)), lua_value_names(*d), d->bitmask,
+                     lua_string(d->blurb), reply ? ", true" : "");
+    };
+    for (const FieldProtocol* layer : p->field_protocols) {
+      for (const FieldDesc* d : layer->fields) add_field(d, false);
+      for (const FieldDesc* d : layer->response_fields) add_field(d, true);
+    }
     lua += "end\n";
   }
   // The postdissector's fields: findings, the drive annotation and events, the drive values.
@@ -290,8 +300,8 @@ std::string wireshark_plugin_lua(std::span<const DriveProfile* const> profiles) 
       "end\n";
   for (const DriveFieldListing& f : drive_field_listing(profiles))
     fmt::format_to(out, "value({0}, ProtoField.new({1}, {0}, {2}, nil, {3}, nil, {4}), {5})\n",
-                   lua_string("drive." + f.id), lua_string(f.name), lua_ftype(f.wireshark_type),
-                   lua_base(f.wireshark_base), lua_string(f.blurb),
+                   lua_string("drive." + f.id), lua_string(drive_field_label(f)),
+                   lua_ftype(f.wireshark_type), lua_base(f.wireshark_base), lua_string(f.blurb),
                    f.kind == DriveFieldKind::text ? "true" : "false");
   // Findings: each protocol's typed ids as they are, the generic kinds as drivetap.<kind>; keyed
   // by the id the fields line gives.

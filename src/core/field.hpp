@@ -47,6 +47,9 @@ struct FieldProtocol {
   std::string_view name;         // "Modbus RTU"
   std::string_view filter_name;  // "mbrtu"
   std::span<const FieldDesc* const> fields;
+  // Descriptors that share a listed id under the label a reply gives it (Danfoss FC's AK: "Response
+  // (AK)"): Wireshark's tree names a reply's field by these.
+  std::span<const FieldDesc* const> response_fields{};
 };
 
 struct FieldDesc {

@@ -10,6 +10,7 @@
 #include "core/anomaly.hpp"
 #include "core/field.hpp"
 #include "core/parameter_numbering.hpp"
+#include "core/word_bits.hpp"
 
 namespace drivetap {
 
@@ -42,6 +43,8 @@ struct ProtocolDesc {
   // PDU's, `modbus`, which Modbus ASCII shares).
   std::span<const FieldProtocol* const> field_protocols;
   std::span<const FindingDesc* const> findings;  // every finding its dissector raises
+  // The bit tables of the control and status words it carries, by id (profiles' `bits = "id"`).
+  std::span<const WordBits* const> words{};
   // The character its telegrams start with when typed as text (`decode`), 0 for a binary one.
   char text_start = 0;
   // The dissector named for its telegrams in an exported-PDU capture: Wireshark's own ("mbrtu",

@@ -12,19 +12,21 @@
 #include <vector>
 
 #include "core/format.hpp"
+#include "core/word_bits.hpp"
 
 namespace drivetap {
-namespace {
 
-// Decimals a scaled value is shown with: those of a decimal scale (0.01 -> 2), else 2 (a
-// binary scale such as Danfoss's 100/16384 % would print noise digits).
-int decimals_of(double scale) {
+int scale_decimals(double scale) {
   int d = 0;
   for (double s = scale; d < 6 && std::fabs(s - std::round(s)) > 1e-9; s *= 10) ++d;
-  return d >= 6 ? 2 : d;
+  if (d < 6) return d;
+  // Its resolution: the fewest decimals in which one step of the raw value shows.
+  double step = 1;
+  for (d = 0; d < 6 && step > std::fabs(scale) * (1 + 1e-9); ++d) step /= 10;
+  return d;
 }
 
-}  // namespace
+namespace {}  // namespace
 
 namespace {
 
@@ -46,13 +48,13 @@ int decimal_scale_index(double scale) {
 
 namespace {
 
-// The scaled value as "{:.Nf}" prints it, N = decimals_of(scale). A scale of 1, 0.1, 0.01 ...
+// The scaled value as "{:.Nf}" prints it, N = scale_decimals(scale). A scale of 1, 0.1, 0.01 ...
 // or a whole one makes it an exact decimal, printed from integers: the double's rounding error
 // is far below half the last digit for any 32-bit raw value, so the text is the same.
 template <class Out>
 void append_scaled(Out& out, const RegisterDef& r, std::uint32_t raw, bool double_word) {
   const std::int64_t value = register_raw_value(r, raw, double_word);
-  // A decimal scale, the usual one, is looked up in the table: decimals_of() gives each entry
+  // A decimal scale, the usual one, is looked up in the table: scale_decimals() gives each entry
   // its index (ProfileSchema.ScaledValuesReadAsTheDoublePrinted), and its loop of roundings costs
   // more than the rest of the value.
   if (const int decimals = decimal_scale_index(r.scale); decimals >= 0) {
@@ -65,7 +67,7 @@ void append_scaled(Out& out, const RegisterDef& r, std::uint32_t raw, bool doubl
     if (decimals > 0) append_fraction(out, magnitude % unit, decimals);
     return;
   }
-  const int decimals = decimals_of(r.scale);
+  const int decimals = scale_decimals(r.scale);
   if (decimals == 0 && r.scale > 0 && r.scale <= 1e6 && r.scale == std::round(r.scale)) {
     append_int(out, value * static_cast<std::int64_t>(r.scale));
     return;
@@ -94,14 +96,7 @@ void append_value_to(Out& out, const DriveProfile& p, const RegisterDef& r, std:
   if (!r.bits.empty()) {
     append_hex(out, raw, double_word ? 8 : 4);
     out += " [";
-    bool first = true;
-    for (const RegisterBit& b : r.bits) {
-      const std::string& s = ((raw >> b.bit) & 1) ? b.when_set : b.when_clear;
-      if (s.empty()) continue;
-      if (!first) out += ", ";
-      out += s;
-      first = false;
-    }
+    append_bit_names(out, r.bits, raw);
     out += ']';
     return;
   }

@@ -169,6 +169,10 @@ inline std::int64_t register_raw_value(const RegisterDef& reg, std::uint32_t raw
 // The number of decimals of `scale` when it is 1, 0.1, 0.01 ... 0.00001 (a scaled value is then
 // an exact decimal, spelt from integers); -1 otherwise.
 int decimal_scale_index(double scale);
+// Decimals a value under `scale` is shown with, in the `=` line and every drive.* value: an exact
+// decimal scale's (0.01 -> 2, 0.5 -> 1), else its resolution's, the fewest in which one step of
+// the raw value shows (Danfoss's 100/16384 % -> 3).
+int scale_decimals(double scale);
 // `value` (a register's raw value, |value| < 2^32) under the scale 10^-decimals, decimals being
 // decimal_scale_index() of the scale (0 to 5), into `at`: "-12.05"; returns the end. Exact, from
 // integers: the text "{:.Nf}" prints of the double value * scale.

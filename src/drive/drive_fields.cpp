@@ -23,43 +23,65 @@ namespace {
 
 // The names every family shares, in the order drive_field_values() gives them.
 constexpr std::string_view kSharedIds[] = {
-    "station", "family",    "setpoint", "output_frequency", "output_current", "output_voltage",
-    "running", "direction", "fault",    "fault_name",       "status_word",    "control_word",
+    "station",
+    "family",
+    "setpoint",
+    "setpoint_pct",
+    "output_frequency",
+    "output_frequency_pct",
+    "output_current",
+    "output_voltage",
+    "running",
+    "direction",
+    "fault",
+    "fault_name",
+    "status_word",
+    "control_word",
 };
 constexpr int kSharedCount = static_cast<int>(std::size(kSharedIds));
-// Their names and descriptions, in the same order.
-constexpr std::pair<std::string_view, std::string_view> kSharedListing[] = {
-    {"Station", "The bound drive's address"},
-    {"Drive family", "The id of the drive profile that read the frame"},
-    {"Setpoint",
-     "The setpoint the drive reports, else the one the master writes, in its profile's unit"},
-    {"Output frequency", "The drive's output frequency (or speed), in its profile's unit"},
-    {"Output current", "The drive's output current, in its profile's unit"},
-    {"Output voltage", "The drive's output voltage, in its profile's unit"},
-    {"Running", "1: the drive says it runs, 0: stopped"},
-    {"Direction", "forward or reverse, as the drive says"},
-    {"Fault code", "The drive's fault code (0: none)"},
-    {"Fault", "The fault code's name in the drive's manual"},
-    {"Status word", "The drive's status word, raw"},
-    {"Control word", "The control word the master wrote, raw"},
+// Their names, descriptions and units, in the same order: one unit per id, whatever the family
+// (a family that reports a percentage of its reference has the *_pct ids).
+struct SharedListing {
+  std::string_view name, blurb, unit;
+};
+constexpr SharedListing kSharedListing[] = {
+    {"Station", "The bound drive's address", ""},
+    {"Drive family", "The id of the drive profile that read the frame", ""},
+    {"Setpoint", "The setpoint the drive reports, else the one the master writes, in Hz", "Hz"},
+    {"Setpoint (of reference)",
+     "The setpoint the drive reports, else the one the master writes, in % of its reference", "%"},
+    {"Output frequency", "The drive's output frequency, in Hz", "Hz"},
+    {"Output frequency (of reference)",
+     "The drive's output frequency (its main actual value), in % of its reference", "%"},
+    {"Output current", "The drive's output current, in A", "A"},
+    {"Output voltage", "The drive's output voltage, in V", "V"},
+    {"Running", "1: the drive says it runs, 0: stopped", ""},
+    {"Direction", "forward or reverse, as the drive says", ""},
+    {"Fault code", "The drive's fault code (0: none)", ""},
+    {"Fault", "The fault code's name in the drive's manual", ""},
+    {"Status word", "The drive's status word, raw", ""},
+    {"Control word", "The control word the master wrote, raw", ""},
 };
 static_assert(std::size(kSharedListing) == std::size(kSharedIds));
+
+// The shared ids of the roles that are quantities, by unit.
+struct RoleIds {
+  RegisterRole role;
+  std::string_view word;  // the role's name in a profile
+  std::string_view id, unit, pct_id;
+};
+constexpr RoleIds kRoleIds[] = {
+    {RegisterRole::setpoint, "setpoint", "setpoint", "Hz", "setpoint_pct"},
+    {RegisterRole::output_frequency, "output_frequency", "output_frequency", "Hz",
+     "output_frequency_pct"},
+    {RegisterRole::current, "current", "output_current", "A", ""},
+    {RegisterRole::voltage, "voltage", "output_voltage", "V", ""},
+};
 
 bool is_shared_id(std::string_view id) {
   for (const std::string_view s : kSharedIds)
     if (s == id) return true;
   return false;
-}
-
-// Decimals a scale shows in the values' text (0.01 -> 2, 1 -> 0; up to 6 for a binary scale).
-int scale_decimals(double scale) {
-  int d = 0;
-  double s = std::fabs(scale);
-  while (d < 6 && std::fabs(s - std::round(s)) > 1e-9) {
-    s *= 10;
-    ++d;
-  }
-  return d;
 }
 
 // `v` with `decimals` decimals, as std::to_chars spells the double (correctly rounded), into
@@ -116,10 +138,12 @@ void add_register_value(std::vector<DriveValue>& out, std::string_view id, const
   v.double_word = double_word;
 }
 
-// A reported quantity: always a register's value (Quantity::of()).
-void add_quantity(std::vector<DriveValue>& out, std::string_view id,
-                  const std::optional<Quantity>& q) {
-  if (q && q->reg) add_register_value(out, id, *q->reg, q->raw, q->double_word);
+// A reported quantity: always a register's value (Quantity::of()), under its role's id for its
+// unit.
+void add_quantity(std::vector<DriveValue>& out, const std::optional<Quantity>& q) {
+  if (!q || !q->reg) return;
+  const std::string_view id = role_value_id(q->reg->role, q->reg->unit);
+  if (!id.empty()) add_register_value(out, id, *q->reg, q->raw, q->double_word);
 }
 
 // The name in a fault's text "4 (overcurrent)" (Quantity::text()): what stands between its
@@ -162,11 +186,14 @@ class DriveFieldSource final : public RecordFieldSource {
   explicit DriveFieldSource(std::span<const DriveProfile* const> profiles)
       : names_(drive_field_ids(profiles)) {}
 
+  // drive.<id>, and drive.<id>.unit (slot names_.size() + i): the unit of each value it has.
   [[nodiscard]] std::optional<int> resolve(std::string_view name) const override {
     if (!name.starts_with("drive.")) return std::nullopt;
     name.remove_prefix(6);
+    const bool unit = name.ends_with(".unit");
+    if (unit) name.remove_suffix(5);
     for (std::size_t i = 0; i < names_.size(); ++i)
-      if (names_[i] == name) return static_cast<int>(i);
+      if (names_[i] == name) return static_cast<int>(i + (unit ? names_.size() : 0));
     return std::nullopt;
   }
 
@@ -180,9 +207,19 @@ class DriveFieldSource final : public RecordFieldSource {
 
   bool values(int slot, const RecordView& record, std::string& scratch,
               ValueVisitor& visit) const override {
-    const std::string& id = names_[static_cast<std::size_t>(slot)];
+    const auto at = static_cast<std::size_t>(slot);
+    const bool unit = at >= names_.size();
+    const std::string& id = names_[unit ? at - names_.size() : at];
     for (const DriveValue& v : record.drive_values()) {
       if (v.id != id) continue;
+      if (unit) {
+        // (A register's own unit: the shared ids' are theirs by the profile loader's rule.)
+        scratch = v.kind == DriveValue::Kind::reg && v.reg->bits.empty() && v.reg->enum_name.empty()
+                      ? v.reg->unit
+                      : std::string();
+        if (!scratch.empty() && visit.visit({false, 0, scratch})) return true;
+        continue;
+      }
       char buffer[kDriveNumberChars];
       scratch = drive_value_text(v, buffer);
       const bool is_number = v.kind != DriveValue::Kind::text;
@@ -205,10 +242,10 @@ void collect_drive_values(const DriveProfile& p, int station, const DriveObserva
   if (station >= 0) add_integer(out, "station", station);
   add_text(out, "family", p.id);
   // The setpoint the drive reports, else the one the master writes.
-  add_quantity(out, "setpoint", o.setpoint ? o.setpoint : o.setpoint_command);
-  add_quantity(out, "output_frequency", o.output_frequency);
-  add_quantity(out, "output_current", o.current);
-  add_quantity(out, "output_voltage", o.voltage);
+  add_quantity(out, o.setpoint ? o.setpoint : o.setpoint_command);
+  add_quantity(out, o.output_frequency);
+  add_quantity(out, o.current);
+  add_quantity(out, o.voltage);
   if (o.running) add_integer(out, "running", *o.running ? 1 : 0);
   if (o.reverse) add_text(out, "direction", *o.reverse ? "reverse" : "forward");
   if (o.fault_code) {
@@ -252,6 +289,32 @@ bool is_shared_drive_field_id(std::string_view id) {
   return is_shared_id(id);
 }
 
+std::string_view role_value_id(RegisterRole role, std::string_view unit) {
+  for (const RoleIds& r : kRoleIds)
+    if (r.role == role) return unit == "%" && !r.pct_id.empty() ? r.pct_id : r.id;
+  return {};
+}
+
+std::string role_unit_rule(RegisterRole role, std::string_view unit) {
+  for (const RoleIds& r : kRoleIds) {
+    if (r.role != role || unit == r.unit || (unit == "%" && !r.pct_id.empty())) continue;
+    const std::string pct =
+        r.pct_id.empty() ? std::string() : fmt::format(" or % (drive.{})", r.pct_id);
+    return fmt::format("role {} is in {} (drive.{}){}, not '{}'", r.word, r.unit, r.id, pct, unit);
+  }
+  return {};
+}
+
+std::string_view drive_field_unit(std::span<const DriveProfile* const> profiles,
+                                  std::string_view id) {
+  for (int i = 0; i < kSharedCount; ++i)
+    if (kSharedIds[i] == id) return kSharedListing[i].unit;
+  for (const DriveProfile* p : profiles)
+    for (const RegisterDef& r : p->registers)
+      if (r.field_id == id && r.bits.empty() && r.enum_name.empty()) return r.unit;
+  return {};
+}
+
 std::vector<std::string> drive_field_ids(std::span<const DriveProfile* const> profiles) {
   std::vector<std::string> names;
   auto has_role = [&](RegisterRole role) {
@@ -260,13 +323,17 @@ std::vector<std::string> drive_field_ids(std::span<const DriveProfile* const> pr
         if (r.role == role) return true;
     return false;
   };
+  auto has_value_id = [&](std::string_view id) {
+    for (const DriveProfile* p : profiles)
+      for (const RegisterDef& r : p->registers)
+        if (role_value_id(r.role, r.unit) == id) return true;
+    return false;
+  };
   for (int i = 0; i < kSharedCount; ++i) {
     const std::string_view id = kSharedIds[i];
     bool can = !profiles.empty();
-    if (id == "setpoint") can = has_role(RegisterRole::setpoint);
-    if (id == "output_frequency") can = has_role(RegisterRole::output_frequency);
-    if (id == "output_current") can = has_role(RegisterRole::current);
-    if (id == "output_voltage") can = has_role(RegisterRole::voltage);
+    for (const RoleIds& r : kRoleIds)
+      if (id == r.id || id == r.pct_id) can = has_value_id(id);
     if (id == "status_word") can = has_role(RegisterRole::status);
     if (id == "control_word") can = has_role(RegisterRole::control);
     if (can) names.push_back(std::string(id));
@@ -291,6 +358,12 @@ void add_drive_field_source(std::span<const DriveProfile* const> profiles) {
   add_record_field_source(std::make_unique<DriveFieldSource>(profiles));
 }
 
+std::string drive_field_label(const DriveFieldListing& f) {
+  const std::string bracketed = "[" + f.unit + "]";
+  if (f.unit.empty() || f.name.ends_with(bracketed)) return f.name;
+  return f.name + " " + bracketed;
+}
+
 std::vector<DriveFieldListing> drive_field_listing(std::span<const DriveProfile* const> profiles) {
   static constexpr std::string_view kKindWords[] = {
       "holding register", "input register", "coil", "discrete input", "running value", "parameter"};
@@ -304,9 +377,13 @@ std::vector<DriveFieldListing> drive_field_listing(std::span<const DriveProfile*
     if (f.kind == DriveFieldKind::integer)
       f.wireshark_base = id.ends_with("_word") ? "BASE_HEX" : "BASE_DEC";
     f.id = std::move(id);
+    f.unit = drive_field_unit(profiles, f.id);
     if (is_shared_id(f.id)) {
       for (int i = 0; i < kSharedCount; ++i)
-        if (kSharedIds[i] == f.id) std::tie(f.name, f.blurb) = kSharedListing[i];
+        if (kSharedIds[i] == f.id) {
+          f.name = kSharedListing[i].name;
+          f.blurb = kSharedListing[i].blurb;
+        }
       out.push_back(std::move(f));
       continue;
     }

@@ -33,6 +33,19 @@ void complete_drive_info_and_values(Message& message, DriveReading& scratch);
 // collect_drive_values() gives them in).
 bool is_shared_drive_field_id(std::string_view id);
 
+// The shared id a role's value goes under, by its unit: drive.setpoint in Hz, drive.setpoint_pct in
+// % (of the reference); drive.output_current in A, drive.output_voltage in V. Empty for a role of
+// no quantity.
+std::string_view role_value_id(RegisterRole role, std::string_view unit);
+// Why a role's register cannot be in `unit` ("role setpoint is in Hz (drive.setpoint) or %
+// (drive.setpoint_pct), not 'rpm'"); empty when it can (or the role is of no quantity).
+std::string role_unit_rule(RegisterRole role, std::string_view unit);
+// The one unit of a `drive.*` id (without `drive.`), as `drivetap fields` and
+// `-e drive.<id>.unit` give it: a shared id's, or a register's in the first profile that has it;
+// empty for none (a code, a word, a text).
+std::string_view drive_field_unit(std::span<const DriveProfile* const> profiles,
+                                  std::string_view id);
+
 // The most characters drive_value_text() writes of a number.
 inline constexpr std::size_t kDriveNumberChars = 400;
 
@@ -55,11 +68,15 @@ struct DriveFieldListing {
   std::string name;  // "Output frequency", or the register's name in its profile
   DriveFieldKind kind = DriveFieldKind::number;
   std::string blurb;  // where the value comes from
+  std::string unit;   // its one unit (drive_field_unit), empty for none
   // As `tshark -G fields` types it: FT_STRING, FT_UINT32 (a raw word in BASE_HEX, other
   // integers BASE_DEC) or FT_DOUBLE; base "" for none.
   std::string_view wireshark_type;
   std::string_view wireshark_base;
 };
+// Its name with its unit, as `drivetap fields` and Wireshark show it: "Output frequency [Hz]" (the
+// name alone when it has no unit or already ends with it).
+std::string drive_field_label(const DriveFieldListing& f);
 // drive_field_ids() with a name and a description each, in the same order.
 std::vector<DriveFieldListing> drive_field_listing(std::span<const DriveProfile* const> profiles);
 

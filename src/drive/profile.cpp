@@ -19,6 +19,7 @@
 
 #include "core/printable.hpp"
 #include "core/protocol.hpp"
+#include "core/protocol_desc.hpp"
 #include "drive/drive_fields.hpp"
 
 namespace drivetap {
@@ -220,6 +221,28 @@ std::map<std::uint32_t, std::string> value_names(const toml::table& t, const std
   return out;
 }
 
+// The ids of the words the dissectors declare bit tables for ("danfoss_fc.ctw, ...").
+std::string word_ids() {
+  std::string ids;
+  for (const ProtocolDesc* p : registered_protocols())
+    for (const WordBits* w : p->words) ids += (ids.empty() ? "" : ", ") + std::string(w->id);
+  return ids;
+}
+
+// A word's bits from its dissector's table (`bits = "danfoss_fc.stw"`): the frame line and the
+// drive level then name each bit the same way.
+std::vector<RegisterBit> word_bits(std::string_view id, int line, const std::string& key) {
+  for (const ProtocolDesc* p : registered_protocols())
+    for (const WordBits* w : p->words)
+      if (w->id == id) {
+        std::vector<RegisterBit> bits;
+        for (const BitName& b : w->bits)
+          bits.push_back({b.bit, std::string(b.when_clear), std::string(b.when_set)});
+        return bits;
+      }
+  throw Bad{line, key, "no word '" + printable(id) + "' (" + word_ids() + ")"};
+}
+
 std::vector<int> state_bits(const toml::node& v, const std::string& path) {
   std::vector<int> bits;
   auto one = [&](const toml::node& n) {
@@ -274,9 +297,9 @@ RegisterDef parse_register(const toml::table& t, const std::string& path,
     // filtered.
     r.field_id = register_field_id(r.name);
     if (r.field_id.empty())
-      throw Bad{line_of(*t.get("name")), path + ".name",
-                fmt::format("'{}' has no letter or digit to make its id of: give id = \"...\"",
-                            r.name)};
+      throw Bad{
+          line_of(*t.get("name")), path + ".name",
+          fmt::format("'{}' has no letter or digit to make its id of: give id = \"...\"", r.name)};
   } else if (!valid_register_field_id(r.field_id)) {
     throw Bad{line_of(*t.get("id")), path + ".id",
               "expected lowercase letters, digits and '_' (not first or last)"};
@@ -307,6 +330,10 @@ RegisterDef parse_register(const toml::table& t, const std::string& path,
   r.role = enum_at(t, "role", path + ".role", kRoleWords, std::optional(RegisterRole::none),
                    "must be control, status, setpoint, output_frequency, current, voltage, fault, "
                    "start, stop or reset");
+  // One unit for each shared id (drive_fields.hpp): a role's value is drive.<role> in its unit,
+  // or, for a percentage of the reference, drive.<role>_pct.
+  if (const std::string rule = role_unit_rule(r.role, r.unit); !rule.empty())
+    throw Bad{line_of(t.get("unit") ? *t.get("unit") : *t.get("role")), path + ".unit", rule};
   if (auto w = int_at(t, "words", path + ".words", 1, 2)) r.words = static_cast<int>(*w);
   if (const toml::node* st = t.get("state")) {
     if (!st->is_table()) throw Bad{line_of(*st), path + ".state", "expected a table"};
@@ -329,7 +356,13 @@ RegisterDef parse_register(const toml::table& t, const std::string& path,
     }
   }
   if (const toml::node* b = t.get("bits")) {
-    if (!b->is_table()) throw Bad{line_of(*b), path + ".bits", "expected a table"};
+    if (b->is_string()) {
+      r.bits = word_bits(b->as_string()->get(), line_of(*b), path + ".bits");
+      return r;
+    }
+    if (!b->is_table())
+      throw Bad{line_of(*b), path + ".bits",
+                "expected a table or a word's name (" + word_ids() + ")"};
     for (const auto& [k, v] : *b->as_table()) {
       const std::string p = path + ".bits." + std::string(k.str());
       const std::uint32_t bit = numeric_key(k.str(), line_of(v), p);

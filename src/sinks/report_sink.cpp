@@ -180,11 +180,17 @@ void ReportSink::on_frame(const Message& m) {
     if (v.kind == DriveValue::Kind::reg && v.reg && !v.reg->unit.empty())
       d.units[std::string(v.id)] = v.reg->unit;
   }
+  mark_state(d, t);
+}
+
+// The drive's state now, in the column of `t`: at each frame, and at each state event, so that a
+// band changes at the frame whose event changed it.
+void ReportSink::mark_state(Drive& d, TimeNs t) {
   std::uint8_t bits = 0;
   if (d.fault_code || d.fault_word) bits |= kFault;
   if (d.running) bits |= *d.running ? kRunning : kStopped;
   if (bits == 0) bits = kUnknown;
-  d.states.at(t).bits |= bits;
+  d.states.at(t).set(bits);
 }
 
 void ReportSink::on_noise(const Frame& noise) {
@@ -253,6 +259,7 @@ void ReportSink::on_event(const BusEvent& e) {
     else
       d.fault_code = active;
   }
+  if (e.kind == "running" || e.kind == "fault") mark_state(d, on_timeline(e.time));
   if (d.events.size() < kMaxEventsPerDrive && events_kept_ < kMaxEvents) {
     d.events.push_back({on_timeline(e.time), e.kind, e.detail});
     ++events_kept_;
@@ -450,8 +457,8 @@ std::string ReportSink::data_json(const std::string& diagnosis_json) const {
     bool first_state = true;
     for_each_column(d.states, width, [&](std::size_t k, const Bits& cell) {
       if (cell.bits == 0) return;
-      fmt::format_to(std::back_inserter(out), "{}[{},{}]", first_state ? "" : ",", column_mid(k),
-                     cell.bits);
+      fmt::format_to(std::back_inserter(out), "{}[{},{},{}]", first_state ? "" : ",", column_mid(k),
+                     cell.bits, cell.last);
       first_state = false;
     });
     out += R"(],"events":[)";

@@ -154,9 +154,19 @@ class ReportSink final : public Sink {
       frames += o.frames;
     }
   };
+  // A drive's states in a column: every state it was in (`bits`, what the column is coloured by)
+  // and the one it was in at the column's end (`last`, what holds until the next column with any).
   struct Bits {
     std::uint8_t bits = 0;
-    void merge(const Bits& o) { bits |= o.bits; }
+    std::uint8_t last = 0;
+    void set(std::uint8_t state) {
+      bits |= state;
+      last = state;
+    }
+    void merge(const Bits& o) {
+      bits |= o.bits;
+      if (o.bits) last = o.last;
+    }
   };
   struct Count {
     std::uint32_t count = 0;
@@ -198,6 +208,7 @@ class ReportSink final : public Sink {
   [[nodiscard]] TimeNs shifted(TimeNs t) const;
   void count_busy(ChannelId channel, std::size_t bytes, TimeNs start, bool telegram);
   void count_finding(AnomalyKind kind, int station, TimeNs t);
+  static void mark_state(Drive& d, TimeNs t);
   // The drive's series, or null for a drive past the first kMaxDrives (then counted).
   Drive* drive_of(std::size_t link, int address);
 
