@@ -267,6 +267,45 @@ def check_data():
         check(data["summary"]["frames"] == c0["frames"] + c1["frames"], "two captures: frames add up")
         check(data["to_s"] == c1["to_s"], "two captures: the timeline ends with the second")
 
+        # Captures whose stations share addresses (the same Modbus station 2 twice, a Danfoss FC and
+        # a Modbus station 1): each capture's stations, drives and findings are its own, their
+        # counts those of `read -T json` of that file alone.
+        copy = os.path.join(tmp, "again.log")
+        shutil.copy(a, copy)
+        files = [a, copy, os.path.join(root, "captures", "session-vlt-aqua-fc", "input.log"),
+                 os.path.join(root, "captures", "session-vlt-aqua-modbus", "input.log")]
+        page = os.path.join(tmp, "four.html")
+        out = run(["report", *files, "-o", page])
+        check(out.returncode == 0, f"four captures: exit {out.returncode} {out.stderr}")
+        data, _ = page_data(page)
+        for i, f in enumerate(files):
+            recs = records(f)
+            want = {}
+            for r in recs:
+                if r["type"] == "transaction" and r.get("addr") is not None and r["addr"] >= 0:
+                    w = want.setdefault((r["channel"], r["protocol"], r["addr"]), [0, 0, 0])
+                    w[0] += r.get("request_n") is not None
+                    w[1] += r.get("response_n") is not None
+                    w[2] += r["outcome"] == "timeout"
+            got = {(l["channel"], l["protocol"], l["addr"]): [l["requests"], l["replies"], l["timeouts"]]
+                   for l in data["latency"] if l["capture"] == i}
+            check(got == want, f"four captures: capture {i + 1} stations {got}, its own JSON {want}")
+            drives = {fr["addr"] for fr in recs if fr["type"] == "frame" and fr.get("drive")}
+            charted = {d["addr"] for d in data["drives"] if d["capture"] == i}
+            check(charted == drives, f"four captures: capture {i + 1} drives {charted}, its JSON {drives}")
+            address = {r["n"]: r.get("addr", -1) for r in recs if r["type"] == "frame"}
+            findings = {}
+            for r in recs:
+                if r["type"] == "anomaly":
+                    station = address.get(r.get("frame"), -1) if r.get("frame") else -1
+                    key = (r["kind"], -1 if station is None else station)
+                    findings[key] = findings.get(key, 0) + 1
+            rows = {(row["kind"], row["station"]): row["count"] for row in data["findings"]["rows"]
+                    if row["capture"] == i}
+            check(rows == findings, f"four captures: capture {i + 1} findings {rows}, its JSON {findings}")
+        check(len([d for d in data["drives"] if d["addr"] == 2]) == 2,
+              "four captures: the two files' drive 2 are not two drives")
+
         # 63 232 stations (256 buses x 247 addresses): the page keeps the 64 busiest stations' rows and
         # sums the rest in one, the 48 busiest latency charts, the 16 busiest channels' load, the
         # first 128 drives; every request is still counted once.

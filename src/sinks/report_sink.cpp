@@ -133,9 +133,11 @@ void ReportSink::count_busy(ChannelId channel, std::size_t bytes, TimeNs start, 
 }
 
 ReportSink::Drive* ReportSink::drive_of(std::size_t link, int address) {
-  if (last_drive_ && last_drive_->link == link && last_drive_->address == address)
+  const std::size_t capture = capture_index();
+  if (last_drive_ && last_drive_->capture == capture && last_drive_->link == link &&
+      last_drive_->address == address)
     return last_drive_;
-  const std::pair<std::size_t, int> key{link, address};
+  const DriveKey key{capture, link, address};
   auto it = drives_.find(key);
   if (it == drives_.end()) {
     if (drives_.size() >= kMaxDrives) {
@@ -146,6 +148,7 @@ ReportSink::Drive* ReportSink::drive_of(std::size_t link, int address) {
   }
   Drive& d = it->second;
   last_drive_ = &d;
+  d.capture = capture;
   d.link = link;
   d.address = address;
   return &d;
@@ -200,10 +203,11 @@ void ReportSink::on_noise(const Frame& noise) {
 }
 
 void ReportSink::count_finding(AnomalyKind kind, int station, TimeNs t) {
-  auto it = findings_.find({kind, station});
+  FindingKey key{kind, capture_index(), station};
+  auto it = findings_.find(key);
   if (it == findings_.end()) {
-    if (findings_.size() >= kMaxFindingRows) station = kOtherStations;
-    it = findings_.try_emplace({kind, station}).first;
+    if (findings_.size() >= kMaxFindingRows) key = {kind, kAllCaptures, kOtherStations};
+    it = findings_.try_emplace(key).first;
   }
   FindingRow& row = it->second;
   ++row.cells.at(t).count;
@@ -229,7 +233,7 @@ void ReportSink::on_transaction(const Transaction& t) {
   last_request_ = t.request_number;
   last_request_address_ = t.address;
   if (t.address < 0) return;
-  const StationKey key{t.channel, protocol_id(t.protocol), t.address};
+  const StationKey key{capture_index(), t.channel, protocol_id(t.protocol), t.address};
   if (!last_station_ || last_station_key_ != key) {
     last_station_key_ = key;
     last_station_ = &stations_[key];
@@ -388,13 +392,13 @@ std::string ReportSink::data_json(const std::string& diagnosis_json) const {
   bool first_station = true;
   for (const auto* entry : timed) {
     const auto& [key, s] = *entry;
-    const auto& [channel, protocol, address] = key;
+    const auto& [capture, channel, protocol, address] = key;
     const LogHistogram& l = s.latency;
     fmt::format_to(std::back_inserter(out),
-                   R"({}{{"channel":{},"protocol":"{}","addr":{},"requests":{},"replies":{},)"
-                   R"("timeouts":{},"exceptions":{},"count":{})",
-                   first_station ? "" : ",", json_quote(channels_.at(channel).name), protocol,
-                   address, s.requests, s.replies, s.timeouts, s.exceptions, l.count());
+                   R"({}{{"capture":{},"channel":{},"protocol":"{}","addr":{},"requests":{},)"
+                   R"("replies":{},"timeouts":{},"exceptions":{},"count":{})",
+                   first_station ? "" : ",", capture, json_quote(channels_.at(channel).name),
+                   protocol, address, s.requests, s.replies, s.timeouts, s.exceptions, l.count());
     first_station = false;
     if (l.count() > 0) {
       fmt::format_to(std::back_inserter(out),
@@ -430,8 +434,9 @@ std::string ReportSink::data_json(const std::string& diagnosis_json) const {
   for (const auto& [key, d] : drives_) {
     if (d.profile.empty()) continue;  // events of a drive no frame was read of
     fmt::format_to(std::back_inserter(out),
-                   R"({}{{"link":{},"addr":{},"channel":{},"profile":{},"name":{},"series":[)",
-                   first_drive ? "" : ",", d.link, d.address,
+                   R"({}{{"capture":{},"link":{},"addr":{},"channel":{},"profile":{},"name":{},)"
+                   R"("series":[)",
+                   first_drive ? "" : ",", d.capture, d.link, d.address,
                    json_quote(channels_.at(d.channel).name), json_quote(d.profile),
                    json_quote(d.name));
     first_drive = false;
@@ -474,10 +479,10 @@ std::string ReportSink::data_json(const std::string& diagnosis_json) const {
   // kFindingRows rows with the most findings, one row per kind for the other stations.
   const TimeNs heat_width =
       width * static_cast<TimeNs>(ColumnSeries<Count>::kColumns / kHeatColumns);
-  using RowEntry = std::pair<std::pair<AnomalyKind, int>, const FindingRow*>;
+  using RowEntry = std::pair<FindingKey, const FindingRow*>;
   std::vector<RowEntry> rows;
   for (const auto& [key, row] : findings_) rows.emplace_back(key, &row);
-  std::map<std::pair<AnomalyKind, int>, FindingRow> merged;
+  std::map<FindingKey, FindingRow> merged;
   const auto add_row = [](FindingRow& into, const FindingRow& from) {
     into.count += from.count;
     into.cells.widen_to(from.cells.width());
@@ -491,7 +496,7 @@ std::string ReportSink::data_json(const std::string& diagnosis_json) const {
       return a.second->count > b.second->count;
     });
     for (std::size_t k = kFindingRows; k < rows.size(); ++k)
-      add_row(merged[{rows[k].first.first, kOtherStations}], *rows[k].second);
+      add_row(merged[{std::get<0>(rows[k].first), kAllCaptures, kOtherStations}], *rows[k].second);
     rows.resize(kFindingRows);
     // (a kind's own "other stations" row, kept among the busiest, joins the merged one)
     std::erase_if(rows, [&](const RowEntry& r) {
@@ -509,8 +514,12 @@ std::string ReportSink::data_json(const std::string& diagnosis_json) const {
   bool first_row = true;
   for (const auto& [key, row_pointer] : rows) {
     const FindingRow& row = *row_pointer;
-    fmt::format_to(std::back_inserter(out), R"({}{{"kind":{},"station":{},"count":{},"cells":[)",
-                   first_row ? "" : ",", json_quote(anomaly_id(key.first)), key.second, row.count);
+    const auto& [kind, capture, station] = key;
+    fmt::format_to(std::back_inserter(out),
+                   R"({}{{"kind":{},"capture":{},"station":{},"count":{},"cells":[)",
+                   first_row ? "" : ",", json_quote(anomaly_id(kind)),
+                   capture == kAllCaptures ? std::string("null") : std::to_string(capture), station,
+                   row.count);
     first_row = false;
     bool first_cell = true;
     for_each_column(row.cells, heat_width, [&](std::size_t k, const Count& cell) {

@@ -172,8 +172,14 @@ class ReportSink final : public Sink {
     std::uint32_t count = 0;
     void merge(const Count& o) { count += o.count; }
   };
-  // A station: channel, protocol and address, as -z stations keys it.
-  using StationKey = std::tuple<ChannelId, std::string_view, int>;
+  // A station: the capture it is in (its index: two files' station 1 are two stations), then
+  // channel, protocol and address, as -z stations keys it.
+  using StationKey = std::tuple<std::size_t, ChannelId, std::string_view, int>;
+  // A drive: capture, link and address. A finding row: kind, capture and station (the capture
+  // kAllCaptures for the other stations' row).
+  using DriveKey = std::tuple<std::size_t, std::size_t, int>;
+  using FindingKey = std::tuple<AnomalyKind, std::size_t, int>;
+  static constexpr std::size_t kAllCaptures = static_cast<std::size_t>(-1);
   struct Station {
     LogHistogram latency;
     std::uint64_t requests = 0, replies = 0, timeouts = 0, exceptions = 0;
@@ -186,6 +192,7 @@ class ReportSink final : public Sink {
   };
   struct Drive {
     std::string profile, name;
+    std::size_t capture = 0;
     std::size_t link = 0;
     int address = -1;
     ChannelId channel = 0;
@@ -204,6 +211,10 @@ class ReportSink final : public Sink {
   };
 
   [[nodiscard]] TimeNs on_timeline(TimeNs t) const;
+  // The index of the capture being read (0 before the first).
+  [[nodiscard]] std::size_t capture_index() const {
+    return captures_.empty() ? 0 : captures_.size() - 1;
+  }
   // `t` on the shifted clock (the origin's), held within +-2^62.
   [[nodiscard]] TimeNs shifted(TimeNs t) const;
   void count_busy(ChannelId channel, std::size_t bytes, TimeNs start, bool telegram);
@@ -221,13 +232,13 @@ class ReportSink final : public Sink {
   TimeNs first_ = -1, last_ = -1;  // from the origin
   std::map<ChannelId, ColumnSeries<Busy>> load_;
   std::map<StationKey, Station> stations_;
-  std::map<std::pair<std::size_t, int>, Drive> drives_;
-  std::set<std::pair<std::size_t, int>> drives_left_out_;  // past kMaxDrives
-  Drive* last_drive_ = nullptr;  // the drive of the last frame read (most frames: the same)
+  std::map<DriveKey, Drive> drives_;
+  std::set<DriveKey> drives_left_out_;  // past kMaxDrives
+  Drive* last_drive_ = nullptr;         // the drive of the last frame read (most frames: the same)
   StationKey last_station_key_;
   Station* last_station_ = nullptr;
   std::size_t events_kept_ = 0;
-  std::map<std::pair<AnomalyKind, int>, FindingRow> findings_;  // by kind and station
+  std::map<FindingKey, FindingRow> findings_;
   std::array<std::uint64_t, kAnomalyKindCount> finding_totals_{};
   // The last frame and the last transaction's request: the station of the findings that follow.
   std::uint64_t last_frame_ = 0;
