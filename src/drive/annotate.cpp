@@ -26,8 +26,6 @@ int scale_decimals(double scale) {
   return d;
 }
 
-namespace {}  // namespace
-
 namespace {
 
 double scaled(const RegisterDef& r, std::uint32_t raw, bool double_word) {

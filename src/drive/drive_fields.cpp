@@ -9,7 +9,6 @@
 #include <memory>
 #include <optional>
 #include <string_view>
-#include <tuple>
 #include <utility>
 
 #include <fmt/format.h>
@@ -21,48 +20,37 @@
 namespace drivetap {
 namespace {
 
-// The names every family shares, in the order drive_field_values() gives them.
-constexpr std::string_view kSharedIds[] = {
-    "station",
-    "family",
-    "setpoint",
-    "setpoint_pct",
-    "output_frequency",
-    "output_frequency_pct",
-    "output_current",
-    "output_voltage",
-    "running",
-    "direction",
-    "fault",
-    "fault_name",
-    "status_word",
-    "control_word",
+// The names every family shares, in the order drive_field_values() gives them, with their names,
+// descriptions and units: one unit per id, whatever the family (a family that reports a
+// percentage of its reference has the *_pct ids).
+struct SharedId {
+  std::string_view id, name, blurb, unit;
 };
-constexpr int kSharedCount = static_cast<int>(std::size(kSharedIds));
-// Their names, descriptions and units, in the same order: one unit per id, whatever the family
-// (a family that reports a percentage of its reference has the *_pct ids).
-struct SharedListing {
-  std::string_view name, blurb, unit;
-};
-constexpr SharedListing kSharedListing[] = {
-    {"Station", "The bound drive's address", ""},
-    {"Drive family", "The id of the drive profile that read the frame", ""},
-    {"Setpoint", "The setpoint the drive reports, else the one the master writes, in Hz", "Hz"},
-    {"Setpoint (of reference)",
+constexpr SharedId kShared[] = {
+    {"station", "Station", "The bound drive's address", ""},
+    {"family", "Drive family", "The id of the drive profile that read the frame", ""},
+    {"setpoint", "Setpoint",
+     "The setpoint the drive reports, else the one the master writes, in Hz", "Hz"},
+    {"setpoint_pct", "Setpoint (of reference)",
      "The setpoint the drive reports, else the one the master writes, in % of its reference", "%"},
-    {"Output frequency", "The drive's output frequency, in Hz", "Hz"},
-    {"Output frequency (of reference)",
+    {"output_frequency", "Output frequency", "The drive's output frequency, in Hz", "Hz"},
+    {"output_frequency_pct", "Output frequency (of reference)",
      "The drive's output frequency (its main actual value), in % of its reference", "%"},
-    {"Output current", "The drive's output current, in A", "A"},
-    {"Output voltage", "The drive's output voltage, in V", "V"},
-    {"Running", "1: the drive says it runs, 0: stopped", ""},
-    {"Direction", "forward or reverse, as the drive says", ""},
-    {"Fault code", "The drive's fault code (0: none)", ""},
-    {"Fault", "The fault code's name in the drive's manual", ""},
-    {"Status word", "The drive's status word, raw", ""},
-    {"Control word", "The control word the master wrote, raw", ""},
+    {"output_current", "Output current", "The drive's output current, in A", "A"},
+    {"output_voltage", "Output voltage", "The drive's output voltage, in V", "V"},
+    {"running", "Running", "1: the drive says it runs, 0: stopped", ""},
+    {"direction", "Direction", "forward or reverse, as the drive says", ""},
+    {"fault", "Fault code", "The drive's fault code (0: none)", ""},
+    {"fault_name", "Fault", "The fault code's name in the drive's manual", ""},
+    {"status_word", "Status word", "The drive's status word, raw", ""},
+    {"control_word", "Control word", "The control word the master wrote, raw", ""},
 };
-static_assert(std::size(kSharedListing) == std::size(kSharedIds));
+
+const SharedId* shared_id(std::string_view id) {
+  for (const SharedId& s : kShared)
+    if (s.id == id) return &s;
+  return nullptr;
+}
 
 // The shared ids of the roles that are quantities, by unit.
 struct RoleIds {
@@ -79,9 +67,12 @@ constexpr RoleIds kRoleIds[] = {
 };
 
 bool is_shared_id(std::string_view id) {
-  for (const std::string_view s : kSharedIds)
-    if (s == id) return true;
-  return false;
+  return shared_id(id) != nullptr;
+}
+
+// A register's unit as its values carry it: none for bits or a table of values (a word, a code).
+std::string_view register_unit(const RegisterDef& r) {
+  return r.bits.empty() && r.enum_name.empty() ? std::string_view(r.unit) : std::string_view();
 }
 
 // `v` with `decimals` decimals, as std::to_chars spells the double (correctly rounded), into
@@ -214,9 +205,7 @@ class DriveFieldSource final : public RecordFieldSource {
       if (v.id != id) continue;
       if (unit) {
         // (A register's own unit: the shared ids' are theirs by the profile loader's rule.)
-        scratch = v.kind == DriveValue::Kind::reg && v.reg->bits.empty() && v.reg->enum_name.empty()
-                      ? v.reg->unit
-                      : std::string();
+        scratch = v.kind == DriveValue::Kind::reg ? register_unit(*v.reg) : std::string_view();
         if (!scratch.empty() && visit.visit({false, 0, scratch})) return true;
         continue;
       }
@@ -307,8 +296,7 @@ std::string role_unit_rule(RegisterRole role, std::string_view unit) {
 
 std::string_view drive_field_unit(std::span<const DriveProfile* const> profiles,
                                   std::string_view id) {
-  for (int i = 0; i < kSharedCount; ++i)
-    if (kSharedIds[i] == id) return kSharedListing[i].unit;
+  if (const SharedId* shared = shared_id(id)) return shared->unit;
   for (const DriveProfile* p : profiles)
     for (const RegisterDef& r : p->registers)
       if (r.field_id == id && r.bits.empty() && r.enum_name.empty()) return r.unit;
@@ -329,8 +317,8 @@ std::vector<std::string> drive_field_ids(std::span<const DriveProfile* const> pr
         if (role_value_id(r.role, r.unit) == id) return true;
     return false;
   };
-  for (int i = 0; i < kSharedCount; ++i) {
-    const std::string_view id = kSharedIds[i];
+  for (const SharedId& shared : kShared) {
+    const std::string_view id = shared.id;
     bool can = !profiles.empty();
     for (const RoleIds& r : kRoleIds)
       if (id == r.id || id == r.pct_id) can = has_value_id(id);
@@ -378,12 +366,9 @@ std::vector<DriveFieldListing> drive_field_listing(std::span<const DriveProfile*
       f.wireshark_base = id.ends_with("_word") ? "BASE_HEX" : "BASE_DEC";
     f.id = std::move(id);
     f.unit = drive_field_unit(profiles, f.id);
-    if (is_shared_id(f.id)) {
-      for (int i = 0; i < kSharedCount; ++i)
-        if (kSharedIds[i] == f.id) {
-          f.name = kSharedListing[i].name;
-          f.blurb = kSharedListing[i].blurb;
-        }
+    if (const SharedId* shared = shared_id(f.id)) {
+      f.name = shared->name;
+      f.blurb = shared->blurb;
       out.push_back(std::move(f));
       continue;
     }
