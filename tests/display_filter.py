@@ -26,6 +26,13 @@ FAILURES = []
 # Findings the pipeline reports after their frame was handed on: not the frame's for a filter;
 # records of their own for a filter that names one.
 LATER = {"unanswered_request", "unsolicited_response", "packet_split_frame", "packet_merged_frames"}
+# A drive's timing-rule findings may come late too: held until the binder is sure of the family
+# (the JSON record says "held").
+MAY_BE_LATER = LATER | {"timing_rule"}
+
+
+def later(r):
+    return r["kind"] in LATER or r.get("held", False)
 
 
 def fail(msg):
@@ -48,7 +55,7 @@ def records_of(json_text):
         if r["type"] in ("frame", "noise"):
             r["_findings"] = []
             out.append(r)
-        elif r["type"] == "anomaly" and out and r["frame"] == out[-1]["n"] and r["kind"] not in LATER:
+        elif r["type"] == "anomaly" and out and r["frame"] == out[-1]["n"] and not later(r):
             out[-1]["_findings"].append(r)
     return out
 
@@ -59,7 +66,7 @@ def late_records(lines):
     frames = {r["n"]: r for r in lines if r["type"] in ("frame", "noise")}
     out = []
     for i, r in enumerate(lines):
-        if r["type"] != "anomaly" or r["kind"] not in LATER:
+        if r["type"] != "anomaly" or not later(r):
             continue
         rec = {"type": "anomaly", "t": r["t"], "channel": r["channel"], "_findings": [r],
                "_line": i}
@@ -78,7 +85,7 @@ def names_later(expr):
         return names_later(expr[1]) or names_later(expr[2])
     if expr[0] == "not":
         return names_later(expr[1])
-    return expr[1] in LATER
+    return expr[1] in MAY_BE_LATER
 
 
 def values(rec, name):
@@ -445,7 +452,7 @@ def check_filters(args, path, recs, events, lines):
         picked = set(got_n)
         for r in got:
             if r["type"] == "anomaly" and r["frame"] not in picked and \
-                    not (names_later(expr) and r["kind"] in LATER):
+                    not (names_later(expr) and later(r)):
                 fail("%s -Y %r: anomaly of unselected frame %s" % (path, f, r["frame"]))
             if r["type"] == "transaction" and r["request_n"] not in picked and \
                     r["response_n"] not in picked and not names_later(expr):

@@ -737,6 +737,17 @@ for d in data["drives"]:
             top = max(p[2] for p in sr["points"])
             assert top <= max(currents[d["addr"]]) + 0.05, (d["addr"], top, max(currents[d["addr"]]))
 PY
+# A reply with another number of registers than its request asked for (CRC good): 3276.7 A before.
+answer=$root/captures/regressions/reply-not-the-answer-not-used/input.log
+"$drivetap" read -T json "$answer" > "$work/answer.json" 2>/dev/null
+[ -z "$("$drivetap" read -T fields -e n -Y 'drive.output_current > 100' "$answer" 2>&1)" ] &&
+  python3 - "$work/answer.json" <<'PY' && ok "a reply that is not its request's answer: not used, marked" || fail "a reply that is not its request's answer: a value used"
+import json, sys
+records = [json.loads(l) for l in open(sys.argv[1])]
+frame = next(r for r in records if r.get("type") == "frame" and r["n"] == 26)
+assert not frame["drive"]["values"] and "not the answer to its request (2 asked for), not used: " in frame["drive"]["text"], frame["drive"]
+assert not [r for r in records if r.get("type") == "event" and r.get("frame") == 26], "an event of frame 26"
+PY
 fi
 
 # Minor: a NUL in an error message, a VCD with a BOM, a channel named twice.

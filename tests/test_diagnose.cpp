@@ -485,8 +485,8 @@ LineEvidence evidence_with(AnomalyKind kind) {
       e.breaks = 3;
       break;
     case AnomalyKind::timing_rule:
-      e.timing_rules["the drive needs 200 ms (ERMAN E-9P/9G, 000 §4)"] = {
-          3, "frame 7: request 171.0 ms after the drive's last reply; the drive needs 200 ms", {}};
+      e.timing_rules["the drive needs 200 ms (ERMAN E-9P/9G, 000 §4)"].stations[2] = {
+          3, 7, "frame 7: request 171.0 ms after the drive's last reply; the drive needs 200 ms"};
       break;
     default:  // overrun, clock, packets: the count is all
       break;

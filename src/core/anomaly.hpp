@@ -65,6 +65,9 @@ struct Anomaly {
   std::uint64_t frame_number = 0;  // frame it belongs to, 0 when none
   std::string detail;
   const FindingDesc* finding = nullptr;  // the protocol's own finding, nullptr for a generic one
+  // The station it concerns, for a finding handed on after the frame it belongs to (held with
+  // its drive's binding); -1: the station of the frame it follows, or none.
+  int address = -1;
 };
 
 using AnomalyCounts = std::array<std::uint64_t, kAnomalyKindCount>;

@@ -78,6 +78,11 @@ struct DriveRecords {
   // The telegram's protocol is spoken only by the drive families whose profiles list it (not by
   // every device, as Modbus is): a request in it is evidence for each of them.
   bool family_protocol = false;
+  // A reply whose values are not the ones its request asked for (a register count other than
+  // the request's quantity): read, shown, and not used (no value, state, event or binding
+  // evidence comes of it). `asked`: the request's quantity.
+  bool not_the_answer = false;
+  std::uint32_t asked = 0;
   // A reader's working storage (Modbus ASCII: the bytes its hex spells, frame and request).
   std::vector<std::uint8_t> scratch, request_scratch;
 
@@ -86,6 +91,8 @@ struct DriveRecords {
     values.clear();
     function = -1;
     family_protocol = false;
+    not_the_answer = false;
+    asked = 0;
   }
   [[nodiscard]] std::span<const std::uint32_t> values_of(const DriveRecord& r) const {
     return std::span<const std::uint32_t>(values).subspan(r.values_at, r.values_size);

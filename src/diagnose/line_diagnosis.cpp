@@ -308,13 +308,13 @@ void bus_findings(const LineEvidence& e, std::vector<Verdict>& out) {
   // One verdict per drive and rule: each rule has its own fix.
   for (const auto& [rule, breaks] : e.timing_rules) {
     std::vector<std::string> where;
-    for (const auto& [address, count] : breaks.stations)
-      where.push_back(fmt::format("station {}: {}", address, count));
-    out.push_back(
-        {"timing-rule", fmt::format("A drive's timing rule is broken: {}", rule),
-         fmt::format("{} {} ({}; first: {})", breaks.count, breaks.count == 1 ? "time" : "times",
-                     fmt::join(where, ", "), breaks.first),
-         timing_rule_fix(breaks.first)});
+    for (const auto& [address, at] : breaks.stations)
+      where.push_back(fmt::format("station {}: {}", address, at.count));
+    const std::uint64_t count = breaks.count();
+    out.push_back({"timing-rule", fmt::format("A drive's timing rule is broken: {}", rule),
+                   fmt::format("{} {} ({}; first: {})", count, count == 1 ? "time" : "times",
+                               fmt::join(where, ", "), breaks.first()),
+                   timing_rule_fix(breaks.first())});
   }
   const std::uint64_t split = e.findings[static_cast<std::size_t>(AnomalyKind::packet_split_frame)];
   const std::uint64_t merged =
@@ -504,7 +504,33 @@ void DiagnosisSink::on_noise(const Frame& noise) {
   }
 }
 
+std::uint64_t LineEvidence::RuleBreaks::count() const {
+  std::uint64_t n = 0;
+  for (const auto& [address, at] : stations) n += at.count;
+  return n;
+}
+
+const std::string& LineEvidence::RuleBreaks::first() const {
+  const AtStation* first = nullptr;
+  for (const auto& [address, at] : stations)
+    if (!first || at.first_frame < first->first_frame) first = &at;
+  static const std::string kNone;
+  return first ? first->first : kNone;
+}
+
 void DiagnosisSink::on_event(const BusEvent& event) {
+  if (event.kind == "drive_bound" && !event.from.empty()) {
+    // A binding let go or taken over: the timing rules its family set were never the drive's.
+    for (auto rule = evidence_.timing_rules.begin(); rule != evidence_.timing_rules.end();) {
+      const auto at = rule->second.stations.find(event.address);
+      if (at != rule->second.stations.end()) {
+        evidence_.findings[static_cast<std::size_t>(AnomalyKind::timing_rule)] -= at->second.count;
+        rule->second.stations.erase(at);
+      }
+      rule = rule->second.stations.empty() ? evidence_.timing_rules.erase(rule) : std::next(rule);
+    }
+    return;
+  }
   if (event.kind != "protocol_detected") return;
   if (event.protocol != Protocol::unknown) {
     foreign_.erase(event.channel);
@@ -531,8 +557,10 @@ void DiagnosisSink::on_anomaly(const Anomaly& a) {
     if (slot.empty()) slot = fmt::format("frame {}: {}", a.frame_number, a.detail);
   };
   ++evidence_.findings[static_cast<std::size_t>(a.kind)];
-  // A frame's findings arrive right after it: its station.
-  const int address = a.frame_number != 0 && a.frame_number == last_frame_ ? last_address_ : -1;
+  // A frame's findings arrive right after it: its station (a finding handed on later names it).
+  const int address = a.address >= 0                                         ? a.address
+                      : a.frame_number != 0 && a.frame_number == last_frame_ ? last_address_
+                                                                             : -1;
   switch (a.kind) {
     case AnomalyKind::malformed:
     case AnomalyKind::implausible:
@@ -553,9 +581,12 @@ void DiagnosisSink::on_anomaly(const Anomaly& a) {
       const std::size_t cut = a.detail.find("; ");
       auto& rule =
           evidence_.timing_rules[cut == std::string::npos ? a.detail : a.detail.substr(cut + 2)];
-      ++rule.count;
-      ++rule.stations[address];
-      if (rule.first.empty()) rule.first = fmt::format("frame {}: {}", a.frame_number, a.detail);
+      LineEvidence::RuleBreaks::AtStation& at = rule.stations[address];
+      // (A finding held with its drive's binding comes after later frames' findings.)
+      if (at.count++ == 0 || a.frame_number < at.first_frame) {
+        at.first_frame = a.frame_number;
+        at.first = fmt::format("frame {}: {}", a.frame_number, a.detail);
+      }
       break;
     }
     default:

@@ -77,11 +77,17 @@ struct LineEvidence : UartCounts {
   std::uint64_t flagged_noise_records = 0;  // holding a byte with a UART error
   std::uint64_t release_noise_records = 0;  // a clean stray 0x00/0xFF right after a frame
   // Timing-rule breaks by rule, as the pipeline states it (the drive, its rule and the manual's
-  // section): count and first example.
+  // section), per station: count and first example. (A station whose binding is let go takes
+  // its own along: DiagnosisSink::on_event.)
   struct RuleBreaks {
-    std::uint64_t count = 0;
-    std::string first;
-    std::map<int, std::uint64_t> stations;
+    struct AtStation {
+      std::uint64_t count = 0;
+      std::uint64_t first_frame = 0;
+      std::string first;  // "frame 7: request 171.0 ms after ..."
+    };
+    std::map<int, AtStation> stations;
+    [[nodiscard]] std::uint64_t count() const;
+    [[nodiscard]] const std::string& first() const;  // the earliest frame's
   };
   std::map<std::string, RuleBreaks> timing_rules;
   // Channels where detection found no drive protocol: name and what the line carries instead

@@ -579,17 +579,25 @@ void read_for_drive_into(const DriveProfile& p, const TelegramHead& m, const Dri
   if (lead_first) append_lead(line);
   const std::size_t lead = line.size();
   read_records(p, m.direction, records, wants, line, out.observed);
-  // A telegram whose checksum or plausibility fails says nothing reliable: what it would mean is
-  // shown, marked, and observes nothing (no drive value, state or event comes of it).
+  // A telegram whose checksum or plausibility fails says nothing reliable, nor does a reply that
+  // is not the answer to its request: what it would mean is shown, marked, and observes nothing
+  // (no drive value, state or event comes of it).
   const bool damaged = !good_telegram(m);
-  if (damaged) out.observed.clear();
+  const bool unused = damaged || records.not_the_answer;
+  if (unused) out.observed.clear();
   std::string& text = out.text;
   text.clear();
   if (line.size() == lead) return;
   if (!lead_first) append_lead(text);
   const std::size_t after_lead = lead_first ? lead : text.size();
   text.append(line.data(), line.size());
-  if (damaged) text.insert(after_lead, "damaged telegram, not used: ");
+  if (damaged) {
+    text.insert(after_lead, "damaged telegram, not used: ");
+  } else if (unused) {
+    text.insert(after_lead, fmt::format(FMT_COMPILE("not the answer to its request ({} asked "
+                                                    "for), not used: "),
+                                        records.asked));
+  }
 }
 
 void complete_drive_info(Message& m, DriveReading& scratch) {

@@ -175,6 +175,17 @@ const DriveProfile* DriveBinder::bound(std::size_t link, int address) const {
   return candidates_[static_cast<std::size_t>(it->second.bound)];
 }
 
+bool DriveBinder::sure(std::size_t link, int address) const {
+  const Station* st = nullptr;
+  const std::size_t at = link * kIndexedAddresses + static_cast<std::size_t>(address);
+  if (address >= 0 && address < kIndexedAddresses && at < station_index_.size()) {
+    st = station_index_[at];
+  } else if (const auto it = stations_.find({link, address}); it != stations_.end()) {
+    st = &it->second;
+  }
+  return st && st->bound >= 0 && st->confidence == "high";
+}
+
 DriveBinder::Station& DriveBinder::station_of(std::size_t link, int address) {
   if (address >= kIndexedAddresses) return stations_[{link, address}];
   const std::size_t at = link * kIndexedAddresses + static_cast<std::size_t>(address);
@@ -313,6 +324,7 @@ const DriveProfile* DriveBinder::learn_bound(std::size_t link, TelegramDriveReco
     return bound_now();
   st.has_awaiting = false;
   const DriveRecords& records = telegram.get();
+  if (records.not_the_answer) return bound_now();  // (not the answer: it proves nothing)
   ++st.transactions;
   // A drive refuses with an exception what it does not have: then the request's addresses,
   // function and size contradict nothing.

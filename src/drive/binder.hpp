@@ -131,6 +131,9 @@ class DriveBinder {
   };
   using Key = std::pair<std::size_t, int>;  // link, station address
   [[nodiscard]] const DriveProfile* bound(std::size_t link, int address) const;
+  // The station is bound with confidence "high": what depends on its family (timing rules) is
+  // no longer held back (Pipeline::hold_family_findings()).
+  [[nodiscard]] bool sure(std::size_t link, int address) const;
   [[nodiscard]] const std::map<Key, Station>& stations() const { return stations_; }
   [[nodiscard]] const DriveProfile& candidate(int index) const { return *candidates_[index]; }
   [[nodiscard]] std::size_t candidate_count() const { return candidates_.size(); }

@@ -385,7 +385,7 @@ class FilterParser {
       return false;
     }
     if (field->kind == RecordField::Kind::finding_kind &&
-        finding_known_after_frame(field->finding_kind))
+        finding_may_come_after_frame(field->finding_kind))
       out_.names_late_findings_ = true;
     const RecordFieldNeeds needs = field->needs();
     out_.needs_.detail = out_.needs_.detail || needs.detail;

@@ -132,15 +132,18 @@ void DisplayFilterSink::on_anomaly(const Anomaly& a) {
   std::optional<Transaction> reporter;
   reporter.swap(held_transaction_);
   if (selected(a.frame_number)) {
+    if (a.kind == AnomalyKind::timing_rule) ++timing_findings_shown_;
     next_.on_anomaly(a);
     return;
   }
-  if (late_frames_.empty() || !finding_known_after_frame(a.kind)) return;
+  // (A finding that names its station was handed on after its frame; the others a frame's own.)
+  if (late_frames_.empty() || !(finding_known_after_frame(a.kind) || a.address >= 0)) return;
   if (!filter_.matches(views_.of(a, late_frames_[a.frame_number % kRecentFrames]))) return;
   if (reporter &&
       (reporter->request_number == a.frame_number || reporter->response_number == a.frame_number))
     next_.on_transaction(*reporter);
   ++matched_late_;
+  if (a.kind == AnomalyKind::timing_rule) ++timing_findings_shown_;
   next_.on_anomaly(a);
 }
 
@@ -156,6 +159,11 @@ void DisplayFilterSink::on_transaction(const Transaction& t) {
 
 void DisplayFilterSink::on_event(const BusEvent& e) {
   held_transaction_.reset();
+  // A binding let go withdraws timing-rule findings: where it showed some, the output says so.
+  if (e.withdrawn > 0 && timing_findings_shown_ > 0) {
+    next_.on_event(e);
+    return;
+  }
   if (e.frame > last_number_)
     held_events_.push_back(e);
   else if (selected(e.frame))

@@ -81,7 +81,8 @@ class DisplayFilterSink final : public ForwardingSink {
   std::optional<Transaction> held_transaction_;
   std::uint64_t last_number_ = 0;  // the latest frame or noise record judged
   std::uint64_t matched_ = 0;
-  std::uint64_t matched_late_ = 0;  // findings selected by their own record
+  std::uint64_t matched_late_ = 0;           // findings selected by their own record
+  std::uint64_t timing_findings_shown_ = 0;  // (a binding let go may withdraw them)
   std::uint64_t records_ = 0;
   // A frame whose drive annotation the pipeline left to the sinks, annotated for a filter that
   // reads it (annotated()).

@@ -391,6 +391,10 @@ bool finding_known_after_frame(AnomalyKind kind) {
          kind == AnomalyKind::packet_split_frame || kind == AnomalyKind::packet_merged_frames;
 }
 
+bool finding_may_come_after_frame(AnomalyKind kind) {
+  return finding_known_after_frame(kind) || kind == AnomalyKind::timing_rule;
+}
+
 RecordFieldNeeds RecordField::needs() const {
   RecordFieldNeeds n;
   switch (kind) {

@@ -227,6 +227,9 @@ std::optional<RecordField> resolve_record_field(std::string_view name);
 // no filter sees them with the frame; a filter naming one is also evaluated against each such
 // finding's own record (RecordViews::of(const Anomaly&, ...)).
 bool finding_known_after_frame(AnomalyKind kind);
+// Those, and a drive's timing-rule findings, which are held until the binder is sure of the
+// station's family and then handed on after their frame (Anomaly::address set).
+bool finding_may_come_after_frame(AnomalyKind kind);
 
 // What a late finding's record says of a frame or noise record (RecordView of a frame).
 LateFindingFrame late_finding_frame_of(const RecordView& frame);

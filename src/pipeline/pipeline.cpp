@@ -742,14 +742,74 @@ void Pipeline::check_drive_timing(const TelegramHead& m, const DriveProfile& p,
   }
 }
 
-const DriveProfile* Pipeline::drive_profile_for(std::size_t link, TelegramDriveRecords& telegram) {
-  if (const auto drive = options_.drives.find(telegram.telegram().address);
-      drive != options_.drives.end())
+const DriveProfile* Pipeline::drive_profile_for(std::size_t link, TelegramDriveRecords& telegram,
+                                                bool& sure) {
+  const int address = telegram.telegram().address;
+  if (const auto drive = options_.drives.find(address); drive != options_.drives.end()) {
+    sure = true;
     return drive->second;
+  }
   std::optional<BusEvent> changed;
   const DriveProfile* profile = binder_.learn_bound(link, telegram, changed);
-  if (changed) sink_.on_event(*changed);
+  sure = profile && binder_.sure(link, address);
+  std::uint64_t withdrawn = 0;
+  if (!held_findings_.empty()) withdrawn = settle_held_findings(link, address, profile, sure);
+  if (changed) {
+    // A binding let go or taken over takes the findings its family set along: those held are
+    // dropped, those handed on leave the counts (and the sinks that count them, on this event).
+    if (const auto made = findings_under_binding_.find({link, address});
+        !changed->from.empty() && made != findings_under_binding_.end()) {
+      stats_.anomalies[static_cast<std::size_t>(AnomalyKind::timing_rule)] -= made->second;
+      stats_.anomaly_total -= made->second;
+      withdrawn += made->second;
+      findings_under_binding_.erase(made);
+    }
+    changed->withdrawn = withdrawn;
+    if (withdrawn)
+      changed->detail +=
+          fmt::format(FMT_COMPILE("; {} timing-rule finding{} made under it withdrawn"), withdrawn,
+                      withdrawn == 1 ? "" : "s");
+    sink_.on_event(*changed);
+  }
   return profile;
+}
+
+void Pipeline::hold_family_findings(std::size_t link, int address, const DriveProfile& profile,
+                                    std::vector<Anomaly>& found) {
+  if (found.empty()) return;
+  HeldFindings& held = held_findings_[{link, address}];
+  held.profile = &profile;
+  for (Anomaly& a : found) {
+    a.address = address;
+    if (held.findings.size() < kMaxHeldFindings)
+      held.findings.push_back(std::move(a));
+    else
+      ++held.left_out[static_cast<std::size_t>(a.kind)];
+  }
+  found.clear();
+}
+
+std::size_t Pipeline::settle_held_findings(std::size_t link, int address,
+                                           const DriveProfile* profile, bool sure) {
+  const auto it = held_findings_.find({link, address});
+  if (it == held_findings_.end()) return 0;
+  HeldFindings& held = it->second;
+  std::size_t dropped = 0;
+  if (held.profile != profile) {
+    dropped = held.findings.size();
+    for (const std::uint64_t n : held.left_out) dropped += n;
+  } else if (sure) {
+    count_under_binding(link, address, held.findings.size());
+    for (const std::uint64_t n : held.left_out) count_under_binding(link, address, n);
+    for (const Anomaly& a : held.findings) emit_anomaly(a);
+    for (std::size_t k = 0; k < held.left_out.size(); ++k)
+      for (std::uint64_t n = 0; n < held.left_out[k]; ++n)
+        stats_.count_anomaly(static_cast<AnomalyKind>(k));
+  } else {
+    return 0;
+  }
+  held_findings_.erase(it);
+  return dropped;
 }
 
 void Pipeline::check_packetization(const Frame& frame, ChannelState& st) {
@@ -868,7 +928,8 @@ void Pipeline::handle_telegram(TelegramView& t, const ProtocolDecoder& decoder, 
   // what the telegram means to it, and the state changes it shows. Its drive records are read at
   // most once, by the first of the binder and the annotation to ask for them.
   TelegramDriveRecords records(drive_records_, in, request);
-  const DriveProfile* profile = drive_level_ ? drive_profile_for(link, records) : nullptr;
+  bool sure = false;
+  const DriveProfile* profile = drive_level_ ? drive_profile_for(link, records, sure) : nullptr;
   if (profile) {
     // The annotation's text is written here, or by the sink on its own thread (then only the
     // observation is made here: the timeline needs it now).
@@ -908,7 +969,16 @@ void Pipeline::handle_telegram(TelegramView& t, const ProtocolDecoder& decoder, 
     }
   }
   if (detailed) {
-    if (profile) check_drive_timing(in, *profile, m.anomalies, true);
+    if (profile && sure) {
+      const std::size_t before = m.anomalies.size();
+      check_drive_timing(in, *profile, m.anomalies, true);
+      count_under_binding(link, in.address, m.anomalies.size() - before);
+    } else if (profile) {
+      drive_anomalies_.clear();
+      check_drive_timing(in, *profile, drive_anomalies_, true);
+      for (Anomaly& a : drive_anomalies_) a.frame_number = number;
+      hold_family_findings(link, in.address, *profile, drive_anomalies_);
+    }
     for (Anomaly& a : m.anomalies) a.frame_number = number;
     stats_.count_frame(m);
     sink_.on_frame(m);
@@ -925,6 +995,8 @@ void Pipeline::handle_telegram(TelegramView& t, const ProtocolDecoder& decoder, 
       drive_anomalies_.clear();
       // (A sink without records shows no anomaly: the findings are counted, not described.)
       check_drive_timing(in, *profile, drive_anomalies_, hand_over_records_);
+      if (!sure) hold_family_findings(link, in.address, *profile, drive_anomalies_);
+      count_under_binding(link, in.address, drive_anomalies_.size());
       for (const Anomaly& a : drive_anomalies_) stats_.count_anomaly(a);
     }
     if (deferred) {
@@ -1040,6 +1112,12 @@ void Pipeline::finish(bool cut_partial) {
   handle_frames();
   release_waiting(kNoneHeld);  // (what --count's limit or cut_partial left waiting)
   flush_events(kNoneHeld);
+  // Findings held for a binding that stands at the end are its: handed on (the binder's last
+  // word on the station is the binding).
+  while (!held_findings_.empty()) {
+    const auto [link, address] = held_findings_.begin()->first;
+    settle_held_findings(link, address, binder_.bound(link, address), true);
+  }
   for (const auto& st : states_) stats_.left_out_bytes += st->left_out_bytes;
   for (std::size_t i = 0; i < states_.size(); ++i)
     if (states_[i]->left_out && i < channels_.size())

@@ -163,7 +163,17 @@ class Pipeline {
                           std::vector<Anomaly>& found, bool described);
   // The profile of the telegram's station: bound with --drive, or by the binder (which learns
   // from the telegram first, and hands a change of binding to the sink); nullptr for none.
-  const DriveProfile* drive_profile_for(std::size_t link, TelegramDriveRecords& telegram);
+  // `sure`: bound with --drive, or by the binder with confidence high.
+  const DriveProfile* drive_profile_for(std::size_t link, TelegramDriveRecords& telegram,
+                                        bool& sure);
+  // Findings that depend on the family (timing rules) of a station the binder has bound but is
+  // not sure of yet are held: handed on when it is sure, or when the input ends with the binding
+  // standing; dropped with a binding that is let go or taken over. `found` is emptied.
+  void hold_family_findings(std::size_t link, int address, const DriveProfile& profile,
+                            std::vector<Anomaly>& found);
+  // What the station's binding now says of its held findings; the number dropped.
+  std::size_t settle_held_findings(std::size_t link, int address, const DriveProfile* profile,
+                                   bool sure);
   void summarise_drives();
   // `now`: the time detection decides at (the byte that made it decide, or the clock).
   void detect(ChannelState& st, ChannelId channel, TimeNs now, bool final, bool deadline = false);
@@ -209,6 +219,21 @@ class Pipeline {
   bool drive_level_ = false;  // profiles bound with --drive, or candidates for binding by guess
   // A telegram dissected to its head, with drive profiles: its timing-rule findings.
   std::vector<Anomaly> drive_anomalies_;
+  // hold_family_findings(): per station, the profile they were found with and the findings (at
+  // most kMaxHeldFindings described; past it counted alone, by kind).
+  struct HeldFindings {
+    const DriveProfile* profile = nullptr;
+    std::vector<Anomaly> findings;
+    AnomalyCounts left_out{};
+  };
+  static constexpr std::size_t kMaxHeldFindings = 1024;
+  std::map<DriveBinder::Key, HeldFindings> held_findings_;
+  // Per station bound by the binder: the timing-rule findings handed on under its binding,
+  // withdrawn from the counts with a binding let go or taken over.
+  std::map<DriveBinder::Key, std::uint64_t> findings_under_binding_;
+  void count_under_binding(std::size_t link, int address, std::size_t n) {
+    if (n) findings_under_binding_[{link, address}] += n;
+  }
   bool hand_over_records_ = true;       // the sink's needs' records
   bool hand_over_events_ = true;        // the sink's needs' events: drive state changes as events
   bool hand_over_drive_values_ = true;  // the sink's needs' drive_values

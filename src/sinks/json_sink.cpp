@@ -607,6 +607,12 @@ void JsonSink::on_anomaly(const Anomaly& a) {
       severity_id(anomaly_severity(a.kind)), quoted_channel(a.channel),
       a.frame_number == 0 ? std::string("null") : fmt::format(FMT_COMPILE("{}"), a.frame_number),
       json_quote(a.detail));
+  // Held with its drive's binding and handed on after later frames: it names its station.
+  if (a.address >= 0) {
+    line.pop_back();
+    fmt::format_to(std::back_inserter(line), FMT_COMPILE(",\"held\":true,\"addr\":{}}}"),
+                   a.address);
+  }
   lines_.write(line);
 }
 
@@ -621,6 +627,7 @@ void JsonSink::on_event(const BusEvent& e) {
     line += fmt::format(
         FMT_COMPILE(",\"address\":{},\"profile\":{},\"frame\":{},\"from\":{},\"to\":{}"), e.address,
         json_quote(e.profile), e.frame, json_quote(e.from), json_quote(e.to));
+  if (e.withdrawn > 0) line += fmt::format(FMT_COMPILE(",\"withdrawn\":{}"), e.withdrawn);
   line += fmt::format(FMT_COMPILE(",\"detail\":{}}}"), json_quote(e.detail));
   lines_.write(line);
 }

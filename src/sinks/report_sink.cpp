@@ -215,11 +215,12 @@ void ReportSink::count_finding(AnomalyKind kind, int station, TimeNs t) {
 }
 
 void ReportSink::on_anomaly(const Anomaly& a) {
-  // The station: the frame's it follows, or the request's whose timeout it reports.
-  int station = -1;
-  if (a.frame_number != 0 && a.frame_number == last_frame_)
+  // The station: the one it names (a finding handed on late), the frame's it follows, or the
+  // request's whose timeout it reports.
+  int station = a.address;
+  if (station < 0 && a.frame_number != 0 && a.frame_number == last_frame_)
     station = last_frame_address_;
-  else if (a.frame_number != 0 && a.frame_number == last_request_)
+  else if (station < 0 && a.frame_number != 0 && a.frame_number == last_request_)
     station = last_request_address_;
   if (!have_origin_) {
     have_origin_ = true;
@@ -247,6 +248,23 @@ void ReportSink::on_transaction(const Transaction& t) {
 }
 
 void ReportSink::on_event(const BusEvent& e) {
+  if (e.kind == "drive_bound") {
+    // A binding let go or taken over takes what was read under it along: the drive's values,
+    // states and events (as the summary's drives are the binder's last word).
+    const auto it = drives_.find({capture_index(), channels_.link_index(e.channel), e.address});
+    if (it != drives_.end() && it->second.profile != e.profile) {
+      events_kept_ -= it->second.events.size();
+      if (last_drive_ == &it->second) last_drive_ = nullptr;
+      drives_.erase(it);
+    }
+    // The timing rules its family set were never the drive's.
+    const auto row = findings_.find({AnomalyKind::timing_rule, capture_index(), e.address});
+    if (!e.from.empty() && row != findings_.end()) {
+      finding_totals_[static_cast<std::size_t>(AnomalyKind::timing_rule)] -= row->second.count;
+      findings_.erase(row);
+    }
+    return;
+  }
   if (e.address < 0 || e.profile.empty() || e.profile == "generic") return;
   if (e.kind != "command" && e.kind != "running" && e.kind != "direction" && e.kind != "setpoint" &&
       e.kind != "fault" && e.kind != "warning")

@@ -329,6 +329,14 @@ void TextSink::on_anomaly(const Anomaly& a) {
     return;
   const std::string_view on = options_.color ? color::of(anomaly_severity(a.kind)) : "";
   const std::string_view off = options_.color ? color::kReset : "";
+  if (a.address >= 0 && a.frame_number != 0) {
+    // Held with its drive's binding until the binder was sure of the family, or the input ended.
+    lines_.write(prefix(0, a.time, a.channel) +
+                 fmt::format(FMT_COMPILE("{}!!!  {} (#{}, held while drive {}'s family was "
+                                         "not yet sure): {}{}"),
+                             on, anomaly_label(a.kind), a.frame_number, a.address, a.detail, off));
+    return;
+  }
   if (a.frame_number != 0 && a.frame_number == last_frame_number_ &&
       a.kind != AnomalyKind::unanswered_request && a.kind != AnomalyKind::unsolicited_response) {
     lines_.write(fmt::format(FMT_COMPILE("{:>8}{}! {}: {}{}"), "", on, anomaly_label(a.kind),
