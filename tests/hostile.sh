@@ -249,6 +249,22 @@ if stopped "SIGINT on a logic capture's idle line" "$pid" 5; then
   [ "$rc" -eq 130 ] && tail -n 1 "$work/err" | grep -q "interrupted" && ok "SIGINT on a logic capture's idle line" ||
     fail "SIGINT on a logic capture's idle line: exit $rc: $(tail -n 1 "$work/err")"
 fi
+# The same signal the moment the handlers are in, before detection has read a block: stopped,
+# not "no channel carries traffic".
+name="SIGINT before the logic capture's first block"
+python3 "$root/tests/hostile/signal_at_once.py" "$work/err" "$drivetap" read --logic-max 0 \
+  "$work/logic-long-idle.sr" > /dev/null
+rc=$?
+[ "$rc" -eq 130 ] && [ "$(tail -n 1 "$work/err")" = "drivetap: interrupted" ] && ok "$name" ||
+  fail "$name: exit $rc: $(tail -n 1 "$work/err")"
+# A logic capture through a FIFO or stdin gives its start once: refused, not "ends inside the header".
+mkfifo "$work/logic.fifo"
+cat "$work/logic-long-idle.sr" > "$work/logic.fifo" &
+expect "sigrok session through a FIFO" 1 "^drivetap: $work/logic.fifo: a sigrok session must be read from a regular file" -- \
+  "$drivetap" read "$work/logic.fifo"
+wait
+expect "VCD on stdin" 1 "^drivetap: <stdin>: a VCD must be read from a regular file" -- \
+  sh -c 'exec "$0" read - < "$1"' "$drivetap" "$root/captures/unbiased-rs485-modbus/input.vcd"
 
 fi
 

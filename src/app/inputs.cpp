@@ -79,10 +79,13 @@ std::unique_ptr<ByteSource> open_source(const CommonOptions& o, const std::strin
       break;
     case InputFormat::sigrok:
     case InputFormat::vcd: {
-      // Logic captures are read by name: a zip (libzip) cannot come through stdin, and detection
-      // reads the start of either twice.
-      if (in.name == "<stdin>")
-        die(fmt::format("<stdin>: a {} must be read by name", input_format_name(in.format)), 1);
+      // Logic captures are read by name from a regular file: a zip (libzip) seeks, and detection
+      // reads the start of either twice (a pipe or FIFO would give its first bytes only once).
+      if (!is_regular_file(path))
+        die(fmt::format("{}: a {} must be read from a regular file (it is read twice), not a pipe, "
+                        "FIFO or device",
+                        in.name, input_format_name(in.format)),
+            1);
       const InputFormat format = in.format;
       close_input(in);
       std::string error;
@@ -114,8 +117,10 @@ std::unique_ptr<ByteSource> open_source(const CommonOptions& o, const std::strin
 // the command line's.
 PipelineOptions start_source(const CommonOptions& o, ByteSource& source) {
   source.set_stop_flag(&g_stop);  // reading ahead for detection may take long (catch_stop_signals)
-  if (!source.read_header()) die(source.error(), 1);
+  // Stopped while reading ahead, a source may fail for having seen too little: that is no error.
+  const bool header_read = source.read_header();
   if (g_stop) die("interrupted", 130);
+  if (!header_read) die(source.error(), 1);
   PipelineOptions p = make_pipeline_options(o, source.settings());
   source.set_character_time(p.timing.character_time);
   return p;
