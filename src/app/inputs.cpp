@@ -42,6 +42,12 @@ bool is_regular_file(const std::string& path) {
   return path != "-" && ::stat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode);
 }
 
+// Refused after opening: the input closed first (a pipe's stream holds the bytes it sniffed).
+[[noreturn]] void refuse(InputFile& in, const std::string& message, int code) {
+  close_input(in);
+  die(message, code);
+}
+
 }  // namespace
 
 // The source for a capture file of any supported format (the format is read from its first bytes).
@@ -60,10 +66,12 @@ std::unique_ptr<ByteSource> open_source(const CommonOptions& o, const std::strin
                                : o.logic_max != SigrokFile::kDefaultMaxSampleBytes ? "--logic-max"
                                                                                    : nullptr;
     if (logic_option)
-      die(fmt::format("{}: only for logic-analyser captures (sigrok, VCD); {} is a {}",
-                      logic_option, in.name, input_format_name(in.format)));
+      refuse(in,
+             fmt::format("{}: only for logic-analyser captures (sigrok, VCD); {} is a {}",
+                         logic_option, in.name, input_format_name(in.format)),
+             2);
   } else if (in.format == InputFormat::vcd && o.logic_max != SigrokFile::kDefaultMaxSampleBytes) {
-    die(fmt::format("--logic-max: only for sigrok sessions; {} is a VCD", in.name));
+    refuse(in, fmt::format("--logic-max: only for sigrok sessions; {} is a VCD", in.name), 2);
   }
   std::unique_ptr<ByteSource> source;
   switch (in.format) {
@@ -82,10 +90,11 @@ std::unique_ptr<ByteSource> open_source(const CommonOptions& o, const std::strin
       // Logic captures are read by name from a regular file: a zip (libzip) seeks, and detection
       // reads the start of either twice (a pipe or FIFO would give its first bytes only once).
       if (!is_regular_file(path))
-        die(fmt::format("{}: a {} must be read from a regular file (it is read twice), not a pipe, "
-                        "FIFO or device",
-                        in.name, input_format_name(in.format)),
-            1);
+        refuse(in,
+               fmt::format("{}: a {} must be read from a regular file (it is read twice), not a "
+                           "pipe, FIFO or device",
+                           in.name, input_format_name(in.format)),
+               1);
       const InputFormat format = in.format;
       close_input(in);
       std::string error;
@@ -103,12 +112,13 @@ std::unique_ptr<ByteSource> open_source(const CommonOptions& o, const std::strin
       break;
     }
     case InputFormat::empty:
-      die(fmt::format("{}: empty file", in.name), 1);
+      refuse(in, fmt::format("{}: empty file", in.name), 1);
     case InputFormat::unknown:
-      die(fmt::format("{}: offset 0: not a recognised capture format (first byte 0x{:02X}); "
-                      "expected pcapng, pcap, a sigrok session, a VCD or a drivetap byte log",
-                      in.name, in.head[0]),
-          1);
+      refuse(in,
+             fmt::format("{}: offset 0: not a recognised capture format (first byte 0x{:02X}); "
+                         "expected pcapng, pcap, a sigrok session, a VCD or a drivetap byte log",
+                         in.name, in.head[0]),
+             1);
   }
   return source;
 }
