@@ -801,6 +801,21 @@ TEST(DriveReading, DanfossFcParameterBlock) {
             0u)
       << v.text;
 
+  // A reply naming another parameter (PKE 119C: 4-12) does not answer the read of 4-14: shown,
+  // and its tripped status word (0x060A) observes nothing. Read without its request, it stands.
+  const Message other = decode(protocols::danfoss_fc,
+                               with_bcc({0x02, 0x0E, 0x01, 0x11, 0x9C, 0, 0, 0, 0, 0x03, 0xE8, 0x06,
+                                         0x0A, 0x00, 0x00}),
+                               Direction::response);
+  const DriveReading o = read_for_drive(vlt, other, read.bytes);
+  EXPECT_EQ(o.text.find("drive 1 (Danfoss VLT AQUA): not the answer to its request (parameter "
+                        "4-14 asked for), not used: "),
+            0u)
+      << o.text;
+  EXPECT_FALSE(o.observed.running.has_value());
+  EXPECT_FALSE(o.observed.fault_active.has_value());
+  EXPECT_EQ(read_for_drive(vlt, other, {}).observed.fault_active, true);
+
   // docs/protocols.md §4: write 4-14 = 1000 to RAM+EEPROM, address 1 in the 1..126 format.
   const Message write =
       decode(protocols::danfoss_fc,
@@ -982,6 +997,19 @@ TEST(DriveReading, EasydriveRunAndStatus) {
   EXPECT_EQ(s.text,
             "drive 1 (Easydrive EDS1000): status word 0x0001 [running, voltage normal, forward]; "
             "fault 3 (overcurrent at constant speed)");
+
+  // A reply echoing another index (0E) than its request's (0F) does not answer it: shown, and it
+  // observes nothing, its fault code neither.
+  const Message other =
+      decode(protocols::easydrive, eds_frame("0100030E0001"), Direction::response, q.bytes);
+  ASSERT_EQ(other.checksum.verdict, ChecksumVerdict::good);
+  const DriveReading o = read_for_drive(eds, other, q.bytes);
+  EXPECT_EQ(o.text.find("drive 1 (Easydrive EDS1000): not the answer to its request (index 000F "
+                        "asked for), not used: "),
+            0u)
+      << o.text;
+  EXPECT_FALSE(o.observed.running.has_value());
+  EXPECT_FALSE(o.observed.fault_code.has_value());
 
   // The fault code travels in hex: AUX "10" is fault 16.
   const DriveReading hex = read_for_drive(

@@ -1,7 +1,8 @@
 // Danfoss FC protocol telegrams as drive records (core/drive_records.hpp; docs/protocols.md §4):
 //   STX LGE ADR [PKE IND PWEhigh PWElow] PCD1 PCD2 BCC        (LGE 6: PCD only; 14: with PKE)
 //   PKE = AK(4 bits) PNU(12 bits); PCD1/PCD2 = CTW/REF to the drive, STW/MAV from it.
-// The parameter block is a parameter access (AK: what it does), PCD1/PCD2 the process words.
+// The parameter block is a parameter access (AK: what it does), PCD1/PCD2 the process words. A
+// reply is read with its request only to see that it answers it (the same parameter).
 #include "dissectors/danfoss_fc/fc_dissector.hpp"
 
 namespace drivetap::danfoss_fc {
@@ -45,11 +46,22 @@ void add_parameter_access(std::span<const std::uint8_t> b, bool to_drive, DriveR
     out.add_value(meaning.double_word ? pwe : (pwe & 0xFFFF));
 }
 
+// A reply's parameter block answers its request's when both name a parameter (AK not 0) and it is
+// the same PNU (the drive echoes it, docs/protocols.md §4): a value or refusal of another
+// parameter is not that request's answer.
+void check_answer(std::span<const std::uint8_t> reply, std::span<const std::uint8_t> request,
+                  DriveRecords& out) {
+  if (request.size() != 16 || request[0] != kStxByte || request[1] != 14) return;
+  const std::uint16_t asked = be16(request, 3), answered = be16(reply, 3);
+  if ((asked >> 12) == 0 || (answered >> 12) == 0) return;
+  if ((asked & 0x0FFF) != (answered & 0x0FFF))
+    out.not_the_answer_of("parameter " + parameter_name(asked & 0x0FFF));
+}
+
 }  // namespace
 
 void read_fc_drive_records(const TelegramHead& telegram, std::span<const std::uint8_t> request,
                            DriveRecords& out) {
-  (void)request;  // replies stand on their own
   out.clear();
   out.family_protocol = true;
   const std::span<const std::uint8_t> b = telegram.bytes;
@@ -57,7 +69,11 @@ void read_fc_drive_records(const TelegramHead& telegram, std::span<const std::ui
   const std::size_t lge = b[1];
   if (b.size() != lge + 2 || (lge != 6 && lge != 14)) return;
   if (telegram.direction == Direction::unknown) return;
-  if (lge == 14) add_parameter_access(b, telegram.direction == Direction::request, out);
+  const bool to_drive = telegram.direction == Direction::request;
+  if (lge == 14) {
+    add_parameter_access(b, to_drive, out);
+    if (!to_drive) check_answer(b, request, out);
+  }
   out.add(DriveRecordType::process_words);
   const std::size_t at = lge == 14 ? 11 : 3;
   out.add_value(be16(b, at));

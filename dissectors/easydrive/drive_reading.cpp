@@ -6,6 +6,8 @@
 // has never weighed Easydrive's indexes (the protocol alone tells the family): `weighed` false.
 #include "dissectors/easydrive/eds_dissector.hpp"
 
+#include <fmt/format.h>
+
 namespace drivetap::easydrive {
 namespace {
 
@@ -79,6 +81,10 @@ void read_eds_drive_records(const TelegramHead& telegram, std::span<const std::u
   const long code = hex_field(f, 3, 2), fault = hex_field(f, 5, 2);
   if (code == 0x20 || code == 0x30) return;  // rejected: the frame line names the reason
   const long command = hex_field(request, 3, 2), index = hex_field(request, 5, 4);
+  // The drive echoes the low byte of the request's index (docs/protocols.md §5): a reply that
+  // echoes another is not that request's answer.
+  if (const long echoed = hex_field(f, 7, 2); index >= 0 && echoed >= 0 && echoed != (index & 0xFF))
+    out.not_the_answer_of(fmt::format("index {:04X}", index));
   if ((command == 0x0B || command == 0x0D) && index >= 0 && data >= 0) {
     add_access(command == 0x0B ? RegisterKind::running : RegisterKind::parameter, AccessOp::value,
                index, out)

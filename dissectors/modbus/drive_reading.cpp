@@ -73,8 +73,8 @@ void read_binary(std::span<const std::uint8_t> b, std::size_t check_size, Direct
     r.addressed_by_request = true;
     add_words(b, 3, end, r, out);
     r.count = r.values_size;
-    out.asked = be16(q, 4);
-    out.not_the_answer = r.values_size != out.asked;
+    const std::uint16_t asked = be16(q, 4);
+    if (r.values_size != asked) out.not_the_answer_of(std::to_string(asked));
   } else if (fc == 0x01 || fc == 0x02) {
     // (Replies to 0x02 are read against the coils, as the drive level always read them: no
     // built-in profile names discrete inputs.)
@@ -82,8 +82,7 @@ void read_binary(std::span<const std::uint8_t> b, std::size_t check_size, Direct
     DriveRecord& r = out.add_access(RegisterKind::coil, AccessOp::value, be16(q, 2), count);
     r.addressed_by_request = true;
     add_bits(b.subspan(3, end - 3), count, r, out);
-    out.asked = count;
-    out.not_the_answer = end - 3 != (std::size_t{count} + 7) / 8;
+    if (end - 3 != (std::size_t{count} + 7) / 8) out.not_the_answer_of(std::to_string(count));
   }
 }
 

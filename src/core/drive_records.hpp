@@ -8,6 +8,8 @@
 
 #include <cstdint>
 #include <span>
+#include <string>
+#include <utility>
 #include <vector>
 
 namespace drivetap {
@@ -79,20 +81,25 @@ struct DriveRecords {
   // every device, as Modbus is): a request in it is evidence for each of them.
   bool family_protocol = false;
   // A reply whose values are not the ones its request asked for (a register count other than
-  // the request's quantity): read, shown, and not used (no value, state, event or binding
-  // evidence comes of it). `asked`: the request's quantity.
+  // the request's quantity, another parameter or index than the request's): read, shown, and not
+  // used (no value, state, event or binding evidence comes of it). `asked`: what the request
+  // asked for, as the = line names it ("2" registers, "parameter 16-14", "index 0002").
   bool not_the_answer = false;
-  std::uint32_t asked = 0;
+  std::string asked;
   // A reader's working storage (Modbus ASCII: the bytes its hex spells, frame and request).
   std::vector<std::uint8_t> scratch, request_scratch;
 
+  void not_the_answer_of(std::string asked_for) {
+    not_the_answer = true;
+    asked = std::move(asked_for);
+  }
   void clear() {
     records.clear();
     values.clear();
     function = -1;
     family_protocol = false;
     not_the_answer = false;
-    asked = 0;
+    asked.clear();
   }
   [[nodiscard]] std::span<const std::uint32_t> values_of(const DriveRecord& r) const {
     return std::span<const std::uint32_t>(values).subspan(r.values_at, r.values_size);

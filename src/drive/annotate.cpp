@@ -594,9 +594,9 @@ void read_for_drive_into(const DriveProfile& p, const TelegramHead& m, const Dri
   if (damaged) {
     text.insert(after_lead, "damaged telegram, not used: ");
   } else if (unused) {
-    text.insert(after_lead, fmt::format(FMT_COMPILE("not the answer to its request ({} asked "
-                                                    "for), not used: "),
-                                        records.asked));
+    text.insert(after_lead,
+                fmt::format(FMT_COMPILE("not the answer to its request ({} asked for), not used: "),
+                            records.asked));
   }
 }
 
