@@ -771,13 +771,23 @@ TEST(DriveReading, DanfossFcParameterBlock) {
   ASSERT_EQ(with_bcc({ak7.begin(), ak7.end() - 1}), ak7);
   const Message err = decode(protocols::danfoss_fc, ak7, Direction::response);
   ASSERT_EQ(err.checksum.verdict, ChecksumVerdict::good);
-  const DriveReading e = read_for_drive(vlt, err, {});
+  // (the answer to docs/protocols.md §4's write of 4-14 = 1000, PKE E19E)
+  const std::vector<std::uint8_t> write_4_14 = {0x02, 0x0E, 0x81, 0xE1, 0x9E, 0,    0,    0,
+                                                0,    0x03, 0xE8, 0x04, 0x7C, 0x20, 0x00, 0x41};
+  const DriveReading e = read_for_drive(vlt, err, write_4_14);
   EXPECT_EQ(e.text.find("drive 1 (Danfoss VLT AQUA): cannot execute on 4-14 motor speed high "
                         "limit [Hz]: error 2 (data value exceeds the parameter's limits); status "
                         "word (STW) 0x0607 ["),
             0u)
       << e.text;
   EXPECT_EQ(e.observed.running, false);  // STW 0x0607: bit 11 clear
+  // The same reply with no request seen: shown, marked, and it observes nothing.
+  const DriveReading unseen = read_for_drive(vlt, err, {});
+  EXPECT_EQ(unseen.text.find("drive 1 (Danfoss VLT AQUA): no request seen, not used: cannot "
+                             "execute on 4-14 motor speed high limit [Hz]"),
+            0u)
+      << unseen.text;
+  EXPECT_FALSE(unseen.observed.running.has_value());
 
   // Read 4-14: PKE 0x119E (AK 1, PNU 414).
   const Message read =
@@ -802,7 +812,7 @@ TEST(DriveReading, DanfossFcParameterBlock) {
       << v.text;
 
   // A reply naming another parameter (PKE 119C: 4-12) does not answer the read of 4-14: shown,
-  // and its tripped status word (0x060A) observes nothing. Read without its request, it stands.
+  // and its tripped status word (0x060A) observes nothing. Read with a request of 4-12, it stands.
   const Message other = decode(protocols::danfoss_fc,
                                with_bcc({0x02, 0x0E, 0x01, 0x11, 0x9C, 0, 0, 0, 0, 0x03, 0xE8, 0x06,
                                          0x0A, 0x00, 0x00}),
@@ -814,7 +824,11 @@ TEST(DriveReading, DanfossFcParameterBlock) {
       << o.text;
   EXPECT_FALSE(o.observed.running.has_value());
   EXPECT_FALSE(o.observed.fault_active.has_value());
-  EXPECT_EQ(read_for_drive(vlt, other, {}).observed.fault_active, true);
+  const Message read_4_12 =
+      decode(protocols::danfoss_fc,
+             with_bcc({0x02, 0x0E, 0x01, 0x11, 0x9C, 0, 0, 0, 0, 0, 0, 0x04, 0x7C, 0x20, 0x00}),
+             Direction::request);
+  EXPECT_EQ(read_for_drive(vlt, other, read_4_12.bytes).observed.fault_active, true);
 
   // docs/protocols.md §4: write 4-14 = 1000 to RAM+EEPROM, address 1 in the 1..126 format.
   const Message write =
@@ -951,8 +965,10 @@ TEST(DriveReading, E5AsciiReply) {
   // (drivetap allows the vendor codes of the profiles it loads, src/app/common.cpp: an exception
   // with a code no profile lists is implausible, and its telegram says nothing of the drive)
   allow_vendor_exception_code(0x52);
-  EXPECT_EQ(read_for_drive(e5, rtu({0x02, 0x83, 0x52}, Direction::response), {}).text,
-            "drive 2 (E5-8200): error 0x52: address error");
+  const Message read_request = rtu({0x02, 0x03, 0x20, 0x00, 0x00, 0x01}, Direction::request);
+  EXPECT_EQ(
+      read_for_drive(e5, rtu({0x02, 0x83, 0x52}, Direction::response), read_request.bytes).text,
+      "drive 2 (E5-8200): error 0x52: address error");
 }
 
 TEST(DriveReading, E5ParametersFollowTheGgppRule) {

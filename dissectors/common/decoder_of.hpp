@@ -39,6 +39,9 @@ struct DecoderFunctions {
   ProtocolDecoder::PairingKeys (*pairing_keys)(std::span<const std::uint8_t> frame);
   Dissector* dissect;
   DriveReader* read_drive_records;
+  // ProtocolDecoder::could_answer(); none: any telegram could.
+  bool (*could_answer)(std::span<const std::uint8_t> frame,
+                       std::span<const std::uint8_t> request) = nullptr;
 };
 
 // The functions' ProtocolDecoder (ProtocolDecoder says what each does), dissecting always in
@@ -57,6 +60,10 @@ class DecoderOf : public ProtocolDecoder {
   }
   [[nodiscard]] bool always_response(std::span<const std::uint8_t> frame) const override {
     return F.always_response(frame);
+  }
+  [[nodiscard]] bool could_answer(std::span<const std::uint8_t> frame,
+                                  std::span<const std::uint8_t> request) const override {
+    return F.could_answer == nullptr || F.could_answer(frame, request);
   }
   [[nodiscard]] bool recognisable(std::span<const std::uint8_t> frame) const override {
     return F.recognisable(frame);

@@ -307,6 +307,14 @@ bool recognisable(std::span<const std::uint8_t> frame) {
   return frame.size() >= 4 && frame[0] == kStxByte;
 }
 
+// The drive answers a telegram of process data alone (LGE 6) with process data alone, and one
+// with a parameter block with a parameter block or text (002 §7.4.6: the telegram types are
+// the master's and the reply's alike): a telegram of the other type is the master's next request,
+// whatever the order says.
+bool could_answer(std::span<const std::uint8_t> frame, std::span<const std::uint8_t> request) {
+  return (frame.size() == 8) == (request.size() == 8);
+}
+
 ProtocolDecoder::PairingKeys pairing_keys(std::span<const std::uint8_t> frame) {
   if (frame.size() < 3) return {};
   const Address a = decode_adr(frame[2]);
@@ -317,8 +325,8 @@ ProtocolDecoder::PairingKeys pairing_keys(std::span<const std::uint8_t> frame) {
 
 // In DecoderFunctions order.
 constexpr DecoderFunctions kFcFunctions{
-    protocols::danfoss_fc, make_framer,  direction_fit, always_response,
-    recognisable,          pairing_keys, dissect_fc,    read_fc_drive_records};
+    protocols::danfoss_fc, make_framer, direction_fit,         always_response, recognisable,
+    pairing_keys,          dissect_fc,  read_fc_drive_records, could_answer};
 
 }  // namespace drivetap::danfoss_fc
 

@@ -86,6 +86,10 @@ struct DriveRecords {
   // asked for, as the = line names it ("2" registers, "parameter 16-14", "index 0002").
   bool not_the_answer = false;
   std::string asked;
+  // A reply read without a request it answers (none seen, or that request's time ran out): what
+  // it says is shown, and not used, as a reply that is not the answer (set by the drive level's
+  // reader, src/drive/records.hpp, for every protocol).
+  bool request_unseen = false;
   // A reader's working storage (Modbus ASCII: the bytes its hex spells, frame and request).
   std::vector<std::uint8_t> scratch, request_scratch;
 
@@ -100,6 +104,7 @@ struct DriveRecords {
     family_protocol = false;
     not_the_answer = false;
     asked.clear();
+    request_unseen = false;
   }
   [[nodiscard]] std::span<const std::uint32_t> values_of(const DriveRecord& r) const {
     return std::span<const std::uint32_t>(values).subspan(r.values_at, r.values_size);

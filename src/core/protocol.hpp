@@ -74,6 +74,15 @@ class ProtocolDecoder {
   [[nodiscard]] virtual DirectionFit direction_fit(std::span<const std::uint8_t> frame) const = 0;
   // True when the frame can only be a reply (e.g. a Modbus exception).
   [[nodiscard]] virtual bool always_response(std::span<const std::uint8_t> frame) const = 0;
+  // False when `frame`, whose layout fits both directions, cannot be the reply to `request`
+  // (Danfoss FC: a drive answers in its request's telegram type, process data alone or with a
+  // parameter block): order alone would take it for the awaited reply.
+  [[nodiscard]] virtual bool could_answer(std::span<const std::uint8_t> frame,
+                                          std::span<const std::uint8_t> request) const {
+    (void)frame;
+    (void)request;
+    return true;
+  }
   // False when the frame looks like garbage rather than a telegram of this protocol: with no
   // layout fitting either direction, such a frame gets direction `unknown` and is not paired.
   [[nodiscard]] virtual bool recognisable(std::span<const std::uint8_t> frame) const = 0;

@@ -580,10 +580,10 @@ void read_for_drive_into(const DriveProfile& p, const TelegramHead& m, const Dri
   const std::size_t lead = line.size();
   read_records(p, m.direction, records, wants, line, out.observed);
   // A telegram whose checksum or plausibility fails says nothing reliable, nor does a reply that
-  // is not the answer to its request: what it would mean is shown, marked, and observes nothing
-  // (no drive value, state or event comes of it).
+  // is not the answer to its request or answers none seen: what it would mean is shown, marked,
+  // and observes nothing (no drive value, state or event comes of it).
   const bool damaged = !good_telegram(m);
-  const bool unused = damaged || records.not_the_answer;
+  const bool unused = damaged || records.not_the_answer || records.request_unseen;
   if (unused) out.observed.clear();
   std::string& text = out.text;
   text.clear();
@@ -593,6 +593,8 @@ void read_for_drive_into(const DriveProfile& p, const TelegramHead& m, const Dri
   text.append(line.data(), line.size());
   if (damaged) {
     text.insert(after_lead, "damaged telegram, not used: ");
+  } else if (records.request_unseen) {
+    text.insert(after_lead, "no request seen, not used: ");
   } else if (unused) {
     text.insert(after_lead,
                 fmt::format(FMT_COMPILE("not the answer to its request ({} asked for), not used: "),

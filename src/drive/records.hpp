@@ -25,6 +25,7 @@ class DriveRecordReader {
       decoder_->read_drive_records(telegram, request, records_);
     else
       records_.clear();
+    records_.request_unseen = telegram.direction == Direction::response && request.empty();
     return records_;
   }
   [[nodiscard]] const DriveRecords& records() const { return records_; }

@@ -685,8 +685,12 @@ inline Direction Pipeline::decide_direction(const ProtocolDecoder& decoder, Time
   const DirectionFit fit = precheck ? precheck->fit : decoder.direction_fit(bytes);
   if (fit.request != fit.response) return fit.request ? Direction::request : Direction::response;
   // Both layouts fit (echo replies, acknowledgements of the same size) or neither does: order
-  // decides — a reply is what a pending request of the same station and function awaits.
-  if (pairer_.awaiting_reply(link, address, function, start)) return Direction::response;
+  // decides — a reply is what a pending request of the same station and function awaits, and
+  // could answer.
+  if (const std::span<const std::uint8_t> awaited =
+          pairer_.awaited_request(link, address, function, start);
+      !awaited.empty() && decoder.could_answer(bytes, awaited))
+    return Direction::response;
   if (fit.request) return Direction::request;
   if (!decoder.recognisable(bytes)) return Direction::unknown;
   return Direction::request;
