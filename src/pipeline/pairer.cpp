@@ -24,25 +24,25 @@ int function_key(int function) {
 }
 }  // namespace
 
-bool Pairer::awaiting_reply(std::size_t link, int address, int function, TimeNs at) const {
+const Pairer::Pending* Pairer::awaited(std::size_t link, int address, int function,
+                                       TimeNs at) const {
   for (std::size_t i = 0; i < live_; ++i) {
     const Pending& p = slots_[i];
     if (p.link == link && p.address == address && p.function == function_key(function) &&
         at - p.end <= options_.timeout)
-      return true;
+      return &p;
   }
-  return false;
+  return nullptr;
+}
+
+bool Pairer::awaiting_reply(std::size_t link, int address, int function, TimeNs at) const {
+  return awaited(link, address, function, at) != nullptr;
 }
 
 std::span<const std::uint8_t> Pairer::awaited_request(std::size_t link, int address, int function,
                                                       TimeNs at) const {
-  for (std::size_t i = 0; i < live_; ++i) {
-    const Pending& p = slots_[i];
-    if (p.link == link && p.address == address && p.function == function_key(function) &&
-        at - p.end <= options_.timeout)
-      return p.bytes;
-  }
-  return {};
+  const Pending* p = awaited(link, address, function, at);
+  return p ? std::span<const std::uint8_t>(p->bytes) : std::span<const std::uint8_t>();
 }
 
 template <class Drop>

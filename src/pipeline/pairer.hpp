@@ -80,6 +80,9 @@ class Pairer {
     Protocol protocol;
     std::vector<std::uint8_t> bytes;  // the request itself: replies are read in its light
   };
+  // The request from `address`/`function` on `link` still waiting at `at`; null when none.
+  [[nodiscard]] const Pending* awaited(std::size_t link, int address, int function,
+                                       TimeNs at) const;
   void close_unanswered(const Pending& p, std::string detail, std::vector<Transaction>& out,
                         Outcome outcome = Outcome::timeout);
   void expire_some(TimeNs now, std::vector<Transaction>& out);  // expire(), the first is due
