@@ -306,6 +306,21 @@ def check_data():
         check(len([d for d in data["drives"] if d["addr"] == 2]) == 2,
               "four captures: the two files' drive 2 are not two drives")
 
+        # Each capture diagnosed alone: a healthy session and one with gaps inside its frames get
+        # what `drivetap diagnose -T json` says of each file alone, not one verdict over both.
+        files = [a, os.path.join(root, "captures", "gap-inside-frame", "input.log"), copy]
+        page = os.path.join(tmp, "diagnoses.html")
+        out = run(["report", *files, "-o", page])
+        check(out.returncode == 0, f"diagnoses: exit {out.returncode} {out.stderr}")
+        data, _ = page_data(page)
+        got = [(d["capture"], d["line"], [(v["id"], v["evidence"]) for v in d["verdicts"]]) for d in data["diagnosis"]]
+        want = []
+        for i, f in enumerate(files):
+            alone = json.loads(run(["diagnose", f, "-T", "json"]).stdout)
+            want.append((i, alone["line"], [(v["id"], v["evidence"]) for v in alone["verdicts"]]))
+        check(got == want, f"diagnoses: the page's {got}, each file's diagnose {want}")
+        check(got[0][2] != got[1][2], "diagnoses: the two files' verdicts are alike: the test proves nothing")
+
         # 63 232 stations (256 buses x 247 addresses): the page keeps the 64 busiest stations' rows and
         # sums the rest in one, the 48 busiest latency charts, the 16 busiest channels' load, the
         # first 128 drives; every request is still counted once.

@@ -62,10 +62,11 @@ class DiagnosisWithoutDetail final : public ForwardingSink {
   }
 };
 
-// The verdicts as the page shows them.
-std::string verdicts_json(const LineEvidence& e, const std::vector<Verdict>& verdicts) {
-  std::string out = fmt::format(R"({{"line":{},"source":"{}","verdicts":[)", json_quote(e.settings),
-                                e.from_samples ? "samples" : "bytes");
+// One capture's verdicts as the page shows them.
+std::string verdicts_json(std::size_t capture, const LineEvidence& e,
+                          const std::vector<Verdict>& verdicts) {
+  std::string out = fmt::format(R"({{"capture":{},"line":{},"source":"{}","verdicts":[)", capture,
+                                json_quote(e.settings), e.from_samples ? "samples" : "bytes");
   for (std::size_t i = 0; i < verdicts.size(); ++i)
     out += fmt::format(R"({}{{"id":"{}","title":{},"evidence":{},"fix":{},"benign":{}}})",
                        i ? "," : "", verdicts[i].id, json_quote(verdicts[i].title),
@@ -150,10 +151,12 @@ int run_report(const CommonOptions& o, const std::vector<std::string>& paths) {
 
   ChannelTable channels;  // one for all captures: a channel of the same name is the same line
   ReportSink report(channels);
-  LineEvidence evidence;
-  std::string settings_seen;
+  // Each capture is diagnosed alone: two files are two lines (or one line on two days), and a
+  // verdict over both would blame one for the other's faults.
+  std::string diagnoses = "[";
   TimeNs timeline_end = -1;  // the latest byte so far, on the captures' clock
   for (const std::string& path : paths) {
+    LineEvidence evidence;
     InputFile in;
     int input_fd = -1;
     std::unique_ptr<ByteSource> source = open_source(o, path, in, channels, &input_fd);
@@ -210,8 +213,8 @@ int run_report(const CommonOptions& o, const std::vector<std::string>& paths) {
     timeline_end = std::max(timeline_end, report.timeline_end());
     report.end_capture(tables.tables(true));
     add_capture_evidence(evidence, *source, p, channels, diagnosis);
-    if (settings_seen.empty()) settings_seen = evidence.settings;
-    if (evidence.settings != settings_seen) settings_seen = "per capture";
+    if (diagnoses.size() > 1) diagnoses += ',';
+    diagnoses += verdicts_json(&path - paths.data(), evidence, diagnose(evidence));
     for (const std::string& note : source->notes()) say(note);
     const std::string error = source->error();
     source.reset();
@@ -220,9 +223,8 @@ int run_report(const CommonOptions& o, const std::vector<std::string>& paths) {
     if (interrupted) die("interrupted; no page written", 130);
     if (!error.empty()) die(error, 1);
   }
-  evidence.settings = settings_seen;
-  const std::vector<Verdict> verdicts = diagnose(evidence);
-  const bool written = report.write_page(page, verdicts_json(evidence, verdicts));
+  diagnoses += ']';
+  const bool written = report.write_page(page, diagnoses);
   if (to_stdout) {
     // A reader gone (`| head`): the silent exit of a process SIGPIPE ended, as everywhere.
     if (!written || std::fflush(stdout) != 0) {

@@ -123,8 +123,8 @@ class ReportSink final : public Sink {
   [[nodiscard]] SinkNeeds needs() const override;
 
   // The page: the template (src/sinks/report_page.html) with the plotting library and the data
-  // inlined; `diagnosis_json` the diagnose verdicts (one JSON object). Returns false when a write
-  // to `out` failed.
+  // inlined; `diagnosis_json` the diagnose verdicts of each capture (a JSON array, one object a
+  // capture, in order). Returns false when a write to `out` failed.
   bool write_page(std::FILE* out, const std::string& diagnosis_json) const;
   // The page's data alone (one JSON object), as write_page() embeds it.
   [[nodiscard]] std::string data_json(const std::string& diagnosis_json) const;
