@@ -39,6 +39,9 @@ struct CaptureSink::Pending {
   std::string fields_line;  // the comment's second line (docs/formats.md "Packet comments")
   std::string_view wireshark_dissector;  // the dissector tag ("mbrtu", "danfoss_fc"), empty: none
   bool wireshark_builtin = false;        // stock Wireshark has that dissector
+  // Findings of earlier packets, held with their drive's binding and handed on while this one
+  // waited: described in its comment up to kEarlierDescribed, then counted.
+  std::uint32_t earlier_findings = 0;
 };
 
 namespace {
@@ -148,6 +151,7 @@ CaptureSink::Pending& CaptureSink::start_pending() {
   write_pending();
   if (!pending_) pending_ = std::make_unique<Pending>();
   has_pending_ = true;
+  pending_->earlier_findings = 0;
   return *pending_;
 }
 
@@ -210,7 +214,18 @@ void CaptureSink::on_noise(const Frame& f) {
 }
 
 void CaptureSink::on_anomaly(const Anomaly& a) {
-  if (!has_pending_ || a.frame_number != pending_->number) return;
+  if (!has_pending_) return;
+  if (a.address >= 0 && a.frame_number != 0 && a.frame_number < pending_->number) {
+    // Held while its drive's family was not yet sure: its own packet is written already, so the
+    // packet waiting now carries it, naming the frame it is about (pcapng has no later edit).
+    Pending& p = *pending_;
+    if (++p.earlier_findings <= kEarlierDescribed)
+      fmt::format_to(std::back_inserter(p.comment),
+                     FMT_COMPILE("; {} (#{}, held while drive {}'s family was not yet sure): {}"),
+                     anomaly_label(a.kind), a.frame_number, a.address, a.detail);
+    return;
+  }
+  if (a.frame_number != pending_->number) return;
   // A frame's own findings are in its fields line already (Message::anomalies); the others
   // (a noise record's, the conversation's) join it here.
   if (pending_->kind == FrameKind::noise || finding_known_after_frame(a.kind)) {
@@ -240,7 +255,11 @@ void CaptureSink::write_pending() {
     has_pending_ = false;
     return;
   }
-  const Pending& p = *pending_;
+  Pending& p = *pending_;
+  if (p.earlier_findings > kEarlierDescribed)
+    fmt::format_to(std::back_inserter(p.comment),
+                   FMT_COMPILE("; and {} more held findings of earlier frames"),
+                   p.earlier_findings - kEarlierDescribed);
   std::vector<std::uint8_t>& data = data_;
   data.clear();
   if (options_.link_type == CaptureLinkType::upper_pdu) {

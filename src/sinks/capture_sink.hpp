@@ -110,6 +110,7 @@ class CaptureSink final : public PacketSink {
 
  private:
   struct Pending;
+  static constexpr std::uint32_t kEarlierDescribed = 16;
   Pending& start_pending();  // writes the pending packet, then gives its storage for the next
   void write_pending();
   std::uint32_t interface_for(ChannelId channel);
