@@ -3,6 +3,8 @@
 
 #include <random>
 
+#include <fmt/format.h>
+
 #include "core/checksum.hpp"
 #include "dissectors/modbus/rtu_dissector.hpp"
 #include "dissectors/modbus/rtu_framer.hpp"
@@ -654,4 +656,68 @@ TEST(RtuDecoder, PrecheckIsWhatTheFramerAndTheSummaryFind) {
     }
   }
   EXPECT_GT(whole, 3000u);
+}
+
+// A USB adapter delivers a frame in two reads, 16 ms apart (> t3.5): every split position of a
+// request and a reply of every function code the length rules know, with a frame before and one
+// after, gives the frame whole. The silence proposes a cut there; content (the whole stretch's
+// CRC) decides. The hard positions are those where the other direction's layout would end
+// (after 8 bytes of a 0F/10 request, after 5 + byte 2 of an 01-04 request, inside a long reply).
+TEST(RtuFramer, EverySplitPositionOfEveryFunctionCodeGivesTheFrameWhole) {
+  const auto hex_of = [](const std::vector<std::uint8_t>& bytes) {
+    std::string s;
+    for (const std::uint8_t b : bytes) s += fmt::format("{:02X} ", b);
+    return s;
+  };
+  const std::vector<std::vector<std::uint8_t>> frames = {
+      with_crc({0x11, 0x01, 0x00, 0x13, 0x00, 0x25}),                    // 01 request
+      with_crc({0x11, 0x01, 0x05, 0xCD, 0x6B, 0xB2, 0x0E, 0x1B}),        // 01 reply
+      with_crc({0x11, 0x02, 0x00, 0xC4, 0x00, 0x16}),                    // 02 request
+      with_crc({0x11, 0x02, 0x03, 0xAC, 0xDB, 0x35}),                    // 02 reply
+      with_crc({0x11, 0x03, 0x00, 0x6B, 0x00, 0x03}),                    // 03 request
+      with_crc({0x11, 0x03, 0x06, 0xAE, 0x41, 0x56, 0x52, 0x43, 0x40}),  // 03 reply
+      with_crc({0x11, 0x03, 0x02, 0x00, 0x07}),                          // 03 reply, 1 register
+      with_crc({0x01, 0x03, 0x01, 0x00, 0x00, 0x02}),                    // 03 request, byte 2 = 1
+      with_crc({0x01, 0x04, 0x03, 0x00, 0x00, 0x08}),                    // 04 request, byte 2 = 3
+      with_crc({0x01, 0x04, 0x10, 0x00, 0x01, 0x00, 0x02, 0x00, 0x03, 0x00, 0x04, 0x00, 0x05, 0x00,
+                0x06, 0x00, 0x07, 0x00, 0x08}),  // 04 reply, 8 registers
+      with_crc({0x11, 0x05, 0x00, 0xAC, 0xFF, 0x00}),                    // 05 request = reply
+      with_crc({0x11, 0x06, 0x00, 0x01, 0x00, 0x03}),                    // 06 request = reply
+      with_crc({0x11, 0x08, 0x00, 0x00, 0xA5, 0x37}),                    // 08 echo
+      with_crc({0x11, 0x0F, 0x00, 0x13, 0x00, 0x0A, 0x02, 0xCD, 0x01}),  // 0F request
+      with_crc({0x11, 0x0F, 0x00, 0x13, 0x00, 0x0A}),                    // 0F reply
+      with_crc({0x11, 0x10, 0x00, 0x01, 0x00, 0x02, 0x04, 0x00, 0x0A, 0x01, 0x02}),  // 10 request
+      with_crc({0x11, 0x10, 0x00, 0x01, 0x00, 0x02}),                                // 10 reply
+      with_crc({0x11, 0x17, 0x00, 0x03, 0x00, 0x06, 0x00, 0x0E, 0x00, 0x03, 0x06, 0x00, 0xFF, 0x00,
+                0xFF, 0x00, 0xFF}),                                        // 17 request
+      with_crc({0x11, 0x17, 0x0C, 0x00, 0xFE, 0x0A, 0xCD, 0x00, 0x01, 0x00, 0x03, 0x00, 0x0D, 0x00,
+                0xFF}),                                                    // 17 reply
+      with_crc({0x11, 0x83, 0x02}),                                        // exception
+  };
+  const std::vector<std::uint8_t> before = with_crc({0x05, 0x06, 0x00, 0x10, 0x12, 0x34});
+  const std::vector<std::uint8_t> after = with_crc({0x05, 0x03, 0x00, 0x10, 0x00, 0x01});
+  int cases = 0;
+  for (const auto& frame : frames) {
+    for (std::size_t k = 1; k < frame.size(); ++k) {
+      SCOPED_TRACE(::testing::Message() << "frame " << hex_of(frame) << " split after " << k);
+      Feed f;
+      f.bytes(before, 0);
+      f.silence(30 * kNsPerMs);
+      f.bytes({frame.begin(), frame.begin() + static_cast<std::ptrdiff_t>(k)});
+      f.silence(16 * kNsPerMs);
+      f.bytes({frame.begin() + static_cast<std::ptrdiff_t>(k), frame.end()});
+      f.silence(30 * kNsPerMs);
+      f.bytes(after);
+      f.silence(30 * kNsPerMs);
+      f.finish();
+      ++cases;
+      EXPECT_EQ(f.out.size(), 3u);
+      if (f.out.size() != 3u) continue;
+      EXPECT_EQ(f.bytes_of(0), before);
+      EXPECT_EQ(f.bytes_of(1), frame);
+      EXPECT_EQ(f.out[1].kind, FrameKind::telegram);
+      EXPECT_EQ(f.bytes_of(2), after);
+    }
+  }
+  EXPECT_GT(cases, 180);
 }

@@ -13,7 +13,8 @@
 //   2. A run of bytes between two silences > t3.5 ("timing chunk") whose CRC is good, whatever
 //      its function code.
 //   3. An incomplete frame at the end of the bytes seen so far is held for the next bytes
-//      (up to max_hold) instead of being closed at a silence.
+//      (up to max_hold) instead of being closed at a silence; also one whose other layout ends
+//      at the silence with a bad CRC (a reply cut where a request would end).
 //   4. A predicted length with a bad CRC, when the frame ends exactly at a silence (> t1.5) or
 //      right where a good frame begins.
 //   5. Bytes before the next good frame inside a timing chunk are noise.

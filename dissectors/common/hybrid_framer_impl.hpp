@@ -341,12 +341,14 @@ void HybridFramer<Rules>::process(Mode mode, TimeNs now, FrameBatch& out) {
     std::size_t lengths[2];
     bool needs_more = false;
     predicted_lengths(p, n, lengths, &needs_more);
-    const bool length_fits_chunk = (lengths[0] != 0 && p + lengths[0] == chunk_end) ||
-                                   (lengths[1] != 0 && p + lengths[1] == chunk_end);
-    // 3. An incomplete frame at the end: wait for the rest (split by adapter latency).
-    if (may_hold && needs_more && chunk_end == n && !length_fits_chunk &&
-        n - p < rules_.max_frame() && looks_like_frame_start(p) &&
-        now - pending_.time(p) <= options_.max_hold && first_good_start(p + 1, n) == n) {
+    // 3. An incomplete frame at the end: wait for the rest (split by adapter latency). Also when
+    //    one layout ends right at the silence: its checksum failed (rule 1), and the other
+    //    layout's longer frame may be what the rest of the read completes (a reply cut where a
+    //    request would end). Silence proposes, content decides: a bad frame of the layout that
+    //    fits is still cut there (rule 4) when the rest does not make a good one.
+    if (may_hold && needs_more && chunk_end == n && n - p < rules_.max_frame() &&
+        looks_like_frame_start(p) && now - pending_.time(p) <= options_.max_hold &&
+        first_good_start(p + 1, n) == n) {
       break;
     }
     // 3b. Unknown layout inside a burst: the first checksum match that a good frame follows.
