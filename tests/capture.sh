@@ -116,8 +116,20 @@ check fast
 # Bytes delivered every 16 ms, as through an FTDI adapter: no gap is visible, content frames.
 run burst "115200 8N1" --frames 120 --burst 16
 check burst
-grep -q "^source: .*\(timing trusted: no\|USB burst\)" "$tmp/burst.txt" ||
+grep -q "^source: .*timing not trusted: USB burst artefacts" "$tmp/burst.txt" ||
   fail "burst: no USB burst verdict in the summary"
+# Timing not trusted: from the verdict on, no latency is printed and no silence rule judged
+# (the few telegrams before it may still show theirs).
+grep -q "^timing: *not trusted" "$tmp/burst.txt" || fail "burst: no 'timing: not trusted' line"
+grep -q "timing not trusted: .*; from here on no latency or silence rule is judged" "$tmp/burst.err" ||
+  fail "burst: no warning when timing stopped being trusted: $(head -3 "$tmp/burst.err")"
+measured=$(grep -c "reply to #[0-9]* in [0-9.]* ms" "$tmp/burst.txt")
+hidden=$(grep -c "latency hidden: timing not trusted" "$tmp/burst.txt")
+[ "$hidden" -ge 30 ] && [ "$measured" -le 5 ] ||
+  fail "burst: $measured latencies printed, $hidden hidden for untrusted timing"
+grep -q "^anomalies:.*\(intra_frame_gap\|short_interframe_gap\)" "$tmp/burst.txt" &&
+  [ "$(grep -c "gap inside frame\|silence before frame" "$tmp/burst.txt")" -gt 5 ] &&
+  fail "burst: silence findings judged on untrusted timing"
 grep -q "^source: .*kernel counters\|^source: .*TIOCGICOUNT" "$tmp/slow.txt" ||
   fail "slow: no kernel counter line in the summary"
 run noisy "19200 8E1" --frames 80 --noise 0.3

@@ -13,6 +13,7 @@
 #include "generate/traffic.hpp"
 #include "sinks/json_sink.hpp"
 #include "sinks/text_sink.hpp"
+#include "sinks/text_sink.hpp"
 #include "sinks/threaded_sink.hpp"
 #include "test_support.hpp"
 
@@ -73,6 +74,44 @@ TEST(Pipeline, PairsReadWithLatency) {
   EXPECT_EQ(b.sink.frames[1].latency, 5 * kNsPerMs);
   EXPECT_EQ(b.sink.frames[1].request_number, 1u);
   EXPECT_EQ(b.sink.summaries, 1);
+}
+
+// A source that finds its times carry no inter-frame silence (a USB adapter's bursts:
+// SerialPort::timing_trusted()) distrusts its channel: from then on no latency is measured, no
+// t1.5 or t3.5 finding made, and the summary counts what was not judged. The same traffic with
+// trusted times has both (the test's own control).
+TEST(Pipeline, DistrustedSilencesMeasureNoLatencyAndJudgeNoSilenceRule) {
+  for (const bool distrust : {false, true}) {
+    SCOPED_TRACE(distrust ? "distrusted" : "trusted");
+    Bus b("19200 8E1");
+    if (distrust) b.pipeline->distrust_silences(0);
+    b.send(kReadReq, 1 * b.ct);  // t3.5 broken before the reply
+    // A reply with a gap of 5 characters inside it (t1.5 broken)
+    b.send({kReadRsp.begin(), kReadRsp.begin() + 3}, 5 * b.ct);
+    b.send({kReadRsp.begin() + 3, kReadRsp.end()}, 30 * kNsPerMs);
+    b.send(kReadReq, 4 * kNsPerMs);
+    b.send(kReadRsp);
+    b.finish();
+    ASSERT_EQ(b.sink.frames.size(), 4u);
+    ASSERT_EQ(b.sink.count(Outcome::ok), 2u);
+    const std::size_t gaps = distrust ? 0 : 1;
+    EXPECT_EQ(b.sink.summary.anomalies[static_cast<int>(AnomalyKind::intra_frame_gap)], gaps);
+    EXPECT_EQ(b.sink.summary.anomalies[static_cast<int>(AnomalyKind::short_interframe_gap)], gaps);
+    for (const Transaction& t : b.sink.transactions) {
+      EXPECT_EQ(t.latency < 0, distrust);
+      if (distrust) {
+        EXPECT_EQ(t.detail, "latency hidden: timing not trusted");
+      }
+    }
+    EXPECT_EQ(b.sink.frames[3].latency < 0, distrust);
+    EXPECT_EQ(b.sink.frames[3].silences_trusted, !distrust);
+    EXPECT_EQ(b.sink.summary.latency_count, distrust ? 0u : 2u);
+    EXPECT_EQ(b.sink.summary.silences_unjudged, distrust ? 4u : 0u);
+    EXPECT_EQ(b.sink.summary.latencies_unjudged, distrust ? 2u : 0u);
+    EXPECT_EQ(frame_summary(b.sink.frames[3], true).find("(latency hidden: timing not trusted)") !=
+                  std::string::npos,
+              distrust);
+  }
 }
 
 TEST(Pipeline, EchoReplyOfWriteIsTakenAsResponseByOrder) {

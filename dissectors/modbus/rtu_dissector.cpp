@@ -109,7 +109,7 @@ void dissect_rtu_into(Message& m, Frame&& frame, Direction direction, const Fram
   add_checksum_anomaly(m);
   if (!known_plausible)
     add_implausible(m, kFindingRtuImplausible, rtu_plausibility(bytes, direction, true));
-  if (m.frame.max_intra_gap > timing.t15) {
+  if (timing.silences_trusted && m.frame.max_intra_gap > timing.t15) {
     const std::size_t at = m.frame.max_intra_gap_at;
     // At the byte after the silence, not the frame's start.
     m.anomalies.push_back({kFindingRtuIntraFrameGap.kind, m.frame.events[at].time, ch, 0,
@@ -118,7 +118,7 @@ void dissect_rtu_into(Message& m, Frame&& frame, Direction direction, const Fram
                                in_characters(timing.t15, timing.character_time)),
                            &kFindingRtuIntraFrameGap});
   }
-  if (m.frame.gap_before > 0 && m.frame.gap_before < timing.t35) {
+  if (timing.silences_trusted && m.frame.gap_before > 0 && m.frame.gap_before < timing.t35) {
     add_finding(m, kFindingRtuShortInterframeGap,
                 in_characters(m.frame.gap_before, timing.character_time),
                 in_characters(timing.t35, timing.character_time));
@@ -180,9 +180,11 @@ bool RtuDecoder::dissect(TelegramView& t, Direction direction, const FramingTimi
   if (head->verdict == ChecksumVerdict::bad) found_one(AnomalyKind::checksum_bad);
   if (head->verdict == ChecksumVerdict::swapped) found_one(AnomalyKind::checksum_swapped);
   if (!rtu_plausibility(bytes, direction, false).ok()) found_one(AnomalyKind::implausible);
-  if (frame_timing.max_intra_gap > timing.t15) found_one(AnomalyKind::intra_frame_gap);
-  if (frame_timing.gap_before > 0 && frame_timing.gap_before < timing.t35)
-    found_one(AnomalyKind::short_interframe_gap);
+  if (timing.silences_trusted) {
+    if (frame_timing.max_intra_gap > timing.t15) found_one(AnomalyKind::intra_frame_gap);
+    if (frame_timing.gap_before > 0 && frame_timing.gap_before < timing.t35)
+      found_one(AnomalyKind::short_interframe_gap);
+  }
   return false;
 }
 

@@ -58,6 +58,9 @@ struct Message {
   // unpaired or not measurable (no silence visible before the reply).
   TimeNs latency = -1;
   std::uint64_t request_number = 0;  // frame number of the paired request
+  // False where the source found that the capture's times carry no inter-frame silence
+  // (FramingTiming::silences_trusted): the latency is hidden for that reason.
+  bool silences_trusted = true;
   // False when the run prints no per-frame decode (`read --stats`): `fields` and `info` stay
   // empty; keys, direction, checksum verdict and anomalies are those of a full decode.
   bool detail = true;
@@ -165,6 +168,7 @@ inline void begin_message(Message& m, Frame&& frame, Protocol protocol, Directio
   m.anomalies.clear();
   m.latency = -1;
   m.request_number = 0;
+  m.silences_trusted = true;
 }
 
 // Puts the finding for a bad or byte-swapped checksum first among the message's anomalies:

@@ -60,6 +60,9 @@ struct FramingTiming {
   TimeNs t15 = 0;
   TimeNs t35 = 0;
   TimeNs character_time = 0;
+  // False where the capture's times carry no inter-frame silence (a USB adapter's bursts, found
+  // by the source): no silence rule (t1.5, t3.5) is judged and no latency measured.
+  bool silences_trusted = true;
 
   static FramingTiming from(const SerialConfig& serial) {
     return {serial.t15(), serial.t35(), serial.character_time()};

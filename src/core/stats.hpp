@@ -48,6 +48,11 @@ struct Stats {
   // What the source says about itself at the end (a serial port's kernel error counters, its
   // USB burst verdict): one line each, shown in the summary; empty for files.
   std::vector<std::string> source_notes;
+  // Telegrams on channels whose times the source found carry no inter-frame silence (USB bursts,
+  // Pipeline::distrust_silences()): their silence rules (t1.5, t3.5, the drives' timing rules)
+  // not judged, and of them the replies whose latency is hidden for it.
+  std::uint64_t silences_unjudged = 0;
+  std::uint64_t latencies_unjudged = 0;
   // Bytes of IP flows with no drive protocol, left out of the decode (in no frame or noise).
   std::uint64_t left_out_bytes = 0;
   // With a display filter (-Y): its text, and how many of the frame and noise records it

@@ -89,6 +89,7 @@ PairingInput pairing_input(const Message& m) {
   in.function = m.function;
   in.is_exception = m.is_exception;
   in.exception_code = m.exception_code;
+  in.silences_trusted = m.silences_trusted;
   return in;
 }
 
@@ -164,7 +165,10 @@ PairingResult Pairer::add(std::size_t link, const PairingInput& m, std::vector<T
     const Pending& request = slots_[match];
     // With no silence visible before the reply (bytes stamped per adapter read), the latency is
     // not measurable: report the pairing without a number rather than a false 0 ms.
-    const TimeNs latency = (m.gap_before == 0 || start < request.end) ? -1 : start - request.end;
+    // Times that carry no silence at all (USB bursts) measure none either.
+    const TimeNs latency = (!m.silences_trusted || m.gap_before == 0 || start < request.end)
+                               ? -1
+                               : start - request.end;
     const PairingResult found{true, request.number, latency};
     const ChannelId channel = request.channel;
     const TimeNs request_time = request.start;
@@ -188,7 +192,9 @@ PairingResult Pairer::add(std::size_t link, const PairingInput& m, std::vector<T
     t.request_number = found.request_number;
     t.request_time = request_time;
     t.latency = latency;
-    if (latency < 0) t.detail = "latency hidden: no silence visible before the reply";
+    if (latency < 0)
+      t.detail = m.silences_trusted ? "latency hidden: no silence visible before the reply"
+                                    : "latency hidden: timing not trusted";
     return found;
   }
   Transaction& t = transaction();

@@ -33,7 +33,9 @@ struct PairerOptions {
 // function. A Message holds it all (pairing_input()); a telegram dissected to its head only
 // (DissectDepth::head) has it from its TelegramFindings. Pairing reads the head's checksum verdict
 // (a reply with a bad one is `bad_reply`), not its latency.
-struct PairingInput : TelegramHead, TelegramFunction {};
+struct PairingInput : TelegramHead, TelegramFunction {
+  bool silences_trusted = true;  // false: the latency is not measured (Message::silences_trusted)
+};
 PairingInput pairing_input(const Message& m);
 
 // What pairing found for a response: the request it answers and the latency (-1 when hidden).

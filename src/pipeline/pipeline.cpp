@@ -113,6 +113,8 @@ struct Pipeline::ChannelState {
   // Detection found no drive protocol on this serial line: its bytes, still cut by silence, are
   // noise records (raw data), never telegrams of a protocol they are not (no pairing, no drive).
   bool no_protocol = false;
+  // The source found that this channel's times carry no inter-frame silence (distrust_silences()).
+  bool silences_trusted = true;
   std::uint64_t left_out_bytes = 0;
 };
 
@@ -135,6 +137,8 @@ Pipeline::Pipeline(PipelineOptions options, const ChannelTable& channels, Sink& 
   hand_over_drive_values_ = needs.drive_values;
   drive_values_at_hand_over_ = needs.drive_values && needs.drive_values_at_hand_over;
   drive_level_ = !options_.drives.empty() || !options_.auto_candidates.empty();
+  untrusted_timing_ = options_.timing;
+  untrusted_timing_.silences_trusted = false;
   // With drive profiles, a sink that takes records must write their annotation itself
   // (defer_drive_info_): only the observation is made here. (Without detail, a Message still
   // carries the text an observation makes of an exception reply.)
@@ -148,6 +152,10 @@ Pipeline::Pipeline(PipelineOptions options, const ChannelTable& channels, Sink& 
 }
 
 Pipeline::~Pipeline() = default;
+
+void Pipeline::distrust_silences(ChannelId channel) {
+  state_for(channel).silences_trusted = false;
+}
 
 Pipeline::ChannelState& Pipeline::state_for(ChannelId id) {
   while (states_.size() <= id) {
@@ -699,6 +707,9 @@ inline Direction Pipeline::decide_direction(const ProtocolDecoder& decoder, Time
 void Pipeline::check_drive_timing(const TelegramHead& m, const DriveProfile& p,
                                   std::vector<Anomaly>& found, bool described) {
   if (m.bytes.empty() || !options_.clocked) return;  // (synthetic times break no rule)
+  // Times that carry no silence (USB bursts) judge no timing rule.
+  if (m.channel < states_.size() && states_[m.channel] && !states_[m.channel]->silences_trusted)
+    return;
   const TimeNs char_time = options_.timing.character_time;
   // A finding; its text (`describe()`, with the rule's source, "ERMAN E-9P/9G, 000 §5.2") only
   // when `described`: a run that shows no anomaly counts it by its kind.
@@ -908,9 +919,11 @@ void Pipeline::handle_telegram(TelegramView& t, const ProtocolDecoder& decoder, 
   Message& m = message_;
   TelegramFindings found;
   PairingInput in;
-  const bool detailed = decoder.dissect(t, dir, options_.timing, request, depth, m, &found);
+  const FramingTiming& timing = st.silences_trusted ? options_.timing : untrusted_timing_;
+  const bool detailed = decoder.dissect(t, dir, timing, request, depth, m, &found);
   if (detailed) {
     m.frame.number = number;
+    m.silences_trusted = st.silences_trusted;
     in = pairing_input(m);
   } else {
     // The telegram's head (for pairing and the drive level) and function, from its findings.
@@ -927,7 +940,9 @@ void Pipeline::handle_telegram(TelegramView& t, const ProtocolDecoder& decoder, 
     in.last_byte = whole ? t.run.time(t.run.size() - 1) : t.frame->events.back_time();
     in.gap_before = whole ? t.taken.timing.gap_before : t.frame->gap_before;
     in.bytes = bytes;
+    in.silences_trusted = st.silences_trusted;
   }
+  if (!st.silences_trusted) ++stats_.silences_unjudged;
   // Drive level: the station's profile (bound on the command line or guessed from its traffic),
   // what the telegram means to it, and the state changes it shows. Its drive records are read at
   // most once, by the first of the binder and the annotation to ask for them.
@@ -966,6 +981,7 @@ void Pipeline::handle_telegram(TelegramView& t, const ProtocolDecoder& decoder, 
   // deferred hand-over below reads it there.)
   const PairingResult paired = pairer_.add(link, in, transactions_);
   if (paired.paired) {
+    if (!st.silences_trusted) ++stats_.latencies_unjudged;
     in.latency = paired.latency;
     if (detailed) {
       m.latency = paired.latency;
@@ -1007,7 +1023,7 @@ void Pipeline::handle_telegram(TelegramView& t, const ProtocolDecoder& decoder, 
       // What the sink decodes, with what only the pipeline knows.
       DeferredTelegram telegram;
       telegram.decoder = &decoder;
-      telegram.timing = options_.timing;
+      telegram.timing = timing;
       telegram.run = t.run;
       telegram.taken = t.taken;
       telegram.number = number;

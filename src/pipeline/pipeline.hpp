@@ -74,6 +74,10 @@ class Pipeline {
   [[nodiscard]] TimeNs next_deadline() const { return earliest_deadline_; }
   // A line about the source for the summary (before finish()).
   void add_source_note(std::string note) { stats_.source_notes.push_back(std::move(note)); }
+  // The source found that `channel`'s times carry no inter-frame silence (a USB adapter's bursts:
+  // SerialPort::timing_trusted()): from its next telegram on, no latency is measured and no
+  // silence rule (t1.5, t3.5, a drive's timing rule) judged; the summary counts them.
+  void distrust_silences(ChannelId channel);
   // Closes everything pending and emits the summary. Idempotent. `cut_partial` false: bytes of
   // a frame not closed yet are dropped, not emitted as a cut frame (a capture told to stop
   // after N frames).
@@ -192,6 +196,7 @@ class Pipeline {
   void emit_anomaly(const Anomaly& a);
 
   PipelineOptions options_;
+  FramingTiming untrusted_timing_;  // options_.timing without silences (distrust_silences())
   const ChannelTable& channels_;
   Sink& sink_;
   Pairer pairer_;

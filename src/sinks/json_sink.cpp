@@ -564,7 +564,7 @@ void JsonSink::on_frame(const Message& m) {
     line += ",\"request_n\":"sv;
     append_uint(line, m.request_number);
   }
-  if (m.frame.gap_before >= 0 && show_latency_) {
+  if (m.frame.gap_before >= 0 && show_latency_ && m.silences_trusted) {
     line += ",\"gap_before_ms\":"sv;
     append_ms(line, m.frame.gap_before);
   }
@@ -714,6 +714,12 @@ void JsonSink::on_summary(const Stats& s) {
         json_quote(d.binding), json_quote(d.state), d.events);
   }
   line += "]"sv;
+  if (s.silences_unjudged > 0) {
+    line += ",\"silences_unjudged\":"sv;
+    append_uint(line, s.silences_unjudged);
+    line += ",\"latencies_unjudged\":"sv;
+    append_uint(line, s.latencies_unjudged);
+  }
   if (!s.source_notes.empty()) {
     line += ",\"source_notes\":["sv;
     for (std::size_t i = 0; i < s.source_notes.size(); ++i) {

@@ -103,6 +103,7 @@ struct DeferredTelegram {
     out.frame.number = number;
     out.latency = latency;
     out.request_number = request_number;
+    out.silences_trusted = timing.silences_trusted;
     for (Anomaly& a : out.anomalies) a.frame_number = number;
     if (!anomalies.empty())
       out.anomalies.insert(out.anomalies.end(), anomalies.begin(), anomalies.end());

@@ -82,7 +82,8 @@ void append_frame_summary(Out& out, const Message& m, bool with_latency) {
       append_ms(out, m.latency);
       out += " ms";
     } else {
-      out += " (latency hidden: no silence before it)";
+      out += m.silences_trusted ? " (latency hidden: no silence before it)"
+                                : " (latency hidden: timing not trusted)";
     }
   }
 }
@@ -413,6 +414,13 @@ void TextSink::on_summary(const Stats& s) {
   lines_.write(an);
   for (const std::string& note : s.source_notes)
     lines_.write(fmt::format(FMT_COMPILE("source:       {}"), note));
+  if (s.silences_unjudged > 0)
+    lines_.write(fmt::format(
+        FMT_COMPILE("timing:       not trusted (the times carry no inter-frame silence): {} "
+                    "telegram{} not judged by t1.5, t3.5 or a drive's timing rule, {} reply "
+                    "latenc{} hidden"),
+        s.silences_unjudged, s.silences_unjudged == 1 ? "" : "s", s.latencies_unjudged,
+        s.latencies_unjudged == 1 ? "y" : "ies"));
   if (!s.display_filter.empty()) {
     std::string line = fmt::format(FMT_COMPILE("filter:       -Y '{}' matched {} of {} frames"),
                                    s.display_filter, s.filter_matched, s.filter_records);

@@ -44,6 +44,7 @@ LiveCaptureEnd LiveCapture::run(Pipeline& pipeline, const LiveCaptureHooks& hook
   std::size_t sorted_pending = 0;  // pending[0, sorted_pending) is in time order
   std::vector<ByteEvent> fresh;
   std::vector<bool> said_too_fast(ports_.size(), false);
+  std::vector<bool> distrusted(ports_.size(), false);
   auto limit_reached = [&] { return max_frames > 0 && pipeline.stats().frames >= max_frames; };
   LiveCaptureEnd end = LiveCaptureEnd::stopped;
   while (!stop) {
@@ -96,6 +97,16 @@ LiveCaptureEnd LiveCapture::run(Pipeline& pipeline, const LiveCaptureHooks& hook
                           "or a pty or network port; they keep their arrival order, their "
                           "times do not follow the line",
                           names[k].substr(0, names[k].find('=')), options_.serial.to_string()));
+      }
+      if (!distrusted[k] && !ports_[k]->timing_trusted()) {
+        // From here on the port's bytes carry no silence: latencies and silence rules would
+        // measure the adapter, not the bus (the bytes still held below follow the same rule).
+        distrusted[k] = true;
+        pipeline.distrust_silences(ports_[k]->channel());
+        if (hooks.warn)
+          hooks.warn(fmt::format("{}: {}; from here on no latency or silence rule is judged",
+                                 names[k].substr(0, names[k].find('=')),
+                                 ports_[k]->timing_verdict()));
       }
       if (!alive) {
         hooks.port_lost(ports_[k]->error());

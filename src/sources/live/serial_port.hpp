@@ -212,6 +212,7 @@ class SerialPort {
   // False once the read pattern shows USB burst artefacts (ReadPatternMonitor): per-byte times
   // then carry no inter-frame silence and framing must rely on content.
   [[nodiscard]] bool timing_trusted() const { return monitor_.timing_trusted(); }
+  [[nodiscard]] std::string timing_verdict() const { return monitor_.verdict(); }
   // Bytes have come faster than the line settings can carry (ByteTimeBackdater).
   [[nodiscard]] bool line_rate_exceeded() const { return backdater_.overrun_reads() > 0; }
 
