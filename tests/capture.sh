@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # Integration tests of `drivetap capture` on the simulated bus (tools/drivetap-simbus: Modbus RTU
 # written to a pseudo-terminal at the true character timing): every frame arrives, framed and
-# paired, at 9600 and 115200 baud, with clean gaps, with USB-like bursts that hide every gap, and
+# paired, at 9600 and 115200 baud, with clean gaps, with USB-like bursts that hide every gap (no
+# latency or silence rule judged once the timing is distrusted), read with a wrong -s (the rate
+# the arrivals imply named), and
 # with noise; SIGINT mid-run and an adapter that disappears leave a pcapng that tshark reads to
 # the end with the frame count of the summary; -c stops after N frames.
 # Usage: tests/capture.sh DRIVETAP SIMBUS
@@ -130,6 +132,16 @@ hidden=$(grep -c "latency hidden: timing not trusted" "$tmp/burst.txt")
 grep -q "^anomalies:.*\(intra_frame_gap\|short_interframe_gap\)" "$tmp/burst.txt" &&
   [ "$(grep -c "gap inside frame\|silence before frame" "$tmp/burst.txt")" -gt 5 ] &&
   fail "burst: silence findings judged on untrusted timing"
+# A wrong -s whose bytes arrive intact (19200 8E1 read as 9600 8E1 on a pty, which keeps no line
+# pace): the arrivals name the line's rate, and its timing is not trusted.
+link="$tmp/wrong.tty"
+"${rt[@]}" "$simbus" --link "$link" --serial "19200 8E1" --wait-ms 600 --frames 60 2>/dev/null &
+for _ in $(seq 50); do [ -e "$link" ] && break; sleep 0.02; done
+"${rt[@]}" "$drivetap" capture -i "$link" -s "9600 8E1" -P rtu --drive none >"$tmp/wrong.txt" \
+  2>"$tmp/wrong.err"
+grep -q "faster than 9600 8E1 carries one (1145 us): the line runs at 19200 baud" "$tmp/wrong.err" ||
+  fail "wrong baud: no rate named: $(grep -v "^drivetap: capturing" "$tmp/wrong.err" | head -3)"
+grep -q "^timing: *not trusted" "$tmp/wrong.txt" || fail "wrong baud: timing still trusted"
 grep -q "^source: .*kernel counters\|^source: .*TIOCGICOUNT" "$tmp/slow.txt" ||
   fail "slow: no kernel counter line in the summary"
 run noisy "19200 8E1" --frames 80 --noise 0.3

@@ -367,6 +367,37 @@ TEST(ReadPatternMonitor, OneBacklogIsNotABurstPattern) {
   EXPECT_TRUE(monitor.timing_trusted()) << monitor.verdict();
 }
 
+// A 19200 8E1 bus read with -s "9600 8E1" through a port that hands each character over as it
+// comes (a pty, a native UART): every byte arrives intact, 573 us apart, where 9600 8E1 needs
+// 1146 us for one. The monitor says the line runs faster and names the rate the arrivals imply;
+// at the right setting, with the same scheduling jitter, it trusts the timing.
+TEST(ReadPatternMonitor, CharactersFasterThanTheConfiguredRateAreNamedWithTheirRate) {
+  for (const char* given : {"9600 8E1", "19200 8E1"}) {
+    SCOPED_TRACE(given);
+    const SerialConfig serial = config(given);
+    const TimeNs wire = config("19200 8E1").character_time();  // 573 us
+    ReadPatternMonitor monitor(serial);
+    std::mt19937 rng(5);
+    std::uniform_int_distribution<int> jitter_us(-60, 60);
+    TimeNs t = kStart;
+    for (int poll = 0; poll < 20; ++poll) {
+      t += 50 * kNsPerMs;
+      for (int k = 0; k < 8; ++k) {
+        t += wire;
+        monitor.add_read(t + jitter_us(rng) * kNsPerUs, 1);
+      }
+    }
+    const bool wrong = std::string(given) == "9600 8E1";
+    EXPECT_EQ(monitor.timing_trusted(), !wrong) << monitor.verdict();
+    if (wrong) {
+      EXPECT_TRUE(HasSub(monitor.verdict(), "faster than 9600 8E1 carries one (1145 us)"))
+          << monitor.verdict();
+      EXPECT_TRUE(HasSub(monitor.verdict(), "the line runs at 19200 baud (11 bits a character)"))
+          << monitor.verdict();
+    }
+  }
+}
+
 // --- open() errors -------------------------------------------------------------------------
 
 class TempDir {

@@ -416,9 +416,8 @@ void TextSink::on_summary(const Stats& s) {
     lines_.write(fmt::format(FMT_COMPILE("source:       {}"), note));
   if (s.silences_unjudged > 0)
     lines_.write(fmt::format(
-        FMT_COMPILE("timing:       not trusted (the times carry no inter-frame silence): {} "
-                    "telegram{} not judged by t1.5, t3.5 or a drive's timing rule, {} reply "
-                    "latenc{} hidden"),
+        FMT_COMPILE("timing:       not trusted (the source's verdict above): {} telegram{} not "
+                    "judged by t1.5, t3.5 or a drive's timing rule, {} reply latenc{} hidden"),
         s.silences_unjudged, s.silences_unjudged == 1 ? "" : "s", s.latencies_unjudged,
         s.latencies_unjudged == 1 ? "y" : "ies"));
   if (!s.display_filter.empty()) {

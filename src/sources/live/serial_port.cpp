@@ -21,6 +21,8 @@
 #include <cstring>
 #include <ctime>
 
+#include "sources/logic/detect.hpp"
+
 namespace drivetap {
 namespace {
 
@@ -226,7 +228,10 @@ void ByteTimeBackdater::stamp(std::span<ByteEvent> read_characters, TimeNs read_
 // --- ReadPatternMonitor --------------------------------------------------------------------
 
 ReadPatternMonitor::ReadPatternMonitor(const SerialConfig& serial)
-    : character_time_(serial.character_time()), t35_(serial.t35()) {}
+    : character_time_(serial.character_time()),
+      t35_(serial.t35()),
+      bits_per_character_(serial.bits_per_character()),
+      settings_(serial.to_string()) {}
 
 void ReadPatternMonitor::add_read(TimeNs read_time, std::size_t characters) {
   if (characters == 0) return;
@@ -247,13 +252,32 @@ void ReadPatternMonitor::add_read(TimeNs read_time, std::size_t characters) {
       if (std::abs(gap - nearest) <= kCadenceTolerance) ++cadence_reads_;
     }
   }
+  // One character after one character, within a few character times: a stream handed over as it
+  // arrives, whose spacing is the line's.
+  if (have_previous_ && characters == 1 && previous_characters_ == 1 &&
+      arrivals_.size() < kArrivalSamples) {
+    const TimeNs gap = read_time - previous_read_time_;
+    if (gap > 0 && gap < 4 * character_time_) {
+      arrivals_.push_back(gap);
+      if (arrivals_.size() == kArrivalSamples / 2 || arrivals_.size() == kArrivalSamples) {
+        std::vector<TimeNs> sorted = arrivals_;
+        std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+        const TimeNs median = sorted[sorted.size() / 2];
+        if (median * 4 < character_time_ * 3) {
+          untrusted_by_rate_ = true;
+          arrival_median_ = median;
+        }
+      }
+    }
+  }
   previous_read_time_ = read_time;
+  previous_characters_ = characters;
   have_previous_ = true;
 
   if (held_reads_ >= 3 && held_reads_ * 10 >= reads_) untrusted_by_held_ = true;
   if (cadence_reads_ >= 8 && cadence_reads_ * 4 >= cadence_candidates_ * 3)
     untrusted_by_cadence_ = true;
-  trusted_ = !untrusted_by_held_ && !untrusted_by_cadence_;
+  trusted_ = !untrusted_by_held_ && !untrusted_by_cadence_ && !untrusted_by_rate_;
 }
 
 std::string ReadPatternMonitor::verdict() const {
@@ -271,6 +295,21 @@ std::string ReadPatternMonitor::verdict() const {
     evidence += fmt::format(
         "{} of {} reads 15..65 ms apart fell on a 16 ms grid, as with an FTDI latency_timer",
         cadence_reads_, cadence_candidates_);
+  }
+  if (untrusted_by_rate_) {
+    const double implied = static_cast<double>(bits_per_character_) * kNsPerSecond /
+                           static_cast<double>(arrival_median_);
+    const double standard = phy::snap_to_standard_baud(implied);
+    const std::string rate =
+        standard > 0 ? fmt::format("{:.0f}", standard) : fmt::format("about {:.0f}", implied);
+    const std::string line = fmt::format(
+        "characters arrive every {} us (median of {} back to back), faster than {} carries one "
+        "({} us): the line runs at {} baud ({} bits a character), or the port is a pty or a "
+        "network port that does not keep the line's pace; check -s",
+        arrival_median_ / kNsPerUs, arrivals_.size(), settings_, character_time_ / kNsPerUs, rate,
+        bits_per_character_);
+    if (evidence.empty()) return "timing not trusted: " + line;
+    evidence += "; " + line;
   }
   return fmt::format(
       "timing not trusted: USB burst artefacts ({}): the per-byte times carry no inter-frame "

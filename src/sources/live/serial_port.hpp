@@ -146,6 +146,10 @@ class ByteTimeBackdater {
 //     characters) spanning at least t3.5 on the wire, so an inter-frame silence could be inside
 //     them unseen — at least 3 such reads and at least 1 read in 10 (a UART with a deeper FIFO
 //     and a high receive trigger, such as a 16C950, can be misjudged in continuous traffic);
+//   arrivals faster than the line: characters handed over one a read (a pty, a native UART, a
+//     network port), back to back, come a median of less than 3/4 of the configured character
+//     time apart (over 32 such arrivals, and again at 64): the line runs faster than -s says
+//     (a wrong baud whose bytes still arrive intact), and the rate the arrivals imply is named;
 //   latency-timer cadence: only where a 16 ms hold is at least t3.5 (so from about 2400 baud):
 //     reads of at least 2 characters that come 14.5..65.5 ms after the previous read, at least 8
 //     of them and at least 3 in 4 within 1.5 ms of a multiple of 16 ms (FTDI's default timer,
@@ -167,7 +171,15 @@ class ReadPatternMonitor {
  private:
   TimeNs character_time_;
   TimeNs t35_;
+  std::uint32_t bits_per_character_;
+  std::string settings_;  // as given (-s)
   bool trusted_ = true;
+  // Intervals between single-character reads back to back (the first kArrivalSamples).
+  static constexpr std::size_t kArrivalSamples = 64;
+  std::vector<TimeNs> arrivals_;
+  std::size_t previous_characters_ = 0;
+  TimeNs arrival_median_ = 0;  // when too fast
+  bool untrusted_by_rate_ = false;
   std::uint64_t reads_ = 0;
   std::uint64_t characters_ = 0;
   std::size_t largest_read_ = 0;
