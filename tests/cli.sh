@@ -79,7 +79,8 @@ err=$("$drivetap" read --channels 0,nope "$sr" 2>&1 >/dev/null); rc=$?
   fail "--channels nope: exit $rc, stderr: $err"
 
 # 8. Line detection and diagnosis: brainchild (inverted 19200 8E1) with no option at all;
-#    the flowmeter's line is healthy; bad option combinations are one-line errors.
+#    the flowmeter's line is healthy; an 8E1 bus read as 8N1 is named; bad option combinations
+#    are one-line errors.
 bc="$root/captures/sigrok-brainchild-io-16do/brainchild-io-16do.sr"
 out=$("$drivetap" read "$bc" 2>&1)
 grep -q "^transactions: *15 (ok 15," <<<"$out" || fail "brainchild with no option: expected 15 good transactions"
@@ -103,6 +104,15 @@ vcd="$root/captures/vcd/brainchild-io-16do.vcd"
 out=$("$drivetap" read "$vcd" 2>&1)
 grep -q "^transactions: *15 (ok 15," <<<"$out" || fail "brainchild VCD: expected 15 good transactions"
 grep -q "\[inverted-line\]" <<<"$("$drivetap" diagnose "$vcd")" || fail "diagnose brainchild VCD"
+# An 8E1 bus read as 8N1 (a byte log whose framing errors fall on exactly the bytes whose even
+# parity bit is 0, every CRC good): the verdict names the parity, not the baud or the wiring; the
+# same bytes read with the parity the verdict names decode with no UART error.
+pb="$root/captures/parity-bit-read-as-stop-bit/input.log"
+out=$("$drivetap" diagnose "$pb")
+grep -q "\[parity-mismatch\] The line carries a parity bit: use 19200 8E1" <<<"$out" &&
+  [ "$(grep -c '^  \[' <<<"$out")" = 1 ] || fail "diagnose 8E1 read as 8N1: $out"
+out=$(sed 's/!f//g' "$pb" | "$drivetap" diagnose -s "19200 8E1" -)
+grep -q "^verdict: *healthy line" <<<"$out" || fail "diagnose 8E1 read as 8E1: not healthy: $out"
 err=$("$drivetap" read --invert "$bc" 2>&1 >/dev/null); rc=$?
 [ "$rc" = 2 ] && grep -q "^drivetap: --invert: give the line settings too" <<<"$err" ||
   fail "--invert without -s: exit $rc, stderr: $err"

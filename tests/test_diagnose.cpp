@@ -417,6 +417,30 @@ TEST(Diagnosis, ByteLevelEvidence) {
   framing.framing_errors = 600;
   EXPECT_EQ(diagnose(framing).front().id, "settings-mismatch");
 
+  // 8N1 on an 8E1 bus: the parity bit read as the stop bit fails on every byte with an even
+  // number of ones, on none of the others; odd parity the other way round. Framing errors spread
+  // over both kinds of byte are no parity bit.
+  for (const bool even : {true, false}) {
+    LineEvidence stop = clean;
+    stop.settings = "19200 8N1";
+    stop.by_ones = {520, 480};
+    stop.framed_badly_by_ones = even ? std::array<std::uint64_t, 2>{520, 0}
+                                     : std::array<std::uint64_t, 2>{0, 480};
+    stop.framing_errors = even ? 520 : 480;
+    const std::vector<Verdict> v = diagnose(stop);
+    ASSERT_EQ(v.size(), 1u);
+    EXPECT_EQ(v[0].id, "parity-mismatch");
+    EXPECT_EQ(v[0].title, even ? "The line carries a parity bit: use 19200 8E1"
+                               : "The line carries a parity bit: use 19200 8O1");
+    EXPECT_EQ(v[0].fix, even ? "capture with -s \"19200 8E1\"" : "capture with -s \"19200 8O1\"");
+  }
+  LineEvidence spread = clean;
+  spread.settings = "19200 8N1";
+  spread.by_ones = {520, 480};
+  spread.framed_badly_by_ones = {300, 300};
+  spread.framing_errors = 600;
+  EXPECT_EQ(diagnose(spread).front().id, "settings-mismatch");
+
   LineEvidence noisy = clean;
   noisy.framing_errors = 6;
   noisy.parity_errors = 3;

@@ -18,6 +18,7 @@
 #include <fstream>
 #include <memory>
 #include <random>
+#include <set>
 #include <string>
 #include <string_view>
 #include <thread>
@@ -25,6 +26,7 @@
 
 #include "core/byte_event.hpp"
 #include "core/serial_config.hpp"
+#include "sources/live/line_scan.hpp"
 #include "sources/live/serial_port.hpp"
 
 using namespace drivetap;
@@ -687,3 +689,52 @@ TEST(SerialPortPty, LowLatencyNotAskedNoWarning) {
 }
 
 }  // namespace
+
+// --- capture --scan's judgement ----------------------------------------------------------
+
+namespace {
+ScanResult scanned(const char* serial, std::uint64_t ok, std::uint64_t uart_errors) {
+  ScanResult r;
+  r.serial = config(serial);
+  r.bytes = 300;
+  r.frames = 30;
+  r.frames_ok = ok;
+  r.uart_errors = uart_errors;
+  return r;
+}
+}  // namespace
+
+TEST(LineScan, TriesModbusAsciisSevenBitFormatsAtEveryRate) {
+  std::set<std::string> tried;
+  for (const SerialConfig& s : scan_settings()) tried.insert(s.to_string());
+  for (const char* want : {"9600 7E1", "19200 7O1", "1200 7N2", "115200 8E1", "4800 8N1"})
+    EXPECT_TRUE(tried.count(want)) << want;
+  EXPECT_EQ(tried.size(), 48u);
+}
+
+TEST(LineScan, ARealUartTellsParityApartByItsMarks) {
+  // A real UART on a 19200 8E1 bus: 8N1 reads the parity bit as the stop bit (framing errors
+  // where it is 0), 8O1 flags every character's parity.
+  const ScanVerdict v = judge_scan({scanned("19200 8N1", 30, 150), scanned("19200 8E1", 30, 0),
+                                    scanned("19200 8O1", 0, 300), scanned("9600 8E1", 0, 80)});
+  ASSERT_EQ(v.best.size(), 1u);
+  EXPECT_EQ(v.best[0].serial.to_string(), "19200 8E1");
+  EXPECT_EQ(v.untold, "");
+}
+
+TEST(LineScan, ATieIsSaidWithWhatCouldNotBeToldApartAndWhy) {
+  // A pty: no marks, so 8N1 and 8E1 (and 7E1 of an ASCII bus) read alike at 19200.
+  ScanVerdict v = judge_scan({scanned("9600 8N1", 0, 0), scanned("19200 8N1", 30, 0),
+                              scanned("19200 8E1", 30, 0), scanned("19200 7E1", 12, 0)});
+  ASSERT_EQ(v.best.size(), 2u);
+  EXPECT_EQ(v.best[0].serial.to_string(), "19200 8N1");  // in the order tried
+  EXPECT_TRUE(HasSub(v.untold, "8E1, 8N1 alike: the port reported no parity or framing mark"))
+      << v.untold;
+  EXPECT_FALSE(HasSub(v.untold, "rates")) << v.untold;
+  // Every rate the same: the port applies none.
+  v = judge_scan({scanned("9600 8N1", 30, 0), scanned("115200 8N1", 30, 0)});
+  ASSERT_EQ(v.best.size(), 2u);
+  EXPECT_TRUE(HasSub(v.untold, "2 rates gave the same frames: the port applies no baud rate"))
+      << v.untold;
+  EXPECT_TRUE(judge_scan({scanned("9600 8N1", 0, 0)}).best.empty());
+}

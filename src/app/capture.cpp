@@ -5,6 +5,7 @@
 
 #include <poll.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstring>
@@ -102,56 +103,59 @@ int run_scan(const CommonOptions& o, const CaptureOptions& c) {
   catch_stop_signals();
   std::printf("scan %s: %g s per setting (listen only)\n", path.c_str(), c.scan_seconds);
   std::fflush(stdout);
-  const std::optional<ScanResult> best =
-      scan_line_settings(o, path, c.scan_seconds, [](const ScanResult& r) {
-        std::printf(
-            "  %-11s %6llu bytes, %5llu with UART errors, %4llu frames, %4llu checksum ok\n",
-            r.serial.to_string().c_str(), static_cast<unsigned long long>(r.bytes),
-            static_cast<unsigned long long>(r.uart_errors),
-            static_cast<unsigned long long>(r.frames),
-            static_cast<unsigned long long>(r.frames_ok));
-        std::fflush(stdout);
-      });
+  const ScanVerdict verdict = scan_line_settings(o, path, c.scan_seconds, [](const ScanResult& r) {
+    std::printf("  %-11s %6llu bytes, %5llu with UART errors, %4llu frames, %4llu checksum ok\n",
+                r.serial.to_string().c_str(), static_cast<unsigned long long>(r.bytes),
+                static_cast<unsigned long long>(r.uart_errors),
+                static_cast<unsigned long long>(r.frames),
+                static_cast<unsigned long long>(r.frames_ok));
+    std::fflush(stdout);
+  });
   if (g_stop) {
     std::printf("interrupted\n");
     return 130;
   }
-  if (!best) {
+  if (verdict.best.empty()) {
     std::printf(
         "no setting gave a frame with a good checksum (check the wiring: drivetap "
         "diagnose on a logic-analyser capture tells more)\n");
     return 1;
   }
-  std::printf(
-      "best: %s (%llu frames with a good checksum, %llu UART errors); capture with -s \"%s\"\n",
-      best->serial.to_string().c_str(), static_cast<unsigned long long>(best->frames_ok),
-      static_cast<unsigned long long>(best->uart_errors), best->serial.to_string().c_str());
+  const ScanResult& best = verdict.best.front();
+  if (verdict.best.size() == 1) {
+    std::printf(
+        "best: %s (%llu frames with a good checksum, %llu UART errors); capture with -s \"%s\"\n",
+        best.serial.to_string().c_str(), static_cast<unsigned long long>(best.frames_ok),
+        static_cast<unsigned long long>(best.uart_errors), best.serial.to_string().c_str());
+    return 0;
+  }
+  // A tie is said as one: naming one of them would pass a guess for a measurement.
+  std::string tied;
+  for (const ScanResult& r : verdict.best)
+    tied += (tied.empty() ? "" : ", ") + r.serial.to_string();
+  const auto [fewest, most] = std::minmax_element(
+      verdict.best.begin(), verdict.best.end(),
+      [](const ScanResult& a, const ScanResult& b) { return a.frames_ok < b.frames_ok; });
+  std::printf("best: %zu settings alike (%llu to %llu frames with a good checksum): %s\n",
+              verdict.best.size(), static_cast<unsigned long long>(fewest->frames_ok),
+              static_cast<unsigned long long>(most->frames_ok), tied.c_str());
+  std::printf("%s; capture with -s set as the bus's devices are\n", verdict.untold.c_str());
   return 0;
 }
 
 }  // namespace
 
-std::optional<ScanResult> scan_line_settings(const CommonOptions& o, const std::string& path,
-                                             double seconds,
-                                             const std::function<void(const ScanResult&)>& tried) {
-  std::optional<ScanResult> best;
-  for (std::uint32_t baud : {9600u, 19200u, 38400u, 57600u, 115200u, 4800u, 2400u, 1200u}) {
-    for (Parity parity : {Parity::none, Parity::even, Parity::odd}) {
-      if (g_stop) break;
-      SerialConfig serial;
-      serial.baud = baud;
-      serial.parity = parity;
-      const ScanResult r = scan_one(o, path, serial, seconds);
-      if (!r.error.empty() && r.bytes == 0) die(r.error, 1);
-      tried(r);
-      // Best: most good frames, then fewest UART errors.
-      if (r.frames_ok > 0 &&
-          (!best || r.frames_ok > best->frames_ok ||
-           (r.frames_ok == best->frames_ok && r.uart_errors < best->uart_errors)))
-        best = r;
-    }
+ScanVerdict scan_line_settings(const CommonOptions& o, const std::string& path, double seconds,
+                               const std::function<void(const ScanResult&)>& tried) {
+  std::vector<ScanResult> results;
+  for (const SerialConfig& serial : scan_settings()) {
+    if (g_stop) break;
+    ScanResult r = scan_one(o, path, serial, seconds);
+    if (!r.error.empty() && r.bytes == 0) die(r.error, 1);
+    tried(r);
+    results.push_back(std::move(r));
   }
-  return best;
+  return judge_scan(results);
 }
 
 // `drivetap capture -i PORT...`: live, listen-only capture from serial ports (src/sources/live/
@@ -288,7 +292,8 @@ Command add_capture_command(CLI::App& app) {
   capture->add_flag("--reconnect", c->reconnect,
                     "Wait for an unplugged adapter to come back and go on");
   capture->add_flag("--scan", c->scan,
-                    "Listen at each standard rate and parity in turn, say which gives frames");
+                    "Listen at each standard rate and format in turn (48 settings), say which "
+                    "gives frames with good checksums, or which it cannot tell apart");
   capture->add_option("--scan-time", c->scan_seconds, "--scan: seconds per setting (default 2)");
   // How many times --scan-time was given: it does nothing without --scan.
   CLI::Option* scan_time = capture->get_option("--scan-time");

@@ -11,6 +11,7 @@
 #include "app/common.hpp"
 #include "core/serial_config.hpp"
 #include "core/stats.hpp"
+#include "sources/live/line_scan.hpp"
 
 namespace drivetap::app {
 
@@ -24,19 +25,11 @@ struct CaptureOptions {
   double scan_seconds = 2;
 };
 
-// One setting of `capture --scan`: what listening a while at `serial` gave.
-struct ScanResult {
-  SerialConfig serial;
-  std::uint64_t bytes = 0, uart_errors = 0, frames = 0, frames_ok = 0;
-  std::string error;
-};
-
-// Listens `seconds` at each standard rate and parity in turn on `path` (`tried` hears of each) and
-// returns the one that gave most frames with a good checksum, then fewest UART errors; none when
-// no setting gave one. A port that cannot be opened: die(), exit 1. Stops early on g_stop.
-std::optional<ScanResult> scan_line_settings(const CommonOptions& o, const std::string& path,
-                                             double seconds,
-                                             const std::function<void(const ScanResult&)>& tried);
+// Listens `seconds` at each setting of scan_settings() in turn on `path` (`tried` hears of each)
+// and judges them (judge_scan()). A port that cannot be opened: die(), exit 1. Stops early on
+// g_stop.
+ScanVerdict scan_line_settings(const CommonOptions& o, const std::string& path, double seconds,
+                               const std::function<void(const ScanResult&)>& tried);
 
 // Who hears of the run besides its outputs.
 struct CaptureVoice {

@@ -149,9 +149,10 @@ int print_config() {
   value(format, "7O1", "7O1", false);
   value(format, "7N2", "7N2", false);
   arg("--detect", "Detect the line settings", "boolflag",
-      "{default=false}{tooltip=Listen half a second at each standard rate and parity (12 s, as "
-      "capture --scan) and capture with the one that gives good checksums; the rate and format "
-      "above are then not used}{group=Line}");
+      "{default=false}{tooltip=Listen a quarter of a second at each standard rate and format (48 "
+      "settings, 12 s, as capture --scan) and capture with the one that gives good checksums (the "
+      "first tried of those it cannot tell apart, the log says which); the rate and format above "
+      "are then not used}{group=Line}");
   const int protocol = arg("--protocol", "Protocol", "selector",
                            "{tooltip=The protocol on the bus (-P)}{group=Decoding}");
   value(protocol, "auto", "detected from the first frames", true);
@@ -333,23 +334,25 @@ int run_extcap_capture(const ExtcapOptions& e) {
   if (e.detect) {
     if (!e.second_port.empty()) die("--detect: only with one port (not with --second-port)");
     catch_stop_signals();
-    const std::optional<ScanResult> best =
-        scan_line_settings(o, port, 0.5, [&](const ScanResult& r) {
-          control_in.drain();
-          control.send(0, ControlPipe::statusbar,
-                       fmt::format("drivetap: detecting the line settings: {} gave {} good frames",
-                                   r.serial.to_string(), r.frames_ok));
-        });
+    const ScanVerdict verdict = scan_line_settings(o, port, 0.25, [&](const ScanResult& r) {
+      control_in.drain();
+      control.send(0, ControlPipe::statusbar,
+                   fmt::format("drivetap: detecting the line settings: {} gave {} good frames",
+                               r.serial.to_string(), r.frames_ok));
+    });
     if (g_stop) return 0;
-    if (!best)
+    if (verdict.best.empty())
       die(fmt::format("{}: no standard setting gave a frame with a good checksum (check the "
                       "wiring, or set the rate and format)",
                       port),
           1);
-    o.serial = best->serial.to_string();
+    // A tie captures with the first tried (a capture needs one), and the log says it was a tie.
+    o.serial = verdict.best.front().serial.to_string();
     control.send(
         kLoggerControl, ControlPipe::add,
-        fmt::format("detected {}: {} frames with a good checksum\n", o.serial, best->frames_ok));
+        fmt::format("detected {}: {} frames with a good checksum{}\n", o.serial,
+                    verdict.best.front().frames_ok,
+                    verdict.untold.empty() ? "" : " (first of a tie; " + verdict.untold + ")"));
   }
   CaptureVoice voice;
   voice.chatty = false;

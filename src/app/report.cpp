@@ -199,9 +199,11 @@ int run_report(const CommonOptions& o, const std::vector<std::string>& paths) {
     hooks.first_byte = begin;
     // The UART evidence of the diagnosis: every character and its marks.
     hooks.batch = [&evidence](const RunBatch& batch) {
-      evidence.characters += batch.byte_count();
-      for (std::size_t k = 0; k < batch.size(); ++k)
-        for (const std::uint8_t flags : batch[k].flags) evidence.count_marks(flags);
+      for (std::size_t k = 0; k < batch.size(); ++k) {
+        const ByteRun run = batch[k];
+        for (std::size_t i = 0; i < run.size(); ++i)
+          evidence.count_byte(run.bytes[i], run.flags.empty() ? 0 : run.flags[i]);
+      }
     };
     bool interrupted = false;
     {

@@ -24,12 +24,49 @@ std::string trial_errors(const phy::FormatTrial& t) {
       t.stats.false_starts);
 }
 
+// Read without parity, a line that carries a parity bit has it where the stop bit is looked for:
+// framing errors on nearly every byte whose parity bit is 0 (even parity: an even number of ones)
+// and on nearly none of the others, while the bytes themselves are right (checksums hold). The
+// parity it carries, or none.
+std::optional<Parity> parity_in_the_stop_bit(const LineEvidence& e) {
+  std::string error;
+  const std::optional<SerialConfig> read_as = SerialConfig::parse(e.settings, &error);
+  if (!read_as || read_as->parity != Parity::none || read_as->data_bits != 8) return std::nullopt;
+  if (e.frames_checksum_ok == 0 || e.frames_checksum_ok < e.frames_checksum_bad)
+    return std::nullopt;
+  for (const int zero_bit_on : {0, 1}) {  // 0: even popcount (even parity's bit is 0)
+    const std::uint64_t hit = e.framed_badly_by_ones[zero_bit_on], of = e.by_ones[zero_bit_on];
+    const std::uint64_t other = e.framed_badly_by_ones[1 - zero_bit_on];
+    const std::uint64_t other_of = e.by_ones[1 - zero_bit_on];
+    if (of >= 10 && other_of >= 10 && hit * 10 >= of * 9 && other * 20 <= other_of)
+      return zero_bit_on == 0 ? Parity::even : Parity::odd;
+  }
+  return std::nullopt;
+}
+
 // The UART errors on a byte-level capture: which setting is probably wrong.
 void byte_level_settings(const LineEvidence& e, std::vector<Verdict>& out) {
   if (e.characters < 20) return;
   const std::uint64_t framing = e.framing_errors + e.breaks;
   const double parity_share = percent(e.parity_errors, e.characters);
   const double framing_share = percent(framing, e.characters);
+  if (const std::optional<Parity> parity = parity_in_the_stop_bit(e)) {
+    std::string error;
+    SerialConfig line = *SerialConfig::parse(e.settings, &error);
+    line.parity = *parity;
+    const bool even = *parity == Parity::even;
+    out.push_back(
+        {"parity-mismatch", fmt::format("The line carries a parity bit: use {}", line.to_string()),
+         fmt::format("{} of {} bytes with an {} number of one bits have framing errors, {} of "
+                     "{} with an {} number: the stop bit read is a{} parity bit; {} of {} frames "
+                     "have a good checksum; captured as {}",
+                     e.framed_badly_by_ones[even ? 0 : 1], e.by_ones[even ? 0 : 1],
+                     even ? "even" : "odd", e.framed_badly_by_ones[even ? 1 : 0],
+                     e.by_ones[even ? 1 : 0], even ? "odd" : "even", even ? "n even" : "n odd",
+                     e.frames_checksum_ok, e.frames, e.settings),
+         fmt::format("capture with -s \"{}\"", line.to_string())});
+    return;
+  }
   if (parity_share >= 20 && framing_share < 5) {
     out.push_back(
         {"parity-mismatch", "Parity errors on many bytes: the bus uses another parity",
@@ -637,7 +674,7 @@ Diagnosis diagnose_capture(ByteSource& source, const PipelineOptions& options,
     while (source.next(e)) {
       for (const Anomaly& a : source.take_findings()) pipeline.report(a);
       pipeline.push(e);
-      evidence.count_character(e.flags);
+      evidence.count_byte(e.byte, e.flags);
       if (stop && *stop) {
         result.interrupted = true;
         break;

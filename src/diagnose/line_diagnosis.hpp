@@ -10,6 +10,7 @@
 #pragma once
 
 #include <array>
+#include <bit>
 #include <csignal>
 #include <cstdint>
 #include <map>
@@ -29,6 +30,18 @@ namespace drivetap {
 // The UART level (UartCounts): every character received.
 struct LineEvidence : UartCounts {
   std::string settings;  // the line settings decoded with ("19200 8E1, inverted")
+
+  // Byte-level captures: characters by the parity of their number of one bits, and of those the
+  // ones with a framing error. Read without parity, a line whose format carries one has its
+  // parity bit where the stop bit is looked for: a framing error exactly where that bit is 0
+  // (even parity: on bytes with an even number of ones).
+  std::array<std::uint64_t, 2> by_ones{}, framed_badly_by_ones{};  // [popcount & 1]
+  void count_byte(std::uint8_t value, std::uint8_t flags) {
+    count_character(flags);
+    const int odd = std::popcount(value) & 1;
+    ++by_ones[odd];
+    framed_badly_by_ones[odd] += (flags & kUartFramingError) != 0;
+  }
 
   // Sampled captures: per decoded channel, what detection measured on it and how the settings
   // given with -s (if any) decode it. Verdicts about the line are per channel; one about the
