@@ -113,9 +113,49 @@ grep -q "\[parity-mismatch\] The line carries a parity bit: use 19200 8E1" <<<"$
   [ "$(grep -c '^  \[' <<<"$out")" = 1 ] || fail "diagnose 8E1 read as 8N1: $out"
 out=$(sed 's/!f//g' "$pb" | "$drivetap" diagnose -s "19200 8E1" -)
 grep -q "^verdict: *healthy line" <<<"$out" || fail "diagnose 8E1 read as 8E1: not healthy: $out"
+# Where the settings came from: the capture's own, -s against them (a warning naming both), a
+# part of them given, and the built-in default (a pcap of link type 147 says none).
+e9="$root/captures/session-e9/input.log"
+grep -q "^line: *4800 8N1 (from the capture; " <<<"$("$drivetap" diagnose "$e9")" ||
+  fail "diagnose: the capture's settings not said to be the capture's"
+prov_err=$(mktemp)
+out=$("$drivetap" diagnose -s "19200 8E1" "$e9" 2>"$prov_err")
+grep -q "^line: *19200 8E1 (as given; the capture says 4800 8N1; " <<<"$out" &&
+  [ "$(cat "$prov_err")" = "drivetap: warning: -s 19200 8E1: the capture says 4800 8N1; decoding as 19200 8E1" ] ||
+  fail "diagnose -s against the capture: $out / $(cat "$prov_err")"
+rm -f "$prov_err"
+grep -q "^line: *9600 8N1 (baud as given, format from the capture; the capture says 4800 8N1; " \
+  <<<"$("$drivetap" diagnose -s 9600 "$e9" 2>/dev/null)" || fail "diagnose -s 9600: parts not told apart"
+grep -q "^line: *9600 8N1 (default; " <<<"$("$drivetap" diagnose "$root/captures/dlt147-split-and-merged/input.pcap")" ||
+  fail "diagnose: a default not said to be one"
 err=$("$drivetap" read --invert "$bc" 2>&1 >/dev/null); rc=$?
 [ "$rc" = 2 ] && grep -q "^drivetap: --invert: give the line settings too" <<<"$err" ||
   fail "--invert without -s: exit $rc, stderr: $err"
+
+# 8b. One telegram pasted from a manual is a telegram: the protocol whose structure fits, a bad or
+#     byte-swapped checksum and all, in every form people paste (a C array, braces, Intel's h);
+#     hex bytes of a text protocol decode as that protocol. Random bytes stay noise.
+while IFS='|' read -r text want_protocol want_checksum; do
+  got=$("$drivetap" decode -T json --no-summary "$text" 2>/dev/null | python3 -c '
+import json, sys
+r = json.loads(sys.stdin.readline())
+print(r.get("protocol", "-") if r["type"] == "frame" else "noise", r.get("checksum", "-"))')
+  [ "$got" = "$want_protocol $want_checksum" ] || fail "decode \"$text\": $got, expected $want_protocol $want_checksum"
+done <<'CASES'
+02 03 00 00 00 04 3A 44|modbus-rtu|swapped
+01 03 00 00 00 01 84 0B|modbus-rtu|bad
+0x02,0x03,0x00,0x00,0x00,0x04,0x44,0x3A|modbus-rtu|good
+{0x02, 0x03, 0x00, 0x00, 0x00, 0x04, 0x3A, 0x44}|modbus-rtu|swapped
+02h 03h 00h 00h 00h 04h 44h 3Ah|modbus-rtu|good
+02 0E 81 E1 9E 00 00 00 00 03 E8 04 7C 20 00 40|danfoss-fc|bad
+7E 30 31 30 43 30 30 30 31 30 46 41 30 30 32 37 43 0D|easydrive|good
+3A 30 31 30 33 32 35 32 33 30 30 30 31 42 33 0D 0A|modbus-ascii|good
+DE AD BE EF 12 34 56 78|noise|-
+CASES
+# A telegram two protocols fit alike: decoded as the first, and the user told of the other.
+err=$("$drivetap" decode "02 06 04 04 7C 20 00 59" 2>&1 >/dev/null)
+grep -q "fits Danfoss FC as well as Modbus RTU: decoded as Modbus RTU; -P fc for the other" <<<"$err" ||
+  fail "decode of a telegram two protocols fit: $err"
 
 # 9. --stats: only the closing summary, the same as a full run's (text and JSON).
 log="$root/captures/session-e9/input.log"

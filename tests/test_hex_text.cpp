@@ -155,3 +155,27 @@ TEST(HexText, SynthesizeEventsAppendsFromTheClock) {
   EXPECT_EQ(out.size(), 2u);
   EXPECT_EQ(clock, 150);
 }
+
+// The forms people paste a telegram in: a C array (commas between bytes), braces, Intel's `h`.
+// Commas between frames of several bytes still separate frames.
+TEST(HexText, PastedArraysAndSuffixes) {
+  const Frames one = {{0x02, 0x03, 0x00, 0x00, 0x00, 0x04, 0x44, 0x3A}};
+  for (const char* text :
+       {"0x02,0x03,0x00,0x00,0x00,0x04,0x44,0x3A", "0x02, 0x03, 0x00, 0x00, 0x00, 0x04, 0x44, 0x3A",
+        "{0x02, 0x03, 0x00, 0x00, 0x00, 0x04, 0x44, 0x3A}", "[02,03,00,00,00,04,44,3A]",
+        "02h 03h 00h 00h 00h 04h 44h 3Ah", "02H,03H,00H,00H,00H,04H,44H,3AH"}) {
+    std::string err;
+    const auto f = parse_hex_frames(text, &err);
+    ASSERT_TRUE(f) << text << ": " << err;
+    EXPECT_EQ(*f, one) << text;
+  }
+  std::string err;
+  const auto two = parse_hex_frames("{0x01, 0x03}, {0x02, 0x04}", &err);
+  ASSERT_TRUE(two) << err;
+  EXPECT_EQ(*two, (Frames{{0x01, 0x03}, {0x02, 0x04}}));
+  const auto frames = parse_hex_frames("01 03 00 00 00 01 84 0A, 01 03 02 00 2A 38 4B", &err);
+  ASSERT_TRUE(frames) << err;
+  EXPECT_EQ(frames->size(), 2u);
+  // An `h` that ends no byte is no suffix.
+  EXPECT_FALSE(parse_hex_frames("0h2", &err));
+}

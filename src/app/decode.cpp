@@ -15,6 +15,7 @@
 #include "app/common.hpp"
 #include "app/outputs.hpp"
 #include "core/protocol.hpp"
+#include "core/protocol_desc.hpp"
 #include "pipeline/pipeline.hpp"
 #include "sources/file/hex_text.hpp"
 
@@ -42,6 +43,47 @@ bool read_decode_line(std::string& line, std::uint64_t number, std::string* erro
     return false;
   }
   return c != EOF || !line.empty();
+}
+
+// The protocol of frames pasted from a manual, which the user says are telegrams: the one whose
+// structure fits them best. A frame whose layout fits one of its directions scores 2, and its
+// checksum 2 more when it holds (byte-swapped too: a manual's erratum is still its telegram) or 1
+// when it fails; a checksum that holds over a layout nothing predicts (a function the length
+// rules do not know) scores 1. Detection's verdict, made for a bus, needs good telegrams: a
+// pasted one with a bad checksum would be "random-looking bytes". Unknown when nothing fits;
+// `alike`: the others that score as well (the first registered is taken, and the user told).
+Protocol protocol_of_pasted(const std::vector<std::vector<std::uint8_t>>& frames,
+                            const FramingTiming& timing, std::vector<Protocol>& alike) {
+  Protocol best = Protocol::unknown;
+  int best_score = 1;  // a checksum alone decides nothing
+  alike.clear();
+  for (const ProtocolDesc* desc : registered_protocols()) {
+    const ProtocolDecoder* decoder = desc->decoder;
+    if (!decoder) continue;
+    int score = 0;
+    for (const std::vector<std::uint8_t>& bytes : frames) {
+      const DirectionFit fit = decoder->direction_fit(bytes);
+      const bool layout = (fit.request || fit.response) && decoder->recognisable(bytes);
+      TelegramView t;
+      t.run = ByteRun{bytes, 0, timing.character_time, 0, 0, {}};
+      Message m;
+      TelegramFindings head;
+      const ChecksumVerdict verdict =
+          decoder->dissect(t, Direction::unknown, timing, {}, DissectDepth::head, m, &head)
+              ? m.checksum.verdict
+              : head.verdict;
+      const bool holds = verdict == ChecksumVerdict::good || verdict == ChecksumVerdict::swapped;
+      score += layout ? 2 + (holds ? 2 : verdict == ChecksumVerdict::bad ? 1 : 0) : holds ? 1 : 0;
+    }
+    if (score > best_score) {
+      best_score = score;
+      best = decoder->protocol();
+      alike.clear();
+    } else if (score == best_score && best != Protocol::unknown) {
+      alike.push_back(decoder->protocol());
+    }
+  }
+  return best;
 }
 
 // Frames given as arguments, or one text per line of standard input, decoded as they come (a
@@ -87,6 +129,15 @@ int run_decode(const CommonOptions& o, const std::vector<std::string>& args) {
     if (first_kind == 0) {
       first_kind = kind;
       if (o.protocol.empty() && kind != 'x') p.protocol = protocol_for_text_start(kind);
+      if (o.protocol.empty() && kind == 'x') {
+        std::vector<Protocol> alike;
+        const Protocol pasted = protocol_of_pasted(*frames, p.timing, alike);
+        if (pasted != Protocol::unknown) p.protocol = pasted;
+        for (const Protocol other : alike)
+          say(fmt::format("{} (\"{}\"): fits {} as well as {}: decoded as {}; -P {} for the other",
+                          where, shown, protocol_label(other), protocol_label(pasted),
+                          protocol_label(pasted), other.desc()->option_names.front()));
+      }
     }
     events.clear();
     synthesize_events(*frames, bus, p.timing.character_time, gap, &clock, events);

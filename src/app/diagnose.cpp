@@ -14,6 +14,7 @@
 #include "app/inputs.hpp"
 #include "app/stop_signals.hpp"
 #include "diagnose/line_diagnosis.hpp"
+#include "pipeline/options.hpp"
 #include "sinks/color.hpp"
 #include "sinks/json_sink.hpp"
 
@@ -45,7 +46,8 @@ std::string diagnosis_text(const std::string& file, const LineEvidence& e,
   };
   const char* how = e.given ? " (as given)" : " (detected)";
   if (!e.from_samples) {
-    out += fmt::format("line:      {} (from the capture; byte-level evidence only)\n", e.settings);
+    out += fmt::format("line:      {} ({}; byte-level evidence only)\n", e.settings,
+                       e.settings_source);
   } else if (e.channels.size() == 1) {
     const LineEvidence::Channel& c = e.channels.front();
     if (c.detection && c.detection->found)
@@ -96,6 +98,7 @@ std::string diagnosis_json(const std::string& file, const LineEvidence& e,
                            const std::vector<Verdict>& verdicts, const Stats& stats) {
   std::string out = fmt::format("{{\"file\":{},\"line\":{},\"source\":\"{}\"", json_quote(file),
                                 json_quote(e.settings), e.from_samples ? "samples" : "bytes");
+  if (!e.from_samples) out += fmt::format(",\"line_from\":{}", json_quote(e.settings_source));
   auto detection_json = [](const phy::LineDetection& d) {
     return fmt::format(
         "{{\"baud\":{:g},\"measured_baud\":{:.1f},\"baud_standard\":{},"
@@ -149,7 +152,8 @@ int run_diagnose(const CommonOptions& o, const std::string& path) {
   std::unique_ptr<ByteSource> source = open_source(o, path, in, channels);
   catch_stop_signals();
   const PipelineOptions p = start_source(o, *source);
-  const Diagnosis d = diagnose_capture(*source, p, channels, &g_stop);
+  Diagnosis d = diagnose_capture(*source, p, channels, &g_stop);
+  d.evidence.settings_source = settings_provenance(source->settings(), o.serial).text();
   if (!d.error.empty()) die(d.error, 1);
   if (d.interrupted) die("interrupted", 130);
   const std::string report =

@@ -10,6 +10,7 @@
 
 #include "app/progress.hpp"
 #include "app/stop_signals.hpp"
+#include "pipeline/options.hpp"
 #include "pipeline/pipeline.hpp"
 #include "sources/file/byte_log.hpp"
 #include "sources/file/capture_reader.hpp"
@@ -132,6 +133,11 @@ PipelineOptions start_source(const CommonOptions& o, ByteSource& source) {
   if (g_stop) die("interrupted", 130);
   if (!header_read) die(source.error(), 1);
   PipelineOptions p = make_pipeline_options(o, source.settings());
+  // (A logic capture's settings are detected or given, and said so by its detection.)
+  if (dynamic_cast<const LogicSource*>(&source) == nullptr) {
+    const SettingsProvenance from = settings_provenance(source.settings(), o.serial);
+    if (!from.contradiction.empty()) say("warning: " + from.contradiction);
+  }
   source.set_character_time(p.timing.character_time);
   return p;
 }

@@ -30,6 +30,9 @@ namespace drivetap {
 // The UART level (UartCounts): every character received.
 struct LineEvidence : UartCounts {
   std::string settings;  // the line settings decoded with ("19200 8E1, inverted")
+  // Byte-level captures: where they came from (SettingsProvenance::text(): "as given", "from the
+  // capture", "default", or per part).
+  std::string settings_source = "from the capture";
 
   // Byte-level captures: characters by the parity of their number of one bits, and of those the
   // ones with a framing error. Read without parity, a line whose format carries one has its

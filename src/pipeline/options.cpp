@@ -5,6 +5,43 @@
 
 namespace drivetap {
 
+std::string SettingsProvenance::text() const {
+  std::string out = std::string_view(baud) == format
+                        ? std::string(baud)
+                        : fmt::format("baud {}, format {}", baud, format);
+  if (!capture_says.empty()) out += "; the capture says " + capture_says;
+  return out;
+}
+
+SettingsProvenance settings_provenance(const RunSettings& capture, const std::string& given) {
+  SettingsProvenance p;
+  if (capture.serial) p.baud = p.format = "from the capture";
+  if (given.empty()) return p;
+  // Which parts -s sets: those that come out the same over two bases that differ in every part.
+  std::string err;
+  const SerialConfig a{1200, 7, Parity::odd, 2}, b{4800, 8, Parity::none, 1};
+  const std::optional<SerialConfig> over_a = SerialConfig::parse(given, &err, a);
+  const std::optional<SerialConfig> over_b = SerialConfig::parse(given, &err, b);
+  if (!over_a || !over_b) return p;
+  const bool baud_given = over_a->baud == over_b->baud;
+  const bool format_given = over_a->data_bits == over_b->data_bits &&
+                            over_a->parity == over_b->parity &&
+                            over_a->stop_bits == over_b->stop_bits;
+  if (baud_given) p.baud = "as given";
+  if (format_given) p.format = "as given";
+  if (capture.serial) {
+    const SerialConfig in_force = *SerialConfig::parse(given, &err, *capture.serial);
+    const SerialConfig& said = *capture.serial;
+    if (in_force.baud != said.baud || in_force.data_bits != said.data_bits ||
+        in_force.parity != said.parity || in_force.stop_bits != said.stop_bits) {
+      p.capture_says = said.to_string();
+      p.contradiction = fmt::format("-s {}: the capture says {}; decoding as {}", given,
+                                    said.to_string(), in_force.to_string());
+    }
+  }
+  return p;
+}
+
 std::optional<PipelineOptions> resolve_pipeline_options(const RunSettings& capture,
                                                         const OptionOverrides& o,
                                                         std::string* error) {

@@ -20,6 +20,22 @@ struct OptionOverrides {
   std::string max_hold;
 };
 
+// Where the line settings in force came from, each part in one phrase: "as given" (-s),
+// "from the capture" (a byte log's `#! serial`, a drivetap pcapng's interface), or "default"
+// (9600 8N1: nothing said). `contradiction`: -s against what the capture says, one line, empty
+// when they agree or the capture says nothing.
+struct SettingsProvenance {
+  const char* baud = "default";
+  const char* format = "default";
+  std::string contradiction;
+  std::string capture_says;  // with a contradiction: the capture's own settings
+  // "as given", or "baud as given, format from the capture" when the parts differ; with a
+  // contradiction "; the capture says 4800 8N1" after it.
+  [[nodiscard]] std::string text() const;
+};
+// `given`: the -s text (empty: none; a valid one, resolve_pipeline_options() checked it).
+SettingsProvenance settings_provenance(const RunSettings& capture, const std::string& given);
+
 // Returns nullopt with *error = "--option: reason" when an override is not valid.
 std::optional<PipelineOptions> resolve_pipeline_options(const RunSettings& capture,
                                                         const OptionOverrides& overrides,

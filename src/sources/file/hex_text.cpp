@@ -8,26 +8,42 @@ namespace drivetap {
 std::optional<std::vector<std::vector<std::uint8_t>>> parse_hex_frames(std::string_view text,
                                                                        std::string* error) {
   std::vector<std::vector<std::uint8_t>> frames;
+  // Per frame: whether a comma ended it (a C array's commas separate bytes, not frames).
+  std::vector<bool> comma_after;
   std::vector<std::uint8_t> current;
   int high = -1;  // pending high nibble
   std::size_t high_pos = 0;
-  auto end_frame = [&] {
+  bool in_braces = false;    // inside { } or [ ]: one frame, commas between its bytes
+  bool after_digit = false;  // the previous character completed a byte ("02h")
+  auto end_frame = [&](bool by_comma) {
     if (high >= 0) {
       *error = fmt::format("odd number of hex digits: '{}' at position {} has no partner",
                            text[high_pos], high_pos + 1);
       return false;
     }
-    if (!current.empty()) frames.push_back(std::move(current));
+    if (!current.empty()) {
+      frames.push_back(std::move(current));
+      comma_after.push_back(by_comma);
+    }
     current.clear();
     return true;
   };
   for (std::size_t i = 0; i < text.size(); ++i) {
     const char c = text[i];
+    const bool completed = after_digit;
+    after_digit = false;
+    if (c == '{' || c == '[' || c == '}' || c == ']') {
+      if (!end_frame(false)) return std::nullopt;
+      in_braces = c == '{' || c == '[';
+      continue;
+    }
+    if (c == ',' && in_braces) continue;
     if (c == '|' || c == ',' || c == ';' || c == '\n') {
-      if (!end_frame()) return std::nullopt;
+      if (!end_frame(c == ',')) return std::nullopt;
       continue;
     }
     if (c == ' ' || c == '\t' || c == '\r' || c == '-') continue;
+    if ((c == 'h' || c == 'H') && completed) continue;  // Intel's suffix: 02h
     if (c == '0' && i + 1 < text.size() && (text[i + 1] == 'x' || text[i + 1] == 'X') && high < 0) {
       ++i;
       continue;
@@ -46,14 +62,27 @@ std::optional<std::vector<std::vector<std::uint8_t>>> parse_hex_frames(std::stri
     } else {
       current.push_back(static_cast<std::uint8_t>((high << 4) | v));
       high = -1;
+      after_digit = true;
     }
   }
-  if (!end_frame()) return std::nullopt;
+  if (!end_frame(false)) return std::nullopt;
   if (frames.empty()) {
     *error = "no hex bytes given";
     return std::nullopt;
   }
-  return frames;
+  // Bytes one to a comma ("0x02,0x03,0x00"): one frame, as a C array writes it. A frame of one
+  // byte is no telegram, so no text of frames reads otherwise.
+  std::vector<std::vector<std::uint8_t>> merged;
+  bool previous_single = false;  // the frame before k had one byte
+  for (std::size_t k = 0; k < frames.size(); ++k) {
+    const bool single = frames[k].size() == 1;
+    if (k > 0 && comma_after[k - 1] && previous_single && single)
+      merged.back().push_back(frames[k].front());
+    else
+      merged.push_back(std::move(frames[k]));
+    previous_single = single;
+  }
+  return merged;
 }
 
 std::optional<std::vector<std::uint8_t>> parse_text_frame(std::string_view text,
