@@ -71,10 +71,10 @@ const FormatTrial* LineDetection::trial(bool inverted, std::uint8_t data_bits, U
   return nullptr;
 }
 
-double snap_to_standard_baud(double measured) {
+double snap_to_standard_baud(double measured, double tolerance) {
   double nearest = 0;
   for (double standard : kStandardBauds)
-    if (std::abs(measured - standard) <= standard * 0.03 &&
+    if (std::abs(measured - standard) <= standard * tolerance &&
         (nearest == 0 || std::abs(measured / standard - 1) < std::abs(measured / nearest - 1)))
       nearest = standard;
   return nearest;
@@ -132,13 +132,18 @@ struct Pulse {
   std::uint64_t length;
 };
 
+// A parity bit that holds on this many characters is no coincidence (one chance in 2^24); on
+// fewer, a 7-bit format with parity is no better an explanation than 8 bits without (10 bytes
+// whose top bit happens to be their even parity read as 7E1).
+constexpr std::uint64_t kParityProof = 24;
+
 // Fewest errors first; among equals (within half a percent) the more specific format: a parity
-// bit that checked out on every character; 8 data bits, but never a last data bit that is always
-// 1 (two readings tie only when the longer one's last bit is: it is the stop bit read as data);
-// 1 stop bit over 2 (settled afterwards, by the spacing).
+// bit that checked out on every one of at least kParityProof characters; 8 data bits, but never a
+// last data bit that is always 1 (two readings tie only when the longer one's last bit is: it is
+// the stop bit read as data); 1 stop bit over 2 (settled afterwards, by the spacing).
 int specificity(const FormatTrial& t) {
   int score = 0;
-  if (t.settings.parity != UartParity::none) score += 4;
+  if (t.settings.parity != UartParity::none && t.stats.characters >= kParityProof) score += 4;
   if (t.settings.stop_bits == StopBits::two) score -= 2;
   if (t.top_bit_always_set())
     score -= 3;
@@ -294,7 +299,18 @@ LineDetection detect_line(std::span<const std::vector<LevelRun>> channels,
     return d;
   }
   d.measured_baud = static_cast<double>(sample_rate_hz) / best->width;
-  const double baud = decoding_baud(d.measured_baud, &d.baud_standard);
+  double baud = decoding_baud(d.measured_baud, &d.baud_standard);
+  // At few samples a bit the width is known to about half a sample: a standard rate that close,
+  // decoding at least as well, is the line's (31250 MIDI at 3.2 samples a bit measures 33333).
+  if (!d.baud_standard) {
+    const double uncertain = snap_to_standard_baud(d.measured_baud, 0.5 / best->width);
+    if (uncertain > 0 &&
+        framing_quality(channels, sample_rate_hz, uncertain, options.max_runs_per_channel) <=
+            framing_quality(channels, sample_rate_hz, baud, options.max_runs_per_channel) + 0.005) {
+      baud = uncertain;
+      d.baud_standard = true;
+    }
+  }
   d.baud_confidence = best->fitting >= 0.95 && best->scored >= 50 && best->single >= 5
                           ? Confidence::high
                       : best->fitting >= 0.85 && best->scored >= 10 ? Confidence::medium
@@ -445,12 +461,32 @@ LineDetection detect_line(std::span<const std::vector<LevelRun>> channels,
     reasons.push_back("1 stop bit assumed (no characters back to back to tell 1 from 2)");
   d.format_reason = fmt::format("{}", fmt::join(reasons, "; "));
   const bool stops_known = reasons.back().find("assumed") == std::string::npos;
-  if (chars >= 20 && rate <= 0.01 && stops_known)
-    d.format_confidence = Confidence::high;
-  else if (chars >= 5 && rate <= 0.05)
-    d.format_confidence = Confidence::medium;
-  else
+  // Another format of the same length that decodes the same characters as well (7E1 and 8N1
+  // over bytes whose top bit is their parity by chance): the bits cannot tell them apart. (A
+  // parity bit that held on kParityProof characters or more tells it from a reading without.)
+  const FormatTrial* alike = nullptr;
+  for (const FormatTrial& t : d.trials)
+    if (&t != &top && t.settings.inverted == top.settings.inverted &&
+        t.settings.frame_bits() == top.settings.frame_bits() &&
+        t.settings.stop_bits == top.settings.stop_bits &&
+        (t.settings.data_bits != top.settings.data_bits ||
+         t.settings.parity != top.settings.parity) &&
+        t.stats.characters == chars && t.errors() == top.errors() && !t.top_bit_always_set() &&
+        (chars < kParityProof ||
+         (t.settings.parity != UartParity::none) == (top.settings.parity != UartParity::none)))
+      alike = &t;
+  if (alike) {
+    const std::string other = settings_text(alike->settings);
+    d.format_reason += fmt::format("; {} decodes the same {} characters as well",
+                                   other.substr(other.find(' ') + 1), chars);
     d.format_confidence = Confidence::low;
+  } else if (chars >= 20 && rate <= 0.01 && stops_known) {
+    d.format_confidence = Confidence::high;
+  } else if (chars >= 5 && rate <= 0.05) {
+    d.format_confidence = Confidence::medium;
+  } else {
+    d.format_confidence = Confidence::low;
+  }
   return d;
 }
 

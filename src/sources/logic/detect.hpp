@@ -10,8 +10,10 @@
 //   polarity: the reading with clearly fewer errors; the idle level only on a tie (an unbiased
 //   pair rests low between transmissions although every character on it is upright)
 //
-// The measured rate is snapped to a standard one when within 3 % (a UART tolerates about that);
-// otherwise it is reported as measured (10700 occurs: an AVR on its internal oscillator).
+// The measured rate is snapped to a standard one when within 3 % (a UART tolerates about that), or
+// within what the measurement can tell at few samples a bit (half a sample of a bit's width: 31250
+// measured as 33333 at 3.2 samples a bit) when the standard rate decodes as well; otherwise it is
+// reported as measured (10700 occurs: an AVR on its internal oscillator).
 #pragma once
 
 #include <algorithm>
@@ -104,7 +106,7 @@ FormatTrial trial_decode(std::span<const std::vector<LevelRun>> channels,
 
 // "19200 8E1" / "10700 8N2" / "115200 7O1", with ", inverted" when the line idles low.
 std::string settings_text(const UartSettings& s);
-// The nearest standard baud rate within 3 %, or 0.
-double snap_to_standard_baud(double measured);
+// The nearest standard baud rate within `tolerance` (3 %), or 0.
+double snap_to_standard_baud(double measured, double tolerance = 0.03);
 
 }  // namespace drivetap::phy
