@@ -13,7 +13,7 @@
    kind of finding leads to a verdict with the generated counts per station (timeouts, swapped
    CRCs, timing-rule breaks: one verdict per drive and rule, each with its own fix).
 4. Property, over every logic capture in captures/: the settings and polarity diagnose names on a
-   channel decode that channel with the fewest errors of all 36 formats in both polarities at the
+   channel decode that channel with the fewest errors of all 60 formats (5 to 9 data bits) in both polarities at the
    detected rate (recomputed here, one `diagnose -s` per candidate).
 
 Each part is a ctest test of its own; each capture of truth and property is a case
@@ -211,7 +211,7 @@ def check_generated(drivetap):
             fail(f"generated: no '{kind}' verdict")
 
 
-FORMATS = [(bits, parity, stops) for bits in (7, 8, 9) for parity in "NEO" for stops in (1, 2)]
+FORMATS = [(bits, parity, stops) for bits in (5, 6, 7, 8, 9) for parity in "NEO" for stops in (1, 2)]
 
 
 def errors_of(channel_report):

@@ -28,7 +28,7 @@ bool parse_uint(std::string_view s, std::uint32_t* out) {
 
 bool parse_format(std::string_view s, SerialConfig* cfg) {
   if (s.size() != 3) return false;
-  if (s[0] < '7' || s[0] > '9') return false;  // 9: logic captures only (a tty has no 9th bit)
+  if (s[0] < '5' || s[0] > '9') return false;  // 9: logic captures only (a tty has no 9th bit)
   cfg->data_bits = static_cast<std::uint8_t>(s[0] - '0');
   switch (s[1]) {
     case 'N':

@@ -1,7 +1,7 @@
 // SerialConfig: UART line settings and the Modbus silence intervals they imply (docs/protocols.md
 // §1).
 //
-// A character on the wire is: start bit, 7, 8 or 9 data bits (9 only from a logic capture: a tty
+// A character on the wire is: start bit, 5 to 9 data bits (9 only from a logic capture: a tty
 // has none, and a ByteEvent keeps the low 8), optional parity bit, 1 or 2 stop bits.
 //   8N1 = 10 bits, 8E1/8O1/8N2 = 11 bits.  character time = bits / baud.
 // Modbus serial line spec: frames are separated by >= 3.5 character times of silence (t3.5), and
@@ -22,7 +22,7 @@ enum class Parity : std::uint8_t { none, even, odd };
 
 struct SerialConfig {
   std::uint32_t baud = 9600;
-  std::uint8_t data_bits = 8;  // 7, 8 or 9
+  std::uint8_t data_bits = 8;  // 5 to 9
   Parity parity = Parity::none;
   std::uint8_t stop_bits = 1;  // 1 or 2
 

@@ -321,7 +321,7 @@ LineDetection detect_line(std::span<const std::vector<LevelRun>> channels,
 
   // Formats by trial decoding, both polarities.
   for (bool inverted : {false, true})
-    for (std::uint8_t data_bits : {8, 7, 9})
+    for (std::uint8_t data_bits : {8, 7, 9, 6, 5})
       for (UartParity parity : {UartParity::none, UartParity::even, UartParity::odd})
         for (StopBits stop_bits : {StopBits::one, StopBits::two})
           d.trials.push_back(trial_decode(channels, sample_rate_hz,
