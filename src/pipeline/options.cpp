@@ -32,8 +32,7 @@ SettingsProvenance settings_provenance(const RunSettings& capture, const std::st
   if (capture.serial) {
     const SerialConfig in_force = *SerialConfig::parse(given, &err, *capture.serial);
     const SerialConfig& said = *capture.serial;
-    if (in_force.baud != said.baud || in_force.data_bits != said.data_bits ||
-        in_force.parity != said.parity || in_force.stop_bits != said.stop_bits) {
+    if (in_force != said) {
       p.capture_says = said.to_string();
       p.contradiction = fmt::format("-s {}: the capture says {}; decoding as {}", given,
                                     said.to_string(), in_force.to_string());

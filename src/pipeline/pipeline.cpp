@@ -705,12 +705,13 @@ inline Direction Pipeline::decide_direction(const ProtocolDecoder& decoder, Time
 }
 
 void Pipeline::check_drive_timing(const TelegramHead& m, const DriveProfile& p,
-                                  std::vector<Anomaly>& found, bool described) {
+                                  const FramingTiming& timing, std::vector<Anomaly>& found,
+                                  bool described) {
   if (m.bytes.empty() || !options_.clocked) return;  // (synthetic times break no rule)
-  // Times that carry no silence (USB bursts) judge no timing rule.
-  if (m.channel < states_.size() && states_[m.channel] && !states_[m.channel]->silences_trusted)
-    return;
-  const TimeNs char_time = options_.timing.character_time;
+  // Times that carry no silence (USB bursts) judge no timing rule, as the dissectors judge no
+  // t1.5 or t3.5.
+  if (!timing.silences_trusted) return;
+  const TimeNs char_time = timing.character_time;
   // A finding; its text (`describe()`, with the rule's source, "ERMAN E-9P/9G, 000 §5.2") only
   // when `described`: a run that shows no anomaly counts it by its kind.
   auto finding = [&](auto&& describe) {
@@ -991,11 +992,11 @@ void Pipeline::handle_telegram(TelegramView& t, const ProtocolDecoder& decoder, 
   if (detailed) {
     if (profile && sure) {
       const std::size_t before = m.anomalies.size();
-      check_drive_timing(in, *profile, m.anomalies, true);
+      check_drive_timing(in, *profile, timing, m.anomalies, true);
       count_under_binding(link, in.address, m.anomalies.size() - before);
     } else if (profile) {
       drive_anomalies_.clear();
-      check_drive_timing(in, *profile, drive_anomalies_, true);
+      check_drive_timing(in, *profile, timing, drive_anomalies_, true);
       for (Anomaly& a : drive_anomalies_) a.frame_number = number;
       hold_family_findings(link, in.address, *profile, drive_anomalies_);
     }
@@ -1014,7 +1015,7 @@ void Pipeline::handle_telegram(TelegramView& t, const ProtocolDecoder& decoder, 
     if (profile) {
       drive_anomalies_.clear();
       // (A sink without records shows no anomaly: the findings are counted, not described.)
-      check_drive_timing(in, *profile, drive_anomalies_, hand_over_records_);
+      check_drive_timing(in, *profile, timing, drive_anomalies_, hand_over_records_);
       if (!sure) hold_family_findings(link, in.address, *profile, drive_anomalies_);
       count_under_binding(link, in.address, drive_anomalies_.size());
       for (const Anomaly& a : drive_anomalies_) stats_.count_anomaly(a);

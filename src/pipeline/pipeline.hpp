@@ -161,10 +161,11 @@ class Pipeline {
   void report_packetization(FrameKind kind, std::uint32_t first, std::uint32_t last,
                             std::uint64_t number, TimeNs start, ChannelId channel,
                             ChannelState& st);
-  // The profile's timing rules (docs/protocols.md, each drive's section): findings into `found`,
+  // The profile's timing rules (docs/protocols.md, each drive's section) under the telegram's
+  // channel's `timing` (none judged where its silences are not trusted): findings into `found`,
   // their detail written only when `described`.
   void check_drive_timing(const TelegramHead& telegram, const DriveProfile& profile,
-                          std::vector<Anomaly>& found, bool described);
+                          const FramingTiming& timing, std::vector<Anomaly>& found, bool described);
   // The profile of the telegram's station: bound with --drive, or by the binder (which learns
   // from the telegram first, and hands a change of binding to the sink); nullptr for none.
   // `sure`: bound with --drive, or by the binder with confidence high.
