@@ -274,6 +274,106 @@ TEST(LineDetection, StopBitsFromTheSpacingOfCharacters) {
   EXPECT_EQ(settings_text(loose.settings), "9600 8O1") << loose.format_reason;
 }
 
+// DMX-like slots whose pulses are all 2 bits or longer (0xCC, 0x0C, 0x00: no lone bit): the bit is
+// the greatest width the pulses are multiples of, 250000, not the shortest pulse (125000, which
+// snaps to 128000), however long the marks between slots.
+TEST(LineDetection, WholeBitIsTheGreatestCommonWidthNotTheShortestPulse) {
+  for (double gap : {0.0, 3.7}) {
+    LineSimSettings ls;
+    ls.uart = settings(250000, 8, UartParity::none, StopBits::two);
+    ls.sample_rate_hz = 4'000'000;
+    LineSimulator sim(ls);
+    std::mt19937 rng(3);
+    sim.idle(40);
+    for (int packet = 0; packet < 4; ++packet) {
+      sim.send_break(25);
+      sim.idle(3);
+      for (int slot = 0; slot < 60; ++slot) {
+        static constexpr std::uint8_t kNoLoneBit[] = {0xCC, 0x0C, 0x00};
+        sim.send(kNoLoneBit[rng() % 3]);
+        sim.idle(gap);
+      }
+      sim.idle(30);
+    }
+    const LineDetection d = detect_line(one(sim.runs()), 4'000'000);
+    ASSERT_TRUE(d.found) << d.why_not;
+    EXPECT_EQ(d.settings.baud, 250000) << gap << ": " << settings_text(d.settings);
+    EXPECT_EQ(d.single_bit_pulses, 0u);
+    EXPECT_EQ(d.baud_confidence, Confidence::low) << "no one-bit pulse: the width is inferred";
+    EXPECT_EQ(d.best().errors(), 0u);
+  }
+}
+
+// The only long stretch is a DMX break; the slots are 0x00 but for a few 0x55 (dimmers at 85), each
+// with a long mark after it: both polarities decode without an error (the inverted one as other
+// bytes). The break is no rest level: upright, and no unbiased bus.
+TEST(LineDetection, BreakIsNotTheRestLevel) {
+  LineSimSettings ls;
+  ls.uart = settings(250000, 8, UartParity::none, StopBits::two);
+  ls.sample_rate_hz = 3'000'000;
+  LineSimulator sim(ls);
+  sim.idle(3);
+  sim.send_break(25);
+  sim.idle(3);
+  for (int slot = 0; slot < 200; ++slot) {
+    sim.send(slot % 20 == 1 ? 0x55 : 0x00);
+    sim.idle(3.7);
+  }
+  const LineDetection d = detect_line(one(sim.runs()), 3'000'000);
+  ASSERT_TRUE(d.found) << d.why_not;
+  EXPECT_EQ(settings_text(d.settings), "250000 8N1") << d.format_reason;
+  EXPECT_FALSE(d.settings.inverted) << d.polarity_reason;
+  EXPECT_FALSE(d.floats_when_idle);
+  EXPECT_EQ(d.breaks_not_rest, 1u);
+  EXPECT_NE(d.polarity_reason.find("taken as a break"), std::string::npos) << d.polarity_reason;
+}
+
+// LIN: a 13-bit break before every frame, then 0x55 and bytes whose top bit is their even parity
+// (0xA3, 0x5C, 0x00): breaks are no damage, and 4 values repeated prove no parity bit.
+TEST(LineDetection, LinBreaksAreNoErrorsAndRepeatedValuesProveNoParity) {
+  LineSimSettings ls;
+  ls.uart = settings(19200, 8, UartParity::none, StopBits::one);
+  ls.sample_rate_hz = 1'000'000;
+  LineSimulator sim(ls);
+  sim.idle(50);
+  for (int frame = 0; frame < 12; ++frame) {
+    sim.send_break(13);
+    sim.idle(1);
+    const std::vector<std::uint8_t> bytes = {0x55, 0xA3, 0x5C, 0x00};
+    sim.send(bytes, 0.5);
+    sim.idle(40);
+  }
+  const LineDetection d = detect_line(one(sim.runs()), 1'000'000);
+  ASSERT_TRUE(d.found) << d.why_not;
+  EXPECT_EQ(settings_text(d.settings), "19200 8N1") << d.format_reason;
+  EXPECT_EQ(d.best().errors(), 0u);
+  EXPECT_EQ(d.best().stats.breaks, 12u);
+  EXPECT_EQ(d.polarity_confidence, Confidence::high) << d.polarity_reason;
+  EXPECT_NE(d.format_reason.find("7E1 decodes the same"), std::string::npos) << d.format_reason;
+}
+
+// Most characters 1 idle bit apart, as 2 stop bits space them, but every fourth followed by the
+// next after 1 stop bit: that one leaves no room for a second, so one stop bit is named.
+TEST(LineDetection, TwoStopBitsOnlyWhereEveryCharacterLeavesRoomForTwo) {
+  for (const bool some_back_to_back : {false, true}) {
+    LineSimSettings ls;
+    ls.uart = settings(9600, 8, UartParity::none, StopBits::one);
+    ls.sample_rate_hz = 8'000'000;
+    LineSimulator sim(ls);
+    std::mt19937 rng(7);
+    sim.idle(50);
+    for (int i = 0; i < 300; ++i) {
+      sim.send(static_cast<std::uint16_t>(rng() & 0xFF));
+      if (!(some_back_to_back && i % 4 == 0)) sim.idle(1);
+    }
+    sim.idle(50);
+    const LineDetection d = detect_line(one(sim.runs()), 8'000'000);
+    ASSERT_TRUE(d.found) << d.why_not;
+    EXPECT_EQ(settings_text(d.settings), some_back_to_back ? "9600 8N1" : "9600 8N2")
+        << d.format_reason;
+  }
+}
+
 // Two samples a bit decode (sigrok decodes them too), with low confidence in the rate.
 TEST(LineDetection, TwoSamplesPerBitDecodeWithLowConfidence) {
   const UartSettings uart = settings(9600, 8, UartParity::none, StopBits::one);

@@ -438,8 +438,11 @@ std::vector<Verdict> diagnose(const LineEvidence& e) {
          "pull-down on A/D-, or the master's or an adapter's bias switch), and check the 120 "
          "ohm terminations: two, one at each end"});
 
-  // Noise: a few damaged characters inside traffic that otherwise decodes.
-  const std::uint64_t bad_chars = e.framing_errors + e.parity_errors + e.breaks;
+  // Noise: a few damaged characters inside traffic that otherwise decodes. On samples a break is
+  // a space through the stop bits and back (LIN and DMX send one before every frame): a line
+  // signal, not damage; on bytes a break cannot be told from a 0x00 with a framing error.
+  const std::uint64_t bad_chars =
+      e.framing_errors + e.parity_errors + (e.from_samples ? 0 : e.breaks);
   const std::uint64_t noise_chars =
       bad_chars > e.release_artefacts ? bad_chars - e.release_artefacts : 0;
   // Decoded with the wrong settings: the errors are theirs, not noise, and the framing and its
@@ -453,9 +456,10 @@ std::vector<Verdict> diagnose(const LineEvidence& e) {
       (e.from_samples || percent(noise_chars, e.characters) < 20))
     out.push_back(
         {"noise", "Noise on the line: damaged characters inside valid traffic",
-         fmt::format("{} of {} characters damaged ({} framing, {} parity, {} breaks){}; {} "
+         fmt::format("{} of {} characters damaged ({} framing, {} parity, {} breaks{}){}; {} "
                      "frames with a bad checksum of {}",
                      noise_chars, e.characters, e.framing_errors, e.parity_errors, e.breaks,
+                     e.from_samples && e.breaks ? ", not counted: a line signal" : "",
                      e.from_samples ? fmt::format("; {} glitches under 1/8 bit filtered, {} "
                                                   "false start bits",
                                                   e.glitches, e.false_starts)

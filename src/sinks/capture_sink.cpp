@@ -133,14 +133,20 @@ CaptureSink::~CaptureSink() {
   if (pcap_) pcap_library().close(pcap_);
 }
 
+// Interfaces are declared in channel order, those of the channels before this one first: a reader
+// numbers channels by interface, and records at the same instant go in channel order, so the
+// file reads back in the order it was written.
 std::uint32_t CaptureSink::interface_for(ChannelId channel) {
   if (interface_of_channel_.size() <= channel) interface_of_channel_.resize(channel + 1u, -1);
   if (interface_of_channel_[channel] < 0) {
     const std::uint16_t link = options_.link_type == CaptureLinkType::user0
                                    ? static_cast<std::uint16_t>(kLinkTypeUser0)
                                    : static_cast<std::uint16_t>(kLinkTypeUpperPdu);
-    ng_.interface(link, channels_.at(channel).name, options_.serial.to_string(), options_.settings);
-    interface_of_channel_[channel] = interfaces_++;
+    for (ChannelId c = 0; c <= channel; ++c) {
+      if (interface_of_channel_[c] >= 0) continue;
+      ng_.interface(link, channels_.at(c).name, options_.serial.to_string(), options_.settings);
+      interface_of_channel_[c] = interfaces_++;
+    }
   }
   return static_cast<std::uint32_t>(interface_of_channel_[channel]);
 }

@@ -279,6 +279,14 @@ bool CaptureReader::load_pcapng_packet() {
     if (!ours && !payload->outbound && payload->flow.empty())
       payload->outbound = pcapng::outbound_of_flags(rec.flags);
     if (ours) payload->outbound.reset();  // our channel names already say everything
+    // Our interfaces are our channels, declared in channel order: numbered in that order too
+    // (records of one instant go in channel order), not in the order their first packets come.
+    const bool first_of_interface = rec.interface >= channel_cache_.size() ||
+                                    cache_section_ != ng_->sections() ||
+                                    channel_cache_[rec.interface][0] == kNoChannel;
+    if (ours && payload->flow.empty() && first_of_interface)
+      for (std::uint32_t earlier = 0; earlier < rec.interface; ++earlier)
+        if (pcapng_channel(earlier, *payload) == kNoChannel) break;
     const ChannelId ch = pcapng_channel(rec.interface, *payload);
     if (ch == kNoChannel) {
       error_ = too_many_channels(rec.offset);

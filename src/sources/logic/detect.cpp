@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <array>
+#include <bitset>
 #include <cmath>
 #include <iterator>
 
@@ -19,6 +20,8 @@ constexpr std::array<double, 22> kStandardBauds = {
 
 // Pulses longer than this many bits are idle gaps (mark) or breaks (space), not data.
 constexpr double kLongestDataPulse = 12.5;
+// Space pulses between that and this many bits are breaks when marks surround them.
+constexpr double kLongestBreak = 44;
 // A pulse fits a bit width when it is within a quarter bit of a whole multiple.
 constexpr double kFitTolerance = 0.25;
 
@@ -26,6 +29,7 @@ struct WidthScore {
   double width = 0;
   double fitting = 0;  // share of the scored pulses that fit
   std::uint64_t scored = 0, single = 0;
+  double fit_count = 0;  // pulses that fit
 };
 
 WidthScore score_width(const std::vector<std::uint64_t>& widths, double w) {
@@ -44,6 +48,7 @@ WidthScore score_width(const std::vector<std::uint64_t>& widths, double w) {
       if (n == 1) ++s.single;
     }
   }
+  s.fit_count = fit;
   s.fitting = s.scored ? fit / static_cast<double>(s.scored) : 0;
   if (sum_mult > 0) s.width = sum_len / sum_mult;  // refined: the mean width of one bit
   return s;
@@ -99,6 +104,7 @@ FormatTrial trial_decode(std::span<const std::vector<LevelRun>> channels,
   const auto frame = static_cast<std::uint64_t>(std::llround(settings.frame_bits() * per_bit));
   const auto top_bit = static_cast<std::uint16_t>(1u << (settings.data_bits - 1));
   std::vector<UartCharacter> out;
+  std::bitset<512> values;
   for (const std::vector<LevelRun>& runs : channels) {
     UartDecoder decoder(settings, sample_rate_hz);
     out.clear();
@@ -109,6 +115,7 @@ FormatTrial trial_decode(std::span<const std::vector<LevelRun>> channels,
       if (!(out[i].flags & kUartBreak)) {
         ++t.data_characters;
         if (out[i].value & top_bit) ++t.top_bit_set;
+        if (!(out[i].flags & kUartErrorFlags)) values.set(out[i].value & 0x1ff);
       }
       if (i == 0) continue;
       const double idle_bits = (static_cast<double>(out[i].start_sample) -
@@ -122,6 +129,7 @@ FormatTrial trial_decode(std::span<const std::vector<LevelRun>> channels,
         ++t.loosely_apart;
     }
   }
+  t.distinct_values = values.count();
   return t;
 }
 
@@ -132,18 +140,25 @@ struct Pulse {
   std::uint64_t length;
 };
 
-// A parity bit that holds on this many characters is no coincidence (one chance in 2^24); on
+// A parity bit that holds on this many characters of this many different values is no
+// coincidence (one chance in 2^8: repeats of one value repeat its parity and prove nothing); on
 // fewer, a 7-bit format with parity is no better an explanation than 8 bits without (10 bytes
-// whose top bit happens to be their even parity read as 7E1).
+// whose top bit happens to be their even parity read as 7E1; LIN's 0x55, PID and break bytes).
 constexpr std::uint64_t kParityProof = 24;
+constexpr std::uint64_t kParityProofValues = 8;
+
+bool parity_proven(const FormatTrial& t) {
+  return t.settings.parity != UartParity::none && t.stats.characters >= kParityProof &&
+         t.distinct_values >= kParityProofValues;
+}
 
 // Fewest errors first; among equals (within half a percent) the more specific format: a parity
-// bit that checked out on every one of at least kParityProof characters; 8 data bits, but never a
+// bit that checked out on characters enough to prove it (parity_proven); 8 data bits, but never a
 // last data bit that is always 1 (two readings tie only when the longer one's last bit is: it is
 // the stop bit read as data); 1 stop bit over 2 (settled afterwards, by the spacing).
 int specificity(const FormatTrial& t) {
   int score = 0;
-  if (t.settings.parity != UartParity::none && t.stats.characters >= kParityProof) score += 4;
+  if (parity_proven(t)) score += 4;
   if (t.settings.stop_bits == StopBits::two) score -= 2;
   if (t.top_bit_always_set())
     score -= 3;
@@ -158,10 +173,14 @@ bool better(const FormatTrial& a, const FormatTrial& b) {
   return specificity(a) > specificity(b);
 }
 
-// `a` decodes clearly better than `b`: fewer than half its errors per character and 2 % fewer.
+// `a` decodes clearly better than `b`: fewer than half its errors per character, and 2 % fewer
+// or, over 20 characters or more each, 5 errors fewer than half b's (0 against 7 in 650 is no
+// chance, though under 2 %).
 bool clearly_better(const FormatTrial& a, const FormatTrial& b) {
   const double ra = a.error_rate(), rb = b.error_rate();
-  return a.stats.characters > 0 && ra + 0.02 < rb && ra <= rb * 0.5;
+  const bool many = a.stats.characters >= 20 && b.stats.characters >= 20;
+  return a.stats.characters > 0 && ra <= rb * 0.5 &&
+         (ra + 0.02 < rb || (many && a.errors() * 2 + 5 <= b.errors()));
 }
 
 UartSettings format(double baud, bool inverted, std::uint8_t data_bits, UartParity parity,
@@ -173,6 +192,13 @@ UartSettings format(double baud, bool inverted, std::uint8_t data_bits, UartPari
   s.parity = parity;
   s.stop_bits = stop_bits;
   return s;
+}
+
+// "8N1": the frame of a format, without rate or polarity.
+std::string frame_text(const UartSettings& s) {
+  const std::string text = settings_text(s);
+  const auto space = text.find(' ');
+  return text.substr(space + 1, text.find(',') - space - 1);
 }
 
 // The rate to decode a measured one at: the standard rate within 3 %, else three significant
@@ -197,8 +223,11 @@ double framing_quality(std::span<const std::vector<LevelRun>> channels, std::uin
       UartSettings s =
           format(baud, inverted, static_cast<std::uint8_t>(bits), parity, StopBits::one);
       FormatTrial t = trial_decode(channels, rate, s, max_runs);
+      // Breaks count here: a fraction of the bit turns runs of zeros into breaks.
       t.stats.parity_errors = 0;
-      if (t.stats.characters > 0) best = std::min(best, t.error_rate());
+      if (t.stats.characters > 0)
+        best = std::min(best, static_cast<double>(t.errors() + t.stats.breaks) /
+                                  static_cast<double>(t.stats.characters));
     }
   return best;
 }
@@ -230,38 +259,59 @@ LineDetection detect_line(std::span<const std::vector<LevelRun>> channels,
   std::sort(widths.begin(), widths.end());
   d.pulses = widths.size();
 
-  // Candidate bit widths: short pulses at several quantiles (the shortest that is no glitch is
-  // one bit in any traffic with a 0-1-0 anywhere), each refined around the pulses that fit it.
+  // Candidate bit widths: short pulses at several quantiles and their whole fractions (a whole bit
+  // is the greatest width the pulses are multiples of, not the shortest pulse: constant data shows
+  // no single-bit pulse, only 2- and 3-bit ones, or 9-bit ones between long marks), each refined
+  // around the pulses that fit it.
   std::vector<WidthScore> candidates;
   for (double q : {0.002, 0.005, 0.01, 0.02, 0.05, 0.1, 0.2, 0.3, 0.5}) {
     const auto at = static_cast<std::size_t>(q * static_cast<double>(widths.size() - 1));
-    const double candidate = static_cast<double>(widths[at]);
-    if (candidate < 2) continue;  // fewer than 2 samples a bit cannot be decoded
-    WidthScore s = score_width(widths, candidate);
-    if (s.scored * 2 < widths.size() || s.single == 0) continue;  // most pulses longer: too short
-    s = score_width(widths, s.width);  // once more around the refined width
-    // One-bit pulses are common in any UART traffic; a width that only glitches match is too
-    // narrow.
-    if (s.scored * 2 < widths.size() || s.single * 20 < s.scored) continue;
-    const bool seen = std::any_of(candidates.begin(), candidates.end(), [&](const WidthScore& c) {
-      return std::abs(c.width / s.width - 1) < 0.03;
-    });
-    if (!seen) candidates.push_back(s);
+    for (int bits = 1; bits <= 12; ++bits) {
+      const double candidate = static_cast<double>(widths[at]) / bits;
+      if (candidate < 2) break;  // fewer than 2 samples a bit cannot be decoded
+      WidthScore s = score_width(widths, candidate);
+      if (s.scored * 2 < widths.size() || s.fitting == 0)
+        continue;                        // most pulses longer: too short
+      s = score_width(widths, s.width);  // once more around the refined width
+      if (s.scored * 2 < widths.size() || s.fitting == 0) continue;
+      // Every pulse one width: a clock, a strobe or a PWM output, not characters (a UART line
+      // shows runs of equal bits in all but a stream of 0x55).
+      if (bits == 1 && s.single * 100 >= s.scored * 95 && s.scored >= 16) {
+        d.why_not = fmt::format(
+            "{} of {} pulses are one width ({:.0f} samples): a clock or strobe line, not UART "
+            "characters",
+            s.single, s.scored, s.width);
+        return d;
+      }
+      const bool seen = std::any_of(candidates.begin(), candidates.end(), [&](const WidthScore& c) {
+        return std::abs(c.width / s.width - 1) < 0.03;
+      });
+      if (!seen) candidates.push_back(s);
+    }
   }
   if (candidates.empty()) {
     d.why_not =
         fmt::format("no bit width fits the {} pulses (too few samples per bit?)", widths.size());
     return d;
   }
-  // The width whose multiples fit the pulses best (on a near tie the wider: every multiple of w is
-  // also one of w/2), unless another decodes clearly better: fewer than half its framing errors.
-  std::stable_sort(candidates.begin(), candidates.end(),
-                   [](const WidthScore& a, const WidthScore& b) {
-                     if (std::abs(a.fitting - b.fitting) > 0.02) return a.fitting > b.fitting;
-                     return a.width > b.width;
-                   });
-  const WidthScore* best = nullptr;
-  double best_quality = 3;
+  // The width that puts the most pulses at whole bit widths (a pulse of more than 12.5 bits is
+  // idle to a width, so a fraction of the bit fits fewer of them); on a near tie the wider (every
+  // multiple of w is also one of w/2), unless one of the tied, or a whole multiple of the width,
+  // decodes clearly better: fewer than half the framing errors. Then a standard rate close by
+  // (within a quarter) that decodes as well is preferred to a rate that is none: uniform data
+  // decodes at more than one rate (0x00 slots between long marks at 250000 read as 0x80 at 221000).
+  std::stable_sort(
+      candidates.begin(), candidates.end(), [](const WidthScore& a, const WidthScore& b) {
+        if (std::abs(a.fit_count - b.fit_count) > 0.03 * std::max(a.fit_count, b.fit_count))
+          return a.fit_count > b.fit_count;
+        return a.width > b.width;
+      });
+  struct Decoded {
+    const WidthScore* width;
+    bool standard;
+    double quality;
+  };
+  std::vector<Decoded> decoded;
   std::string out_of_range;
   for (const WidthScore& c : candidates) {
     const double measured = static_cast<double>(sample_rate_hz) / c.width;
@@ -275,29 +325,40 @@ LineDetection detect_line(std::span<const std::vector<LevelRun>> channels,
             measured, sample_rate_hz, UartSettings::kMinBaud, UartSettings::kMaxBaud);
       continue;
     }
-    const double quality = candidates.size() == 1 ? 0
-                                                  : framing_quality(channels, sample_rate_hz, baud,
-                                                                    options.max_runs_per_channel);
-    if (!best || (quality + 0.02 < best_quality && quality <= best_quality * 0.5)) {
-      best = &c;
-      best_quality = quality;
-    }
+    decoded.push_back({&c, standard,
+                       candidates.size() == 1 ? 0.0
+                                              : framing_quality(channels, sample_rate_hz, baud,
+                                                                options.max_runs_per_channel)});
   }
+  const Decoded* picked = nullptr;
+  for (const Decoded& c : decoded) {
+    if (!picked) {
+      picked = &c;
+      continue;
+    }
+    // A fraction of the bit fits the odd lengths of idle gaps more often, not better: a width
+    // that is a whole multiple of the picked one may overrule it too.
+    const double multiple = c.width->width / picked->width->width;
+    const bool tied = c.width->fit_count >= picked->width->fit_count * 0.97 ||
+                      (multiple > 1.5 && std::abs(multiple - std::round(multiple)) < 0.1);
+    if (tied && c.quality + 0.02 < picked->quality && c.quality <= picked->quality * 0.5)
+      picked = &c;
+  }
+  if (picked && !picked->standard)
+    for (const Decoded& c : decoded) {
+      const double ratio = c.width->width / picked->width->width;
+      if (c.standard && c.quality <= picked->quality + 0.005 && ratio > 0.75 && ratio < 4.0 / 3) {
+        picked = &c;
+        break;
+      }
+    }
+  const WidthScore* best = picked ? picked->width : nullptr;
   if (!best) {
     d.why_not = out_of_range;
     return d;
   }
   d.pulses_fitting = best->fitting;
   d.single_bit_pulses = best->single;
-  // Every pulse one width: a clock, a strobe or a PWM output, not characters (a UART line shows
-  // runs of equal bits in all but a stream of 0x55).
-  if (best->single * 100 >= best->scored * 95 && best->scored >= 16) {
-    d.why_not = fmt::format(
-        "{} of {} pulses are one width ({:.0f} samples): a clock or strobe line, not UART "
-        "characters",
-        best->single, best->scored, best->width);
-    return d;
-  }
   d.measured_baud = static_cast<double>(sample_rate_hz) / best->width;
   double baud = decoding_baud(d.measured_baud, &d.baud_standard);
   // At few samples a bit the width is known to about half a sample: a standard rate that close,
@@ -313,8 +374,9 @@ LineDetection detect_line(std::span<const std::vector<LevelRun>> channels,
   }
   d.baud_confidence = best->fitting >= 0.95 && best->scored >= 50 && best->single >= 5
                           ? Confidence::high
-                      : best->fitting >= 0.85 && best->scored >= 10 ? Confidence::medium
-                                                                    : Confidence::low;
+                      : best->fitting >= 0.85 && best->scored >= 10 && best->single > 0
+                          ? Confidence::medium
+                          : Confidence::low;  // no one-bit pulse: the width is inferred, not seen
   // Two samples a bit decode (the centre is the sample after the edge's), but one sample of
   // jitter is half a bit.
   if (best->width < 3) d.baud_confidence = Confidence::low;
@@ -336,57 +398,123 @@ LineDetection detect_line(std::span<const std::vector<LevelRun>> channels,
   const FormatTrial upright = best_of(false), upside_down = best_of(true);
 
   // The rest level: gaps longer than any character, the capture's first and last runs included
-  // (a recording usually starts and ends idle).
+  // (a recording usually starts and ends idle). A space between two marks that is shorter than 4
+  // characters is a break (DMX and LIN send one before every frame), not the rest level: a DMX
+  // packet's only long stretch is its break. (An unbiased pair floats longer: for Modbus at least
+  // the 3.5 characters of a frame gap.) Which level is space depends on the polarity, so both
+  // levels are counted: all their long stretches, and those that could be breaks.
   const double w = best->width;
-  std::uint64_t high_time = 0, low_time = 0;
+  std::array<std::uint64_t, 2> long_time{}, break_time{}, long_gaps{}, break_gaps{};
   for (const std::vector<Pulse>& channel : pulses)
-    for (const Pulse& p : channel) {
-      if (static_cast<double>(p.length) <= kLongestDataPulse * w) continue;
-      ++d.idle_gaps;
-      (p.level ? high_time : low_time) += p.length;
+    for (std::size_t i = 0; i < channel.size(); ++i) {
+      const Pulse& p = channel[i];
+      const double bits = static_cast<double>(p.length) / w;
+      if (bits <= kLongestDataPulse) continue;
+      long_time[p.level] += p.length;
+      ++long_gaps[p.level];
+      if (bits < kLongestBreak && i > 0 && i + 1 < channel.size()) {
+        break_time[p.level] += p.length;
+        ++break_gaps[p.level];
+      }
     }
-  const bool idle_evidence = high_time + low_time > 0;
-  const bool rests_high = high_time >= low_time;
+  // The rest evidence if `inverted`: every long stretch at its mark level, and those at its space
+  // level that are no break.
+  struct Rest {
+    std::uint64_t mark = 0, space = 0, gaps = 0, breaks = 0;
+    [[nodiscard]] bool any() const { return mark + space > 0; }
+    [[nodiscard]] double share() const {
+      return static_cast<double>(mark) / static_cast<double>(mark + space);
+    }
+  };
+  auto rest_if = [&](bool inv) {
+    const int mark = inv ? 0 : 1, space = 1 - mark;
+    return Rest{long_time[mark], long_time[space] - break_time[space],
+                long_gaps[mark] + long_gaps[space] - break_gaps[space], break_gaps[space]};
+  };
 
   // Polarity: the reading that decodes clearly better, and well (a handful of characters, most of
-  // them damaged either way, prove nothing); the rest level only when both decode alike
-  // (0x00-separated bytes read almost as well upside down).
+  // them damaged either way, prove nothing). When both decode alike (0x00-separated bytes read
+  // almost as well upside down), the rest level where it is clear (3 idle gaps or more, 90 % at
+  // one level), else the reading with the likelier format (8 data bits over 5: the idle read as
+  // stop bits), else the rest level however weak, else upright. On a tie, breaks are lows: the
+  // upright reading's space.
   auto decides = [](const FormatTrial& a, const FormatTrial& b) {
     return clearly_better(a, b) && (a.error_rate() <= 0.1 || a.stats.characters >= 20);
   };
   bool inverted = false;
   bool by_quality = true;
+  Rest rest;
+  enum class Tie { none, rest, format, weak_rest, assumed } tie = Tie::none;
   if (decides(upside_down, upright))
     inverted = true;
   else if (!decides(upright, upside_down)) {
     by_quality = false;
-    inverted = idle_evidence && !rests_high;
+    rest = rest_if(false);
+    const bool clear = rest.any() && rest.gaps >= 3 && (rest.share() >= 0.9 || rest.share() <= 0.1);
+    if (clear) {
+      tie = Tie::rest;
+      inverted = rest.share() < 0.5;
+    } else if (specificity(upright) != specificity(upside_down)) {
+      tie = Tie::format;
+      inverted = specificity(upside_down) > specificity(upright);
+    } else if (rest.any()) {
+      tie = Tie::weak_rest;
+      inverted = rest.share() < 0.5;
+    } else {
+      tie = Tie::assumed;
+    }
   }
+  if (by_quality) rest = rest_if(inverted);
   const FormatTrial& chosen = inverted ? upside_down : upright;
-  if (idle_evidence)
-    d.idle_share = static_cast<double>(inverted ? low_time : high_time) /
-                   static_cast<double>(high_time + low_time);
-  const bool idle_agrees = idle_evidence && d.idle_share >= 0.5;
-  d.floats_when_idle = by_quality && idle_evidence && !idle_agrees;
+  d.idle_gaps = rest.gaps;
+  d.breaks_not_rest = rest.breaks;
+  if (rest.any()) d.idle_share = inverted && !by_quality ? 1 - rest.share() : rest.share();
+  d.floats_when_idle = by_quality && rest.any() && d.idle_share < 0.5;
   auto reading = [](const char* name, const FormatTrial& t) {
-    return fmt::format("{}: {} errors in {} characters", name, t.errors(), t.stats.characters);
+    return fmt::format("{}: {} errors{} in {} characters", name, t.errors(),
+                       t.stats.breaks ? fmt::format(" and {} breaks", t.stats.breaks) : "",
+                       t.stats.characters);
   };
   const std::string both =
       fmt::format("{}; {}", reading("upright", upright), reading("inverted", upside_down));
-  if (by_quality)
-    d.polarity_reason = fmt::format("decodes clearly better that way ({})", both);
-  else if (idle_evidence)
-    d.polarity_reason = fmt::format(
-        "both readings decode alike ({}); the line rests at that "
-        "level {:.0f} % of the time in {} idle gaps",
-        both, d.idle_share * 100, d.idle_gaps);
-  else
-    d.polarity_reason = fmt::format(
-        "both readings decode alike ({}) and no idle gap shows the rest level: upright assumed",
-        both);
+  const std::string rest_text =
+      rest.any() ? fmt::format("the line rests at that level {:.0f} % of the time in {} idle gaps",
+                               d.idle_share * 100, d.idle_gaps)
+                 : "";
+  switch (tie) {
+    case Tie::none:
+      d.polarity_reason = fmt::format("decodes clearly better that way ({})", both);
+      break;
+    case Tie::rest:
+    case Tie::weak_rest:
+      d.polarity_reason = fmt::format("both readings decode alike ({}); {}", both, rest_text);
+      break;
+    case Tie::format:
+      d.polarity_reason = fmt::format(
+          "both readings decode alike ({}) and no clear idle level shows the rest level; {} reads "
+          "as {}, the other way as {}",
+          both, inverted ? "inverted" : "upright", frame_text(chosen.settings),
+          frame_text((inverted ? upright : upside_down).settings));
+      break;
+    case Tie::assumed:
+      d.polarity_reason = fmt::format(
+          "both readings decode alike ({}) and no idle gap shows the rest level: upright assumed",
+          both);
+      break;
+  }
+  if (!by_quality && d.breaks_not_rest > 0)
+    d.polarity_reason +=
+        d.breaks_not_rest == 1
+            ? std::string(
+                  " (1 low of 12.5 to 44 bits between marks taken as a break, not the "
+                  "rest level)")
+            : fmt::format(
+                  " ({} lows of 12.5 to 44 bits between marks taken as breaks, not the "
+                  "rest level)",
+                  d.breaks_not_rest);
   if (by_quality && chosen.stats.characters >= 20 && chosen.error_rate() <= 0.05)
     d.polarity_confidence = Confidence::high;
-  else if (by_quality || (idle_evidence && d.idle_gaps >= 3 && d.idle_share >= 0.9))
+  else if (by_quality || tie == Tie::rest)
     d.polarity_confidence = Confidence::medium;
   else
     d.polarity_confidence = Confidence::low;
@@ -450,29 +578,34 @@ LineDetection detect_line(std::span<const std::vector<LevelRun>> channels,
         fmt::format("{} of {} characters follow the previous one 2 stop bits apart, none after 1",
                     top.back_to_back, chars));
   else if (two && two->stats.short_stop_bits > 0)
-    reasons.push_back(fmt::format("{} characters follow the previous one after 1 stop bit",
-                                  two->stats.short_stop_bits));
+    reasons.push_back(fmt::format("{} character{} the previous one after 1 stop bit",
+                                  two->stats.short_stop_bits,
+                                  two->stats.short_stop_bits == 1 ? " follows" : "s follow"));
   else if (two && two->back_to_back > 0 && two->errors() == top.errors())
     reasons.push_back(fmt::format(
         "characters at least 1 idle bit apart ({} of them back to back that way): 2 stop bits "
         "fit as well",
         two->back_to_back));
+  else if (two && two->stats.short_stop_bits == 0 && top.back_to_back == 0 &&
+           top.one_idle_bit_apart == 0)
+    reasons.push_back(
+        "1 stop bit assumed (every character leaves room for 2, none follows the previous one "
+        "after exactly 1 or 2 to tell them apart)");
   else
     reasons.push_back("1 stop bit assumed (no characters back to back to tell 1 from 2)");
   d.format_reason = fmt::format("{}", fmt::join(reasons, "; "));
   const bool stops_known = reasons.back().find("assumed") == std::string::npos;
   // Another format of the same length that decodes the same characters as well (7E1 and 8N1
-  // over bytes whose top bit is their parity by chance): the bits cannot tell them apart. (A
-  // parity bit that held on kParityProof characters or more tells it from a reading without.)
+  // over bytes whose top bit is their parity by chance; 8O1 and 8N2 over 0x00 and 0xFF): the bits
+  // cannot tell them apart. (A proven parity bit tells it from a reading without.)
   const FormatTrial* alike = nullptr;
   for (const FormatTrial& t : d.trials)
     if (&t != &top && t.settings.inverted == top.settings.inverted &&
         t.settings.frame_bits() == top.settings.frame_bits() &&
-        t.settings.stop_bits == top.settings.stop_bits &&
         (t.settings.data_bits != top.settings.data_bits ||
          t.settings.parity != top.settings.parity) &&
         t.stats.characters == chars && t.errors() == top.errors() && !t.top_bit_always_set() &&
-        (chars < kParityProof ||
+        ((!parity_proven(top) && !parity_proven(t)) ||
          (t.settings.parity != UartParity::none) == (top.settings.parity != UartParity::none)))
       alike = &t;
   if (alike) {

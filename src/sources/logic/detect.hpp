@@ -4,11 +4,12 @@
 // capture may differ (the two sides of an RS-232 converter have opposite polarity).
 //
 //   pulse widths (samples):  52 52 104 52 156 52 ... 9000 (idle)
-//   candidate bit widths: several short pulses, each refined as the mean of width / multiple of
-//   the pulses that fit it; every candidate is trial-decoded and the one whose characters decode
-//   with the fewest framing errors and breaks wins (a few narrow glitches decide nothing)
-//   polarity: the reading with clearly fewer errors; the idle level only on a tie (an unbiased
-//   pair rests low between transmissions although every character on it is upright)
+//   candidate bit widths: several short pulses and their whole fractions, each refined as the
+//   mean of width / multiple of the pulses that fit it; the one that puts the most pulses at
+//   whole bit widths wins, unless a tied or a whole multiple of it decodes clearly better
+//   polarity: the reading with clearly fewer errors; on a tie the rest level (breaks are not
+//   it), then the likelier format (an unbiased pair rests low between transmissions although
+//   every character on it is upright)
 //
 // The measured rate is snapped to a standard one when within 3 % (a UART tolerates about that), or
 // within what the measurement can tell at few samples a bit (half a sample of a bit's width: 31250
@@ -46,10 +47,15 @@ struct FormatTrial {
   // sign of too many data bits.
   std::uint64_t data_characters = 0;
   std::uint64_t top_bit_set = 0;
+  // Different values among the characters whose parity (if any) held: what a parity bit's holding
+  // proves grows with them, not with repeats of one value.
+  std::uint64_t distinct_values = 0;
 
-  // Damaged characters (a rest at the space level is the line, not a character: not one).
+  // Damaged characters. A break (a space through the stop bits, then a mark) is a line signal
+  // that LIN and DMX send before every frame, not damage; a rest at the space level is the line,
+  // not a character: neither is one.
   [[nodiscard]] std::uint64_t errors() const {
-    return stats.framing_errors + stats.parity_errors + stats.false_starts + stats.breaks;
+    return stats.framing_errors + stats.parity_errors + stats.false_starts;
   }
   [[nodiscard]] bool top_bit_always_set() const {
     return data_characters >= 4 && top_bit_set * 100 >= data_characters * 97;
@@ -68,6 +74,8 @@ struct LineDetection {
 
   double idle_share = 0;  // share of the idle-gap time at the chosen polarity's mark level
   std::uint64_t idle_gaps = 0;
+  // Lows of 12.5 to 44 bits between two marks: breaks (DMX, LIN), not the rest level.
+  std::uint64_t breaks_not_rest = 0;
   Confidence polarity_confidence = Confidence::low;
   std::string polarity_reason;  // the evidence polarity was chosen by
   // The line decodes clearly better in the chosen polarity, yet rests at its space level for
