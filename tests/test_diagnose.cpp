@@ -609,8 +609,11 @@ LineEvidence evidence_with(AnomalyKind kind) {
       e.breaks = 3;
       break;
     case AnomalyKind::timing_rule:
-      e.timing_rules["the drive needs 200 ms (ERMAN E-9P/9G, 000 §4)"].stations[2] = {
-          3, 7, "frame 7: request 171.0 ms after the drive's last reply; the drive needs 200 ms"};
+      e.timing_rules["the drive needs 200 ms (ERMAN E-9P/9G, 000 §4)"] = {
+          TimingRule::request_after_reply,
+          {{2,
+            {3, 7,
+             "frame 7: request 171.0 ms after the drive's last reply; the drive needs 200 ms"}}}};
       break;
     default:  // overrun, clock, packets: the count is all
       break;
@@ -641,18 +644,21 @@ TEST(Diagnosis, EachTimingRuleIsItsOwnVerdictWithItsOwnFix) {
   LineEvidence e;
   FramingTiming timing;
   DiagnosisSink sink(e, timing);
-  const char* breaks[] = {
-      "reply 27.0 ms after the request; the drive answers within 20 ms (Danfoss VLT AQUA, 002)",
-      "reply 7.7 ms after the request; the drive keeps at least 10 ms (E5-8200, 004)",
-      "request 171.0 ms after the drive's last reply; the drive needs 200 ms (ERMAN E-9P/9G, 000)",
-      "reply 25.0 ms after the request; the drive answers within 20 ms (Danfoss VLT AQUA, 002)"};
+  // Typed as the pipeline makes them; no text: diagnosis reads the rule, not the words.
+  const TimingBreak breaks[] = {
+      {TimingRule::reply_too_late, 27.0, 20, "Danfoss VLT AQUA", "002"},
+      {TimingRule::reply_too_soon, 7.7, 10, "E5-8200", "004"},
+      {TimingRule::request_after_reply, 171.0, 200, "ERMAN E-9P/9G", "000"},
+      {TimingRule::reply_too_late, 25.0, 20, "Danfoss VLT AQUA", "002"}};
   std::uint64_t number = 0;
-  for (const char* detail : breaks) {
+  for (const TimingBreak& b : breaks) {
     Message m;
     m.frame.number = ++number;
     m.address = static_cast<int>(number);
     sink.on_frame(m);
-    sink.on_anomaly({AnomalyKind::timing_rule, 0, 0, number, detail});
+    Anomaly a{AnomalyKind::timing_rule, 0, 0, number, {}};
+    a.timing = b;
+    sink.on_anomaly(a);
   }
   std::vector<const Verdict*> rules;
   const std::vector<Verdict> verdicts = diagnose(e);
@@ -670,4 +676,11 @@ TEST(Diagnosis, EachTimingRuleIsItsOwnVerdictWithItsOwnFix) {
   EXPECT_NE((*vlt)->evidence.find("2 times (station 1: 1, station 4: 1"), std::string::npos)
       << (*vlt)->evidence;
   EXPECT_NE((*vlt)->fix.find("later than its manual"), std::string::npos);
+  EXPECT_EQ((*vlt)->title,
+            "A drive's timing rule is broken: the drive answers within 20 ms (Danfoss VLT AQUA, "
+            "002)");
+  EXPECT_NE((*vlt)->evidence.find("first: frame 1: reply 27.0 ms after the request; the drive "
+                                  "answers within 20 ms"),
+            std::string::npos)
+      << (*vlt)->evidence;
 }

@@ -46,6 +46,19 @@ inline constexpr std::array kExceptionNames = {
     ValueName{0x0B, "Gateway Target Device Failed to Respond"},
 };
 
+// What the standard exception codes mean to the engineer whose master got them, in plain words
+// (diagnose's exception verdict); any other code is the vendor's.
+inline constexpr std::array kExceptionMeanings = {
+    ValueName{0x01, "function not supported"},      ValueName{0x02, "no such register"},
+    ValueName{0x03, "value out of range"},          ValueName{0x04, "the drive failed"},
+    ValueName{0x05, "acknowledged, still working"}, ValueName{0x06, "busy"},
+};
+constexpr std::string_view exception_meaning(std::uint32_t code) {
+  for (const ValueName& v : kExceptionMeanings)
+    if (v.value == code) return v.name;
+  return "vendor code";
+}
+
 inline constexpr std::array kDiagnosticSubfunctions = {
     ValueName{0x00, "Return Query Data"},
     ValueName{0x01, "Restart Communications Option"},

@@ -40,7 +40,7 @@ std::string diagnosis_text(const std::string& file, const LineEvidence& e,
     text += fmt::format("{}polarity {}, confidence {}: {}\n", indent,
                         d.settings.inverted ? "inverted" : "normal",
                         phy::confidence_name(d.polarity_confidence), d.polarity_reason);
-    text += fmt::format("{}format   {}, confidence {}: {}\n", indent, frame_format_text(d.settings),
+    text += fmt::format("{}format   {}, confidence {}: {}\n", indent, phy::frame_text(d.settings),
                         phy::confidence_name(d.format_confidence), d.format_reason);
     return text;
   };
@@ -107,7 +107,7 @@ std::string diagnosis_json(const std::string& file, const LineEvidence& e,
         "\"format_confidence\":\"{}\",\"format_reason\":{}}}",
         d.settings.baud, d.measured_baud, d.baud_standard, phy::confidence_name(d.baud_confidence),
         d.settings.inverted, phy::confidence_name(d.polarity_confidence),
-        json_quote(d.polarity_reason), d.floats_when_idle, frame_format_text(d.settings),
+        json_quote(d.polarity_reason), d.floats_when_idle, phy::frame_text(d.settings),
         phy::confidence_name(d.format_confidence), json_quote(d.format_reason));
   };
   if (e.channels.size() == 1 && e.channels.front().detection && e.channels.front().detection->found)

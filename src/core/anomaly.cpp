@@ -133,4 +133,48 @@ std::string_view direction_id(Direction d) {
   return enum_text(d, kDirectionIds, std::string_view{"unknown"});
 }
 
+std::string timing_rule_text(const TimingBreak& b) {
+  const char* rule = "";
+  switch (b.rule) {
+    case TimingRule::silence_before_request:
+      rule = "the drive needs {:g}";
+      break;
+    case TimingRule::request_after_reply:
+      rule = "the drive needs {:g} ms";
+      break;
+    case TimingRule::reply_too_soon:
+      rule = "the drive keeps at least {:g} ms";
+      break;
+    case TimingRule::reply_too_late:
+      rule = "the drive answers within {:g} ms";
+      break;
+    case TimingRule::none:
+      return {};
+  }
+  std::string text = fmt::format(fmt::runtime(rule), b.limit);
+  text += fmt::format(" ({}", b.profile);
+  if (!b.section.empty()) text += fmt::format(", {}", b.section);
+  text += ')';
+  return text;
+}
+
+std::string timing_break_text(const TimingBreak& b) {
+  const char* measured = "";
+  switch (b.rule) {
+    case TimingRule::silence_before_request:
+      measured = "{:.1f} characters of silence before the request";
+      break;
+    case TimingRule::request_after_reply:
+      measured = "request {:.1f} ms after the drive's last reply";
+      break;
+    case TimingRule::reply_too_soon:
+    case TimingRule::reply_too_late:
+      measured = "reply {:.1f} ms after the request";
+      break;
+    case TimingRule::none:
+      return {};
+  }
+  return fmt::format(fmt::runtime(measured), b.measured) + "; " + timing_rule_text(b);
+}
+
 }  // namespace drivetap

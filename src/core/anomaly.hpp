@@ -58,6 +58,30 @@ struct FindingDesc {
   std::string_view text;  // fmt template of the detail
 };
 
+// A drive timing rule a telegram broke, typed (pipeline check_drive_timing; the profile's
+// limits): diagnosis groups and fixes the breaks by the rule, never by the wording.
+enum class TimingRule : std::uint8_t {
+  none,
+  silence_before_request,  // characters of silence before a request, under the drive's minimum
+  request_after_reply,     // ms from the drive's last reply to the next request, under its minimum
+  reply_too_soon,          // a reply's latency under the drive's minimum delay
+  reply_too_late,          // a reply's latency over the drive's maximum
+};
+
+struct TimingBreak {
+  TimingRule rule = TimingRule::none;
+  double measured = 0;  // characters (silence_before_request) or ms
+  double limit = 0;     // in the same unit
+  // The rule's source: the profile's name and its manual's section (views into the profile,
+  // which outlives the run's findings).
+  std::string_view profile, section;
+};
+
+// "the drive keeps at least 10 ms (E5-8200, 000 §5.2)": the rule and where it is stated.
+std::string timing_rule_text(const TimingBreak& b);
+// "reply 3.8 ms after the request; the drive keeps at least 10 ms (E5-8200, 000 §5.2)".
+std::string timing_break_text(const TimingBreak& b);
+
 struct Anomaly {
   AnomalyKind kind = AnomalyKind::malformed;
   TimeNs time = 0;
@@ -68,6 +92,7 @@ struct Anomaly {
   // The station it concerns, for a finding handed on after the frame it belongs to (held with
   // its drive's binding); -1: the station of the frame it follows, or none.
   int address = -1;
+  TimingBreak timing{};  // timing_rule: which rule, by how much
 };
 
 using AnomalyCounts = std::array<std::uint64_t, kAnomalyKindCount>;

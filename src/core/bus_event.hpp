@@ -21,6 +21,9 @@ struct BusEvent {
   Protocol protocol = Protocol::unknown;
   std::string confidence;  // "high", "medium", "low" (detection and binding)
   std::string detail;      // human text with the evidence: the line a field engineer reads
+  // protocol_detected, no drive protocol: what the line carries instead ("56 bytes of printable
+  // ASCII text"), the part of `detail` diagnosis names the line by.
+  std::string carries;
   // Drive events: the station, its profile, the frame that showed it, and the state change.
   int address = -1;
   std::string profile;      // profile id ("e9"), "generic" when no family fits

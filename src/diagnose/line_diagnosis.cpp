@@ -7,6 +7,7 @@
 #include <cmath>
 
 #include "core/printable.hpp"
+#include "dissectors/modbus/modbus_fields.hpp"
 #include "pipeline/pipeline.hpp"
 #include "sources/logic/logic_source.hpp"
 
@@ -131,15 +132,15 @@ void sampled_settings(const LineEvidence& e, const LineEvidence::Channel& c,
                      works),
          fmt::format("set {:g} baud (-s \"{:g} {}\"), and check the baud parameter of "
                      "any drive that must talk on this bus",
-                     found.baud, found.baud, frame_format_text(found))});
+                     found.baud, found.baud, phy::frame_text(found))});
   } else if (given.parity != found.parity || given.data_bits != found.data_bits) {
     out.push_back({"parity-mismatch",
-                   fmt::format("Format mismatch: the line uses {}, not {}",
-                               frame_format_text(found), frame_format_text(given)),
+                   fmt::format("Format mismatch: the line uses {}, not {}", phy::frame_text(found),
+                               phy::frame_text(given)),
                    fmt::format("{}; {}", given_text, works),
                    fmt::format("set {} (-s \"{:g} {}\") and the same parity in every drive's "
                                "communication parameters",
-                               frame_format_text(found), found.baud, frame_format_text(found))});
+                               phy::frame_text(found), found.baud, phy::frame_text(found))});
   } else if (given.inverted != found.inverted && !inverted_line) {
     out.push_back({"settings-mismatch", "Polarity given wrong: the line is not inverted",
                    fmt::format("{}; {}", given_text, works), "decode without --invert"});
@@ -219,38 +220,24 @@ std::string per_station_share(const LineEvidence& e, StationCount count, Station
       });
 }
 
-const char* exception_meaning(int code) {
-  switch (code) {
-    case 1:
-      return "function not supported";
-    case 2:
-      return "no such register";
-    case 3:
-      return "value out of range";
-    case 4:
-      return "the drive failed";
-    case 5:
-      return "acknowledged, still working";
-    case 6:
-      return "busy";
-    default:
-      return "vendor code";
+// The fix for a timing rule: each rule has its own.
+const char* timing_rule_fix(TimingRule rule) {
+  switch (rule) {
+    case TimingRule::reply_too_soon:
+      return "the drive answers sooner than its manual's minimum delay: check its response-delay "
+             "parameter; a master that turns its transmitter around slowly collides with such a "
+             "reply";
+    case TimingRule::reply_too_late:
+      return "the drive answers later than its manual promises (overloaded, or its response "
+             "delay set high): lower that parameter, and keep the master's timeout above the "
+             "delay";
+    case TimingRule::request_after_reply:
+      return "the master polls this drive sooner after its reply than the manual allows: add "
+             "the required pause before the next request to it";
+    case TimingRule::silence_before_request:
+    case TimingRule::none:
+      break;
   }
-}
-
-// The fix for a timing rule, by what the pipeline says of a break of it (pipeline.cpp
-// check_drive_timing: "request 171.0 ms after the drive's last reply; the drive needs 200 ms").
-const char* timing_rule_fix(const std::string& rule) {
-  if (rule.find("keeps at least") != std::string::npos)
-    return "the drive answers sooner than its manual's minimum delay: check its response-delay "
-           "parameter; a master that turns its transmitter around slowly collides with such a "
-           "reply";
-  if (rule.find("answers within") != std::string::npos)
-    return "the drive answers later than its manual promises (overloaded, or its response delay "
-           "set high): lower that parameter, and keep the master's timeout above the delay";
-  if (rule.find("after the drive's last reply") != std::string::npos)
-    return "the master polls this drive sooner after its reply than the manual allows: add the "
-           "required pause before the next request to it";
   return "the master leaves less silence before its requests than the drive needs: raise the "
          "master's delay between frames to the manual's minimum";
 }
@@ -328,9 +315,10 @@ void bus_findings(const LineEvidence& e, std::vector<Verdict>& out) {
                        [](const S& s) {
                          std::vector<std::string> kinds;
                          for (const auto& [key, count] : s.exceptions)
-                           kinds.push_back(fmt::format("function {:02X} exception {} ({}) x{}",
-                                                       key.first, key.second,
-                                                       exception_meaning(key.second), count));
+                           kinds.push_back(fmt::format(
+                               "function {:02X} exception {} ({}) x{}", key.first, key.second,
+                               modbus::exception_meaning(static_cast<std::uint32_t>(key.second)),
+                               count));
                          return fmt::format("{}", fmt::join(kinds, ", "));
                        }),
                    "the master asks for what the drive refuses: a function it lacks (1), a "
@@ -351,7 +339,7 @@ void bus_findings(const LineEvidence& e, std::vector<Verdict>& out) {
     out.push_back({"timing-rule", fmt::format("A drive's timing rule is broken: {}", rule),
                    fmt::format("{} {} ({}; first: {})", count, count == 1 ? "time" : "times",
                                fmt::join(where, ", "), breaks.first()),
-                   timing_rule_fix(breaks.first())});
+                   timing_rule_fix(breaks.rule)});
   }
   const std::uint64_t split = e.findings[static_cast<std::size_t>(AnomalyKind::packet_split_frame)];
   const std::uint64_t merged =
@@ -370,13 +358,6 @@ void bus_findings(const LineEvidence& e, std::vector<Verdict>& out) {
 }
 
 }  // namespace
-
-std::string frame_format_text(const phy::UartSettings& s) {
-  phy::UartSettings upright = s;
-  upright.inverted = false;
-  const std::string text = phy::settings_text(upright);
-  return text.substr(text.find(' ') + 1);  // "8E1"
-}
 
 const std::array<FindingCoverage, kAnomalyKindCount> kFindingCoverage = {{
     {AnomalyKind::checksum_bad, "bad-checksum noise unbiased-bus"},
@@ -577,12 +558,7 @@ void DiagnosisSink::on_event(const BusEvent& event) {
     foreign_.erase(event.channel);
     return;
   }
-  // "no drive protocol: 56 bytes of printable ASCII text (good telegrams, ...)": what it carries.
-  std::string carries = event.detail;
-  if (carries.starts_with("no drive protocol: ")) carries.erase(0, 19);
-  if (const std::size_t evidence = carries.find(" (good telegrams"); evidence != std::string::npos)
-    carries.erase(evidence);
-  foreign_[event.channel] = carries;
+  foreign_[event.channel] = event.carries;  // "56 bytes of printable ASCII text"
 }
 
 void DiagnosisSink::on_transaction(const Transaction& t) {
@@ -617,16 +593,14 @@ void DiagnosisSink::on_anomaly(const Anomaly& a) {
       example(evidence_.first_short_gap);
       break;
     case AnomalyKind::timing_rule: {
-      // "reply 3.8 ms after the request; the drive keeps at least 10 ms (E5-8200, ...)": what
-      // follows the measurement names the drive and its rule.
-      const std::size_t cut = a.detail.find("; ");
-      auto& rule =
-          evidence_.timing_rules[cut == std::string::npos ? a.detail : a.detail.substr(cut + 2)];
+      // One entry per drive and rule: "the drive keeps at least 10 ms (E5-8200, ...)".
+      auto& rule = evidence_.timing_rules[timing_rule_text(a.timing)];
+      rule.rule = a.timing.rule;
       LineEvidence::RuleBreaks::AtStation& at = rule.stations[address];
       // (A finding held with its drive's binding comes after later frames' findings.)
       if (at.count++ == 0 || a.frame_number < at.first_frame) {
         at.first_frame = a.frame_number;
-        at.first = fmt::format("frame {}: {}", a.frame_number, a.detail);
+        at.first = fmt::format("frame {}: {}", a.frame_number, timing_break_text(a.timing));
       }
       break;
     }

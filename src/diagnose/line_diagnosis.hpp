@@ -101,6 +101,7 @@ struct LineEvidence : UartCounts {
       std::uint64_t first_frame = 0;
       std::string first;  // "frame 7: request 171.0 ms after ..."
     };
+    TimingRule rule = TimingRule::none;
     std::map<int, AtStation> stations;
     [[nodiscard]] std::uint64_t count() const;
     [[nodiscard]] const std::string& first() const;  // the earliest frame's
@@ -133,9 +134,6 @@ struct FindingCoverage {
 extern const std::array<FindingCoverage, kAnomalyKindCount> kFindingCoverage;
 
 std::vector<Verdict> diagnose(const LineEvidence& evidence);
-
-// The character format alone, "8E1" (the polarity left out).
-std::string frame_format_text(const phy::UartSettings& settings);
 
 // Collects the frame-level evidence while the pipeline runs (it prints nothing).
 class DiagnosisSink final : public Sink {

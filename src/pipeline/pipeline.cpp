@@ -548,7 +548,7 @@ void Pipeline::detect(ChannelState& st, ChannelId channel, TimeNs now, bool fina
     // serial line is still cut by silence, its pieces shown as data (noise records).
     // Too few good telegrams is no protocol either (never one lucky telegram), said as such.
     ev.protocol = Protocol::unknown;
-    const std::string carries =
+    ev.carries =
         best->good > 0
             ? fmt::format("{} bytes with only {} good {} telegram{} (too few to decide)",
                           st.held.size(), best->good, protocol_label(best->decoder->protocol()),
@@ -556,7 +556,7 @@ void Pipeline::detect(ChannelState& st, ChannelId channel, TimeNs now, bool fina
             : describe_line(st.held);
     ev.detail =
         fmt::format("no drive protocol: {} (good telegrams, checksum and plausibility: {}){}",
-                    carries, evidence, st.ip_flow ? "; the flow is left out of the decode" : "");
+                    ev.carries, evidence, st.ip_flow ? "; the flow is left out of the decode" : "");
   }
   // Handed on just before the channel's first frame (which starts at ev.time), in time order with
   // the frames of other channels.
@@ -712,48 +712,31 @@ void Pipeline::check_drive_timing(const TelegramHead& m, const DriveProfile& p,
   // t1.5 or t3.5.
   if (!timing.silences_trusted) return;
   const TimeNs char_time = timing.character_time;
-  // A finding; its text (`describe()`, with the rule's source, "ERMAN E-9P/9G, 000 §5.2") only
-  // when `described`: a run that shows no anomaly counts it by its kind.
-  auto finding = [&](auto&& describe) {
-    std::string detail;
-    if (described) {
-      detail = fmt::format(FMT_COMPILE("{} ({}"), describe(), p.name);
-      if (!p.timing_section.empty()) detail += ", " + p.timing_section;
-      detail += ')';
-    }
-    found.push_back({AnomalyKind::timing_rule, m.start, m.channel, m.number, std::move(detail)});
+  // A finding, typed; its text (timing_break_text, with the rule's source, "ERMAN E-9P/9G, 000
+  // §5.2") only when `described`: a run that shows no anomaly counts it by its kind.
+  auto finding = [&](TimingRule rule, double measured, double limit) {
+    Anomaly a{AnomalyKind::timing_rule, m.start, m.channel, m.number, {}};
+    a.timing = {rule, measured, limit, p.name, p.timing_section};
+    if (described) a.detail = timing_break_text(a.timing);
+    found.push_back(std::move(a));
   };
   auto ms = [](TimeNs t) { return static_cast<double>(t) / static_cast<double>(kNsPerMs); };
   if (m.direction == Direction::request) {
     if (p.min_silence_chars && m.gap_before >= 0 && char_time > 0 &&
         static_cast<double>(m.gap_before) < *p.min_silence_chars * static_cast<double>(char_time))
-      finding([&] {
-        return fmt::format(
-            FMT_COMPILE("{:.1f} characters of silence before the request; the drive needs {:g}"),
-            static_cast<double>(m.gap_before) / static_cast<double>(char_time),
-            *p.min_silence_chars);
-      });
+      finding(TimingRule::silence_before_request,
+              static_cast<double>(m.gap_before) / static_cast<double>(char_time),
+              *p.min_silence_chars);
     const auto last = last_reply_end_.find(m.address);
     if (p.min_reply_to_request_ms && last != last_reply_end_.end() &&
         ms(m.start - last->second) < *p.min_reply_to_request_ms)
-      finding([&] {
-        return fmt::format(
-            FMT_COMPILE("request {:.1f} ms after the drive's last reply; the drive needs {:g} ms"),
-            ms(m.start - last->second), *p.min_reply_to_request_ms);
-      });
+      finding(TimingRule::request_after_reply, ms(m.start - last->second),
+              *p.min_reply_to_request_ms);
   } else if (m.direction == Direction::response) {
     if (m.latency >= 0 && p.min_reply_delay_ms && ms(m.latency) < *p.min_reply_delay_ms)
-      finding([&] {
-        return fmt::format(
-            FMT_COMPILE("reply {:.1f} ms after the request; the drive keeps at least {:g} ms"),
-            ms(m.latency), *p.min_reply_delay_ms);
-      });
+      finding(TimingRule::reply_too_soon, ms(m.latency), *p.min_reply_delay_ms);
     if (m.latency >= 0 && p.max_reply_delay_ms && ms(m.latency) > *p.max_reply_delay_ms)
-      finding([&] {
-        return fmt::format(
-            FMT_COMPILE("reply {:.1f} ms after the request; the drive answers within {:g} ms"),
-            ms(m.latency), *p.max_reply_delay_ms);
-      });
+      finding(TimingRule::reply_too_late, ms(m.latency), *p.max_reply_delay_ms);
     last_reply_end_[m.address] = m.last_byte + char_time;
   }
 }

@@ -85,13 +85,16 @@ double snap_to_standard_baud(double measured, double tolerance) {
   return nearest;
 }
 
-std::string settings_text(const UartSettings& s) {
+std::string frame_text(const UartSettings& s) {
   const char parity = "NEOMS"[static_cast<int>(s.parity)];
   const char* stops = s.stop_bits == StopBits::two            ? "2"
                       : s.stop_bits == StopBits::one_and_half ? "1.5"
                                                               : "1";
-  return fmt::format("{:g} {}{}{}{}", s.baud, s.data_bits, parity, stops,
-                     s.inverted ? ", inverted" : "");
+  return fmt::format("{}{}{}", s.data_bits, parity, stops);
+}
+
+std::string settings_text(const UartSettings& s) {
+  return fmt::format("{:g} {}{}", s.baud, frame_text(s), s.inverted ? ", inverted" : "");
 }
 
 FormatTrial trial_decode(std::span<const std::vector<LevelRun>> channels,
@@ -192,13 +195,6 @@ UartSettings format(double baud, bool inverted, std::uint8_t data_bits, UartPari
   s.parity = parity;
   s.stop_bits = stop_bits;
   return s;
-}
-
-// "8N1": the frame of a format, without rate or polarity.
-std::string frame_text(const UartSettings& s) {
-  const std::string text = settings_text(s);
-  const auto space = text.find(' ');
-  return text.substr(space + 1, text.find(',') - space - 1);
 }
 
 // The rate to decode a measured one at: the standard rate within 3 %, else three significant

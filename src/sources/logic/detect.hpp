@@ -114,6 +114,8 @@ FormatTrial trial_decode(std::span<const std::vector<LevelRun>> channels,
 
 // "19200 8E1" / "10700 8N2" / "115200 7O1", with ", inverted" when the line idles low.
 std::string settings_text(const UartSettings& s);
+// "8E1": the frame alone, without rate or polarity.
+std::string frame_text(const UartSettings& s);
 // The nearest standard baud rate within `tolerance` (3 %), or 0.
 double snap_to_standard_baud(double measured, double tolerance = 0.03);
 
