@@ -19,7 +19,7 @@ TEST(Detection, ModbusRtuWithHighConfidence) {
   }
   r.pipeline->finish();
   ASSERT_EQ(r.sink.events.size(), 1u);
-  EXPECT_EQ(r.sink.events[0].kind, "protocol_detected");
+  EXPECT_EQ(r.sink.events[0].kind, EventKind::protocol_detected);
   EXPECT_EQ(r.sink.events[0].protocol, protocols::modbus_rtu);
   EXPECT_EQ(r.sink.events[0].confidence, "high");
   EXPECT_EQ(r.sink.frames.frames.size(), 20u);

@@ -1100,7 +1100,7 @@ TEST(DriveTimeline, FirstStatusAndRepeats) {
   stopped.running = false;
   auto ev = rig.feed(stopped);
   ASSERT_EQ(ev.size(), 1u);
-  EXPECT_EQ(ev[0].kind, "running");
+  EXPECT_EQ(ev[0].kind, EventKind::running);
   EXPECT_EQ(ev[0].detail, "drive 2 (ERMAN E-9P/9G): stopped");
   EXPECT_EQ(ev[0].from, "");
   EXPECT_EQ(ev[0].to, "stopped");
@@ -1138,7 +1138,7 @@ TEST(DriveTimeline, RunCommandsOnce) {
   start.run_command = true;
   auto ev = rig.feed(start);
   ASSERT_EQ(ev.size(), 1u);
-  EXPECT_EQ(ev[0].kind, "command");
+  EXPECT_EQ(ev[0].kind, EventKind::command);
   EXPECT_EQ(ev[0].detail, "drive 2 (ERMAN E-9P/9G): start commanded");
   EXPECT_EQ(ev[0].from, "");
   EXPECT_EQ(ev[0].to, "start");
@@ -1162,7 +1162,7 @@ TEST(DriveTimeline, ResetOnRisingEdgesOnly) {
   reset.reset_command = true;
   auto ev = rig.feed(reset);
   ASSERT_EQ(ev.size(), 1u);
-  EXPECT_EQ(ev[0].kind, "command");
+  EXPECT_EQ(ev[0].kind, EventKind::command);
   EXPECT_EQ(ev[0].detail, "drive 2 (Danfoss VLT AQUA): fault reset commanded");
   EXPECT_EQ(ev[0].to, "reset");
   EXPECT_EQ(ev[0].profile, "vlt-aqua");
@@ -1192,7 +1192,7 @@ TEST(DriveTimeline, FaultAppearsAndClears) {
   EXPECT_TRUE(rig.feed(fault(0, "0 (no fault)")).empty());
   auto ev = rig.feed(fault(4, "4 (output overcurrent)"));
   ASSERT_EQ(ev.size(), 1u);
-  EXPECT_EQ(ev[0].kind, "fault");
+  EXPECT_EQ(ev[0].kind, EventKind::fault);
   EXPECT_EQ(ev[0].detail, "drive 2 (ERMAN E-9P/9G): fault 4 (output overcurrent) appeared");
   EXPECT_EQ(ev[0].from, "");
   EXPECT_EQ(ev[0].to, "4 (output overcurrent)");
@@ -1220,7 +1220,7 @@ TEST(DriveTimeline, SetpointCommandThenReadback) {
   cmd.setpoint_command = hz(40);
   auto ev = rig.feed(cmd);
   ASSERT_EQ(ev.size(), 1u);
-  EXPECT_EQ(ev[0].kind, "setpoint");
+  EXPECT_EQ(ev[0].kind, EventKind::setpoint);
   EXPECT_EQ(ev[0].detail, "drive 2 (ERMAN E-9P/9G): setpoint 40.00 Hz commanded");
   EXPECT_EQ(ev[0].from, "");
   EXPECT_EQ(ev[0].to, "40.00 Hz");
@@ -1230,7 +1230,7 @@ TEST(DriveTimeline, SetpointCommandThenReadback) {
   readback.setpoint = hz(50);
   ev = rig.feed(readback);
   ASSERT_EQ(ev.size(), 1u);
-  EXPECT_EQ(ev[0].kind, "setpoint");
+  EXPECT_EQ(ev[0].kind, EventKind::setpoint);
   EXPECT_EQ(ev[0].detail, "drive 2 (ERMAN E-9P/9G): setpoint 40.00 Hz -> 50.00 Hz");
   EXPECT_EQ(ev[0].from, "40.00 Hz");
   EXPECT_EQ(ev[0].to, "50.00 Hz");
@@ -1250,7 +1250,7 @@ TEST(DriveTimeline, ReverseAndDirection) {
   rev.reverse_command = true;
   auto ev = rig.feed(rev);
   ASSERT_EQ(ev.size(), 1u);
-  EXPECT_EQ(ev[0].kind, "command");
+  EXPECT_EQ(ev[0].kind, EventKind::command);
   EXPECT_EQ(ev[0].detail, "drive 2 (ERMAN E-9P/9G): reverse commanded");
   EXPECT_EQ(ev[0].from, "forward");
   EXPECT_EQ(ev[0].to, "reverse");
@@ -1267,7 +1267,7 @@ TEST(DriveTimeline, ReverseAndDirection) {
   turning.reverse = true;
   ev = rig.feed(turning);
   ASSERT_EQ(ev.size(), 1u);
-  EXPECT_EQ(ev[0].kind, "direction");
+  EXPECT_EQ(ev[0].kind, EventKind::direction);
   EXPECT_EQ(ev[0].detail, "drive 2 (ERMAN E-9P/9G): direction forward -> reverse");
   EXPECT_EQ(ev[0].from, "forward");
   EXPECT_EQ(ev[0].to, "reverse");
@@ -1382,7 +1382,7 @@ TEST(DriveBinder, E9PollingBindsE9OnTwoTransactionsAndIsHighFromEight) {
   EXPECT_EQ(rig.bound_id(2), "e9");
   ASSERT_EQ(rig.events.size(), 1u);
   const BusEvent& e = rig.events[0];
-  EXPECT_EQ(e.kind, "drive_bound");
+  EXPECT_EQ(e.kind, EventKind::drive_bound);
   EXPECT_EQ(e.profile, "e9");
   EXPECT_EQ(e.to, "e9");
   EXPECT_EQ(e.from, "");

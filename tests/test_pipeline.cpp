@@ -276,7 +276,7 @@ struct TranscriptSink final : Sink {
                                   t.request_number, t.response_number, t.latency, t.detail));
   }
   void on_event(const BusEvent& e) override {
-    records.push_back(fmt::format("event {} {}", e.kind, e.detail));
+    records.push_back(fmt::format("event {} {}", event_kind_id(e.kind), e.detail));
   }
   void on_summary(const Stats& s) override {
     records.push_back(fmt::format(

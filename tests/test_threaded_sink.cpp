@@ -54,7 +54,7 @@ class RecordingSink final : public Sink {
     note("transaction " + std::to_string(t.request_number) + " " + t.detail);
   }
   void on_summary(const Stats& s) override { note("summary " + std::to_string(s.frames)); }
-  void on_event(const BusEvent& e) override { note("event " + e.kind + " " + e.detail); }
+  void on_event(const BusEvent& e) override { note("event " + std::string(event_kind_id(e.kind)) + " " + e.detail); }
   bool flush() override {
     ++flushes;
     return true;
@@ -122,7 +122,7 @@ void play(Sink& sink, std::size_t frames) {
     if (i % 11 == 0) sink.on_anomaly({AnomalyKind::noise, 0, 0, i, "anomaly " + std::to_string(i)});
     if (i % 13 == 0) {
       BusEvent e;
-      e.kind = "running";
+      e.kind = EventKind::running;
       e.detail = "drive " + std::to_string(i);
       sink.on_event(e);
     }

@@ -4,7 +4,9 @@
 #pragma once
 
 #include <cstdint>
+#include <iterator>
 #include <string>
+#include <string_view>
 
 #include "core/byte_event.hpp"
 #include "core/message.hpp"
@@ -12,12 +14,36 @@
 
 namespace drivetap {
 
+// What an event is about: detection and binding, then the drive-state kinds.
+enum class EventKind : std::uint8_t {
+  protocol_detected,
+  drive_bound,
+  command,
+  running,
+  direction,
+  setpoint,
+  fault,
+  warning,
+};
+
+// The stable id of a kind, as in JSON `kind` ("protocol_detected", "drive_bound", "command",
+// "running", "direction", "setpoint", "fault", "warning").
+constexpr std::string_view event_kind_id(EventKind kind) {
+  constexpr std::string_view kIds[] = {"protocol_detected", "drive_bound", "command", "running",
+                                       "direction",         "setpoint",    "fault",   "warning"};
+  const auto at = static_cast<std::size_t>(kind);
+  return at < std::size(kIds) ? kIds[at] : std::string_view("unknown");
+}
+
+// A drive-state kind (the timeline's), not detection or binding.
+constexpr bool is_drive_state(EventKind kind) {
+  return kind != EventKind::protocol_detected && kind != EventKind::drive_bound;
+}
+
 struct BusEvent {
   TimeNs time = 0;
   ChannelId channel = 0;
-  // Stable ids: "protocol_detected", "drive_bound", and the drive-state kinds "command",
-  // "running", "direction", "setpoint", "fault", "warning".
-  std::string kind;
+  EventKind kind = EventKind::protocol_detected;
   Protocol protocol = Protocol::unknown;
   std::string confidence;  // "high", "medium", "low" (detection and binding)
   std::string detail;      // human text with the evidence: the line a field engineer reads

@@ -541,7 +541,7 @@ const std::string& LineEvidence::RuleBreaks::first() const {
 }
 
 void DiagnosisSink::on_event(const BusEvent& event) {
-  if (event.kind == "drive_bound" && !event.from.empty()) {
+  if (event.kind == EventKind::drive_bound && !event.from.empty()) {
     // A binding let go or taken over: the timing rules its family set were never the drive's.
     for (auto rule = evidence_.timing_rules.begin(); rule != evidence_.timing_rules.end();) {
       const auto at = rule->second.stations.find(event.address);
@@ -553,7 +553,7 @@ void DiagnosisSink::on_event(const BusEvent& event) {
     }
     return;
   }
-  if (event.kind != "protocol_detected") return;
+  if (event.kind != EventKind::protocol_detected) return;
   if (event.protocol != Protocol::unknown) {
     foreign_.erase(event.channel);
     return;

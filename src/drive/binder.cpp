@@ -398,7 +398,7 @@ const DriveProfile* DriveBinder::learn_bound(std::size_t link, TelegramDriveReco
   BusEvent& e = event.emplace();
   e.time = m.start;
   e.channel = m.channel;
-  e.kind = "drive_bound";
+  e.kind = EventKind::drive_bound;
   e.protocol = m.protocol;
   e.address = m.address;
   e.frame = m.number;

@@ -35,7 +35,8 @@ std::vector<BusEvent> DriveTimeline::observe(std::size_t link, const TelegramHea
   // A state change: counted, and made an event when `described` (`text()` gives its kind, what
   // it says, and the values from and to, formatted only then).
   struct EventText {
-    std::string kind, what, from, to;
+    EventKind kind;
+    std::string what, from, to;
   };
   auto emit = [&](auto&& text) {
     ++s.events;
@@ -44,7 +45,7 @@ std::vector<BusEvent> DriveTimeline::observe(std::size_t link, const TelegramHea
     BusEvent e;
     e.time = m.start;
     e.channel = m.channel;
-    e.kind = std::move(t.kind);
+    e.kind = t.kind;
     e.protocol = m.protocol;
     e.address = m.address;
     e.profile = profile.id;
@@ -64,7 +65,7 @@ std::vector<BusEvent> DriveTimeline::observe(std::size_t link, const TelegramHea
     if (s.setpoint && s.setpoint->same_text(to)) return;
     emit([&] {
       const std::string from = s.setpoint ? s.setpoint->text() : "", text = to.text();
-      return EventText{"setpoint",
+      return EventText{EventKind::setpoint,
                        s.setpoint
                            ? fmt::format(FMT_COMPILE("setpoint {} -> {}{}"), from, text, suffix)
                            : fmt::format(FMT_COMPILE("setpoint {}{}"), text, suffix),
@@ -77,7 +78,8 @@ std::vector<BusEvent> DriveTimeline::observe(std::size_t link, const TelegramHea
   if (o.run_command && o.run_command != s.run_command) {
     emit([&] {
       const std::string to = word(o.run_command, "start", "stop");
-      return EventText{"command", to + " commanded", word(s.run_command, "start", "stop"), to};
+      return EventText{EventKind::command, to + " commanded", word(s.run_command, "start", "stop"),
+                       to};
     });
     s.run_command = o.run_command;
   }
@@ -86,7 +88,7 @@ std::vector<BusEvent> DriveTimeline::observe(std::size_t link, const TelegramHea
     if (s.reverse_command || *o.reverse_command) {
       emit([&] {
         const std::string to = word(o.reverse_command, "reverse", "forward");
-        return EventText{"command", to + " commanded",
+        return EventText{EventKind::command, to + " commanded",
                          word(s.reverse_command, "reverse", "forward"), to};
       });
     }
@@ -94,7 +96,7 @@ std::vector<BusEvent> DriveTimeline::observe(std::size_t link, const TelegramHea
   }
   const bool is_command = o.run_command || o.reverse_command || o.setpoint_command;
   if (o.reset_command && !s.reset_level)
-    emit([] { return EventText{"command", "fault reset commanded", "", "reset"}; });
+    emit([] { return EventText{EventKind::command, "fault reset commanded", "", "reset"}; });
   if (o.reset_command || is_command) s.reset_level = o.reset_command;
   if (o.setpoint_command) setpoint_change(*o.setpoint_command, " commanded");
 
@@ -102,7 +104,7 @@ std::vector<BusEvent> DriveTimeline::observe(std::size_t link, const TelegramHea
   if (o.running && o.running != s.running) {
     emit([&] {
       const std::string to = word(o.running, "running", "stopped");
-      return EventText{"running", to, word(s.running, "running", "stopped"), to};
+      return EventText{EventKind::running, to, word(s.running, "running", "stopped"), to};
     });
     s.running = o.running;
   }
@@ -111,8 +113,8 @@ std::vector<BusEvent> DriveTimeline::observe(std::size_t link, const TelegramHea
       emit([&] {
         const std::string from = word(s.reverse, "reverse", "forward");
         const std::string to = word(o.reverse, "reverse", "forward");
-        return EventText{"direction", fmt::format(FMT_COMPILE("direction {} -> {}"), from, to),
-                         from, to};
+        return EventText{EventKind::direction,
+                         fmt::format(FMT_COMPILE("direction {} -> {}"), from, to), from, to};
       });
     }
     s.reverse = o.reverse;
@@ -123,17 +125,20 @@ std::vector<BusEvent> DriveTimeline::observe(std::size_t link, const TelegramHea
     if (*o.fault_code != 0 && was == 0)
       emit([&] {
         const std::string to = o.fault.text();
-        return EventText{"fault", fmt::format(FMT_COMPILE("fault {} appeared"), to), "", to};
+        return EventText{EventKind::fault, fmt::format(FMT_COMPILE("fault {} appeared"), to), "",
+                         to};
       });
     else if (*o.fault_code == 0 && was != 0)
       emit([&] {
         const std::string from = s.fault.text();
-        return EventText{"fault", fmt::format(FMT_COMPILE("fault {} cleared"), from), from, ""};
+        return EventText{EventKind::fault, fmt::format(FMT_COMPILE("fault {} cleared"), from), from,
+                         ""};
       });
     else if (*o.fault_code != 0)
       emit([&] {
         const std::string from = s.fault.text(), to = o.fault.text();
-        return EventText{"fault", fmt::format(FMT_COMPILE("fault {} -> {}"), from, to), from, to};
+        return EventText{EventKind::fault, fmt::format(FMT_COMPILE("fault {} -> {}"), from, to),
+                         from, to};
       });
     s.fault_code = o.fault_code;
     s.fault = o.fault;
@@ -142,7 +147,8 @@ std::vector<BusEvent> DriveTimeline::observe(std::size_t link, const TelegramHea
     if (*o.fault_active || s.fault_active)
       emit([&] {
         return EventText{
-            "fault", *o.fault_active ? "status word shows a fault" : "status word fault cleared",
+            EventKind::fault,
+            *o.fault_active ? "status word shows a fault" : "status word fault cleared",
             *o.fault_active ? "" : "fault", *o.fault_active ? "fault" : ""};
       });
     s.fault_active = o.fault_active;
@@ -150,7 +156,7 @@ std::vector<BusEvent> DriveTimeline::observe(std::size_t link, const TelegramHea
   if (o.warning && o.warning != s.warning) {
     if (*o.warning || s.warning)
       emit([&] {
-        return EventText{"warning", *o.warning ? "warning on" : "warning off",
+        return EventText{EventKind::warning, *o.warning ? "warning on" : "warning off",
                          *o.warning ? "" : "warning", *o.warning ? "warning" : ""};
       });
     s.warning = o.warning;

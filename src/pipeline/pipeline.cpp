@@ -535,7 +535,7 @@ void Pipeline::detect(ChannelState& st, ChannelId channel, TimeNs now, bool fina
   BusEvent ev;
   ev.time = st.held.front().time;
   ev.channel = channel;
-  ev.kind = "protocol_detected";
+  ev.kind = EventKind::protocol_detected;
   ev.confidence = confidence;
   if (found) {
     ev.protocol = best->decoder->protocol();

@@ -251,7 +251,7 @@ void CaptureSink::on_event(const BusEvent& e) {
   // A drive event read from the frame waiting to be written joins its fields line.
   if (!has_pending_ || e.frame == 0 || e.frame != pending_->number) return;
   pending_->fields_line += " *";
-  append_escaped(pending_->fields_line, e.kind);
+  append_escaped(pending_->fields_line, event_kind_id(e.kind));
   pending_->fields_line += '=';
   append_escaped(pending_->fields_line, e.detail);
 }

@@ -620,7 +620,7 @@ void JsonSink::on_event(const BusEvent& e) {
   std::string line = fmt::format(
       FMT_COMPILE(
           "{{\"type\":\"event\",\"t\":{},\"channel\":{},\"kind\":\"{}\",\"protocol\":\"{}\""),
-      seconds(e.time), quoted_channel(e.channel), e.kind, protocol_id(e.protocol));
+      seconds(e.time), quoted_channel(e.channel), event_kind_id(e.kind), protocol_id(e.protocol));
   if (!e.confidence.empty())
     line += fmt::format(FMT_COMPILE(",\"confidence\":\"{}\""), e.confidence);
   if (e.address >= 0)

@@ -248,7 +248,7 @@ void ReportSink::on_transaction(const Transaction& t) {
 }
 
 void ReportSink::on_event(const BusEvent& e) {
-  if (e.kind == "drive_bound") {
+  if (e.kind == EventKind::drive_bound) {
     // A binding let go or taken over takes what was read under it along: the drive's values,
     // states and events (as the summary's drives are the binder's last word).
     const auto it = drives_.find({capture_index(), channels_.link_index(e.channel), e.address});
@@ -266,14 +266,12 @@ void ReportSink::on_event(const BusEvent& e) {
     return;
   }
   if (e.address < 0 || e.profile.empty() || e.profile == "generic") return;
-  if (e.kind != "command" && e.kind != "running" && e.kind != "direction" && e.kind != "setpoint" &&
-      e.kind != "fault" && e.kind != "warning")
-    return;
+  if (!is_drive_state(e.kind)) return;
   Drive* drive = drive_of(channels_.link_index(e.channel), e.address);
   if (!drive) return;
   Drive& d = *drive;
-  if (e.kind == "running") d.running = e.to == "running";
-  if (e.kind == "fault") {
+  if (e.kind == EventKind::running) d.running = e.to == "running";
+  if (e.kind == EventKind::fault) {
     // Two sources of a fault: the fault code and the status word's fault bit.
     const bool active = !e.to.empty();
     if (e.detail.find("status word") != std::string::npos)
@@ -281,9 +279,10 @@ void ReportSink::on_event(const BusEvent& e) {
     else
       d.fault_code = active;
   }
-  if (e.kind == "running" || e.kind == "fault") mark_state(d, on_timeline(e.time));
+  if (e.kind == EventKind::running || e.kind == EventKind::fault)
+    mark_state(d, on_timeline(e.time));
   if (d.events.size() < kMaxEventsPerDrive && events_kept_ < kMaxEvents) {
-    d.events.push_back({on_timeline(e.time), e.kind, e.detail});
+    d.events.push_back({on_timeline(e.time), std::string(event_kind_id(e.kind)), e.detail});
     ++events_kept_;
   } else {
     ++d.events_left_out;
