@@ -89,7 +89,7 @@ struct DigestSink final : Sink {
               std::to_string(t.latency) + ";";
   }
   void on_event(const BusEvent& e) override {
-    const std::string record = "E" + e.kind + "," + e.detail + ";";
+    const std::string record = "E" + std::string(event_kind_id(e.kind)) + "," + e.detail + ";";
     digest += record;
     events += record;
   }
