@@ -25,6 +25,20 @@ TEST(Detection, ModbusRtuWithHighConfidence) {
   EXPECT_EQ(r.sink.frames.frames.size(), 20u);
 }
 
+// One protocol weighed: no second candidate to compare with, and the same decision.
+TEST(Detection, OneProtocolWeighedAlone) {
+  AutoRun r(false, {&modbus::kRtuProtocol});
+  for (int i = 0; i < 10; ++i) {
+    r.send(with_crc({0x01, 0x03, 0x00, 0x00, 0x00, 0x01}));
+    r.send(with_crc({0x01, 0x03, 0x02, 0x00, 0x2A}));
+  }
+  r.pipeline->finish();
+  ASSERT_EQ(r.sink.events.size(), 1u);
+  EXPECT_EQ(r.sink.events[0].protocol, protocols::modbus_rtu);
+  EXPECT_EQ(r.sink.events[0].confidence, "high");
+  EXPECT_EQ(r.sink.frames.frames.size(), 20u);
+}
+
 TEST(Detection, DanfossFcNotDecidedOnOneLuckyChecksum) {
   AutoRun r;
   r.send(fc_telegram(0x04, {0x04, 0x7C, 0x20, 0x00}));

@@ -157,10 +157,11 @@ struct AutoRun {
   PipelineOptions options;
   std::unique_ptr<Pipeline> pipeline;
   TimeNs clock = 0;
-  explicit AutoRun(bool ip_flow = false) {
+  explicit AutoRun(bool ip_flow = false, std::vector<const ProtocolDesc*> weighed = {}) {
     channels.intern(ip_flow ? "udp 10.0.0.1:1>10.0.0.2:2" : "bus", "link", ChannelRole::bus,
                     ip_flow);
     options.timing = FramingTiming::from(options.serial);  // protocol stays unknown: auto
+    options.detect_protocols = std::move(weighed);
     pipeline = std::make_unique<Pipeline>(options, channels, sink);
   }
   void send(const std::vector<std::uint8_t>& bytes) {

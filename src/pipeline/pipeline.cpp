@@ -480,8 +480,13 @@ void Pipeline::detect(ChannelState& st, ChannelId channel, TimeNs now, bool fina
   if (!final && !deadline && st.held.size() < kDetectBytes &&
       st.held.size() - st.evaluated_at < kDetectEvery)
     return;
+  const std::span<const ProtocolDesc* const> weighed =
+      options_.detect_protocols.empty()
+          ? registered_protocols()
+          : std::span<const ProtocolDesc* const>(options_.detect_protocols);
+  if (weighed.empty()) return;
   if (st.candidates.empty())
-    for (const ProtocolDesc* p : registered_protocols()) {
+    for (const ProtocolDesc* p : weighed) {
       const ProtocolDecoder* d = p->decoder;
       DetectionCandidate& c = st.candidates.emplace_back();
       c.decoder = d;
@@ -505,14 +510,16 @@ void Pipeline::detect(ChannelState& st, ChannelId channel, TimeNs now, bool fina
       second = &c;
     }
   }
-  const bool clear = best->good >= kDetectGoodFrames && best->good > 2 * second->good;
+  // (With one protocol weighed there is no second: its count is none.)
+  const int second_good = second ? second->good : 0;
+  const bool clear = best->good >= kDetectGoodFrames && best->good > 2 * second_good;
   // Several good telegrams (checksum and plausibility) decide, never one lucky checksum; on a
   // line that carries both directions, high confidence also wants a request answered.
   // A master or slave channel carries one direction of its link: its request and the other
   // channel's reply are the pair a shared bus shows on one channel.
   const int min_good = st.role == ChannelRole::bus ? options_.detect_min_good
                                                    : std::min(1, options_.detect_min_good);
-  const bool found = clear || (best->good >= min_good && best->good > second->good);
+  const bool found = clear || (best->good >= min_good && best->good > second_good);
   if (!clear && !last_chance) {
     // At the deadline the evidence so far decides if it can; else listening goes on (a flow
     // polled once a second has one telegram by then) without holding up the other channels.

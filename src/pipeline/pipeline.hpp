@@ -17,6 +17,7 @@
 
 #include "core/byte_event.hpp"
 #include "core/protocol.hpp"
+#include "core/protocol_desc.hpp"
 #include "core/serial_config.hpp"
 #include "core/stats.hpp"
 #include "drive/binder.hpp"
@@ -46,6 +47,8 @@ struct PipelineOptions {
   // Detection decides on at least this many good telegrams (checksum and plausibility), never
   // on one lucky checksum on a bus; `decode` sets 1: its frames are the ones the user typed.
   int detect_min_good = 2;
+  // The protocols auto detection weighs (the registry's when empty; one is enough).
+  std::vector<const ProtocolDesc*> detect_protocols;
   // Stop emitting after this many frames (0: no limit): `capture -c N` gets exactly N even when
   // one byte closes several frames at once.
   std::uint64_t max_frames = 0;
