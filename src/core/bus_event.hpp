@@ -55,6 +55,8 @@ struct BusEvent {
   std::string profile;      // profile id ("e9"), "generic" when no family fits
   std::uint64_t frame = 0;  // frame number the event was read from; 0 when none
   std::string from, to;     // previous and new value ("" when unknown / not applicable)
+  // fault: read from the status word's fault bit, not from a fault code.
+  bool status_word = false;
   // drive_bound: the timing-rule findings made under the binding it ends, withdrawn with it.
   std::uint64_t withdrawn = 0;
 };

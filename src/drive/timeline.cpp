@@ -37,6 +37,7 @@ std::vector<BusEvent> DriveTimeline::observe(std::size_t link, const TelegramHea
   struct EventText {
     EventKind kind;
     std::string what, from, to;
+    bool status_word = false;  // a fault: the status word's fault bit, not a fault code
   };
   auto emit = [&](auto&& text) {
     ++s.events;
@@ -53,6 +54,7 @@ std::vector<BusEvent> DriveTimeline::observe(std::size_t link, const TelegramHea
     e.detail = fmt::format(FMT_COMPILE("drive {} ({}): {}"), m.address, profile.name, t.what);
     e.from = std::move(t.from);
     e.to = std::move(t.to);
+    e.status_word = t.status_word;
     events.push_back(std::move(e));
   };
 
@@ -149,7 +151,7 @@ std::vector<BusEvent> DriveTimeline::observe(std::size_t link, const TelegramHea
         return EventText{
             EventKind::fault,
             *o.fault_active ? "status word shows a fault" : "status word fault cleared",
-            *o.fault_active ? "" : "fault", *o.fault_active ? "fault" : ""};
+            *o.fault_active ? "" : "fault", *o.fault_active ? "fault" : "", true};
       });
     s.fault_active = o.fault_active;
   }

@@ -274,7 +274,7 @@ void ReportSink::on_event(const BusEvent& e) {
   if (e.kind == EventKind::fault) {
     // Two sources of a fault: the fault code and the status word's fault bit.
     const bool active = !e.to.empty();
-    if (e.detail.find("status word") != std::string::npos)
+    if (e.status_word)
       d.fault_word = active;
     else
       d.fault_code = active;
