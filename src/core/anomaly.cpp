@@ -133,25 +133,41 @@ std::string_view direction_id(Direction d) {
   return enum_text(d, kDirectionIds, std::string_view{"unknown"});
 }
 
+namespace {
+
+// Each timing rule's texts, in TimingRule order: what was measured, and the rule.
+struct TimingRuleTexts {
+  TimingRule rule;
+  const char* measured;
+  const char* limit;
+};
+constexpr TimingRuleTexts kTimingRuleTexts[] = {
+    {TimingRule::none, "", ""},
+    {TimingRule::silence_before_request, "{:.1f} characters of silence before the request",
+     "the drive needs {:g}"},
+    {TimingRule::request_after_reply, "request {:.1f} ms after the drive's last reply",
+     "the drive needs {:g} ms"},
+    {TimingRule::reply_too_soon, "reply {:.1f} ms after the request",
+     "the drive keeps at least {:g} ms"},
+    {TimingRule::reply_too_late, "reply {:.1f} ms after the request",
+     "the drive answers within {:g} ms"},
+};
+static_assert(std::size(kTimingRuleTexts) ==
+              static_cast<std::size_t>(TimingRule::reply_too_late) + 1);
+
+const TimingRuleTexts& texts_of(TimingRule rule) {
+  const auto at = static_cast<std::size_t>(rule);
+  return at < std::size(kTimingRuleTexts) && kTimingRuleTexts[at].rule == rule
+             ? kTimingRuleTexts[at]
+             : kTimingRuleTexts[0];
+}
+
+}  // namespace
+
 std::string timing_rule_text(const TimingBreak& b) {
-  const char* rule = "";
-  switch (b.rule) {
-    case TimingRule::silence_before_request:
-      rule = "the drive needs {:g}";
-      break;
-    case TimingRule::request_after_reply:
-      rule = "the drive needs {:g} ms";
-      break;
-    case TimingRule::reply_too_soon:
-      rule = "the drive keeps at least {:g} ms";
-      break;
-    case TimingRule::reply_too_late:
-      rule = "the drive answers within {:g} ms";
-      break;
-    case TimingRule::none:
-      return {};
-  }
-  std::string text = fmt::format(fmt::runtime(rule), b.limit);
+  const TimingRuleTexts& t = texts_of(b.rule);
+  if (t.rule == TimingRule::none) return {};
+  std::string text = fmt::format(fmt::runtime(t.limit), b.limit);
   text += fmt::format(" ({}", b.profile);
   if (!b.section.empty()) text += fmt::format(", {}", b.section);
   text += ')';
@@ -159,22 +175,9 @@ std::string timing_rule_text(const TimingBreak& b) {
 }
 
 std::string timing_break_text(const TimingBreak& b) {
-  const char* measured = "";
-  switch (b.rule) {
-    case TimingRule::silence_before_request:
-      measured = "{:.1f} characters of silence before the request";
-      break;
-    case TimingRule::request_after_reply:
-      measured = "request {:.1f} ms after the drive's last reply";
-      break;
-    case TimingRule::reply_too_soon:
-    case TimingRule::reply_too_late:
-      measured = "reply {:.1f} ms after the request";
-      break;
-    case TimingRule::none:
-      return {};
-  }
-  return fmt::format(fmt::runtime(measured), b.measured) + "; " + timing_rule_text(b);
+  const TimingRuleTexts& t = texts_of(b.rule);
+  if (t.rule == TimingRule::none) return {};
+  return fmt::format(fmt::runtime(t.measured), b.measured) + "; " + timing_rule_text(b);
 }
 
 }  // namespace drivetap
